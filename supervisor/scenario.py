@@ -1,0 +1,372 @@
+"""Scenario files: TOML parsed into typed, frozen objects and validated completely before anything starts.
+
+Every error names the file, the field and the bad value on one line, e.g.
+    configs/bad.toml: scenario.step: must be greater than 0, got -0.1
+See configs/paper.toml for a documented example of every section.
+"""
+
+from __future__ import annotations
+
+import re
+import tomllib
+from collections.abc import Iterable
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, Strict, ValidationError, field_validator
+from pydantic_core import ErrorDetails
+
+from supervisor.errors import ScenarioError
+from vehicles.coordination import Law
+from vehicles.estimates import Predictor
+from vehicles.params import PRESETS, VehicleParams
+from vehicles.paths import Path as PathLike
+
+# Numbers as TOML writes them: an integer is a valid float, a string ("400") or a boolean is not a number.
+Float = Annotated[float, Strict()]
+Int = Annotated[int, Strict()]
+Vec3 = tuple[Float, Float, Float]
+
+
+class _Strict(BaseModel):
+    # Lax mode so that TOML arrays become tuples; the numbers themselves are strict (Float, Int).
+    # TOML has nan and inf literals; no field of a scenario may take them.
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=False, allow_inf_nan=False)
+
+
+class RunSection(_Strict):
+    name: str
+    description: str = ""
+    duration: Float = Field(gt=0, description="simulated time, s")
+    step: Float = Field(gt=0, description="integration and sync step, s")
+    seed: Int = 0
+    dimension: Literal[2, 3] = 3  # 3: the 6-DOF model; 2: the planar variant
+
+
+class VehicleModelSection(_Strict):
+    preset: str = "remus100"
+    # Names and shapes (number or 3-vector) are checked against the preset by _check_overrides.
+    overrides: dict[str, Float | Vec3] = {}
+
+    @field_validator("preset")
+    @classmethod
+    def _known_preset(cls, value: str) -> str:
+        if value not in PRESETS:
+            raise ValueError(f"unknown preset, expected one of {sorted(PRESETS)}")
+        return value
+
+
+class PathFollowingSection(_Strict):
+    delta: Float = Field(default=-1.0, description="offset of the controlled point, m (its size: tube radius)")
+    k1: Float = Field(default=0.5, gt=0)
+    k2: Float = Field(default=1.0, gt=0)
+    k_zeta: Float = Field(default=1.0, gt=0)
+
+    @field_validator("delta")
+    @classmethod
+    def _nonzero(cls, value: float) -> float:
+        if value == 0.0:
+            raise ValueError("must be non-zero (delta = 0 leaves the pitch and yaw rates unsteerable)")
+        return value
+
+
+class CoordinationSection(_Strict):
+    law: Law = "corrected"
+    k: Float = Field(default=0.2, gt=0)
+    k2: Float = Field(default=1.0, gt=0)
+    v_r: Float = Field(default=1.0, description="reference speed of the path parameters, 1/s")
+    predictor: Predictor = "first_order"
+
+
+class GraphSection(_Strict):
+    edges: tuple[tuple[Int, Int], ...]
+
+
+class HelixPath(_Strict):
+    type: Literal["helix"]
+    radius: Float = Field(gt=0)
+    climb: Float
+    period: Float
+    phase: Float = 0.0
+    center: Vec3 = (0.0, 0.0, 0.0)
+
+
+class CirclePath(_Strict):
+    type: Literal["circle"]
+    radius: Float = Field(gt=0)
+    period: Float
+    phase: Float = 0.0
+    center: Vec3 = (0.0, 0.0, 0.0)
+
+
+class LinePath(_Strict):
+    type: Literal["line"]
+    start: Vec3
+    velocity: Vec3
+
+
+class LawnmowerPath(_Strict):
+    type: Literal["lawnmower"]
+    origin: Vec3
+    leg_length: Float = Field(gt=0)
+    spacing: Float = Field(gt=0)
+    legs: Int = Field(ge=1, le=10_000)  # the path is built leg by leg when the scenario is checked
+    heading: Float = 0.0
+    scale: Float = Field(default=1.0, gt=0)
+
+
+PathSpec = Annotated[HelixPath | CirclePath | LinePath | LawnmowerPath, Field(discriminator="type")]
+
+
+class VehicleSection(_Strict):
+    id: Int = Field(ge=1)
+    position: Vec3
+    attitude_rpy_deg: Vec3 = (0.0, 0.0, 0.0)
+    velocity: Vec3 = (0.0, 0.0, 0.0)
+    angular_velocity: Vec3 = (0.0, 0.0, 0.0)
+    gamma0: Float | Literal["closest"] = "closest"
+    path: PathSpec
+
+
+class SpeedCapFault(_Strict):
+    """The paper's fault: vehicle's gamma_dot capped on [start, end), its neighbours not told."""
+
+    kind: Literal["speed_cap"]
+    vehicle: Int
+    start: Float = Field(ge=0)
+    end: Float
+    gamma_dot_max: Float
+
+
+FaultSpec = Annotated[SpeedCapFault, Field(discriminator="kind")]
+
+
+class ReportSection(_Strict):
+    transient: Float = Field(default=50.0, ge=0, description="initial time left out of path-following stats, s")
+    tube_margin: Float = Field(default=0.2, ge=0, description="allowed excess over |delta| in the tube, m")
+    coordination_tolerance: Float = Field(default=0.01, gt=0)
+
+
+class Scenario(_Strict):
+    scenario: RunSection
+    vehicle: VehicleModelSection = VehicleModelSection()
+    path_following: PathFollowingSection = PathFollowingSection()
+    coordination: CoordinationSection = CoordinationSection()
+    graph: GraphSection
+    vehicles: tuple[VehicleSection, ...] = Field(min_length=2)
+    faults: tuple[FaultSpec, ...] = ()
+    report: ReportSection = ReportSection()
+
+    @property
+    def vehicle_ids(self) -> list[int]:
+        return [v.id for v in self.vehicles]
+
+    def vehicle_params(self) -> VehicleParams:
+        from vehicles.params import preset
+
+        return preset(self.vehicle.preset, **self.vehicle.overrides)
+
+    def neighbours(self, vehicle_id: int) -> list[int]:
+        """N_i of the scenario's graph, in ascending order."""
+        out = {j for i, j in self.graph.edges if i == vehicle_id} | {i for i, j in self.graph.edges if j == vehicle_id}
+        return sorted(out)
+
+
+# --- error messages ---------------------------------------------------------------------------------------
+
+
+def _format_location(loc: Iterable[int | str]) -> str:
+    text = ""
+    for part in loc:
+        if isinstance(part, int) or not part.isidentifier():
+            text += f"[{part!r}]"  # a list index, or a key TOML had to quote
+        else:
+            text += f".{part}" if text else part
+    return text or "(top level)"
+
+
+def _show(value: object) -> str:
+    """A bad value for a message: one line (repr escapes line breaks), at most 60 characters."""
+    if isinstance(value, dict):
+        return "a table"
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _child(data: object, part: int | str) -> tuple[bool, object]:
+    """(True, data[part]) if part is a key or index of data, else (False, None)."""
+    if isinstance(data, dict) and part in data:
+        return True, data[part]
+    if isinstance(data, list | tuple) and isinstance(part, int) and 0 <= part < len(data):
+        return True, data[part]
+    return False, None
+
+
+def _file_location(loc: tuple[int | str, ...], data: object, missing: bool) -> list[int | str]:
+    """pydantic's loc without the union-member tags it inserts ('helix', 'float', ...): the parts that index
+    the parsed TOML, plus a missing key at the end."""
+    out: list[int | str] = []
+    for position, part in enumerate(loc):
+        found, child = _child(data, part)
+        if found:
+            out.append(part)
+            data = child
+        elif missing and position == len(loc) - 1:
+            out.append(part)
+    return out
+
+
+_PROBLEMS = {
+    "missing": "missing required field",
+    "extra_forbidden": "unknown key",
+    "tuple_type": "must be an array",
+    "dict_type": "must be a table",
+    "model_type": "must be a table",
+}
+
+
+def _describe(error: ErrorDetails, data: object) -> tuple[str, str]:
+    """(field, problem) of one pydantic error, in terms of the file."""
+    kind, value, ctx = error["type"], error.get("input"), error.get("ctx", {})
+    loc = _file_location(error["loc"], data, kind == "missing")
+    if kind in ("union_tag_invalid", "union_tag_not_found"):
+        loc.append(str(ctx["discriminator"]).strip("'"))
+        if kind == "union_tag_not_found":
+            return _format_location(loc), _PROBLEMS["missing"]
+        return _format_location(loc), f"must be one of {ctx['expected_tags']}, got {_show(ctx['tag'])}"
+    if kind == "missing" and loc and isinstance(loc[-1], int):  # a short array: pydantic reports its first absent item
+        return _format_location(loc[:-1]), f"too few items, got {_show(value)}"
+    problem = _PROBLEMS.get(kind) or error["msg"].removeprefix("Value error, ")
+    problem = problem.replace("Input should be", "must be").replace("Tuple should have", "must have")
+    shown = "" if kind in ("missing", "extra_forbidden") else f", got {_show(value)}"
+    return _format_location(loc), re.sub(r" after validation, not \d+$", "", problem) + shown
+
+
+def _one_line(exc: ValidationError, data: object) -> str:
+    errors = exc.errors()
+    # A misspelt key also makes the real one "missing": report the misspelling first.
+    errors.sort(key=lambda e: e["type"] != "extra_forbidden")
+    described = [_describe(error, data) for error in errors]
+    field, problem = described[0]
+    more = len({f for f, _ in described}) - 1
+    suffix = f" (and {more} more field{'s' if more > 1 else ''} with errors)" if more else ""
+    return f"{field}: {problem}{suffix}"
+
+
+def _error(source: str, message: str) -> ScenarioError:
+    """ScenarioError('<source>: <message>'), forced onto one line whatever the source and message hold."""
+    return ScenarioError("\\n".join(f"{source}: {message}".splitlines()))
+
+
+# --- cross-field checks -----------------------------------------------------------------------------------
+
+
+def _check_consistency(sc: Scenario) -> None:
+    """Cross-field rules pydantic cannot express field by field."""
+    ids = sc.vehicle_ids
+    for index, vid in enumerate(ids):
+        if ids.index(vid) != index:
+            raise ScenarioError(f"vehicles[{index}].id: duplicate vehicle id, got {vid}")
+    _check_graph(sc)
+    for index, fault in enumerate(sc.faults):
+        if fault.vehicle not in ids:
+            raise ScenarioError(f"faults[{index}].vehicle: no such vehicle in {ids}, got {fault.vehicle}")
+        if fault.end <= fault.start:
+            raise ScenarioError(f"faults[{index}].end: must be after start ({fault.start}), got {fault.end}")
+    if sc.scenario.step > sc.scenario.duration:
+        raise ScenarioError(f"scenario.step: must not exceed duration ({sc.scenario.duration}), got {sc.scenario.step}")
+    _check_overrides(sc)
+    _check_paths(sc)
+
+
+def _check_graph(sc: Scenario) -> None:
+    ids, edges = sc.vehicle_ids, sc.graph.edges
+    for index, (i, j) in enumerate(edges):
+        for end in (i, j):
+            if end not in ids:
+                raise ScenarioError(
+                    f"graph.edges[{index}]: vehicle {end} is not in [[vehicles]] ids {ids}, got {[i, j]}"
+                )
+        if i == j:
+            raise ScenarioError(f"graph.edges[{index}]: an edge must join two vehicles, got {[i, j]}")
+    reached = {ids[0]}
+    for _ in ids:  # each pass reaches at least one more vehicle, or nothing more can be reached
+        reached |= {j for i, j in edges if i in reached} | {i for i, j in edges if j in reached}
+    unreached = [vid for vid in ids if vid not in reached]
+    if unreached:
+        raise ScenarioError(
+            f"graph.edges: the graph must be connected, vehicles {unreached} cannot reach vehicle {ids[0]}, "
+            f"got {[list(e) for e in edges]}"
+        )
+
+
+def _check_overrides(sc: Scenario) -> None:
+    """Each override names a VehicleParams field and has its shape: a number, or an array of 3 numbers."""
+    defaults = PRESETS[sc.vehicle.preset]
+    known = list(VehicleParams.__dataclass_fields__)
+    for name, value in sc.vehicle.overrides.items():
+        where = _format_location(["vehicle", "overrides", name])
+        if name not in known:
+            raise ScenarioError(f"{where}: unknown vehicle parameter, expected one of {known}")
+        vector = isinstance(getattr(defaults, name), tuple)
+        if vector != isinstance(value, tuple):
+            shape = "an array of 3 numbers" if vector else "a number"
+            raise ScenarioError(f"{where}: must be {shape}, got {list(value) if isinstance(value, tuple) else value}")
+
+
+def _finite_at_zero(path: PathLike) -> bool:
+    try:
+        return all(np.isfinite(vector).all() for vector in path.evaluate(0.0))
+    except (ValueError, OverflowError):  # math.cos(inf) and the like
+        return False
+
+
+def _check_paths(sc: Scenario) -> None:
+    """Build each path as the run will: its own checks (e.g. period != 0) become field errors here."""
+    from supervisor.fleet import build_path  # supervisor.fleet imports this module
+
+    for index, vehicle in enumerate(sc.vehicles):
+        try:
+            path = build_path(vehicle.path)
+        except ValueError as exc:  # vehicles.paths messages start with the parameter: "period must be ..."
+            name, _, problem = str(exc).partition(" ")
+            raise ScenarioError(f"vehicles[{index}].path.{name}: {problem}") from exc
+        if not _finite_at_zero(path):  # e.g. period = 5e-324: 2 pi / period overflows
+            values = ", ".join(f"{key} = {value}" for key, value in vehicle.path if key != "type")
+            raise ScenarioError(f"vehicles[{index}].path: not finite at gamma = 0, got {values}")
+
+
+# --- entry points -----------------------------------------------------------------------------------------
+
+
+def validate_data(data: dict[str, Any], source: str) -> Scenario:
+    """Scenario from parsed TOML; ScenarioError('<source>: <field>: <problem>, got <value>') otherwise."""
+    try:
+        scenario = Scenario.model_validate(data)
+        _check_consistency(scenario)
+    except ValidationError as exc:
+        raise _error(source, _one_line(exc, data)) from exc
+    except ScenarioError as exc:
+        raise _error(source, str(exc)) from exc
+    return scenario
+
+
+def parse_scenario(text: str, source: str = "<string>") -> Scenario:
+    """Scenario from TOML text; ScenarioError('<source>: <field>: <problem>, got <value>') otherwise."""
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise _error(source, f"invalid TOML: {exc}") from exc
+    return validate_data(data, source)
+
+
+def load_scenario(path: Path) -> Scenario:
+    """Read and validate a scenario file (UTF-8, as TOML requires)."""
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise _error(str(path), f"cannot read scenario file: {exc.strerror or exc}") from exc
+    except UnicodeDecodeError as exc:
+        raise _error(str(path), f"invalid TOML: not UTF-8 text (byte {exc.start})") from exc
+    return parse_scenario(text, str(path))
