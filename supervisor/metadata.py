@@ -1,0 +1,38 @@
+"""Run metadata recorded at the start of every log: what ran, with which seed and which versions."""
+
+from __future__ import annotations
+
+import platform
+from importlib import metadata
+
+from comms.messages import Message
+from supervisor.scenario import Scenario
+
+
+def _version(package: str) -> str:
+    try:
+        return metadata.version(package)
+    except metadata.PackageNotFoundError:
+        return "unknown"
+
+
+def run_meta(scenario: Scenario, scenario_file: str, scenario_toml: str, seed: int, engine: str) -> Message:
+    return {
+        "scenario_name": scenario.scenario.name,
+        "scenario_file": scenario_file,
+        "scenario_toml": scenario_toml,
+        "seed": seed,
+        "engine": engine,
+        "step": scenario.scenario.step,
+        "duration": scenario.scenario.duration,
+        "vehicles": scenario.vehicle_ids,
+        "edges": [list(e) for e in scenario.graph.edges],
+        "faults": [f.model_dump() for f in scenario.faults],
+        "tube_radius": abs(scenario.path_following.delta) + scenario.report.tube_margin,
+        "versions": {
+            "cpf-cosim": _version("cpf-cosim"),
+            "python": platform.python_version(),
+            "numpy": _version("numpy"),
+            "eclipse-zenoh": _version("eclipse-zenoh"),
+        },
+    }

@@ -1,0 +1,84 @@
+"""MCAP recording: one channel per key expression, JSON messages with a JSON-Schema, log time = simulation time.
+
+The writer is closed in every case (normal end, error, Ctrl-C) so the file always ends with its summary and index.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from types import TracebackType
+from typing import IO, Any
+
+from mcap.writer import CompressionType, Writer
+
+from comms.messages import Message, schema_for
+
+PROFILE = ""  # no ROS profile: plain JSON channels
+
+
+def seconds_to_ns(t: float) -> int:
+    return round(t * 1e9)
+
+
+class Recorder:
+    """Writes messages to an MCAP file; use as a context manager."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        path.parent.mkdir(parents=True, exist_ok=True)
+        self._stream: IO[bytes] = path.open("wb")
+        self._writer = Writer(self._stream, compression=CompressionType.ZSTD)
+        self._writer.start(profile=PROFILE, library="cpf-cosim")
+        self._channels: dict[str, int] = {}
+        self._sequence = 0
+        self.count = 0
+
+    def _channel(self, key: str) -> int:
+        if key not in self._channels:
+            schema = schema_for(key)
+            schema_id = self._writer.register_schema(
+                name=str(schema["title"]), encoding="jsonschema", data=json.dumps(schema).encode()
+            )
+            self._channels[key] = self._writer.register_channel(topic=key, message_encoding="json", schema_id=schema_id)
+        return self._channels[key]
+
+    def write(self, key: str, t: float, message: Message) -> None:
+        """Record a message published on key at simulation time t (s)."""
+        stamp = seconds_to_ns(t)
+        self._sequence += 1
+        self._writer.add_message(
+            channel_id=self._channel(key),
+            log_time=stamp,
+            publish_time=stamp,
+            data=json.dumps(message, separators=(",", ":")).encode(),
+            sequence=self._sequence,
+        )
+        self.count += 1
+
+    def close(self) -> None:
+        if not self._stream.closed:
+            try:
+                self._writer.finish()
+            finally:
+                self._stream.close()
+
+    def __enter__(self) -> Recorder:
+        return self
+
+    def __exit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        self.close()
+
+
+def read_messages(path: Path) -> list[tuple[str, int, dict[str, Any]]]:
+    """(topic, log time ns, message) of every message in log-time order."""
+    from mcap.reader import make_reader
+
+    with path.open("rb") as stream:
+        reader = make_reader(stream)
+        return [
+            (channel.topic, message.log_time, json.loads(message.data))
+            for _, channel, message in reader.iter_messages(log_time_order=True)
+        ]

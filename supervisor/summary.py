@@ -1,0 +1,145 @@
+"""Per-phase summary of a run: coordination error, path-following error, speed of the path parameters.
+
+Phases are cut at fault starts and ends (for the paper: before the fault, during, after). Path-following errors are
+counted only after the initial transient (scenario [report] transient).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass
+from itertools import pairwise
+
+import numpy as np
+
+from vehicles.geometry import FloatArray
+
+
+@dataclass(frozen=True, slots=True)
+class Series:
+    """Time series of a run: row k is time t[k], column i is vehicle vehicle_ids[i]."""
+
+    vehicle_ids: tuple[int, ...]
+    t: FloatArray
+    gamma: FloatArray
+    gamma_dot: FloatArray
+    path_error: FloatArray  # |p_i - p_d_i(gamma_i)|, m
+
+
+@dataclass(frozen=True, slots=True)
+class PhaseStats:
+    name: str
+    start: float
+    end: float
+    max_coordination_error: float
+    final_coordination_error: float
+    max_path_error: float  # after the transient; nan if the phase lies inside it
+    mean_gamma_dot: tuple[float, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class Summary:
+    phases: tuple[PhaseStats, ...]
+    tube_radius: float
+    max_path_error_after_transient: float
+    sync_time: float | None  # when the coordination error first stays below tolerance until the first phase ends
+    resync_time: float | None  # the same, within the last phase
+    tolerance: float
+
+    def as_dict(self) -> dict[str, object]:
+        return asdict(self)
+
+
+def coordination_error(gamma: FloatArray) -> FloatArray:
+    """max_{i,j} |gamma_i - gamma_j| at each time."""
+    result: FloatArray = gamma.max(axis=1) - gamma.min(axis=1)
+    return result
+
+
+def phase_bounds(duration: float, faults: Sequence[tuple[str, float, float]]) -> list[tuple[str, float, float]]:
+    """(name, start, end) of each phase between fault boundaries (faults as (kind, start, end))."""
+    cuts = sorted({b for _, s, e in faults for b in (s, e) if 0.0 < b < duration})
+    edges = [0.0, *cuts, duration]
+    phases = []
+    for start, end in pairwise(edges):
+        kinds = sorted({k for k, s, e in faults if s <= start and end <= e})
+        if kinds:
+            name = "during " + "+".join(kinds)
+        else:
+            name = "before faults" if start == 0.0 and cuts else ("after faults" if cuts else "whole run")
+        phases.append((name, start, end))
+    return phases
+
+
+def settle_time(t: FloatArray, error: FloatArray, tolerance: float) -> float | None:
+    """First time after which error stays below tolerance to the end of the given window; None if never."""
+    above = np.nonzero(error >= tolerance)[0]
+    if len(above) == 0:
+        return float(t[0])
+    last = above[-1]
+    return float(t[last + 1]) if last + 1 < len(t) else None
+
+
+def summarize(
+    series: Series,
+    duration: float,
+    faults: Sequence[tuple[str, float, float]],
+    transient: float,
+    tube_radius: float,
+    tolerance: float,
+) -> Summary:
+    coord = coordination_error(series.gamma)
+    stats = []
+    for name, start, end in phase_bounds(duration, faults):
+        mask = (series.t >= start) & (series.t < end)
+        if not mask.any():
+            continue
+        settled = mask & (series.t >= transient)
+        stats.append(
+            PhaseStats(
+                name, start, end,
+                float(coord[mask].max()), float(coord[mask][-1]),
+                float(series.path_error[settled].max()) if settled.any() else float("nan"),
+                tuple(float(v) for v in series.gamma_dot[mask].mean(axis=0)),
+            )
+        )  # fmt: skip
+    first, last = stats[0], stats[-1]
+    in_first = series.t < first.end
+    in_last = series.t >= last.start
+    after = series.t >= transient
+    return Summary(
+        phases=tuple(stats),
+        tube_radius=tube_radius,
+        max_path_error_after_transient=float(series.path_error[after].max()) if after.any() else float("nan"),
+        sync_time=settle_time(series.t[in_first], coord[in_first], tolerance),
+        resync_time=settle_time(series.t[in_last], coord[in_last], tolerance) if len(stats) > 1 else None,
+        tolerance=tolerance,
+    )
+
+
+def format_summary(summary: Summary) -> str:
+    """A plain-text table for the terminal."""
+    lines = [
+        f"{'phase':<22}{'span [s]':>14}{'max|gi-gj|':>12}{'end|gi-gj|':>12}{'max|p-pd| [m]':>15}  mean gamma_dot",
+    ]
+    for p in summary.phases:
+        span = f"{p.start:.0f}-{p.end:.0f}"
+        rates = " ".join(f"{v:.3f}" for v in p.mean_gamma_dot)
+        lines.append(
+            f"{p.name:<22}{span:>14}{p.max_coordination_error:>12.4g}{p.final_coordination_error:>12.3g}"
+            f"{p.max_path_error:>15.3f}  {rates}"
+        )
+    tube_ok = summary.max_path_error_after_transient <= summary.tube_radius
+    lines.append(
+        f"path-following error after the transient: max {summary.max_path_error_after_transient:.3f} m, "
+        f"tube {summary.tube_radius:.3f} m ({'inside' if tube_ok else 'OUTSIDE'})"
+    )
+    tol = summary.tolerance
+    lines.append(f"coordination error below {tol:g} from t = {_time(summary.sync_time)} s (first phase)")
+    if summary.resync_time is not None or len(summary.phases) > 1:
+        lines.append(f"coordination error below {tol:g} again from t = {_time(summary.resync_time)} s (last phase)")
+    return "\n".join(lines)
+
+
+def _time(value: float | None) -> str:
+    return "never" if value is None else f"{value:.1f}"

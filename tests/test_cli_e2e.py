@@ -1,0 +1,56 @@
+"""`cpf` run as a user would: a console command, its output, its files."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from mcap.reader import make_reader
+
+from tests.conftest import shortened
+
+pytestmark = pytest.mark.e2e
+CPF = Path(sys.executable).parent / "cpf"
+
+
+def cpf(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([str(CPF), *args], cwd=cwd, capture_output=True, text=True, timeout=300)
+
+
+def test_run_then_report_a_shortened_paper_scenario(tmp_path, paper_text):
+    scenario = tmp_path / "short.toml"
+    scenario.write_text(shortened(paper_text, 170.0))
+    done = cpf("run", str(scenario), "--engine", "inprocess", "--out", "out/run.mcap", "--quiet", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert "before faults" in done.stdout and "during speed_cap" in done.stdout
+    assert "coordination error below 0.01 from t = " in done.stdout
+
+    with (tmp_path / "out/run.mcap").open("rb") as stream:
+        reader = make_reader(stream)
+        summary = reader.get_summary()
+        assert summary is not None and summary.statistics is not None  # the file ends with summary and index
+        counts = {summary.channels[cid].topic: n for cid, n in summary.statistics.channel_message_counts.items()}
+        encodings = {ch.message_encoding for ch in summary.channels.values()}
+        schema_encodings = {s.encoding for s in summary.schemas.values()}
+    assert counts == {
+        "cpf/run/meta": 1,
+        "cpf/run/fault": 1,
+        "cpf/vehicle/1/state": 1700,
+        "cpf/vehicle/2/state": 1700,
+        "cpf/vehicle/3/state": 1700,
+    }
+    assert encodings == {"json"} and schema_encodings == {"jsonschema"}
+
+    report = cpf("report", "out/run.mcap", "--out", "figs", cwd=tmp_path)
+    assert report.returncode == 0, report.stderr
+    for name in ("fig3_trajectories.png", "fig4_path_following_errors.png", "fig5_coordination_errors.png"):
+        data = (tmp_path / "figs" / name).read_bytes()
+        assert data.startswith(b"\x89PNG") and len(data) > 10_000
+
+
+def test_report_of_a_missing_log_is_a_one_line_error(tmp_path):
+    done = cpf("report", "nope.mcap", cwd=tmp_path)
+    assert done.returncode == 2
+    assert done.stderr.strip().splitlines() == ["cpf: error: nope.mcap: no such log file"]
