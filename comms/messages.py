@@ -2,114 +2,68 @@
 
 Every message is a flat dict of JSON-compatible values. On Zenoh it travels as msgpack; in MCAP it is stored as JSON
 with a JSON-Schema (what Foxglove and `mcap cat --json` read). Simulation time: float seconds in messages (`t`),
-integer nanoseconds as MCAP log time. Vectors are lists; `rotation` is R row-major (9 numbers).
+integer nanoseconds as MCAP log time. Vectors are lists; `rotation` is R row-major (9 numbers). `k` is the sync-step
+index. Parsers (`parse_*`) raise ValueError for anything malformed: receivers count and drop such messages.
 """
 
 from __future__ import annotations
 
+import math
+from dataclasses import dataclass
 from typing import Any
 
 import msgpack
+import numpy as np
 
+from comms.channel import Kinematics, LinkEvent, Reception
 from vehicles.agent import Telemetry
 from vehicles.dynamics import Model
+from vehicles.runtime import Heard
+from vehicles.transmission import Transmission
 
 ROOT = "cpf"
 META_KEY = f"{ROOT}/run/meta"
 FAULT_KEY = f"{ROOT}/run/fault"
 GRAPH_KEY = f"{ROOT}/run/graph"
+STOP_KEY = f"{ROOT}/run/stop"
+TICK_KEY = f"{ROOT}/clock/tick"
+COMMS_EVENT_KEY = f"{ROOT}/comms/event"
+COMMS_DONE_KEY = f"{ROOT}/comms/done"
+ALIVE_PREFIX = f"{ROOT}/alive"
+SUPERVISOR_ALIVE = f"{ALIVE_PREFIX}/supervisor"
+COMMS_ALIVE = f"{ALIVE_PREFIX}/comms"
 
 Message = dict[str, Any]
 
 
 def state_key(vehicle_id: int) -> str:
-    """Per-vehicle state telemetry."""
+    """Per-vehicle state telemetry, one message per sync step."""
     return f"{ROOT}/vehicle/{vehicle_id}/state"
 
 
-def vehicle_of_state_key(key: str) -> int | None:
-    """Inverse of state_key; None for any other key."""
+def tx_key(vehicle_id: int) -> str:
+    """A vehicle's transmissions (what its modem sends)."""
+    return f"{ROOT}/vehicle/{vehicle_id}/tx"
+
+
+def rx_key(vehicle_id: int) -> str:
+    """A vehicle's receptions: one batch per sync step, possibly empty."""
+    return f"{ROOT}/vehicle/{vehicle_id}/rx"
+
+
+def vehicle_alive_key(vehicle_id: int) -> str:
+    return f"{ALIVE_PREFIX}/vehicle/{vehicle_id}"
+
+
+def vehicle_of_key(key: str) -> tuple[int, str] | None:
+    """(vehicle id, leaf) for cpf/vehicle/<id>/<leaf> keys; None for any other key."""
     parts = key.split("/")
-    if len(parts) == 4 and parts[0] == ROOT and parts[1] == "vehicle" and parts[3] == "state":
-        return int(parts[2]) if parts[2].isdigit() else None
+    if len(parts) == 4 and parts[0] == ROOT and parts[1] == "vehicle" and parts[2].isdigit():
+        return int(parts[2]), parts[3]
     return None
 
 
-def _number() -> dict[str, str]:
-    return {"type": "number"}
-
-
-def _vector(n: int | None = None) -> dict[str, Any]:
-    schema: dict[str, Any] = {"type": "array", "items": {"type": "number"}}
-    if n is not None:
-        schema["minItems"] = schema["maxItems"] = n
-    return schema
-
-
-def _object(title: str, properties: dict[str, Any]) -> dict[str, Any]:
-    return {
-        "$schema": "http://json-schema.org/draft-07/schema#",
-        "title": title,
-        "type": "object",
-        "properties": properties,
-        "required": list(properties),
-    }
-
-
-STATE_SCHEMA = _object(
-    "cpf.VehicleState",
-    {
-        "t": _number(),
-        "vehicle": {"type": "integer"},
-        "gamma": _number(),
-        "gamma_dot": _number(),
-        "position": _vector(3),
-        "rotation": _vector(9),
-        "velocity": _vector(3),
-        "angular_velocity": _vector(3),
-        "error": _vector(3),
-        "tau": _vector(),
-        "correction": _number(),
-        "lyapunov": _number(),
-    },
-)
-
-META_SCHEMA = _object(
-    "cpf.RunMeta",
-    {
-        "scenario_name": {"type": "string"},
-        "scenario_file": {"type": "string"},
-        "scenario_toml": {"type": "string"},
-        "seed": {"type": "integer"},
-        "engine": {"type": "string"},
-        "step": _number(),
-        "duration": _number(),
-        "vehicles": {"type": "array", "items": {"type": "integer"}},
-        "edges": {"type": "array", "items": _vector(2)},
-        "faults": {"type": "array", "items": {"type": "object"}},
-        "tube_radius": _number(),
-        "versions": {"type": "object"},
-    },
-)
-
-FAULT_SCHEMA = _object(
-    "cpf.FaultEvent",
-    {
-        "t": _number(),
-        "kind": {"type": "string"},
-        "phase": {"enum": ["start", "end"]},
-        "detail": {"type": "object"},
-    },
-)
-
-GRAPH_SCHEMA = _object("cpf.Graph", {"t": _number(), "edges": {"type": "array", "items": _vector(2)}})
-
-
-def schema_for(key: str) -> dict[str, Any]:
-    """The JSON schema of the messages on a key expression."""
-    if vehicle_of_state_key(key) is not None:
-        return STATE_SCHEMA
-    return {META_KEY: META_SCHEMA, FAULT_KEY: FAULT_SCHEMA, GRAPH_KEY: GRAPH_SCHEMA}[key]
+# --- wire format --------------------------------------------------------------------------------------------
 
 
 def encode(message: Message) -> bytes:
@@ -121,7 +75,7 @@ def encode(message: Message) -> bytes:
 def decode(data: bytes) -> Message:
     """Inverse of encode; raises ValueError for anything that is not a msgpack map."""
     try:
-        message = msgpack.unpackb(data, raw=False)
+        message = msgpack.unpackb(data, raw=False, strict_map_key=False)
     except Exception as exc:  # msgpack raises several unrelated types for garbage
         raise ValueError(f"undecodable message: {exc}") from exc
     if not isinstance(message, dict):
@@ -129,12 +83,21 @@ def decode(data: bytes) -> Message:
     return message
 
 
-def state_message(telemetry: Telemetry, model: Model) -> Message:
-    """A vehicle's telemetry as the message on its state key (planar vehicles embedded in 3-D)."""
+def coordination_payload_size(tx: Transmission) -> int:
+    """Bytes of the coordination message itself (id, seq, time, gamma, gamma_dot), as msgpack would carry it."""
+    return len(encode({"i": tx.sender, "s": tx.seq, "t": tx.t, "g": tx.gamma, "d": tx.gamma_dot}))
+
+
+# --- building messages ----------------------------------------------------------------------------------------
+
+
+def state_message(telemetry: Telemetry, model: Model, k: int, tx_seq: int) -> Message:
+    """A vehicle's telemetry of step k (planar vehicles embedded in 3-D); tx_seq: its transmission then, or 0."""
     s = model.spatial(telemetry.x)
     error = telemetry.error.tolist() + [0.0] * (3 - len(telemetry.error))
     return {
         "t": telemetry.t,
+        "k": k,
         "vehicle": telemetry.vehicle_id,
         "gamma": telemetry.gamma,
         "gamma_dot": telemetry.gamma_dot,
@@ -146,4 +109,151 @@ def state_message(telemetry: Telemetry, model: Model) -> Message:
         "tau": telemetry.tau.tolist(),
         "correction": telemetry.correction,
         "lyapunov": telemetry.lyapunov,
+        "tx_seq": tx_seq,
     }
+
+
+def tx_message(tx: Transmission) -> Message:
+    return {
+        "t": tx.t,
+        "sender": tx.sender,
+        "seq": tx.seq,
+        "gamma": tx.gamma,
+        "gamma_dot": tx.gamma_dot,
+        "position": list(tx.position),
+        "velocity": list(tx.velocity),
+    }
+
+
+def rx_message(vehicle_id: int, k: int, t: float, receptions: list[Reception]) -> Message:
+    return {
+        "t": t,
+        "k": k,
+        "vehicle": vehicle_id,
+        "receptions": [
+            {
+                "sender": r.sender,
+                "seq": r.seq,
+                "stamp": r.stamp,
+                "arrival": r.arrival,
+                "gamma": r.gamma,
+                "gamma_dot": r.gamma_dot,
+            }
+            for r in receptions
+        ],
+    }
+
+
+def event_message(event: LinkEvent) -> Message:
+    return {
+        "t": event.t,
+        "sender": event.sender,
+        "receiver": event.receiver,
+        "seq": event.seq,
+        "kind": event.kind,
+        "delay": event.delay,
+        "reason": event.reason,
+    }
+
+
+def tick_message(k: int, t: float, final: bool, caps: dict[int, float]) -> Message:
+    """The supervisor's clock: step k starts at t; caps: the unannounced gamma_dot caps active over the step."""
+    return {"t": t, "k": k, "final": final, "caps": [[vid, cap] for vid, cap in sorted(caps.items())]}
+
+
+# --- parsing what arrives -------------------------------------------------------------------------------------
+
+
+def _get(message: Message, name: str, kind: type | tuple[type, ...]) -> Any:
+    if name not in message:
+        raise ValueError(f"missing field {name!r}")
+    value = message[name]
+    if isinstance(value, bool) and kind is not bool:
+        raise ValueError(f"field {name!r} is a bool")
+    if not isinstance(value, kind):
+        raise ValueError(f"field {name!r} has type {type(value).__name__}")
+    return value
+
+
+def _number(message: Message, name: str) -> float:
+    value = float(_get(message, name, (int, float)))
+    if not math.isfinite(value):
+        raise ValueError(f"field {name!r} is not finite")
+    return value
+
+
+def _vector3(message: Message, name: str) -> tuple[float, float, float]:
+    value = _get(message, name, list)
+    if len(value) != 3:
+        raise ValueError(f"field {name!r} has {len(value)} items, not 3")
+    items = {"x": value[0], "y": value[1], "z": value[2]}
+    return (_number(items, "x"), _number(items, "y"), _number(items, "z"))
+
+
+def parse_tx(message: Message, key_vehicle: int) -> Transmission:
+    """A transmission, checked; its sender must own the key it came on."""
+    sender = _get(message, "sender", int)
+    if sender != key_vehicle:
+        raise ValueError(f"sender {sender} published on vehicle {key_vehicle}'s key")
+    return Transmission(
+        sender,
+        _get(message, "seq", int),
+        _number(message, "t"),
+        _number(message, "gamma"),
+        _number(message, "gamma_dot"),
+        _vector3(message, "position"),
+        _vector3(message, "velocity"),
+    )
+
+
+def parse_rx(message: Message) -> tuple[int, list[Heard]]:
+    """(k, receptions as heard) of a reception batch."""
+    k = _get(message, "k", int)
+    heard = []
+    for item in _get(message, "receptions", list):
+        if not isinstance(item, dict):
+            raise ValueError("a reception is not a map")
+        heard.append(
+            Heard(_get(item, "sender", int), _number(item, "stamp"), _number(item, "gamma"), _number(item, "gamma_dot"))
+        )
+    return k, heard
+
+
+@dataclass(frozen=True, slots=True)
+class StateReport:
+    """What the broker needs of a state message: when, where, how fast, and whether it transmitted."""
+
+    k: int
+    vehicle: int
+    kinematics: Kinematics
+    tx_seq: int
+
+
+def parse_state(message: Message, key_vehicle: int) -> StateReport:
+    vehicle = _get(message, "vehicle", int)
+    if vehicle != key_vehicle:
+        raise ValueError(f"vehicle {vehicle} published on vehicle {key_vehicle}'s key")
+    rotation = _get(message, "rotation", list)
+    if len(rotation) != 9 or not all(isinstance(v, int | float) and not isinstance(v, bool) for v in rotation):
+        raise ValueError("field 'rotation' is not 9 numbers")
+    body = np.array(_vector3(message, "velocity"))
+    velocity = np.array(rotation, dtype=float).reshape(3, 3) @ body
+    position = np.array(_vector3(message, "position"))
+    return StateReport(_get(message, "k", int), vehicle, Kinematics(position, velocity), _get(message, "tx_seq", int))
+
+
+@dataclass(frozen=True, slots=True)
+class Tick:
+    k: int
+    t: float
+    final: bool
+    caps: dict[int, float]
+
+
+def parse_tick(message: Message) -> Tick:
+    caps: dict[int, float] = {}
+    for pair in _get(message, "caps", list):
+        if not (isinstance(pair, list) and len(pair) == 2):
+            raise ValueError("a cap is not a [vehicle, value] pair")
+        caps[_get({"v": pair[0]}, "v", int)] = _number({"c": pair[1]}, "c")
+    return Tick(_get(message, "k", int), _number(message, "t"), _get(message, "final", bool), caps)

@@ -7,13 +7,30 @@ from __future__ import annotations
 
 import argparse
 import json
+import logging
+import signal
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from types import FrameType
 
 from supervisor.errors import CpfError, ScenarioError
 
 EXIT_RUNTIME, EXIT_INPUT, EXIT_INTERRUPTED = 1, 2, 130
+
+
+def _positive(text: str) -> float:
+    value = float(text)
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"must be > 0, got {text}")
+    return value
+
+
+def _ids(text: str) -> tuple[int, ...]:
+    try:
+        return tuple(int(part) for part in text.split(",") if part)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected comma-separated vehicle ids, got {text!r}") from None
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -21,11 +38,29 @@ def _parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
     run = sub.add_parser("run", help="simulate a scenario and record it to MCAP")
     run.add_argument("scenario", type=Path, help="scenario file (TOML)")
-    run.add_argument("--engine", choices=["inprocess"], default="inprocess", help="simulation engine")
+    run.add_argument("--engine", choices=["zenoh", "inprocess"], default="zenoh", help="default: zenoh")
+    run.add_argument("--clock", choices=["lockstep", "realtime"], default="lockstep", help="default: lockstep")
+    run.add_argument("--speed", type=_positive, default=1.0, help="realtime clock: simulated s per wall s")
     run.add_argument("--seed", type=int, default=None, help="random seed (default: the scenario's)")
     run.add_argument("--out", type=Path, default=None, help="MCAP file to write (default: runs/<name>.mcap)")
     run.add_argument("--metrics", type=Path, default=None, help="also write the summary as JSON here")
+    run.add_argument("--listen", default=None, help="Zenoh endpoint for the supervisor's router")
+    run.add_argument("--connect", default=None, help="join this Zenoh router instead of running one")
+    run.add_argument("--remote", type=_ids, default=(), help="vehicle ids started by hand elsewhere (not spawned)")
     run.add_argument("--quiet", action="store_true", help="no progress line")
+
+    vehicle = sub.add_parser("vehicle", help="run one vehicle process (the supervisor starts these)")
+    vehicle.add_argument("scenario", type=Path)
+    vehicle.add_argument("--id", type=int, required=True, help="vehicle id in the scenario")
+    vehicle.add_argument("--connect", required=True, help="Zenoh endpoint of the run's router")
+    comms = sub.add_parser("comms", help="run the acoustic-link broker (the supervisor starts it)")
+    comms.add_argument("scenario", type=Path)
+    comms.add_argument("--seed", type=int, default=None)
+    comms.add_argument("--connect", required=True, help="Zenoh endpoint of the run's router")
+    for command in (run, vehicle, comms):
+        command.add_argument(
+            "--set", action="append", default=[], metavar="KEY=VALUE", help="override a scenario value (repeatable)"
+        )
     report = sub.add_parser("report", help="figures of a recorded run")
     report.add_argument("log", type=Path, help="MCAP file written by cpf run")
     report.add_argument("--out", type=Path, default=None, help="directory for the figures (default: beside the log)")
@@ -33,16 +68,22 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _run(args: argparse.Namespace) -> int:
+    from supervisor.cosim import BusOptions, run_zenoh
     from supervisor.inprocess import run_inprocess
     from supervisor.progress import Progress
     from supervisor.scenario import load_scenario
     from supervisor.summary import format_summary, summarize
 
-    scenario = load_scenario(args.scenario)
+    scenario = load_scenario(args.scenario, args.set)
     seed = scenario.scenario.seed if args.seed is None else args.seed
     out = args.out or Path("runs") / f"{scenario.scenario.name}.mcap"
+    text = args.scenario.read_text(encoding="utf-8")
     progress = Progress(scenario.scenario.duration, enabled=not args.quiet)
-    result = run_inprocess(scenario, str(args.scenario), args.scenario.read_text(), out, seed, progress)
+    if args.engine == "inprocess":
+        result = run_inprocess(scenario, str(args.scenario), text, out, seed, progress)
+    else:
+        bus = BusOptions(args.listen, args.connect, args.remote, tuple(args.set))
+        result = run_zenoh(scenario, args.scenario, text, out, seed, args.clock, args.speed, bus, progress)
     faults = [(f.kind, f.start, f.end) for f in scenario.faults]
     rep = scenario.report
     tube = abs(scenario.path_following.delta) + rep.tube_margin
@@ -51,14 +92,45 @@ def _run(args: argparse.Namespace) -> int:
     )
     factor = scenario.scenario.duration / max(result.wall_time, 1e-9)
     print(
-        f"{scenario.scenario.name}: {len(scenario.vehicles)} vehicles, {scenario.scenario.duration:g} s simulated "
-        f"in {result.wall_time:.2f} s ({factor:.0f}x real time), {result.messages} messages -> {out}"
+        f"{scenario.scenario.name}: {len(scenario.vehicles)} vehicles, {args.engine} engine, "
+        f"{scenario.scenario.duration:g} s simulated in {result.wall_time:.2f} s ({factor:.0f}x real time), "
+        f"{result.messages} messages -> {out}"
     )
+    counts = result.link_counts
+    print(f"links: {counts['sent']} sent, {counts['delivered']} delivered, {counts['dropped']} dropped")
     print(format_summary(summary))
     if args.metrics:
         args.metrics.parent.mkdir(parents=True, exist_ok=True)
         args.metrics.write_text(json.dumps(summary.as_dict(), indent=2))
     return 0
+
+
+def _vehicle(args: argparse.Namespace) -> int:
+    from supervisor.fleet import initial_state, transmit_policy, vehicle_config
+    from supervisor.scenario import load_scenario
+    from vehicles.node import run_vehicle
+
+    scenario = load_scenario(args.scenario, args.set)
+    if args.id not in scenario.vehicle_ids:
+        raise ScenarioError(f"{args.scenario}: --id: no vehicle {args.id} in [[vehicles]] {scenario.vehicle_ids}")
+    cfg = vehicle_config(scenario, args.id)
+    initial = initial_state(scenario, cfg)
+    policy, neighbours = transmit_policy(scenario), scenario.neighbours(args.id)
+    return run_vehicle(cfg, initial, policy, neighbours, scenario.scenario.step, [args.connect])
+
+
+def _comms(args: argparse.Namespace) -> int:
+    from comms.broker import run_broker
+    from comms.broker_core import BrokerCore
+    from comms.channel import Channel
+    from supervisor.fleet import channel_params
+    from supervisor.scenario import load_scenario
+
+    scenario = load_scenario(args.scenario, args.set)
+    seed = scenario.scenario.seed if args.seed is None else args.seed
+    neighbours = {i: scenario.neighbours(i) for i in scenario.vehicle_ids}
+    core = BrokerCore(Channel(channel_params(scenario), seed), neighbours)
+    return run_broker(core, scenario.vehicle_ids, [args.connect])
 
 
 def _report(args: argparse.Namespace) -> int:
@@ -72,10 +144,19 @@ def _report(args: argparse.Namespace) -> int:
     return 0
 
 
+def _interrupt(signum: int, frame: FrameType | None) -> None:
+    raise KeyboardInterrupt  # SIGTERM cleans up like Ctrl-C: children stopped, log closed
+
+
+COMMANDS = {"run": _run, "vehicle": _vehicle, "comms": _comms, "report": _report}
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
+    logging.basicConfig(level=logging.WARNING, format=f"cpf {args.command}: %(message)s")
+    signal.signal(signal.SIGTERM, _interrupt)
     try:
-        return {"run": _run, "report": _report}[args.command](args)
+        return COMMANDS[args.command](args)
     except ScenarioError as exc:
         print(f"cpf: error: {exc}", file=sys.stderr)
         return EXIT_INPUT

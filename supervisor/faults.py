@@ -9,7 +9,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from supervisor.scenario import FaultSpec, SpeedCapFault
+from supervisor.scenario_schema import FaultSpec, SpeedCapFault
 from vehicles.agent import Disturbances
 
 

@@ -9,7 +9,8 @@ import math
 
 import numpy as np
 
-from supervisor.scenario import (
+from comms.channel import ChannelParams
+from supervisor.scenario_schema import (
     CirclePath,
     HelixPath,
     LawnmowerPath,
@@ -24,6 +25,7 @@ from vehicles.dynamics import PLANAR, SPATIAL, Model
 from vehicles.geometry import rotation_2d, rotation_from_rpy
 from vehicles.path_following import PathFollowingGains
 from vehicles.paths import Circle, Helix, Lawnmower, Line, Path, closest_gamma
+from vehicles.transmission import PeriodicPolicy
 
 # How far along a path the initial-gamma search looks, in units of gamma, either side of zero.
 CLOSEST_SEARCH_SPAN = 1000.0
@@ -84,3 +86,12 @@ def _path_height(path: Path) -> float:
 
 def _section(scenario: Scenario, vehicle_id: int) -> VehicleSection:
     return next(v for v in scenario.vehicles if v.id == vehicle_id)
+
+
+def channel_params(scenario: Scenario) -> ChannelParams:
+    c = scenario.comms
+    return ChannelParams(c.sound_speed, c.bitrate, c.packet_bytes, c.jitter, c.loss)
+
+
+def transmit_policy(scenario: Scenario) -> PeriodicPolicy:
+    return PeriodicPolicy(scenario.comms.tx_period)

@@ -1,8 +1,8 @@
-"""The single-process engine: every vehicle stepped in one loop over an ideal channel.
+"""The single-process engine: every vehicle and the channel stepped in one loop.
 
-At each step t_k every vehicle hears each graph neighbour's (gamma, gamma_dot) of time t_k, then all vehicles step
-to t_k + dt with the very functions a vehicle process runs. It is the reference the multi-process engine must
-reproduce, and the speed floor it is measured against.
+It runs exactly the pipeline of the multi-process engine (vehicles.runtime.node_step for each vehicle,
+comms.broker_core for the channel, messages built and parsed the same way), in one process and one thread. It is
+the reference the Zenoh engine must reproduce, and the speed floor it is measured against.
 """
 
 from __future__ import annotations
@@ -10,17 +10,33 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
-
-from comms.messages import FAULT_KEY, META_KEY, state_key, state_message
+from comms.broker_core import BrokerCore
+from comms.channel import Channel, Kinematics, LinkEvent
+from comms.messages import (
+    COMMS_EVENT_KEY,
+    FAULT_KEY,
+    GRAPH_KEY,
+    META_KEY,
+    event_message,
+    parse_rx,
+    parse_state,
+    rx_key,
+    rx_message,
+    state_key,
+    state_message,
+    tx_key,
+    tx_message,
+)
 from supervisor.faults import disturbances, events_at
-from supervisor.fleet import initial_state, vehicle_config
-from supervisor.metadata import run_meta
+from supervisor.fleet import channel_params, initial_state, transmit_policy, vehicle_config
+from supervisor.metadata import graph_message, run_meta
 from supervisor.progress import Progress
 from supervisor.recorder import Recorder
-from supervisor.scenario import Scenario
+from supervisor.scenario_schema import Scenario
+from supervisor.series import SeriesBuilder
 from supervisor.summary import Series
-from vehicles.agent import VehicleState, own_estimate, receive, step
+from vehicles.runtime import NodeState, node_step
+from vehicles.transmission import Transmission
 
 
 @dataclass(frozen=True, slots=True)
@@ -28,6 +44,7 @@ class RunResult:
     series: Series
     wall_time: float
     messages: int
+    link_counts: dict[str, int]
 
 
 def run_inprocess(
@@ -38,27 +55,44 @@ def run_inprocess(
     steps = round(scenario.scenario.duration / dt)
     ids = scenario.vehicle_ids
     configs = {i: vehicle_config(scenario, i) for i in ids}
-    states: dict[int, VehicleState] = {i: initial_state(scenario, configs[i]) for i in ids}
+    nodes = {i: NodeState(initial_state(scenario, configs[i])) for i in ids}
     neighbours = {i: scenario.neighbours(i) for i in ids}
-    columns = np.empty((steps, 3, len(ids)))  # gamma, gamma_dot, |p - p_d|
-    with Recorder(out) as recorder:
-        recorder.write(META_KEY, 0.0, run_meta(scenario, scenario_file, scenario_toml, seed, "inprocess"))
+    policy = transmit_policy(scenario)
+    broker = BrokerCore(Channel(channel_params(scenario), seed), dict(neighbours))
+    builder = SeriesBuilder(ids, steps, dt)
+    with Recorder(out) as rec:
+        rec.write(META_KEY, 0.0, run_meta(scenario, scenario_file, scenario_toml, seed, "inprocess", "lockstep"))
+        rec.write(GRAPH_KEY, 0.0, graph_message(0.0, scenario.graph.edges))
+        sent: list[Transmission] = []
+        where: dict[int, Kinematics] = {}
         for k in range(steps):
             t = k * dt
             for event in events_at(scenario.faults, t, dt):
-                recorder.write(FAULT_KEY, t, event.message())
-            heard = {i: own_estimate(s) for i, s in states.items()}  # the ideal channel: instant, lossless
-            for col, i in enumerate(ids):
-                state = states[i]
-                for j in neighbours[i]:
-                    state = receive(state, j, heard[j])
+                rec.write(FAULT_KEY, t, event.message())
+            _record_events(rec, broker.submit(sent, where))
+            batches, delivered = broker.deliver(t, ids)
+            _record_events(rec, delivered)
+            sent, where = [], {}
+            for i in ids:
+                rx = rx_message(i, k, t, batches[i])
+                rec.write(rx_key(i), t, rx)
                 dist = disturbances(scenario.faults, i, t, dt)
-                states[i], tel = step(configs[i], state, dt, neighbours[i], dist)
-                recorder.write(state_key(i), t, state_message(tel, configs[i].model))
-                columns[k, :, col] = (tel.gamma, tel.gamma_dot, float(np.linalg.norm(tel.error)))
+                nodes[i], tel, tx = node_step(configs[i], policy, nodes[i], t, dt, parse_rx(rx)[1], neighbours[i], dist)
+                if tx is not None:
+                    rec.write(tx_key(i), t, tx_message(tx))
+                    sent.append(tx)
+                state = state_message(tel, configs[i].model, k, tx.seq if tx else 0)
+                rec.write(state_key(i), t, state)
+                builder.add(state)
+                where[i] = parse_state(state, i).kinematics
             progress.update(t + dt)
-        wall = progress.done(steps * dt)
-        messages = recorder.count
-    times = np.arange(steps, dtype=np.float64) * dt
-    series = Series(tuple(ids), times, columns[:, 0], columns[:, 1], columns[:, 2])
-    return RunResult(series, wall, messages)
+        end = steps * dt
+        _record_events(rec, broker.submit(sent, where) + broker.deliver(end, ids)[1] + broker.finish(end))
+        wall = progress.done(end)
+        messages = rec.count
+    return RunResult(builder.series(), wall, messages, dict(broker.counts))
+
+
+def _record_events(rec: Recorder, events: list[LinkEvent]) -> None:
+    for event in events:
+        rec.write(COMMS_EVENT_KEY, event.t, event_message(event))

@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 import platform
+from collections.abc import Iterable
 from importlib import metadata
 
 from comms.messages import Message
-from supervisor.scenario import Scenario
+from supervisor.scenario_schema import Scenario
 
 
 def _version(package: str) -> str:
@@ -16,13 +17,14 @@ def _version(package: str) -> str:
         return "unknown"
 
 
-def run_meta(scenario: Scenario, scenario_file: str, scenario_toml: str, seed: int, engine: str) -> Message:
+def run_meta(scenario: Scenario, scenario_file: str, scenario_toml: str, seed: int, engine: str, clock: str) -> Message:
     return {
         "scenario_name": scenario.scenario.name,
         "scenario_file": scenario_file,
         "scenario_toml": scenario_toml,
         "seed": seed,
         "engine": engine,
+        "clock": clock,
         "step": scenario.scenario.step,
         "duration": scenario.scenario.duration,
         "vehicles": scenario.vehicle_ids,
@@ -36,3 +38,8 @@ def run_meta(scenario: Scenario, scenario_file: str, scenario_toml: str, seed: i
             "eclipse-zenoh": _version("eclipse-zenoh"),
         },
     }
+
+
+def graph_message(t: float, edges: Iterable[tuple[int, int]]) -> Message:
+    """The communication graph in force from time t."""
+    return {"t": t, "edges": [list(e) for e in edges]}

@@ -12,7 +12,8 @@ from typing import IO, Any
 
 from mcap.writer import CompressionType, Writer
 
-from comms.messages import Message, schema_for
+from comms.messages import Message
+from comms.schemas import schema_for
 
 PROFILE = ""  # no ROS profile: plain JSON channels
 
@@ -37,9 +38,11 @@ class Recorder:
     def _channel(self, key: str) -> int:
         if key not in self._channels:
             schema = schema_for(key)
-            schema_id = self._writer.register_schema(
-                name=str(schema["title"]), encoding="jsonschema", data=json.dumps(schema).encode()
-            )
+            schema_id = 0  # no schema: a key we do not know still gets recorded
+            if schema is not None:
+                schema_id = self._writer.register_schema(
+                    name=str(schema["title"]), encoding="jsonschema", data=json.dumps(schema).encode()
+                )
             self._channels[key] = self._writer.register_channel(topic=key, message_encoding="json", schema_id=schema_id)
         return self._channels[key]
 

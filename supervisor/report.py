@@ -19,7 +19,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
-from comms.messages import FAULT_KEY, GRAPH_KEY, META_KEY, vehicle_of_state_key
+from comms.messages import FAULT_KEY, GRAPH_KEY, META_KEY, vehicle_of_key
 from supervisor.recorder import read_messages
 
 __all__ = ["DPI", "FaultInterval", "RunData", "VehicleSeries", "load_run", "write_figures"]
@@ -105,9 +105,10 @@ def load_run(path: Path) -> RunData:
     fault_events: list[dict[str, Any]] = []
     graph_changes: list[tuple[float, list[Edge]]] = []
     for topic, _, message in read_messages(path):
-        vehicle = vehicle_of_state_key(topic)
-        if vehicle is not None:
-            states.setdefault(vehicle, []).append(message)
+        owned = vehicle_of_key(topic)
+        if owned is not None:
+            if owned[1] == "state":
+                states.setdefault(owned[0], []).append(message)
         elif topic == META_KEY:
             meta = message
         elif topic == FAULT_KEY:

@@ -9,169 +9,18 @@ from __future__ import annotations
 
 import re
 import tomllib
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Any
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, Strict, ValidationError, field_validator
+from pydantic import ValidationError
 from pydantic_core import ErrorDetails
 
 from supervisor.errors import ScenarioError
-from vehicles.coordination import Law
-from vehicles.estimates import Predictor
+from supervisor.scenario_schema import Scenario
 from vehicles.params import PRESETS, VehicleParams
 from vehicles.paths import Path as PathLike
-
-# Numbers as TOML writes them: an integer is a valid float, a string ("400") or a boolean is not a number.
-Float = Annotated[float, Strict()]
-Int = Annotated[int, Strict()]
-Vec3 = tuple[Float, Float, Float]
-
-
-class _Strict(BaseModel):
-    # Lax mode so that TOML arrays become tuples; the numbers themselves are strict (Float, Int).
-    # TOML has nan and inf literals; no field of a scenario may take them.
-    model_config = ConfigDict(extra="forbid", frozen=True, strict=False, allow_inf_nan=False)
-
-
-class RunSection(_Strict):
-    name: str
-    description: str = ""
-    duration: Float = Field(gt=0, description="simulated time, s")
-    step: Float = Field(gt=0, description="integration and sync step, s")
-    seed: Int = 0
-    dimension: Literal[2, 3] = 3  # 3: the 6-DOF model; 2: the planar variant
-
-
-class VehicleModelSection(_Strict):
-    preset: str = "remus100"
-    # Names and shapes (number or 3-vector) are checked against the preset by _check_overrides.
-    overrides: dict[str, Float | Vec3] = {}
-
-    @field_validator("preset")
-    @classmethod
-    def _known_preset(cls, value: str) -> str:
-        if value not in PRESETS:
-            raise ValueError(f"unknown preset, expected one of {sorted(PRESETS)}")
-        return value
-
-
-class PathFollowingSection(_Strict):
-    delta: Float = Field(default=-1.0, description="offset of the controlled point, m (its size: tube radius)")
-    k1: Float = Field(default=0.5, gt=0)
-    k2: Float = Field(default=1.0, gt=0)
-    k_zeta: Float = Field(default=1.0, gt=0)
-
-    @field_validator("delta")
-    @classmethod
-    def _nonzero(cls, value: float) -> float:
-        if value == 0.0:
-            raise ValueError("must be non-zero (delta = 0 leaves the pitch and yaw rates unsteerable)")
-        return value
-
-
-class CoordinationSection(_Strict):
-    law: Law = "corrected"
-    k: Float = Field(default=0.2, gt=0)
-    k2: Float = Field(default=1.0, gt=0)
-    v_r: Float = Field(default=1.0, description="reference speed of the path parameters, 1/s")
-    predictor: Predictor = "first_order"
-
-
-class GraphSection(_Strict):
-    edges: tuple[tuple[Int, Int], ...]
-
-
-class HelixPath(_Strict):
-    type: Literal["helix"]
-    radius: Float = Field(gt=0)
-    climb: Float
-    period: Float
-    phase: Float = 0.0
-    center: Vec3 = (0.0, 0.0, 0.0)
-
-
-class CirclePath(_Strict):
-    type: Literal["circle"]
-    radius: Float = Field(gt=0)
-    period: Float
-    phase: Float = 0.0
-    center: Vec3 = (0.0, 0.0, 0.0)
-
-
-class LinePath(_Strict):
-    type: Literal["line"]
-    start: Vec3
-    velocity: Vec3
-
-
-class LawnmowerPath(_Strict):
-    type: Literal["lawnmower"]
-    origin: Vec3
-    leg_length: Float = Field(gt=0)
-    spacing: Float = Field(gt=0)
-    legs: Int = Field(ge=1, le=10_000)  # the path is built leg by leg when the scenario is checked
-    heading: Float = 0.0
-    scale: Float = Field(default=1.0, gt=0)
-
-
-PathSpec = Annotated[HelixPath | CirclePath | LinePath | LawnmowerPath, Field(discriminator="type")]
-
-
-class VehicleSection(_Strict):
-    id: Int = Field(ge=1)
-    position: Vec3
-    attitude_rpy_deg: Vec3 = (0.0, 0.0, 0.0)
-    velocity: Vec3 = (0.0, 0.0, 0.0)
-    angular_velocity: Vec3 = (0.0, 0.0, 0.0)
-    gamma0: Float | Literal["closest"] = "closest"
-    path: PathSpec
-
-
-class SpeedCapFault(_Strict):
-    """The paper's fault: vehicle's gamma_dot capped on [start, end), its neighbours not told."""
-
-    kind: Literal["speed_cap"]
-    vehicle: Int
-    start: Float = Field(ge=0)
-    end: Float
-    gamma_dot_max: Float
-
-
-FaultSpec = Annotated[SpeedCapFault, Field(discriminator="kind")]
-
-
-class ReportSection(_Strict):
-    transient: Float = Field(default=50.0, ge=0, description="initial time left out of path-following stats, s")
-    tube_margin: Float = Field(default=0.2, ge=0, description="allowed excess over |delta| in the tube, m")
-    coordination_tolerance: Float = Field(default=0.01, gt=0)
-
-
-class Scenario(_Strict):
-    scenario: RunSection
-    vehicle: VehicleModelSection = VehicleModelSection()
-    path_following: PathFollowingSection = PathFollowingSection()
-    coordination: CoordinationSection = CoordinationSection()
-    graph: GraphSection
-    vehicles: tuple[VehicleSection, ...] = Field(min_length=2)
-    faults: tuple[FaultSpec, ...] = ()
-    report: ReportSection = ReportSection()
-
-    @property
-    def vehicle_ids(self) -> list[int]:
-        return [v.id for v in self.vehicles]
-
-    def vehicle_params(self) -> VehicleParams:
-        from vehicles.params import preset
-
-        return preset(self.vehicle.preset, **self.vehicle.overrides)
-
-    def neighbours(self, vehicle_id: int) -> list[int]:
-        """N_i of the scenario's graph, in ascending order."""
-        out = {j for i, j in self.graph.edges if i == vehicle_id} | {i for i, j in self.graph.edges if j == vehicle_id}
-        return sorted(out)
-
 
 # --- error messages ---------------------------------------------------------------------------------------
 
@@ -352,16 +201,42 @@ def validate_data(data: dict[str, Any], source: str) -> Scenario:
     return scenario
 
 
-def parse_scenario(text: str, source: str = "<string>") -> Scenario:
-    """Scenario from TOML text; ScenarioError('<source>: <field>: <problem>, got <value>') otherwise."""
+def parse_scenario(text: str, source: str = "<string>", overrides: Sequence[str] = ()) -> Scenario:
+    """Scenario from TOML text and KEY=VALUE overrides; ScenarioError('<source>: <field>: ...') otherwise."""
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise _error(source, f"invalid TOML: {exc}") from exc
+    for override in overrides:
+        apply_override(data, override)
     return validate_data(data, source)
 
 
-def load_scenario(path: Path) -> Scenario:
+def apply_override(data: dict[str, Any], override: str) -> None:
+    """Set a dotted key (list items by index: vehicles.0.gamma0) to a TOML value; bare words are strings."""
+    key, sep, text = override.partition("=")
+    if not sep or not key.strip():
+        raise ScenarioError(f"--set: expected KEY=VALUE, got {override!r}")
+    try:
+        value = tomllib.loads(f"v = {text.strip()}")["v"]
+    except tomllib.TOMLDecodeError:
+        value = text.strip()
+    node: Any = data
+    parts = key.strip().split(".")
+    for depth, part in enumerate(parts):
+        last = depth == len(parts) - 1
+        if isinstance(node, list) and part.isdigit() and int(part) < len(node):
+            node[int(part)] = value if last else node[int(part)]
+            node = node[int(part)]
+        elif isinstance(node, dict):
+            if last:
+                node[part] = value
+            node = node.setdefault(part, {})
+        else:
+            raise ScenarioError(f"--set {key}: no such place in the scenario, got {override!r}")
+
+
+def load_scenario(path: Path, overrides: Sequence[str] = ()) -> Scenario:
     """Read and validate a scenario file (UTF-8, as TOML requires)."""
     try:
         text = path.read_text(encoding="utf-8")
@@ -369,4 +244,4 @@ def load_scenario(path: Path) -> Scenario:
         raise _error(str(path), f"cannot read scenario file: {exc.strerror or exc}") from exc
     except UnicodeDecodeError as exc:
         raise _error(str(path), f"invalid TOML: not UTF-8 text (byte {exc.start})") from exc
-    return parse_scenario(text, str(path))
+    return parse_scenario(text, str(path), overrides)

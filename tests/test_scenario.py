@@ -15,7 +15,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from supervisor.errors import ScenarioError
-from supervisor.scenario import HelixPath, Scenario, SpeedCapFault, load_scenario, parse_scenario, validate_data
+from supervisor.scenario import load_scenario, parse_scenario, validate_data
+from supervisor.scenario_schema import HelixPath, Scenario, SpeedCapFault
 
 ROOT = Path(__file__).resolve().parent.parent
 PAPER = (ROOT / "configs" / "paper.toml").read_text()

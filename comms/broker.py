@@ -1,0 +1,143 @@
+"""The acoustic-link broker process: every coordination message goes vehicle -> broker -> neighbour.
+
+Thin Zenoh adapter around comms.broker_core. At tick k it waits until it holds every vehicle's state of step k-1 and
+every transmission those states announce, then submits them to the channel and publishes step k's reception batches
+and the per-packet link events. On the final tick it flushes the channel and reports how many events it published.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+from comms.broker_core import BrokerCore
+from comms.bus import Inbox, Publishers, decode_or_none, open_session
+from comms.channel import Kinematics, LinkEvent
+from comms.messages import (
+    COMMS_ALIVE,
+    COMMS_DONE_KEY,
+    COMMS_EVENT_KEY,
+    ROOT,
+    STOP_KEY,
+    SUPERVISOR_ALIVE,
+    TICK_KEY,
+    StateReport,
+    Tick,
+    event_message,
+    parse_state,
+    parse_tick,
+    parse_tx,
+    rx_key,
+    rx_message,
+    vehicle_of_key,
+)
+from vehicles.transmission import Transmission
+
+log = logging.getLogger(__name__)
+POLL = 0.5
+
+
+@dataclass
+class _Books:
+    """What has arrived, filed by step, until the step that needs it is handled."""
+
+    ticks: dict[int, Tick] = field(default_factory=dict)
+    states: dict[int, dict[int, StateReport]] = field(default_factory=dict)
+    sent: dict[tuple[int, int], Transmission] = field(default_factory=dict)
+    published: int = 0
+    malformed: int = 0
+
+
+class Broker:
+    def __init__(self, core: BrokerCore, vehicles: Sequence[int], publishers: Publishers) -> None:
+        self.core = core
+        self.vehicles = list(vehicles)
+        self.publishers = publishers
+        self.books = _Books()
+        self.next_k = 0
+
+    def take(self, key: str, payload: bytes) -> None:
+        """File one incoming message; count and drop it if malformed or on a key its sender does not own."""
+        message = decode_or_none(payload)
+        owned = vehicle_of_key(key)
+        try:
+            if message is None:
+                raise ValueError("undecodable")
+            if key == TICK_KEY:
+                tick = parse_tick(message)
+                self.books.ticks[tick.k] = tick
+            elif owned is not None and owned[1] == "state":
+                report = parse_state(message, owned[0])
+                self.books.states.setdefault(report.k, {})[report.vehicle] = report
+            elif owned is not None and owned[1] == "tx":
+                tx = parse_tx(message, owned[0])
+                self.books.sent[(tx.sender, tx.seq)] = tx
+        except ValueError as exc:
+            self.books.malformed += 1
+            log.warning("comms: dropped a malformed message on %s: %s", key, exc)
+
+    def advance(self) -> bool:
+        """Handle every tick that can be handled; True once the final one is done."""
+        while self.next_k in self.books.ticks and self._ready(self.next_k):
+            tick = self.books.ticks.pop(self.next_k)
+            self._handle(tick)
+            self.next_k += 1
+            if tick.final:
+                return True
+        return False
+
+    def _ready(self, k: int) -> bool:
+        if k == 0:
+            return True
+        states = self.books.states.get(k - 1, {})
+        if any(v not in states for v in self.vehicles):
+            return False
+        return all(r.tx_seq == 0 or (v, r.tx_seq) in self.books.sent for v, r in states.items())
+
+    def _handle(self, tick: Tick) -> None:
+        states = self.books.states.pop(tick.k - 1, {})
+        sent = [self.books.sent.pop((v, r.tx_seq)) for v, r in states.items() if r.tx_seq]
+        where: dict[int, Kinematics] = {v: r.kinematics for v, r in states.items()}
+        events = self.core.submit(sent, where)
+        if tick.final:
+            events += self.core.deliver(tick.t, self.vehicles)[1] + self.core.finish(tick.t)
+            self._publish_events(events)
+            done = {"t": tick.t, "k": tick.k, "events": self.books.published, "malformed": self.books.malformed}
+            self.publishers.put(COMMS_DONE_KEY, done)
+            return
+        batches, delivered = self.core.deliver(tick.t, self.vehicles)
+        self._publish_events(events + delivered)
+        for v in self.vehicles:
+            self.publishers.put(rx_key(v), rx_message(v, tick.k, tick.t, batches[v]))
+
+    def _publish_events(self, events: list[LinkEvent]) -> None:
+        for event in events:
+            self.publishers.put(COMMS_EVENT_KEY, event_message(event))
+        self.books.published += len(events)
+
+
+def run_broker(core: BrokerCore, vehicles: Sequence[int], connect: Sequence[str]) -> int:
+    """Serve the channel until the final tick, the stop message, or the supervisor's disappearance."""
+    with open_session("client", connect=connect) as session:
+        inbox = Inbox()
+        for key in (TICK_KEY, f"{ROOT}/vehicle/*/state", f"{ROOT}/vehicle/*/tx", STOP_KEY):
+            inbox.subscribe(session, key)
+        inbox.watch_liveliness(session, SUPERVISOR_ALIVE)
+        token = session.liveliness().declare_token(COMMS_ALIVE)
+        broker = Broker(core, vehicles, Publishers(session))
+        while True:
+            item = inbox.get(POLL)
+            if item is None:
+                continue
+            if isinstance(item, str):
+                if item == f"-{SUPERVISOR_ALIVE}":
+                    log.warning("comms: supervisor gone, stopping")
+                    break
+                continue
+            if item.key == STOP_KEY:
+                break
+            broker.take(item.key, item.payload)
+            broker.advance()
+        token.undeclare()
+    return 0

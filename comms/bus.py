@@ -1,0 +1,103 @@
+"""Eclipse Zenoh plumbing shared by every process: sessions, publishers, and an inbox fed by subscriptions.
+
+Sessions use explicit TCP endpoints with multicast scouting off, so runs never find each other by accident. The
+supervisor's session is a router that the vehicle and broker processes connect to as clients. Publishers block
+rather than drop under congestion (lockstep needs every message) and are express (no batching delay).
+"""
+
+from __future__ import annotations
+
+import json
+import queue
+import socket
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import zenoh
+
+from comms.messages import Message, decode, encode
+
+
+def free_port() -> int:
+    """A TCP port on 127.0.0.1 that nothing listens on right now."""
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        port: int = sock.getsockname()[1]
+        return port
+
+
+def config(mode: str, listen: Sequence[str] = (), connect: Sequence[str] = ()) -> zenoh.Config:
+    conf = zenoh.Config()
+    conf.insert_json5("mode", json.dumps(mode))
+    conf.insert_json5("scouting/multicast/enabled", "false")
+    if listen:
+        conf.insert_json5("listen/endpoints", json.dumps(list(listen)))
+    if connect:
+        conf.insert_json5("connect/endpoints", json.dumps(list(connect)))
+    return conf
+
+
+def open_session(mode: str, listen: Sequence[str] = (), connect: Sequence[str] = ()) -> zenoh.Session:
+    zenoh.try_init_log_from_env()
+    return zenoh.open(config(mode, listen, connect))
+
+
+@dataclass(frozen=True, slots=True)
+class Received:
+    key: str
+    payload: bytes
+
+
+class Inbox:
+    """Everything this process subscribed to, in arrival order, for one thread to consume."""
+
+    def __init__(self) -> None:
+        self._queue: queue.Queue[Received | str] = queue.Queue()
+        self._keep: list[Any] = []  # subscribers live as long as the inbox
+
+    def subscribe(self, session: zenoh.Session, key: str) -> None:
+        def on_sample(sample: zenoh.Sample) -> None:
+            self._queue.put(Received(str(sample.key_expr), sample.payload.to_bytes()))
+
+        self._keep.append(session.declare_subscriber(key, on_sample))
+
+    def watch_liveliness(self, session: zenoh.Session, key: str) -> None:
+        """Liveliness changes arrive as strings '+<key>' (appeared) and '-<key>' (gone)."""
+
+        def on_token(sample: zenoh.Sample) -> None:
+            sign = "+" if sample.kind == zenoh.SampleKind.PUT else "-"
+            self._queue.put(sign + str(sample.key_expr))
+
+        self._keep.append(session.liveliness().declare_subscriber(key, on_token, history=True))
+
+    def get(self, timeout: float) -> Received | str | None:
+        try:
+            return self._queue.get(timeout=timeout)
+        except queue.Empty:
+            return None
+
+
+class Publishers:
+    """One declared publisher per key, reliable and express."""
+
+    def __init__(self, session: zenoh.Session) -> None:
+        self._session = session
+        self._publishers: dict[str, zenoh.Publisher] = {}
+
+    def put(self, key: str, message: Message) -> None:
+        publisher = self._publishers.get(key)
+        if publisher is None:
+            publisher = self._session.declare_publisher(
+                key, congestion_control=zenoh.CongestionControl.BLOCK, express=True
+            )
+            self._publishers[key] = publisher
+        publisher.put(encode(message))
+
+
+def decode_or_none(payload: bytes) -> Message | None:
+    """A decoded message, or None for one that does not decode (the caller counts it)."""
+    try:
+        return decode(payload)
+    except ValueError:
+        return None

@@ -1,0 +1,141 @@
+"""JSON-Schemas of the messages on each key expression, for the MCAP channels (Foxglove reads them).
+
+They describe what comms/messages.py builds; tests/test_messages.py checks every built message against its schema.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from comms.messages import (
+    COMMS_DONE_KEY,
+    COMMS_EVENT_KEY,
+    FAULT_KEY,
+    GRAPH_KEY,
+    META_KEY,
+    STOP_KEY,
+    TICK_KEY,
+    vehicle_of_key,
+)
+
+Schema = dict[str, Any]
+NUMBER: Schema = {"type": "number"}
+INTEGER: Schema = {"type": "integer"}
+STRING: Schema = {"type": "string"}
+
+
+def _vector(n: int | None = None) -> Schema:
+    schema: Schema = {"type": "array", "items": NUMBER}
+    if n is not None:
+        schema["minItems"] = schema["maxItems"] = n
+    return schema
+
+
+def _object(title: str, properties: Schema, optional: tuple[str, ...] = ()) -> Schema:
+    return {
+        "$schema": "http://json-schema.org/draft-07/schema#",
+        "title": title,
+        "type": "object",
+        "properties": properties,
+        "required": [name for name in properties if name not in optional],
+    }
+
+
+STATE = _object(
+    "cpf.VehicleState",
+    {
+        "t": NUMBER,
+        "k": INTEGER,
+        "vehicle": INTEGER,
+        "gamma": NUMBER,
+        "gamma_dot": NUMBER,
+        "position": _vector(3),
+        "rotation": _vector(9),
+        "velocity": _vector(3),
+        "angular_velocity": _vector(3),
+        "error": _vector(3),
+        "tau": _vector(),
+        "correction": NUMBER,
+        "lyapunov": NUMBER,
+        "tx_seq": INTEGER,
+    },
+)
+TRANSMISSION = _object(
+    "cpf.Transmission",
+    {
+        "t": NUMBER,
+        "sender": INTEGER,
+        "seq": INTEGER,
+        "gamma": NUMBER,
+        "gamma_dot": NUMBER,
+        "position": _vector(3),
+        "velocity": _vector(3),
+    },
+)
+_RECEPTION = _object(
+    "cpf.Reception",
+    {"sender": INTEGER, "seq": INTEGER, "stamp": NUMBER, "arrival": NUMBER, "gamma": NUMBER, "gamma_dot": NUMBER},
+)
+RECEPTIONS = _object(
+    "cpf.Receptions",
+    {"t": NUMBER, "k": INTEGER, "vehicle": INTEGER, "receptions": {"type": "array", "items": _RECEPTION}},
+)
+LINK_EVENT = _object(
+    "cpf.LinkEvent",
+    {
+        "t": NUMBER,
+        "sender": INTEGER,
+        "receiver": INTEGER,
+        "seq": INTEGER,
+        "kind": {"enum": ["sent", "delivered", "dropped"]},
+        "delay": {"type": ["number", "null"]},
+        "reason": {"type": ["string", "null"]},
+    },
+)
+TICK = _object(
+    "cpf.Tick",
+    {"t": NUMBER, "k": INTEGER, "final": {"type": "boolean"}, "caps": {"type": "array", "items": _vector(2)}},
+)
+COMMS_DONE = _object("cpf.CommsDone", {"t": NUMBER, "k": INTEGER, "events": INTEGER, "malformed": INTEGER})
+META = _object(
+    "cpf.RunMeta",
+    {
+        "scenario_name": STRING,
+        "scenario_file": STRING,
+        "scenario_toml": STRING,
+        "seed": INTEGER,
+        "engine": STRING,
+        "clock": STRING,
+        "step": NUMBER,
+        "duration": NUMBER,
+        "vehicles": {"type": "array", "items": INTEGER},
+        "edges": {"type": "array", "items": _vector(2)},
+        "faults": {"type": "array", "items": {"type": "object"}},
+        "tube_radius": NUMBER,
+        "versions": {"type": "object"},
+    },
+)
+FAULT = _object(
+    "cpf.FaultEvent", {"t": NUMBER, "kind": STRING, "phase": {"enum": ["start", "end"]}, "detail": {"type": "object"}}
+)
+GRAPH = _object("cpf.Graph", {"t": NUMBER, "edges": {"type": "array", "items": _vector(2)}})
+STOP = _object("cpf.Stop", {"t": NUMBER, "reason": STRING})
+
+_BY_KEY = {
+    META_KEY: META,
+    FAULT_KEY: FAULT,
+    GRAPH_KEY: GRAPH,
+    STOP_KEY: STOP,
+    TICK_KEY: TICK,
+    COMMS_EVENT_KEY: LINK_EVENT,
+    COMMS_DONE_KEY: COMMS_DONE,
+}
+_BY_LEAF = {"state": STATE, "tx": TRANSMISSION, "rx": RECEPTIONS}
+
+
+def schema_for(key: str) -> Schema | None:
+    """The JSON schema of the messages on a key expression; None for a key we do not know."""
+    owned = vehicle_of_key(key)
+    if owned is not None:
+        return _BY_LEAF.get(owned[1])
+    return _BY_KEY.get(key)

@@ -1,0 +1,93 @@
+"""Child processes of a run: each in its own session, stopped with a deadline, then killed.
+
+Every child is started with start_new_session=True, so a Ctrl-C at the terminal reaches only the supervisor, which
+then stops the children itself: politely (the stop message, sent by the caller), then SIGTERM to the child's process
+group, then SIGKILL. Children's stderr goes to a temporary file whose last line explains an early exit.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import signal
+import subprocess
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from types import TracebackType
+from typing import IO
+
+from supervisor.errors import SimulationError
+
+
+@dataclass
+class Child:
+    name: str
+    process: subprocess.Popen[bytes]
+    stderr: IO[bytes]
+
+    def last_words(self) -> str:
+        self.stderr.flush()
+        lines = Path(self.stderr.name).read_text(errors="replace").strip().splitlines()
+        return lines[-1] if lines else "no message"
+
+
+class ProcessGroup:
+    """The children of one run; a context manager that leaves none behind."""
+
+    def __init__(self) -> None:
+        self.children: list[Child] = []
+        self._logs = tempfile.TemporaryDirectory(prefix="cpf-children-")
+
+    def spawn(self, name: str, argv: list[str]) -> Child:
+        stderr = open(Path(self._logs.name) / f"{name}.log", "w+b")  # noqa: SIM115 - closed in stop()
+        process = subprocess.Popen(
+            argv, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=stderr, start_new_session=True
+        )
+        child = Child(name, process, stderr)
+        self.children.append(child)
+        return child
+
+    def check(self) -> None:
+        """Raise if a child has exited before being told to."""
+        for child in self.children:
+            code = child.process.poll()
+            if code is not None:
+                raise SimulationError(f"{child.name} exited with code {code}: {child.last_words()}")
+
+    def pids(self) -> list[int]:
+        return [c.process.pid for c in self.children]
+
+    def stop(self, deadline: float = 3.0) -> None:
+        """Wait up to deadline for children to exit, SIGTERM their groups, wait again, then SIGKILL."""
+        self._wait_all(deadline)
+        for sig in (signal.SIGTERM, signal.SIGKILL):
+            alive = [c for c in self.children if c.process.poll() is None]
+            if not alive:
+                break
+            for child in alive:
+                _signal_group(child.process.pid, sig)
+            self._wait_all(deadline)
+        for child in self.children:
+            child.stderr.close()
+        self._logs.cleanup()
+
+    def _wait_all(self, deadline: float) -> None:
+        end = time.monotonic() + deadline
+        for child in self.children:
+            with contextlib.suppress(subprocess.TimeoutExpired):
+                child.process.wait(timeout=max(0.0, end - time.monotonic()))
+
+    def __enter__(self) -> ProcessGroup:
+        return self
+
+    def __exit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        self.stop()
+
+
+def _signal_group(pid: int, sig: signal.Signals) -> None:
+    with contextlib.suppress(ProcessLookupError):
+        os.killpg(pid, sig)  # the child leads its own session, so its group id is its pid

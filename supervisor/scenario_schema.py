@@ -1,0 +1,175 @@
+"""The scenario file's schema: typed, frozen pydantic models of every section.
+
+Parsing, cross-field checks and one-line error messages live in supervisor/scenario.py.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, Strict, field_validator
+
+from vehicles.coordination import Law
+from vehicles.estimates import Predictor
+from vehicles.params import PRESETS, VehicleParams
+
+# Numbers as TOML writes them: an integer is a valid float, a string ("400") or a boolean is not a number.
+Float = Annotated[float, Strict()]
+Int = Annotated[int, Strict()]
+Vec3 = tuple[Float, Float, Float]
+
+
+class _Strict(BaseModel):
+    # Lax mode so that TOML arrays become tuples; the numbers themselves are strict (Float, Int).
+    # TOML has nan and inf literals; no field of a scenario may take them.
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=False, allow_inf_nan=False)
+
+
+class RunSection(_Strict):
+    name: str
+    description: str = ""
+    duration: Float = Field(gt=0, description="simulated time, s")
+    step: Float = Field(gt=0, description="integration and sync step, s")
+    seed: Int = 0
+    dimension: Literal[2, 3] = 3  # 3: the 6-DOF model; 2: the planar variant
+
+
+class VehicleModelSection(_Strict):
+    preset: str = "remus100"
+    # Names and shapes (number or 3-vector) are checked against the preset by _check_overrides.
+    overrides: dict[str, Float | Vec3] = {}
+
+    @field_validator("preset")
+    @classmethod
+    def _known_preset(cls, value: str) -> str:
+        if value not in PRESETS:
+            raise ValueError(f"unknown preset, expected one of {sorted(PRESETS)}")
+        return value
+
+
+class PathFollowingSection(_Strict):
+    delta: Float = Field(default=-1.0, description="offset of the controlled point, m (its size: tube radius)")
+    k1: Float = Field(default=0.5, gt=0)
+    k2: Float = Field(default=1.0, gt=0)
+    k_zeta: Float = Field(default=1.0, gt=0)
+
+    @field_validator("delta")
+    @classmethod
+    def _nonzero(cls, value: float) -> float:
+        if value == 0.0:
+            raise ValueError("must be non-zero (delta = 0 leaves the pitch and yaw rates unsteerable)")
+        return value
+
+
+class CoordinationSection(_Strict):
+    law: Law = "corrected"
+    k: Float = Field(default=0.2, gt=0)
+    k2: Float = Field(default=1.0, gt=0)
+    v_r: Float = Field(default=1.0, description="reference speed of the path parameters, 1/s")
+    predictor: Predictor = "first_order"
+
+
+class GraphSection(_Strict):
+    edges: tuple[tuple[Int, Int], ...]
+
+
+class HelixPath(_Strict):
+    type: Literal["helix"]
+    radius: Float = Field(gt=0)
+    climb: Float
+    period: Float
+    phase: Float = 0.0
+    center: Vec3 = (0.0, 0.0, 0.0)
+
+
+class CirclePath(_Strict):
+    type: Literal["circle"]
+    radius: Float = Field(gt=0)
+    period: Float
+    phase: Float = 0.0
+    center: Vec3 = (0.0, 0.0, 0.0)
+
+
+class LinePath(_Strict):
+    type: Literal["line"]
+    start: Vec3
+    velocity: Vec3
+
+
+class LawnmowerPath(_Strict):
+    type: Literal["lawnmower"]
+    origin: Vec3
+    leg_length: Float = Field(gt=0)
+    spacing: Float = Field(gt=0)
+    legs: Int = Field(ge=1, le=10_000)  # the path is built leg by leg when the scenario is checked
+    heading: Float = 0.0
+    scale: Float = Field(default=1.0, gt=0)
+
+
+PathSpec = Annotated[HelixPath | CirclePath | LinePath | LawnmowerPath, Field(discriminator="type")]
+
+
+class VehicleSection(_Strict):
+    id: Int = Field(ge=1)
+    position: Vec3
+    attitude_rpy_deg: Vec3 = (0.0, 0.0, 0.0)
+    velocity: Vec3 = (0.0, 0.0, 0.0)
+    angular_velocity: Vec3 = (0.0, 0.0, 0.0)
+    gamma0: Float | Literal["closest"] = "closest"
+    path: PathSpec
+
+
+class SpeedCapFault(_Strict):
+    """The paper's fault: vehicle's gamma_dot capped on [start, end), its neighbours not told."""
+
+    kind: Literal["speed_cap"]
+    vehicle: Int
+    start: Float = Field(ge=0)
+    end: Float
+    gamma_dot_max: Float
+
+
+FaultSpec = Annotated[SpeedCapFault, Field(discriminator="kind")]
+
+
+class CommsSection(_Strict):
+    """The acoustic channel between vehicles (comms/channel.py). Defaults: lossless, no airtime, sound at 1500 m/s."""
+
+    sound_speed: Float = Field(default=1500.0, gt=0, description="m/s")
+    bitrate: Float | None = Field(default=None, gt=0, description="bit/s; none: packets take no airtime")
+    packet_bytes: Int | None = Field(default=None, gt=0, description="none: the encoded message size")
+    jitter: Float = Field(default=0.0, ge=0, description="extra delay, uniform on [0, jitter], s")
+    loss: Float = Field(default=0.0, ge=0, le=1, description="independent (Bernoulli) loss per directed link")
+    tx_period: Float | None = Field(default=None, gt=0, description="s between transmissions; none: every step")
+
+
+class ReportSection(_Strict):
+    transient: Float = Field(default=50.0, ge=0, description="initial time left out of path-following stats, s")
+    tube_margin: Float = Field(default=0.2, ge=0, description="allowed excess over |delta| in the tube, m")
+    coordination_tolerance: Float = Field(default=0.01, gt=0)
+
+
+class Scenario(_Strict):
+    scenario: RunSection
+    vehicle: VehicleModelSection = VehicleModelSection()
+    path_following: PathFollowingSection = PathFollowingSection()
+    coordination: CoordinationSection = CoordinationSection()
+    graph: GraphSection
+    vehicles: tuple[VehicleSection, ...] = Field(min_length=2)
+    comms: CommsSection = CommsSection()
+    faults: tuple[FaultSpec, ...] = ()
+    report: ReportSection = ReportSection()
+
+    @property
+    def vehicle_ids(self) -> list[int]:
+        return [v.id for v in self.vehicles]
+
+    def vehicle_params(self) -> VehicleParams:
+        from vehicles.params import preset
+
+        return preset(self.vehicle.preset, **self.vehicle.overrides)
+
+    def neighbours(self, vehicle_id: int) -> list[int]:
+        """N_i of the scenario's graph, in ascending order."""
+        out = {j for i, j in self.graph.edges if i == vehicle_id} | {i for i, j in self.graph.edges if j == vehicle_id}
+        return sorted(out)
