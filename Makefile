@@ -16,7 +16,7 @@ $(STAMP): pyproject.toml
 
 run: $(STAMP)
 	mkdir -p $(OUT)
-	$(BIN)/cpf run $(SCENARIO) --engine inprocess --out $(OUT)/run.mcap
+	$(BIN)/cpf run $(SCENARIO) --out $(OUT)/run.mcap
 	$(BIN)/cpf report $(OUT)/run.mcap --out $(OUT)
 
 lint: $(STAMP)

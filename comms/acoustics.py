@@ -23,7 +23,7 @@ def time_of_flight(
     dd = dx[0] * dx[0] + dx[1] * dx[1] + dx[2] * dx[2]
     dv = dx[0] * v[0] + dx[1] * v[1] + dx[2] * v[2]
     a = sound_speed * sound_speed - (v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
-    return (dv + math.sqrt(dv * dv + a * dd)) / a
+    return max(0.0, (dv + math.sqrt(dv * dv + a * dd)) / a)  # max: rounding at vanishing distances
 
 
 def airtime(size_bytes: int, bitrate: float | None) -> float:

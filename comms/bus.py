@@ -27,10 +27,15 @@ def free_port() -> int:
         return port
 
 
+CONNECT_TIMEOUT_MS = 30_000  # a process started by hand may come up before the supervisor's router does
+
+
 def config(mode: str, listen: Sequence[str] = (), connect: Sequence[str] = ()) -> zenoh.Config:
     conf = zenoh.Config()
     conf.insert_json5("mode", json.dumps(mode))
     conf.insert_json5("scouting/multicast/enabled", "false")
+    if mode == "client":
+        conf.insert_json5("connect/timeout_ms", str(CONNECT_TIMEOUT_MS))
     if listen:
         conf.insert_json5("listen/endpoints", json.dumps(list(listen)))
     if connect:
@@ -39,8 +44,14 @@ def config(mode: str, listen: Sequence[str] = (), connect: Sequence[str] = ()) -
 
 
 def open_session(mode: str, listen: Sequence[str] = (), connect: Sequence[str] = ()) -> zenoh.Session:
+    """A session; ConnectionError with a one-line reason if the endpoints cannot be reached or bound."""
     zenoh.try_init_log_from_env()
-    return zenoh.open(config(mode, listen, connect))
+    try:
+        return zenoh.open(config(mode, listen, connect))
+    except zenoh.ZError as exc:
+        where = ", ".join([*listen, *connect]) or "no endpoint"
+        reason = str(exc).split(" at /")[0]  # drop the Rust source location
+        raise ConnectionError(f"Zenoh {mode} session on {where}: {reason}") from None
 
 
 @dataclass(frozen=True, slots=True)

@@ -34,6 +34,7 @@ SUPERVISOR_ALIVE = f"{ALIVE_PREFIX}/supervisor"
 COMMS_ALIVE = f"{ALIVE_PREFIX}/comms"
 
 Message = dict[str, Any]
+MAX_SPEED = 100.0  # m/s: far above any AUV, far below the speed of sound
 
 
 def state_key(vehicle_id: int) -> str:
@@ -58,7 +59,7 @@ def vehicle_alive_key(vehicle_id: int) -> str:
 def vehicle_of_key(key: str) -> tuple[int, str] | None:
     """(vehicle id, leaf) for cpf/vehicle/<id>/<leaf> keys; None for any other key."""
     parts = key.split("/")
-    if len(parts) == 4 and parts[0] == ROOT and parts[1] == "vehicle" and parts[2].isdigit():
+    if len(parts) == 4 and parts[0] == ROOT and parts[1] == "vehicle" and parts[2].isascii() and parts[2].isdigit():
         return int(parts[2]), parts[3]
     return None
 
@@ -176,7 +177,10 @@ def _get(message: Message, name: str, kind: type | tuple[type, ...]) -> Any:
 
 
 def _number(message: Message, name: str) -> float:
-    value = float(_get(message, name, (int, float)))
+    try:
+        value = float(_get(message, name, (int, float)))
+    except OverflowError:
+        raise ValueError(f"field {name!r} is too large") from None
     if not math.isfinite(value):
         raise ValueError(f"field {name!r} is not finite")
     return value
@@ -188,6 +192,14 @@ def _vector3(message: Message, name: str) -> tuple[float, float, float]:
         raise ValueError(f"field {name!r} has {len(value)} items, not 3")
     items = {"x": value[0], "y": value[1], "z": value[2]}
     return (_number(items, "x"), _number(items, "y"), _number(items, "z"))
+
+
+def _velocity(message: Message, name: str) -> tuple[float, float, float]:
+    """A velocity no vehicle could exceed: anything faster is a corrupt message (and would break acoustics)."""
+    value = _vector3(message, name)
+    if math.hypot(*value) > MAX_SPEED:
+        raise ValueError(f"field {name!r} is faster than {MAX_SPEED:g} m/s")
+    return value
 
 
 def parse_tx(message: Message, key_vehicle: int) -> Transmission:
@@ -202,7 +214,7 @@ def parse_tx(message: Message, key_vehicle: int) -> Transmission:
         _number(message, "gamma"),
         _number(message, "gamma_dot"),
         _vector3(message, "position"),
-        _vector3(message, "velocity"),
+        _velocity(message, "velocity"),
     )
 
 
@@ -234,10 +246,12 @@ def parse_state(message: Message, key_vehicle: int) -> StateReport:
     if vehicle != key_vehicle:
         raise ValueError(f"vehicle {vehicle} published on vehicle {key_vehicle}'s key")
     rotation = _get(message, "rotation", list)
-    if len(rotation) != 9 or not all(isinstance(v, int | float) and not isinstance(v, bool) for v in rotation):
+    if len(rotation) != 9:
         raise ValueError("field 'rotation' is not 9 numbers")
-    body = np.array(_vector3(message, "velocity"))
-    velocity = np.array(rotation, dtype=float).reshape(3, 3) @ body
+    matrix = np.array([_number({"r": v}, "r") for v in rotation]).reshape(3, 3)
+    if not np.allclose(matrix @ matrix.T, np.eye(3), atol=1e-6):
+        raise ValueError("field 'rotation' is not a rotation matrix")
+    velocity = matrix @ np.array(_velocity(message, "velocity"))
     position = np.array(_vector3(message, "position"))
     return StateReport(_get(message, "k", int), vehicle, Kinematics(position, velocity), _get(message, "tx_seq", int))
 

@@ -26,6 +26,16 @@ def _positive(text: str) -> float:
     return value
 
 
+def _seed(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be >= 0, got {text}")
+    return value
+
+
 def _ids(text: str) -> tuple[int, ...]:
     try:
         return tuple(int(part) for part in text.split(",") if part)
@@ -41,7 +51,7 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--engine", choices=["zenoh", "inprocess"], default="zenoh", help="default: zenoh")
     run.add_argument("--clock", choices=["lockstep", "realtime"], default="lockstep", help="default: lockstep")
     run.add_argument("--speed", type=_positive, default=1.0, help="realtime clock: simulated s per wall s")
-    run.add_argument("--seed", type=int, default=None, help="random seed (default: the scenario's)")
+    run.add_argument("--seed", type=_seed, default=None, help="random seed (default: the scenario's)")
     run.add_argument("--out", type=Path, default=None, help="MCAP file to write (default: runs/<name>.mcap)")
     run.add_argument("--metrics", type=Path, default=None, help="also write the summary as JSON here")
     run.add_argument("--listen", default=None, help="Zenoh endpoint for the supervisor's router")
@@ -55,7 +65,7 @@ def _parser() -> argparse.ArgumentParser:
     vehicle.add_argument("--connect", required=True, help="Zenoh endpoint of the run's router")
     comms = sub.add_parser("comms", help="run the acoustic-link broker (the supervisor starts it)")
     comms.add_argument("scenario", type=Path)
-    comms.add_argument("--seed", type=int, default=None)
+    comms.add_argument("--seed", type=_seed, default=None)
     comms.add_argument("--connect", required=True, help="Zenoh endpoint of the run's router")
     for command in (run, vehicle, comms):
         command.add_argument(
@@ -160,7 +170,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ScenarioError as exc:
         print(f"cpf: error: {exc}", file=sys.stderr)
         return EXIT_INPUT
-    except CpfError as exc:
+    except (CpfError, ConnectionError) as exc:
         print(f"cpf: error: {exc}", file=sys.stderr)
         return EXIT_RUNTIME
     except KeyboardInterrupt:

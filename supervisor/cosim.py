@@ -87,7 +87,9 @@ class _Supervisor:
         while not ready():
             if time.monotonic() > end:
                 raise SimulationError(f"timed out after {timeout:.0f} s waiting for {what}")
-            self.procs.check()
+            ended = self.procs.first_ended()
+            if ended is not None:
+                raise self._gone(ended.name, ended.how_it_ended() or "")
             self.pump(min(0.2, max(0.0, end - time.monotonic())))
 
     def _liveliness(self, change: str) -> None:
@@ -97,8 +99,14 @@ class _Supervisor:
         elif key in self.books.expected:
             self.books.alive.discard(key)
             name = self.books.expected[key]
-            when = f" at t = {self.books.t:.1f} s" if self.books.started else " before the start"
-            raise SimulationError(f"{name} is gone (its liveliness token disappeared){when}")
+            child = self.procs.named(name)
+            how = child.how_it_ended() if child is not None else None
+            raise self._gone(name, how or "its liveliness token disappeared")
+
+    def _gone(self, name: str, how: str) -> SimulationError:
+        """The one message for a process lost during a run, whichever way it was noticed."""
+        when = f"at t = {self.books.t:.1f} s" if self.books.started else "before the start"
+        return SimulationError(f"{name} stopped {when} ({how})")
 
     def _record(self, item: Received) -> None:
         message = decode_or_none(item.payload)
@@ -173,12 +181,12 @@ def run_zenoh(
 def _start(run: _Supervisor, scenario: Scenario, path: Path, connect: str, seed: int, bus: BusOptions) -> None:
     """Start the broker and the vehicles, and wait until every one has declared its liveliness token."""
     sets = [arg for override in bus.overrides for arg in ("--set", override)]
-    run.books.expected[COMMS_ALIVE] = "the comms broker"
-    run.procs.spawn("comms", _child_argv("comms", path, connect, "--seed", str(seed), *sets))
+    run.books.expected[COMMS_ALIVE] = "comms broker"
+    run.procs.spawn("comms broker", _child_argv("comms", path, connect, "--seed", str(seed), *sets))
     for vid in scenario.vehicle_ids:
         run.books.expected[vehicle_alive_key(vid)] = f"vehicle {vid}"
         if vid not in bus.remote:
-            run.procs.spawn(f"vehicle-{vid}", _child_argv("vehicle", path, connect, "--id", str(vid), *sets))
+            run.procs.spawn(f"vehicle {vid}", _child_argv("vehicle", path, connect, "--id", str(vid), *sets))
     missing = lambda: sorted(set(run.books.expected) - run.books.alive)  # noqa: E731
     run.wait_until(lambda: not missing(), "every process to come alive", START_TIMEOUT)
 

@@ -18,8 +18,6 @@ from pathlib import Path
 from types import TracebackType
 from typing import IO
 
-from supervisor.errors import SimulationError
-
 
 @dataclass
 class Child:
@@ -32,6 +30,15 @@ class Child:
         lines = Path(self.stderr.name).read_text(errors="replace").strip().splitlines()
         return lines[-1] if lines else "no message"
 
+    def how_it_ended(self) -> str | None:
+        """None while running; otherwise a short description of its end."""
+        code = self.process.poll()
+        if code is None:
+            return None
+        if code < 0:
+            return f"killed by {signal.Signals(-code).name}"
+        return f"exit code {code}: {self.last_words()}"
+
 
 class ProcessGroup:
     """The children of one run; a context manager that leaves none behind."""
@@ -41,7 +48,8 @@ class ProcessGroup:
         self._logs = tempfile.TemporaryDirectory(prefix="cpf-children-")
 
     def spawn(self, name: str, argv: list[str]) -> Child:
-        stderr = open(Path(self._logs.name) / f"{name}.log", "w+b")  # noqa: SIM115 - closed in stop()
+        log_name = name.replace(" ", "-") + ".log"
+        stderr = open(Path(self._logs.name) / log_name, "w+b")  # noqa: SIM115 - closed in stop()
         process = subprocess.Popen(
             argv, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=stderr, start_new_session=True
         )
@@ -49,12 +57,12 @@ class ProcessGroup:
         self.children.append(child)
         return child
 
-    def check(self) -> None:
-        """Raise if a child has exited before being told to."""
-        for child in self.children:
-            code = child.process.poll()
-            if code is not None:
-                raise SimulationError(f"{child.name} exited with code {code}: {child.last_words()}")
+    def first_ended(self) -> Child | None:
+        """A child that has exited (before being told to, if asked during a run)."""
+        return next((c for c in self.children if c.process.poll() is not None), None)
+
+    def named(self, name: str) -> Child | None:
+        return next((c for c in self.children if c.name == name), None)
 
     def pids(self) -> list[int]:
         return [c.process.pid for c in self.children]

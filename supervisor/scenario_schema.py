@@ -30,7 +30,7 @@ class RunSection(_Strict):
     description: str = ""
     duration: Float = Field(gt=0, description="simulated time, s")
     step: Float = Field(gt=0, description="integration and sync step, s")
-    seed: Int = 0
+    seed: Int = Field(default=0, ge=0)
     dimension: Literal[2, 3] = 3  # 3: the 6-DOF model; 2: the planar variant
 
 

@@ -34,13 +34,11 @@ def test_run_then_report_a_shortened_paper_scenario(tmp_path, paper_text):
         counts = {summary.channels[cid].topic: n for cid, n in summary.statistics.channel_message_counts.items()}
         encodings = {ch.message_encoding for ch in summary.channels.values()}
         schema_encodings = {s.encoding for s in summary.schemas.values()}
-    assert counts == {
-        "cpf/run/meta": 1,
-        "cpf/run/fault": 1,
-        "cpf/vehicle/1/state": 1700,
-        "cpf/vehicle/2/state": 1700,
-        "cpf/vehicle/3/state": 1700,
-    }
+    expected = {"cpf/run/meta": 1, "cpf/run/graph": 1, "cpf/run/fault": 1}
+    for vid in (1, 2, 3):
+        expected |= {f"cpf/vehicle/{vid}/{leaf}": 1700 for leaf in ("state", "tx", "rx")}
+    assert {topic: counts[topic] for topic in expected} == expected
+    assert counts["cpf/comms/event"] == 4 * 1700 * 2  # 4 directed links, sent + delivered each step
     assert encodings == {"json"} and schema_encodings == {"jsonschema"}
 
     report = cpf("report", "out/run.mcap", "--out", "figs", cwd=tmp_path)

@@ -92,3 +92,16 @@ def test_inline_formation_converges_from_scattered_starts(tmp_path):
     assert summary.phases[0].max_coordination_error > 20.0  # they really start scattered
     assert summary.phases[0].final_coordination_error < 0.01
     assert summary.max_path_error_after_transient <= summary.tube_radius
+
+
+def test_paper_scenario_converges_with_20_percent_loss_and_one_second_airtime(tmp_path, paper_text):
+    lossy = paper_text.replace(
+        "[[faults]]", "[comms]\nloss = 0.2\npacket_bytes = 32\nbitrate = 256.0\ntx_period = 1.0\n\n[[faults]]", 1
+    )
+    result, summary = run_text(lossy, tmp_path / "lossy.mcap")
+    counts = result.link_counts
+    assert counts["sent"] == 1600 and counts["sent"] == counts["delivered"] + counts["dropped"]
+    assert 0.15 < counts["dropped"] / counts["sent"] < 0.25
+    assert summary.sync_time is not None and summary.sync_time < 150.0
+    assert summary.phases[1].max_coordination_error < 10.0
+    assert summary.resync_time is not None and summary.resync_time < 350.0

@@ -1,0 +1,45 @@
+"""Helpers for tests that run `cpf` as a user would and check what it leaves behind."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+CPF = str(Path(sys.executable).parent / "cpf")
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def cpf(*args: str, cwd: Path, timeout: float = 300) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([CPF, *args], cwd=cwd, capture_output=True, text=True, timeout=timeout)
+
+
+def start_cpf(args: Sequence[str], cwd: Path) -> subprocess.Popen[str]:
+    """cpf in the background, stderr readable line by line (the progress lines)."""
+    return subprocess.Popen([CPF, *args], cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def processes_with(marker: str) -> list[tuple[int, str]]:
+    """(pid, command line) of every live process whose command line mentions marker, this one excepted."""
+    found = []
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit() or int(entry.name) == os.getpid():
+            continue
+        try:
+            cmdline = (entry / "cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace")
+        except OSError:
+            continue  # gone meanwhile
+        if marker in cmdline:
+            found.append((int(entry.name), cmdline))
+    return found
+
+
+def wait_for_progress(process: subprocess.Popen[str], simulated: float = 0.0) -> str:
+    """Read cpf's stderr until a progress line shows at least `simulated` seconds done (or cpf ends)."""
+    assert process.stderr is not None
+    for line in process.stderr:
+        if line.startswith("t = ") and float(line.split()[2]) >= simulated:
+            return line
+    raise AssertionError(f"cpf ended (code {process.wait()}) before any progress line")

@@ -1,0 +1,180 @@
+"""The multi-process engine run as a user would: same results as the in-process engine, every message in the
+MCAP, and no process of ours left behind, whatever happens.
+
+    vehicle 2 ---- vehicle 1 ---- vehicle 3        (paper graph; every edge through the comms broker)
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import signal
+import subprocess
+import time
+from collections import Counter
+from pathlib import Path
+
+import pytest
+from mcap.reader import make_reader
+
+from supervisor.recorder import read_messages
+from tests.conftest import shortened
+from tests.procs import cpf, processes_with, start_cpf, wait_for_progress
+
+pytestmark = pytest.mark.e2e
+LOSSY = ["--set", "comms.loss=0.2", "--set", "comms.packet_bytes=32", "--set", "comms.bitrate=256"]
+
+
+def states(path: Path) -> dict[tuple[int, int], dict]:
+    return {(m["vehicle"], m["k"]): m for topic, _, m in read_messages(path) if topic.endswith("/state")}
+
+
+def link_books(path: Path) -> dict[tuple[int, int], Counter[str]]:
+    books: dict[tuple[int, int], Counter[str]] = {}
+    for topic, _, m in read_messages(path):
+        if topic == "cpf/comms/event":
+            books.setdefault((m["sender"], m["receiver"]), Counter())[m["kind"]] += 1
+    return books
+
+
+def write_scenario(tmp_path: Path, text: str, name: str = "scenario.toml") -> Path:
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def test_zenoh_engine_reproduces_the_inprocess_engine_on_the_paper_scenario(tmp_path, paper_text):
+    scenario = write_scenario(tmp_path, paper_text)
+    zen = cpf("run", str(scenario), "--out", "zenoh.mcap", "--quiet", cwd=tmp_path)
+    assert zen.returncode == 0, zen.stderr
+    inp = cpf("run", str(scenario), "--engine", "inprocess", "--out", "inprocess.mcap", "--quiet", cwd=tmp_path)
+    assert inp.returncode == 0, inp.stderr
+    a, b = states(tmp_path / "zenoh.mcap"), states(tmp_path / "inprocess.mcap")
+    assert len(a) == 3 * 4000 and a.keys() == b.keys()
+    assert max(abs(a[key]["gamma"] - b[key]["gamma"]) for key in a) <= 1e-9
+    assert "coordination error below 0.01 from t = 90" in zen.stdout
+    assert processes_with(str(scenario)) == []
+
+
+def test_same_seed_gives_identical_state_streams_over_a_lossy_channel(tmp_path, paper_text):
+    scenario = write_scenario(tmp_path, shortened(paper_text, 30.0))
+    runs = []
+    for name, seed in (("a", "7"), ("b", "7"), ("c", "8")):
+        done = cpf("run", str(scenario), *LOSSY, "--seed", seed, "--out", f"{name}.mcap", "--quiet", cwd=tmp_path)
+        assert done.returncode == 0, done.stderr
+        runs.append((states(tmp_path / f"{name}.mcap"), link_books(tmp_path / f"{name}.mcap")))
+    (a, books_a), (b, books_b), (_, books_c) = runs
+    assert len(a) == 900 and a == b and books_a == books_b
+    assert books_a != books_c  # the seed really drives the losses
+
+
+def test_every_link_balances_and_the_mcap_reads_back(tmp_path, paper_text):
+    scenario = write_scenario(tmp_path, shortened(paper_text, 20.0))
+    done = cpf("run", str(scenario), *LOSSY, "--out", "run.mcap", "--quiet", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    books = link_books(tmp_path / "run.mcap")
+    assert sorted(books) == [(1, 2), (1, 3), (2, 1), (3, 1)]  # the graph's links, both ways, nothing else
+    for counts in books.values():
+        assert counts["sent"] == 200 == counts["delivered"] + counts["dropped"]
+        assert 0 < counts["dropped"] < 100
+    with (tmp_path / "run.mcap").open("rb") as stream:
+        summary = make_reader(stream).get_summary()
+    assert summary is not None
+    topics = {channel.topic for channel in summary.channels.values()}
+    for vid in (1, 2, 3):
+        assert {f"cpf/vehicle/{vid}/{leaf}" for leaf in ("state", "tx", "rx")} <= topics
+    assert {"cpf/run/meta", "cpf/run/graph", "cpf/clock/tick", "cpf/comms/event", "cpf/comms/done"} <= topics
+    assert {channel.message_encoding for channel in summary.channels.values()} == {"json"}
+    assert {schema.encoding for schema in summary.schemas.values()} == {"jsonschema"}
+
+
+def test_realtime_clock_paces_the_run_and_changes_nothing_else(tmp_path, paper_text):
+    scenario = write_scenario(tmp_path, shortened(paper_text, 10.0))
+    started = time.monotonic()
+    real = cpf(
+        "run", str(scenario), "--clock", "realtime", "--speed", "20", "--out", "rt.mcap", "--quiet", cwd=tmp_path
+    )
+    elapsed = time.monotonic() - started
+    assert real.returncode == 0, real.stderr
+    assert elapsed >= 10.0 / 20  # paced: it cannot finish before the wall clock allows
+    lock = cpf("run", str(scenario), "--out", "lock.mcap", "--quiet", cwd=tmp_path)
+    assert lock.returncode == 0, lock.stderr
+    assert states(tmp_path / "rt.mcap") == states(tmp_path / "lock.mcap")
+
+
+def test_bad_scenario_starts_nothing(tmp_path, paper_text):
+    scenario = write_scenario(tmp_path, paper_text.replace("step = 0.1", "step = -0.1"))
+    done = cpf("run", str(scenario), "--out", "never.mcap", cwd=tmp_path)
+    assert done.returncode == 2
+    assert done.stderr.strip().splitlines() == [
+        f"cpf: error: {scenario}: scenario.step: must be greater than 0, got -0.1"
+    ]
+    assert not (tmp_path / "never.mcap").exists()
+    assert processes_with(str(scenario)) == []
+
+
+def test_a_vehicle_killed_with_sigkill_stops_the_run_cleanly(tmp_path, paper_text):
+    scenario = write_scenario(tmp_path, paper_text)
+    run = start_cpf(["run", str(scenario), "--out", "killed.mcap"], tmp_path)
+    try:
+        wait_for_progress(run, simulated=5.0)
+        victims = [pid for pid, cmd in processes_with(str(scenario)) if " vehicle " in cmd and "--id 2" in cmd]
+        assert len(victims) == 1
+        os.kill(victims[0], signal.SIGKILL)
+        _, stderr = run.communicate(timeout=30)
+    finally:
+        run.kill()
+    assert run.returncode == 1
+    # Noticed by liveliness or by the exit itself, whichever comes first: one message either way.
+    assert re.fullmatch(
+        r"cpf: error: vehicle 2 stopped at t = \d+\.\d s \((killed by SIGKILL|its liveliness token disappeared)\)\n",
+        stderr,
+    )
+    assert processes_with(str(scenario)) == []
+    assert_complete_mcap(tmp_path / "killed.mcap")
+
+
+def test_sigint_to_cpf_stops_everything_and_keeps_the_log(tmp_path, paper_text):
+    scenario = write_scenario(tmp_path, paper_text)
+    run = start_cpf(["run", str(scenario), "--out", "interrupted.mcap"], tmp_path)
+    try:
+        wait_for_progress(run, simulated=5.0)
+        run.send_signal(signal.SIGINT)
+        _, stderr = run.communicate(timeout=30)
+    finally:
+        run.kill()
+    assert run.returncode == 130, stderr
+    assert "cpf: interrupted" in stderr
+    assert processes_with(str(scenario)) == []
+    assert_complete_mcap(tmp_path / "interrupted.mcap")
+
+
+def assert_complete_mcap(path: Path) -> None:
+    """The file ends with its summary and index, and its messages read back."""
+    with path.open("rb") as stream:
+        summary = make_reader(stream).get_summary()
+    assert summary is not None and summary.statistics is not None
+    assert summary.statistics.message_count > 100
+    assert len(read_messages(path)) == summary.statistics.message_count
+
+
+def test_a_vehicle_started_by_hand_joins_the_run(tmp_path, paper_text):
+    """The multi-host workflow on one machine: the supervisor listens, vehicle 3 is started separately."""
+    from comms.bus import free_port
+    from tests.procs import CPF
+
+    scenario = write_scenario(tmp_path, shortened(paper_text, 5.0))
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    run = start_cpf(["run", str(scenario), "--listen", endpoint, "--remote", "3", "--out", "run.mcap"], tmp_path)
+    by_hand = subprocess.Popen(
+        [CPF, "vehicle", str(scenario), "--id", "3", "--connect", endpoint], cwd=tmp_path, start_new_session=True
+    )
+    try:
+        _, err = run.communicate(timeout=60)
+        assert run.returncode == 0, err
+        assert by_hand.wait(timeout=10) == 0  # told to stop at the end of the run
+    finally:
+        run.kill()
+        by_hand.kill()
+    assert len([key for key in states(tmp_path / "run.mcap") if key[0] == 3]) == 50
+    assert processes_with(str(scenario)) == []
