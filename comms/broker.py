@@ -18,6 +18,7 @@ from comms.messages import (
     COMMS_ALIVE,
     COMMS_DONE_KEY,
     COMMS_EVENT_KEY,
+    COMMS_STATS_KEY,
     ROOT,
     STOP_KEY,
     SUPERVISOR_ALIVE,
@@ -103,13 +104,20 @@ class Broker:
         if tick.final:
             events += self.core.deliver(tick.t, self.vehicles)[1] + self.core.finish(tick.t)
             self._publish_events(events)
+            self._publish_stats(tick.t, final=True)
             done = {"t": tick.t, "k": tick.k, "events": self.books.published, "malformed": self.books.malformed}
             self.publishers.put(COMMS_DONE_KEY, done)
             return
         batches, delivered = self.core.deliver(tick.t, self.vehicles)
         self._publish_events(events + delivered)
+        self._publish_stats(tick.t)
         for v in self.vehicles:
             self.publishers.put(rx_key(v), rx_message(v, tick.k, tick.t, batches[v]))
+
+    def _publish_stats(self, t: float, final: bool = False) -> None:
+        snapshot = self.core.snapshot_due(t, final)
+        if snapshot is not None:
+            self.publishers.put(COMMS_STATS_KEY, snapshot)
 
     def _publish_events(self, events: list[LinkEvent]) -> None:
         for event in events:

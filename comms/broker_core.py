@@ -1,17 +1,20 @@
 """The broker's work at each sync step, as plain code shared by the broker process and the in-process engine.
 
-At sync instant t_k: first the transmissions of step k-1 (all stamped t_{k-1}) enter the channel, in sender order,
-with every vehicle's kinematics of t_{k-1}; then everything arriving no later than t_k is handed out, one batch per
-vehicle. Only links of the current graph carry messages.
+At sync instant t_k: first the transmissions of step k-1 (all stamped t_{k-1}) enter the channel in sender order,
+encoded as the modem would carry them, with every vehicle's kinematics of t_{k-1}; then everything arriving no
+later than t_k is handed out, one batch per vehicle. Only links of the current graph carry messages. Link
+statistics are kept all along and snapshotted every stats window.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, replace
 
 from comms.channel import Channel, Kinematics, LinkEvent, Reception
-from comms.messages import coordination_payload_size
+from comms.messages import Message
+from comms.stats import LinkStats
+from comms.wire import decode_coordination, encode_coordination
 from vehicles.transmission import Transmission
 
 
@@ -19,15 +22,20 @@ from vehicles.transmission import Transmission
 class BrokerCore:
     channel: Channel
     neighbours: dict[int, list[int]]  # the current graph: who hears whom
-    counts: dict[str, int] = field(default_factory=lambda: {"sent": 0, "delivered": 0, "dropped": 0})
+    stats: LinkStats
+    _next_snapshot: float = 0.0
 
     def submit(self, transmissions: Iterable[Transmission], kinematics: Mapping[int, Kinematics]) -> list[LinkEvent]:
-        """Put one step's transmissions on the channel; kinematics: every vehicle's, at the transmission time."""
+        """Put one step's transmissions in the water; kinematics: every vehicle's, at the transmission time."""
         events: list[LinkEvent] = []
         for tx in sorted(transmissions, key=lambda tx: tx.sender):
-            receivers = {j: kinematics[j] for j in self.neighbours.get(tx.sender, []) if j in kinematics}
-            events += self.channel.transmit(tx, coordination_payload_size(tx), receivers)
-        return self._counted(events)
+            wire = encode_coordination(tx)
+            carried = decode_coordination(wire)  # what receivers will read: float32 values
+            as_sent = replace(tx, gamma=carried.gamma, gamma_dot=carried.gamma_dot)
+            receivers = set(self.neighbours.get(tx.sender, [])) & set(kinematics)
+            events += self.channel.transmit(as_sent, len(wire), receivers, kinematics)
+        self.stats.add(events)
+        return events
 
     def deliver(self, t: float, vehicles: Sequence[int]) -> tuple[dict[int, list[Reception]], list[LinkEvent]]:
         """Receptions due by t, per vehicle (every vehicle gets a batch, possibly empty)."""
@@ -35,13 +43,27 @@ class BrokerCore:
         batches: dict[int, list[Reception]] = {i: [] for i in vehicles}
         for r in receptions:
             batches.setdefault(r.receiver, []).append(r)
-        return batches, self._counted(events)
+        self.stats.add(events)
+        return batches, events
 
     def finish(self, t: float) -> list[LinkEvent]:
         """End of run: what is still in flight is dropped, so every link's books balance."""
-        return self._counted(self.channel.flush(t))
-
-    def _counted(self, events: list[LinkEvent]) -> list[LinkEvent]:
-        for event in events:
-            self.counts[event.kind] += 1
+        events = self.channel.flush(t)
+        self.stats.add(events)
         return events
+
+    def snapshot_due(self, t: float, final: bool = False) -> Message | None:
+        """The link statistics, once per window and at the end."""
+        if not final and t + 1e-9 < self._next_snapshot:
+            return None
+        self._next_snapshot = t + self.stats.window
+        return self.stats.snapshot(t)
+
+    @property
+    def counts(self) -> dict[str, int]:
+        books = self.stats.books.values()
+        return {
+            "sent": sum(b.sent for b in books),
+            "delivered": sum(b.delivered for b in books),
+            "dropped": sum(sum(b.dropped.values()) for b in books),
+        }

@@ -1,10 +1,14 @@
 """The acoustic channel as a pure, seeded model: who hears a transmission, when, or why not.
 
 A transmission is offered to every neighbour of its sender in the current graph (one directed link each). On each
-link: a `sent` event; then either `dropped` (with its reason) or, at arrival = t + airtime + time of flight + jitter,
-`delivered`. Every link has its own random stream derived from (seed, sender, receiver), so results do not depend on
-the order in which links are processed. Packets still in flight when the run ends are dropped as `end_of_run`, so
-per link: sent = delivered + dropped, always.
+link: a `sent` event at transmission, then exactly one of
+- `dropped` at transmission, reason from the loss models (`loss`, `burst`, `range`);
+- `dropped` at arrival: `half_duplex` (the receiver's modem was transmitting during the packet) or `collision`
+  (another packet overlapped it at the receiver: every other vehicle's transmissions count, neighbour or not);
+- `delivered` at arrival = t + time of flight + jitter + extra link delay + airtime (the end of the packet);
+- `dropped` as `end_of_run` when the run ends first.
+So per link: sent = delivered + dropped, always. Every directed link draws from its own random stream derived from
+(seed, sender, receiver), a fixed number of draws per packet, so results never depend on processing order.
 """
 
 from __future__ import annotations
@@ -16,26 +20,38 @@ from typing import Literal
 
 import numpy as np
 
-from comms.acoustics import airtime, time_of_flight
+from comms.acoustics import time_of_flight
+from comms.loss import LinkLoss, LossModel
+from comms.modem import ModemParams
 from vehicles.geometry import FloatArray
 from vehicles.transmission import Transmission
 
 EventKind = Literal["sent", "delivered", "dropped"]
 ARRIVAL_SLACK = 1e-9  # s: an arrival this close after a sync instant counts as at it (float rounding of k * dt)
+MEMORY = 120.0  # s of past airtime kept for half-duplex and collision checks (far above any packet's duration)
+
+
+@dataclass(frozen=True, slots=True)
+class LinkParams:
+    """Per directed link: its loss models (replacing the fleet-wide ones when given) and extra delay."""
+
+    loss: LossModel | None = None
+    extra_delay: float = 0.0  # s
 
 
 @dataclass(frozen=True, slots=True)
 class ChannelParams:
     sound_speed: float = 1500.0  # m/s
-    bitrate: float | None = None  # bit/s; None: no airtime
+    modem: ModemParams = field(default_factory=ModemParams)
     packet_bytes: int | None = None  # None: the encoded size of each message
     jitter: float = 0.0  # s, uniform on [0, jitter]
-    loss: float = 0.0  # Bernoulli loss probability per directed link
+    loss: LossModel | None = None  # every directed link, unless it has its own
+    links: Mapping[tuple[int, int], LinkParams] = field(default_factory=dict)
 
 
 @dataclass(frozen=True, slots=True)
 class Kinematics:
-    """What the channel knows of a receiver at transmission time: inertial position and velocity."""
+    """What the channel knows of a vehicle at transmission time: inertial position and velocity."""
 
     position: FloatArray
     velocity: FloatArray
@@ -46,7 +62,7 @@ class Reception:
     receiver: int
     sender: int
     seq: int
-    stamp: float  # transmission time = time of the data
+    stamp: float  # time of the data, as the packet carries it
     arrival: float
     gamma: float
     gamma_dot: float
@@ -63,49 +79,123 @@ class LinkEvent:
     reason: str | None = None  # dropped: why
 
 
+@dataclass(frozen=True, slots=True)
+class _Airtime:
+    """A packet's presence at one place: [start, end) in s, and whose it is."""
+
+    start: float
+    end: float
+    sender: int
+    seq: int
+
+
+@dataclass(slots=True)
+class _Link:
+    rng: np.random.Generator
+    loss: LinkLoss | None
+    extra_delay: float
+
+
 @dataclass
 class Channel:
     params: ChannelParams
     seed: int
-    _streams: dict[tuple[int, int], np.random.Generator] = field(default_factory=dict)
-    _in_flight: list[tuple[float, int, int, int, Reception]] = field(default_factory=list)
+    _links: dict[tuple[int, int], _Link] = field(default_factory=dict)
+    _in_flight: list[tuple[float, int, int, int, _Airtime, Reception, float]] = field(default_factory=list)
+    _heard: dict[int, list[_Airtime]] = field(default_factory=dict)  # every packet in the water at each vehicle
+    _sending: dict[int, list[_Airtime]] = field(default_factory=dict)  # each vehicle's own transmissions
 
-    def _stream(self, sender: int, receiver: int) -> np.random.Generator:
+    def _link(self, sender: int, receiver: int) -> _Link:
         key = (sender, receiver)
-        if key not in self._streams:
-            self._streams[key] = np.random.default_rng([self.seed, sender, receiver])
-        return self._streams[key]
+        if key not in self._links:
+            own = self.params.links.get(key, LinkParams())
+            model = own.loss or self.params.loss
+            rng = np.random.default_rng([self.seed, sender, receiver])
+            self._links[key] = _Link(rng, model.link() if model else None, own.extra_delay)
+        return self._links[key]
 
-    def transmit(self, tx: Transmission, size_bytes: int, receivers: Mapping[int, Kinematics]) -> list[LinkEvent]:
-        """Offer a transmission to each receiver; returns the sent (and immediate dropped) events."""
-        events: list[LinkEvent] = []
+    def transmit(
+        self, tx: Transmission, size_bytes: int, receivers: set[int], everyone: Mapping[int, Kinematics]
+    ) -> list[LinkEvent]:
+        """Put a transmission in the water. receivers: the sender's neighbours now; everyone: all vehicles'
+        kinematics at the transmission time (non-neighbours matter for collisions). Returns the events of now."""
         size = self.params.packet_bytes or size_bytes
-        on_air = airtime(size, self.params.bitrate)
-        for receiver in sorted(receivers):
-            draws = self._stream(tx.sender, receiver).random(2)  # always two draws: streams stay aligned
-            events.append(LinkEvent(tx.t, tx.sender, receiver, tx.seq, "sent"))
-            if draws[0] < self.params.loss:
-                events.append(LinkEvent(tx.t, tx.sender, receiver, tx.seq, "dropped", reason="loss"))
+        on_air = self.params.modem.airtime(size)
+        if self.params.modem.half_duplex:
+            self._sending.setdefault(tx.sender, []).append(_Airtime(tx.t, tx.t + on_air, tx.sender, tx.seq))
+        events: list[LinkEvent] = []
+        sender_at = np.asarray(tx.position)
+        for j in sorted(everyone):
+            if j == tx.sender:
                 continue
-            rx = receivers[receiver]
-            flight = time_of_flight(np.asarray(tx.position), rx.position, rx.velocity, self.params.sound_speed)
-            arrival = tx.t + on_air + flight + draws[1] * self.params.jitter
-            reception = Reception(receiver, tx.sender, tx.seq, tx.t, arrival, tx.gamma, tx.gamma_dot)
-            heapq.heappush(self._in_flight, (arrival, tx.sender, tx.seq, receiver, reception))
+            flight = time_of_flight(sender_at, everyone[j].position, everyone[j].velocity, self.params.sound_speed)
+            start = tx.t + flight
+            if j in receivers:
+                start = self._offer(tx, j, start, flight, size, on_air, events)
+            self._record_heard(j, _Airtime(start, start + on_air, tx.sender, tx.seq))
         return events
 
+    def _offer(
+        self, tx: Transmission, j: int, start: float, flight: float, size: int, on_air: float, events: list[LinkEvent]
+    ) -> float:
+        """One directed link: draws (jitter, then loss), the sent event, the packet's fate so far; returns when the
+        packet starts arriving (a lost packet still fills the water and can spoil others)."""
+        link = self._link(tx.sender, j)
+        start += float(link.rng.random()) * self.params.jitter + link.extra_delay
+        reason = link.loss.decide(link.rng, flight * self.params.sound_speed, size) if link.loss else None
+        events.append(LinkEvent(tx.t, tx.sender, j, tx.seq, "sent"))
+        if reason is not None:
+            events.append(LinkEvent(tx.t, tx.sender, j, tx.seq, "dropped", reason=reason))
+            return start
+        arrival = start + on_air
+        there = _Airtime(start, arrival, tx.sender, tx.seq)
+        reception = Reception(j, tx.sender, tx.seq, tx.t, arrival, tx.gamma, tx.gamma_dot)
+        heapq.heappush(self._in_flight, (arrival, tx.sender, tx.seq, j, there, reception, tx.t))
+        return start
+
+    def _record_heard(self, j: int, airtime: _Airtime) -> None:
+        if self.params.modem.collisions:
+            self._heard.setdefault(j, []).append(airtime)
+
     def deliver(self, t: float) -> tuple[list[Reception], list[LinkEvent]]:
-        """Everything arriving no later than t, in arrival order, with its delivered events."""
+        """Everything whose arrival is no later than t, in arrival order: receptions and their events."""
         out: list[Reception] = []
+        events: list[LinkEvent] = []
         while self._in_flight and self._in_flight[0][0] <= t + ARRIVAL_SLACK:
-            out.append(heapq.heappop(self._in_flight)[-1])
-        events = [
-            LinkEvent(r.arrival, r.sender, r.receiver, r.seq, "delivered", delay=r.arrival - r.stamp) for r in out
-        ]
+            arrival, sender, seq, j, there, reception, sent_at = heapq.heappop(self._in_flight)
+            reason = self._spoiled(j, there)
+            if reason is None:
+                out.append(reception)
+                events.append(LinkEvent(arrival, sender, j, seq, "delivered", delay=arrival - sent_at))
+            else:
+                events.append(LinkEvent(arrival, sender, j, seq, "dropped", reason=reason))
+        self._forget(t - MEMORY)
         return out, events
+
+    def _spoiled(self, j: int, there: _Airtime) -> str | None:
+        """Why a packet could not be received at j, if it could not."""
+        if any(_overlap(own, there) for own in self._sending.get(j, [])):
+            return "half_duplex"
+        if any(_overlap(other, there) for other in self._heard.get(j, []) if not _same(other, there)):
+            return "collision"
+        return None
+
+    def _forget(self, before: float) -> None:
+        for table in (self._heard, self._sending):
+            for key, items in table.items():
+                if items and items[0].end < before:
+                    table[key] = [a for a in items if a.end >= before]
 
     def flush(self, t: float) -> list[LinkEvent]:
         """Drop whatever is still in flight at the end of the run."""
-        left = sorted(self._in_flight)
+        left = sorted(self._in_flight, key=lambda item: item[:4])
         self._in_flight.clear()
-        return [LinkEvent(t, r.sender, r.receiver, r.seq, "dropped", reason="end_of_run") for *_, r in left]
+        return [LinkEvent(t, sender, j, seq, "dropped", reason="end_of_run") for _, sender, seq, j, *_ in left]
+
+
+def _overlap(a: _Airtime, b: _Airtime) -> bool:
+    return a.start < b.end and b.start < a.end
+
+
+def _same(a: _Airtime, b: _Airtime) -> bool:
+    return a.sender == b.sender and a.seq == b.seq

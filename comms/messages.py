@@ -29,6 +29,7 @@ STOP_KEY = f"{ROOT}/run/stop"
 TICK_KEY = f"{ROOT}/clock/tick"
 COMMS_EVENT_KEY = f"{ROOT}/comms/event"
 COMMS_DONE_KEY = f"{ROOT}/comms/done"
+COMMS_STATS_KEY = f"{ROOT}/comms/stats"
 ALIVE_PREFIX = f"{ROOT}/alive"
 SUPERVISOR_ALIVE = f"{ALIVE_PREFIX}/supervisor"
 COMMS_ALIVE = f"{ALIVE_PREFIX}/comms"
@@ -84,16 +85,14 @@ def decode(data: bytes) -> Message:
     return message
 
 
-def coordination_payload_size(tx: Transmission) -> int:
-    """Bytes of the coordination message itself (id, seq, time, gamma, gamma_dot), as msgpack would carry it."""
-    return len(encode({"i": tx.sender, "s": tx.seq, "t": tx.t, "g": tx.gamma, "d": tx.gamma_dot}))
-
-
 # --- building messages ----------------------------------------------------------------------------------------
 
 
-def state_message(telemetry: Telemetry, model: Model, k: int, tx_seq: int) -> Message:
-    """A vehicle's telemetry of step k (planar vehicles embedded in 3-D); tx_seq: its transmission then, or 0."""
+def state_message(
+    telemetry: Telemetry, model: Model, k: int, tx_seq: int, ages: tuple[tuple[int, float], ...] = ()
+) -> Message:
+    """A vehicle's telemetry of step k (planar vehicles embedded in 3-D); tx_seq: its transmission then, or 0;
+    ages: how old each neighbour estimate it holds is."""
     s = model.spatial(telemetry.x)
     error = telemetry.error.tolist() + [0.0] * (3 - len(telemetry.error))
     return {
@@ -111,6 +110,7 @@ def state_message(telemetry: Telemetry, model: Model, k: int, tx_seq: int) -> Me
         "correction": telemetry.correction,
         "lyapunov": telemetry.lyapunov,
         "tx_seq": tx_seq,
+        "estimate_age": [[j, age] for j, age in ages],
     }
 
 

@@ -10,6 +10,7 @@ from typing import Any
 from comms.messages import (
     COMMS_DONE_KEY,
     COMMS_EVENT_KEY,
+    COMMS_STATS_KEY,
     FAULT_KEY,
     GRAPH_KEY,
     META_KEY,
@@ -58,6 +59,7 @@ STATE = _object(
         "correction": NUMBER,
         "lyapunov": NUMBER,
         "tx_seq": INTEGER,
+        "estimate_age": {"type": "array", "items": _vector(2)},
     },
 )
 TRANSMISSION = _object(
@@ -96,6 +98,22 @@ TICK = _object(
     "cpf.Tick",
     {"t": NUMBER, "k": INTEGER, "final": {"type": "boolean"}, "caps": {"type": "array", "items": _vector(2)}},
 )
+_LINK_BOOK = _object(
+    "cpf.LinkBook",
+    {
+        "sender": INTEGER,
+        "receiver": INTEGER,
+        "sent": INTEGER,
+        "delivered": INTEGER,
+        "dropped": {"type": "object", "additionalProperties": INTEGER},
+        "mean_delay": {"type": ["number", "null"]},
+        "max_delay": {"type": ["number", "null"]},
+    },
+)
+COMMS_STATS = _object(
+    "cpf.CommsStats",
+    {"t": NUMBER, "window": NUMBER, "lambda2": NUMBER, "links": {"type": "array", "items": _LINK_BOOK}},
+)
 COMMS_DONE = _object("cpf.CommsDone", {"t": NUMBER, "k": INTEGER, "events": INTEGER, "malformed": INTEGER})
 META = _object(
     "cpf.RunMeta",
@@ -129,6 +147,7 @@ _BY_KEY = {
     TICK_KEY: TICK,
     COMMS_EVENT_KEY: LINK_EVENT,
     COMMS_DONE_KEY: COMMS_DONE,
+    COMMS_STATS_KEY: COMMS_STATS,
 }
 _BY_LEAF = {"state": STATE, "tx": TRANSMISSION, "rx": RECEPTIONS}
 

@@ -78,6 +78,7 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _run(args: argparse.Namespace) -> int:
+    from supervisor.comms_summary import comms_summary, format_comms
     from supervisor.cosim import BusOptions, run_zenoh
     from supervisor.inprocess import run_inprocess
     from supervisor.progress import Progress
@@ -106,17 +107,18 @@ def _run(args: argparse.Namespace) -> int:
         f"{scenario.scenario.duration:g} s simulated in {result.wall_time:.2f} s ({factor:.0f}x real time), "
         f"{result.messages} messages -> {out}"
     )
-    counts = result.link_counts
-    print(f"links: {counts['sent']} sent, {counts['delivered']} delivered, {counts['dropped']} dropped")
+    comms = comms_summary(result.link_stats, result.stats_history, result.estimate_ages)
     print(format_summary(summary))
+    print(format_comms(comms))
     if args.metrics:
         args.metrics.parent.mkdir(parents=True, exist_ok=True)
-        args.metrics.write_text(json.dumps(summary.as_dict(), indent=2))
+        metrics = {"coordination": summary.as_dict(), "comms": comms.as_dict(), "links": result.link_counts}
+        args.metrics.write_text(json.dumps(metrics, indent=2))
     return 0
 
 
 def _vehicle(args: argparse.Namespace) -> int:
-    from supervisor.fleet import initial_state, transmit_policy, vehicle_config
+    from supervisor.fleet import initial_state, radio, vehicle_config
     from supervisor.scenario import load_scenario
     from vehicles.node import run_vehicle
 
@@ -125,22 +127,18 @@ def _vehicle(args: argparse.Namespace) -> int:
         raise ScenarioError(f"{args.scenario}: --id: no vehicle {args.id} in [[vehicles]] {scenario.vehicle_ids}")
     cfg = vehicle_config(scenario, args.id)
     initial = initial_state(scenario, cfg)
-    policy, neighbours = transmit_policy(scenario), scenario.neighbours(args.id)
-    return run_vehicle(cfg, initial, policy, neighbours, scenario.scenario.step, [args.connect])
+    neighbours = scenario.neighbours(args.id)
+    return run_vehicle(cfg, initial, radio(scenario, args.id), neighbours, scenario.scenario.step, [args.connect])
 
 
 def _comms(args: argparse.Namespace) -> int:
     from comms.broker import run_broker
-    from comms.broker_core import BrokerCore
-    from comms.channel import Channel
-    from supervisor.fleet import channel_params
+    from supervisor.fleet import broker_core
     from supervisor.scenario import load_scenario
 
     scenario = load_scenario(args.scenario, args.set)
     seed = scenario.scenario.seed if args.seed is None else args.seed
-    neighbours = {i: scenario.neighbours(i) for i in scenario.vehicle_ids}
-    core = BrokerCore(Channel(channel_params(scenario), seed), neighbours)
-    return run_broker(core, scenario.vehicle_ids, [args.connect])
+    return run_broker(broker_core(scenario, seed), scenario.vehicle_ids, [args.connect])
 
 
 def _report(args: argparse.Namespace) -> int:

@@ -21,6 +21,7 @@ from comms.messages import (
     COMMS_ALIVE,
     COMMS_DONE_KEY,
     COMMS_EVENT_KEY,
+    COMMS_STATS_KEY,
     FAULT_KEY,
     GRAPH_KEY,
     META_KEY,
@@ -62,6 +63,7 @@ class _Books:
     states: dict[int, int] = field(default_factory=dict)  # k -> states received
     events: dict[str, int] = field(default_factory=lambda: {"sent": 0, "delivered": 0, "dropped": 0})
     done: Message | None = None
+    stats: list[Message] = field(default_factory=list)
     malformed: int = 0
     started: bool = False
     t: float = 0.0
@@ -123,6 +125,8 @@ class _Supervisor:
             self.books.events[message["kind"]] += 1
         elif item.key == COMMS_DONE_KEY:
             self.books.done = message
+        elif item.key == COMMS_STATS_KEY:
+            self.books.stats.append(message)
 
 
 def _child_argv(command: str, scenario_path: Path, connect: str, *extra: str) -> list[str]:
@@ -175,7 +179,9 @@ def run_zenoh(
             token.undeclare()
         wall = progress.done(steps * dt)
         messages = rec.count
-    return RunResult(builder.series(), wall, messages, dict(run.books.events))
+    stats = run.books.stats
+    last = stats[-1] if stats else None
+    return RunResult(builder.series(), wall, messages, dict(run.books.events), last, stats, builder.ages)
 
 
 def _start(run: _Supervisor, scenario: Scenario, path: Path, connect: str, seed: int, bus: BusOptions) -> None:

@@ -9,15 +9,24 @@ import math
 
 import numpy as np
 
-from comms.channel import ChannelParams
+from comms.acoustics import mackenzie_sound_speed
+from comms.broker_core import BrokerCore
+from comms.channel import Channel, ChannelParams, LinkParams
+from comms.loss import Bernoulli, Composite, GilbertElliott, LinkBudgetRange, LossModel, RangeTable
+from comms.modem import ModemParams, modem
+from comms.stats import LinkStats
 from supervisor.scenario_schema import (
+    BurstSection,
     CirclePath,
     HelixPath,
     LawnmowerPath,
     LinePath,
+    LinkBudgetSection,
     PathSpec,
+    RangeTableSection,
     Scenario,
     VehicleSection,
+    WaterSection,
 )
 from vehicles.agent import VehicleConfig, VehicleState
 from vehicles.coordination import CoordinationGains
@@ -25,7 +34,8 @@ from vehicles.dynamics import PLANAR, SPATIAL, Model
 from vehicles.geometry import rotation_2d, rotation_from_rpy
 from vehicles.path_following import PathFollowingGains
 from vehicles.paths import Circle, Helix, Lawnmower, Line, Path, closest_gamma
-from vehicles.transmission import PeriodicPolicy
+from vehicles.runtime import Radio
+from vehicles.transmission import EventTriggeredPolicy, PeriodicPolicy, Policy, Tdma
 
 # How far along a path the initial-gamma search looks, in units of gamma, either side of zero.
 CLOSEST_SEARCH_SPAN = 1000.0
@@ -88,10 +98,73 @@ def _section(scenario: Scenario, vehicle_id: int) -> VehicleSection:
     return next(v for v in scenario.vehicles if v.id == vehicle_id)
 
 
-def channel_params(scenario: Scenario) -> ChannelParams:
+def sound_speed(scenario: Scenario) -> float:
+    water = scenario.comms.sound_speed
+    if isinstance(water, WaterSection):
+        return mackenzie_sound_speed(water.temperature, water.salinity, water.depth)
+    return float(water)
+
+
+def modem_params(scenario: Scenario) -> ModemParams:
     c = scenario.comms
-    return ChannelParams(c.sound_speed, c.bitrate, c.packet_bytes, c.jitter, c.loss)
+    return modem(
+        c.modem, bitrate=c.bitrate, preamble=c.preamble, frame_bytes=c.frame_bytes,
+        half_duplex=c.half_duplex, collisions=c.collisions,
+    )  # fmt: skip
 
 
-def transmit_policy(scenario: Scenario) -> PeriodicPolicy:
-    return PeriodicPolicy(scenario.comms.tx_period)
+def _range_model(scenario: Scenario, radio_modem: ModemParams) -> LossModel | None:
+    spec = scenario.comms.range
+    if isinstance(spec, LinkBudgetSection):
+        return LinkBudgetRange(
+            spec.source_level, radio_modem.frequency_khz, radio_modem.bandwidth_hz, radio_modem.modulation,
+            spec.spreading, spec.shipping, spec.wind, spec.directivity,
+        )  # fmt: skip
+    if isinstance(spec, RangeTableSection):
+        return RangeTable(spec.ranges, spec.success)
+    return None
+
+
+def _loss_model(range_model: LossModel | None, loss: float, burst: BurstSection | None) -> LossModel | None:
+    """The models that act on one link, composed: range first, then independent, then bursty loss."""
+    models: list[LossModel] = [m for m in (range_model,) if m is not None]
+    if loss > 0:
+        models.append(Bernoulli(loss))
+    if burst is not None and burst.mean_loss > 0:
+        models.append(GilbertElliott(burst.mean_loss, burst.mean_burst))
+    return Composite(tuple(models)) if models else None
+
+
+def channel_params(scenario: Scenario) -> ChannelParams:
+    """The channel the scenario describes; ValueError (from the models) for inconsistent numbers."""
+    c = scenario.comms
+    radio_modem = modem_params(scenario)
+    ranged = _range_model(scenario, radio_modem)
+    links = {
+        (link.sender, link.receiver): LinkParams(
+            _loss_model(ranged, c.loss if link.loss is None else link.loss, link.burst or c.burst), link.extra_delay
+        )
+        for link in c.links
+    }
+    return ChannelParams(
+        sound_speed(scenario), radio_modem, c.packet_bytes, c.jitter, _loss_model(ranged, c.loss, c.burst), links
+    )
+
+
+def radio(scenario: Scenario, vehicle_id: int) -> Radio:
+    """How a vehicle decides to transmit."""
+    tx, co = scenario.comms.transmit, scenario.coordination
+    policy: Policy = PeriodicPolicy(tx.period)
+    if tx.policy == "event":
+        policy = EventTriggeredPolicy(
+            tx.threshold, tx.threshold_decay, tx.decay_rate, tx.min_interval, tx.heartbeat, co.predictor, co.v_r
+        )
+    tdma = scenario.comms.tdma
+    schedule = Tdma(tdma.slot, tdma.order or tuple(scenario.vehicle_ids)) if tdma else None
+    return Radio(policy, schedule)
+
+
+def broker_core(scenario: Scenario, seed: int) -> BrokerCore:
+    neighbours = {i: scenario.neighbours(i) for i in scenario.vehicle_ids}
+    stats = LinkStats(scenario.vehicle_ids, scenario.comms.stats_window)
+    return BrokerCore(Channel(channel_params(scenario), seed), neighbours, stats)

@@ -10,13 +10,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from comms.broker_core import BrokerCore
-from comms.channel import Channel, Kinematics, LinkEvent
+from comms.channel import Kinematics, LinkEvent
 from comms.messages import (
     COMMS_EVENT_KEY,
+    COMMS_STATS_KEY,
     FAULT_KEY,
     GRAPH_KEY,
     META_KEY,
+    Message,
     event_message,
     parse_rx,
     parse_state,
@@ -28,7 +29,7 @@ from comms.messages import (
     tx_message,
 )
 from supervisor.faults import disturbances, events_at
-from supervisor.fleet import channel_params, initial_state, transmit_policy, vehicle_config
+from supervisor.fleet import broker_core, initial_state, radio, vehicle_config
 from supervisor.metadata import graph_message, run_meta
 from supervisor.progress import Progress
 from supervisor.recorder import Recorder
@@ -45,6 +46,9 @@ class RunResult:
     wall_time: float
     messages: int
     link_counts: dict[str, int]
+    link_stats: Message | None  # the last cpf/comms/stats snapshot
+    stats_history: list[Message]
+    estimate_ages: dict[tuple[int, int], list[float]]  # (sender, receiver) -> [sum, count, max] of ages
 
 
 def run_inprocess(
@@ -57,8 +61,9 @@ def run_inprocess(
     configs = {i: vehicle_config(scenario, i) for i in ids}
     nodes = {i: NodeState(initial_state(scenario, configs[i])) for i in ids}
     neighbours = {i: scenario.neighbours(i) for i in ids}
-    policy = transmit_policy(scenario)
-    broker = BrokerCore(Channel(channel_params(scenario), seed), dict(neighbours))
+    radios = {i: radio(scenario, i) for i in ids}
+    broker = broker_core(scenario, seed)
+    snapshots: list[Message] = []
     builder = SeriesBuilder(ids, steps, dt)
     with Recorder(out) as rec:
         rec.write(META_KEY, 0.0, run_meta(scenario, scenario_file, scenario_toml, seed, "inprocess", "lockstep"))
@@ -72,25 +77,36 @@ def run_inprocess(
             _record_events(rec, broker.submit(sent, where))
             batches, delivered = broker.deliver(t, ids)
             _record_events(rec, delivered)
+            _record_stats(rec, broker.snapshot_due(t), snapshots)
             sent, where = [], {}
             for i in ids:
                 rx = rx_message(i, k, t, batches[i])
                 rec.write(rx_key(i), t, rx)
                 dist = disturbances(scenario.faults, i, t, dt)
-                nodes[i], tel, tx = node_step(configs[i], policy, nodes[i], t, dt, parse_rx(rx)[1], neighbours[i], dist)
+                nodes[i], result = node_step(
+                    configs[i], radios[i], nodes[i], t, dt, parse_rx(rx)[1], neighbours[i], dist
+                )
+                tx = result.transmission
                 if tx is not None:
                     rec.write(tx_key(i), t, tx_message(tx))
                     sent.append(tx)
-                state = state_message(tel, configs[i].model, k, tx.seq if tx else 0)
+                state = state_message(result.telemetry, configs[i].model, k, tx.seq if tx else 0, result.estimate_ages)
                 rec.write(state_key(i), t, state)
                 builder.add(state)
                 where[i] = parse_state(state, i).kinematics
             progress.update(t + dt)
         end = steps * dt
         _record_events(rec, broker.submit(sent, where) + broker.deliver(end, ids)[1] + broker.finish(end))
+        _record_stats(rec, broker.snapshot_due(end, final=True), snapshots)
         wall = progress.done(end)
         messages = rec.count
-    return RunResult(builder.series(), wall, messages, dict(broker.counts))
+    return RunResult(builder.series(), wall, messages, broker.counts, snapshots[-1], snapshots, builder.ages)
+
+
+def _record_stats(rec: Recorder, snapshot: Message | None, history: list[Message]) -> None:
+    if snapshot is not None:
+        rec.write(COMMS_STATS_KEY, float(snapshot["t"]), snapshot)
+        history.append(snapshot)
 
 
 def _record_events(rec: Recorder, events: list[LinkEvent]) -> None:

@@ -127,6 +127,32 @@ def _check_consistency(sc: Scenario) -> None:
         raise ScenarioError(f"scenario.step: must not exceed duration ({sc.scenario.duration}), got {sc.scenario.step}")
     _check_overrides(sc)
     _check_paths(sc)
+    _check_comms(sc)
+
+
+def _check_comms(sc: Scenario) -> None:
+    """Links, TDMA order and packet size against the fleet and the modem; the models' own checks."""
+    from comms.wire import MAX_VEHICLE_ID, SIZE
+    from supervisor.fleet import channel_params, modem_params
+
+    ids = sc.vehicle_ids
+    if max(ids) > MAX_VEHICLE_ID:
+        raise ScenarioError(f"vehicles: ids must fit the 1-byte wire field (<= {MAX_VEHICLE_ID}), got {max(ids)}")
+    edges = {tuple(e) for e in sc.graph.edges} | {(j, i) for i, j in sc.graph.edges}
+    for index, link in enumerate(sc.comms.links):
+        if (link.sender, link.receiver) not in edges:
+            raise ScenarioError(f"comms.links[{index}]: not a link of the graph, got {link.sender} -> {link.receiver}")
+    tdma = sc.comms.tdma
+    if tdma is not None and tdma.order is not None and sorted(tdma.order) != sorted(ids):
+        raise ScenarioError(f"comms.tdma.order: must list every vehicle once {sorted(ids)}, got {list(tdma.order)}")
+    radio = modem_params(sc)
+    size = sc.comms.packet_bytes or SIZE
+    if radio.max_bytes is not None and size > radio.max_bytes:
+        raise ScenarioError(f"comms.packet_bytes: the {sc.comms.modem} modem takes {radio.max_bytes} B, got {size}")
+    try:
+        channel_params(sc)
+    except ValueError as exc:
+        raise ScenarioError(f"comms: {exc}") from exc
 
 
 def _check_graph(sc: Scenario) -> None:

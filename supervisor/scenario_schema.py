@@ -132,15 +132,98 @@ class SpeedCapFault(_Strict):
 FaultSpec = Annotated[SpeedCapFault, Field(discriminator="kind")]
 
 
-class CommsSection(_Strict):
-    """The acoustic channel between vehicles (comms/channel.py). Defaults: lossless, no airtime, sound at 1500 m/s."""
+class WaterSection(_Strict):
+    """Sound speed from Mackenzie's equation (valid for T 2-30 C, S 25-40 ppt, D 0-8000 m)."""
 
-    sound_speed: Float = Field(default=1500.0, gt=0, description="m/s")
-    bitrate: Float | None = Field(default=None, gt=0, description="bit/s; none: packets take no airtime")
-    packet_bytes: Int | None = Field(default=None, gt=0, description="none: the encoded message size")
+    temperature: Float = Field(ge=2, le=30, description="deg C")
+    salinity: Float = Field(default=35.0, ge=25, le=40, description="ppt")
+    depth: Float = Field(default=0.0, ge=0, le=8000, description="m")
+
+
+class BurstSection(_Strict):
+    """Gilbert-Elliott loss given as its long-run loss rate and mean burst length (packets)."""
+
+    mean_loss: Float = Field(ge=0, lt=1)
+    mean_burst: Float = Field(ge=1)
+
+
+class LinkBudgetSection(_Strict):
+    """Range-dependent loss from the link budget; carrier, bandwidth and modulation come from the modem."""
+
+    type: Literal["link_budget"]
+    source_level: Float = Field(description="dB re 1 uPa at 1 m")
+    spreading: Float = Field(default=1.5, ge=1, le=2)
+    shipping: Float = Field(default=0.5, ge=0, le=1)
+    wind: Float = Field(default=0.0, ge=0, description="m/s")
+    directivity: Float = Field(default=0.0, description="dB")
+
+
+class RangeTableSection(_Strict):
+    """Range-dependent loss from a table of packet success probability against range (m)."""
+
+    type: Literal["table"]
+    ranges: tuple[Float, ...] = Field(min_length=1)
+    success: tuple[Float, ...] = Field(min_length=1)
+
+
+RangeSpec = Annotated[LinkBudgetSection | RangeTableSection, Field(discriminator="type")]
+
+
+class LinkSection(_Strict):
+    """One directed link's own loss and extra delay (its loss and burst replace the fleet-wide ones)."""
+
+    sender: Int
+    receiver: Int
+    loss: Float | None = Field(default=None, ge=0, le=1)
+    burst: BurstSection | None = None
+    extra_delay: Float = Field(default=0.0, ge=0, description="s")
+
+
+class TransmitSection(_Strict):
+    """When vehicles transmit: periodically, or when their gamma leaves what their neighbours predict."""
+
+    policy: Literal["periodic", "event"] = "periodic"
+    period: Float | None = Field(default=None, gt=0, description="periodic: s between messages; none: every step")
+    threshold: Float = Field(default=0.05, gt=0, description="event: c0 of h(t) = c0 + c1 exp(-alpha t)")
+    threshold_decay: Float = Field(default=0.0, ge=0, description="event: c1")
+    decay_rate: Float = Field(default=0.0, ge=0, description="event: alpha, 1/s")
+    min_interval: Float = Field(default=0.0, ge=0, description="event: s between messages at least")
+    heartbeat: Float | None = Field(default=None, gt=0, description="event: s between messages at most")
+
+
+class TdmaSection(_Strict):
+    slot: Float = Field(gt=0, description="s; must hold a packet's airtime plus the longest propagation delay")
+    order: tuple[Int, ...] | None = None  # slot owners in order; default: vehicle ids as listed
+
+
+class CommsSection(_Strict):
+    """The acoustic channel between vehicles (comms/channel.py). Defaults: the ideal channel."""
+
+    sound_speed: Float | WaterSection = Field(default=1500.0, description="m/s, or water properties")
+    modem: str = "ideal"
+    bitrate: Float | None = Field(default=None, gt=0, description="bit/s, overrides the modem's")
+    preamble: Float | None = Field(default=None, ge=0, description="s, overrides the modem's")
+    frame_bytes: Int | None = Field(default=None, gt=0)
+    half_duplex: bool | None = None
+    collisions: bool | None = None
+    packet_bytes: Int | None = Field(default=None, gt=0, description="none: the encoded message size (15 B)")
     jitter: Float = Field(default=0.0, ge=0, description="extra delay, uniform on [0, jitter], s")
     loss: Float = Field(default=0.0, ge=0, le=1, description="independent (Bernoulli) loss per directed link")
-    tx_period: Float | None = Field(default=None, gt=0, description="s between transmissions; none: every step")
+    burst: BurstSection | None = None
+    range: RangeSpec | None = None
+    links: tuple[LinkSection, ...] = ()
+    transmit: TransmitSection = TransmitSection()
+    tdma: TdmaSection | None = None
+    stats_window: Float = Field(default=10.0, gt=0, description="s: link statistics and delivered lambda_2")
+
+    @field_validator("modem")
+    @classmethod
+    def _known_modem(cls, value: str) -> str:
+        from comms.modem import PRESETS as MODEMS
+
+        if value not in MODEMS:
+            raise ValueError(f"unknown modem {value!r}, expected one of {sorted(MODEMS)}")
+        return value
 
 
 class ReportSection(_Strict):

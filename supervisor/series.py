@@ -16,6 +16,7 @@ class SeriesBuilder:
         self._column = {vid: col for col, vid in enumerate(self.ids)}
         self._data = np.full((steps, 3, len(self.ids)), np.nan)  # gamma, gamma_dot, |p - p_d|
         self._dt = dt
+        self.ages: dict[tuple[int, int], list[float]] = {}  # (sender, receiver) -> [sum, count, max]
 
     def add(self, state: Message) -> None:
         """Take in one state message (already validated by whoever received it)."""
@@ -23,6 +24,11 @@ class SeriesBuilder:
         if 0 <= k < len(self._data):
             error = state["error"]
             self._data[k, :, col] = (state["gamma"], state["gamma_dot"], float(np.linalg.norm(error)))
+        for sender, age in state.get("estimate_age", []):
+            book = self.ages.setdefault((sender, state["vehicle"]), [0.0, 0.0, 0.0])
+            book[0] += age
+            book[1] += 1
+            book[2] = max(book[2], age)
 
     def series(self) -> Series:
         times = np.arange(len(self._data), dtype=np.float64) * self._dt

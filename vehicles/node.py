@@ -27,8 +27,7 @@ from comms.messages import (
     vehicle_alive_key,
 )
 from vehicles.agent import Disturbances, VehicleConfig, VehicleState
-from vehicles.runtime import Heard, NodeState, node_step
-from vehicles.transmission import PeriodicPolicy
+from vehicles.runtime import Heard, NodeState, Radio, node_step
 
 log = logging.getLogger(__name__)
 POLL = 0.5  # s between checks while nothing arrives
@@ -46,7 +45,7 @@ class _Pending:
 def run_vehicle(
     cfg: VehicleConfig,
     initial: VehicleState,
-    policy: PeriodicPolicy,
+    radio: Radio,
     neighbours: Sequence[int],
     dt: float,
     connect: Sequence[str],
@@ -75,7 +74,7 @@ def run_vehicle(
             _take(item.key, item.payload, vid, pending)
             while k in pending.ticks and k in pending.batches:
                 tick, heard = pending.ticks.pop(k), pending.batches.pop(k)
-                node = _step(cfg, policy, node, tick, heard, neighbours, dt, publishers)
+                node = _step(cfg, radio, node, tick, heard, neighbours, dt, publishers)
                 k += 1
         token.undeclare()
     return 0
@@ -101,7 +100,7 @@ def _take(key: str, payload: bytes, vid: int, pending: _Pending) -> None:
 
 def _step(
     cfg: VehicleConfig,
-    policy: PeriodicPolicy,
+    radio: Radio,
     node: NodeState,
     tick: Tick,
     heard: list[Heard],
@@ -111,8 +110,10 @@ def _step(
 ) -> NodeState:
     vid = cfg.vehicle_id
     dist = Disturbances(gamma_dot_cap=tick.caps.get(vid))
-    node, telemetry, tx = node_step(cfg, policy, node, tick.t, dt, heard, neighbours, dist)
+    node, out = node_step(cfg, radio, node, tick.t, dt, heard, neighbours, dist)
+    tx = out.transmission
     if tx is not None:
         publishers.put(tx_key(vid), tx_message(tx))
-    publishers.put(state_key(vid), state_message(telemetry, cfg.model, tick.k, tx.seq if tx else 0))
+    state = state_message(out.telemetry, cfg.model, tick.k, tx.seq if tx else 0, out.estimate_ages)
+    publishers.put(state_key(vid), state)
     return node

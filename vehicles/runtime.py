@@ -1,19 +1,19 @@
 """What a vehicle does at one sync step, as a pure function shared by both engines.
 
 At sync instant t_k a vehicle (1) takes in the receptions the channel delivered for t_k, (2) transmits its own
-(gamma, gamma_dot) of t_k if its policy says so, (3) steps its closed loop to t_k + dt and reports its state of t_k.
-A message transmitted at t_k therefore affects its receivers from the first sync instant after t_k that is not
-earlier than its arrival.
+(gamma, gamma_dot) of t_k if its policy wants to and its MAC allows, (3) steps its closed loop to t_k + dt and
+reports its state of t_k. A message transmitted at t_k therefore affects its receivers from the first sync instant
+after t_k that is not earlier than its arrival.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
-from vehicles.agent import Disturbances, Telemetry, VehicleConfig, VehicleState, receive, step
+from vehicles.agent import Disturbances, Telemetry, VehicleConfig, VehicleState, own_estimate, receive, step
 from vehicles.estimates import NeighbourEstimate
-from vehicles.transmission import PeriodicPolicy, Transmission
+from vehicles.transmission import PeriodicPolicy, Policy, Tdma, Transmission
 
 
 @dataclass(frozen=True, slots=True)
@@ -27,10 +27,26 @@ class Heard:
 
 
 @dataclass(frozen=True, slots=True)
+class Radio:
+    """How a vehicle decides to transmit: its policy, and TDMA if the fleet uses it."""
+
+    policy: Policy = field(default_factory=PeriodicPolicy)
+    tdma: Tdma | None = None
+
+
+@dataclass(frozen=True, slots=True)
 class NodeState:
     vehicle: VehicleState
     seq: int = 0  # sequence number of the last transmission
-    last_tx: float | None = None
+    last_sent: NeighbourEstimate | None = None  # what the neighbours were last told (if it reached them)
+    pending: bool = False  # the policy wanted to transmit, the TDMA slot has not come yet
+
+
+@dataclass(frozen=True, slots=True)
+class StepOutput:
+    telemetry: Telemetry
+    transmission: Transmission | None
+    estimate_ages: tuple[tuple[int, float], ...]  # (neighbour, t - stamp of the estimate held of it)
 
 
 def transmission(cfg: VehicleConfig, state: VehicleState, seq: int) -> Transmission:
@@ -40,24 +56,33 @@ def transmission(cfg: VehicleConfig, state: VehicleState, seq: int) -> Transmiss
     return Transmission(cfg.vehicle_id, seq, state.t, state.gamma, state.gamma_dot, position, velocity)  # type: ignore[arg-type]
 
 
+def _wants_and_may(radio: Radio, node: NodeState, vid: int, now: NeighbourEstimate, dt: float) -> tuple[bool, bool]:
+    wants = node.pending or radio.policy.due(now.stamp, dt, now, node.last_sent)
+    may = radio.tdma is None or radio.tdma.may_transmit(vid, now.stamp, dt)
+    return wants, may
+
+
 def node_step(
     cfg: VehicleConfig,
-    policy: PeriodicPolicy,
+    radio: Radio,
     node: NodeState,
     t: float,
     dt: float,
     heard: Sequence[Heard],
     neighbours: Sequence[int],
     dist: Disturbances,
-) -> tuple[NodeState, Telemetry, Transmission | None]:
-    """One sync step at time t: receive, maybe transmit, integrate. Returns the new node, telemetry and transmission."""
+) -> tuple[NodeState, StepOutput]:
+    """One sync step at time t: receive, maybe transmit, integrate."""
     state = replace(node.vehicle, t=t)  # the clock's t, so that every engine steps on the same grid
     for h in heard:
         state = receive(state, h.sender, NeighbourEstimate(h.gamma, h.gamma_dot, h.stamp))
+    ages = tuple((j, t - state.estimates[j].stamp) for j in neighbours if j in state.estimates)
+    now = own_estimate(state)
+    wants, may = _wants_and_may(radio, node, cfg.vehicle_id, now, dt)
     sent = None
-    seq, last = node.seq, node.last_tx
-    if policy.due(t, last, dt):
-        seq, last = seq + 1, t
+    seq, last = node.seq, node.last_sent
+    if wants and may:
+        seq, last = seq + 1, now
         sent = transmission(cfg, state, seq)
     state, telemetry = step(cfg, state, dt, neighbours, dist)
-    return NodeState(state, seq, last), telemetry, sent
+    return NodeState(state, seq, last, wants and not may), StepOutput(telemetry, sent, ages)

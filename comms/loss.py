@@ -1,0 +1,268 @@
+"""Packet loss models for one directed acoustic link: composable and deterministic given a numpy Generator.
+
+Sources: shared/reference/acoustics.md ("Loss models").
+- Bernoulli: independent loss, as MOOS-IvP's uFldNodeComms (uniform drop percentage).
+- Gilbert-Elliott: two-state Markov chain, p = P(good -> bad), r = P(bad -> good); long-run share of bad packets
+  p / (p + r), mean bad run 1 / r packets (tc netem's "loss gemodel p r 1-h 1-k").
+- Link budget: packet error rate from comms.acoustics (Thorp absorption, Coates noise, BPSK/FSK bit errors).
+- Range table: success probability vs range, as GobySoft/netsim's range_to_packet_success.
+Distances in m, sizes in bytes, probabilities in [0, 1].
+
+A model (frozen, validated configuration) makes a fresh `LinkLoss` per directed link with `link()`; a `LinkLoss`
+draws exactly `draws` uniforms per decision whatever the outcome, so random streams stay aligned across runs that
+differ only in what gets lost.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from itertools import pairwise
+from typing import Protocol
+
+import numpy as np
+
+from comms.acoustics import MODULATIONS, Modulation, bit_error_rate, packet_error_rate, snr_db
+
+
+class LinkLoss(Protocol):
+    @property
+    def draws(self) -> int:
+        """Random numbers consumed per decision."""
+        ...
+
+    def decide(self, rng: np.random.Generator, distance_m: float, size_bytes: int) -> str | None:
+        """The reason this packet is lost on this link (None: not lost). Always consumes exactly self.draws
+        random numbers from rng whatever the outcome, so streams stay aligned."""
+        ...
+
+
+class LossModel(Protocol):
+    @property
+    def draws(self) -> int:
+        """Random numbers consumed per decision by each of its links."""
+        ...
+
+    def link(self) -> LinkLoss:
+        """Fresh per-directed-link state."""
+        ...
+
+
+def _check(ok: bool, name: str, value: object, what: str) -> None:
+    if not ok:
+        raise ValueError(f"{name} must be {what}, got {value!r}")
+
+
+def _is_probability(x: float) -> bool:
+    return 0.0 <= x <= 1.0  # False for NaN
+
+
+@dataclass(frozen=True, slots=True)
+class Bernoulli:
+    """Each packet lost independently with probability p. Stateless: it is its own LinkLoss."""
+
+    p: float
+
+    def __post_init__(self) -> None:
+        _check(_is_probability(self.p), "p", self.p, "in [0, 1]")
+
+    @property
+    def draws(self) -> int:
+        return 1
+
+    def link(self) -> Bernoulli:
+        return self
+
+    def decide(self, rng: np.random.Generator, distance_m: float, size_bytes: int) -> str | None:
+        return "loss" if rng.random() < self.p else None
+
+
+@dataclass(frozen=True, slots=True)
+class GilbertElliott:
+    """Bursty loss: a two-state (good/bad) Markov chain stepped once per packet on the link.
+
+    mean_loss L and mean_burst B (packets) define the chain: r = 1 / B, p = L r / (1 - L), so that the long-run
+    share of bad packets is p / (p + r) = L and a bad run lasts 1 / r = B packets on average. With the defaults
+    (good_loss 0 = 1 - k, bad_loss 1 = 1 - h) every bad packet and only those are lost, so L is the long-run loss
+    rate and B the mean length of a run of consecutive losses. Other good_loss / bad_loss values are applied on top
+    of the same chain: the long-run loss is then `loss_rate` = (1 - L) good_loss + L bad_loss.
+    The first packet's state is drawn from the stationary distribution, so short runs are unbiased.
+    """
+
+    mean_loss: float
+    mean_burst: float
+    good_loss: float = 0.0
+    bad_loss: float = 1.0
+
+    def __post_init__(self) -> None:
+        _check(0.0 <= self.mean_loss < 1.0, "mean_loss", self.mean_loss, "in [0, 1)")
+        _check(self.mean_burst >= 1.0 and math.isfinite(self.mean_burst), "mean_burst", self.mean_burst, ">= 1")
+        # p <= 1 <=> L <= B / (B + 1): a short burst cannot make up a large loss rate.
+        limit = self.mean_burst / (self.mean_burst + 1.0)
+        _check(self.mean_loss <= limit, "mean_loss", self.mean_loss, f"<= mean_burst / (mean_burst + 1) = {limit:g}")
+        _check(_is_probability(self.good_loss), "good_loss", self.good_loss, "in [0, 1]")
+        _check(_is_probability(self.bad_loss), "bad_loss", self.bad_loss, "in [0, 1]")
+
+    @property
+    def r(self) -> float:
+        """P(bad -> good) per packet."""
+        return 1.0 / self.mean_burst
+
+    @property
+    def p(self) -> float:
+        """P(good -> bad) per packet."""
+        return self.mean_loss * self.r / (1.0 - self.mean_loss)
+
+    @property
+    def loss_rate(self) -> float:
+        """Long-run packet loss probability, good_loss and bad_loss included."""
+        return (1.0 - self.mean_loss) * self.good_loss + self.mean_loss * self.bad_loss
+
+    @property
+    def draws(self) -> int:
+        return 2
+
+    def link(self) -> GilbertElliottLink:
+        return GilbertElliottLink(self)
+
+
+@dataclass(slots=True)
+class GilbertElliottLink:
+    """The chain's state on one directed link (None until the first packet)."""
+
+    model: GilbertElliott
+    bad: bool | None = field(default=None)
+
+    @property
+    def draws(self) -> int:
+        return 2
+
+    def decide(self, rng: np.random.Generator, distance_m: float, size_bytes: int) -> str | None:
+        step, lose = rng.random(2)
+        m = self.model
+        if self.bad is None:
+            self.bad = bool(step < m.mean_loss)  # stationary start: P(bad) = p / (p + r) = mean_loss
+        elif self.bad:
+            self.bad = not step < m.r
+        else:
+            self.bad = bool(step < m.p)
+        return "burst" if lose < (m.bad_loss if self.bad else m.good_loss) else None
+
+
+@dataclass(frozen=True, slots=True)
+class LinkBudgetRange:
+    """Loss from the acoustic link budget: lost with probability PER(8 size_bytes bits) at the link's distance.
+
+    Units as in comms.acoustics.snr_db: source level dB re 1 uPa at 1 m, kHz, Hz, wind m/s, directivity dB.
+    """
+
+    source_level_db: float
+    frequency_khz: float
+    bandwidth_hz: float
+    modulation: Modulation
+    spreading: float = 1.5
+    shipping: float = 0.5
+    wind_m_s: float = 0.0
+    directivity_db: float = 0.0
+
+    def __post_init__(self) -> None:
+        _check(math.isfinite(self.source_level_db), "source_level_db", self.source_level_db, "finite")
+        _check(0.0 < self.frequency_khz < math.inf, "frequency_khz", self.frequency_khz, "> 0 and finite")
+        _check(0.0 < self.bandwidth_hz < math.inf, "bandwidth_hz", self.bandwidth_hz, "> 0 and finite")
+        _check(self.modulation in MODULATIONS, "modulation", self.modulation, f"one of {MODULATIONS}")
+        # 1: cylindrical, 2: spherical spreading; anything else is not a physical spreading law.
+        _check(1.0 <= self.spreading <= 2.0, "spreading", self.spreading, "in [1, 2]")
+        _check(_is_probability(self.shipping), "shipping", self.shipping, "in [0, 1]")
+        _check(0.0 <= self.wind_m_s < math.inf, "wind_m_s", self.wind_m_s, ">= 0 and finite")
+        _check(math.isfinite(self.directivity_db), "directivity_db", self.directivity_db, "finite")
+
+    def success_probability(self, distance_m: float, size_bytes: int) -> float:
+        """1 - PER for a packet of size_bytes over distance_m."""
+        snr = snr_db(
+            self.source_level_db,
+            distance_m,
+            self.frequency_khz,
+            self.bandwidth_hz,
+            self.spreading,
+            self.shipping,
+            self.wind_m_s,
+            self.directivity_db,
+        )
+        return 1.0 - packet_error_rate(bit_error_rate(snr, self.modulation), 8 * size_bytes)
+
+    @property
+    def draws(self) -> int:
+        return 1
+
+    def link(self) -> LinkBudgetRange:
+        return self
+
+    def decide(self, rng: np.random.Generator, distance_m: float, size_bytes: int) -> str | None:
+        u = rng.random()  # drawn first: consumed whatever the outcome
+        return "range" if u >= self.success_probability(distance_m, size_bytes) else None
+
+
+@dataclass(frozen=True, slots=True)
+class RangeTable:
+    """Success probability linearly interpolated in range between table points, constant beyond the ends."""
+
+    ranges_m: tuple[float, ...]
+    success: tuple[float, ...]
+
+    def __post_init__(self) -> None:
+        _check(len(self.ranges_m) >= 1, "ranges_m", self.ranges_m, "non-empty")
+        _check(len(self.success) == len(self.ranges_m), "success", self.success, "as long as ranges_m")
+        _check(all(math.isfinite(x) for x in self.ranges_m), "ranges_m", self.ranges_m, "finite")
+        increasing = all(a < b for a, b in pairwise(self.ranges_m))
+        _check(increasing, "ranges_m", self.ranges_m, "strictly increasing")
+        _check(all(_is_probability(s) for s in self.success), "success", self.success, "in [0, 1]")
+
+    def success_probability(self, distance_m: float) -> float:
+        return float(np.interp(distance_m, self.ranges_m, self.success))
+
+    @property
+    def draws(self) -> int:
+        return 1
+
+    def link(self) -> RangeTable:
+        return self
+
+    def decide(self, rng: np.random.Generator, distance_m: float, size_bytes: int) -> str | None:
+        u = rng.random()
+        return "range" if u >= self.success_probability(distance_m) else None
+
+
+@dataclass(frozen=True, slots=True)
+class Composite:
+    """Lost if any model says so, with the reason of the first that does; an empty Composite never loses.
+
+    Every model decides every packet, so each one's draws and state (a Gilbert-Elliott chain) advance the same
+    whatever the others decide.
+    """
+
+    models: tuple[LossModel, ...]
+
+    def __post_init__(self) -> None:
+        _check(isinstance(self.models, tuple), "models", self.models, "a tuple")
+        for m in self.models:
+            _check(hasattr(m, "link") and hasattr(m, "draws"), "models", m, "loss models (with link and draws)")
+
+    @property
+    def draws(self) -> int:
+        return sum(m.draws for m in self.models)
+
+    def link(self) -> CompositeLink:
+        return CompositeLink(tuple(m.link() for m in self.models))
+
+
+@dataclass(frozen=True, slots=True)
+class CompositeLink:
+    links: tuple[LinkLoss, ...]
+
+    @property
+    def draws(self) -> int:
+        return sum(k.draws for k in self.links)
+
+    def decide(self, rng: np.random.Generator, distance_m: float, size_bytes: int) -> str | None:
+        reasons = [k.decide(rng, distance_m, size_bytes) for k in self.links]  # all of them: no short-circuit
+        return next((r for r in reasons if r is not None), None)

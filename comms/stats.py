@@ -1,0 +1,77 @@
+"""Per-directed-link statistics of a run, and the connectivity the channel actually delivered.
+
+Fed with the channel's link events, it keeps per link: packets sent, delivered, dropped by cause, and the mean and
+largest delay. Over sliding windows it computes lambda_2 of the undirected graph whose edges are the pairs that
+delivered at least one packet (either way) in the window: zero means the delivered graph was disconnected.
+"""
+
+from __future__ import annotations
+
+from collections import Counter, deque
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+
+from comms.channel import LinkEvent
+from vehicles.coordination import algebraic_connectivity, laplacian
+
+
+@dataclass
+class LinkBook:
+    sent: int = 0
+    delivered: int = 0
+    dropped: Counter[str] = field(default_factory=Counter)
+    delay_sum: float = 0.0
+    delay_max: float = 0.0
+
+    def add(self, event: LinkEvent) -> None:
+        if event.kind == "sent":
+            self.sent += 1
+        elif event.kind == "delivered":
+            self.delivered += 1
+            delay = event.delay or 0.0
+            self.delay_sum += delay
+            self.delay_max = max(self.delay_max, delay)
+        else:
+            self.dropped[event.reason or "unknown"] += 1
+
+    def as_message(self, sender: int, receiver: int) -> dict[str, object]:
+        return {
+            "sender": sender,
+            "receiver": receiver,
+            "sent": self.sent,
+            "delivered": self.delivered,
+            "dropped": dict(sorted(self.dropped.items())),
+            "mean_delay": self.delay_sum / self.delivered if self.delivered else None,
+            "max_delay": self.delay_max if self.delivered else None,
+        }
+
+
+class LinkStats:
+    def __init__(self, vehicles: Sequence[int], window: float) -> None:
+        self.vehicles = list(vehicles)
+        self.window = window
+        self.books: dict[tuple[int, int], LinkBook] = {}
+        self._recent: deque[tuple[float, int, int]] = deque()  # (arrival, sender, receiver) of deliveries
+
+    def add(self, events: Iterable[LinkEvent]) -> None:
+        for event in events:
+            self.books.setdefault((event.sender, event.receiver), LinkBook()).add(event)
+            if event.kind == "delivered":
+                self._recent.append((event.t, event.sender, event.receiver))
+
+    def delivered_connectivity(self, t: float) -> float:
+        """lambda_2 of the graph of pairs that delivered in (t - window, t]."""
+        while self._recent and self._recent[0][0] <= t - self.window:
+            self._recent.popleft()
+        index = {v: i for i, v in enumerate(self.vehicles)}
+        edges = {(index[s], index[r]) for _, s, r in self._recent if s in index and r in index}
+        return algebraic_connectivity(laplacian(len(self.vehicles), edges))
+
+    def snapshot(self, t: float) -> dict[str, object]:
+        """The message published on cpf/comms/stats: cumulative books per link, and this window's lambda_2."""
+        return {
+            "t": t,
+            "window": self.window,
+            "lambda2": self.delivered_connectivity(t),
+            "links": [book.as_message(s, r) for (s, r), book in sorted(self.books.items())],
+        }

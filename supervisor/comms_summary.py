@@ -1,0 +1,78 @@
+"""The communication side of a run summary: what each directed link carried, lost and how late, how old the
+neighbour estimates got, and how connected the delivered graph stayed."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import asdict, dataclass
+from typing import Any
+
+
+@dataclass(frozen=True, slots=True)
+class LinkRow:
+    sender: int
+    receiver: int
+    sent: int
+    delivered: int
+    dropped: dict[str, int]
+    mean_delay: float | None
+    max_delay: float | None
+    mean_age: float | None  # of the receiver's estimate of the sender, s
+    max_age: float | None
+
+
+@dataclass(frozen=True, slots=True)
+class CommsSummary:
+    links: tuple[LinkRow, ...]
+    lambda2_min: float | None  # of the delivered graph over the stats windows
+    lambda2_mean: float | None
+    windows: int
+
+    def as_dict(self) -> dict[str, object]:
+        return asdict(self)
+
+
+def comms_summary(
+    final: Mapping[str, Any] | None, history: Sequence[Mapping[str, Any]], ages: Mapping[tuple[int, int], list[float]]
+) -> CommsSummary:
+    """From the last cpf/comms/stats snapshot, all snapshots, and (sender, receiver) -> [sum, count, max] ages."""
+    rows = []
+    for link in final["links"] if final else []:
+        key = (link["sender"], link["receiver"])
+        age = ages.get(key)
+        rows.append(
+            LinkRow(
+                link["sender"], link["receiver"], link["sent"], link["delivered"], dict(link["dropped"]),
+                link["mean_delay"], link["max_delay"],
+                age[0] / age[1] if age and age[1] else None, age[2] if age else None,
+            )
+        )  # fmt: skip
+    # The final snapshot's window may be partial; it still counts, it is what the end of the run delivered.
+    lambdas = [float(s["lambda2"]) for s in history]
+    return CommsSummary(
+        tuple(rows),
+        min(lambdas) if lambdas else None,
+        sum(lambdas) / len(lambdas) if lambdas else None,
+        len(lambdas),
+    )
+
+
+def format_comms(summary: CommsSummary) -> str:
+    header = f"{'link':<8}{'sent':>7}{'deliv':>7}  {'dropped by cause':<34}"
+    lines = [header + f"{'delay mean/max [s]':>20}{'age mean/max [s]':>19}"]
+    for r in summary.links:
+        causes = ", ".join(f"{n} {cause}" for cause, n in sorted(r.dropped.items())) or "-"
+        lines.append(
+            f"{r.sender}->{r.receiver:<5}{r.sent:>7}{r.delivered:>7}  {causes:<34}"
+            f"{_pair(r.mean_delay, r.max_delay):>20}{_pair(r.mean_age, r.max_age):>19}"
+        )
+    if summary.lambda2_min is not None and summary.lambda2_mean is not None:
+        lines.append(
+            f"delivered-graph lambda_2 over {summary.windows} windows: min {summary.lambda2_min:.3f}, "
+            f"mean {summary.lambda2_mean:.3f} (0 = disconnected)"
+        )
+    return "\n".join(lines)
+
+
+def _pair(a: float | None, b: float | None) -> str:
+    return "-" if a is None or b is None else f"{a:.2f} / {b:.2f}"
