@@ -8,6 +8,7 @@ and the per-packet link events. On the final tick it flushes the channel and rep
 from __future__ import annotations
 
 import logging
+from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -48,6 +49,7 @@ class _Books:
     sent: dict[tuple[int, int], Transmission] = field(default_factory=dict)
     published: int = 0
     malformed: int = 0
+    bad_tx: Counter[int] = field(default_factory=Counter)  # malformed transmissions per vehicle, not yet accounted
 
 
 class Broker:
@@ -76,6 +78,8 @@ class Broker:
                 self.books.sent[(tx.sender, tx.seq)] = tx
         except ValueError as exc:
             self.books.malformed += 1
+            if owned is not None and owned[1] == "tx":
+                self.books.bad_tx[owned[0]] += 1  # the step that announced it must not wait for it
             log.warning("comms: dropped a malformed message on %s: %s", key, exc)
 
     def advance(self) -> bool:
@@ -94,11 +98,24 @@ class Broker:
         states = self.books.states.get(k - 1, {})
         if any(v not in states for v in self.vehicles):
             return False
-        return all(r.tx_seq == 0 or (v, r.tx_seq) in self.books.sent for v, r in states.items())
+        return all(r.tx_seq == 0 or (v, r.tx_seq) in self.books.sent or self.books.bad_tx[v] for v, r in states.items())
+
+    def _announced(self, states: dict[int, StateReport]) -> list[Transmission]:
+        """The step's transmissions; one that arrived malformed is written off instead."""
+        sent = []
+        for v, r in states.items():
+            if not r.tx_seq:
+                continue
+            tx = self.books.sent.pop((v, r.tx_seq), None)
+            if tx is not None:
+                sent.append(tx)
+            else:
+                self.books.bad_tx[v] -= 1
+        return sent
 
     def _handle(self, tick: Tick) -> None:
         states = self.books.states.pop(tick.k - 1, {})
-        sent = [self.books.sent.pop((v, r.tx_seq)) for v, r in states.items() if r.tx_seq]
+        sent = self._announced(states)
         where: dict[int, Kinematics] = {v: r.kinematics for v, r in states.items()}
         events = self.core.submit(sent, where)
         if tick.final:

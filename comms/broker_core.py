@@ -23,7 +23,7 @@ class BrokerCore:
     channel: Channel
     neighbours: dict[int, list[int]]  # the current graph: who hears whom
     stats: LinkStats
-    _next_snapshot: float = 0.0
+    _next_snapshot: float | None = None  # the first snapshot after one full window
 
     def submit(self, transmissions: Iterable[Transmission], kinematics: Mapping[int, Kinematics]) -> list[LinkEvent]:
         """Put one step's transmissions in the water; kinematics: every vehicle's, at the transmission time."""
@@ -54,6 +54,8 @@ class BrokerCore:
 
     def snapshot_due(self, t: float, final: bool = False) -> Message | None:
         """The link statistics, once per window and at the end."""
+        if self._next_snapshot is None:
+            self._next_snapshot = self.stats.window
         if not final and t + 1e-9 < self._next_snapshot:
             return None
         self._next_snapshot = t + self.stats.window

@@ -36,6 +36,8 @@ COMMS_ALIVE = f"{ALIVE_PREFIX}/comms"
 
 Message = dict[str, Any]
 MAX_SPEED = 100.0  # m/s: far above any AUV, far below the speed of sound
+MAX_FLOAT32 = 3.4e38  # what the frame's float32 fields hold
+MAX_TIME = (2**32 - 1) / 1000.0  # s: the frame's u32 millisecond time stamp
 
 
 def state_key(vehicle_id: int) -> str:
@@ -202,17 +204,28 @@ def _velocity(message: Message, name: str) -> tuple[float, float, float]:
     return value
 
 
+def _carried(message: Message, name: str, low: float, high: float) -> float:
+    """A number the 15-byte modem frame can carry (comms.wire): anything else could not be sent."""
+    value = _number(message, name)
+    if not low <= value <= high:
+        raise ValueError(f"field {name!r} is outside what the modem frame carries [{low:g}, {high:g}]")
+    return value
+
+
 def parse_tx(message: Message, key_vehicle: int) -> Transmission:
-    """A transmission, checked; its sender must own the key it came on."""
+    """A transmission, checked; its sender must own the key it came on, and the frame must be able to carry it."""
     sender = _get(message, "sender", int)
     if sender != key_vehicle:
         raise ValueError(f"sender {sender} published on vehicle {key_vehicle}'s key")
+    seq = _get(message, "seq", int)
+    if seq < 0:
+        raise ValueError("field 'seq' is negative")
     return Transmission(
         sender,
-        _get(message, "seq", int),
-        _number(message, "t"),
-        _number(message, "gamma"),
-        _number(message, "gamma_dot"),
+        seq,
+        _carried(message, "t", 0.0, MAX_TIME),
+        _carried(message, "gamma", -MAX_FLOAT32, MAX_FLOAT32),
+        _carried(message, "gamma_dot", -MAX_FLOAT32, MAX_FLOAT32),
         _vector3(message, "position"),
         _velocity(message, "velocity"),
     )

@@ -143,6 +143,9 @@ def _check_comms(sc: Scenario) -> None:
         if (link.sender, link.receiver) not in edges:
             raise ScenarioError(f"comms.links[{index}]: not a link of the graph, got {link.sender} -> {link.receiver}")
     tdma = sc.comms.tdma
+    slots = tdma.slot / sc.scenario.step if tdma is not None else 1.0
+    if tdma is not None and (slots < 1 - 1e-9 or abs(slots - round(slots)) > 1e-6):
+        raise ScenarioError(f"comms.tdma.slot: must be a whole number of steps ({sc.scenario.step} s), got {tdma.slot}")
     if tdma is not None and tdma.order is not None and sorted(tdma.order) != sorted(ids):
         raise ScenarioError(f"comms.tdma.order: must list every vehicle once {sorted(ids)}, got {list(tdma.order)}")
     radio = modem_params(sc)

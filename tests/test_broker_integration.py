@@ -13,20 +13,24 @@ import time
 from collections.abc import Iterator
 from pathlib import Path
 
+import numpy as np
 import pytest
 import zenoh
 
+from comms.broker import Broker
 from comms.bus import Publishers, free_port, open_session
 from comms.messages import (
     COMMS_ALIVE,
     COMMS_DONE_KEY,
     COMMS_EVENT_KEY,
+    COMMS_STATS_KEY,
     ROOT,
     STOP_KEY,
     SUPERVISOR_ALIVE,
     TICK_KEY,
     Message,
     decode,
+    encode,
     rx_key,
     state_key,
     state_message,
@@ -34,6 +38,8 @@ from comms.messages import (
     tx_key,
     tx_message,
 )
+from supervisor.fleet import broker_core
+from supervisor.scenario import load_scenario
 from tests.test_messages import assert_valid, first_step
 
 pytestmark = pytest.mark.integration
@@ -164,8 +170,12 @@ def test_broker_relays_to_graph_neighbours_and_survives_malformed_messages(tmp_p
                 assert_valid(batch, rx_key(vid))
                 assert (batch["k"], batch["t"], batch["vehicle"]) == (1, 0.1, vid)
                 for r in batch["receptions"]:
-                    assert (r["seq"], r["stamp"], r["gamma"]) == (1, 0.0, sent[r["sender"]]["gamma"])
-                    assert r["gamma_dot"] == sent[r["sender"]]["gamma_dot"]
+                    # the modem carries gamma and gamma_dot as float32: receivers get the rounded values
+                    told = sent[r["sender"]]
+                    assert (r["seq"], r["stamp"]) == (1, 0.0)
+                    assert r["gamma"] == float(np.float32(told["gamma"])) != told["gamma"]
+                    assert r["gamma_dot"] == float(np.float32(told["gamma_dot"]))
+                    assert abs(r["gamma"] - told["gamma"]) <= 2**-24 * abs(told["gamma"])
                     assert 0.0 < r["arrival"] < 0.1  # some 11 ms of flight over 16-17 m
                     arrivals[(r["sender"], vid)] = r["arrival"]
             events = [listener.next(COMMS_EVENT_KEY) for _ in range(8)]
@@ -198,6 +208,16 @@ def test_broker_relays_to_graph_neighbours_and_survives_malformed_messages(tmp_p
             assert_valid(done, COMMS_DONE_KEY)
             assert done == {"t": 0.3, "k": 3, "events": 8, "malformed": 3}
             assert listener.pending(COMMS_EVENT_KEY) == 0  # nothing was left in flight
+            # link statistics: only the final snapshot (a run shorter than one window), books balanced
+            stats = listener.next(COMMS_STATS_KEY)
+            assert_valid(stats, COMMS_STATS_KEY)
+            assert (stats["t"], stats["window"]) == (0.3, 10.0) and listener.pending(COMMS_STATS_KEY) == 0
+            books = {(b["sender"], b["receiver"]): b for b in stats["links"]}
+            assert set(books) == links
+            for link, book in books.items():
+                assert (book["sent"], book["delivered"], book["dropped"]) == (1, 1, {}), link
+                assert book["mean_delay"] == book["max_delay"] == pytest.approx(arrivals[link])
+            assert stats["lambda2"] == pytest.approx(1.0)  # the path graph 2 - 1 - 3, every link delivered
             assert all(listener.pending(rx_key(vid)) == 0 for vid in IDS)  # no batches for the final tick
 
             pubs.put(STOP_KEY, {"t": 0.3, "reason": "end of test"})
@@ -214,3 +234,34 @@ def test_broker_exits_by_itself_when_the_supervisor_disappears(tmp_path):
             session.close()
             assert exit_code(proc, log) == 0
     assert "supervisor gone" in log.read_text()
+
+
+class RecordingPublishers(Publishers):
+    """What the broker would publish, kept in a list (no Zenoh session)."""
+
+    def __init__(self) -> None:
+        self.messages: list[tuple[str, Message]] = []
+
+    def put(self, key: str, message: Message) -> None:
+        self.messages.append((key, message))
+
+
+def test_broker_survives_a_transmission_its_wire_frame_cannot_carry():
+    scenario = load_scenario(REPO / "configs" / "paper.toml")
+    pubs = RecordingPublishers()
+    broker = Broker(broker_core(scenario, 1), IDS, pubs)
+    fleet = {telemetry.vehicle_id: (telemetry, model, sent) for telemetry, model, sent in first_step()}
+    broker.take(TICK_KEY, encode(tick_message(0, 0.0, False, {})))
+    assert broker.advance() is False
+    for vid, (telemetry, model, sent) in fleet.items():
+        told = tx_message(sent) | ({"gamma": 1e39} if vid == 2 else {})
+        broker.take(tx_key(vid), encode(told))
+        broker.take(state_key(vid), encode(state_message(telemetry, model, 0, sent.seq)))
+    broker.take(TICK_KEY, encode(tick_message(1, 0.1, False, {})))
+    broker.advance()
+    assert broker.books.malformed == 1
+    assert broker.next_k == 2  # step 1 was handled: it did not wait for the packet that could not be carried
+    batches = [m for key, m in pubs.messages if key.endswith("/rx") and m["k"] == 1]
+    assert len(batches) == 3
+    heard_by_1 = {r["sender"] for m in batches if m["vehicle"] == 1 for r in m["receptions"]}
+    assert heard_by_1 == {3}  # 3's packet went through; 2's was dropped as malformed

@@ -17,7 +17,10 @@ from hypothesis import strategies as st
 from comms.acoustics import airtime, time_of_flight
 from comms.broker_core import BrokerCore
 from comms.channel import ARRIVAL_SLACK, Channel, ChannelParams, Kinematics, LinkEvent, Reception
-from comms.messages import coordination_payload_size
+from comms.loss import Bernoulli
+from comms.modem import ModemParams
+from comms.stats import LinkStats
+from comms.wire import SIZE, encode_coordination
 from supervisor.errors import ScenarioError
 from supervisor.scenario import parse_scenario
 from vehicles.geometry import FloatArray
@@ -51,6 +54,11 @@ def at(x: float, y: float = 0.0, z: float = 0.0, velocity: tuple[float, float, f
 def residual(sender: FloatArray, receiver: FloatArray, velocity: FloatArray, c: float, tau: float) -> float:
     """|p_rx + v tau - p_tx| - c tau: zero for the true time of flight."""
     return float(np.linalg.norm(receiver + velocity * tau - sender)) - c * tau
+
+
+def send(channel: Channel, message: Transmission, size: int, receivers: Mapping[int, Kinematics]) -> list[LinkEvent]:
+    """Transmit to exactly these receivers, the only other vehicles in the water."""
+    return channel.transmit(message, size, set(receivers), receivers)
 
 
 def link_balance(events: Iterable[LinkEvent]) -> dict[tuple[int, int], Counter[str]]:
@@ -145,9 +153,9 @@ def test_airtime_without_a_bitrate_is_zero():
 
 
 def test_lossless_channel_delivers_every_link_at_airtime_plus_flight():
-    channel = Channel(ChannelParams(sound_speed=C, bitrate=80.0), seed=3)
+    channel = Channel(ChannelParams(sound_speed=C, modem=ModemParams(bitrate=80.0)), seed=3)
     receivers = {2: at(1500.0), 3: at(0.0, 3000.0)}  # 1 s and 2 s of flight
-    sent = channel.transmit(tx(1, seq=7, t=10.0), 20, receivers)  # 20 bytes at 80 bit/s: 2 s on air
+    sent = send(channel, tx(1, seq=7, t=10.0), 20, receivers)  # 20 bytes at 80 bit/s: 2 s on air
 
     assert sent == [LinkEvent(10.0, 1, 2, 7, "sent"), LinkEvent(10.0, 1, 3, 7, "sent")]
     assert channel.deliver(12.999) == ([], [])
@@ -162,11 +170,21 @@ def test_lossless_channel_delivers_every_link_at_airtime_plus_flight():
     assert channel.flush(1e9) == []
 
 
+def test_only_the_receivers_given_are_offered_the_packet():
+    channel = Channel(ChannelParams(sound_speed=C), seed=0)
+    everyone = {1: at(0.0), 2: at(1500.0), 3: at(0.0, 3000.0), 4: at(10.0)}
+    sent = channel.transmit(tx(1, seq=2), 16, {3}, everyone)  # 2 and 4 are in the water, not neighbours
+    assert sent == [LinkEvent(0.0, 1, 3, 2, "sent")]
+    got, events = channel.deliver(1e9)
+    assert [(r.sender, r.receiver) for r in got] == [(1, 3)]
+    assert [(e.kind, e.receiver) for e in events] == [("delivered", 3)]
+
+
 def test_arrival_uses_the_sender_position_and_the_moving_receiver():
     channel = Channel(ChannelParams(sound_speed=C), seed=0)
     sender_at = (100.0, 200.0, -10.0)
     receiver = at(900.0, -400.0, 30.0, velocity=(1.5, 0.5, -0.2))
-    channel.transmit(tx(4, t=2.0, position=sender_at, velocity=(9.0, 9.0, 9.0)), 16, {5: receiver})
+    send(channel, tx(4, t=2.0, position=sender_at, velocity=(9.0, 9.0, 9.0)), 16, {5: receiver})
     (got,), _ = channel.deliver(10.0)
     expected = 2.0 + time_of_flight(vec(*sender_at), receiver.position, receiver.velocity, C)
     assert got.arrival == pytest.approx(expected, rel=1e-15)
@@ -179,7 +197,7 @@ def test_jitter_adds_a_delay_within_its_bounds():
     channel = Channel(ChannelParams(sound_speed=C, jitter=jitter), seed=11)
     n = 2000
     for seq in range(1, n + 1):
-        channel.transmit(tx(1, seq=seq, t=float(seq)), 16, {2: at(1500.0)})
+        send(channel, tx(1, seq=seq, t=float(seq)), 16, {2: at(1500.0)})
     got, events = channel.deliver(float(n + 10))
     extra = np.array([r.arrival - r.stamp - 1.0 for r in got])
     assert len(got) == n
@@ -192,10 +210,10 @@ def test_jitter_adds_a_delay_within_its_bounds():
 def test_deliver_returns_only_what_has_arrived_in_arrival_order():
     channel = Channel(ChannelParams(sound_speed=C), seed=0)
     # three senders at different distances from receiver 9, transmitting at different times
-    channel.transmit(tx(1, t=0.0, position=(3000.0, 0.0, 0.0)), 16, {9: at(0.0)})  # arrives 2.0
-    channel.transmit(tx(2, t=0.5, position=(0.0, 750.0, 0.0)), 16, {9: at(0.0)})  # arrives 1.0
-    channel.transmit(tx(3, t=1.0, position=(0.0, 0.0, 750.0)), 16, {9: at(0.0)})  # arrives 1.5
-    channel.transmit(tx(4, t=0.0, position=(150.0, 0.0, 0.0)), 16, {9: at(0.0)})  # arrives 0.1
+    send(channel, tx(1, t=0.0, position=(3000.0, 0.0, 0.0)), 16, {9: at(0.0)})  # arrives 2.0
+    send(channel, tx(2, t=0.5, position=(0.0, 750.0, 0.0)), 16, {9: at(0.0)})  # arrives 1.0
+    send(channel, tx(3, t=1.0, position=(0.0, 0.0, 750.0)), 16, {9: at(0.0)})  # arrives 1.5
+    send(channel, tx(4, t=0.0, position=(150.0, 0.0, 0.0)), 16, {9: at(0.0)})  # arrives 0.1
 
     first, _ = channel.deliver(0.05)
     assert first == []
@@ -209,8 +227,8 @@ def test_deliver_returns_only_what_has_arrived_in_arrival_order():
 
 def test_an_arrival_at_the_sync_instant_counts_up_to_the_rounding_slack():
     channel = Channel(ChannelParams(sound_speed=C), seed=0)
-    channel.transmit(tx(1, t=0.0, position=(150.0, 0.0, 0.0)), 16, {2: at(0.0)})  # arrival 0.1 (rounded)
-    channel.transmit(tx(3, t=0.0, position=(150.0 + 1e-3, 0.0, 0.0)), 16, {2: at(0.0)})  # 0.1 + 6.7e-7 s
+    send(channel, tx(1, t=0.0, position=(150.0, 0.0, 0.0)), 16, {2: at(0.0)})  # arrival 0.1 (rounded)
+    send(channel, tx(3, t=0.0, position=(150.0 + 1e-3, 0.0, 0.0)), 16, {2: at(0.0)})  # 0.1 + 6.7e-7 s
     got, _ = channel.deliver(0.1)
     assert [r.sender for r in got] == [1]
     got, _ = channel.deliver(0.1 + 1e-6)
@@ -218,21 +236,21 @@ def test_an_arrival_at_the_sync_instant_counts_up_to_the_rounding_slack():
 
 
 def test_packet_bytes_overrides_the_size_for_airtime():
-    fixed = Channel(ChannelParams(sound_speed=C, bitrate=80.0, packet_bytes=32), seed=0)
-    encoded = Channel(ChannelParams(sound_speed=C, bitrate=80.0), seed=0)
-    for size in (10, 1000):
-        fixed.transmit(tx(1, t=0.0), size, {2: at(1500.0)})
-        encoded.transmit(tx(1, t=0.0), size, {2: at(1500.0)})
+    fixed = Channel(ChannelParams(sound_speed=C, modem=ModemParams(bitrate=80.0), packet_bytes=32), seed=0)
+    encoded = Channel(ChannelParams(sound_speed=C, modem=ModemParams(bitrate=80.0)), seed=0)
+    for seq, size in enumerate((10, 1000), start=1):
+        send(fixed, tx(1, seq=seq, t=0.0), size, {2: at(1500.0)})
+        send(encoded, tx(1, seq=seq, t=0.0), size, {2: at(1500.0)})
     assert [r.arrival for r in fixed.deliver(1e6)[0]] == pytest.approx([1.0 + 3.2, 1.0 + 3.2])
     assert [r.arrival for r in encoded.deliver(1e6)[0]] == pytest.approx([1.0 + 1.0, 1.0 + 100.0])
 
 
 def test_bernoulli_loss_rate_is_the_configured_one():
     p, n = 0.2, 4000
-    channel = Channel(ChannelParams(sound_speed=C, loss=p), seed=5)
+    channel = Channel(ChannelParams(sound_speed=C, loss=Bernoulli(p)), seed=5)
     events: list[LinkEvent] = []
     for seq in range(1, n + 1):
-        events += channel.transmit(tx(1, seq=seq, t=float(seq)), 16, {2: at(100.0), 3: at(0.0, 100.0)})
+        events += send(channel, tx(1, seq=seq, t=float(seq)), 16, {2: at(100.0), 3: at(0.0, 100.0)})
     drops = [e for e in events if e.kind == "dropped"]
     links = 2 * n
     assert sum(e.kind == "sent" for e in events) == links
@@ -247,39 +265,59 @@ def test_bernoulli_loss_rate_is_the_configured_one():
 
 @pytest.mark.parametrize(("loss", "dropped"), [(0.0, 0), (1.0, 300)])
 def test_no_loss_drops_nothing_and_certain_loss_drops_everything(loss, dropped):
-    channel = Channel(ChannelParams(sound_speed=C, loss=loss), seed=2)
+    channel = Channel(ChannelParams(sound_speed=C, loss=Bernoulli(loss)), seed=2)
     events: list[LinkEvent] = []
     for seq in range(1, 101):
-        events += channel.transmit(tx(1, seq=seq), 16, {2: at(10.0), 3: at(20.0), 4: at(30.0)})
+        events += send(channel, tx(1, seq=seq), 16, {2: at(10.0), 3: at(20.0), 4: at(30.0)})
     assert sum(e.kind == "dropped" for e in events) == dropped
     assert len(channel.deliver(1e9)[0]) == 300 - dropped
 
 
-def scripted_run(seed: int, params: ChannelParams, order: Sequence[int] = (1, 2, 3, 4)) -> list[object]:
-    """Every event and reception of a small fleet transmitting every step, then the end of the run.
+FLEET4 = {1: (0.0, 0.0, 0.0), 2: (300.0, 0.0, 0.0), 3: (0.0, 450.0, 0.0), 4: (200.0, 200.0, -50.0)}
 
-    `order`: the order in which each sender's receivers are put in the mapping given to the channel.
+
+def scripted_run(
+    seed: int, params: ChannelParams, order: Sequence[int] = (1, 2, 3, 4), round_robin: bool = False
+) -> list[object]:
+    """Every event and reception of a small, fully connected fleet, then the end of the run.
+
+    Every vehicle transmits every step, or (round_robin) one vehicle per step in turn. `order`: the order in which
+    the vehicles are put in the mappings (and sets) given to the channel.
     """
     channel = Channel(params, seed)
-    fleet = {1: (0.0, 0.0, 0.0), 2: (300.0, 0.0, 0.0), 3: (0.0, 450.0, 0.0), 4: (200.0, 200.0, -50.0)}
     log: list[object] = []
     dt = 0.1
     for k in range(60):
         t = k * dt
+        everyone = {j: at(*FLEET4[j], velocity=(1.0, 0.5, 0.0)) for j in order}
         for sender in (1, 2, 3, 4):
-            receivers = {j: at(*fleet[j], velocity=(1.0, 0.5, 0.0)) for j in order if j != sender}
-            log += channel.transmit(tx(sender, seq=k + 1, t=t, position=fleet[sender], gamma=t), 24, receivers)
+            if round_robin and k % 4 != sender - 1:
+                continue
+            receivers = {j for j in order if j != sender}
+            message = tx(sender, seq=k + 1, t=t, position=FLEET4[sender], gamma=t)
+            log += channel.transmit(message, 24, receivers, everyone)
         got, events = channel.deliver(t + dt)
         log += [*got, *events]
     log += channel.flush(60 * dt)
     return log
 
 
-LOSSY = ChannelParams(sound_speed=C, bitrate=400.0, jitter=0.2, loss=0.3)
+LOSSY = ChannelParams(sound_speed=C, modem=ModemParams(bitrate=400.0), jitter=0.2, loss=Bernoulli(0.3))
+# A half-duplex modem that loses overlapping packets: 24 bytes are 0.096 s on air, jitter up to 0.2 s.
+CROWDED = ChannelParams(
+    sound_speed=C,
+    modem=ModemParams(bitrate=2000.0, half_duplex=True, collisions=True),
+    jitter=0.2,
+    loss=Bernoulli(0.3),
+)
+RUNS = [pytest.param(LOSSY, False, id="lossy"), pytest.param(CROWDED, True, id="crowded")]
 
 
-def test_same_seed_gives_the_same_events():
-    assert scripted_run(42, LOSSY) == scripted_run(42, LOSSY)
+@pytest.mark.parametrize(("params", "round_robin"), RUNS)
+def test_same_seed_gives_the_same_events(params, round_robin):
+    first = scripted_run(42, params, round_robin=round_robin)
+    assert first == scripted_run(42, params, round_robin=round_robin)
+    assert len(first) > 100
 
 
 def test_different_seeds_give_different_drops():
@@ -294,9 +332,11 @@ def test_different_seeds_give_different_drops():
     assert a and b and a != b
 
 
-def test_results_do_not_depend_on_the_order_receivers_are_given_in():
-    assert scripted_run(7, LOSSY, order=(1, 2, 3, 4)) == scripted_run(7, LOSSY, order=(4, 3, 2, 1))
-    assert scripted_run(7, LOSSY, order=(1, 2, 3, 4)) == scripted_run(7, LOSSY, order=(3, 1, 4, 2))
+@pytest.mark.parametrize(("params", "round_robin"), RUNS)
+def test_results_do_not_depend_on_the_order_receivers_are_given_in(params, round_robin):
+    reference = scripted_run(7, params, order=(1, 2, 3, 4), round_robin=round_robin)
+    assert reference == scripted_run(7, params, order=(4, 3, 2, 1), round_robin=round_robin)
+    assert reference == scripted_run(7, params, order=(3, 1, 4, 2), round_robin=round_robin)
 
 
 def test_a_link_does_not_depend_on_which_other_links_exist():
@@ -304,7 +344,7 @@ def test_a_link_does_not_depend_on_which_other_links_exist():
         channel = Channel(LOSSY, seed=9)
         log: list[object] = []
         for seq in range(1, 200):
-            log += [e for e in channel.transmit(tx(1, seq=seq, t=seq * 0.1), 24, receivers) if e.receiver == 2]
+            log += [e for e in send(channel, tx(1, seq=seq, t=seq * 0.1), 24, receivers) if e.receiver == 2]
         got, events = channel.deliver(1e6)
         return [*log, *(r for r in got if r.receiver == 2), *(e for e in events if e.receiver == 2)]
 
@@ -313,11 +353,42 @@ def test_a_link_does_not_depend_on_which_other_links_exist():
     assert alone == link_1_to_2({5: at(1.0), 2: at(300.0)})
 
 
-def test_every_link_balances_after_the_run_ends():
-    log = scripted_run(3, LOSSY)
+def test_with_collisions_a_link_depends_on_who_is_in_the_water_not_on_who_is_a_receiver():
+    """Interference comes from transmissions, not from links: making 3 a receiver changes nothing on 1 -> 2."""
+    everyone = {1: at(0.0), 2: at(300.0), 3: at(0.0, 450.0)}
+
+    def run(receivers: set[int]) -> list[object]:
+        channel = Channel(CROWDED, seed=9)
+        log: list[object] = []
+        for k in range(300):
+            t = k * 0.1
+            if k % 10 == 0:
+                log += [e for e in channel.transmit(tx(1, seq=k + 1, t=t), 24, receivers, everyone) if e.receiver == 2]
+            if k % 23 == 0:  # 3 is heard by 2 (so its packets can collide there) but offers nothing to anyone
+                channel.transmit(tx(3, seq=k + 1, t=t, position=(0.0, 450.0, 0.0)), 24, set(), everyone)
+            got, events = channel.deliver(t + 0.1)
+            log += [*(r for r in got if r.receiver == 2), *(e for e in events if e.receiver == 2)]
+        return log
+
+    alone = run({2})
+    assert alone == run({2, 3})
+    reasons = Counter(e.reason for e in alone if isinstance(e, LinkEvent) and e.kind == "dropped")
+    assert reasons["collision"] > 0  # 3's packets do spoil some of 1's at 2
+    assert sum(isinstance(e, Reception) for e in alone) > 0
+
+
+@pytest.mark.parametrize(
+    ("params", "round_robin", "reasons"),
+    [
+        pytest.param(LOSSY, False, {"loss", "end_of_run"}, id="lossy"),
+        pytest.param(CROWDED, True, {"loss", "half_duplex", "collision", "end_of_run"}, id="crowded"),
+    ],
+)
+def test_every_link_balances_after_the_run_ends(params, round_robin, reasons):
+    log = scripted_run(3, params, round_robin=round_robin)
     events = [e for e in log if isinstance(e, LinkEvent)]
-    reasons = Counter(e.reason for e in events if e.kind == "dropped")
-    assert set(reasons) == {"loss", "end_of_run"}  # the test exercises both ways of dropping
+    found = Counter(e.reason for e in events if e.kind == "dropped")
+    assert set(found) == reasons  # the test exercises every way of dropping
     books = link_balance(events)
     assert len(books) == 12  # every directed link of 4 fully connected vehicles
     for link, kinds in books.items():
@@ -327,8 +398,8 @@ def test_every_link_balances_after_the_run_ends():
 
 
 def test_flush_drops_what_is_in_flight_and_empties_the_channel():
-    channel = Channel(ChannelParams(sound_speed=C, bitrate=8.0), seed=0)  # 16 s on air per 16 bytes
-    channel.transmit(tx(1, seq=3, t=1.0), 16, {2: at(10.0), 3: at(20.0)})
+    channel = Channel(ChannelParams(sound_speed=C, modem=ModemParams(bitrate=8.0)), seed=0)  # 16 s per 16 bytes
+    send(channel, tx(1, seq=3, t=1.0), 16, {2: at(10.0), 3: at(20.0)})
     assert channel.deliver(5.0) == ([], [])
     dropped = channel.flush(5.0)
     assert [(e.kind, e.reason, e.t, e.sender, e.receiver, e.seq) for e in dropped] == [
@@ -364,7 +435,8 @@ LOSSLESS = ChannelParams()
 
 
 def broker(params: ChannelParams = LOSSLESS, seed: int = 0) -> BrokerCore:
-    return BrokerCore(Channel(params, seed), {i: list(js) for i, js in GRAPH.items()})
+    stats = LinkStats(sorted(GRAPH), window=10.0)
+    return BrokerCore(Channel(params, seed), {i: list(js) for i, js in GRAPH.items()}, stats)
 
 
 def step_transmissions(t: float = 0.0, seq: int = 1) -> list[Transmission]:
@@ -410,7 +482,7 @@ def test_vehicles_without_kinematics_are_skipped():
 
 
 def test_transmissions_are_processed_in_sender_order_whatever_the_input_order():
-    params = ChannelParams(jitter=0.05, loss=0.4)
+    params = ChannelParams(jitter=0.05, loss=Bernoulli(0.4))
     forward, backward = broker(params, seed=4), broker(params, seed=4)
     log_f: list[object] = []
     log_b: list[object] = []
@@ -423,20 +495,32 @@ def test_transmissions_are_processed_in_sender_order_whatever_the_input_order():
         log_f.append(forward.deliver(k * 0.1 + 0.1, [1, 2, 3]))
         log_b.append(backward.deliver(k * 0.1 + 0.1, [1, 2, 3]))
     assert log_f == log_b
+    assert forward.stats.snapshot(3.0) == backward.stats.snapshot(3.0)
 
 
-def test_the_channel_is_sized_by_the_coordination_payload():
-    core = broker(ChannelParams(bitrate=80.0))
+def test_the_channel_is_sized_by_the_wire_frame():
+    core = broker(ChannelParams(modem=ModemParams(bitrate=80.0)))
     message = step_transmissions()[1]
+    assert SIZE == len(encode_coordination(message)) == 15
     core.submit([message], FLEET)
     (got,) = core.deliver(1e6, [1, 2, 3])[0][1]
-    expected = airtime(coordination_payload_size(message), 80.0) + 300.0 / 1500.0
-    assert coordination_payload_size(message) > 0
+    expected = 8.0 * 15 / 80.0 + 300.0 / 1500.0  # 1.5 s on air + 0.2 s of flight
     assert got.arrival == pytest.approx(expected, rel=1e-12)
 
 
+def test_receptions_carry_the_float32_values_of_the_wire_frame():
+    core = broker()
+    message = tx(2, seq=5, t=0.0, position=WHERE[2], gamma=0.1, gamma_dot=1.0 / 3.0)
+    core.submit([message], FLEET)
+    (got,) = core.deliver(1.0, [1, 2, 3])[0][1]
+    assert got.gamma == float(np.float32(0.1)) and got.gamma != 0.1
+    assert got.gamma_dot == float(np.float32(1.0 / 3.0)) and got.gamma_dot != 1.0 / 3.0
+    assert (got.sender, got.seq, got.stamp) == (2, 5, 0.0)
+    assert message.gamma == 0.1  # what the vehicle sent is left alone
+
+
 def test_broker_counts_add_up():
-    core = broker(ChannelParams(bitrate=2000.0, jitter=0.3, loss=0.25), seed=8)
+    core = broker(ChannelParams(modem=ModemParams(bitrate=2000.0), jitter=0.3, loss=Bernoulli(0.25)), seed=8)
     seen: list[LinkEvent] = []
     for k in range(40):
         seen += core.submit(step_transmissions(t=k * 0.1, seq=k + 1), FLEET)
@@ -447,4 +531,14 @@ def test_broker_counts_add_up():
     assert core.counts["sent"] == core.counts["delivered"] + core.counts["dropped"]
     for link, kinds in link_balance(seen).items():
         assert kinds["sent"] == 40 and kinds["sent"] == kinds["delivered"] + kinds["dropped"], link
+        book = core.stats.books[link]
+        assert (book.sent, book.delivered, sum(book.dropped.values())) == (40, kinds["delivered"], kinds["dropped"])
     assert core.finish(5.0) == [] and core.counts["sent"] == 160
+
+
+def test_snapshots_come_once_per_window_and_at_the_end():
+    core = broker()
+    due = [t for t in (k * 0.5 for k in range(50)) if core.snapshot_due(t) is not None]
+    assert due == [10.0, 20.0]  # the first after one full window
+    final = core.snapshot_due(24.6, final=True)
+    assert final is not None and final["t"] == 24.6 and final["window"] == 10.0

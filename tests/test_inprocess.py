@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import io
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
@@ -96,7 +97,9 @@ def test_inline_formation_converges_from_scattered_starts(tmp_path):
 
 def test_paper_scenario_converges_with_20_percent_loss_and_one_second_airtime(tmp_path, paper_text):
     lossy = paper_text.replace(
-        "[[faults]]", "[comms]\nloss = 0.2\npacket_bytes = 32\nbitrate = 256.0\ntx_period = 1.0\n\n[[faults]]", 1
+        "[[faults]]",
+        "[comms]\nloss = 0.2\npacket_bytes = 32\nbitrate = 256.0\n\n[comms.transmit]\nperiod = 1.0\n\n[[faults]]",
+        1,
     )
     result, summary = run_text(lossy, tmp_path / "lossy.mcap")
     counts = result.link_counts
@@ -105,3 +108,73 @@ def test_paper_scenario_converges_with_20_percent_loss_and_one_second_airtime(tm
     assert summary.sync_time is not None and summary.sync_time < 150.0
     assert summary.phases[1].max_coordination_error < 10.0
     assert summary.resync_time is not None and summary.resync_time < 350.0
+
+
+def steady_error(result: RunResult, start: float, end: float) -> float:
+    """max_{i,j} |gamma_i - gamma_j| over [start, end)."""
+    series = result.series
+    window = (series.t >= start) & (series.t < end)
+    return float(np.ptp(series.gamma[window], axis=1).max())
+
+
+def transmissions(path: Path) -> int:
+    return sum(1 for topic, _, _ in read_messages(path) if topic.endswith("/tx"))
+
+
+def test_event_triggered_policy_matches_periodic_with_far_fewer_packets(tmp_path, paper_text):
+    """Periodic every 1 s against event-triggered (h = 0.01, at most one message a second): the coordination
+    errors stay within 0.01 of the periodic ones in every phase, with at least 50 % fewer packets."""
+    periodic_text = paper_text.replace("[[faults]]", "[comms.transmit]\nperiod = 1.0\n\n[[faults]]", 1)
+    event_text = paper_text.replace(
+        "[[faults]]", "[comms.transmit]\npolicy = 'event'\nthreshold = 0.01\nmin_interval = 1.0\n\n[[faults]]", 1
+    )
+    periodic, p_summary = run_text(periodic_text, tmp_path / "periodic.mcap")
+    event, e_summary = run_text(event_text, tmp_path / "event.mcap")
+    sent_periodic, sent_event = transmissions(tmp_path / "periodic.mcap"), transmissions(tmp_path / "event.mcap")
+    assert sent_periodic == 1200
+    assert sent_event <= 0.5 * sent_periodic
+    for p_phase, e_phase in zip(p_summary.phases, e_summary.phases, strict=True):
+        assert abs(e_phase.max_coordination_error - p_phase.max_coordination_error) <= 0.01
+    for start, end in ((120.0, 150.0), (200.0, 250.0), (320.0, 400.0)):
+        assert steady_error(event, start, end) <= steady_error(periodic, start, end) + 0.01
+    assert e_summary.sync_time is not None and e_summary.sync_time < 150.0
+    assert e_summary.resync_time is not None and e_summary.resync_time < 350.0
+
+
+def acoustic_text(tdma: bool) -> str:
+    text = (CONFIGS / "paper_acoustic.toml").read_text()
+    return text if tdma else text.replace("[comms.tdma]\nslot = 4.0", "")
+
+
+def test_every_link_balances_with_every_cause_on_a_crowded_channel(tmp_path):
+    """Random access with 3.2 s packets: losses of every kind; the event stream, the link statistics and the
+    books all agree, cause by cause."""
+    out = tmp_path / "crowded.mcap"
+    run_text(acoustic_text(tdma=False), out)
+    events: dict[tuple[int, int], Counter[str]] = {}
+    final = None
+    for topic, _, m in read_messages(out):
+        if topic == "cpf/comms/event":
+            events.setdefault((m["sender"], m["receiver"]), Counter())[m["reason"] or m["kind"]] += 1
+        elif topic == "cpf/comms/stats":
+            final = m
+    assert final is not None
+    causes = Counter[str]()
+    for link in final["links"]:
+        counted = events[(link["sender"], link["receiver"])]
+        assert counted["sent"] == link["sent"] == link["delivered"] + sum(link["dropped"].values())
+        assert counted["delivered"] == link["delivered"]
+        assert {cause: counted[cause] for cause in link["dropped"]} == link["dropped"]
+        causes.update(link["dropped"])
+    assert {"half_duplex", "collision", "burst", "end_of_run"} <= set(causes)
+
+
+def test_acoustic_paper_scenario_on_tdma_keeps_formation(tmp_path):
+    result, summary = run_text(acoustic_text(tdma=True), tmp_path / "tdma.mcap")
+    assert result.link_stats is not None
+    for link in result.link_stats["links"]:
+        assert "collision" not in link["dropped"] and "half_duplex" not in link["dropped"]
+        assert link["sent"] < 40  # event-triggered: a few dozen 3.2 s packets in 400 s
+    assert summary.phases[0].final_coordination_error < 0.05
+    assert summary.phases[2].final_coordination_error < 0.05
+    assert summary.max_path_error_after_transient <= summary.tube_radius

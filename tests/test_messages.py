@@ -15,10 +15,13 @@ import pytest
 from hypothesis import event, given, settings
 from hypothesis import strategies as st
 
+from comms.broker_core import BrokerCore
 from comms.channel import Channel, ChannelParams, Kinematics, LinkEvent, Reception
+from comms.loss import Bernoulli
 from comms.messages import (
     COMMS_DONE_KEY,
     COMMS_EVENT_KEY,
+    COMMS_STATS_KEY,
     FAULT_KEY,
     GRAPH_KEY,
     META_KEY,
@@ -26,7 +29,6 @@ from comms.messages import (
     TICK_KEY,
     Message,
     Tick,
-    coordination_payload_size,
     decode,
     encode,
     event_message,
@@ -43,8 +45,21 @@ from comms.messages import (
     tx_message,
     vehicle_of_key,
 )
-from comms.schemas import COMMS_DONE, LINK_EVENT, RECEPTIONS, STATE, STOP, TICK, TRANSMISSION, Schema, schema_for
-from supervisor.fleet import initial_state, transmit_policy, vehicle_config
+from comms.schemas import (
+    COMMS_DONE,
+    COMMS_STATS,
+    LINK_EVENT,
+    RECEPTIONS,
+    STATE,
+    STOP,
+    TICK,
+    TRANSMISSION,
+    Schema,
+    schema_for,
+)
+from comms.stats import LinkStats
+from comms.wire import SIZE, encode_coordination
+from supervisor.fleet import initial_state, radio, vehicle_config
 from supervisor.scenario import load_scenario
 from vehicles.agent import Disturbances, Telemetry
 from vehicles.dynamics import PLANAR, SPATIAL, Model
@@ -58,7 +73,18 @@ HAVE_JSONSCHEMA = importlib.util.find_spec("jsonschema") is not None
 
 # --- a validator for the subset of JSON-Schema that comms/schemas.py uses ---------------------------------------
 
-KEYWORDS = {"$schema", "title", "type", "required", "properties", "items", "minItems", "maxItems", "enum"}
+KEYWORDS = {
+    "$schema",
+    "title",
+    "type",
+    "required",
+    "properties",
+    "additionalProperties",
+    "items",
+    "minItems",
+    "maxItems",
+    "enum",
+}
 
 
 def _has_type(value: object, name: str) -> bool:
@@ -92,9 +118,16 @@ def schema_errors(value: object, schema: Schema, where: str = "$") -> list[str]:
         errors.append(f"{where}: {value!r} is not one of {schema['enum']}")
     if isinstance(value, dict):
         errors += [f"{where}: missing {name!r}" for name in schema.get("required", []) if name not in value]
-        for name, sub in schema.get("properties", {}).items():
+        properties = schema.get("properties", {})
+        for name, sub in properties.items():
             if name in value:
                 errors += schema_errors(value[name], sub, f"{where}.{name}")
+        extra = schema.get("additionalProperties", True)
+        for name in (n for n in value if n not in properties):
+            if extra is False:
+                errors.append(f"{where}: unexpected {name!r}")
+            elif isinstance(extra, dict):
+                errors += schema_errors(value[name], extra, f"{where}.{name}")
     if isinstance(value, list):
         if len(value) < schema.get("minItems", 0):
             errors.append(f"{where}: {len(value)} items, fewer than {schema['minItems']}")
@@ -131,9 +164,9 @@ def first_step(overrides: tuple[str, ...] = ()) -> list[tuple[Telemetry, Model, 
     for vid in scenario.vehicle_ids:
         cfg = vehicle_config(scenario, vid)
         node = NodeState(initial_state(scenario, cfg))
-        _, telemetry, sent = node_step(
+        _, result = node_step(
             cfg,
-            transmit_policy(scenario),
+            radio(scenario, vid),
             node,
             0.0,
             scenario.scenario.step,
@@ -141,8 +174,8 @@ def first_step(overrides: tuple[str, ...] = ()) -> list[tuple[Telemetry, Model, 
             scenario.neighbours(vid),
             Disturbances(),
         )
-        assert sent is not None
-        out.append((telemetry, cfg.model, sent))
+        assert result.transmission is not None and result.estimate_ages == ()  # nothing heard yet
+        out.append((result.telemetry, cfg.model, result.transmission))
     return out
 
 
@@ -219,7 +252,7 @@ def test_rx_message_round_trips_through_parse_rx():
     assert wire(message) == message
     assert parse_rx(wire(message)) == (5, [Heard(1, 0.4, 10.5, 0.99), Heard(3, 0.3, -1.0, 1.01)])
     channel = Channel(ChannelParams(jitter=0.01), seed=1)
-    channel.transmit(Transmission(1, 8, 0.7, 2.0, 1.0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)), 16, {3: STILL_AT_150})
+    channel.transmit(Transmission(1, 8, 0.7, 2.0, 1.0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)), 16, {3}, {3: STILL_AT_150})
     delivered, _ = channel.deliver(1.0)
     message = rx_message(3, 10, 1.0, delivered)
     assert_valid(message, rx_key(3))
@@ -258,10 +291,51 @@ def test_tick_message_round_trips_through_parse_tick(caps, final):
     assert parse_tick(wire(message)) == Tick(17, 1.7, final, caps)
 
 
-def test_coordination_payload_size_is_the_encoded_size_of_the_coordination_data():
+def test_the_coordination_frame_is_the_compact_wire_size_not_the_bus_message():
     sent = Transmission(1, 2, 0.5, 3.0, 1.0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
-    assert coordination_payload_size(sent) == len(encode({"i": 1, "s": 2, "t": 0.5, "g": 3.0, "d": 1.0}))
-    assert 0 < coordination_payload_size(sent) < len(encode(tx_message(sent)))
+    assert len(encode_coordination(sent)) == SIZE == 15  # sender 1 + seq 2 + time 4 + gamma 4 + gamma_dot 4
+    assert SIZE < len(encode({"i": 1, "s": 2, "t": 0.5, "g": 3.0, "d": 1.0})) < len(encode(tx_message(sent)))
+
+
+def test_state_message_carries_the_ages_of_the_estimates_it_holds(spatial_fleet):
+    telemetry, model, sent = spatial_fleet[0]
+    assert state_message(telemetry, model, 0, sent.seq)["estimate_age"] == []
+    message = state_message(telemetry, model, 7, sent.seq, ages=((2, 0.25), (3, 1.5)))
+    assert message["estimate_age"] == [[2, 0.25], [3, 1.5]]
+    assert_valid(message, state_key(telemetry.vehicle_id))
+    assert wire(message) == message
+    assert parse_state(wire(message), telemetry.vehicle_id).k == 7  # the broker does not need it
+
+
+def stats_snapshot() -> Message:
+    """A real cpf/comms/stats message: a lossy run on the graph 2 - 1 - 3, books closed at the end."""
+    where = {1: (0.0, 0.0, 0.0), 2: (-300.0, 0.0, 0.0), 3: (0.0, 600.0, 0.0)}
+    fleet = {i: Kinematics(np.array(p), np.zeros(3)) for i, p in where.items()}
+    core = BrokerCore(
+        Channel(ChannelParams(loss=Bernoulli(0.3)), 5), {1: [2, 3], 2: [1], 3: [1]}, LinkStats([1, 2, 3], 2.0)
+    )
+    for k in range(30):
+        t = k * 0.1
+        core.submit([Transmission(i, k + 1, t, t, 1.0, p, (0.0, 0.0, 0.0)) for i, p in where.items()], fleet)
+        core.deliver(t + 0.1, [1, 2, 3])
+    core.finish(3.0)
+    snapshot = core.snapshot_due(3.0, final=True)
+    assert snapshot is not None
+    return snapshot
+
+
+def test_comms_stats_message_round_trips_and_validates():
+    message = stats_snapshot()
+    assert_valid(message, COMMS_STATS_KEY)
+    assert wire(message) == message
+    book = COMMS_STATS["properties"]["links"]["items"]
+    assert [(link["sender"], link["receiver"]) for link in message["links"]] == [(1, 2), (1, 3), (2, 1), (3, 1)]
+    for link in message["links"]:
+        assert schema_errors(link, book) == [] and set(link) == set(book["properties"])
+        assert link["sent"] == 30 == link["delivered"] + sum(link["dropped"].values())
+        assert set(link["dropped"]) <= {"loss", "end_of_run"} and link["dropped"]["loss"] > 0
+        assert 0.0 < link["mean_delay"] <= link["max_delay"]
+    assert message["lambda2"] == pytest.approx(1.0)  # every link delivered in the last 2 s: the path graph's 1
 
 
 def keywords(schema: Schema) -> set[str]:
@@ -269,8 +343,9 @@ def keywords(schema: Schema) -> set[str]:
     found = set(schema)
     for sub in schema.get("properties", {}).values():
         found |= keywords(sub)
-    if isinstance(schema.get("items"), dict):
-        found |= keywords(schema["items"])
+    for name in ("items", "additionalProperties"):
+        if isinstance(schema.get(name), dict):
+            found |= keywords(schema[name])
     return found
 
 
@@ -283,6 +358,7 @@ def test_every_schema_stays_within_the_validators_subset():
         TICK_KEY,
         COMMS_EVENT_KEY,
         COMMS_DONE_KEY,
+        COMMS_STATS_KEY,
         "cpf/vehicle/1/rx",
     ):
         schema = schema_for(key)
@@ -297,6 +373,7 @@ def test_schema_for_knows_every_key():
     assert schema_for(rx_key(7)) is RECEPTIONS
     assert schema_for(TICK_KEY) is TICK and schema_for(COMMS_EVENT_KEY) is LINK_EVENT
     assert schema_for(COMMS_DONE_KEY) is COMMS_DONE and schema_for(STOP_KEY) is STOP
+    assert schema_for(COMMS_STATS_KEY) is COMMS_STATS
     assert all(schema_for(key) is not None for key in (META_KEY, FAULT_KEY, GRAPH_KEY))
     assert schema_for("cpf/vehicle/7/unknown") is None
     assert schema_for("cpf/elsewhere") is None
@@ -313,6 +390,12 @@ def test_the_validator_is_not_vacuous(spatial_fleet):
     assert schema_errors({**event_message(LinkEvent(0.0, 1, 2, 3, "sent")), "kind": "lost"}, LINK_EVENT) != []
     assert schema_errors({**event_message(LinkEvent(0.0, 1, 2, 3, "sent")), "delay": "1"}, LINK_EVENT) != []
     assert schema_errors({**tick_message(0, 0.0, False, {}), "final": 0}, TICK) != []
+    assert schema_errors({**good, "estimate_age": [[2, 0.5, 1.0]]}, STATE) != []
+    stats = stats_snapshot()
+    assert schema_errors(stats, COMMS_STATS) == []
+    bad_book = {**stats["links"][0], "dropped": {"loss": "3"}}  # a count that is not an integer
+    assert schema_errors({**stats, "links": [bad_book]}, COMMS_STATS) != []
+    assert schema_errors({**stats, "lambda2": None}, COMMS_STATS) != []
 
 
 @pytest.mark.parametrize(
@@ -617,3 +700,12 @@ def test_parsers_succeed_or_raise_value_error_only(kind, valid, data):
     accepted = succeeds_or_value_error(PARSERS[kind], message)
     assert succeeds_or_value_error(PARSERS[kind], wire(message)) == accepted
     event("accepted" if accepted else "rejected")
+
+
+@pytest.mark.parametrize(
+    ("name", "value"), [("gamma", 1e39), ("gamma_dot", -1e39), ("t", -1.0)], ids=["gamma", "gamma_dot", "t"]
+)
+def test_parse_tx_rejects_what_the_wire_frame_cannot_carry(name, value):
+    message = with_(VALID_TX, **{name: value})
+    with pytest.raises(ValueError):
+        parse_tx(message, 2)
