@@ -13,7 +13,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 from comms.broker_core import BrokerCore
-from comms.bus import Inbox, Publishers, decode_or_none, open_session
+from comms.bus import Handler, Publishers, decode_or_none, serve
 from comms.channel import Kinematics, LinkEvent
 from comms.messages import (
     COMMS_ALIVE,
@@ -21,8 +21,6 @@ from comms.messages import (
     COMMS_EVENT_KEY,
     COMMS_STATS_KEY,
     ROOT,
-    STOP_KEY,
-    SUPERVISOR_ALIVE,
     TICK_KEY,
     StateReport,
     Tick,
@@ -37,7 +35,6 @@ from comms.messages import (
 from vehicles.transmission import Transmission
 
 log = logging.getLogger(__name__)
-POLL = 0.5
 
 
 @dataclass
@@ -143,26 +140,16 @@ class Broker:
 
 
 def run_broker(core: BrokerCore, vehicles: Sequence[int], connect: Sequence[str]) -> int:
-    """Serve the channel until the final tick, the stop message, or the supervisor's disappearance."""
-    with open_session("client", connect=connect) as session:
-        inbox = Inbox()
-        for key in (TICK_KEY, f"{ROOT}/vehicle/*/state", f"{ROOT}/vehicle/*/tx", STOP_KEY):
-            inbox.subscribe(session, key)
-        inbox.watch_liveliness(session, SUPERVISOR_ALIVE)
-        token = session.liveliness().declare_token(COMMS_ALIVE)
-        broker = Broker(core, vehicles, Publishers(session))
-        while True:
-            item = inbox.get(POLL)
-            if item is None:
-                continue
-            if isinstance(item, str):
-                if item == f"-{SUPERVISOR_ALIVE}":
-                    log.warning("comms: supervisor gone, stopping")
-                    break
-                continue
-            if item.key == STOP_KEY:
-                break
-            broker.take(item.key, item.payload)
+    """Serve the channel until the stop message or the supervisor's disappearance."""
+
+    def handler(publishers: Publishers) -> Handler:
+        broker = Broker(core, vehicles, publishers)
+
+        def handle(key: str, payload: bytes) -> None:
+            broker.take(key, payload)
             broker.advance()
-        token.undeclare()
-    return 0
+
+        return handle
+
+    keys = (TICK_KEY, f"{ROOT}/vehicle/*/state", f"{ROOT}/vehicle/*/tx")
+    return serve("comms", connect, keys, COMMS_ALIVE, handler)

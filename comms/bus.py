@@ -8,15 +8,20 @@ rather than drop under congestion (lockstep needs every message) and are express
 from __future__ import annotations
 
 import json
+import logging
 import queue
 import socket
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import zenoh
 
-from comms.messages import Message, decode, encode
+from comms.messages import STOP_KEY, SUPERVISOR_ALIVE, Message, decode, encode
+
+log = logging.getLogger(__name__)
+POLL = 0.5  # s between checks while nothing arrives
+Handler = Callable[[str, bytes], None]
 
 
 def free_port() -> int:
@@ -112,3 +117,28 @@ def decode_or_none(payload: bytes) -> Message | None:
         return decode(payload)
     except ValueError:
         return None
+
+
+def serve(
+    name: str, connect: Sequence[str], keys: Sequence[str], token: str, make_handler: Callable[[Publishers], Handler]
+) -> int:
+    """A child process's life: join the run, subscribe to keys, declare its liveliness token, hand every message to
+    the handler, until the stop message or the supervisor's disappearance (so no child outlives its run)."""
+    with open_session("client", connect=connect) as session:
+        inbox = Inbox()
+        for key in (*keys, STOP_KEY):
+            inbox.subscribe(session, key)
+        inbox.watch_liveliness(session, SUPERVISOR_ALIVE)
+        alive = session.liveliness().declare_token(token)
+        handle = make_handler(Publishers(session))
+        while True:
+            item = inbox.get(POLL)
+            if item == f"-{SUPERVISOR_ALIVE}":
+                log.warning("%s: the supervisor is gone, stopping", name)
+                break
+            if isinstance(item, Received):
+                if item.key == STOP_KEY:
+                    break
+                handle(item.key, item.payload)
+        alive.undeclare()
+    return 0

@@ -233,7 +233,7 @@ def test_broker_exits_by_itself_when_the_supervisor_disappears(tmp_path):
             wait_until_alive(listener, proc, log)
             session.close()
             assert exit_code(proc, log) == 0
-    assert "supervisor gone" in log.read_text()
+    assert "the supervisor is gone" in log.read_text()
 
 
 class RecordingPublishers(Publishers):

@@ -1,8 +1,8 @@
 """The vehicle process: the only Zenoh code of a vehicle. It moves messages; the math is vehicles.runtime.
 
 Per sync step k it needs the supervisor's tick (time, faults acting on it) and the broker's reception batch for k;
-with both it runs node_step, then publishes its transmission (if any) and its state. It stops on the stop message,
-or by itself when the supervisor's liveliness token disappears (no orphan vehicles).
+with both it runs node_step, then publishes its transmission (if any) and its state. comms.bus.serve runs its life:
+it stops on the stop message, or by itself when the supervisor's liveliness token disappears (no orphans).
 """
 
 from __future__ import annotations
@@ -11,10 +11,8 @@ import logging
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
-from comms.bus import Inbox, Publishers, decode_or_none, open_session
+from comms.bus import Handler, Publishers, decode_or_none, serve
 from comms.messages import (
-    STOP_KEY,
-    SUPERVISOR_ALIVE,
     TICK_KEY,
     Tick,
     parse_rx,
@@ -30,7 +28,6 @@ from vehicles.agent import Disturbances, VehicleConfig, VehicleState
 from vehicles.runtime import Heard, NodeState, Radio, node_step
 
 log = logging.getLogger(__name__)
-POLL = 0.5  # s between checks while nothing arrives
 
 
 @dataclass
@@ -50,34 +47,23 @@ def run_vehicle(
     dt: float,
     connect: Sequence[str],
 ) -> int:
-    """Serve one vehicle until told to stop; returns the exit code."""
+    """Serve one vehicle until told to stop (or the supervisor disappears); returns the exit code."""
     vid = cfg.vehicle_id
-    with open_session("client", connect=connect) as session:
-        inbox = Inbox()
-        for key in (TICK_KEY, rx_key(vid), STOP_KEY):
-            inbox.subscribe(session, key)
-        inbox.watch_liveliness(session, SUPERVISOR_ALIVE)
-        token = session.liveliness().declare_token(vehicle_alive_key(vid))
-        publishers = Publishers(session)
+
+    def handler(publishers: Publishers) -> Handler:
         node, pending, k = NodeState(initial), _Pending(), 0
-        while True:
-            item = inbox.get(POLL)
-            if item is None:
-                continue
-            if isinstance(item, str):
-                if item == f"-{SUPERVISOR_ALIVE}":
-                    log.warning("vehicle %d: supervisor gone, stopping", vid)
-                    break
-                continue
-            if item.key == STOP_KEY:
-                break
-            _take(item.key, item.payload, vid, pending)
+
+        def handle(key: str, payload: bytes) -> None:
+            nonlocal node, k
+            _take(key, payload, vid, pending)
             while k in pending.ticks and k in pending.batches:
                 tick, heard = pending.ticks.pop(k), pending.batches.pop(k)
                 node = _step(cfg, radio, node, tick, heard, neighbours, dt, publishers)
                 k += 1
-        token.undeclare()
-    return 0
+
+        return handle
+
+    return serve(f"vehicle {vid}", connect, (TICK_KEY, rx_key(vid)), vehicle_alive_key(vid), handler)
 
 
 def _take(key: str, payload: bytes, vid: int, pending: _Pending) -> None:
