@@ -50,12 +50,14 @@ class _Books:
 
 
 class Broker:
-    def __init__(self, core: BrokerCore, vehicles: Sequence[int], publishers: Publishers) -> None:
+    def __init__(self, core: BrokerCore, vehicles: Sequence[int], publishers: Publishers, start_step: int = 0) -> None:
         self.core = core
         self.vehicles = list(vehicles)
         self.publishers = publishers
         self.books = _Books()
-        self.next_k = 0
+        self.next_k = start_step  # a restarted broker resumes mid-run, with nothing of the past in flight
+        self.first = start_step
+        self.previous: Tick | None = None  # the tick under which last step's transmissions were sent
 
     def take(self, key: str, payload: bytes) -> None:
         """File one incoming message; count and drop it if malformed or on a key its sender does not own."""
@@ -89,13 +91,22 @@ class Broker:
                 return True
         return False
 
+    def _expected(self, tick: Tick) -> list[int]:
+        """Vehicles whose state of the previous step counts: alive then and still alive now."""
+        before = self.previous.alive if self.previous and self.previous.alive is not None else self.vehicles
+        now = tick.alive if tick.alive is not None else self.vehicles
+        return [v for v in before if v in now]
+
     def _ready(self, k: int) -> bool:
-        if k == 0:
+        if k == self.first:
             return True
         states = self.books.states.get(k - 1, {})
-        if any(v not in states for v in self.vehicles):
+        expected = self._expected(self.books.ticks[k])
+        if any(v not in states for v in expected):
             return False
-        return all(r.tx_seq == 0 or (v, r.tx_seq) in self.books.sent or self.books.bad_tx[v] for v, r in states.items())
+        return all(
+            states[v].tx_seq == 0 or (v, states[v].tx_seq) in self.books.sent or self.books.bad_tx[v] for v in expected
+        )
 
     def _announced(self, states: dict[int, StateReport]) -> list[Transmission]:
         """The step's transmissions; one that arrived malformed is written off instead."""
@@ -111,21 +122,24 @@ class Broker:
         return sent
 
     def _handle(self, tick: Tick) -> None:
-        states = self.books.states.pop(tick.k - 1, {})
+        arrived = self.books.states.pop(tick.k - 1, {})
+        states = {v: arrived[v] for v in self._expected(tick) if v in arrived} if tick.k != self.first else {}
         sent = self._announced(states)
         where: dict[int, Kinematics] = {v: r.kinematics for v, r in states.items()}
-        events = self.core.submit(sent, where)
+        events = self.core.submit(sent, where, self.previous.network if self.previous else None)
+        self.previous = tick
+        alive = tick.alive if tick.alive is not None else self.vehicles
         if tick.final:
-            events += self.core.deliver(tick.t, self.vehicles)[1] + self.core.finish(tick.t)
+            events += self.core.deliver(tick.t, alive)[1] + self.core.finish(tick.t)
             self._publish_events(events)
             self._publish_stats(tick.t, final=True)
             done = {"t": tick.t, "k": tick.k, "events": self.books.published, "malformed": self.books.malformed}
             self.publishers.put(COMMS_DONE_KEY, done)
             return
-        batches, delivered = self.core.deliver(tick.t, self.vehicles)
+        batches, delivered = self.core.deliver(tick.t, alive)
         self._publish_events(events + delivered)
         self._publish_stats(tick.t)
-        for v in self.vehicles:
+        for v in alive:
             self.publishers.put(rx_key(v), rx_message(v, tick.k, tick.t, batches[v]))
 
     def _publish_stats(self, t: float, final: bool = False) -> None:
@@ -139,11 +153,11 @@ class Broker:
         self.books.published += len(events)
 
 
-def run_broker(core: BrokerCore, vehicles: Sequence[int], connect: Sequence[str]) -> int:
-    """Serve the channel until the stop message or the supervisor's disappearance."""
+def run_broker(core: BrokerCore, vehicles: Sequence[int], connect: Sequence[str], start_step: int = 0) -> int:
+    """Serve the channel from step start_step until the stop message or the supervisor's disappearance."""
 
     def handler(publishers: Publishers) -> Handler:
-        broker = Broker(core, vehicles, publishers)
+        broker = Broker(core, vehicles, publishers, start_step)
 
         def handle(key: str, payload: bytes) -> None:
             broker.take(key, payload)

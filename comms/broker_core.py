@@ -13,6 +13,7 @@ from dataclasses import dataclass, replace
 
 from comms.channel import Channel, Kinematics, LinkEvent, Reception
 from comms.messages import Message
+from comms.network import Network
 from comms.stats import LinkStats
 from comms.wire import decode_coordination, encode_coordination
 from vehicles.transmission import Transmission
@@ -25,15 +26,25 @@ class BrokerCore:
     stats: LinkStats
     _next_snapshot: float | None = None  # the first snapshot after one full window
 
-    def submit(self, transmissions: Iterable[Transmission], kinematics: Mapping[int, Kinematics]) -> list[LinkEvent]:
-        """Put one step's transmissions in the water; kinematics: every vehicle's, at the transmission time."""
+    def submit(
+        self,
+        transmissions: Iterable[Transmission],
+        kinematics: Mapping[int, Kinematics],
+        network: Network | None = None,
+    ) -> list[LinkEvent]:
+        """Put one step's transmissions in the water; kinematics: every live vehicle's, at the transmission time;
+        network: the graph and link faults in force then (None: the scenario's graph, no faults)."""
         events: list[LinkEvent] = []
         for tx in sorted(transmissions, key=lambda tx: tx.sender):
             wire = encode_coordination(tx)
             carried = decode_coordination(wire)  # what receivers will read: float32 values
             as_sent = replace(tx, gamma=carried.gamma, gamma_dot=carried.gamma_dot)
-            receivers = set(self.neighbours.get(tx.sender, [])) & set(kinematics)
-            events += self.channel.transmit(as_sent, len(wire), receivers, kinematics)
+            heard_by = network.neighbours(tx.sender) if network else self.neighbours.get(tx.sender, [])
+            receivers = set(heard_by) & set(kinematics)
+            if network is not None and tx.sender in network.silent:
+                events += _silenced(tx, receivers)
+                continue
+            events += self.channel.transmit(as_sent, len(wire), receivers, kinematics, network)
         self.stats.add(events)
         return events
 
@@ -46,9 +57,9 @@ class BrokerCore:
         self.stats.add(events)
         return batches, events
 
-    def finish(self, t: float) -> list[LinkEvent]:
-        """End of run: what is still in flight is dropped, so every link's books balance."""
-        events = self.channel.flush(t)
+    def finish(self, t: float, reason: str = "end_of_run") -> list[LinkEvent]:
+        """End of run (or of this broker): what is still in flight is dropped, so every link's books balance."""
+        events = self.channel.flush(t, reason)
         self.stats.add(events)
         return events
 
@@ -69,3 +80,12 @@ class BrokerCore:
             "delivered": sum(b.delivered for b in books),
             "dropped": sum(sum(b.dropped.values()) for b in books),
         }
+
+
+def _silenced(tx: Transmission, receivers: set[int]) -> list[LinkEvent]:
+    """A silent modem: the vehicle believes it sent; nothing entered the water."""
+    events = []
+    for j in sorted(receivers):
+        events.append(LinkEvent(tx.t, tx.sender, j, tx.seq, "sent"))
+        events.append(LinkEvent(tx.t, tx.sender, j, tx.seq, "dropped", reason="modem_silent"))
+    return events

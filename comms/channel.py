@@ -2,7 +2,8 @@
 
 A transmission is offered to every neighbour of its sender in the current graph (one directed link each). On each
 link: a `sent` event at transmission, then exactly one of
-- `dropped` at transmission, reason from the loss models (`loss`, `burst`, `range`);
+- `dropped` at transmission: a fault (`blackout`, `link_down`, `modem_silent`, set by the broker), the loss
+  models (`loss`, `burst`, `range`), or a degraded link's extra loss (`degraded`);
 - `dropped` at arrival: `half_duplex` (the receiver's modem was transmitting during the packet) or `collision`
   (another packet overlapped it at the receiver: every other vehicle's transmissions count, neighbour or not);
 - `delivered` at arrival = t + time of flight + jitter + extra link delay + airtime (the end of the packet);
@@ -23,6 +24,7 @@ import numpy as np
 from comms.acoustics import time_of_flight
 from comms.loss import LinkLoss, LossModel
 from comms.modem import ModemParams
+from comms.network import Impairment, Network
 from vehicles.geometry import FloatArray
 from vehicles.transmission import Transmission
 
@@ -115,10 +117,17 @@ class Channel:
         return self._links[key]
 
     def transmit(
-        self, tx: Transmission, size_bytes: int, receivers: set[int], everyone: Mapping[int, Kinematics]
+        self,
+        tx: Transmission,
+        size_bytes: int,
+        receivers: set[int],
+        everyone: Mapping[int, Kinematics],
+        network: Network | None = None,
     ) -> list[LinkEvent]:
         """Put a transmission in the water. receivers: the sender's neighbours now; everyone: all vehicles'
-        kinematics at the transmission time (non-neighbours matter for collisions). Returns the events of now."""
+        kinematics at the transmission time (non-neighbours matter for collisions); network: link faults in force.
+        Returns the events of now."""
+        intact = network or Network(())
         size = self.params.packet_bytes or size_bytes
         on_air = self.params.modem.airtime(size)
         if self.params.modem.half_duplex:
@@ -131,25 +140,35 @@ class Channel:
             flight = time_of_flight(sender_at, everyone[j].position, everyone[j].velocity, self.params.sound_speed)
             start = tx.t + flight
             if j in receivers:
-                start = self._offer(tx, j, start, flight, size, on_air, events)
+                start = self._offer(tx, j, start, flight, size, on_air, intact.impairment(tx.sender, j), events)
             self._record_heard(j, _Airtime(start, start + on_air, tx.sender, tx.seq))
         return events
 
     def _offer(
-        self, tx: Transmission, j: int, start: float, flight: float, size: int, on_air: float, events: list[LinkEvent]
+        self,
+        tx: Transmission,
+        j: int,
+        start: float,
+        flight: float,
+        size: int,
+        on_air: float,
+        impaired: Impairment,
+        events: list[LinkEvent],
     ) -> float:
-        """One directed link: draws (jitter, then loss), the sent event, the packet's fate so far; returns when the
-        packet starts arriving (a lost packet still fills the water and can spoil others)."""
+        """One directed link: draws (jitter, loss models, fault loss), the sent event, the packet's fate so far;
+        returns when the packet starts arriving (a lost packet still fills the water and can spoil others)."""
         link = self._link(tx.sender, j)
-        start += float(link.rng.random()) * self.params.jitter + link.extra_delay
+        start += float(link.rng.random()) * self.params.jitter + link.extra_delay + impaired.extra_delay
         reason = link.loss.decide(link.rng, flight * self.params.sound_speed, size) if link.loss else None
+        degraded = float(link.rng.random()) < impaired.extra_loss  # drawn always: streams stay aligned
+        reason = impaired.lost or reason or ("degraded" if degraded else None)
         events.append(LinkEvent(tx.t, tx.sender, j, tx.seq, "sent"))
         if reason is not None:
             events.append(LinkEvent(tx.t, tx.sender, j, tx.seq, "dropped", reason=reason))
             return start
         arrival = start + on_air
         there = _Airtime(start, arrival, tx.sender, tx.seq)
-        reception = Reception(j, tx.sender, tx.seq, tx.t, arrival, tx.gamma, tx.gamma_dot)
+        reception = Reception(j, tx.sender, tx.seq, tx.data_time, arrival, tx.gamma, tx.gamma_dot)
         heapq.heappush(self._in_flight, (arrival, tx.sender, tx.seq, j, there, reception, tx.t))
         return start
 
@@ -186,11 +205,11 @@ class Channel:
                 if items and items[0].end < before:
                     table[key] = [a for a in items if a.end >= before]
 
-    def flush(self, t: float) -> list[LinkEvent]:
-        """Drop whatever is still in flight at the end of the run."""
+    def flush(self, t: float, reason: str = "end_of_run") -> list[LinkEvent]:
+        """Drop whatever is still in flight: at the end of the run, or when the broker dies."""
         left = sorted(self._in_flight, key=lambda item: item[:4])
         self._in_flight.clear()
-        return [LinkEvent(t, sender, j, seq, "dropped", reason="end_of_run") for _, sender, seq, j, *_ in left]
+        return [LinkEvent(t, sender, j, seq, "dropped", reason=reason) for _, sender, seq, j, *_ in left]
 
 
 def _overlap(a: _Airtime, b: _Airtime) -> bool:

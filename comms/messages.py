@@ -16,7 +16,8 @@ import msgpack
 import numpy as np
 
 from comms.channel import Kinematics, LinkEvent, Reception
-from vehicles.agent import Telemetry
+from comms.network import Network
+from vehicles.agent import Disturbances, Telemetry
 from vehicles.dynamics import Model
 from vehicles.runtime import Heard
 from vehicles.transmission import Transmission
@@ -119,6 +120,7 @@ def state_message(
 def tx_message(tx: Transmission) -> Message:
     return {
         "t": tx.t,
+        "stamp": tx.data_time,
         "sender": tx.sender,
         "seq": tx.seq,
         "gamma": tx.gamma,
@@ -159,9 +161,31 @@ def event_message(event: LinkEvent) -> Message:
     }
 
 
-def tick_message(k: int, t: float, final: bool, caps: dict[int, float]) -> Message:
-    """The supervisor's clock: step k starts at t; caps: the unannounced gamma_dot caps active over the step."""
-    return {"t": t, "k": k, "final": final, "caps": [[vid, cap] for vid, cap in sorted(caps.items())]}
+def tick_message(
+    k: int,
+    t: float,
+    final: bool,
+    disturbed: dict[int, Disturbances] | None = None,
+    network: Network | None = None,
+    alive: list[int] | None = None,
+    comms: bool = True,
+) -> Message:
+    """The supervisor's clock: step k starts at t. With it, what acts over the step: faults on vehicles (only those
+    with any), the network (graph and link faults), the vehicles alive, whether the broker is up."""
+    return {
+        "t": t,
+        "k": k,
+        "final": final,
+        "vehicles": [_disturbed(vid, d) for vid, d in sorted((disturbed or {}).items())],
+        "network": network.message() if network is not None else None,
+        "alive": alive,
+        "comms": comms,
+    }
+
+
+def _disturbed(vid: int, d: Disturbances) -> Message:
+    return {"vehicle": vid, "cap": d.gamma_dot_cap, "freeze": d.gamma_freeze, "offset": d.gamma_offset,
+            "skew": d.clock_offset}  # fmt: skip
 
 
 # --- parsing what arrives -------------------------------------------------------------------------------------
@@ -220,14 +244,17 @@ def parse_tx(message: Message, key_vehicle: int) -> Transmission:
     seq = _get(message, "seq", int)
     if seq < 0:
         raise ValueError("field 'seq' is negative")
+    t = _carried(message, "t", 0.0, MAX_TIME)
+    stamp = _carried(message, "stamp", 0.0, MAX_TIME) if "stamp" in message else t
     return Transmission(
         sender,
         seq,
-        _carried(message, "t", 0.0, MAX_TIME),
+        t,
         _carried(message, "gamma", -MAX_FLOAT32, MAX_FLOAT32),
         _carried(message, "gamma_dot", -MAX_FLOAT32, MAX_FLOAT32),
         _vector3(message, "position"),
         _velocity(message, "velocity"),
+        None if stamp == t else stamp,
     )
 
 
@@ -274,13 +301,68 @@ class Tick:
     k: int
     t: float
     final: bool
-    caps: dict[int, float]
+    disturbed: dict[int, Disturbances]
+    network: Network | None  # None: the scenario's graph, no link faults
+    alive: list[int] | None  # None: every vehicle
+    comms: bool
 
 
 def parse_tick(message: Message) -> Tick:
-    caps: dict[int, float] = {}
-    for pair in _get(message, "caps", list):
-        if not (isinstance(pair, list) and len(pair) == 2):
-            raise ValueError("a cap is not a [vehicle, value] pair")
-        caps[_get({"v": pair[0]}, "v", int)] = _number({"c": pair[1]}, "c")
-    return Tick(_get(message, "k", int), _number(message, "t"), _get(message, "final", bool), caps)
+    disturbed: dict[int, Disturbances] = {}
+    for item in _get(message, "vehicles", list):
+        if not isinstance(item, dict):
+            raise ValueError("a vehicle entry is not a map")
+        cap = None if item.get("cap") is None else _number(item, "cap")
+        disturbed[_get(item, "vehicle", int)] = Disturbances(
+            cap, _get(item, "freeze", bool), _number(item, "offset"), _number(item, "skew")
+        )
+    net = message.get("network")
+    alive = message.get("alive")
+    if alive is not None and not (isinstance(alive, list) and all(_is_int(v) for v in alive)):
+        raise ValueError("field 'alive' is not a list of vehicle ids")
+    return Tick(
+        _get(message, "k", int), _number(message, "t"), _get(message, "final", bool), disturbed,
+        None if net is None else _network(net), alive, _get(message, "comms", bool),
+    )  # fmt: skip
+
+
+def _is_int(value: object) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _pairs(items: object, width: int, name: str) -> list[list[Any]]:
+    if not isinstance(items, list) or not all(isinstance(i, list) and len(i) == width for i in items):
+        raise ValueError(f"field {name!r} is not a list of {width}-item lists")
+    return items
+
+
+def _network(net: object) -> Network:
+    if not isinstance(net, dict):
+        raise ValueError("field 'network' is not a map")
+    edges = _pairs(net.get("edges"), 2, "edges")
+    down = _pairs(net.get("down"), 2, "down")
+    degraded = _pairs(net.get("degraded"), 4, "degraded")
+    silent = net.get("silent")
+    if not all(_is_int(v) for pair in edges + down for v in pair) or not isinstance(silent, list):
+        raise ValueError("field 'network' has malformed links")
+    return Network(
+        tuple((a, b) for a, b in edges),
+        frozenset((a, b) for a, b in down),
+        {(int(s), int(r)): (_number({"l": loss}, "l"), _number({"d": delay}, "d")) for s, r, loss, delay in degraded},
+        _get(net, "blackout", bool),
+        frozenset(int(v) for v in silent if _is_int(v)),
+    )
+
+
+def parse_event(message: Message) -> LinkEvent:
+    kind = _get(message, "kind", str)
+    if kind not in ("sent", "delivered", "dropped"):
+        raise ValueError(f"unknown event kind {kind!r}")
+    delay = None if message.get("delay") is None else _number(message, "delay")
+    reason = message.get("reason")
+    if reason is not None and not isinstance(reason, str):
+        raise ValueError("field 'reason' is not a string")
+    return LinkEvent(
+        _number(message, "t"), _get(message, "sender", int), _get(message, "receiver", int),
+        _get(message, "seq", int), kind, delay, reason,
+    )  # fmt: skip

@@ -28,7 +28,7 @@ class Decoded:
 
 
 def encode_coordination(tx: Transmission) -> bytes:
-    return LAYOUT.pack(tx.sender, tx.seq % 65536, round(tx.t * 1000.0), tx.gamma, tx.gamma_dot)
+    return LAYOUT.pack(tx.sender, tx.seq % 65536, round(tx.data_time * 1000.0), tx.gamma, tx.gamma_dot)
 
 
 def decode_coordination(data: bytes) -> Decoded:

@@ -72,6 +72,14 @@ def _parser() -> argparse.ArgumentParser:
         command.add_argument(
             "--set", action="append", default=[], metavar="KEY=VALUE", help="override a scenario value (repeatable)"
         )
+        command.add_argument(
+            "--fault", action="append", default=[], metavar="SPEC",
+            help="add a fault, e.g. kind=link_down,sender=1,receiver=2,start=100,end=130 (repeatable)",
+        )  # fmt: skip
+    vehicle.add_argument("--resume", type=Path, default=None, help="a recorded state message to restart from")
+    vehicle.add_argument("--start-step", type=int, default=0, help="the sync step to resume at")
+    vehicle.add_argument("--resume-seq", type=int, default=0, help="the last transmission's sequence number")
+    comms.add_argument("--start-step", type=int, default=0, help="the sync step to resume at (after a restart)")
     report = sub.add_parser("report", help="figures of a recorded run")
     report.add_argument("log", type=Path, help="MCAP file written by cpf run")
     report.add_argument("--out", type=Path, default=None, help="directory for the figures (default: beside the log)")
@@ -81,12 +89,13 @@ def _parser() -> argparse.ArgumentParser:
 def _run(args: argparse.Namespace) -> int:
     from supervisor.comms_summary import comms_summary, format_comms
     from supervisor.cosim import BusOptions, run_zenoh
+    from supervisor.faults import intervals
     from supervisor.inprocess import run_inprocess
     from supervisor.progress import Progress
     from supervisor.scenario import load_scenario
     from supervisor.summary import format_summary, summarize
 
-    scenario = load_scenario(args.scenario, args.set)
+    scenario = load_scenario(args.scenario, args.set, args.fault)
     seed = scenario.scenario.seed if args.seed is None else args.seed
     out = args.out or Path("runs") / f"{scenario.scenario.name}.mcap"
     text = args.scenario.read_text(encoding="utf-8")
@@ -94,9 +103,9 @@ def _run(args: argparse.Namespace) -> int:
     if args.engine == "inprocess":
         result = run_inprocess(scenario, str(args.scenario), text, out, seed, progress)
     else:
-        bus = BusOptions(args.listen, args.connect, args.remote, tuple(args.set))
+        bus = BusOptions(args.listen, args.connect, args.remote, tuple(args.set), tuple(args.fault))
         result = run_zenoh(scenario, args.scenario, text, out, seed, args.clock, args.speed, bus, progress)
-    faults = [(f.kind, f.start, f.end) for f in scenario.faults]
+    faults = intervals(scenario)
     rep = scenario.report
     tube = abs(scenario.path_following.delta) + rep.tube_margin
     summary = summarize(
@@ -119,17 +128,21 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def _vehicle(args: argparse.Namespace) -> int:
-    from supervisor.fleet import initial_state, radio, vehicle_config
+    from supervisor.fleet import initial_state, radio, restore_state, vehicle_config
     from supervisor.scenario import load_scenario
     from vehicles.node import run_vehicle
+    from vehicles.runtime import NodeState
 
-    scenario = load_scenario(args.scenario, args.set)
+    scenario = load_scenario(args.scenario, args.set, args.fault)
     if args.id not in scenario.vehicle_ids:
         raise ScenarioError(f"{args.scenario}: --id: no vehicle {args.id} in [[vehicles]] {scenario.vehicle_ids}")
     cfg = vehicle_config(scenario, args.id)
-    initial = initial_state(scenario, cfg)
-    neighbours = scenario.neighbours(args.id)
-    return run_vehicle(cfg, initial, radio(scenario, args.id), neighbours, scenario.scenario.step, [args.connect])
+    if args.resume is not None:
+        initial = NodeState(restore_state(cfg, json.loads(args.resume.read_text())), args.resume_seq)
+    else:
+        initial = NodeState(initial_state(scenario, cfg))
+    neighbours, dt = scenario.neighbours(args.id), scenario.scenario.step
+    return run_vehicle(cfg, initial, radio(scenario, args.id), neighbours, dt, [args.connect], args.start_step)
 
 
 def _comms(args: argparse.Namespace) -> int:
@@ -137,9 +150,9 @@ def _comms(args: argparse.Namespace) -> int:
     from supervisor.fleet import broker_core
     from supervisor.scenario import load_scenario
 
-    scenario = load_scenario(args.scenario, args.set)
+    scenario = load_scenario(args.scenario, args.set, args.fault)
     seed = scenario.scenario.seed if args.seed is None else args.seed
-    return run_broker(broker_core(scenario, seed), scenario.vehicle_ids, [args.connect])
+    return run_broker(broker_core(scenario, seed), scenario.vehicle_ids, [args.connect], args.start_step)
 
 
 def _report(args: argparse.Namespace) -> int:

@@ -1,18 +1,21 @@
 """The multi-process engine: the supervisor's side of a run over Eclipse Zenoh.
 
 The supervisor opens a Zenoh router on a free localhost port (or the given endpoint), starts the broker and one
-process per vehicle, waits for their liveliness tokens, then drives the clock: tick k, wait for every vehicle's state
-of step k, tick k+1, ... Lockstep runs as fast as the machine allows; realtime paces the ticks to the wall clock.
-Everything on the bus is recorded to MCAP. A child whose token disappears stops the run with a clear message.
+process per vehicle, waits for their liveliness tokens, then drives the clock: tick k (carrying every fault in force
+over the step), wait for every live vehicle's state of step k, tick k+1, ... Lockstep runs as fast as the machine
+allows; realtime paces the ticks to the wall clock. Everything on the bus is recorded to MCAP. Scheduled process
+faults are carried out here (SIGKILL, restart from the last recorded state); a process that disappears is noticed
+through its liveliness token and, for a vehicle, handled by scenario.on_vehicle_loss.
 """
 
 from __future__ import annotations
 
 import contextlib
+import json
 import sys
+import tempfile
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from pathlib import Path
 
 from comms.bus import Inbox, Publishers, Received, decode_or_none, free_port, open_session
@@ -21,7 +24,6 @@ from comms.messages import (
     COMMS_ALIVE,
     COMMS_DONE_KEY,
     COMMS_EVENT_KEY,
-    COMMS_STATS_KEY,
     FAULT_KEY,
     GRAPH_KEY,
     META_KEY,
@@ -30,12 +32,16 @@ from comms.messages import (
     SUPERVISOR_ALIVE,
     TICK_KEY,
     Message,
+    event_message,
+    parse_event,
     tick_message,
     vehicle_alive_key,
     vehicle_of_key,
 )
+from comms.stats import LinkStats
+from supervisor.books import LinkBooks
 from supervisor.errors import SimulationError
-from supervisor.faults import disturbances, events_at
+from supervisor.faults import ProcessAction, disturbances, events_at, network_at, process_actions
 from supervisor.inprocess import RunResult
 from supervisor.metadata import graph_message, run_meta
 from supervisor.processes import ProcessGroup
@@ -43,41 +49,55 @@ from supervisor.progress import Progress
 from supervisor.recorder import Recorder
 from supervisor.scenario_schema import Scenario
 from supervisor.series import SeriesBuilder
+from vehicles.agent import Disturbances
 
-START_TIMEOUT = 60.0  # s for every process to declare its liveliness token
+START_TIMEOUT = 60.0  # s for a process to declare its liveliness token
 STEP_TIMEOUT = 60.0  # s for one sync step before the run is declared stuck
 
 
-@dataclass(frozen=True, slots=True)
 class BusOptions:
-    listen: str | None = None  # endpoint for the supervisor's router; default a free localhost port
-    connect: str | None = None  # join an existing router instead of being one
-    remote: tuple[int, ...] = ()  # vehicles started by hand elsewhere: waited for, not spawned
-    overrides: tuple[str, ...] = ()  # --set KEY=VALUE, passed on to every child
-
-
-@dataclass
-class _Books:
-    alive: set[str] = field(default_factory=set)
-    expected: dict[str, str] = field(default_factory=dict)  # liveliness key -> process name
-    states: dict[int, int] = field(default_factory=dict)  # k -> states received
-    events: dict[str, int] = field(default_factory=lambda: {"sent": 0, "delivered": 0, "dropped": 0})
-    done: Message | None = None
-    stats: list[Message] = field(default_factory=list)
-    malformed: int = 0
-    started: bool = False
-    t: float = 0.0
+    def __init__(
+        self,
+        listen: str | None = None,
+        connect: str | None = None,
+        remote: tuple[int, ...] = (),
+        overrides: tuple[str, ...] = (),
+        faults: tuple[str, ...] = (),
+    ) -> None:
+        self.listen = listen  # endpoint for the supervisor's router; default a free localhost port
+        self.connect = connect  # join an existing router instead of being one
+        self.remote = remote  # vehicles started by hand elsewhere: waited for, not spawned
+        self.overrides = overrides  # --set KEY=VALUE, passed on to every child
+        self.faults = faults  # --fault SPEC, passed on to every child
 
 
 class _Supervisor:
-    """The state of one run in progress: what has arrived, what is alive, what is recorded."""
+    """One run in progress: what is alive, what has arrived, what is recorded, what the links did."""
 
-    def __init__(self, rec: Recorder, inbox: Inbox, procs: ProcessGroup, builder: SeriesBuilder) -> None:
-        self.rec, self.inbox, self.procs, self.builder = rec, inbox, procs, builder
-        self.books = _Books()
+    def __init__(self, sc: Scenario, rec: Recorder, inbox: Inbox, procs: ProcessGroup, path: Path) -> None:
+        self.sc, self.rec, self.inbox, self.procs, self.path = sc, rec, inbox, procs, path
+        self.dt = sc.scenario.step
+        self.builder = SeriesBuilder(sc.vehicle_ids, round(sc.scenario.duration / self.dt), self.dt)
+        self.books = LinkBooks(LinkStats(sc.vehicle_ids, sc.comms.stats_window))
+        self.alive: list[int] = list(sc.vehicle_ids)
+        self.comms_up = True
+        self.present: set[str] = set()  # liveliness tokens seen and not gone
+        self.expected: dict[str, str] = {}  # liveliness key -> process name, for every process the run needs
+        self.states: dict[int, set[int]] = {}  # k -> vehicles whose state arrived
+        self.last_state: dict[int, Message] = {}
+        self.last_seq: dict[int, int] = {}
+        self.done: Message | None = None
+        self.broker_events = 0  # published by the current broker
+        self.malformed = 0
+        self.started = False
+        self.t = 0.0
+        self.connect = ""
+        self.bus = BusOptions()
+        self.seed = 0
+
+    # --- the bus -------------------------------------------------------------------------------------------
 
     def pump(self, timeout: float) -> None:
-        """Take in one item from the bus (or wait up to timeout)."""
         item = self.inbox.get(timeout)
         if isinstance(item, str):
             self._liveliness(item)
@@ -91,46 +111,127 @@ class _Supervisor:
                 raise SimulationError(f"timed out after {timeout:.0f} s waiting for {what}")
             ended = self.procs.first_ended()
             if ended is not None:
-                raise self._gone(ended.name, ended.how_it_ended() or "")
+                self._lost(ended.name, ended.how_it_ended() or "")
             self.pump(min(0.2, max(0.0, end - time.monotonic())))
 
     def _liveliness(self, change: str) -> None:
         sign, key = change[0], change[1:]
         if sign == "+":
-            self.books.alive.add(key)
-        elif key in self.books.expected:
-            self.books.alive.discard(key)
-            name = self.books.expected[key]
-            child = self.procs.named(name)
+            self.present.add(key)
+            return
+        self.present.discard(key)
+        if key in self.expected:
+            child = self.procs.named(self.expected[key])
             how = child.how_it_ended() if child is not None else None
-            raise self._gone(name, how or "its liveliness token disappeared")
+            self._lost(self.expected[key], how or "its liveliness token disappeared")
 
-    def _gone(self, name: str, how: str) -> SimulationError:
-        """The one message for a process lost during a run, whichever way it was noticed."""
-        when = f"at t = {self.books.t:.1f} s" if self.books.started else "before the start"
-        return SimulationError(f"{name} stopped {when} ({how})")
+    def _lost(self, name: str, how: str) -> None:
+        """A process the run needs is gone: go on without a vehicle if the scenario says so, else stop."""
+        vid = int(name.split()[1]) if name.startswith("vehicle ") else None
+        if vid is None or self.sc.scenario.on_vehicle_loss == "abort":
+            when = f"at t = {self.t:.1f} s" if self.started else "before the start"
+            raise SimulationError(f"{name} stopped {when} ({how})")
+        print(f"cpf: warning: {name} lost at t = {self.t:.1f} s ({how}); going on without it", file=sys.stderr)
+        self.alive = [i for i in self.alive if i != vid]
+        self.expected.pop(vehicle_alive_key(vid), None)
+        self.procs.forget(name)
 
     def _record(self, item: Received) -> None:
         message = decode_or_none(item.payload)
         if message is None:
-            self.books.malformed += 1
+            self.malformed += 1
             return
         t = message.get("t")
-        self.rec.write(item.key, t if isinstance(t, int | float) else self.books.t, message)
+        self.rec.write(item.key, t if isinstance(t, int | float) else self.t, message)
         owned = vehicle_of_key(item.key)
         if owned is not None and owned[1] == "state" and isinstance(message.get("k"), int):
-            self.builder.add(message)
-            self.books.states[message["k"]] = self.books.states.get(message["k"], 0) + 1
-        elif item.key == COMMS_EVENT_KEY and message.get("kind") in self.books.events:
-            self.books.events[message["kind"]] += 1
+            self._state(owned[0], message)
+        elif item.key == COMMS_EVENT_KEY:
+            self._event(message)
         elif item.key == COMMS_DONE_KEY:
-            self.books.done = message
-        elif item.key == COMMS_STATS_KEY:
-            self.books.stats.append(message)
+            self.done = message
 
+    def _state(self, vid: int, message: Message) -> None:
+        self.builder.add(message)
+        self.states.setdefault(message["k"], set()).add(vid)
+        self.last_state[vid] = message
+        if message.get("tx_seq"):
+            self.last_seq[vid] = message["tx_seq"]
 
-def _child_argv(command: str, scenario_path: Path, connect: str, *extra: str) -> list[str]:
-    return [sys.executable, "-m", "supervisor.cli", command, str(scenario_path), "--connect", connect, *extra]
+    def _event(self, message: Message) -> None:
+        self.broker_events += 1
+        with contextlib.suppress(ValueError):  # a malformed event is recorded but not booked
+            self.books.add([parse_event(message)])
+
+    def publish(self, pubs: Publishers, key: str, t: float, message: Message) -> None:
+        pubs.put(key, message)
+        self.rec.write(key, t, message)
+
+    # --- processes ---------------------------------------------------------------------------------------
+
+    def spawn_comms(self, start_step: int = 0) -> None:
+        self.expected[COMMS_ALIVE] = "comms broker"
+        extra = ["--seed", str(self.seed), "--start-step", str(start_step)]
+        self.procs.spawn("comms broker", self._argv("comms", *extra))
+        self.broker_events, self.done = 0, None
+
+    def spawn_vehicle(self, vid: int, resume: list[str] | None = None) -> None:
+        self.expected[vehicle_alive_key(vid)] = f"vehicle {vid}"
+        if vid not in self.bus.remote:
+            self.procs.spawn(f"vehicle {vid}", self._argv("vehicle", "--id", str(vid), *(resume or [])))
+
+    def _argv(self, command: str, *extra: str) -> list[str]:
+        sets = [arg for override in self.bus.overrides for arg in ("--set", override)]
+        faults = [arg for fault in self.bus.faults for arg in ("--fault", fault)]
+        base = [sys.executable, "-m", "supervisor.cli", command, str(self.path), "--connect", self.connect]
+        return [*base, *sets, *faults, *extra]
+
+    def await_alive(self) -> None:
+        missing = lambda: sorted(set(self.expected) - self.present)  # noqa: E731
+        self.wait_until(lambda: not missing(), "every process to come alive", START_TIMEOUT)
+
+    def carry_out(self, action: ProcessAction, k: int, pubs: Publishers, resume_dir: Path) -> None:
+        """A scheduled kill or restart."""
+        name = "comms broker" if action.target == "comms" else f"vehicle {action.vehicle}"
+        if action.action == "kill":
+            self._kill(name, pubs)
+        elif action.target == "comms":
+            self.spawn_comms(start_step=k)
+            self.await_alive()
+            self.comms_up = True
+        elif action.vehicle is not None and action.vehicle not in self.alive:
+            self._restart_vehicle(action.vehicle, k, resume_dir)
+
+    def _kill(self, name: str, pubs: Publishers) -> None:
+        child = self.procs.named(name)
+        if child is None:
+            print(f"cpf: warning: cannot kill {name}: not started by this supervisor", file=sys.stderr)
+            return
+        key = COMMS_ALIVE if name == "comms broker" else vehicle_alive_key(int(name.split()[1]))
+        if name == "comms broker":
+            self.expected.pop(key)  # its loss is the fault itself, not a failure of the run
+            child.kill()
+            self.procs.forget(name)
+            self.wait_until(lambda: key not in self.present, f"{name} to be noticed gone", START_TIMEOUT)
+            self.comms_up = False
+            self._close_open("broker_down")
+            return
+        child.kill()  # noticed through its liveliness token, then handled by on_vehicle_loss
+        self.wait_until(lambda: key not in self.expected, f"{name} to be noticed gone", START_TIMEOUT)
+
+    def _restart_vehicle(self, vid: int, k: int, resume_dir: Path) -> None:
+        state_file = resume_dir / f"vehicle-{vid}.json"
+        state_file.write_text(json.dumps(self.last_state[vid]))
+        resume = ["--resume", str(state_file), "--start-step", str(k), "--resume-seq", str(self.last_seq.get(vid, 0))]
+        self.spawn_vehicle(vid, resume)
+        self.await_alive()
+        self.alive = sorted([*self.alive, vid])
+
+    def _close_open(self, reason: str) -> None:
+        events = self.books.close_open(self.t, reason)
+        self.books.add(events)
+        for event in events:
+            self.rec.write(COMMS_EVENT_KEY, event.t, event_message(event))
 
 
 def _local(endpoint: str) -> str:
@@ -152,98 +253,88 @@ def run_zenoh(
     """Run the scenario over Zenoh with one process per vehicle and a broker; record everything to out."""
     endpoint = bus.listen or f"tcp/127.0.0.1:{free_port()}"
     mode, listen, connect = ("client", [], [bus.connect]) if bus.connect else ("router", [endpoint], [])
-    children_connect = bus.connect or _local(endpoint)
-    dt, steps, ids = (
-        scenario.scenario.step,
-        round(scenario.scenario.duration / scenario.scenario.step),
-        scenario.vehicle_ids,
-    )
-    builder = SeriesBuilder(ids, steps, dt)
-    with open_session(mode, listen, connect) as session, Recorder(out) as rec, ProcessGroup() as procs:
+    steps = round(scenario.scenario.duration / scenario.scenario.step)
+    with (
+        open_session(mode, listen, connect) as session,
+        Recorder(out) as rec,
+        ProcessGroup() as procs,
+        tempfile.TemporaryDirectory(prefix="cpf-resume-") as resume_dir,
+    ):
         inbox = Inbox()
         inbox.subscribe(session, f"{ROOT}/vehicle/**")
         inbox.subscribe(session, f"{ROOT}/comms/**")
         inbox.watch_liveliness(session, f"{ALIVE_PREFIX}/**")
         token = session.liveliness().declare_token(SUPERVISOR_ALIVE)
         pubs = Publishers(session)
-        run = _Supervisor(rec, inbox, procs, builder)
+        run = _Supervisor(scenario, rec, inbox, procs, scenario_path)
+        run.connect, run.bus, run.seed = bus.connect or _local(endpoint), bus, seed
         try:
-            _start(run, scenario, scenario_path, children_connect, seed, bus)
-            _publish(
-                pubs, rec, META_KEY, 0.0, run_meta(scenario, str(scenario_path), scenario_toml, seed, "zenoh", clock)
-            )
-            _publish(pubs, rec, GRAPH_KEY, 0.0, graph_message(0.0, scenario.graph.edges))
-            _drive(run, pubs, scenario, steps, clock, speed, progress)
+            run.spawn_comms()
+            for vid in scenario.vehicle_ids:
+                run.spawn_vehicle(vid)
+            run.await_alive()
+            meta = run_meta(scenario, str(scenario_path), scenario_toml, seed, "zenoh", clock)
+            run.publish(pubs, META_KEY, 0.0, meta)
+            run.publish(pubs, GRAPH_KEY, 0.0, graph_message(0.0, scenario.graph.edges))
+            _drive(run, pubs, steps, clock, speed, progress, Path(resume_dir))
         finally:
-            _stop_children(pubs, rec, run.books.t)
+            with contextlib.suppress(Exception):  # already failing: the process group still stops the children
+                run.publish(pubs, STOP_KEY, run.t, {"t": run.t, "reason": "end of run"})
             token.undeclare()
-        wall = progress.done(steps * dt)
+        wall = progress.done(steps * scenario.scenario.step)
         messages = rec.count
-    stats = run.books.stats
-    last = stats[-1] if stats else None
-    return RunResult(builder.series(), wall, messages, dict(run.books.events), last, stats, builder.ages)
-
-
-def _start(run: _Supervisor, scenario: Scenario, path: Path, connect: str, seed: int, bus: BusOptions) -> None:
-    """Start the broker and the vehicles, and wait until every one has declared its liveliness token."""
-    sets = [arg for override in bus.overrides for arg in ("--set", override)]
-    run.books.expected[COMMS_ALIVE] = "comms broker"
-    run.procs.spawn("comms broker", _child_argv("comms", path, connect, "--seed", str(seed), *sets))
-    for vid in scenario.vehicle_ids:
-        run.books.expected[vehicle_alive_key(vid)] = f"vehicle {vid}"
-        if vid not in bus.remote:
-            run.procs.spawn(f"vehicle {vid}", _child_argv("vehicle", path, connect, "--id", str(vid), *sets))
-    missing = lambda: sorted(set(run.books.expected) - run.books.alive)  # noqa: E731
-    run.wait_until(lambda: not missing(), "every process to come alive", START_TIMEOUT)
+    books = run.books
+    end = steps * scenario.scenario.step
+    return RunResult(
+        run.builder.series(), wall, messages, books.counts, books.stats.snapshot(end), books.lambda2, run.builder.ages
+    )
 
 
 def _drive(
-    run: _Supervisor, pubs: Publishers, scenario: Scenario, steps: int, clock: str, speed: float, progress: Progress
+    run: _Supervisor, pubs: Publishers, steps: int, clock: str, speed: float, progress: Progress, resume_dir: Path
 ) -> None:
-    """The clock: one tick per sync step, each waiting for every vehicle's state; then the final tick."""
-    dt, ids = scenario.scenario.step, scenario.vehicle_ids
-    run.books.started = True
+    """The clock: one tick per sync step, each waiting for every live vehicle's state; then the final tick."""
+    sc, dt = run.sc, run.dt
+    run.started = True
     wall_start = time.monotonic()
     for k in range(steps + 1):
-        t = k * dt
-        run.books.t = t
+        t = run.t = k * dt
         if clock == "realtime":
             _pace(run, wall_start + t / speed)
         final = k == steps
         if not final:
-            for event in events_at(scenario.faults, t, dt):
-                _publish(pubs, run.rec, FAULT_KEY, t, event.message())
-        caps = {i: c for i in ids if (c := disturbances(scenario.faults, i, t, dt).gamma_dot_cap) is not None}
-        _publish(pubs, run.rec, TICK_KEY, t, tick_message(k, t, final, caps))
+            for event in events_at(sc.faults, t, dt):
+                run.publish(pubs, FAULT_KEY, t, event.message())
+            for action in process_actions(sc.faults, t, dt):
+                run.carry_out(action, k, pubs, resume_dir)
+        disturbed = {i: d for i in run.alive if (d := disturbances(sc.faults, i, t, dt)) != Disturbances()}
+        tick = tick_message(k, t, final, disturbed, network_at(sc, t, dt), list(run.alive), run.comms_up)
+        run.publish(pubs, TICK_KEY, t, tick)
         if final:
-            run.wait_until(lambda: _books_closed(run), "the broker's end-of-run report", STEP_TIMEOUT)
+            _finish(run)
         else:
-            stepped = _all_stepped(run, k, len(ids))
-            run.wait_until(stepped, f"every vehicle's state of step {k}", STEP_TIMEOUT)
+            run.wait_until(_all_stepped(run, k), f"every vehicle's state of step {k}", STEP_TIMEOUT)
+            run.books.window(t + dt)
             progress.update(t + dt)
 
 
-def _all_stepped(run: _Supervisor, k: int, n: int) -> Callable[[], bool]:
-    return lambda: run.books.states.get(k, 0) >= n
+def _finish(run: _Supervisor) -> None:
+    """The broker's end-of-run report, every event it announced recorded; then nothing is left open."""
+    if run.comms_up:
+        run.wait_until(lambda: _books_closed(run), "the broker's end-of-run report", STEP_TIMEOUT)
+    run._close_open("end_of_run")
+
+
+def _all_stepped(run: _Supervisor, k: int) -> Callable[[], bool]:
+    return lambda: set(run.alive) <= run.states.get(k, set())
 
 
 def _books_closed(run: _Supervisor) -> bool:
-    done = run.books.done
-    return done is not None and sum(run.books.events.values()) >= int(done.get("events", 0))
+    done = run.done
+    return done is not None and run.broker_events >= int(done.get("events", 0))
 
 
 def _pace(run: _Supervisor, target: float) -> None:
     """Realtime clock: keep recording until the wall clock reaches the tick's time."""
     while (left := target - time.monotonic()) > 0:
         run.pump(min(left, 0.05))
-
-
-def _stop_children(pubs: Publishers, rec: Recorder, t: float) -> None:
-    """Ask every child to stop; ProcessGroup enforces it with signals if they do not."""
-    with contextlib.suppress(Exception):  # already failing: the process group still stops the children
-        _publish(pubs, rec, STOP_KEY, t, {"t": t, "reason": "end of run"})
-
-
-def _publish(pubs: Publishers, rec: Recorder, key: str, t: float, message: Message) -> None:
-    pubs.put(key, message)
-    rec.write(key, t, message)

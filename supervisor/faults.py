@@ -1,7 +1,8 @@
-"""The fault schedule: which faults are active at a time, and the start/end events to record.
+"""The fault schedule: what acts on each vehicle, on the network and on the processes over each sync step.
 
-Faults take effect at sync-step boundaries: a fault with start s is active during every step [t, t + dt) with
-t >= s (to within half a step, so that times given in the scenario land on the step grid robustly).
+Faults take effect at sync-step boundaries: a fault on [start, end) is active during every step [t, t + dt) with
+start <= t < end (to within half a step, so that times given in a scenario land on the step grid robustly). Both
+engines call these functions, so a schedule does the same in both.
 """
 
 from __future__ import annotations
@@ -9,7 +10,21 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from supervisor.scenario_schema import FaultSpec, SpeedCapFault
+from comms.network import Network
+from supervisor.scenario_schema import (
+    BlackoutFault,
+    BrokerKillFault,
+    ClockSkewFault,
+    FaultSpec,
+    FrozenGammaFault,
+    GammaOffsetFault,
+    GraphSwitchFault,
+    LinkDegradedFault,
+    LinkDownFault,
+    ModemSilentFault,
+    Scenario,
+    SpeedCapFault,
+)
 from vehicles.agent import Disturbances
 
 
@@ -24,17 +39,60 @@ class FaultEvent:
         return {"t": self.t, "kind": self.kind, "phase": self.phase, "detail": self.detail}
 
 
+def end_of(fault: FaultSpec, dt: float) -> float:
+    """When a fault stops acting; a broker restarts one step after being killed unless told otherwise."""
+    if fault.end is not None:
+        return fault.end
+    return fault.start + dt if isinstance(fault, BrokerKillFault) else float("inf")
+
+
 def active(fault: FaultSpec, t: float, dt: float) -> bool:
     eps = dt / 2
-    return fault.start - eps <= t < fault.end - eps
+    return fault.start - eps <= t < end_of(fault, dt) - eps
+
+
+def intervals(scenario: Scenario) -> list[tuple[str, float, float]]:
+    """(kind, start, end) of every fault, open ends closed at the end of the run: for summaries and plots."""
+    duration, dt = scenario.scenario.duration, scenario.scenario.step
+    return [(f.kind, f.start, min(end_of(f, dt), duration)) for f in scenario.faults]
 
 
 def disturbances(faults: Sequence[FaultSpec], vehicle_id: int, t: float, dt: float) -> Disturbances:
     """What the active faults do to one vehicle over the step starting at t."""
-    caps = [
-        f.gamma_dot_max for f in faults if isinstance(f, SpeedCapFault) and f.vehicle == vehicle_id and active(f, t, dt)
-    ]
-    return Disturbances(gamma_dot_cap=min(caps) if caps else None)
+    mine = [f for f in faults if getattr(f, "vehicle", None) == vehicle_id and active(f, t, dt)]
+    caps = [f.gamma_dot_max for f in mine if isinstance(f, SpeedCapFault)]
+    return Disturbances(
+        gamma_dot_cap=min(caps) if caps else None,
+        gamma_freeze=any(isinstance(f, FrozenGammaFault) for f in mine),
+        gamma_offset=sum(f.offset for f in mine if isinstance(f, GammaOffsetFault)),
+        clock_offset=sum(f.offset for f in mine if isinstance(f, ClockSkewFault)),
+    )
+
+
+def network_at(scenario: Scenario, t: float, dt: float) -> Network:
+    """The network over the step starting at t: the latest graph switch in force, and the link faults."""
+    on = [f for f in scenario.faults if active(f, t, dt)]
+    switches = [f for f in on if isinstance(f, GraphSwitchFault)]
+    edges = max(switches, key=lambda f: f.start).edges if switches else scenario.graph.edges
+    down: set[tuple[int, int]] = set()
+    degraded: dict[tuple[int, int], tuple[float, float]] = {}
+    for f in on:
+        links = (
+            [(f.sender, f.receiver), (f.receiver, f.sender)] if isinstance(f, LinkDownFault | LinkDegradedFault) else []
+        )
+        for link in links[: 2 if getattr(f, "both", False) else 1]:
+            if isinstance(f, LinkDownFault):
+                down.add(link)
+            elif isinstance(f, LinkDegradedFault):
+                loss, delay = degraded.get(link, (0.0, 0.0))
+                degraded[link] = (1 - (1 - loss) * (1 - f.extra_loss), delay + f.extra_delay)
+    return Network(
+        tuple(tuple(e) for e in edges),  # type: ignore[misc]
+        frozenset(down),
+        degraded,
+        any(isinstance(f, BlackoutFault) for f in on),
+        frozenset(f.vehicle for f in on if isinstance(f, ModemSilentFault)),
+    )
 
 
 def events_at(faults: Sequence[FaultSpec], t: float, dt: float) -> list[FaultEvent]:
@@ -46,3 +104,22 @@ def events_at(faults: Sequence[FaultSpec], t: float, dt: float) -> list[FaultEve
             detail = fault.model_dump(exclude={"kind"})
             events.append(FaultEvent(t, fault.kind, "start" if now else "end", detail))
     return events
+
+
+@dataclass(frozen=True, slots=True)
+class ProcessAction:
+    action: str  # "kill" | "restart"
+    target: str  # "comms" | "vehicle"
+    vehicle: int | None = None
+
+
+def process_actions(faults: Sequence[FaultSpec], t: float, dt: float) -> list[ProcessAction]:
+    """Kills and restarts due at the step starting at t (kills before restarts)."""
+    out = []
+    for event in events_at(faults, t, dt):
+        if event.kind in ("vehicle_kill", "broker_kill"):
+            target = "vehicle" if event.kind == "vehicle_kill" else "comms"
+            vehicle = event.detail.get("vehicle") if target == "vehicle" else None
+            action = "kill" if event.phase == "start" else "restart"
+            out.append(ProcessAction(action, target, vehicle))  # type: ignore[arg-type]
+    return sorted(out, key=lambda a: a.action != "kill")

@@ -13,6 +13,7 @@ from comms.acoustics import mackenzie_sound_speed
 from comms.broker_core import BrokerCore
 from comms.channel import Channel, ChannelParams, LinkParams
 from comms.loss import Bernoulli, Composite, GilbertElliott, LinkBudgetRange, LossModel, RangeTable
+from comms.messages import Message
 from comms.modem import ModemParams, modem
 from comms.stats import LinkStats
 from supervisor.scenario_schema import (
@@ -168,3 +169,18 @@ def broker_core(scenario: Scenario, seed: int) -> BrokerCore:
     neighbours = {i: scenario.neighbours(i) for i in scenario.vehicle_ids}
     stats = LinkStats(scenario.vehicle_ids, scenario.comms.stats_window)
     return BrokerCore(Channel(channel_params(scenario), seed), neighbours, stats)
+
+
+def restore_state(config: VehicleConfig, message: Message) -> VehicleState:
+    """A vehicle as its last recorded state message describes it: where a restarted process picks up."""
+    position = np.array(message["position"], dtype=float)
+    rotation = np.array(message["rotation"], dtype=float).reshape(3, 3)
+    velocity = np.array(message["velocity"], dtype=float)
+    angular = np.array(message["angular_velocity"], dtype=float)
+    if config.model.dim == 3:
+        x = SPATIAL.pack(position, rotation, velocity, angular)
+    else:
+        x = PLANAR.pack(position[:2], rotation[:2, :2], velocity[:2], angular[2:])
+    return VehicleState(
+        float(message["t"]), config.model.normalize(x), float(message["gamma"]), float(message["gamma_dot"])
+    )

@@ -1,15 +1,19 @@
 """The single-process engine: every vehicle and the channel stepped in one loop.
 
 It runs exactly the pipeline of the multi-process engine (vehicles.runtime.node_step for each vehicle,
-comms.broker_core for the channel, messages built and parsed the same way), in one process and one thread. It is
-the reference the Zenoh engine must reproduce, and the speed floor it is measured against.
+comms.broker_core for the channel, messages built and parsed the same way, the same fault schedule), in one process
+and one thread. Process faults are emulated as the Zenoh engine performs them: a killed vehicle stops stepping (or
+aborts the run) and restarts from its last recorded state; a killed broker loses what it had in flight and
+restarts afresh. It is the reference the Zenoh engine must reproduce, and the speed floor it is measured against.
 """
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
+from comms.broker_core import BrokerCore
 from comms.channel import Kinematics, LinkEvent
 from comms.messages import (
     COMMS_EVENT_KEY,
@@ -28,8 +32,12 @@ from comms.messages import (
     tx_key,
     tx_message,
 )
-from supervisor.faults import disturbances, events_at
-from supervisor.fleet import broker_core, initial_state, radio, vehicle_config
+from comms.network import Network
+from comms.stats import LinkStats
+from supervisor.books import LinkBooks
+from supervisor.errors import SimulationError
+from supervisor.faults import ProcessAction, disturbances, events_at, network_at, process_actions
+from supervisor.fleet import broker_core, initial_state, radio, restore_state, vehicle_config
 from supervisor.metadata import graph_message, run_meta
 from supervisor.progress import Progress
 from supervisor.recorder import Recorder
@@ -46,69 +54,135 @@ class RunResult:
     wall_time: float
     messages: int
     link_counts: dict[str, int]
-    link_stats: Message | None  # the last cpf/comms/stats snapshot
-    stats_history: list[Message]
+    link_stats: Message | None  # the supervisor's books of every link at the end (cpf/comms/stats layout)
+    stats_history: list[Message]  # {"t", "lambda2"} of the delivered graph per stats window
     estimate_ages: dict[tuple[int, int], list[float]]  # (sender, receiver) -> [sum, count, max] of ages
+
+
+class _InProcessRun:
+    def __init__(self, scenario: Scenario, rec: Recorder, seed: int) -> None:
+        self.sc, self.rec, self.seed = scenario, rec, seed
+        self.dt = scenario.scenario.step
+        ids = scenario.vehicle_ids
+        self.configs = {i: vehicle_config(scenario, i) for i in ids}
+        self.nodes = {i: NodeState(initial_state(scenario, self.configs[i])) for i in ids}
+        self.radios = {i: radio(scenario, i) for i in ids}
+        self.alive = list(ids)
+        self.broker: BrokerCore | None = broker_core(scenario, seed)
+        self.books = LinkBooks(LinkStats(ids, scenario.comms.stats_window))
+        self.builder = SeriesBuilder(ids, round(scenario.scenario.duration / self.dt), self.dt)
+        self.last_state: dict[int, Message] = {}
+        self.sent: list[Transmission] = []
+        self.where: dict[int, Kinematics] = {}
+        self.network: Network | None = None  # in force when `sent` was transmitted
+
+    def step(self, k: int) -> None:
+        t = k * self.dt
+        for event in events_at(self.sc.faults, t, self.dt):
+            self.rec.write(FAULT_KEY, t, event.message())
+        for action in process_actions(self.sc.faults, t, self.dt):
+            self._act(action, t)
+        network = network_at(self.sc, t, self.dt)
+        heard = self._channel(k, t)
+        self.sent, self.where, self.network = [], {}, network
+        for i in self.alive:
+            self._vehicle(i, k, t, heard.get(i), network)
+        self.books.window(t + self.dt)
+
+    def _channel(self, k: int, t: float) -> dict[int, Message]:
+        """The broker's work at t: submit last step's transmissions, deliver what is due (nothing if it is down)."""
+        if self.broker is None:
+            return {}
+        self._record_events(self.broker.submit(self.sent, self.where, self.network))
+        batches, delivered = self.broker.deliver(t, self.alive)
+        self._record_events(delivered)
+        self._record_snapshot(self.broker.snapshot_due(t))
+        out = {}
+        for i in self.alive:
+            out[i] = rx_message(i, k, t, batches[i])
+            self.rec.write(rx_key(i), t, out[i])
+        return out
+
+    def _vehicle(self, i: int, k: int, t: float, rx: Message | None, network: Network) -> None:
+        heard = parse_rx(rx)[1] if rx is not None else []  # None: the broker is down
+        dist = disturbances(self.sc.faults, i, t, self.dt)
+        cfg = self.configs[i]
+        self.nodes[i], out = node_step(
+            cfg, self.radios[i], self.nodes[i], t, self.dt, heard, network.neighbours(i), dist
+        )
+        tx = out.transmission
+        if tx is not None:
+            self.rec.write(tx_key(i), t, tx_message(tx))
+            self.sent.append(tx)
+        state = state_message(out.telemetry, cfg.model, k, tx.seq if tx else 0, out.estimate_ages)
+        self.rec.write(state_key(i), t, state)
+        self.builder.add(state)
+        self.last_state[i] = state
+        self.where[i] = parse_state(state, i).kinematics
+
+    def _act(self, action: ProcessAction, t: float) -> None:
+        """A scheduled kill or restart, as the Zenoh engine carries it out."""
+        if action.target == "comms" and action.action == "kill":
+            if self.broker is not None:
+                self._record_events(self.books.close_open(t, "broker_down"))
+            self.broker, self.sent, self.where = None, [], {}
+        elif action.target == "comms":  # a fresh broker: nothing of the past in flight or in its statistics
+            self.broker, self.sent, self.where = broker_core(self.sc, self.seed), [], {}
+        elif action.vehicle is not None and action.action == "kill":
+            self._lose_vehicle(action.vehicle, t)
+        elif action.vehicle is not None and action.vehicle not in self.alive:
+            cfg = self.configs[action.vehicle]
+            seq = self.nodes[action.vehicle].seq
+            self.nodes[action.vehicle] = NodeState(restore_state(cfg, self.last_state[action.vehicle]), seq)
+            self.alive = sorted([*self.alive, action.vehicle])
+
+    def _lose_vehicle(self, vid: int, t: float) -> None:
+        if self.sc.scenario.on_vehicle_loss == "abort":
+            raise SimulationError(f"vehicle {vid} stopped at t = {t:.1f} s (killed by SIGKILL)")
+        print(
+            f"cpf: warning: vehicle {vid} lost at t = {t:.1f} s (killed by SIGKILL); going on without it",
+            file=sys.stderr,
+        )
+        self.alive = [i for i in self.alive if i != vid]
+        self.where.pop(vid, None)
+        self.sent = [tx for tx in self.sent if tx.sender != vid]  # it died before its modem could send them
+
+    def finish(self, end: float) -> None:
+        if self.broker is not None:
+            self._record_events(self.broker.submit(self.sent, self.where, self.network))
+            self._record_events(self.broker.deliver(end, self.alive)[1] + self.broker.finish(end))
+            self._record_snapshot(self.broker.snapshot_due(end, final=True))
+        self._record_events(self.books.close_open(end, "end_of_run"))  # if the broker was down at the end
+
+    def _record_snapshot(self, snapshot: Message | None) -> None:
+        """The broker's own statistics, as the broker process publishes them."""
+        if snapshot is not None:
+            self.rec.write(COMMS_STATS_KEY, float(snapshot["t"]), snapshot)
+
+    def _record_events(self, events: list[LinkEvent]) -> None:
+        self.books.add(events)
+        for event in events:
+            self.rec.write(COMMS_EVENT_KEY, event.t, event_message(event))
 
 
 def run_inprocess(
     scenario: Scenario, scenario_file: str, scenario_toml: str, out: Path, seed: int, progress: Progress
 ) -> RunResult:
-    """Run the scenario, record every message to out (MCAP), and return the series for the summary."""
+    """Run the scenario, record every message to out (MCAP), and return what the summary needs."""
     dt = scenario.scenario.step
     steps = round(scenario.scenario.duration / dt)
-    ids = scenario.vehicle_ids
-    configs = {i: vehicle_config(scenario, i) for i in ids}
-    nodes = {i: NodeState(initial_state(scenario, configs[i])) for i in ids}
-    neighbours = {i: scenario.neighbours(i) for i in ids}
-    radios = {i: radio(scenario, i) for i in ids}
-    broker = broker_core(scenario, seed)
-    snapshots: list[Message] = []
-    builder = SeriesBuilder(ids, steps, dt)
     with Recorder(out) as rec:
         rec.write(META_KEY, 0.0, run_meta(scenario, scenario_file, scenario_toml, seed, "inprocess", "lockstep"))
         rec.write(GRAPH_KEY, 0.0, graph_message(0.0, scenario.graph.edges))
-        sent: list[Transmission] = []
-        where: dict[int, Kinematics] = {}
+        run = _InProcessRun(scenario, rec, seed)
         for k in range(steps):
-            t = k * dt
-            for event in events_at(scenario.faults, t, dt):
-                rec.write(FAULT_KEY, t, event.message())
-            _record_events(rec, broker.submit(sent, where))
-            batches, delivered = broker.deliver(t, ids)
-            _record_events(rec, delivered)
-            _record_stats(rec, broker.snapshot_due(t), snapshots)
-            sent, where = [], {}
-            for i in ids:
-                rx = rx_message(i, k, t, batches[i])
-                rec.write(rx_key(i), t, rx)
-                dist = disturbances(scenario.faults, i, t, dt)
-                nodes[i], result = node_step(
-                    configs[i], radios[i], nodes[i], t, dt, parse_rx(rx)[1], neighbours[i], dist
-                )
-                tx = result.transmission
-                if tx is not None:
-                    rec.write(tx_key(i), t, tx_message(tx))
-                    sent.append(tx)
-                state = state_message(result.telemetry, configs[i].model, k, tx.seq if tx else 0, result.estimate_ages)
-                rec.write(state_key(i), t, state)
-                builder.add(state)
-                where[i] = parse_state(state, i).kinematics
-            progress.update(t + dt)
-        end = steps * dt
-        _record_events(rec, broker.submit(sent, where) + broker.deliver(end, ids)[1] + broker.finish(end))
-        _record_stats(rec, broker.snapshot_due(end, final=True), snapshots)
-        wall = progress.done(end)
+            run.step(k)
+            progress.update((k + 1) * dt)
+        run.finish(steps * dt)
+        wall = progress.done(steps * dt)
         messages = rec.count
-    return RunResult(builder.series(), wall, messages, broker.counts, snapshots[-1], snapshots, builder.ages)
-
-
-def _record_stats(rec: Recorder, snapshot: Message | None, history: list[Message]) -> None:
-    if snapshot is not None:
-        rec.write(COMMS_STATS_KEY, float(snapshot["t"]), snapshot)
-        history.append(snapshot)
-
-
-def _record_events(rec: Recorder, events: list[LinkEvent]) -> None:
-    for event in events:
-        rec.write(COMMS_EVENT_KEY, event.t, event_message(event))
+    books = run.books
+    return RunResult(
+        run.builder.series(), wall, messages, books.counts, books.stats.snapshot(steps * dt), books.lambda2,
+        run.builder.ages,
+    )  # fmt: skip

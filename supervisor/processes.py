@@ -30,6 +30,11 @@ class Child:
         lines = Path(self.stderr.name).read_text(errors="replace").strip().splitlines()
         return lines[-1] if lines else "no message"
 
+    def kill(self) -> None:
+        """SIGKILL to the child's process group: the fault, not a shutdown."""
+        _signal_group(self.process.pid, signal.SIGKILL)
+        self.process.wait()
+
     def how_it_ended(self) -> str | None:
         """None while running; otherwise a short description of its end."""
         code = self.process.poll()
@@ -45,6 +50,7 @@ class ProcessGroup:
 
     def __init__(self) -> None:
         self.children: list[Child] = []
+        self._gone: list[Child] = []  # ended and accounted for
         self._logs = tempfile.TemporaryDirectory(prefix="cpf-children-")
 
     def spawn(self, name: str, argv: list[str]) -> Child:
@@ -60,6 +66,13 @@ class ProcessGroup:
     def first_ended(self) -> Child | None:
         """A child that has exited (before being told to, if asked during a run)."""
         return next((c for c in self.children if c.process.poll() is not None), None)
+
+    def forget(self, name: str) -> None:
+        """A child whose end is accounted for: no longer reported by first_ended (it is still reaped in stop)."""
+        child = self.named(name)
+        if child is not None:
+            self.children.remove(child)
+            self._gone.append(child)
 
     def named(self, name: str) -> Child | None:
         return next((c for c in self.children if c.name == name), None)
@@ -77,7 +90,7 @@ class ProcessGroup:
             for child in alive:
                 _signal_group(child.process.pid, sig)
             self._wait_all(deadline)
-        for child in self.children:
+        for child in self.children + self._gone:
             child.stderr.close()
         self._logs.cleanup()
 

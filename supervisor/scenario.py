@@ -18,7 +18,7 @@ from pydantic import ValidationError
 from pydantic_core import ErrorDetails
 
 from supervisor.errors import ScenarioError
-from supervisor.scenario_schema import Scenario
+from supervisor.scenario_schema import LINK_FAULTS, FaultSpec, GraphSwitchFault, Scenario
 from vehicles.params import PRESETS, VehicleParams
 from vehicles.paths import Path as PathLike
 
@@ -119,15 +119,28 @@ def _check_consistency(sc: Scenario) -> None:
             raise ScenarioError(f"vehicles[{index}].id: duplicate vehicle id, got {vid}")
     _check_graph(sc)
     for index, fault in enumerate(sc.faults):
-        if fault.vehicle not in ids:
-            raise ScenarioError(f"faults[{index}].vehicle: no such vehicle in {ids}, got {fault.vehicle}")
-        if fault.end <= fault.start:
-            raise ScenarioError(f"faults[{index}].end: must be after start ({fault.start}), got {fault.end}")
+        _check_fault(index, fault, ids)
     if sc.scenario.step > sc.scenario.duration:
         raise ScenarioError(f"scenario.step: must not exceed duration ({sc.scenario.duration}), got {sc.scenario.step}")
     _check_overrides(sc)
     _check_paths(sc)
     _check_comms(sc)
+
+
+def _check_fault(index: int, fault: FaultSpec, ids: list[int]) -> None:
+    named = {"vehicle": getattr(fault, "vehicle", None), "sender": getattr(fault, "sender", None)}
+    named["receiver"] = getattr(fault, "receiver", None)
+    for field_name, vid in named.items():
+        if vid is not None and vid not in ids:
+            raise ScenarioError(f"faults[{index}].{field_name}: no such vehicle in {ids}, got {vid}")
+    if fault.end is not None and fault.end <= fault.start:
+        raise ScenarioError(f"faults[{index}].end: must be after start ({fault.start}), got {fault.end}")
+    if isinstance(fault, LINK_FAULTS) and fault.sender == fault.receiver:
+        raise ScenarioError(f"faults[{index}].receiver: a link joins two vehicles, got {fault.receiver}")
+    if isinstance(fault, GraphSwitchFault):
+        for edge in fault.edges:
+            if edge[0] not in ids or edge[1] not in ids or edge[0] == edge[1]:
+                raise ScenarioError(f"faults[{index}].edges: not an edge between two vehicles {ids}, got {list(edge)}")
 
 
 def _check_comms(sc: Scenario) -> None:
@@ -230,15 +243,47 @@ def validate_data(data: dict[str, Any], source: str) -> Scenario:
     return scenario
 
 
-def parse_scenario(text: str, source: str = "<string>", overrides: Sequence[str] = ()) -> Scenario:
-    """Scenario from TOML text and KEY=VALUE overrides; ScenarioError('<source>: <field>: ...') otherwise."""
+def parse_scenario(
+    text: str, source: str = "<string>", overrides: Sequence[str] = (), faults: Sequence[str] = ()
+) -> Scenario:
+    """Scenario from TOML text, KEY=VALUE overrides and extra faults ("kind=link_down,sender=1,..."); a
+    ScenarioError('<source>: <field>: ...') otherwise."""
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise _error(source, f"invalid TOML: {exc}") from exc
     for override in overrides:
         apply_override(data, override)
+    for fault in faults:
+        data.setdefault("faults", []).append(fault_table(fault))
     return validate_data(data, source)
+
+
+def fault_table(spec: str) -> dict[str, Any]:
+    """A --fault value as the table [[faults]] would hold: comma-separated KEY=VALUE, values as TOML values."""
+    table: dict[str, Any] = {}
+    for part in _split_fault(spec):
+        key, sep, text = part.partition("=")
+        if not sep or not key.strip():
+            raise ScenarioError(f"--fault: expected KEY=VALUE pairs separated by commas, got {spec!r}")
+        try:
+            table[key.strip()] = tomllib.loads(f"v = {text.strip()}")["v"]
+        except tomllib.TOMLDecodeError:
+            table[key.strip()] = text.strip()
+    return table
+
+
+def _split_fault(spec: str) -> list[str]:
+    """Split at commas outside brackets, so edges=[[1,2],[2,3]] stays whole."""
+    parts, depth, current = [], 0, ""
+    for char in spec:
+        depth += {"[": 1, "]": -1}.get(char, 0)
+        if char == "," and depth == 0:
+            parts.append(current)
+            current = ""
+        else:
+            current += char
+    return [p for p in [*parts, current] if p.strip()]
 
 
 def apply_override(data: dict[str, Any], override: str) -> None:
@@ -265,7 +310,7 @@ def apply_override(data: dict[str, Any], override: str) -> None:
             raise ScenarioError(f"--set {key}: no such place in the scenario, got {override!r}")
 
 
-def load_scenario(path: Path, overrides: Sequence[str] = ()) -> Scenario:
+def load_scenario(path: Path, overrides: Sequence[str] = (), faults: Sequence[str] = ()) -> Scenario:
     """Read and validate a scenario file (UTF-8, as TOML requires)."""
     try:
         text = path.read_text(encoding="utf-8")
@@ -273,4 +318,4 @@ def load_scenario(path: Path, overrides: Sequence[str] = ()) -> Scenario:
         raise _error(str(path), f"cannot read scenario file: {exc.strerror or exc}") from exc
     except UnicodeDecodeError as exc:
         raise _error(str(path), f"invalid TOML: not UTF-8 text (byte {exc.start})") from exc
-    return parse_scenario(text, str(path), overrides)
+    return parse_scenario(text, str(path), overrides, faults)

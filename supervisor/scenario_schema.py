@@ -32,6 +32,7 @@ class RunSection(_Strict):
     step: Float = Field(gt=0, description="integration and sync step, s")
     seed: Int = Field(default=0, ge=0)
     dimension: Literal[2, 3] = 3  # 3: the 6-DOF model; 2: the planar variant
+    on_vehicle_loss: Literal["abort", "continue"] = "abort"  # a vehicle process that dies: stop, or go on without it
 
 
 class VehicleModelSection(_Strict):
@@ -119,17 +120,117 @@ class VehicleSection(_Strict):
     path: PathSpec
 
 
-class SpeedCapFault(_Strict):
-    """The paper's fault: vehicle's gamma_dot capped on [start, end), its neighbours not told."""
+class _Fault(_Strict):
+    """Every fault acts on [start, end); end none: to the end of the run."""
+
+    start: Float = Field(ge=0, description="s")
+    end: Float | None = Field(default=None, description="s")
+
+
+class SpeedCapFault(_Fault):
+    """The paper's fault: vehicle's gamma_dot capped, its neighbours not told."""
 
     kind: Literal["speed_cap"]
     vehicle: Int
-    start: Float = Field(ge=0)
-    end: Float
     gamma_dot_max: Float
 
 
-FaultSpec = Annotated[SpeedCapFault, Field(discriminator="kind")]
+class LinkDownFault(_Fault):
+    """A link fails: its packets are lost (reason link_down). both: the reverse direction too."""
+
+    kind: Literal["link_down"]
+    sender: Int
+    receiver: Int
+    both: bool = True
+
+
+class LinkDegradedFault(_Fault):
+    """A link gets worse: extra independent loss (reason degraded) and extra delay."""
+
+    kind: Literal["link_degraded"]
+    sender: Int
+    receiver: Int
+    both: bool = True
+    extra_loss: Float = Field(default=0.0, ge=0, le=1)
+    extra_delay: Float = Field(default=0.0, ge=0, description="s")
+
+
+class BlackoutFault(_Fault):
+    """Every packet is lost (reason blackout)."""
+
+    kind: Literal["blackout"]
+
+
+class ModemSilentFault(_Fault):
+    """A vehicle's modem sends nothing, though the vehicle believes it does (reason modem_silent)."""
+
+    kind: Literal["modem_silent"]
+    vehicle: Int
+
+
+class GraphSwitchFault(_Fault):
+    """The communication graph becomes `edges` (possibly disconnected); vehicles use their new neighbours."""
+
+    kind: Literal["graph_switch"]
+    edges: tuple[tuple[Int, Int], ...]
+
+
+class VehicleKillFault(_Fault):
+    """The vehicle's process is killed with SIGKILL at start and, if end is given, restarted then from its last
+    recorded state. What the run does meanwhile is scenario.on_vehicle_loss."""
+
+    kind: Literal["vehicle_kill"]
+    vehicle: Int
+
+
+class BrokerKillFault(_Fault):
+    """The comms broker is killed with SIGKILL at start (packets in flight are lost: broker_down) and restarted at
+    end (default: one step later)."""
+
+    kind: Literal["broker_kill"]
+
+
+class FrozenGammaFault(_Fault):
+    """A faulty sensor: the vehicle keeps broadcasting the gamma and gamma_dot it had at start."""
+
+    kind: Literal["frozen_gamma"]
+    vehicle: Int
+
+
+class GammaOffsetFault(_Fault):
+    """A faulty sensor: the vehicle broadcasts gamma + offset."""
+
+    kind: Literal["gamma_offset"]
+    vehicle: Int
+    offset: Float
+
+
+class ClockSkewFault(_Fault):
+    """The vehicle's clock runs `offset` s ahead (behind if negative): its messages carry skewed time stamps."""
+
+    kind: Literal["clock_skew"]
+    vehicle: Int
+    offset: Float
+
+
+FaultSpec = Annotated[
+    SpeedCapFault
+    | LinkDownFault
+    | LinkDegradedFault
+    | BlackoutFault
+    | ModemSilentFault
+    | GraphSwitchFault
+    | VehicleKillFault
+    | BrokerKillFault
+    | FrozenGammaFault
+    | GammaOffsetFault
+    | ClockSkewFault,
+    Field(discriminator="kind"),
+]
+VEHICLE_FAULTS = (
+    SpeedCapFault, ModemSilentFault, VehicleKillFault, FrozenGammaFault, GammaOffsetFault, ClockSkewFault,
+)  # fmt: skip
+LINK_FAULTS = (LinkDownFault, LinkDegradedFault)
 
 
 class WaterSection(_Strict):

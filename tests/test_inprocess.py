@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from supervisor.faults import intervals
 from supervisor.inprocess import RunResult, run_inprocess
 from supervisor.progress import Progress
 from supervisor.recorder import read_messages
@@ -21,7 +22,7 @@ def run_text(text: str, out: Path) -> tuple[RunResult, Summary]:
     scenario = parse_scenario(text, "test.toml")
     quiet = Progress(scenario.scenario.duration, io.StringIO(), enabled=False)
     result = run_inprocess(scenario, "test.toml", text, out, scenario.scenario.seed, quiet)
-    faults = [(f.kind, f.start, f.end) for f in scenario.faults]
+    faults = intervals(scenario)
     tube = abs(scenario.path_following.delta) + scenario.report.tube_margin
     rep = scenario.report
     summary = summarize(result.series, scenario.scenario.duration, faults, rep.transient, tube, 0.01)

@@ -58,9 +58,13 @@ class Telemetry:
 
 @dataclass(frozen=True, slots=True)
 class Disturbances:
-    """What faults do to a vehicle during a step. gamma_dot_cap: the paper's unannounced slowdown."""
+    """What faults do to a vehicle during a step. gamma_dot_cap: the paper's unannounced slowdown; the others
+    corrupt what it broadcasts: a frozen gamma sensor, a gamma offset, a skewed clock (s)."""
 
     gamma_dot_cap: float | None = None
+    gamma_freeze: bool = False
+    gamma_offset: float = 0.0
+    clock_offset: float = 0.0
 
 
 def receive(state: VehicleState, sender: int, estimate: NeighbourEstimate) -> VehicleState:

@@ -24,7 +24,7 @@ from comms.messages import (
     tx_message,
     vehicle_alive_key,
 )
-from vehicles.agent import Disturbances, VehicleConfig, VehicleState
+from vehicles.agent import Disturbances, VehicleConfig
 from vehicles.runtime import Heard, NodeState, Radio, node_step
 
 log = logging.getLogger(__name__)
@@ -41,17 +41,19 @@ class _Pending:
 
 def run_vehicle(
     cfg: VehicleConfig,
-    initial: VehicleState,
+    initial: NodeState,
     radio: Radio,
     neighbours: Sequence[int],
     dt: float,
     connect: Sequence[str],
+    start_step: int = 0,
 ) -> int:
-    """Serve one vehicle until told to stop (or the supervisor disappears); returns the exit code."""
+    """Serve one vehicle from step start_step (a restarted process resumes mid-run) until told to stop or the
+    supervisor disappears; returns the exit code. neighbours: the scenario's, until a tick says otherwise."""
     vid = cfg.vehicle_id
 
     def handler(publishers: Publishers) -> Handler:
-        node, pending, k = NodeState(initial), _Pending(), 0
+        node, pending, k = initial, _Pending(), start_step
 
         def handle(key: str, payload: bytes) -> None:
             nonlocal node, k
@@ -76,6 +78,8 @@ def _take(key: str, payload: bytes, vid: int, pending: _Pending) -> None:
             tick = parse_tick(message)
             if not tick.final:
                 pending.ticks[tick.k] = tick
+            if not tick.comms:
+                pending.batches[tick.k] = []  # the broker is down: no receptions will come
         elif key == rx_key(vid):
             k, heard = parse_rx(message)
             pending.batches[k] = heard
@@ -95,8 +99,9 @@ def _step(
     publishers: Publishers,
 ) -> NodeState:
     vid = cfg.vehicle_id
-    dist = Disturbances(gamma_dot_cap=tick.caps.get(vid))
-    node, out = node_step(cfg, radio, node, tick.t, dt, heard, neighbours, dist)
+    dist = tick.disturbed.get(vid, Disturbances())
+    current = tick.network.neighbours(vid) if tick.network is not None else neighbours
+    node, out = node_step(cfg, radio, node, tick.t, dt, heard, current, dist)
     tx = out.transmission
     if tx is not None:
         publishers.put(tx_key(vid), tx_message(tx))

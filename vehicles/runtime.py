@@ -40,6 +40,7 @@ class NodeState:
     seq: int = 0  # sequence number of the last transmission
     last_sent: NeighbourEstimate | None = None  # what the neighbours were last told (if it reached them)
     pending: bool = False  # the policy wanted to transmit, the TDMA slot has not come yet
+    frozen: NeighbourEstimate | None = None  # a stuck gamma sensor's value, while it is stuck
 
 
 @dataclass(frozen=True, slots=True)
@@ -49,11 +50,24 @@ class StepOutput:
     estimate_ages: tuple[tuple[int, float], ...]  # (neighbour, t - stamp of the estimate held of it)
 
 
-def transmission(cfg: VehicleConfig, state: VehicleState, seq: int) -> Transmission:
+def transmission(
+    cfg: VehicleConfig, state: VehicleState, seq: int, told: NeighbourEstimate, dist: Disturbances
+) -> Transmission:
+    """What the modem sends: `told` (the vehicle's belief, possibly corrupted) and its kinematics for the channel."""
     s = cfg.model.spatial(state.x)
-    position = tuple(float(v) for v in s.position)
-    velocity = tuple(float(v) for v in s.rotation @ s.velocity)
-    return Transmission(cfg.vehicle_id, seq, state.t, state.gamma, state.gamma_dot, position, velocity)  # type: ignore[arg-type]
+    p, v = s.position, s.rotation @ s.velocity
+    position = (float(p[0]), float(p[1]), float(p[2]))
+    velocity = (float(v[0]), float(v[1]), float(v[2]))
+    stamp = state.t + dist.clock_offset if dist.clock_offset else None
+    gamma = told.gamma + dist.gamma_offset
+    return Transmission(cfg.vehicle_id, seq, state.t, gamma, told.gamma_dot, position, velocity, stamp)
+
+
+def _sensed(node: NodeState, now: NeighbourEstimate, dist: Disturbances) -> NeighbourEstimate | None:
+    """The frozen reading while a gamma sensor is stuck: the value it had when it stuck."""
+    if not dist.gamma_freeze:
+        return None
+    return node.frozen or now
 
 
 def _wants_and_may(radio: Radio, node: NodeState, vid: int, now: NeighbourEstimate, dt: float) -> tuple[bool, bool]:
@@ -78,11 +92,12 @@ def node_step(
         state = receive(state, h.sender, NeighbourEstimate(h.gamma, h.gamma_dot, h.stamp))
     ages = tuple((j, t - state.estimates[j].stamp) for j in neighbours if j in state.estimates)
     now = own_estimate(state)
+    frozen = _sensed(node, now, dist)
     wants, may = _wants_and_may(radio, node, cfg.vehicle_id, now, dt)
     sent = None
     seq, last = node.seq, node.last_sent
     if wants and may:
         seq, last = seq + 1, now
-        sent = transmission(cfg, state, seq)
+        sent = transmission(cfg, state, seq, frozen or now, dist)
     state, telemetry = step(cfg, state, dt, neighbours, dist)
-    return NodeState(state, seq, last, wants and not may), StepOutput(telemetry, sent, ages)
+    return NodeState(state, seq, last, wants and not may, frozen), StepOutput(telemetry, sent, ages)

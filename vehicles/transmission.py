@@ -23,11 +23,16 @@ class Transmission:
 
     sender: int
     seq: int
-    t: float  # transmission time, which is also the time of the data, s
+    t: float  # transmission time (true simulation time), s
     gamma: float
     gamma_dot: float
     position: tuple[float, float, float]  # inertial, m
     velocity: tuple[float, float, float]  # inertial, m/s
+    stamp: float | None = None  # the time the message claims for its data; None: t (a skewed clock differs)
+
+    @property
+    def data_time(self) -> float:
+        return self.t if self.stamp is None else self.stamp
 
 
 @dataclass(frozen=True, slots=True)

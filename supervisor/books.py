@@ -1,0 +1,54 @@
+"""The supervisor's own books of the links: every event of the run, whoever emitted it.
+
+A broker that is killed cannot say what became of the packets it had in flight, and a restarted one starts its
+statistics afresh; the supervisor's books see the whole run. They close the packets a dead broker left open as
+`broker_down` (or `end_of_run`), so every link balances: sent = delivered + dropped.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+
+from comms.channel import LinkEvent
+from comms.messages import Message
+from comms.stats import LinkStats
+
+
+@dataclass
+class LinkBooks:
+    stats: LinkStats
+    open: dict[tuple[int, int, int], float] = field(default_factory=dict)  # (sender, receiver, seq) -> sent at
+    lambda2: list[Message] = field(default_factory=list)  # {"t", "lambda2"} per stats window
+    _next_window: float | None = None
+
+    def add(self, events: Iterable[LinkEvent]) -> None:
+        events = list(events)
+        for e in events:
+            key = (e.sender, e.receiver, e.seq)
+            if e.kind == "sent":
+                self.open[key] = e.t
+            else:
+                self.open.pop(key, None)
+        self.stats.add(events)
+
+    def close_open(self, t: float, reason: str) -> list[LinkEvent]:
+        """The drops that close every packet still open (its broker is gone, or the run ended); add() them."""
+        return [LinkEvent(t, s, r, seq, "dropped", reason=reason) for s, r, seq in sorted(self.open)]
+
+    def window(self, t: float) -> None:
+        """Call once per step: records the delivered graph's lambda_2 at every window boundary."""
+        if self._next_window is None:
+            self._next_window = self.stats.window
+        if t + 1e-9 >= self._next_window:
+            self.lambda2.append({"t": t, "lambda2": self.stats.delivered_connectivity(t)})
+            self._next_window += self.stats.window
+
+    @property
+    def counts(self) -> dict[str, int]:
+        books = self.stats.books.values()
+        return {
+            "sent": sum(b.sent for b in books),
+            "delivered": sum(b.delivered for b in books),
+            "dropped": sum(sum(b.dropped.values()) for b in books),
+        }
