@@ -316,6 +316,9 @@ def parse_tick(message: Message) -> Tick:
         disturbed[_get(item, "vehicle", int)] = Disturbances(
             cap, _get(item, "freeze", bool), _number(item, "offset"), _number(item, "skew")
         )
+    for required in ("network", "alive"):
+        if required not in message:  # null is meaningful (no faults, everyone alive); absent is not
+            raise ValueError(f"missing field {required!r}")
     net = message.get("network")
     alive = message.get("alive")
     if alive is not None and not (isinstance(alive, list) and all(_is_int(v) for v in alive)):
@@ -343,14 +346,17 @@ def _network(net: object) -> Network:
     down = _pairs(net.get("down"), 2, "down")
     degraded = _pairs(net.get("degraded"), 4, "degraded")
     silent = net.get("silent")
-    if not all(_is_int(v) for pair in edges + down for v in pair) or not isinstance(silent, list):
-        raise ValueError("field 'network' has malformed links")
+    links = [pair[:2] for pair in edges + down + degraded]
+    if not all(_is_int(v) for pair in links for v in pair):
+        raise ValueError("field 'network' has a link whose ends are not vehicle ids")
+    if not isinstance(silent, list) or not all(_is_int(v) for v in silent):
+        raise ValueError("field 'silent' is not a list of vehicle ids")
     return Network(
         tuple((a, b) for a, b in edges),
         frozenset((a, b) for a, b in down),
-        {(int(s), int(r)): (_number({"l": loss}, "l"), _number({"d": delay}, "d")) for s, r, loss, delay in degraded},
+        {(s, r): (_number({"l": loss}, "l"), _number({"d": delay}, "d")) for s, r, loss, delay in degraded},
         _get(net, "blackout", bool),
-        frozenset(int(v) for v in silent if _is_int(v)),
+        frozenset(silent),
     )
 
 

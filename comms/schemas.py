@@ -23,6 +23,7 @@ Schema = dict[str, Any]
 NUMBER: Schema = {"type": "number"}
 INTEGER: Schema = {"type": "integer"}
 STRING: Schema = {"type": "string"}
+BOOLEAN: Schema = {"type": "boolean"}
 
 
 def _vector(n: int | None = None) -> Schema:
@@ -30,6 +31,10 @@ def _vector(n: int | None = None) -> Schema:
     if n is not None:
         schema["minItems"] = schema["maxItems"] = n
     return schema
+
+
+def _integers(n: int | None = None) -> Schema:
+    return {**_vector(n), "items": INTEGER}
 
 
 def _object(title: str, properties: Schema, optional: tuple[str, ...] = ()) -> Schema:
@@ -66,6 +71,7 @@ TRANSMISSION = _object(
     "cpf.Transmission",
     {
         "t": NUMBER,
+        "stamp": NUMBER,  # the data time the sender claims: t, unless its clock is skewed
         "sender": INTEGER,
         "seq": INTEGER,
         "gamma": NUMBER,
@@ -94,9 +100,35 @@ LINK_EVENT = _object(
         "reason": {"type": ["string", "null"]},
     },
 )
+_DISTURBED = _object(
+    "cpf.DisturbedVehicle",
+    {"vehicle": INTEGER, "cap": {"type": ["number", "null"]}, "freeze": BOOLEAN, "offset": NUMBER, "skew": NUMBER},
+)
+_LINKS: Schema = {"type": "array", "items": _integers(2)}  # directed (sender, receiver) pairs
+_NETWORK: Schema = {
+    **_object(
+        "cpf.Network",
+        {
+            "edges": _LINKS,
+            "down": _LINKS,
+            "degraded": {"type": "array", "items": _vector(4)},  # [sender, receiver, extra loss, extra delay]
+            "blackout": BOOLEAN,
+            "silent": _integers(),
+        },
+    ),
+    "type": ["object", "null"],  # null: the scenario's graph, no link faults
+}
 TICK = _object(
     "cpf.Tick",
-    {"t": NUMBER, "k": INTEGER, "final": {"type": "boolean"}, "caps": {"type": "array", "items": _vector(2)}},
+    {
+        "t": NUMBER,
+        "k": INTEGER,
+        "final": BOOLEAN,
+        "vehicles": {"type": "array", "items": _DISTURBED},  # only vehicles with any fault acting
+        "network": _NETWORK,
+        "alive": {"type": ["array", "null"], "items": INTEGER},  # null: every vehicle
+        "comms": BOOLEAN,
+    },
 )
 _LINK_BOOK = _object(
     "cpf.LinkBook",

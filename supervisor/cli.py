@@ -83,6 +83,9 @@ def _parser() -> argparse.ArgumentParser:
     report = sub.add_parser("report", help="figures of a recorded run")
     report.add_argument("log", type=Path, help="MCAP file written by cpf run")
     report.add_argument("--out", type=Path, default=None, help="directory for the figures (default: beside the log)")
+    repair = sub.add_parser("recover", help="rebuild the summary and index of a log whose writer was killed")
+    repair.add_argument("log", type=Path, help="MCAP file, possibly cut short (no footer, partial last chunk)")
+    repair.add_argument("--out", type=Path, default=None, help="MCAP file to write (default: <log>.recovered.mcap)")
     return parser
 
 
@@ -166,11 +169,25 @@ def _report(args: argparse.Namespace) -> int:
     return 0
 
 
+def _recover(args: argparse.Namespace) -> int:
+    from supervisor.recover import RecoveryError, recover
+
+    if not args.log.is_file():
+        raise ScenarioError(f"{args.log}: no such log file")
+    out = args.out or args.log.with_name(f"{args.log.stem}.recovered.mcap")
+    try:
+        report = recover(args.log, out)
+    except (RecoveryError, OSError) as exc:
+        raise ScenarioError(str(exc)) from exc
+    print(f"{args.log} -> {out}: {report.describe()}")
+    return 0
+
+
 def _interrupt(signum: int, frame: FrameType | None) -> None:
     raise KeyboardInterrupt  # SIGTERM cleans up like Ctrl-C: children stopped, log closed
 
 
-COMMANDS = {"run": _run, "vehicle": _vehicle, "comms": _comms, "report": _report}
+COMMANDS = {"run": _run, "vehicle": _vehicle, "comms": _comms, "report": _report, "recover": _recover}
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -52,6 +52,7 @@ READERS: dict[int, Any] = {
     Opcode.FOOTER: Footer.read,
 }  # every other defined opcode is an index or a summary record: rebuilt by the writer, so skipped
 IN_CHUNK = (Schema, Channel, Message)
+DEFAULT_HEADER = Header(profile="", library="cpf recover")  # for a source cut before its header ends
 DEFINED = frozenset(int(opcode) for opcode in Opcode)
 
 
@@ -77,7 +78,7 @@ class RecoveryReport:
     def describe(self) -> str:
         last = "-" if self.last_log_time is None else f"{self.last_log_time / 1e9:.3f} s"
         state = "complete source" if self.complete else f"{self.unreadable_bytes} unreadable bytes dropped"
-        return f"{self.messages} messages in {self.chunks} chunks recovered, last log time {last}; {state}"
+        return f"{self.messages} messages recovered from {self.chunks} chunk(s), last log time {last}; {state}"
 
 
 class _Body(io.BytesIO):
@@ -172,7 +173,7 @@ class _Copy:
         self.chunks = 0
         self.last_log_time: int | None = None
 
-    def start(self, header: Header) -> None:
+    def start(self, header: Header = DEFAULT_HEADER) -> None:
         if not self.started:
             self.writer.start(profile=header.profile, library=header.library)
             self.started = True
@@ -191,7 +192,7 @@ class _Copy:
                 raise _Corrupt(f"message on unknown channel {record.channel_id}")
 
     def add(self, record: McapRecord) -> None:
-        self.start(Header(profile="", library="cpf recover"))
+        self.start()
         if isinstance(record, Schema) and record.id not in self.schemas:
             self.schemas[record.id] = self.writer.register_schema(record.name, record.encoding, record.data)
         elif isinstance(record, Channel) and record.id not in self.channels:
@@ -238,23 +239,30 @@ def _check_source(src: Path, stream: IO[bytes], size: int) -> None:
         raise RecoveryError(f"{src}: not an MCAP file (no MCAP magic at its start)")
 
 
+def _scan(stream: IO[bytes], size: int, copy: _Copy) -> tuple[int, bool]:
+    """Copy top-level records until the data section ends or a record is cut or corrupt.
+
+    (Offset where reading stopped, whether the data section was whole.)
+    """
+    end = len(MAGIC)
+    for offset, opcode, body in _top_records(stream, size):
+        try:
+            done = copy.record(opcode, body)
+        except _Corrupt:
+            return offset, False
+        end = offset + PREFIX.size + len(body)
+        if done:
+            return end, True
+    return end, False
+
+
 def _copy(src: Path, stream: IO[bytes], copy: _Copy) -> RecoveryReport:
     """Copy the readable records of an opened source; the report of what was kept."""
     size = os.fstat(stream.fileno()).st_size
     _check_source(src, stream, size)
-    good = len(MAGIC)
-    complete = False
-    try:
-        for offset, opcode, body in _top_records(stream, size):
-            good = offset
-            complete = copy.record(opcode, body)
-            good = offset + PREFIX.size + len(body)
-            if complete:
-                break
-    except _Corrupt:
-        pass  # good: where the corrupt record starts
-    copy.start(Header(profile="", library="cpf recover"))
-    unreadable = 0 if complete else size - good
+    end, complete = _scan(stream, size, copy)
+    copy.start()  # a source cut inside its header still gives a valid (empty) MCAP
+    unreadable = 0 if complete else size - end
     return RecoveryReport(copy.messages, copy.chunks, unreadable, copy.last_log_time, complete)
 
 
@@ -266,13 +274,15 @@ def recover(src: Path, dst: Path) -> RecoveryReport:
     """
     if dst.exists() and dst.resolve() == src.resolve():
         raise RecoveryError(f"{dst}: the destination must not be the source")
-    partial = dst.with_name(dst.name + ".part")
-    try:
-        with src.open("rb") as source, partial.open("wb") as out:
-            writer = Writer(out, compression=CompressionType.ZSTD)
-            report = _copy(src, source, _Copy(writer))
-            writer.finish()
-        partial.replace(dst)
-    finally:
-        partial.unlink(missing_ok=True)
+    with src.open("rb") as source:
+        dst.parent.mkdir(parents=True, exist_ok=True)
+        partial = dst.with_name(dst.name + ".part")
+        try:
+            with partial.open("wb") as out:
+                writer = Writer(out, compression=CompressionType.ZSTD)
+                report = _copy(src, source, _Copy(writer))
+                writer.finish()
+            partial.replace(dst)
+        finally:
+            partial.unlink(missing_ok=True)
     return report

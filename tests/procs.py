@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+import time
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -43,3 +44,12 @@ def wait_for_progress(process: subprocess.Popen[str], simulated: float = 0.0) ->
         if line.startswith("t = ") and float(line.split()[2]) >= simulated:
             return line
     raise AssertionError(f"cpf ended (code {process.wait()}) before any progress line")
+
+
+def wait_for_no_processes(marker: str, timeout: float = 20.0) -> list[tuple[int, str]]:
+    """Poll until no process mentions marker (the children of a killed supervisor stop by themselves when its
+    liveliness token disappears; nothing else tells the test when). Returns what is left at the deadline."""
+    end = time.monotonic() + timeout
+    while (left := processes_with(marker)) and time.monotonic() < end:
+        time.sleep(0.1)
+    return left

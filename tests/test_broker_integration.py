@@ -11,6 +11,7 @@ import sys
 import threading
 import time
 from collections.abc import Iterator
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -38,9 +39,13 @@ from comms.messages import (
     tx_key,
     tx_message,
 )
+from comms.network import Network
 from supervisor.fleet import broker_core
 from supervisor.scenario import load_scenario
 from tests.test_messages import assert_valid, first_step
+from vehicles.agent import Telemetry
+from vehicles.dynamics import Model
+from vehicles.transmission import Transmission
 
 pytestmark = pytest.mark.integration
 
@@ -151,7 +156,7 @@ def test_broker_relays_to_graph_neighbours_and_survives_malformed_messages(tmp_p
             wait_until_alive(listener, proc, log)
 
             # step 0: nothing is in flight yet, still every vehicle gets its (empty) batch
-            pubs.put(TICK_KEY, tick_message(0, 0.0, False, {}))
+            pubs.put(TICK_KEY, tick_message(0, 0.0, False))
             for vid in IDS:
                 batch = listener.next(rx_key(vid))
                 assert batch == {"t": 0.0, "k": 0, "vehicle": vid, "receptions": []}
@@ -161,7 +166,7 @@ def test_broker_relays_to_graph_neighbours_and_survives_malformed_messages(tmp_p
             for vid in IDS:
                 pubs.put(tx_key(vid), sent[vid])
                 pubs.put(state_key(vid), states[vid])
-            pubs.put(TICK_KEY, tick_message(1, 0.1, False, {}))
+            pubs.put(TICK_KEY, tick_message(1, 0.1, False))
             batches = {vid: listener.next(rx_key(vid)) for vid in IDS}
             heard = {vid: [r["sender"] for r in batch["receptions"]] for vid, batch in batches.items()}
             assert heard == {1: [2, 3], 2: [1], 3: [1]}  # graph 2 - 1 - 3; 2 is nearer 1 than 3 is
@@ -196,14 +201,14 @@ def test_broker_relays_to_graph_neighbours_and_survives_malformed_messages(tmp_p
             # the broker keeps working: step 1 without transmissions
             for vid in IDS:
                 pubs.put(state_key(vid), states[vid] | {"k": 1, "tx_seq": 0})
-            pubs.put(TICK_KEY, tick_message(2, 0.2, False, {}))
+            pubs.put(TICK_KEY, tick_message(2, 0.2, False))
             for vid in IDS:
                 assert listener.next(rx_key(vid)) == {"t": 0.2, "k": 2, "vehicle": vid, "receptions": []}
 
             # the final tick: the broker's books close and it reports the malformed messages
             for vid in IDS:
                 pubs.put(state_key(vid), states[vid] | {"k": 2, "tx_seq": 0})
-            pubs.put(TICK_KEY, tick_message(3, 0.3, True, {}))
+            pubs.put(TICK_KEY, tick_message(3, 0.3, True))
             done = listener.next(COMMS_DONE_KEY)
             assert_valid(done, COMMS_DONE_KEY)
             assert done == {"t": 0.3, "k": 3, "events": 8, "malformed": 3}
@@ -251,13 +256,13 @@ def test_broker_survives_a_transmission_its_wire_frame_cannot_carry():
     pubs = RecordingPublishers()
     broker = Broker(broker_core(scenario, 1), IDS, pubs)
     fleet = {telemetry.vehicle_id: (telemetry, model, sent) for telemetry, model, sent in first_step()}
-    broker.take(TICK_KEY, encode(tick_message(0, 0.0, False, {})))
+    broker.take(TICK_KEY, encode(tick_message(0, 0.0, False)))
     assert broker.advance() is False
     for vid, (telemetry, model, sent) in fleet.items():
         told = tx_message(sent) | ({"gamma": 1e39} if vid == 2 else {})
         broker.take(tx_key(vid), encode(told))
         broker.take(state_key(vid), encode(state_message(telemetry, model, 0, sent.seq)))
-    broker.take(TICK_KEY, encode(tick_message(1, 0.1, False, {})))
+    broker.take(TICK_KEY, encode(tick_message(1, 0.1, False)))
     broker.advance()
     assert broker.books.malformed == 1
     assert broker.next_k == 2  # step 1 was handled: it did not wait for the packet that could not be carried
@@ -265,3 +270,144 @@ def test_broker_survives_a_transmission_its_wire_frame_cannot_carry():
     assert len(batches) == 3
     heard_by_1 = {r["sender"] for m in batches if m["vehicle"] == 1 for r in m["receptions"]}
     assert heard_by_1 == {3}  # 3's packet went through; 2's was dropped as malformed
+
+
+# --- the broker's bookkeeping, driven directly (no Zenoh) ----------------------------------------------------------
+
+DT = 0.1
+PAPER_EDGES = ((1, 2), (1, 3))  # 2 - 1 - 3
+Fleet = dict[int, tuple[Telemetry, Model, Transmission]]
+
+
+@pytest.fixture(scope="module")
+def fleet() -> Fleet:
+    return {telemetry.vehicle_id: (telemetry, model, sent) for telemetry, model, sent in first_step()}
+
+
+def pure_broker(start_step: int = 0) -> tuple[Broker, RecordingPublishers]:
+    scenario = load_scenario(REPO / "configs" / "paper.toml")
+    pubs = RecordingPublishers()
+    return Broker(broker_core(scenario, 1), IDS, pubs, start_step), pubs
+
+
+def report(broker: Broker, fleet: Fleet, k: int, vehicles: tuple[int, ...] = IDS, seq: int | None = None) -> None:
+    """The vehicles' states of step k, each with its transmission at t_k (numbered seq) unless seq is None."""
+    for vid in vehicles:
+        telemetry, model, sent = fleet[vid]
+        if seq is not None:
+            broker.take(tx_key(vid), encode(tx_message(replace(sent, seq=seq, t=k * DT))))
+        broker.take(state_key(vid), encode(state_message(telemetry, model, k, seq or 0)))
+
+
+def tick(broker: Broker, k: int, network: Network | None = None, alive: list[int] | None = None) -> bool:
+    broker.take(TICK_KEY, encode(tick_message(k, k * DT, False, None, network, alive)))
+    return broker.advance()
+
+
+def batches(pubs: RecordingPublishers, k: int) -> dict[int, list[int]]:
+    """Step k's reception batches: who heard whom."""
+    out = {}
+    for key, message in pubs.messages:
+        if key.endswith("/rx") and message["k"] == k:
+            assert key == rx_key(message["vehicle"]) and message["vehicle"] not in out
+            assert_valid(message, key)
+            out[message["vehicle"]] = [r["sender"] for r in message["receptions"]]
+    return out
+
+
+def link_events(pubs: RecordingPublishers) -> set[tuple[str, int, int, int, str | None]]:
+    """Every link event so far as (kind, sender, receiver, seq, reason); the list is cleared."""
+    events = [message for key, message in pubs.messages if key == COMMS_EVENT_KEY]
+    for event in events:
+        assert_valid(event, COMMS_EVENT_KEY)
+    pubs.messages.clear()
+    found = {(e["kind"], e["sender"], e["receiver"], e["seq"], e["reason"]) for e in events}
+    assert len(found) == len(events)
+    return found
+
+
+def delivered(links: set[tuple[int, int]], seq: int) -> set[tuple[str, int, int, int, str | None]]:
+    return {(kind, s, r, seq, None) for s, r in links for kind in ("sent", "delivered")}
+
+
+def test_broker_neither_waits_for_nor_serves_a_vehicle_that_is_not_alive(fleet):
+    broker, pubs = pure_broker()
+    assert tick(broker, 0) is False
+    assert batches(pubs, 0) == {1: [], 2: [], 3: []}
+    report(broker, fleet, 0, (1, 2), seq=1)  # vehicle 3 died during step 0: no state, no transmission
+    tick(broker, 1, alive=[1, 2])
+    assert broker.next_k == 2  # step 1 was handled without vehicle 3's state
+    assert batches(pubs, 1) == {1: [2], 2: [1]}  # nothing for vehicle 3, not even an empty batch
+    assert link_events(pubs) == delivered({(1, 2), (2, 1)}, 1)  # nor any link to it
+
+    tick(broker, 2, alive=[1, 2, 3])  # vehicle 3 is back; its state of step 1 is not expected
+    assert broker.next_k == 2  # still waiting for vehicles 1 and 2
+    report(broker, fleet, 1, (1, 2))
+    broker.advance()
+    assert broker.next_k == 3
+    assert batches(pubs, 2) == {1: [], 2: [], 3: []}
+
+    tick(broker, 3, alive=[1, 3])  # vehicle 2 is gone again: only 1 and 3 are waited for
+    assert broker.next_k == 3
+    report(broker, fleet, 2, (1, 3), seq=2)
+    broker.advance()
+    assert broker.next_k == 4
+    assert batches(pubs, 3) == {1: [3], 3: [1]}
+    assert link_events(pubs) == delivered({(1, 3), (3, 1)}, 2)
+    assert broker.books.malformed == 0
+
+
+def test_a_restarted_broker_handles_its_first_tick_at_once_and_submits_nothing(fleet):
+    broker, pubs = pure_broker(start_step=5)
+    report(broker, fleet, 4, seq=4)  # left over from before the restart: not this broker's to send
+    assert tick(broker, 5) is False
+    assert broker.next_k == 6  # handled without waiting for anything
+    assert batches(pubs, 5) == {1: [], 2: [], 3: []}
+    assert link_events(pubs) == set()
+    tick(broker, 6)
+    assert broker.next_k == 6  # from now on it waits for the states of the previous step
+    report(broker, fleet, 5, seq=5)
+    broker.advance()
+    assert broker.next_k == 7
+    assert batches(pubs, 6) == {1: [2, 3], 2: [1], 3: [1]}
+    assert link_events(pubs) == delivered({(1, 2), (2, 1), (1, 3), (3, 1)}, 5)
+
+
+def test_a_link_down_drops_what_is_sent_over_it_under_the_network_of_the_sending_step(fleet):
+    broker, pubs = pure_broker()
+    tick(broker, 0, Network(PAPER_EDGES, down=frozenset({(1, 2)})))
+    report(broker, fleet, 0, seq=1)
+    tick(broker, 1, Network(PAPER_EDGES, down=frozenset({(2, 1)})))  # applies to what is sent during step 1
+    assert broker.next_k == 2
+    assert batches(pubs, 1) == {1: [2, 3], 2: [], 3: [1]}
+    dropped = {("sent", 1, 2, 1, None), ("dropped", 1, 2, 1, "link_down")}
+    assert link_events(pubs) == dropped | delivered({(1, 3), (2, 1), (3, 1)}, 1)
+
+    report(broker, fleet, 1, seq=2)
+    tick(broker, 2)
+    assert broker.next_k == 3
+    assert batches(pubs, 2) == {1: [3], 2: [1], 3: [1]}
+    dropped = {("sent", 2, 1, 2, None), ("dropped", 2, 1, 2, "link_down")}
+    assert link_events(pubs) == dropped | delivered({(1, 2), (1, 3), (3, 1)}, 2)
+
+
+def test_a_silent_modem_is_dropped_on_each_of_its_links(fleet):
+    broker, pubs = pure_broker()
+    tick(broker, 0, Network(PAPER_EDGES, silent=frozenset({1})))
+    report(broker, fleet, 0, seq=1)
+    tick(broker, 1)
+    assert batches(pubs, 1) == {1: [2, 3], 2: [], 3: []}  # the others still reach vehicle 1
+    silenced = {
+        (kind, 1, j, 1, reason) for j in (2, 3) for kind, reason in (("sent", None), ("dropped", "modem_silent"))
+    }
+    assert link_events(pubs) == silenced | delivered({(2, 1), (3, 1)}, 1)
+    broker.take(TICK_KEY, encode(tick_message(2, 2 * DT, True)))
+    report(broker, fleet, 1)
+    assert broker.advance() is True
+    done = [message for key, message in pubs.messages if key == COMMS_DONE_KEY]
+    assert done == [{"t": 2 * DT, "k": 2, "events": 8, "malformed": 0}]
+    stats = next(message for key, message in pubs.messages if key == COMMS_STATS_KEY)
+    books = {(b["sender"], b["receiver"]): b for b in stats["links"]}
+    for j in (2, 3):
+        book = books[(1, j)]
+        assert (book["sent"], book["delivered"], book["dropped"]) == (1, 0, {"modem_silent": 1})

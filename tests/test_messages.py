@@ -12,7 +12,7 @@ from typing import Any
 import msgpack
 import numpy as np
 import pytest
-from hypothesis import event, given, settings
+from hypothesis import event, example, given, settings
 from hypothesis import strategies as st
 
 from comms.broker_core import BrokerCore
@@ -24,6 +24,7 @@ from comms.messages import (
     COMMS_STATS_KEY,
     FAULT_KEY,
     GRAPH_KEY,
+    MAX_TIME,
     META_KEY,
     STOP_KEY,
     TICK_KEY,
@@ -32,6 +33,7 @@ from comms.messages import (
     decode,
     encode,
     event_message,
+    parse_event,
     parse_rx,
     parse_state,
     parse_tick,
@@ -45,6 +47,7 @@ from comms.messages import (
     tx_message,
     vehicle_of_key,
 )
+from comms.network import Network
 from comms.schemas import (
     COMMS_DONE,
     COMMS_STATS,
@@ -239,6 +242,25 @@ def test_tx_message_round_trips_through_parse_tx(spatial_fleet):
     assert parse_tx(wire(tx_message(moving)), 9) == moving
 
 
+@pytest.mark.parametrize("stamp", [31.0, 32.5, 0.0, MAX_TIME], ids=["behind", "ahead", "zero", "max"])
+def test_tx_message_carries_the_stamp_a_skewed_clock_claims(stamp):
+    skewed = Transmission(9, 42, 31.4, -2.5, 1.25, (1.0, -2.0, 3.5), (0.5, -0.25, 0.0), stamp)
+    message = tx_message(skewed)
+    assert_valid(message, tx_key(9))
+    assert (message["t"], message["stamp"]) == (31.4, stamp)
+    parsed = parse_tx(wire(message), 9)
+    assert parsed == skewed and parsed.data_time == stamp != parsed.t
+
+
+def test_tx_stamp_is_the_transmission_time_unless_skewed():
+    honest = Transmission(9, 42, 31.4, -2.5, 1.25, (1.0, -2.0, 3.5), (0.5, -0.25, 0.0))
+    assert tx_message(honest)["stamp"] == 31.4
+    stated = Transmission(9, 42, 31.4, -2.5, 1.25, (1.0, -2.0, 3.5), (0.5, -0.25, 0.0), 31.4)
+    assert parse_tx(wire(tx_message(stated)), 9) == honest  # a stamp equal to t is no skew
+    old = without(tx_message(honest), "stamp")  # a sender from before stamps: its data time is t
+    assert parse_tx(wire(old), 9) == honest
+
+
 def test_rx_message_round_trips_through_parse_rx():
     receptions = [
         Reception(2, 1, 5, 0.4, 0.42, 10.5, 0.99),
@@ -270,6 +292,8 @@ def test_rx_message_round_trips_through_parse_rx():
         LinkEvent(1.25, 1, 2, 3, "delivered", delay=0.25),
         LinkEvent(1.0, 2, 1, 4, "dropped", reason="loss"),
         LinkEvent(9.0, 2, 1, 5, "dropped", reason="end_of_run"),
+        LinkEvent(0.5, 1, 3, 6, "dropped", reason="modem_silent"),
+        LinkEvent(2, 3, 1, 7, "delivered", delay=1),  # integers where floats are usual
     ],
     ids=lambda e: e.kind,
 )
@@ -278,17 +302,104 @@ def test_event_message_round_trips_and_validates(event):
     assert_valid(message, COMMS_EVENT_KEY)
     assert wire(message) == message
     assert LinkEvent(**wire(message)) == event
+    assert parse_event(wire(message)) == event
 
 
-@pytest.mark.parametrize(
-    ("caps", "final"), [({}, False), ({3: 0.5, 1: 0.25}, False), ({2: 1}, True)], ids=["none", "two", "final"]
+FAULTY_NETWORK = Network(
+    ((1, 2), (1, 3), (2, 3)),
+    frozenset({(1, 2), (3, 1)}),
+    {(2, 1): (0.25, 0.5), (1, 3): (0.0, 1.0)},
+    False,
+    frozenset({3}),
 )
-def test_tick_message_round_trips_through_parse_tick(caps, final):
-    message = tick_message(17, 1.7, final, caps)
+TICKS = {
+    "plain": Tick(17, 1.7, False, {}, None, None, True),
+    "disturbed": Tick(
+        17,
+        1.7,
+        False,
+        {
+            3: Disturbances(gamma_dot_cap=0.5),
+            1: Disturbances(None, gamma_freeze=True),
+            2: Disturbances(gamma_offset=-1.5, clock_offset=0.25),
+            7: Disturbances(1, True, 2, -3),  # integers where floats are usual
+        },
+        None,
+        None,
+        True,
+    ),
+    "network": Tick(17, 1.7, False, {}, FAULTY_NETWORK, None, True),
+    "blackout": Tick(17, 1.7, False, {}, Network(((1, 2),), blackout=True), None, True),
+    "empty graph": Tick(17, 1.7, False, {}, Network(()), None, True),
+    "alive": Tick(17, 1.7, False, {}, None, [1, 3], True),
+    "none alive": Tick(17, 1.7, False, {}, None, [], True),
+    "comms down": Tick(17, 1.7, False, {}, None, [1, 2, 3], False),
+    "final": Tick(4000, 400.0, True, {2: Disturbances(0.5, True, 0.1, 0.2)}, FAULTY_NETWORK, [2, 1], False),
+}
+
+
+def tick_of(tick: Tick) -> Message:
+    return tick_message(tick.k, tick.t, tick.final, tick.disturbed, tick.network, tick.alive, tick.comms)
+
+
+def assert_valid_tick(message: Message) -> None:
+    """Valid against the schema, and every nested object has exactly the fields the schema describes."""
     assert_valid(message, TICK_KEY)
+    for item in message["vehicles"]:
+        assert set(item) == set(TICK["properties"]["vehicles"]["items"]["properties"])
+    if message["network"] is not None:
+        assert set(message["network"]) == set(TICK["properties"]["network"]["properties"])
+
+
+@pytest.mark.parametrize("tick", TICKS.values(), ids=TICKS.keys())
+def test_tick_message_round_trips_through_parse_tick(tick):
+    message = tick_of(tick)
+    assert_valid_tick(message)
     assert wire(message) == message
-    assert [pair[0] for pair in message["caps"]] == sorted(caps)
-    assert parse_tick(wire(message)) == Tick(17, 1.7, final, caps)
+    assert [item["vehicle"] for item in message["vehicles"]] == sorted(tick.disturbed)
+    assert parse_tick(wire(message)) == tick
+
+
+def test_tick_message_spells_out_the_faults():
+    disturbed = {2: Disturbances(None, True, 0.1, -0.2), 1: Disturbances(0.5)}
+    message = tick_message(3, 0.3, False, disturbed, FAULTY_NETWORK, [1, 2], comms=False)
+    assert message == {
+        "t": 0.3,
+        "k": 3,
+        "final": False,
+        "vehicles": [
+            {"vehicle": 1, "cap": 0.5, "freeze": False, "offset": 0.0, "skew": 0.0},
+            {"vehicle": 2, "cap": None, "freeze": True, "offset": 0.1, "skew": -0.2},
+        ],
+        "network": {
+            "edges": [[1, 2], [1, 3], [2, 3]],
+            "down": [[1, 2], [3, 1]],
+            "degraded": [[1, 3, 0.0, 1.0], [2, 1, 0.25, 0.5]],
+            "blackout": False,
+            "silent": [3],
+        },
+        "alive": [1, 2],
+        "comms": False,
+    }
+    assert tick_message(0, 0.0, False) == {
+        "t": 0.0,
+        "k": 0,
+        "final": False,
+        "vehicles": [],
+        "network": None,
+        "alive": None,
+        "comms": True,
+    }
+    assert "caps" not in message
+
+
+def test_a_parsed_network_acts_as_the_one_sent():
+    network = parse_tick(wire(tick_of(TICKS["network"]))).network
+    assert network is not None
+    assert network.neighbours(1) == [2, 3] and network.neighbours(3) == [1, 2]
+    assert network.impairment(1, 2).lost == "link_down" and network.impairment(2, 1).lost is None
+    assert (network.impairment(2, 1).extra_loss, network.impairment(2, 1).extra_delay) == (0.25, 0.5)
+    assert 3 in network.silent and not network.blackout
 
 
 def test_the_coordination_frame_is_the_compact_wire_size_not_the_bus_message():
@@ -389,7 +500,22 @@ def test_the_validator_is_not_vacuous(spatial_fleet):
     assert schema_errors({k: v for k, v in good.items() if k != "tau"}, STATE) != []
     assert schema_errors({**event_message(LinkEvent(0.0, 1, 2, 3, "sent")), "kind": "lost"}, LINK_EVENT) != []
     assert schema_errors({**event_message(LinkEvent(0.0, 1, 2, 3, "sent")), "delay": "1"}, LINK_EVENT) != []
-    assert schema_errors({**tick_message(0, 0.0, False, {}), "final": 0}, TICK) != []
+    tick = tick_of(TICKS["final"])
+    assert schema_errors(tick, TICK) == []
+    assert schema_errors({**tick, "final": 0}, TICK) != []
+    assert schema_errors({**tick, "caps": []}, TICK) == []  # extra fields are allowed; assert_valid forbids them
+    assert schema_errors(without(tick, "comms"), TICK) != []
+    assert schema_errors({**tick, "alive": [1.5]}, TICK) != []
+    assert schema_errors({**tick, "alive": None, "network": None}, TICK) == []
+    assert schema_errors({**tick, "vehicles": [with_(tick["vehicles"][0], cap="0.5")]}, TICK) != []
+    assert schema_errors({**tick, "vehicles": [without(tick["vehicles"][0], "skew")]}, TICK) != []
+    assert schema_errors({**tick, "network": with_(tick["network"], down=[[1, 2, 3]])}, TICK) != []
+    assert schema_errors({**tick, "network": with_(tick["network"], edges=[[1.5, 2]])}, TICK) != []
+    assert schema_errors({**tick, "network": with_(tick["network"], degraded=[[1, 2, 0.5]])}, TICK) != []
+    assert schema_errors({**tick, "network": with_(tick["network"], blackout=None)}, TICK) != []
+    assert schema_errors({**tick, "network": without(tick["network"], "silent")}, TICK) != []
+    assert schema_errors({**tick, "network": []}, TICK) != []
+    assert schema_errors(without(VALID_TX, "stamp"), TRANSMISSION) != []
     assert schema_errors({**good, "estimate_age": [[2, 0.5, 1.0]]}, STATE) != []
     stats = stats_snapshot()
     assert schema_errors(stats, COMMS_STATS) == []
@@ -425,7 +551,8 @@ NAN, INF = float("nan"), float("inf")
 VALID_TX = tx_message(Transmission(2, 5, 0.5, 3.0, 1.0, (1.0, 2.0, 3.0), (0.5, 0.0, -0.5)))
 VALID_STATE = state_message(turning_telemetry(SPATIAL), SPATIAL, 3, 2)  # vehicle 4
 VALID_RX = rx_message(1, 4, 0.4, [Reception(1, 2, 3, 0.3, 0.31, 5.0, 1.0)])
-VALID_TICK = tick_message(4, 0.4, False, {1: 0.5})
+VALID_TICK = tick_message(4, 0.4, False, {1: Disturbances(0.5, True, 0.1, 0.2)}, FAULTY_NETWORK, [1, 2, 3])
+VALID_EVENT = event_message(LinkEvent(1.25, 1, 2, 3, "delivered", delay=0.25))
 
 
 def without(message: Message, name: str) -> Message:
@@ -437,7 +564,7 @@ def with_(message: Message, **changes: Any) -> Message:
 
 
 def tx_cases() -> list[tuple[str, Message]]:
-    cases = [(f"missing {name}", without(VALID_TX, name)) for name in VALID_TX]
+    cases = [(f"missing {name}", without(VALID_TX, name)) for name in VALID_TX if name != "stamp"]  # stamp: t
     cases += [
         ("sender is a string", with_(VALID_TX, sender="2")),
         ("sender is a float", with_(VALID_TX, sender=2.0)),
@@ -459,6 +586,13 @@ def tx_cases() -> list[tuple[str, Message]]:
         ("velocity holds inf", with_(VALID_TX, velocity=[0.0, 0.0, INF])),
         ("velocity is nested", with_(VALID_TX, velocity=[[0.0], [0.0], [0.0]])),
         ("another vehicle's key", with_(VALID_TX, sender=3)),
+        ("stamp is nan", with_(VALID_TX, stamp=NAN)),
+        ("stamp is inf", with_(VALID_TX, stamp=INF)),
+        ("stamp is negative", with_(VALID_TX, stamp=-0.001)),
+        ("stamp is past the frame's clock", with_(VALID_TX, stamp=MAX_TIME + 0.001)),
+        ("stamp is a bool", with_(VALID_TX, stamp=True)),
+        ("stamp is a string", with_(VALID_TX, stamp="0.5")),
+        ("stamp is None", with_(VALID_TX, stamp=None)),
     ]
     return cases
 
@@ -509,28 +643,165 @@ def rx_cases() -> list[tuple[str, Message]]:
 
 
 def tick_cases() -> list[tuple[str, Message]]:
-    cases = [(f"missing {name}", without(VALID_TICK, name)) for name in VALID_TICK]
+    entry = VALID_TICK["vehicles"][0]
+    net = VALID_TICK["network"]
+
+    def vehicle(**changes: Any) -> Message:
+        return with_(VALID_TICK, vehicles=[with_(entry, **changes)])
+
+    def network(**changes: Any) -> Message:
+        return with_(VALID_TICK, network=with_(net, **changes))
+
+    # an absent `network` or `alive` reads as null, like the explicit null every built tick carries
+    cases = [(f"missing {name}", without(VALID_TICK, name)) for name in ("t", "k", "final", "vehicles", "comms")]
     cases += [
         ("k is a bool", with_(VALID_TICK, k=True)),
         ("k is a float", with_(VALID_TICK, k=4.0)),
+        ("k is a string", with_(VALID_TICK, k="4")),
+        ("k is None", with_(VALID_TICK, k=None)),
         ("t is nan", with_(VALID_TICK, t=NAN)),
         ("t is inf", with_(VALID_TICK, t=INF)),
+        ("t is -inf", with_(VALID_TICK, t=-INF)),
         ("t is a bool", with_(VALID_TICK, t=True)),
+        ("t is a string", with_(VALID_TICK, t="0.4")),
         ("final is an int", with_(VALID_TICK, final=1)),
         ("final is a string", with_(VALID_TICK, final="true")),
         ("final is None", with_(VALID_TICK, final=None)),
-        ("caps is a map", with_(VALID_TICK, caps={"1": 0.5})),
-        ("a cap is a number", with_(VALID_TICK, caps=[0.5])),
-        ("a cap is a map", with_(VALID_TICK, caps=[{"1": 0.5}])),
-        ("a cap has 3 items", with_(VALID_TICK, caps=[[1, 0.5, 0.0]])),
-        ("a cap has 1 item", with_(VALID_TICK, caps=[[1]])),
-        ("a cap's vehicle is a float", with_(VALID_TICK, caps=[[1.0, 0.5]])),
-        ("a cap's vehicle is a bool", with_(VALID_TICK, caps=[[True, 0.5]])),
-        ("a cap's vehicle is a string", with_(VALID_TICK, caps=[["1", 0.5]])),
-        ("a cap's value is nan", with_(VALID_TICK, caps=[[1, NAN]])),
-        ("a cap's value is inf", with_(VALID_TICK, caps=[[1, INF]])),
-        ("a cap's value is a bool", with_(VALID_TICK, caps=[[1, False]])),
-        ("a cap's value is None", with_(VALID_TICK, caps=[[1, None]])),
+        ("comms is an int", with_(VALID_TICK, comms=0)),
+        ("comms is a string", with_(VALID_TICK, comms="false")),
+        ("comms is None", with_(VALID_TICK, comms=None)),
+        # the disturbed vehicles
+        ("vehicles is a map", with_(VALID_TICK, vehicles={"1": entry})),
+        ("vehicles is None", with_(VALID_TICK, vehicles=None)),
+        ("vehicles is the old caps", with_(VALID_TICK, vehicles=[[1, 0.5]])),
+        ("a vehicle entry is a number", with_(VALID_TICK, vehicles=[1])),
+        ("a vehicle entry is None", with_(VALID_TICK, vehicles=[entry, None])),
+        ("a vehicle entry is a list", with_(VALID_TICK, vehicles=[list(entry.values())])),
+        *[
+            (f"a vehicle entry misses {name}", with_(VALID_TICK, vehicles=[without(entry, name)]))
+            for name in ("vehicle", "freeze", "offset", "skew")
+        ],
+        ("a vehicle id is a float", vehicle(vehicle=1.0)),
+        ("a vehicle id is a bool", vehicle(vehicle=True)),
+        ("a vehicle id is a string", vehicle(vehicle="1")),
+        ("a vehicle id is None", vehicle(vehicle=None)),
+        ("a cap is nan", vehicle(cap=NAN)),
+        ("a cap is inf", vehicle(cap=INF)),
+        ("a cap is a bool", vehicle(cap=False)),
+        ("a cap is a string", vehicle(cap="0.5")),
+        ("a cap is a list", vehicle(cap=[0.5])),
+        ("a freeze is an int", vehicle(freeze=1)),
+        ("a freeze is None", vehicle(freeze=None)),
+        ("a freeze is a string", vehicle(freeze="yes")),
+        ("an offset is nan", vehicle(offset=NAN)),
+        ("an offset is a bool", vehicle(offset=True)),
+        ("an offset is None", vehicle(offset=None)),
+        ("a skew is -inf", vehicle(skew=-INF)),
+        ("a skew is a string", vehicle(skew="0.2")),
+        ("a skew is None", vehicle(skew=None)),
+        # the network
+        ("network is a list", with_(VALID_TICK, network=[net])),
+        ("network is a number", with_(VALID_TICK, network=1)),
+        ("network is a string", with_(VALID_TICK, network="graph")),
+        ("network is a bool", with_(VALID_TICK, network=True)),
+        ("network is an empty map", with_(VALID_TICK, network={})),
+        *[(f"network misses {name}", with_(VALID_TICK, network=without(net, name))) for name in net],
+        ("edges is a map", network(edges={"1": 2})),
+        ("edges is None", network(edges=None)),
+        ("edges is a flat list", network(edges=[1, 2])),
+        ("an edge has 1 item", network(edges=[[1]])),
+        ("an edge has 3 items", network(edges=[[1, 2, 3]])),
+        ("an edge is a map", network(edges=[{"1": 2}])),
+        ("an edge holds a float", network(edges=[[1, 2.0]])),
+        ("an edge holds a bool", network(edges=[[True, 2]])),
+        ("an edge holds a string", network(edges=[["1", 2]])),
+        ("an edge holds None", network(edges=[[1, None]])),
+        ("an edge holds nan", network(edges=[[NAN, 2]])),
+        ("down is a number", network(down=3)),
+        ("a down link has 3 items", network(down=[[1, 2, 3]])),
+        ("a down link holds a float", network(down=[[1.0, 2]])),
+        ("a down link holds a bool", network(down=[[1, False]])),
+        ("a down link holds a string", network(down=[[1, "2"]])),
+        ("degraded is a map", network(degraded={"2": [1, 0.5, 0.1]})),
+        ("degraded is None", network(degraded=None)),
+        ("a degraded link has 3 items", network(degraded=[[2, 1, 0.5]])),
+        ("a degraded link has 5 items", network(degraded=[[2, 1, 0.5, 0.1, 0.0]])),
+        ("a degraded link is a map", network(degraded=[{"loss": 0.5}])),
+        ("a degraded loss is nan", network(degraded=[[2, 1, NAN, 0.1]])),
+        ("a degraded loss is inf", network(degraded=[[2, 1, INF, 0.1]])),
+        ("a degraded loss is a bool", network(degraded=[[2, 1, True, 0.1]])),
+        ("a degraded loss is a string", network(degraded=[[2, 1, "0.5", 0.1]])),
+        ("a degraded loss is None", network(degraded=[[2, 1, None, 0.1]])),
+        ("a degraded delay is -inf", network(degraded=[[2, 1, 0.5, -INF]])),
+        ("a degraded delay is a list", network(degraded=[[2, 1, 0.5, [0.1]]])),
+        ("a degraded link's sender is a string", network(degraded=[["x", 1, 0.5, 0.1]])),
+        ("a degraded link's sender is nan", network(degraded=[[NAN, 1, 0.5, 0.1]])),
+        ("blackout is an int", network(blackout=0)),
+        ("blackout is None", network(blackout=None)),
+        ("blackout is a string", network(blackout="no")),
+        ("silent is a map", network(silent={"3": True})),
+        ("silent is a number", network(silent=3)),
+        ("silent is None", network(silent=None)),
+        ("silent is a string", network(silent="3")),
+        # the vehicles alive
+        ("alive is a map", with_(VALID_TICK, alive={"1": True})),
+        ("alive is a number", with_(VALID_TICK, alive=3)),
+        ("alive is a string", with_(VALID_TICK, alive="123")),
+        ("alive is a bool", with_(VALID_TICK, alive=True)),
+        ("alive holds a float", with_(VALID_TICK, alive=[1, 2.0])),
+        ("alive holds a bool", with_(VALID_TICK, alive=[1, True])),
+        ("alive holds a string", with_(VALID_TICK, alive=["1"])),
+        ("alive holds None", with_(VALID_TICK, alive=[None])),
+        ("alive holds a list", with_(VALID_TICK, alive=[[1, 2]])),
+    ]
+    return cases
+
+
+def tick_network_bug_cases() -> list[tuple[str, Message]]:
+    """Malformed networks comms.messages._network gets wrong: an error other than ValueError, or none at all."""
+    net = VALID_TICK["network"]
+
+    def network(**changes: Any) -> Message:
+        return with_(VALID_TICK, network=with_(net, **changes))
+
+    return [
+        ("a degraded link's sender is None", network(degraded=[[None, 1, 0.5, 0.1]])),  # TypeError
+        ("a degraded link's receiver is a list", network(degraded=[[2, [1], 0.5, 0.1]])),  # TypeError
+        ("a degraded link's sender is inf", network(degraded=[[INF, 1, 0.5, 0.1]])),  # OverflowError
+        ("a degraded link's sender is a numeric string", network(degraded=[["2", 1, 0.5, 0.1]])),  # accepted
+        ("a degraded link's sender is a float", network(degraded=[[2.5, 1, 0.5, 0.1]])),  # accepted as 2
+        ("a degraded link's receiver is a bool", network(degraded=[[2, True, 0.5, 0.1]])),  # accepted as 1
+        ("silent holds a string", network(silent=["3"])),  # accepted, entry dropped
+        ("silent holds a float", network(silent=[3.0])),  # accepted, entry dropped
+        ("silent holds a bool", network(silent=[True])),  # accepted, entry dropped
+        ("silent holds None", network(silent=[3, None])),  # accepted, entry dropped
+    ]
+
+
+def event_cases() -> list[tuple[str, Message]]:
+    cases = [(f"missing {name}", without(VALID_EVENT, name)) for name in ("t", "sender", "receiver", "seq", "kind")]
+    cases += [
+        ("kind is unknown", with_(VALID_EVENT, kind="lost")),
+        ("kind is None", with_(VALID_EVENT, kind=None)),
+        ("kind is a number", with_(VALID_EVENT, kind=1)),
+        ("kind is a list", with_(VALID_EVENT, kind=["sent"])),
+        ("t is nan", with_(VALID_EVENT, t=NAN)),
+        ("t is inf", with_(VALID_EVENT, t=INF)),
+        ("t is a bool", with_(VALID_EVENT, t=True)),
+        ("t is a string", with_(VALID_EVENT, t="1.25")),
+        ("sender is a bool", with_(VALID_EVENT, sender=True)),
+        ("sender is a float", with_(VALID_EVENT, sender=1.0)),
+        ("receiver is a string", with_(VALID_EVENT, receiver="2")),
+        ("receiver is None", with_(VALID_EVENT, receiver=None)),
+        ("seq is a float", with_(VALID_EVENT, seq=3.0)),
+        ("seq is a bool", with_(VALID_EVENT, seq=False)),
+        ("delay is nan", with_(VALID_EVENT, delay=NAN)),
+        ("delay is -inf", with_(VALID_EVENT, delay=-INF)),
+        ("delay is a string", with_(VALID_EVENT, delay="0.25")),
+        ("delay is a bool", with_(VALID_EVENT, delay=True)),
+        ("reason is a number", with_(VALID_EVENT, reason=1)),
+        ("reason is a bool", with_(VALID_EVENT, reason=False)),
+        ("reason is a list", with_(VALID_EVENT, reason=["loss"])),
     ]
     return cases
 
@@ -541,16 +812,25 @@ PARSERS: dict[str, Parser] = {
     "state": lambda m: parse_state(m, 4),
     "rx": parse_rx,
     "tick": parse_tick,
+    "event": parse_event,
 }
+VALID = {"tx": VALID_TX, "state": VALID_STATE, "rx": VALID_RX, "tick": VALID_TICK, "event": VALID_EVENT}
 CASES = [
     pytest.param(kind, message, id=f"{kind}: {name}")
-    for kind, cases in (("tx", tx_cases()), ("state", state_cases()), ("rx", rx_cases()), ("tick", tick_cases()))
+    for kind, cases in (
+        ("tx", tx_cases()),
+        ("state", state_cases()),
+        ("rx", rx_cases()),
+        ("tick", tick_cases()),
+        ("event", event_cases()),
+    )
     for name, message in cases
 ]
+CASES += [pytest.param("tick", message, id=f"tick: {name}") for name, message in tick_network_bug_cases()]
 
 
 def test_the_valid_baselines_parse():
-    for kind, valid in (("tx", VALID_TX), ("state", VALID_STATE), ("rx", VALID_RX), ("tick", VALID_TICK)):
+    for kind, valid in VALID.items():
         PARSERS[kind](wire(valid))
 
 
@@ -572,10 +852,15 @@ def test_parse_state_rejects_a_non_finite_rotation(bad):
     ("kind", "message"),
     [
         ("tx", with_(VALID_TX, t=10**400)),
-        ("tick", with_(VALID_TICK, caps=[[1, -(10**400)]])),
+        ("tx", with_(VALID_TX, stamp=10**400)),
+        ("tick", with_(VALID_TICK, t=10**400)),
+        ("tick", with_(VALID_TICK, vehicles=[with_(VALID_TICK["vehicles"][0], cap=-(10**400))])),
+        ("tick", with_(VALID_TICK, vehicles=[with_(VALID_TICK["vehicles"][0], skew=10**400)])),
+        ("tick", with_(VALID_TICK, network=with_(VALID_TICK["network"], degraded=[[2, 1, 0.5, 10**400]]))),
         ("state", with_(VALID_STATE, rotation=[10**400] * 9)),
+        ("event", with_(VALID_EVENT, delay=10**400)),
     ],
-    ids=["tx", "tick", "state"],
+    ids=["tx", "tx stamp", "tick t", "tick cap", "tick skew", "tick degraded delay", "state", "event"],
 )
 def test_an_integer_too_large_for_a_float_is_a_value_error(kind, message):
     with pytest.raises(ValueError):
@@ -631,15 +916,21 @@ NEAR_MISSES = JSON_VALUES | NUMBERISH | st.lists(NUMBERISH, min_size=0, max_size
 DROP = object()  # a field left out
 
 
-def mutations(valid: Message) -> st.SearchStrategy[Message]:
-    """The valid message with up to three fields dropped or replaced, and maybe extra fields."""
+def mutations(valid: Message, deep: bool = True) -> st.SearchStrategy[Message]:
+    """The valid message with up to three fields dropped or replaced, and maybe extra fields. A list of maps
+    (receptions, disturbed vehicles) or of lists (links) gets mutated items too; with deep, a map (the network) gets
+    mutated fields."""
     replacement: dict[str, st.SearchStrategy[Any]] = {name: NEAR_MISSES | st.just(DROP) for name in valid}
-    if isinstance(valid.get("receptions"), list):
-        inner = st.lists(mutations(valid["receptions"][0]) | JSON_VALUES, min_size=1, max_size=3)
-        replacement["receptions"] = inner | replacement["receptions"]
-    if isinstance(valid.get("caps"), list):
-        pairs = st.lists(st.lists(NUMBERISH, min_size=1, max_size=3) | JSON_VALUES, min_size=1, max_size=3)
-        replacement["caps"] = pairs | replacement["caps"]
+    for name, value in valid.items():
+        if isinstance(value, list) and value and isinstance(value[0], dict):
+            maps = st.lists(mutations(value[0], deep) | JSON_VALUES, min_size=1, max_size=3)
+            replacement[name] = maps | replacement[name]
+        elif isinstance(value, list) and value and isinstance(value[0], list):
+            width = len(value[0])
+            items = st.lists(NUMBERISH, min_size=width - 1, max_size=width + 1) | JSON_VALUES
+            replacement[name] = st.lists(items, min_size=1, max_size=3) | replacement[name]
+        elif isinstance(value, dict) and deep:
+            replacement[name] = mutations(value, deep) | replacement[name]
     changes = st.lists(st.sampled_from(sorted(valid)), max_size=3, unique=True).flatmap(
         lambda names: st.fixed_dictionaries({name: replacement[name] for name in names})
     )
@@ -688,18 +979,29 @@ def test_decode_inverts_msgpack_for_maps_only(value):
             decode(data)
 
 
-@pytest.mark.parametrize(
-    ("kind", "valid"),
-    [("tx", VALID_TX), ("state", VALID_STATE), ("rx", VALID_RX), ("tick", VALID_TICK)],
-    ids=["tx", "state", "rx", "tick"],
-)
-@settings(max_examples=150, deadline=None, database=None)
-@given(data=st.data())
-def test_parsers_succeed_or_raise_value_error_only(kind, valid, data):
-    message = data.draw(mutations(valid) | st.dictionaries(st.text(max_size=8), JSON_VALUES, max_size=6))
+def assert_value_error_only(kind: str, message: Message) -> None:
     accepted = succeeds_or_value_error(PARSERS[kind], message)
     assert succeeds_or_value_error(PARSERS[kind], wire(message)) == accepted
     event("accepted" if accepted else "rejected")
+
+
+@pytest.mark.parametrize("kind", sorted(VALID))
+@settings(max_examples=150, deadline=None, database=None)
+@given(data=st.data())
+def test_parsers_succeed_or_raise_value_error_only(kind, data):
+    # the tick's network is replaced whole here; its fields are mutated by the next test
+    shapes = mutations(VALID[kind], deep=kind != "tick")
+    message = data.draw(shapes | st.dictionaries(st.text(max_size=8), JSON_VALUES, max_size=6))
+    assert_value_error_only(kind, message)
+
+
+@settings(max_examples=150, deadline=None, database=None)
+@given(network=mutations(VALID_TICK["network"]))
+@example(
+    network=with_(VALID_TICK["network"], degraded=[[None, 1, 0.5, 0.1]])
+)  # a degraded link whose sender is not an id
+def test_parse_tick_of_any_network_succeeds_or_raises_value_error_only(network):
+    assert_value_error_only("tick", with_(VALID_TICK, network=network))
 
 
 @pytest.mark.parametrize(

@@ -19,7 +19,7 @@ import pytest
 from mcap.opcode import Opcode
 from mcap.reader import make_reader
 
-from comms.messages import COMMS_STATS_KEY, META_KEY, TICK_KEY, rx_key, state_key, tx_key
+from comms.messages import COMMS_STATS_KEY, META_KEY, TICK_KEY, rx_key, state_key, tick_message, tx_key
 from supervisor import recorder
 from supervisor.recorder import Recorder, seconds_to_ns
 from supervisor.recover import MAGIC, RecoveryError, recover
@@ -62,12 +62,12 @@ def state(vehicle: int, k: int, t: float) -> dict[str, Any]:
 def step(k: int) -> Iterator[tuple[str, float, dict[str, Any]]]:
     """The messages of one sync step, in the order the supervisor records them."""
     t = 0.1 * k
-    yield TICK_KEY, t, {"k": k, "t": t, "final": False, "caps": {}}
+    yield TICK_KEY, t, tick_message(k, t, False)
     for vehicle in VEHICLES:
         yield state_key(vehicle), t, state(vehicle, k, t)
         yield rx_key(vehicle), t, {"vehicle": vehicle, "k": k, "t": t, "receptions": []}
         if k % 5 == vehicle:
-            tx = {"t": t, "sender": vehicle, "seq": k // 5, "gamma": 0.01 * k, "gamma_dot": 0.01}
+            tx = {"t": t, "stamp": t, "sender": vehicle, "seq": k // 5, "gamma": 0.01 * k, "gamma_dot": 0.01}
             yield tx_key(vehicle), t, {**tx, "position": [0.0, 1.0, 2.0], "velocity": [1.0, 0.0, 0.0]}
     if k % 20 == 0:
         yield COMMS_STATS_KEY, t, {"t": t, "sent": k, "delivered": k // 2}

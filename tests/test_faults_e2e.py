@@ -1,0 +1,207 @@
+"""Faults run as a user would: both engines agree under any schedule, a lost vehicle stops the run or not as the
+scenario says, and whatever happens every run ends with a valid log, balanced links and no process left.
+
+    vehicle 2 ---- vehicle 1 ---- vehicle 3        (paper graph; faults cut, degrade, switch and kill)
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import signal
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+import pytest
+from mcap.exceptions import McapError
+from mcap.reader import make_reader
+
+from supervisor.recorder import read_messages
+from tests.conftest import shortened
+from tests.procs import cpf, processes_with, start_cpf, wait_for_no_processes, wait_for_progress
+
+pytestmark = pytest.mark.e2e
+
+EVERY_KIND = [
+    "kind=link_down,sender=1,receiver=2,start=10,end=15",
+    "kind=link_degraded,sender=1,receiver=3,extra_loss=0.5,extra_delay=0.3,start=5,end=25",
+    "kind=blackout,start=20,end=22",
+    "kind=modem_silent,vehicle=3,start=30,end=33",
+    "kind=graph_switch,edges=[[1,2],[2,3]],start=35,end=40",
+    "kind=vehicle_kill,vehicle=2,start=41,end=44",
+    "kind=broker_kill,start=46,end=48",
+    "kind=frozen_gamma,vehicle=1,start=50,end=52",
+    "kind=gamma_offset,vehicle=3,offset=2.0,start=53,end=55",
+    "kind=clock_skew,vehicle=2,offset=0.5,start=56,end=58",
+]
+
+
+def fault_args(specs: list[str]) -> list[str]:
+    return [arg for spec in specs for arg in ("--fault", spec)]
+
+
+def read_run(path: Path) -> tuple[dict, dict[tuple[int, int], Counter[str]], list]:
+    states: dict = {}
+    links: dict[tuple[int, int], Counter[str]] = {}
+    faults: list = []
+    for topic, _, m in read_messages(path):
+        if topic.endswith("/state"):
+            states[(m["vehicle"], m["k"])] = m
+        elif topic == "cpf/comms/event":
+            links.setdefault((m["sender"], m["receiver"]), Counter())[m["reason"] or m["kind"]] += 1
+        elif topic == "cpf/run/fault":
+            faults.append((m["kind"], m["phase"], m["t"]))
+    return states, links, faults
+
+
+def assert_balanced(links: dict[tuple[int, int], Counter[str]]) -> None:
+    for link, counts in links.items():
+        dropped = sum(n for cause, n in counts.items() if cause not in ("sent", "delivered"))
+        assert counts["sent"] == counts["delivered"] + dropped, (link, counts)
+
+
+def assert_complete(path: Path) -> None:
+    with path.open("rb") as stream:
+        summary = make_reader(stream).get_summary()
+    assert summary is not None and summary.statistics is not None
+    assert len(read_messages(path)) == summary.statistics.message_count
+
+
+def run_both(tmp_path: Path, scenario: Path, extra: list[str]) -> tuple[tuple, tuple]:
+    results = []
+    for engine in ("zenoh", "inprocess"):
+        done = cpf("run", str(scenario), "--engine", engine, *extra, "--out", f"{engine}.mcap", "--quiet", cwd=tmp_path)
+        assert done.returncode == 0, done.stderr
+        assert_complete(tmp_path / f"{engine}.mcap")
+        results.append(read_run(tmp_path / f"{engine}.mcap"))
+    return results[0], results[1]
+
+
+def test_every_kind_of_fault_gives_the_same_run_in_both_engines(tmp_path, paper_text):
+    scenario = tmp_path / "s.toml"
+    scenario.write_text(shortened(paper_text, 60.0))
+    zen, inp = run_both(tmp_path, scenario, ["--set", "scenario.on_vehicle_loss=continue", *fault_args(EVERY_KIND)])
+    assert zen == inp
+    states, links, faults = zen
+    assert len(faults) == 2 * len(EVERY_KIND)
+    causes = set().union(*links.values())
+    assert {"link_down", "degraded", "blackout", "modem_silent"} <= causes
+    assert not any(key[0] == 2 and 410 <= key[1] < 440 for key in states)  # vehicle 2 down from 41 s to 44 s
+    assert (2, 440) in states  # and back
+    assert (2, 3) in links and (3, 2) in links  # the switched graph carried messages
+    assert_balanced(links)
+    assert processes_with(str(scenario)) == []
+
+
+def test_a_lost_vehicle_stops_the_run_when_the_scenario_says_abort(tmp_path, paper_text):
+    scenario = tmp_path / "s.toml"
+    scenario.write_text(shortened(paper_text, 30.0))
+    done = cpf("run", str(scenario), "--fault", "kind=vehicle_kill,vehicle=2,start=10", "--out", "r.mcap", cwd=tmp_path)
+    assert done.returncode == 1
+    assert done.stderr.strip().splitlines()[-1] == "cpf: error: vehicle 2 stopped at t = 10.0 s (killed by SIGKILL)"
+    assert_complete(tmp_path / "r.mcap")
+    assert processes_with(str(scenario)) == []
+
+
+def test_a_restarted_vehicle_rejoins_from_its_last_recorded_state(tmp_path, paper_text):
+    scenario = tmp_path / "s.toml"
+    scenario.write_text(shortened(paper_text, 30.0))
+    extra = ["--set", "scenario.on_vehicle_loss=continue", "--fault", "kind=vehicle_kill,vehicle=3,start=10,end=12"]
+    done = cpf("run", str(scenario), *extra, "--out", "r.mcap", "--quiet", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert "vehicle 3 lost at t = 10.0 s (killed by SIGKILL); going on without it" in done.stderr
+    states, _, _ = read_run(tmp_path / "r.mcap")
+    last_before, first_after = states[(3, 99)], states[(3, 120)]
+    assert all((3, k) not in states for k in range(100, 120))
+    assert first_after["gamma"] == pytest.approx(last_before["gamma"], abs=1e-12)  # picked up where it was
+    np.testing.assert_allclose(first_after["position"], last_before["position"], atol=1e-12)
+    ages = dict(states[(1, 115)]["estimate_age"])
+    assert ages[3] > 1.0 and ages[2] < 0.2  # its neighbour saw the link go quiet
+
+
+def test_an_unscheduled_death_is_noticed_and_survived_when_the_scenario_says_continue(tmp_path, paper_text):
+    scenario = tmp_path / "s.toml"
+    scenario.write_text(shortened(paper_text, 60.0))
+    run = start_cpf(["run", str(scenario), "--set", "scenario.on_vehicle_loss=continue", "--out", "r.mcap"], tmp_path)
+    try:
+        wait_for_progress(run, simulated=5.0)
+        victim = [pid for pid, cmd in processes_with(str(scenario)) if " vehicle " in cmd and "--id 3" in cmd]
+        assert len(victim) == 1
+        os.kill(victim[0], signal.SIGKILL)
+        _, stderr = run.communicate(timeout=60)
+    finally:
+        run.kill()
+    assert run.returncode == 0, stderr
+    assert "cpf: warning: vehicle 3 lost at t = " in stderr
+    states, links, _ = read_run(tmp_path / "r.mcap")
+    assert max(k for v, k in states if v == 1) == 599 > max(k for v, k in states if v == 3)
+    assert_balanced(links)
+    assert processes_with(str(scenario)) == []
+
+
+def random_schedule(rng: np.random.Generator, duration: float) -> list[str]:
+    """Two to five faults of random kinds at random times (whole steps), some overlapping."""
+    kinds = [
+        "kind=link_down,sender=1,receiver={r},both={b}",
+        "kind=link_degraded,sender={r},receiver=1,extra_loss={p},extra_delay={d}",
+        "kind=blackout",
+        "kind=modem_silent,vehicle={v}",
+        "kind=graph_switch,edges=[[1,2]]",  # leaves vehicle 3 disconnected
+        "kind=vehicle_kill,vehicle={v}",
+        "kind=broker_kill",
+        "kind=frozen_gamma,vehicle={v}",
+        "kind=gamma_offset,vehicle={v},offset={o}",
+        "kind=clock_skew,vehicle={v},offset={d}",
+        "kind=speed_cap,vehicle={v},gamma_dot_max={p}",
+    ]
+    specs = []
+    for _ in range(int(rng.integers(2, 6))):
+        template = kinds[int(rng.integers(len(kinds)))]
+        start = round(float(rng.uniform(1.0, duration - 5.0)), 1)
+        end = round(start + float(rng.uniform(0.5, 4.0)), 1)
+        fields = template.format(
+            r=int(rng.integers(2, 4)), b=str(bool(rng.integers(2))).lower(), p=round(float(rng.uniform(0.1, 0.9)), 2),
+            d=round(float(rng.uniform(0.0, 0.5)), 2), v=int(rng.integers(1, 4)), o=round(float(rng.normal(0, 2)), 2),
+        )  # fmt: skip
+        specs.append(f"{fields},start={start},end={end}")
+    return specs
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_soak_random_fault_schedules(tmp_path, paper_text, seed):
+    """The paper scenario under a random schedule: a valid log, balanced links, nothing left running, and the
+    same run from both engines."""
+    duration = 25.0
+    scenario = tmp_path / "s.toml"
+    scenario.write_text(shortened(paper_text, duration))
+    schedule = random_schedule(np.random.default_rng(seed), duration)
+    extra = ["--seed", str(seed), "--set", "scenario.on_vehicle_loss=continue", *fault_args(schedule)]
+    zen, inp = run_both(tmp_path, scenario, extra)
+    assert zen == inp, schedule
+    assert_balanced(zen[1])
+    assert len(zen[2]) >= len(schedule)  # every fault started (most also ended) in the log
+    assert processes_with(str(scenario)) == []
+
+
+def test_sigkill_of_the_supervisor_loses_about_a_second_and_the_log_recovers(tmp_path, paper_text):
+    scenario = tmp_path / "s.toml"
+    scenario.write_text(paper_text)
+    run = start_cpf(["run", str(scenario), "--out", "killed.mcap"], tmp_path)
+    try:
+        line = wait_for_progress(run, simulated=100.0)
+        run.send_signal(signal.SIGKILL)
+        run.communicate(timeout=10)
+    finally:
+        run.kill()
+    shown, factor = float(line.split()[2]), float(line.split()[6].rstrip("x"))
+    assert wait_for_no_processes(str(scenario)) == []  # the children stopped by themselves
+    with (tmp_path / "killed.mcap").open("rb") as stream, contextlib.suppress(McapError):
+        assert make_reader(stream).get_summary() is None  # the writer never closed: no index (or garbage)
+    done = cpf("recover", "killed.mcap", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    recovered = read_messages(tmp_path / "killed.recovered.mcap")
+    last = max(m["t"] for topic, _, m in recovered if topic.endswith("/state"))
+    # Chunks reach the disk every 0.5 s of wall time: at most about one second of the run is missing.
+    assert last >= shown - 1.0 * factor
+    assert_complete(tmp_path / "killed.recovered.mcap")
