@@ -153,6 +153,7 @@ META = _object(
         "scenario_name": STRING,
         "scenario_file": STRING,
         "scenario_toml": STRING,
+        "scenario": {"type": "object"},
         "seed": INTEGER,
         "engine": STRING,
         "clock": STRING,

@@ -83,6 +83,20 @@ def _parser() -> argparse.ArgumentParser:
     report = sub.add_parser("report", help="figures of a recorded run")
     report.add_argument("log", type=Path, help="MCAP file written by cpf run")
     report.add_argument("--out", type=Path, default=None, help="directory for the figures (default: beside the log)")
+    sweep = sub.add_parser("sweep", help="Monte-Carlo over parameter values and seeds (resumable)")
+    sweep.add_argument("scenario", type=Path)
+    sweep.add_argument(
+        "--param", action="append", required=True, metavar="KEY=VALUES",
+        help="KEY=v1,v2,... or KEY=start:stop:step, e.g. comms.loss=0:0.8:0.1 (repeatable: a grid)",
+    )  # fmt: skip
+    sweep.add_argument("--seeds", type=int, default=10, help="runs per parameter combination, seeds 0..N-1")
+    sweep.add_argument("--jobs", type=int, default=2, help="runs at once, one process each")
+    sweep.add_argument("--engine", choices=["inprocess", "zenoh"], default="inprocess", help="identical results")
+    sweep.add_argument("--out", type=Path, required=True, help="directory: runs/, results.csv, plots")
+    resim = sub.add_parser("resim", help="re-run the vehicles against the receptions recorded in a log")
+    resim.add_argument("log", type=Path, help="MCAP file written by cpf run")
+    resim.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="what to change (repeatable)")
+    resim.add_argument("--out", type=Path, default=None, help="MCAP file to write (default: <log>.resim.mcap)")
     repair = sub.add_parser("recover", help="rebuild the summary and index of a log whose writer was killed")
     repair.add_argument("log", type=Path, help="MCAP file, possibly cut short (no footer, partial last chunk)")
     repair.add_argument("--out", type=Path, default=None, help="MCAP file to write (default: <log>.recovered.mcap)")
@@ -169,6 +183,40 @@ def _report(args: argparse.Namespace) -> int:
     return 0
 
 
+def _sweep(args: argparse.Namespace) -> int:
+    from supervisor.sweep import parse_param, sweep
+    from supervisor.sweep_plot import plot_sweep
+
+    if args.seeds < 1 or args.jobs < 1:
+        raise ScenarioError(f"--seeds and --jobs must be >= 1, got {args.seeds} and {args.jobs}")
+    params = [parse_param(text) for text in args.param]
+    rows = sweep(args.scenario, params, args.seeds, args.jobs, args.out, args.engine)
+    print(f"{len(rows)} runs -> {args.out / 'results.csv'}")
+    for path in plot_sweep(rows, params, args.out):
+        print(path)
+    return 0
+
+
+def _resim(args: argparse.Namespace) -> int:
+    from supervisor.faults import intervals
+    from supervisor.resim import resimulate
+    from supervisor.summary import format_summary, summarize
+
+    if not args.log.is_file():
+        raise ScenarioError(f"{args.log}: no such log file")
+    out = args.out or args.log.with_name(f"{args.log.stem}.resim.mcap")
+    sc, original, new = resimulate(args.log, args.set, out)
+    rep, duration = sc.report, sc.scenario.duration
+    tube = abs(sc.path_following.delta) + rep.tube_margin
+    for title, series in (("as run", original), (f"re-simulated with {' '.join(args.set) or 'no change'}", new)):
+        print(f"{title}:")
+        print(
+            format_summary(summarize(series, duration, intervals(sc), rep.transient, tube, rep.coordination_tolerance))
+        )
+    print(f"-> {out}")
+    return 0
+
+
 def _recover(args: argparse.Namespace) -> int:
     from supervisor.recover import RecoveryError, recover
 
@@ -187,7 +235,15 @@ def _interrupt(signum: int, frame: FrameType | None) -> None:
     raise KeyboardInterrupt  # SIGTERM cleans up like Ctrl-C: children stopped, log closed
 
 
-COMMANDS = {"run": _run, "vehicle": _vehicle, "comms": _comms, "report": _report, "recover": _recover}
+COMMANDS = {
+    "run": _run,
+    "vehicle": _vehicle,
+    "comms": _comms,
+    "report": _report,
+    "recover": _recover,
+    "sweep": _sweep,
+    "resim": _resim,
+}
 
 
 def main(argv: Sequence[str] | None = None) -> int:

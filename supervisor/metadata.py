@@ -22,6 +22,7 @@ def run_meta(scenario: Scenario, scenario_file: str, scenario_toml: str, seed: i
         "scenario_name": scenario.scenario.name,
         "scenario_file": scenario_file,
         "scenario_toml": scenario_toml,
+        "scenario": scenario.model_dump(mode="json"),  # as validated, --set and --fault applied: enough to re-run
         "seed": seed,
         "engine": engine,
         "clock": clock,

@@ -1,0 +1,168 @@
+"""Monte-Carlo robustness sweeps: one scenario over a grid of parameter values and seeds.
+
+`cpf sweep SCENARIO --param comms.loss=0,0.1,0.2 [--param ...] --seeds 20 --jobs N --out DIR` runs every
+combination (each with its own seed), one process per job. Every finished run leaves DIR/runs/<id>.json, so an
+interrupted sweep resumes where it stopped. Results: DIR/results.csv (one row per run) and, per swept parameter, a
+plot of the steady-state coordination error and the packets sent and delivered against it, with the spread across
+seeds. Steady state: the largest max|gamma_i - gamma_j| over the final STEADY_WINDOW seconds of a run.
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import io
+import json
+import math
+import tempfile
+import tomllib
+from collections.abc import Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass
+from itertools import product
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from tqdm import tqdm
+
+from supervisor.errors import ScenarioError, SimulationError
+
+STEADY_WINDOW = 50.0  # s at the end of a run over which the steady-state coordination error is taken
+
+
+@dataclass(frozen=True, slots=True)
+class Param:
+    key: str
+    values: tuple[Any, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class RunSpec:
+    settings: tuple[tuple[str, Any], ...]
+    seed: int
+
+    @property
+    def run_id(self) -> str:
+        text = json.dumps([list(self.settings), self.seed])
+        readable = "_".join(f"{k.split('.')[-1]}={v}" for k, v in self.settings)
+        return f"{readable}_seed={self.seed}_{hashlib.sha1(text.encode()).hexdigest()[:8]}".replace("/", "-")
+
+
+def parse_param(text: str) -> Param:
+    """KEY=v1,v2,... (TOML values) or KEY=start:stop:step (inclusive of stop, within rounding)."""
+    key, sep, spec = text.partition("=")
+    if not sep or not key.strip() or not spec.strip():
+        raise ScenarioError(f"--param: expected KEY=v1,v2,... or KEY=start:stop:step, got {text!r}")
+    if spec.count(":") == 2:
+        start, stop, step = (_value(part, text) for part in spec.split(":"))
+        if not all(isinstance(v, int | float) for v in (start, stop, step)) or step <= 0:
+            raise ScenarioError(f"--param {key}: start:stop:step needs numbers and step > 0, got {spec!r}")
+        count = math.floor((stop - start) / step + 1e-9) + 1
+        return Param(key.strip(), tuple(round(start + i * step, 12) for i in range(count)))
+    return Param(key.strip(), tuple(_value(part, text) for part in spec.split(",")))
+
+
+def _value(text: str, whole: str) -> Any:
+    try:
+        return tomllib.loads(f"v = {text.strip()}")["v"]
+    except tomllib.TOMLDecodeError:
+        raise ScenarioError(f"--param: {text.strip()!r} is not a TOML value, in {whole!r}") from None
+
+
+def grid(params: Sequence[Param], seeds: int, first_seed: int = 0) -> list[RunSpec]:
+    combos = product(*[[(p.key, v) for v in p.values] for p in params])
+    return [RunSpec(tuple(combo), first_seed + s) for combo in combos for s in range(seeds)]
+
+
+def _override(key: str, value: Any) -> str:
+    return f"{key}={json.dumps(value)}"
+
+
+def run_one(scenario_path: str, spec: RunSpec, runs_dir: str, engine: str) -> dict[str, Any]:
+    """One run of the sweep (in a worker process): its metrics row, also written to runs_dir/<id>.json."""
+    from supervisor.faults import intervals
+    from supervisor.progress import Progress
+    from supervisor.scenario import load_scenario
+    from supervisor.summary import summarize
+
+    scenario = load_scenario(Path(scenario_path), [_override(k, v) for k, v in spec.settings])
+    text = Path(scenario_path).read_text(encoding="utf-8")
+    quiet = Progress(scenario.scenario.duration, io.StringIO(), enabled=False)
+    with tempfile.TemporaryDirectory(prefix="cpf-sweep-") as tmp:
+        result = _run(engine, scenario, Path(scenario_path), text, Path(tmp) / "run.mcap", spec.seed, quiet)
+    rep = scenario.report
+    tube = abs(scenario.path_following.delta) + rep.tube_margin
+    summary = summarize(
+        result.series, scenario.scenario.duration, intervals(scenario), rep.transient, tube, rep.coordination_tolerance
+    )
+    row = {**dict(spec.settings), "seed": spec.seed, **_measures(result, summary, scenario)}
+    Path(runs_dir, f"{spec.run_id}.json").write_text(json.dumps(row))
+    return row
+
+
+def _run(engine: str, scenario: Any, path: Path, text: str, out: Path, seed: int, quiet: Any) -> Any:
+    if engine == "zenoh":
+        from supervisor.cosim import BusOptions, run_zenoh
+
+        return run_zenoh(scenario, path, text, out, seed, "lockstep", 1.0, BusOptions(), quiet)
+    from supervisor.inprocess import run_inprocess
+
+    return run_inprocess(scenario, str(path), text, out, seed, quiet)
+
+
+def _measures(result: Any, summary: Any, scenario: Any) -> dict[str, Any]:
+    series = result.series
+    coordination = np.ptp(series.gamma, axis=1)
+    tail = series.t >= series.t[-1] - STEADY_WINDOW
+    settled = series.t >= min(scenario.report.transient, series.t[-1])
+    return {
+        "steady_coordination_error": float(coordination[tail].max()),
+        "peak_coordination_error_after_transient": float(coordination[settled].max()),
+        "sync_time": summary.sync_time,
+        "resync_time": summary.resync_time,
+        "max_path_error": summary.max_path_error_after_transient,
+        "sent": result.link_counts["sent"],
+        "delivered": result.link_counts["delivered"],
+        "dropped": result.link_counts["dropped"],
+        "wall_s": result.wall_time,
+    }
+
+
+def sweep(
+    scenario_path: Path, params: Sequence[Param], seeds: int, jobs: int, out_dir: Path, engine: str = "inprocess"
+) -> list[dict[str, Any]]:
+    """Run (or resume) the whole sweep; returns every row, in grid order."""
+    from supervisor.scenario import load_scenario
+
+    for param in params:  # every value must make a valid scenario: fail before running anything
+        for value in param.values:
+            load_scenario(scenario_path, [_override(param.key, value)])
+    runs_dir = out_dir / "runs"
+    runs_dir.mkdir(parents=True, exist_ok=True)
+    specs = grid(params, seeds)
+    todo = [s for s in specs if not (runs_dir / f"{s.run_id}.json").exists()]
+    with (
+        tqdm(total=len(specs), initial=len(specs) - len(todo), desc="sweep", unit="run") as bar,
+        ProcessPoolExecutor(max_workers=max(1, jobs)) as pool,
+    ):
+        futures = {pool.submit(run_one, str(scenario_path), s, str(runs_dir), engine): s for s in todo}
+        for future in as_completed(futures):
+            try:
+                future.result()
+            except Exception as exc:  # one failed run stops the sweep with its name; finished runs are kept
+                for other in futures:
+                    other.cancel()
+                raise SimulationError(f"sweep run {futures[future].run_id} failed: {exc}") from exc
+            bar.update(1)
+    rows = [json.loads((runs_dir / f"{s.run_id}.json").read_text()) for s in specs]
+    write_csv(rows, out_dir / "results.csv")
+    return rows
+
+
+def write_csv(rows: list[dict[str, Any]], path: Path) -> None:
+    columns = list(dict.fromkeys(key for row in rows for key in row))
+    with path.open("w", newline="") as stream:
+        writer = csv.DictWriter(stream, fieldnames=columns)
+        writer.writeheader()
+        writer.writerows(rows)
