@@ -67,6 +67,15 @@ class LinkStats:
         edges = {(index[s], index[r]) for _, s, r in self._recent if s in index and r in index}
         return algebraic_connectivity(laplacian(len(self.vehicles), edges))
 
+    def totals(self) -> dict[str, int]:
+        """Packets sent, delivered and dropped over every link."""
+        books = self.books.values()
+        return {
+            "sent": sum(b.sent for b in books),
+            "delivered": sum(b.delivered for b in books),
+            "dropped": sum(sum(b.dropped.values()) for b in books),
+        }
+
     def snapshot(self, t: float) -> dict[str, object]:
         """The message published on cpf/comms/stats: cumulative books per link, and this window's lambda_2."""
         return {

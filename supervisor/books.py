@@ -46,9 +46,4 @@ class LinkBooks:
 
     @property
     def counts(self) -> dict[str, int]:
-        books = self.stats.books.values()
-        return {
-            "sent": sum(b.sent for b in books),
-            "delivered": sum(b.delivered for b in books),
-            "dropped": sum(sum(b.dropped.values()) for b in books),
-        }
+        return self.stats.totals()

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import signal
 import subprocess
 import sys
 import time
@@ -53,3 +54,10 @@ def wait_for_no_processes(marker: str, timeout: float = 20.0) -> list[tuple[int,
     while (left := processes_with(marker)) and time.monotonic() < end:
         time.sleep(0.1)
     return left
+
+
+def kill_vehicle_process(marker: str, vehicle: int) -> None:
+    """SIGKILL the one process of `vehicle` in the run whose command lines mention marker."""
+    victims = [pid for pid, cmd in processes_with(marker) if " vehicle " in cmd and f"--id {vehicle}" in cmd]
+    assert len(victims) == 1, victims
+    os.kill(victims[0], signal.SIGKILL)

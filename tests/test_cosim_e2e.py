@@ -6,7 +6,6 @@ MCAP, and no process of ours left behind, whatever happens.
 
 from __future__ import annotations
 
-import os
 import re
 import signal
 import subprocess
@@ -19,7 +18,7 @@ from mcap.reader import make_reader
 
 from supervisor.recorder import read_messages
 from tests.conftest import shortened
-from tests.procs import cpf, processes_with, start_cpf, wait_for_progress
+from tests.procs import cpf, kill_vehicle_process, processes_with, start_cpf, wait_for_progress
 
 pytestmark = pytest.mark.e2e
 LOSSY = ["--set", "comms.loss=0.2", "--set", "comms.packet_bytes=32", "--set", "comms.bitrate=256"]
@@ -118,9 +117,7 @@ def test_a_vehicle_killed_with_sigkill_stops_the_run_cleanly(tmp_path, paper_tex
     run = start_cpf(["run", str(scenario), "--out", "killed.mcap"], tmp_path)
     try:
         wait_for_progress(run, simulated=5.0)
-        victims = [pid for pid, cmd in processes_with(str(scenario)) if " vehicle " in cmd and "--id 2" in cmd]
-        assert len(victims) == 1
-        os.kill(victims[0], signal.SIGKILL)
+        kill_vehicle_process(str(scenario), 2)
         _, stderr = run.communicate(timeout=30)
     finally:
         run.kill()

@@ -7,7 +7,6 @@ scenario says, and whatever happens every run ends with a valid log, balanced li
 from __future__ import annotations
 
 import contextlib
-import os
 import signal
 from collections import Counter
 from pathlib import Path
@@ -19,7 +18,7 @@ from mcap.reader import make_reader
 
 from supervisor.recorder import read_messages
 from tests.conftest import shortened
-from tests.procs import cpf, processes_with, start_cpf, wait_for_no_processes, wait_for_progress
+from tests.procs import cpf, kill_vehicle_process, processes_with, start_cpf, wait_for_no_processes, wait_for_progress
 
 pytestmark = pytest.mark.e2e
 
@@ -126,9 +125,7 @@ def test_an_unscheduled_death_is_noticed_and_survived_when_the_scenario_says_con
     run = start_cpf(["run", str(scenario), "--set", "scenario.on_vehicle_loss=continue", "--out", "r.mcap"], tmp_path)
     try:
         wait_for_progress(run, simulated=5.0)
-        victim = [pid for pid, cmd in processes_with(str(scenario)) if " vehicle " in cmd and "--id 3" in cmd]
-        assert len(victim) == 1
-        os.kill(victim[0], signal.SIGKILL)
+        kill_vehicle_process(str(scenario), 3)
         _, stderr = run.communicate(timeout=60)
     finally:
         run.kill()
