@@ -97,6 +97,17 @@ def _parser() -> argparse.ArgumentParser:
     resim.add_argument("log", type=Path, help="MCAP file written by cpf run")
     resim.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="what to change (repeatable)")
     resim.add_argument("--out", type=Path, default=None, help="MCAP file to write (default: <log>.resim.mcap)")
+    again = sub.add_parser("replay", help="publish a recorded run on Zenoh again, with its original timing")
+    again.add_argument("log", type=Path, help="MCAP file written by cpf run")
+    again.add_argument("--speed", type=float, default=1.0, help="simulated s per wall s (0: as fast as possible)")
+    again.add_argument("--start", type=float, default=None, help="from this simulation time in s (inclusive)")
+    again.add_argument("--end", type=float, default=None, help="up to this simulation time in s (inclusive)")
+    again.add_argument("--loop", action="store_true", help="replay the window again and again until Ctrl-C")
+    where = again.add_mutually_exclusive_group()
+    where.add_argument("--listen", default=None, help="endpoint of the replayer's router (default: a free local port)")
+    where.add_argument("--connect", default=None, help="join this Zenoh router as a client instead of running one")
+    again.add_argument("--delay", type=float, default=None, metavar="S", help="start S s after opening, not on Enter")
+    again.add_argument("--quiet", action="store_true", help="no progress line")
     repair = sub.add_parser("recover", help="rebuild the summary and index of a log whose writer was killed")
     repair.add_argument("log", type=Path, help="MCAP file, possibly cut short (no footer, partial last chunk)")
     repair.add_argument("--out", type=Path, default=None, help="MCAP file to write (default: <log>.recovered.mcap)")
@@ -217,6 +228,21 @@ def _resim(args: argparse.Namespace) -> int:
     return 0
 
 
+def _replay(args: argparse.Namespace) -> int:
+    from supervisor.replay import ProgressLine, replay, wait_to_start
+
+    progress = ProgressLine()
+    try:
+        report = replay(
+            args.log, args.speed, args.start, args.end, args.loop, args.connect, args.listen,
+            wait_to_start(args.delay), None if args.quiet else progress,
+        )  # fmt: skip
+    finally:
+        progress.close()
+    print(report.describe())
+    return EXIT_INTERRUPTED if report.interrupted and not args.loop else 0
+
+
 def _recover(args: argparse.Namespace) -> int:
     from supervisor.recover import RecoveryError, recover
 
@@ -243,6 +269,7 @@ COMMANDS = {
     "recover": _recover,
     "sweep": _sweep,
     "resim": _resim,
+    "replay": _replay,
 }
 
 

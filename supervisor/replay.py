@@ -1,0 +1,284 @@
+"""Replay of a recorded run: every message of an MCAP log published again on Zenoh with its original timing.
+
+`cpf replay RUN.mcap` reads the log in log-time order (streamed, chunk by chunk: a long log is never held in memory)
+and puts each message, re-encoded as msgpack (the live wire format, comms.messages.encode), on its topic as key
+expression, so live tools and a user's own subscribers see the run again. The message logged at simulation time t
+goes out at wall time t0 + (t - t_first) / speed; speed 0 means as fast as possible (publishers block rather than
+drop, so nothing is lost either way). `start` and `end` (simulation seconds, both inclusive) select a window;
+`loop` replays it again and again until interrupted. Liveliness keys (cpf/alive/...), channels that are not JSON and
+topics that are no valid key expression to publish on are skipped.
+
+Without `connect` the replayer runs its own Zenoh router (on `listen`, default a free localhost port) for
+subscribers to connect to; with `connect` it joins that router as a client. `on_ready` is called with one line
+saying where ("Zenoh router listening on tcp/127.0.0.1:7447") once the session is open and before the first message:
+the command line prints it and waits for Enter or --delay seconds, so subscribers have time to connect.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import math
+import struct
+import sys
+import time
+from collections import Counter
+from collections.abc import Callable, Generator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TextIO
+
+import zenoh
+from mcap.exceptions import McapError
+from mcap.reader import make_reader
+from mcap.records import Channel
+
+from comms.bus import Publishers, free_port, open_session
+from comms.messages import ALIVE_PREFIX, Message
+from supervisor.errors import ScenarioError
+from supervisor.recorder import seconds_to_ns
+
+# (topic, log time ns, message); message None: not to be published (skipped)
+Record = tuple[str, int, Message | None]
+NS_PER_S = 1e9
+PROGRESS_INTERVAL = 1.0  # s of wall time between progress lines
+
+
+@dataclass(slots=True)
+class ReplayReport:
+    """What a replay published: per topic (over every pass), the window replayed, how long it took."""
+
+    endpoint: str  # where the session was: "Zenoh router listening on ..." or "Zenoh client connected to ..."
+    published: Counter[str] = field(default_factory=Counter)
+    skipped: int = 0  # liveliness keys, non-JSON channels, topics no key expression can name
+    passes: int = 0  # complete passes over the window
+    first: float | None = None  # log time (s) of the first message published
+    last: float | None = None  # log time (s) of the last message published in the first pass
+    wall_time: float = 0.0  # s from the first message published to the end
+    interrupted: bool = False
+
+    @property
+    def messages(self) -> int:
+        return sum(self.published.values())
+
+    @property
+    def span(self) -> float:
+        """Simulated seconds from the first to the last message of the window (one pass)."""
+        return 0.0 if self.first is None or self.last is None else self.last - self.first
+
+    def describe(self) -> str:
+        rate = self.messages / max(self.wall_time, 1e-9)
+        window = "nothing" if self.first is None else f"t = {self.first:g}-{self.last:g} s"
+        passes = f", {self.passes} complete passes" if self.passes != 1 else ""
+        stopped = " (interrupted)" if self.interrupted else ""
+        return (
+            f"replayed {self.messages} messages on {len(self.published)} topics ({window}{passes}) "
+            f"in {self.wall_time:.2f} s, {rate:.0f} messages/s{stopped}"
+        )
+
+
+def replay(
+    path: Path,
+    speed: float = 1.0,
+    start: float | None = None,
+    end: float | None = None,
+    loop: bool = False,
+    connect: str | None = None,
+    listen: str | None = None,
+    on_ready: Callable[[str], None] | None = None,
+    progress: Callable[[float], None] | None = None,
+) -> ReplayReport:
+    """Publish the log's messages with start <= t <= end (s) on Zenoh, paced at speed (0: as fast as possible).
+
+    ScenarioError (nothing opened yet) for a file that is missing or no readable MCAP, a window that selects nothing,
+    or bad arguments; ConnectionError if the session cannot be opened. Ctrl-C (KeyboardInterrupt) ends the replay
+    cleanly: the session is closed and the report, marked interrupted, returned. progress, if given, is called with
+    the log time (s) of every message published.
+    """
+    _check(path, speed, start, end, connect, listen)
+    window = (start, end)
+    if _first(path, window) is None:
+        raise ScenarioError(f"{path}: no message to replay in {_describe_window(window)}")
+    session, where = _open(connect, listen)
+    report = ReplayReport(where)
+    began = time.perf_counter()
+    try:
+        with session:
+            if on_ready is not None:
+                on_ready(where)
+            began = time.perf_counter()
+            publishers = Publishers(session)
+            while True:
+                _pass(path, window, speed, publishers, report, progress)
+                report.passes += 1
+                if not loop:
+                    break
+    except KeyboardInterrupt:
+        report.interrupted = True
+    report.wall_time = time.perf_counter() - began
+    return report
+
+
+def _check(
+    path: Path, speed: float, start: float | None, end: float | None, connect: str | None, listen: str | None
+) -> None:
+    if math.isnan(speed) or speed < 0:
+        raise ScenarioError(f"{path}: --speed: must be >= 0 (0: as fast as possible), got {speed:g}")
+    for name, value in (("--start", start), ("--end", end)):
+        if value is not None and not (math.isfinite(value) and value >= 0):
+            raise ScenarioError(f"{path}: {name}: must be a simulation time >= 0 in s, got {value:g}")
+    if start is not None and end is not None and start > end:
+        raise ScenarioError(f"{path}: --start ({start:g} s) is after --end ({end:g} s)")
+    if connect is not None and listen is not None:
+        raise ScenarioError(f"{path}: --listen and --connect exclude each other")
+
+
+def _describe_window(window: tuple[float | None, float | None]) -> str:
+    start, end = window
+    if start is None and end is None:
+        return "the whole log"
+    return f"t = {'the start' if start is None else f'{start:g} s'} to {'the end' if end is None else f'{end:g} s'}"
+
+
+def _open(connect: str | None, listen: str | None) -> tuple[zenoh.Session, str]:
+    if connect is not None:
+        return open_session("client", connect=[connect]), f"Zenoh client connected to {connect}"
+    endpoint = listen or f"tcp/127.0.0.1:{free_port()}"
+    return open_session("router", listen=[endpoint]), f"Zenoh router listening on {endpoint}"
+
+
+# --- reading the log ------------------------------------------------------------------------------------------
+
+
+def _first(path: Path, window: tuple[float | None, float | None]) -> Record | None:
+    """The first record of the window that would be published, if any."""
+    with contextlib.closing(_records(path, window)) as records:
+        return next((record for record in records if record[2] is not None), None)
+
+
+def _records(path: Path, window: tuple[float | None, float | None]) -> Generator[Record, None, None]:
+    """The log's records of the window in log-time order, read chunk by chunk; ScenarioError for an unreadable log."""
+    start, end = window
+    try:
+        stream = path.open("rb")
+    except FileNotFoundError:
+        raise ScenarioError(f"{path}: no such log file") from None
+    except OSError as exc:
+        raise ScenarioError(f"{path}: cannot read the log: {exc.strerror or exc}") from None
+    playable: dict[int, bool] = {}
+    with stream:
+        try:
+            reader = make_reader(stream)
+            for _, channel, message in reader.iter_messages(
+                log_time_order=True,
+                starting_at=None if start is None else seconds_to_ns(start),
+                ending_at=None if end is None else seconds_to_ns(end),
+            ):
+                if channel.id not in playable:
+                    playable[channel.id] = _playable(channel)
+                data = json.loads(message.data) if playable[channel.id] else None
+                yield channel.topic, message.log_time, data
+        except (McapError, struct.error, OSError, ValueError) as exc:
+            reason = str(exc) or type(exc).__name__
+            raise ScenarioError(
+                f"{path}: not a readable MCAP log ({reason}); a log cut short can be repaired with `cpf recover`"
+            ) from None
+
+
+def _playable(channel: Channel) -> bool:
+    """Whether a channel's messages can go back on the bus: JSON, not a liveliness key, a key one can put on."""
+    topic = channel.topic
+    if channel.message_encoding != "json" or topic.startswith(f"{ALIVE_PREFIX}/") or topic == ALIVE_PREFIX:
+        return False
+    if "*" in topic or "$" in topic:
+        return False
+    try:
+        zenoh.KeyExpr(topic)
+    except zenoh.ZError:
+        return False
+    return True
+
+
+# --- publishing -----------------------------------------------------------------------------------------------
+
+
+def _pass(
+    path: Path,
+    window: tuple[float | None, float | None],
+    speed: float,
+    publishers: Publishers,
+    report: ReplayReport,
+    progress: Callable[[float], None] | None,
+) -> None:
+    """One pass over the window: each message put at t0 + (t - t_first) / speed of wall time."""
+    origin: tuple[int, float] | None = None  # (log time ns, wall time) of the pass's first message
+    with contextlib.closing(_records(path, window)) as records:
+        for topic, stamp, message in records:
+            if message is None:
+                report.skipped += 1
+                continue
+            if origin is None:
+                origin = (stamp, time.monotonic())
+            elif speed > 0:
+                _wait_until(origin[1] + (stamp - origin[0]) / NS_PER_S / speed)
+            publishers.put(topic, message)
+            _count(report, topic, stamp)
+            if progress is not None:
+                progress(stamp / NS_PER_S)
+
+
+def _wait_until(deadline: float) -> None:
+    """Pacing (not synchronisation): sleep until the monotonic clock reaches deadline."""
+    while (delay := deadline - time.monotonic()) > 0:
+        time.sleep(delay)
+
+
+def _count(report: ReplayReport, topic: str, stamp: int) -> None:
+    report.published[topic] += 1
+    if report.first is None:
+        report.first = stamp / NS_PER_S
+    if report.passes == 0:
+        report.last = stamp / NS_PER_S
+
+
+# --- for the command line -------------------------------------------------------------------------------------
+
+
+def wait_to_start(delay: float | None, stream: TextIO = sys.stdout) -> Callable[[str], None]:
+    """An on_ready for the command line: print where the session is, then wait for Enter (delay None; end of input
+    counts as Enter) or delay seconds, so subscribers can connect before the first message."""
+
+    def ready(where: str) -> None:
+        print(where, file=stream, flush=True)
+        if delay is None:
+            print("press Enter to start the replay", file=stream, flush=True)
+            with contextlib.suppress(EOFError):
+                input()
+        elif delay > 0:
+            _wait_until(time.monotonic() + delay)
+
+    return ready
+
+
+class ProgressLine:
+    """A progress for the command line: the log time being replayed, at most once a second of wall time (one line
+    rewritten in place on a terminal; call close() before printing anything else)."""
+
+    def __init__(self, stream: TextIO = sys.stderr) -> None:
+        self._stream = stream
+        self._tty = stream.isatty()
+        self._last: float | None = None
+
+    def __call__(self, t: float) -> None:
+        now = time.monotonic()
+        if self._last is not None and now - self._last < PROGRESS_INTERVAL:
+            return
+        self._last = now
+        line = f"replaying t = {t:9.1f} s"
+        self._stream.write(("\r" + line) if self._tty else (line + "\n"))
+        self._stream.flush()
+
+    def close(self) -> None:
+        if self._tty and self._last is not None:
+            self._stream.write("\n")
+            self._stream.flush()
