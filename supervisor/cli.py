@@ -80,7 +80,7 @@ def _parser() -> argparse.ArgumentParser:
     vehicle.add_argument("--start-step", type=int, default=0, help="the sync step to resume at")
     vehicle.add_argument("--resume-seq", type=int, default=0, help="the last transmission's sequence number")
     comms.add_argument("--start-step", type=int, default=0, help="the sync step to resume at (after a restart)")
-    report = sub.add_parser("report", help="figures of a recorded run")
+    report = sub.add_parser("report", help="figures and metrics (metrics.json) of a recorded run")
     report.add_argument("log", type=Path, help="MCAP file written by cpf run")
     report.add_argument("--out", type=Path, default=None, help="directory for the figures (default: beside the log)")
     sweep = sub.add_parser("sweep", help="Monte-Carlo over parameter values and seeds (resumable)")
@@ -97,6 +97,8 @@ def _parser() -> argparse.ArgumentParser:
     resim.add_argument("log", type=Path, help="MCAP file written by cpf run")
     resim.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="what to change (repeatable)")
     resim.add_argument("--out", type=Path, default=None, help="MCAP file to write (default: <log>.resim.mcap)")
+    info = sub.add_parser("info", help="what a recorded run is: scenario, engine, duration, faults, topics")
+    info.add_argument("log", type=Path, help="MCAP file written by cpf run (one cut short too)")
     again = sub.add_parser("replay", help="publish a recorded run on Zenoh again, with its original timing")
     again.add_argument("log", type=Path, help="MCAP file written by cpf run")
     again.add_argument("--speed", type=float, default=1.0, help="simulated s per wall s (0: as fast as possible)")
@@ -151,8 +153,19 @@ def _run(args: argparse.Namespace) -> int:
     if args.metrics:
         args.metrics.parent.mkdir(parents=True, exist_ok=True)
         metrics = {"coordination": summary.as_dict(), "comms": comms.as_dict(), "links": result.link_counts}
-        args.metrics.write_text(json.dumps(metrics, indent=2))
+        args.metrics.write_text(json.dumps(_finite(metrics), indent=2, allow_nan=False))
     return 0
+
+
+def _finite(value: object) -> object:
+    """JSON has no NaN or infinity: such numbers become null."""
+    if isinstance(value, float):
+        return value if value == value and abs(value) != float("inf") else None
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_finite(v) for v in value]
+    return value
 
 
 def _vehicle(args: argparse.Namespace) -> int:
@@ -184,13 +197,21 @@ def _comms(args: argparse.Namespace) -> int:
 
 
 def _report(args: argparse.Namespace) -> int:
-    from supervisor.report import load_run, write_figures
+    from supervisor.report import write_report
 
     if not args.log.is_file():
         raise ScenarioError(f"{args.log}: no such log file")
-    out = args.out or args.log.parent
-    for path in write_figures(load_run(args.log), out):
+    for path in write_report(args.log, args.out or args.log.parent):
         print(path)
+    return 0
+
+
+def _info(args: argparse.Namespace) -> int:
+    from supervisor.info import describe
+
+    if not args.log.is_file():
+        raise ScenarioError(f"{args.log}: no such log file")
+    print(describe(args.log))
     return 0
 
 
@@ -266,6 +287,7 @@ COMMANDS = {
     "vehicle": _vehicle,
     "comms": _comms,
     "report": _report,
+    "info": _info,
     "recover": _recover,
     "sweep": _sweep,
     "resim": _resim,

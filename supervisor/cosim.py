@@ -297,6 +297,7 @@ def _drive(
     sc, dt = run.sc, run.dt
     run.started = True
     wall_start = time.monotonic()
+    edges = sc.graph.edges
     for k in range(steps + 1):
         t = run.t = k * dt
         if clock == "realtime":
@@ -308,7 +309,11 @@ def _drive(
             for action in process_actions(sc.faults, t, dt):
                 run.carry_out(action, k, pubs, resume_dir)
         disturbed = {i: d for i in run.alive if (d := disturbances(sc.faults, i, t, dt)) != Disturbances()}
-        tick = tick_message(k, t, final, disturbed, network_at(sc, t, dt), list(run.alive), run.comms_up)
+        network = network_at(sc, t, dt)
+        if network.edges != edges and not final:
+            edges = network.edges
+            run.publish(pubs, GRAPH_KEY, t, graph_message(t, edges))
+        tick = tick_message(k, t, final, disturbed, network, list(run.alive), run.comms_up)
         run.publish(pubs, TICK_KEY, t, tick)
         if final:
             _finish(run)

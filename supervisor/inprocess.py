@@ -83,6 +83,8 @@ class _InProcessRun:
         for action in process_actions(self.sc.faults, t, self.dt):
             self._act(action, t)
         network = network_at(self.sc, t, self.dt)
+        if k > 0 and self.network is not None and network.edges != self.network.edges:
+            self.rec.write(GRAPH_KEY, t, graph_message(t, network.edges))
         heard = self._channel(k, t)
         self.sent, self.where, self.network = [], {}, network
         for i in self.alive:

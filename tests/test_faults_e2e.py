@@ -202,3 +202,20 @@ def test_sigkill_of_the_supervisor_loses_about_a_second_and_the_log_recovers(tmp
     # Chunks reach the disk every 0.5 s of wall time: at most about one second of the run is missing.
     assert last >= shown - 1.0 * factor
     assert_complete(tmp_path / "killed.recovered.mcap")
+
+
+def test_graph_switches_are_published_as_the_graph_in_force(tmp_path, paper_text):
+    scenario = tmp_path / "s.toml"
+    scenario.write_text(shortened(paper_text, 20.0))
+    switch = ["--fault", "kind=graph_switch,edges=[[1,2],[2,3]],start=5,end=10"]
+    for engine in ("zenoh", "inprocess"):
+        done = cpf(
+            "run", str(scenario), "--engine", engine, *switch, "--out", f"{engine}.mcap", "--quiet", cwd=tmp_path
+        )
+        assert done.returncode == 0, done.stderr
+        graphs = [
+            (m["t"], m["edges"])
+            for topic, _, m in read_messages(tmp_path / f"{engine}.mcap")
+            if topic == "cpf/run/graph"
+        ]
+        assert graphs == [(0.0, [[1, 2], [1, 3]]), (5.0, [[1, 2], [2, 3]]), (10.0, [[1, 2], [1, 3]])], engine

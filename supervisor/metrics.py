@@ -1,0 +1,221 @@
+"""The numbers of a recorded run, as one JSON-able dict (`run_metrics`), written by the report as metrics.json.
+
+Definitions (t: simulation time of the recorded vehicle states, s):
+
+- coordination error: max_{i,j} |gamma_i - gamma_j| at each recorded step (supervisor.summary.coordination_error);
+  a step where a vehicle has no state (it was down) counts as NaN, exactly as in `cpf run`'s summary.
+- phases: supervisor.summary.phase_bounds over the scenario's duration, cut at the starts and ends of the scenario's
+  faults (from the log's meta: the validated scenario, --fault included; open ends closed at the end of the run).
+  Per phase: peak and final coordination error, peak path-following error after the transient, mean gamma_dot.
+- convergence time: the first time after which the coordination error stays below report.coordination_tolerance
+  until the first fault starts (the end of the run without faults); reconvergence time: the same from the end of
+  the last fault to the end of the run, None if the last fault never ends. None: never below to the end of it.
+- steady-state coordination error: the largest coordination error over the final STEADY_STATE_WINDOW = 50 s of the
+  recorded states, [t_end - 50 s, t_end], whatever faults act then.
+- path following: the largest |p - p_d| after report.transient, the tube radius |delta| + report.tube_margin, and
+  whether it stayed inside.
+- gamma_dot at the end: each vehicle's last recorded gamma_dot.
+- packets: counted from the link events of the log (cpf/comms/event), which cover the whole run whichever broker
+  process emitted them (the broker's own stats restart with a restarted broker): per directed link and in total,
+  sent, delivered, dropped, dropped by cause, still in flight (sent - delivered - dropped: 0 in a complete log), and
+  the delivery delays.
+- estimate age: per (neighbour -> holder), the mean and largest age of the holder's estimate of the neighbour.
+- lambda_2: of the delivered graph over the broker's stats windows (min, mean, windows at 0 = disconnected).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from collections.abc import Iterable
+from dataclasses import asdict
+from typing import TYPE_CHECKING, Any, NamedTuple
+
+import numpy as np
+
+from supervisor.errors import ScenarioError
+from supervisor.faults import intervals
+from supervisor.scenario import validate_data
+from supervisor.scenario_schema import ReportSection
+from supervisor.summary import PhaseStats, Series, Summary, coordination_error, summarize
+
+if TYPE_CHECKING:
+    from supervisor.report import LinkLog, RunData
+
+__all__ = ["STEADY_STATE_WINDOW", "Settings", "packet_counts", "run_metrics", "run_series", "run_settings"]
+
+STEADY_STATE_WINDOW = 50.0  # s at the end of the run
+
+
+class Settings(NamedTuple):
+    """What the metrics need of the scenario."""
+
+    duration: float
+    faults: list[tuple[str, float, float]]  # (kind, start, end), end closed at the end of the run
+    transient: float
+    tube_radius: float
+    tolerance: float
+
+
+def run_metrics(run: RunData) -> dict[str, Any]:
+    """Every metric of the run (see the module docstring); non-finite numbers become None."""
+    settings = run_settings(run)
+    metrics: dict[str, Any] = {
+        "run": _run_info(run),
+        "settings": {
+            **settings._asdict(),
+            "faults": [{"kind": k, "start": start, "end": end} for k, start, end in settings.faults],
+            "steady_state_window": STEADY_STATE_WINDOW,
+        },
+        "packets": packet_counts(run.links.values()),
+        "estimate_age": _ages(run),
+        "lambda2": _lambda2(run),
+    }
+    series = run_series(run)
+    if series.t.size:
+        summary = summarize(
+            series, settings.duration, settings.faults, settings.transient, settings.tube_radius, settings.tolerance
+        )
+        metrics |= _coordination(series, summary)
+    return _finite(metrics)
+
+
+def run_settings(run: RunData) -> Settings:
+    """Duration, faults and [report] settings: from the validated scenario in the meta, else from its fields."""
+    meta = run.meta
+    duration = float(meta.get("duration", run.t_range[1]))
+    tube = float(meta.get("tube_radius", math.nan))
+    try:
+        scenario = validate_data(meta["scenario"], "meta")
+    except (KeyError, TypeError, ScenarioError):  # an older log, or a synthetic one: the meta's own fields
+        rep = ReportSection()
+        faults = [(str(f["kind"]), float(f["start"]), _end(f.get("end"), duration)) for f in meta.get("faults", [])]
+        return Settings(duration, faults, rep.transient, tube, rep.coordination_tolerance)
+    rep = scenario.report
+    return Settings(duration, intervals(scenario), rep.transient, tube, rep.coordination_tolerance)
+
+
+def _end(end: Any, duration: float) -> float:
+    return duration if end is None else min(float(end), duration)
+
+
+def run_series(run: RunData) -> Series:
+    """The vehicles' states on one time grid (by sync step), NaN where a vehicle has none, for supervisor.summary."""
+    ids = tuple(run.vehicles)
+    if not ids:
+        return Series((), np.empty(0), np.empty((0, 0)), np.empty((0, 0)), np.empty((0, 0)))
+    step = float(run.meta.get("step") or 0.0)
+    keys = {v: _step_index(s.t, step) for v, s in run.vehicles.items()}
+    grid = np.unique(np.concatenate(list(keys.values())))
+    columns = [np.full((grid.size, len(ids)), np.nan) for _ in range(3)]
+    for col, (vid, series) in enumerate(run.vehicles.items()):
+        rows = np.searchsorted(grid, keys[vid])
+        for out, values in zip(columns, (series.gamma, series.gamma_dot, series.error_norm), strict=True):
+            out[rows, col] = values
+    t = grid * step if step > 0 else grid
+    return Series(ids, t.astype(float), *columns)
+
+
+def _step_index(t: np.ndarray, step: float) -> np.ndarray:
+    """Sync-step numbers of the times (the times themselves without a step)."""
+    return np.rint(t / step).astype(np.int64) if step > 0 else t
+
+
+def _coordination(series: Series, summary: Summary) -> dict[str, Any]:
+    coord = coordination_error(series.gamma)
+    end = float(series.t[-1])
+    final = series.t >= end - STEADY_STATE_WINDOW
+    after_faults = summary.phases[-1].name == "after faults"
+    return {
+        "coordination": {
+            "tolerance": summary.tolerance,
+            "convergence_time": summary.sync_time,
+            "reconvergence_time": summary.resync_time if after_faults else None,
+            "steady_state_error": float(coord[final].max()),
+            "steady_state_window": [max(end - STEADY_STATE_WINDOW, float(series.t[0])), end],
+            "phases": [_phase(p, series.vehicle_ids) for p in summary.phases],
+        },
+        "path_following": {
+            "max_error_after_transient": summary.max_path_error_after_transient,
+            "tube_radius": summary.tube_radius,
+            "inside_tube": bool(summary.max_path_error_after_transient <= summary.tube_radius),
+        },
+        "gamma_dot_end": {str(v): _last(series.gamma_dot[:, k]) for k, v in enumerate(series.vehicle_ids)},
+    }
+
+
+def _phase(phase: PhaseStats, ids: tuple[int, ...]) -> dict[str, Any]:
+    out = asdict(phase)
+    out["mean_gamma_dot"] = {str(v): rate for v, rate in zip(ids, phase.mean_gamma_dot, strict=True)}
+    return out
+
+
+def _last(values: np.ndarray) -> float | None:
+    """The last recorded (non-NaN) value."""
+    finite = values[~np.isnan(values)]
+    return float(finite[-1]) if finite.size else None
+
+
+def packet_counts(links: Iterable[LinkLog]) -> dict[str, Any]:
+    """Per directed link ('1->2') and in total: sent, delivered, dropped (by cause), in flight, delays."""
+    per_link = {link.name: _link_counts(link) for link in links}
+    total_causes: Counter[str] = Counter()
+    for counts in per_link.values():
+        total_causes.update(counts["dropped_by_cause"])
+    total = {k: sum(c[k] for c in per_link.values()) for k in ("sent", "delivered", "dropped", "in_flight")}
+    return {"links": per_link, "total": {**total, "dropped_by_cause": dict(sorted(total_causes.items()))}}
+
+
+def _link_counts(link: LinkLog) -> dict[str, Any]:
+    sent, delivered = int((link.kind == "sent").sum()), int((link.kind == "delivered").sum())
+    dropped = int((link.kind == "dropped").sum())
+    delays = link.delays
+    return {
+        "sent": sent,
+        "delivered": delivered,
+        "dropped": dropped,
+        "dropped_by_cause": link.dropped_by_cause(),
+        "in_flight": sent - delivered - dropped,
+        "delay_min": float(delays.min()) if delays.size else None,
+        "delay_mean": float(delays.mean()) if delays.size else None,
+        "delay_max": float(delays.max()) if delays.size else None,
+    }
+
+
+def _ages(run: RunData) -> dict[str, Any]:
+    return {
+        f"{neighbour}->{holder}": {"mean": float(a.age.mean()), "max": float(a.age.max()), "samples": int(a.age.size)}
+        for (neighbour, holder), a in run.estimate_ages.items()
+        if a.age.size
+    }
+
+
+def _lambda2(run: RunData) -> dict[str, Any]:
+    values = np.array([float(s["lambda2"]) for s in run.stats])
+    if not values.size:
+        return {"windows": 0, "min": None, "mean": None, "max": None, "disconnected_windows": 0}
+    return {
+        "windows": int(values.size),
+        "min": float(values.min()),
+        "mean": float(values.mean()),
+        "max": float(values.max()),
+        "disconnected_windows": int((values <= 1e-9).sum()),
+    }
+
+
+def _run_info(run: RunData) -> dict[str, Any]:
+    meta = run.meta
+    start, end = run.t_range
+    keys = ("scenario_name", "scenario_file", "engine", "clock", "seed", "step", "duration")
+    return {**{k: meta.get(k) for k in keys}, "vehicles": list(run.vehicles), "t_first": start, "t_last": end}
+
+
+def _finite(value: Any) -> Any:
+    """The value with every NaN or infinity replaced by None (strict JSON has neither)."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_finite(v) for v in value]
+    return value
