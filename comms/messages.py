@@ -36,6 +36,7 @@ SUPERVISOR_ALIVE = f"{ALIVE_PREFIX}/supervisor"
 COMMS_ALIVE = f"{ALIVE_PREFIX}/comms"
 
 Message = dict[str, Any]
+_EYE = np.eye(3)
 MAX_SPEED = 100.0  # m/s: far above any AUV, far below the speed of sound
 MAX_FLOAT32 = 3.4e38  # what the frame's float32 fields hold
 MAX_TIME = (2**32 - 1) / 1000.0  # s: the frame's u32 millisecond time stamp
@@ -289,7 +290,7 @@ def parse_state(message: Message, key_vehicle: int) -> StateReport:
     if len(rotation) != 9:
         raise ValueError("field 'rotation' is not 9 numbers")
     matrix = np.array([_number({"r": v}, "r") for v in rotation]).reshape(3, 3)
-    if not np.allclose(matrix @ matrix.T, np.eye(3), atol=1e-6):
+    if float(np.abs(matrix @ matrix.T - _EYE).max()) > 1e-6:  # np.allclose costs 10x more
         raise ValueError("field 'rotation' is not a rotation matrix")
     velocity = matrix @ np.array(_velocity(message, "velocity"))
     position = np.array(_vector3(message, "position"))

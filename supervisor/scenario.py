@@ -262,7 +262,7 @@ def parse_scenario(
 def fault_table(spec: str) -> dict[str, Any]:
     """A --fault value as the table [[faults]] would hold: comma-separated KEY=VALUE, values as TOML values."""
     table: dict[str, Any] = {}
-    for part in _split_fault(spec):
+    for part in split_outside_brackets(spec):
         key, sep, text = part.partition("=")
         if not sep or not key.strip():
             raise ScenarioError(f"--fault: expected KEY=VALUE pairs separated by commas, got {spec!r}")
@@ -273,7 +273,7 @@ def fault_table(spec: str) -> dict[str, Any]:
     return table
 
 
-def _split_fault(spec: str) -> list[str]:
+def split_outside_brackets(spec: str) -> list[str]:
     """Split at commas outside brackets, so edges=[[1,2],[2,3]] stays whole."""
     parts, depth, current = [], 0, ""
     for char in spec:

@@ -27,6 +27,7 @@ import numpy as np
 from tqdm import tqdm
 
 from supervisor.errors import ScenarioError, SimulationError
+from supervisor.scenario import split_outside_brackets
 
 STEADY_WINDOW = 50.0  # s at the end of a run over which the steady-state coordination error is taken
 
@@ -50,7 +51,8 @@ class RunSpec:
 
 
 def parse_param(text: str) -> Param:
-    """KEY=v1,v2,... (TOML values) or KEY=start:stop:step (inclusive of stop, within rounding)."""
+    """KEY=v1,v2,... (TOML values; commas inside brackets belong to a value, so graphs can be swept:
+    graph.edges=[[1,2],[1,3]],[[1,2],[2,3]]) or KEY=start:stop:step (inclusive of stop, within rounding)."""
     key, sep, spec = text.partition("=")
     if not sep or not key.strip() or not spec.strip():
         raise ScenarioError(f"--param: expected KEY=v1,v2,... or KEY=start:stop:step, got {text!r}")
@@ -60,7 +62,7 @@ def parse_param(text: str) -> Param:
             raise ScenarioError(f"--param {key}: start:stop:step needs numbers and step > 0, got {spec!r}")
         count = math.floor((stop - start) / step + 1e-9) + 1
         return Param(key.strip(), tuple(round(start + i * step, 12) for i in range(count)))
-    return Param(key.strip(), tuple(_value(part, text) for part in spec.split(",")))
+    return Param(key.strip(), tuple(_value(part, text) for part in split_outside_brackets(spec)))
 
 
 def _value(text: str, whole: str) -> Any:

@@ -106,3 +106,9 @@ def test_planar_model_is_the_spatial_model_restricted_to_the_plane():
     v2, w2 = PLANAR.accelerations(np.eye(2), v[:2], w[2:], tau2, NEUTRAL)
     np.testing.assert_allclose(v3[:2], v2, rtol=1e-12)
     np.testing.assert_allclose(w3[2], w2[0], rtol=1e-12)
+
+
+@pytest.mark.parametrize("model", [SPATIAL, PLANAR])
+@pytest.mark.parametrize("delta", [-1.0, -0.3, 2.5])
+def test_delta_inverse_is_the_inverse_the_controller_relies_on(model, delta):
+    np.testing.assert_allclose(model.delta_inverse(delta) @ model.delta_matrix(delta), np.eye(model.dim), atol=1e-15)

@@ -23,6 +23,8 @@ def test_param_lists_and_ranges():
     assert parse_param("comms.loss=0,0.25,0.5") == Param("comms.loss", (0, 0.25, 0.5))
     assert parse_param("comms.loss=0:0.8:0.1").values == (0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8)
     assert parse_param('coordination.law="literal","corrected"').values == ("literal", "corrected")
+    graphs = parse_param("graph.edges=[[1,2],[1,3]],[[1,2],[2,3]]").values
+    assert graphs == ([[1, 2], [1, 3]], [[1, 2], [2, 3]])
     for bad in ("comms.loss", "=1", "comms.loss=0:1:0", "comms.loss=0:1:x"):
         with pytest.raises(ScenarioError, match="--param"):
             parse_param(bad)

@@ -100,6 +100,10 @@ class SpatialModel:
         """Delta with v + S(delta) omega = Delta (u, q, r) + (0, v, w), for delta = (delta, 0, 0)."""
         return np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -delta], [0.0, delta, 0.0]])
 
+    def delta_inverse(self, delta: float) -> FloatArray:
+        """Delta^-1 in closed form (a general solver costs more than the rest of the controller)."""
+        return np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0 / delta], [0.0, -1.0 / delta, 0.0]])
+
     def input_inertia(self, prm: VehicleParams) -> FloatArray:
         """How hard each input pushes its own actuated velocity: (m_u, J_q, J_r)."""
         return np.array([prm.mass[0], prm.inertia[1], prm.inertia[2]])
@@ -165,6 +169,9 @@ class PlanarModel:
 
     def delta_matrix(self, delta: float) -> FloatArray:
         return np.array([[1.0, 0.0], [0.0, -delta]])
+
+    def delta_inverse(self, delta: float) -> FloatArray:
+        return np.array([[1.0, 0.0], [0.0, -1.0 / delta]])
 
     def input_inertia(self, prm: VehicleParams) -> FloatArray:
         return np.array([prm.mass[0], prm.inertia[2]])

@@ -70,17 +70,18 @@ def path_following(
     tangent = rot_t @ p_g[:dim]  # R' p_d^gamma
     w_hat = model.skew(s.angular_velocity)
     delta_mat = model.delta_matrix(gains.delta)
+    delta_inv = model.delta_inverse(gains.delta)
     nu_c, nu_u = model.split(s.velocity, s.angular_velocity)
 
     z1_dot = -w_hat @ z1 + delta_mat @ nu_c + nu_u - tangent * gamma_dot
     sigma_dot = (z1_dot - sigma * (sigma @ z1_dot)) / rho
-    alpha = np.linalg.solve(delta_mat, -gains.k1 * sigma - nu_u + tangent * v_d)
+    alpha = delta_inv @ (-gains.k1 * sigma - nu_u + tangent * v_d)
 
     # Accelerations with zero input: the unactuated ones are exact, the actuated ones are what the input must add to.
     v_dot0, w_dot0 = model.accelerations(s.rotation, s.velocity, s.angular_velocity, np.zeros(dim), prm)
     nu_c_dot0, nu_u_dot = model.split(v_dot0, w_dot0)
     tangent_dot = -w_hat @ tangent + rot_t @ p_gg[:dim] * gamma_dot
-    alpha_dot = np.linalg.solve(delta_mat, -gains.k1 * sigma_dot - nu_u_dot + tangent_dot * v_d)
+    alpha_dot = delta_inv @ (-gains.k1 * sigma_dot - nu_u_dot + tangent_dot * v_d)
 
     z2 = nu_c - alpha
     nu_c_dot = alpha_dot - delta_mat.T @ sigma - gains.k2 * z2
