@@ -112,3 +112,33 @@ def test_planar_model_is_the_spatial_model_restricted_to_the_plane():
 @pytest.mark.parametrize("delta", [-1.0, -0.3, 2.5])
 def test_delta_inverse_is_the_inverse_the_controller_relies_on(model, delta):
     np.testing.assert_allclose(model.delta_inverse(delta) @ model.delta_matrix(delta), np.eye(model.dim), atol=1e-15)
+
+
+def eq2_reference(prm: VehicleParams, rot: FloatArray, v: FloatArray, w: FloatArray, tau: FloatArray):
+    """Eq. (2) written with numpy vector operations, independently of the model's float arithmetic."""
+    mass, inertia, up = np.asarray(prm.mass), np.asarray(prm.inertia), rot.T @ np.array([0.0, 0.0, 1.0])
+    f_v = -(np.asarray(prm.linear_damping) + np.asarray(prm.quadratic_damping) * np.abs(v)) * v
+    f_v -= (prm.weight - prm.buoyancy) * up
+    f_w = -(np.asarray(prm.angular_linear_damping) + np.asarray(prm.angular_quadratic_damping) * np.abs(w)) * w
+    f_w += prm.buoyancy * np.cross(np.asarray(prm.center_of_buoyancy), up)
+    force = f_v - np.cross(w, mass * v) + np.array([tau[0], 0.0, 0.0])
+    moment = f_w - np.cross(v, mass * v) - np.cross(w, inertia * w) + np.array([0.0, tau[1], tau[2]])
+    return force / mass, moment / inertia
+
+
+def test_accelerations_follow_eq_2_and_are_linear_in_the_input():
+    rng = np.random.default_rng(7)
+    for _ in range(300):
+        rot = rotation_from_rpy(*rng.uniform(-3.0, 3.0, 3))
+        v, w, tau = rng.normal(0, 1, 3), rng.normal(0, 0.5, 3), rng.normal(0, 20, 3)
+        expected = eq2_reference(REMUS, rot, v, w, tau)
+        direct = SPATIAL.accelerations(rot, v, w, tau, REMUS)
+        via_drift = SPATIAL.with_input(*SPATIAL.accelerations(rot, v, w, np.zeros(3), REMUS), tau, REMUS)
+        for got in (direct, via_drift):
+            np.testing.assert_allclose(got[0], expected[0], atol=1e-12)
+            np.testing.assert_allclose(got[1], expected[1], atol=1e-12)
+    rot2, v2, w2, tau2 = rotation_2d(0.4), np.array([1.0, -0.2]), np.array([0.3]), np.array([12.0, -3.0])
+    planar_drift = PLANAR.with_input(*PLANAR.accelerations(rot2, v2, w2, np.zeros(2), REMUS), tau2, REMUS)
+    np.testing.assert_allclose(
+        np.concatenate(planar_drift), np.concatenate(PLANAR.accelerations(rot2, v2, w2, tau2, REMUS)), atol=1e-12
+    )

@@ -113,7 +113,7 @@ def _closed_loop(
     if cap is not None and gamma_dot >= cap:
         gamma_ddot = min(gamma_ddot, 0.0)  # held at the cap: no wind-up
     zdot = np.empty(n + 2)
-    zdot[:n] = cfg.model.derivative(x, out.tau, cfg.params)
+    zdot[:n] = cfg.model.derivative_from(x, *cfg.model.with_input(*out.drift, out.tau, cfg.params))
     zdot[n] = gamma_dot
     zdot[n + 1] = gamma_ddot
     return zdot, out, v_tilde

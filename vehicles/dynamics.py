@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vehicles.geometry import FloatArray, cross, orthonormalize, skew, skew2
+from vehicles.geometry import FloatArray, orthonormalize, skew, skew2
 from vehicles.params import VehicleParams
 
 
@@ -58,25 +58,47 @@ class SpatialModel:
     def accelerations(
         self, rot: FloatArray, v: FloatArray, w: FloatArray, tau: FloatArray, prm: VehicleParams
     ) -> tuple[FloatArray, FloatArray]:
-        """(v_dot, omega_dot) of eq. (2) for inputs tau = (tau_u, tau_q, tau_r)."""
-        mass = np.asarray(prm.mass)
-        inertia = np.asarray(prm.inertia)
-        mv = mass * v
-        vertical = rot[2]  # R' e3: the inertial up axis in body coordinates
-        f_v = -(np.asarray(prm.linear_damping) + np.asarray(prm.quadratic_damping) * np.abs(v)) * v
-        f_v = f_v - (prm.weight - prm.buoyancy) * vertical
-        f_w = -(np.asarray(prm.angular_linear_damping) + np.asarray(prm.angular_quadratic_damping) * np.abs(w)) * w
-        f_w = f_w + prm.buoyancy * cross(np.asarray(prm.center_of_buoyancy), vertical)
-        force = f_v - cross(w, mv)
-        force[0] += tau[0]
-        moment = f_w - cross(v, mv) - cross(w, inertia * w)
-        moment[1] += tau[1]
-        moment[2] += tau[2]
-        return force / mass, moment / inertia
+        """(v_dot, omega_dot) of eq. (2) for inputs tau = (tau_u, tau_q, tau_r).
+
+        Written out in floats: on 3-vectors numpy's per-call overhead costs more than the arithmetic."""
+        m1, m2, m3 = prm.mass
+        j1, j2, j3 = prm.inertia
+        u, sv, hw = float(v[0]), float(v[1]), float(v[2])
+        p, q, r = float(w[0]), float(w[1]), float(w[2])
+        z0, z1, z2 = float(rot[2, 0]), float(rot[2, 1]), float(rot[2, 2])  # R' e3: inertial up, body axes
+        a1, a2, a3 = m1 * u, m2 * sv, m3 * hw  # M v
+        h1, h2, h3 = j1 * p, j2 * q, j3 * r  # J omega
+        lin, quad, net = prm.linear_damping, prm.quadratic_damping, prm.weight - prm.buoyancy
+        f1 = -(lin[0] + quad[0] * abs(u)) * u - net * z0 - (q * a3 - r * a2) + float(tau[0])
+        f2 = -(lin[1] + quad[1] * abs(sv)) * sv - net * z1 - (r * a1 - p * a3)
+        f3 = -(lin[2] + quad[2] * abs(hw)) * hw - net * z2 - (p * a2 - q * a1)
+        alin, aquad, (b0, b1, b2), buoy = (
+            prm.angular_linear_damping, prm.angular_quadratic_damping, prm.center_of_buoyancy, prm.buoyancy,
+        )  # fmt: skip
+        g1 = -(alin[0] + aquad[0] * abs(p)) * p + buoy * (b1 * z2 - b2 * z1)
+        g2 = -(alin[1] + aquad[1] * abs(q)) * q + buoy * (b2 * z0 - b0 * z2)
+        g3 = -(alin[2] + aquad[2] * abs(r)) * r + buoy * (b0 * z1 - b1 * z0)
+        g1 -= (sv * a3 - hw * a2) + (q * h3 - r * h2)
+        g2 -= (hw * a1 - u * a3) + (r * h1 - p * h3) - float(tau[1])
+        g3 -= (u * a2 - sv * a1) + (p * h2 - q * h1) - float(tau[2])
+        return np.array([f1 / m1, f2 / m2, f3 / m3]), np.array([g1 / j1, g2 / j2, g3 / j3])
+
+    def with_input(
+        self, v_dot0: FloatArray, w_dot0: FloatArray, tau: FloatArray, prm: VehicleParams
+    ) -> tuple[FloatArray, FloatArray]:
+        """Accelerations with inputs tau from those with none: (2) is linear in the input (B1, B2 constant)."""
+        return (
+            v_dot0 + np.array([float(tau[0]) / prm.mass[0], 0.0, 0.0]),
+            w_dot0 + np.array([0.0, float(tau[1]) / prm.inertia[1], float(tau[2]) / prm.inertia[2]]),
+        )
 
     def derivative(self, x: FloatArray, tau: FloatArray, prm: VehicleParams) -> FloatArray:
         s = self.unpack(x)
-        v_dot, w_dot = self.accelerations(s.rotation, s.velocity, s.angular_velocity, tau, prm)
+        return self.derivative_from(x, *self.accelerations(s.rotation, s.velocity, s.angular_velocity, tau, prm))
+
+    def derivative_from(self, x: FloatArray, v_dot: FloatArray, w_dot: FloatArray) -> FloatArray:
+        """xdot given the accelerations (the controller has most of them already)."""
+        s = self.unpack(x)
         r_dot = s.rotation @ skew(s.angular_velocity)
         return np.concatenate((s.rotation @ s.velocity, r_dot.reshape(9), v_dot, w_dot))
 
@@ -143,9 +165,17 @@ class PlanarModel:
 
     def derivative(self, x: FloatArray, tau: FloatArray, prm: VehicleParams) -> FloatArray:
         s = self.unpack(x)
-        v_dot, w_dot = self.accelerations(s.rotation, s.velocity, s.angular_velocity, tau, prm)
+        return self.derivative_from(x, *self.accelerations(s.rotation, s.velocity, s.angular_velocity, tau, prm))
+
+    def derivative_from(self, x: FloatArray, v_dot: FloatArray, w_dot: FloatArray) -> FloatArray:
+        s = self.unpack(x)
         r_dot = s.rotation @ skew2(float(s.angular_velocity[0]))
         return np.concatenate((s.rotation @ s.velocity, r_dot.reshape(4), v_dot, w_dot))
+
+    def with_input(
+        self, v_dot0: FloatArray, w_dot0: FloatArray, tau: FloatArray, prm: VehicleParams
+    ) -> tuple[FloatArray, FloatArray]:
+        return v_dot0 + np.array([float(tau[0]) / prm.mass[0], 0.0]), w_dot0 + float(tau[1]) / prm.inertia[2]
 
     def spatial(self, x: FloatArray) -> Unpacked:
         """The planar state embedded in 3-D: z = 0, yaw about the vertical axis."""

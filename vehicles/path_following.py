@@ -43,6 +43,7 @@ class PathFollowingOutput:
     error: FloatArray  # p - p_d(gamma), inertial frame, m
     z1: FloatArray  # shifted error, body frame, m
     lyapunov: float  # V of the module docstring
+    drift: tuple[FloatArray, FloatArray]  # (v_dot, omega_dot) with no input: the model adds tau's part
 
 
 def path_following(
@@ -91,4 +92,4 @@ def path_following(
     zeta = gamma_dot - v_d
     gamma_ddot = -gains.k_zeta * zeta + float(sigma @ tangent) + correction
     lyapunov = (rho - 1.0) + 0.5 * zeta * zeta + 0.5 * float(z2 @ z2)
-    return PathFollowingOutput(tau, gamma_ddot, error, z1, lyapunov)
+    return PathFollowingOutput(tau, gamma_ddot, error, z1, lyapunov, (v_dot0, w_dot0))
