@@ -53,6 +53,7 @@ from vehicles.agent import Disturbances
 
 START_TIMEOUT = 60.0  # s for a process to declare its liveliness token
 STEP_TIMEOUT = 60.0  # s for one sync step before the run is declared stuck
+POLL_CHILDREN = 0.1  # s between checks of the children's exits (liveliness usually reports a death first)
 
 
 class BusOptions:
@@ -94,6 +95,7 @@ class _Supervisor:
         self.connect = ""
         self.bus = BusOptions()
         self.seed = 0
+        self._next_poll = 0.0
 
     # --- the bus -------------------------------------------------------------------------------------------
 
@@ -107,12 +109,15 @@ class _Supervisor:
     def wait_until(self, ready: Callable[[], bool], what: str, timeout: float) -> None:
         end = time.monotonic() + timeout
         while not ready():
-            if time.monotonic() > end:
+            now = time.monotonic()
+            if now > end:
                 raise SimulationError(f"timed out after {timeout:.0f} s waiting for {what}")
-            ended = self.procs.first_ended()
-            if ended is not None:
-                self._lost(ended.name, ended.how_it_ended() or "")
-            self.pump(min(0.2, max(0.0, end - time.monotonic())))
+            if now >= self._next_poll:  # children's exits, at most every POLL_CHILDREN s: waitpid is not free
+                self._next_poll = now + POLL_CHILDREN
+                ended = self.procs.first_ended()
+                if ended is not None:
+                    self._lost(ended.name, ended.how_it_ended() or "")
+            self.pump(min(0.2, max(0.0, end - now)))
 
     def _liveliness(self, change: str) -> None:
         sign, key = change[0], change[1:]
