@@ -227,9 +227,6 @@ FaultSpec = Annotated[
     | ClockSkewFault,
     Field(discriminator="kind"),
 ]
-VEHICLE_FAULTS = (
-    SpeedCapFault, ModemSilentFault, VehicleKillFault, FrozenGammaFault, GammaOffsetFault, ClockSkewFault,
-)  # fmt: skip
 LINK_FAULTS = (LinkDownFault, LinkDegradedFault)
 
 

@@ -44,7 +44,6 @@ class SpatialModel:
 
     dim = 3
     state_size = 18
-    input_size = 3
 
     def unpack(self, x: FloatArray) -> Unpacked:
         return Unpacked(x[0:3], x[3:12].reshape(3, 3), x[12:15], x[15:18])
@@ -139,7 +138,6 @@ class PlanarModel:
 
     dim = 2
     state_size = 9
-    input_size = 2
 
     def unpack(self, x: FloatArray) -> Unpacked:
         return Unpacked(x[0:2], x[2:6].reshape(2, 2), x[6:8], x[8:9])

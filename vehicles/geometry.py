@@ -19,13 +19,6 @@ def skew(x: FloatArray) -> FloatArray:
     return np.array([[0.0, -x[2], x[1]], [x[2], 0.0, -x[0]], [-x[1], x[0], 0.0]])
 
 
-def cross(a: FloatArray, b: FloatArray) -> FloatArray:
-    """a x b for 3-vectors; np.cross costs ten times more on arrays this small."""
-    a0, a1, a2 = float(a[0]), float(a[1]), float(a[2])
-    b0, b1, b2 = float(b[0]), float(b[1]), float(b[2])
-    return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
-
-
 def skew2(r: float) -> FloatArray:
     """The planar S(omega) = [[0, -r], [r, 0]]."""
     return np.array([[0.0, -r], [r, 0.0]])
