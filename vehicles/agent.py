@@ -17,7 +17,7 @@ from vehicles.dynamics import Model
 from vehicles.estimates import NeighbourEstimate, Predictor, newer, predict
 from vehicles.geometry import FloatArray
 from vehicles.params import VehicleParams
-from vehicles.path_following import PathFollowingGains, PathFollowingOutput, path_following
+from vehicles.path_following import ControllerConstants, PathFollowingGains, PathFollowingOutput, path_following
 from vehicles.paths import Path
 
 
@@ -30,6 +30,11 @@ class VehicleConfig:
     path_following: PathFollowingGains
     coordination: CoordinationGains
     predictor: Predictor = "first_order"
+    constants: ControllerConstants = field(init=False)
+
+    def __post_init__(self) -> None:
+        # Computed once per vehicle: the controller uses them at every RK4 stage.
+        object.__setattr__(self, "constants", ControllerConstants.of(self.model, self.params, self.path_following))
 
 
 @dataclass(frozen=True, slots=True)
@@ -108,6 +113,7 @@ def _closed_loop(
         gamma_dot,
         cfg.coordination.v_r,
         v_tilde,
+        cfg.constants,
     )
     gamma_ddot = out.gamma_ddot
     if cap is not None and gamma_dot >= cap:

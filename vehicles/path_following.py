@@ -46,6 +46,27 @@ class PathFollowingOutput:
     drift: tuple[FloatArray, FloatArray]  # (v_dot, omega_dot) with no input: the model adds tau's part
 
 
+@dataclass(frozen=True, slots=True)
+class ControllerConstants:
+    """What the controller uses at every evaluation and never changes for a vehicle: computed once."""
+
+    delta_vec: FloatArray
+    delta_mat: FloatArray
+    delta_inv: FloatArray
+    input_inertia: FloatArray
+    limits: FloatArray
+    no_input: FloatArray
+
+    @staticmethod
+    def of(model: Model, prm: VehicleParams, gains: PathFollowingGains) -> ControllerConstants:
+        delta_vec = np.zeros(model.dim)
+        delta_vec[0] = gains.delta
+        return ControllerConstants(
+            delta_vec, model.delta_matrix(gains.delta), model.delta_inverse(gains.delta),
+            model.input_inertia(prm), model.input_limits(prm), np.zeros(model.dim),
+        )  # fmt: skip
+
+
 def path_following(
     model: Model,
     prm: VehicleParams,
@@ -56,22 +77,22 @@ def path_following(
     gamma_dot: float,
     v_d: float,
     correction: float,
+    constants: ControllerConstants | None = None,
 ) -> PathFollowingOutput:
-    """Inputs and gamma_ddot for state x on path at gamma, desired speed v_d (constant) plus correction."""
+    """Inputs and gamma_ddot for state x on path at gamma, desired speed v_d (constant) plus correction.
+    constants: ControllerConstants.of(model, prm, gains), passed in by callers that evaluate it often."""
+    c = constants or ControllerConstants.of(model, prm, gains)
     s = model.unpack(x)
     dim = model.dim
     p_d, p_g, p_gg = path.evaluate(gamma)
     rot_t = s.rotation.T
     error = s.position - p_d[:dim]
-    delta_vec = np.zeros(dim)
-    delta_vec[0] = gains.delta
-    z1 = rot_t @ error - delta_vec
+    z1 = rot_t @ error - c.delta_vec
     rho = float(np.sqrt(1.0 + z1 @ z1))
     sigma = z1 / rho
     tangent = rot_t @ p_g[:dim]  # R' p_d^gamma
     w_hat = model.skew(s.angular_velocity)
-    delta_mat = model.delta_matrix(gains.delta)
-    delta_inv = model.delta_inverse(gains.delta)
+    delta_mat, delta_inv = c.delta_mat, c.delta_inv
     nu_c, nu_u = model.split(s.velocity, s.angular_velocity)
 
     z1_dot = -w_hat @ z1 + delta_mat @ nu_c + nu_u - tangent * gamma_dot
@@ -79,15 +100,14 @@ def path_following(
     alpha = delta_inv @ (-gains.k1 * sigma - nu_u + tangent * v_d)
 
     # Accelerations with zero input: the unactuated ones are exact, the actuated ones are what the input must add to.
-    v_dot0, w_dot0 = model.accelerations(s.rotation, s.velocity, s.angular_velocity, np.zeros(dim), prm)
+    v_dot0, w_dot0 = model.accelerations(s.rotation, s.velocity, s.angular_velocity, c.no_input, prm)
     nu_c_dot0, nu_u_dot = model.split(v_dot0, w_dot0)
     tangent_dot = -w_hat @ tangent + rot_t @ p_gg[:dim] * gamma_dot
     alpha_dot = delta_inv @ (-gains.k1 * sigma_dot - nu_u_dot + tangent_dot * v_d)
 
     z2 = nu_c - alpha
     nu_c_dot = alpha_dot - delta_mat.T @ sigma - gains.k2 * z2
-    limits = model.input_limits(prm)
-    tau = np.clip(model.input_inertia(prm) * (nu_c_dot - nu_c_dot0), -limits, limits)
+    tau = np.clip(c.input_inertia * (nu_c_dot - nu_c_dot0), -c.limits, c.limits)
 
     zeta = gamma_dot - v_d
     gamma_ddot = -gains.k_zeta * zeta + float(sigma @ tangent) + correction
