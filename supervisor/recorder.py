@@ -15,6 +15,7 @@ from pathlib import Path
 from types import TracebackType
 from typing import IO, Any
 
+import orjson
 from mcap.writer import CompressionType, Writer
 
 from comms.messages import Message
@@ -23,6 +24,9 @@ from comms.schemas import schema_for
 PROFILE = ""  # no ROS profile: plain JSON channels
 FLUSH_INTERVAL = 0.5  # s of wall time: the most a SIGKILL can take (the next write after it flushes)
 CHUNK_BYTES = 512 * 1024  # uncompressed: the writer finishes a chunk this big by itself
+
+
+JSON_OPTIONS = orjson.OPT_NON_STR_KEYS | orjson.OPT_SERIALIZE_NUMPY  # NaN and inf are written as null
 
 
 def seconds_to_ns(t: float) -> int:
@@ -63,7 +67,7 @@ class Recorder:
             channel_id=self._channel(key),
             log_time=stamp,
             publish_time=stamp,
-            data=json.dumps(message, separators=(",", ":")).encode(),
+            data=orjson.dumps(message, option=JSON_OPTIONS),
             sequence=self._sequence,
         )
         self.count += 1

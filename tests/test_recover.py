@@ -15,6 +15,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+import orjson
 import pytest
 from mcap.opcode import Opcode
 from mcap.reader import make_reader
@@ -84,7 +85,7 @@ def expected(messages: list[tuple[str, float, dict[str, Any]]]) -> list[Record]:
     out = []
     for sequence, (key, t, message) in enumerate(messages, start=1):
         stamp = seconds_to_ns(t)
-        out.append((key, stamp, stamp, sequence, json.dumps(message, separators=(",", ":")).encode()))
+        out.append((key, stamp, stamp, sequence, orjson.dumps(message, option=recorder.JSON_OPTIONS)))
     return out
 
 
