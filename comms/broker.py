@@ -1,30 +1,35 @@
 """The acoustic-link broker process: every coordination message goes vehicle -> broker -> neighbour.
 
-Thin Zenoh adapter around comms.broker_core. At tick k it waits until it holds every vehicle's state of step k-1 and
-every transmission those states announce, then submits them to the channel and publishes step k's reception batches
-and the per-packet link events. On the final tick it flushes the channel and reports how many events it published.
+Thin Zenoh adapter around comms.broker_core. Each vehicle's step message carries its state and its transmission.
+Lockstep: at tick k the broker waits until it holds every vehicle's step message of k-1, submits those
+transmissions to the channel and publishes step k's reception batches (one per vehicle) and the step's link events
+(one message). Realtime (the ticks carry the wall clock): a step's transmissions are submitted as soon as its
+messages are in, and each reception is published when its arrival time comes on the wall clock; a reception is
+never handed out before every transmission that could still spoil it (collisions, half-duplex) is in the water.
+On the final tick it flushes the channel and reports how many events it published.
 """
 
 from __future__ import annotations
 
 import logging
-from collections import Counter
+import math
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 from comms.broker_core import BrokerCore
-from comms.bus import Handler, Publishers, decode_or_none, serve
-from comms.channel import Kinematics, LinkEvent
+from comms.bus import Publishers, Timed, decode_or_none, serve
+from comms.channel import ARRIVAL_SLACK, Kinematics, LinkEvent, Reception
 from comms.messages import (
     COMMS_ALIVE,
     COMMS_DONE_KEY,
-    COMMS_EVENT_KEY,
+    COMMS_EVENTS_KEY,
     COMMS_STATS_KEY,
     ROOT,
     TICK_KEY,
     StateReport,
     Tick,
-    event_message,
+    events_message,
     parse_state,
     parse_tick,
     parse_tx,
@@ -42,22 +47,25 @@ class _Books:
     """What has arrived, filed by step, until the step that needs it is handled."""
 
     ticks: dict[int, Tick] = field(default_factory=dict)
-    states: dict[int, dict[int, StateReport]] = field(default_factory=dict)
-    sent: dict[tuple[int, int], Transmission] = field(default_factory=dict)
+    states: dict[int, dict[int, tuple[StateReport, Transmission | None]]] = field(default_factory=dict)
     published: int = 0
     malformed: int = 0
-    bad_tx: Counter[int] = field(default_factory=Counter)  # malformed transmissions per vehicle, not yet accounted
 
 
 class Broker:
-    def __init__(self, core: BrokerCore, vehicles: Sequence[int], publishers: Publishers, start_step: int = 0) -> None:
+    def __init__(
+        self, core: BrokerCore, vehicles: Sequence[int], publishers: Publishers, dt: float, start_step: int = 0
+    ) -> None:
         self.core = core
         self.vehicles = list(vehicles)
         self.publishers = publishers
+        self.dt = dt
         self.books = _Books()
         self.next_k = start_step  # a restarted broker resumes mid-run, with nothing of the past in flight
         self.first = start_step
-        self.previous: Tick | None = None  # the tick under which last step's transmissions were sent
+        self.submitted = start_step - 1  # the last step whose transmissions are in the water
+        self.clock: Tick | None = None  # the latest tick handled: realtime deliveries are timed by it
+        self.unpublished: list[LinkEvent] = []  # realtime: events since the last events message
 
     def take(self, key: str, payload: bytes) -> None:
         """File one incoming message; count and drop it if malformed or on a key its sender does not own."""
@@ -71,99 +79,162 @@ class Broker:
                 self.books.ticks[tick.k] = tick
             elif owned is not None and owned[1] == "state":
                 report = parse_state(message, owned[0])
-                self.books.states.setdefault(report.k, {})[report.vehicle] = report
-            elif owned is not None and owned[1] == "tx":
-                tx = parse_tx(message, owned[0])
-                self.books.sent[(tx.sender, tx.seq)] = tx
+                self.books.states.setdefault(report.k, {})[report.vehicle] = (report, self._tx(message, owned[0]))
         except ValueError as exc:
             self.books.malformed += 1
-            if owned is not None and owned[1] == "tx":
-                self.books.bad_tx[owned[0]] += 1  # the step that announced it must not wait for it
             log.warning("comms: dropped a malformed message on %s: %s", key, exc)
 
-    def advance(self) -> bool:
-        """Handle every tick that can be handled; True once the final one is done."""
-        while self.next_k in self.books.ticks and self._ready(self.next_k):
-            tick = self.books.ticks.pop(self.next_k)
-            self._handle(tick)
-            self.next_k += 1
-            if tick.final:
-                return True
-        return False
+    def _tx(self, message: dict[str, object], vehicle: int) -> Transmission | None:
+        """The transmission a step message carries; a malformed one is counted and dropped, the state still counts."""
+        tx = message.get("tx")
+        if tx is None:
+            return None
+        try:
+            if not isinstance(tx, dict):
+                raise ValueError("field 'tx' is not a map")
+            return parse_tx(tx, vehicle)
+        except ValueError as exc:
+            self.books.malformed += 1
+            log.warning("comms: dropped a malformed transmission of vehicle %d: %s", vehicle, exc)
+            return None
 
-    def _expected(self, tick: Tick) -> list[int]:
-        """Vehicles whose state of the previous step counts: alive then and still alive now."""
-        before = self.previous.alive if self.previous and self.previous.alive is not None else self.vehicles
-        now = tick.alive if tick.alive is not None else self.vehicles
+    def advance(self) -> bool:
+        """Do everything the messages so far allow; True once the final tick is done."""
+        while True:
+            if self._realtime() and self._can_submit(self.submitted + 1):
+                self._submit(self.submitted + 1)
+            elif self.next_k in self.books.ticks and self._can_submit(self.next_k - 1):
+                tick = self.books.ticks[self.next_k]
+                self._handle(tick)  # still filed while it runs: it says who is alive at the end of step k-1
+                del self.books.ticks[self.next_k]
+                self.next_k += 1
+                if tick.final:
+                    return True
+            else:
+                return False
+
+    def _realtime(self) -> bool:
+        return self.clock is not None and self.clock.wall is not None
+
+    def _tick_of(self, k: int) -> Tick | None:
+        return self.clock if self.clock is not None and self.clock.k == k else self.books.ticks.get(k)
+
+    def _expected(self, k: int) -> list[int]:
+        """Vehicles whose step message of step k counts: alive then and still alive at the next tick."""
+        then, after = self._tick_of(k), self._tick_of(k + 1)
+        before = then.alive if then is not None and then.alive is not None else self.vehicles
+        now = after.alive if after is not None and after.alive is not None else before
         return [v for v in before if v in now]
 
-    def _ready(self, k: int) -> bool:
-        if k == self.first:
+    def _can_submit(self, k: int) -> bool:
+        """Whether step k's transmissions can go in the water: every expected vehicle's message of k is in."""
+        if k <= self.submitted:
             return True
-        states = self.books.states.get(k - 1, {})
-        expected = self._expected(self.books.ticks[k])
-        if any(v not in states for v in expected):
+        if self._tick_of(k) is None:
             return False
-        return all(
-            states[v].tx_seq == 0 or (v, states[v].tx_seq) in self.books.sent or self.books.bad_tx[v] for v in expected
-        )
+        states = self.books.states.get(k, {})
+        return all(v in states for v in self._expected(k))
 
-    def _announced(self, states: dict[int, StateReport]) -> list[Transmission]:
-        """The step's transmissions; one that arrived malformed is written off instead."""
-        sent = []
-        for v, r in states.items():
-            if not r.tx_seq:
-                continue
-            tx = self.books.sent.pop((v, r.tx_seq), None)
-            if tx is not None:
-                sent.append(tx)
-            else:
-                self.books.bad_tx[v] -= 1
-        return sent
+    def _submit(self, k: int) -> None:
+        """Step k's transmissions (under the network in force then) into the channel."""
+        arrived = self.books.states.pop(k, {})
+        states = {v: arrived[v] for v in self._expected(k) if v in arrived}
+        sent = [tx for _, tx in states.values() if tx is not None]
+        where: dict[int, Kinematics] = {v: report.kinematics for v, (report, _) in states.items()}
+        tick = self._tick_of(k)
+        self.unpublished += self.core.submit(sent, where, tick.network if tick else None)
+        self.submitted = k
 
     def _handle(self, tick: Tick) -> None:
-        arrived = self.books.states.pop(tick.k - 1, {})
-        states = {v: arrived[v] for v in self._expected(tick) if v in arrived} if tick.k != self.first else {}
-        sent = self._announced(states)
-        where: dict[int, Kinematics] = {v: r.kinematics for v, r in states.items()}
-        events = self.core.submit(sent, where, self.previous.network if self.previous else None)
-        self.previous = tick
+        if tick.k - 1 > self.submitted:
+            self._submit(tick.k - 1)
+        self.books.states.pop(tick.k - 1, None)  # a restarted broker's first tick: sent before it existed
+        self.clock = tick
         alive = tick.alive if tick.alive is not None else self.vehicles
+        batches, delivered = self.core.deliver(tick.t, alive)
+        self.unpublished += delivered
         if tick.final:
-            events += self.core.deliver(tick.t, alive)[1] + self.core.finish(tick.t)
-            self._publish_events(events)
+            self.unpublished += self.core.finish(tick.t)
+            self._publish_events(tick)
             self._publish_stats(tick.t, final=True)
             done = {"t": tick.t, "k": tick.k, "events": self.books.published, "malformed": self.books.malformed}
             self.publishers.put(COMMS_DONE_KEY, done)
             return
-        batches, delivered = self.core.deliver(tick.t, alive)
-        self._publish_events(events + delivered)
+        self._publish_events(tick)
         self._publish_stats(tick.t)
-        for v in alive:
-            self.publishers.put(rx_key(v), rx_message(v, tick.k, tick.t, batches[v]))
+        if tick.wall is None:
+            for v in alive:
+                self.publishers.put(rx_key(v), rx_message(v, tick.k, tick.t, batches[v]))
+        else:
+            self._publish_live(tick, batches)
+
+    # --- realtime deliveries ---------------------------------------------------------------------------------
+
+    def due(self) -> float | None:
+        """When the next reception is due on the wall clock; None in lockstep or if it cannot be decided yet."""
+        clock = self.clock
+        if clock is None or clock.wall is None or clock.final:
+            return None
+        arrival = self.core.channel.next_arrival()
+        if arrival is None or arrival + ARRIVAL_SLACK >= (self.submitted + 1) * self.dt:
+            return None  # step submitted+1's transmissions may still spoil it
+        return clock.wall_of(arrival)
+
+    def on_time(self) -> None:
+        """Hand out every reception due by now (never past what the submitted transmissions decide)."""
+        clock = self.clock
+        assert clock is not None and clock.wall is not None
+        now = clock.t + (time.time() - clock.wall) * clock.speed
+        horizon = min(now, (self.submitted + 1) * self.dt - 2 * ARRIVAL_SLACK)
+        alive = clock.alive if clock.alive is not None else self.vehicles
+        batches, delivered = self.core.deliver(horizon, alive)
+        self.unpublished += delivered
+        self._publish_live(clock, batches)
+
+    def _publish_live(self, clock: Tick, batches: dict[int, list[Reception]]) -> None:
+        for v, receptions in batches.items():
+            if receptions:
+                k = math.ceil(receptions[-1].arrival / self.dt - 1e-6)  # the step that takes them in
+                self.publishers.put(rx_key(v), rx_message(v, k, receptions[-1].arrival, receptions, clock.wall_of))
+
+    # --- reports ---------------------------------------------------------------------------------------------
 
     def _publish_stats(self, t: float, final: bool = False) -> None:
         snapshot = self.core.snapshot_due(t, final)
         if snapshot is not None:
             self.publishers.put(COMMS_STATS_KEY, snapshot)
 
-    def _publish_events(self, events: list[LinkEvent]) -> None:
-        for event in events:
-            self.publishers.put(COMMS_EVENT_KEY, event_message(event))
-        self.books.published += len(events)
+    def _publish_events(self, tick: Tick) -> None:
+        if self.unpublished:
+            self.publishers.put(COMMS_EVENTS_KEY, events_message(tick.t, tick.k, self.unpublished))
+            self.books.published += len(self.unpublished)
+            self.unpublished = []
 
 
-def run_broker(core: BrokerCore, vehicles: Sequence[int], connect: Sequence[str], start_step: int = 0) -> int:
+class _Handler:
+    """The broker as comms.bus.serve drives it: messages in, and timed work for realtime deliveries."""
+
+    def __init__(self, broker: Broker) -> None:
+        self.broker = broker
+
+    def __call__(self, key: str, payload: bytes) -> None:
+        self.broker.take(key, payload)
+        self.broker.advance()
+
+    def due(self) -> float | None:
+        return self.broker.due()
+
+    def on_time(self) -> None:
+        self.broker.on_time()
+
+
+def run_broker(
+    core: BrokerCore, vehicles: Sequence[int], dt: float, connect: Sequence[str], start_step: int = 0
+) -> int:
     """Serve the channel from step start_step until the stop message or the supervisor's disappearance."""
 
-    def handler(publishers: Publishers) -> Handler:
-        broker = Broker(core, vehicles, publishers, start_step)
+    def handler(publishers: Publishers) -> Timed:
+        return _Handler(Broker(core, vehicles, publishers, dt, start_step))
 
-        def handle(key: str, payload: bytes) -> None:
-            broker.take(key, payload)
-            broker.advance()
-
-        return handle
-
-    keys = (TICK_KEY, f"{ROOT}/vehicle/*/state", f"{ROOT}/vehicle/*/tx")
+    keys = (TICK_KEY, f"{ROOT}/vehicle/*/state")
     return serve("comms", connect, keys, COMMS_ALIVE, handler)

@@ -11,9 +11,10 @@ import json
 import logging
 import queue
 import socket
+import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol, runtime_checkable
 
 import zenoh
 
@@ -22,6 +23,21 @@ from comms.messages import STOP_KEY, SUPERVISOR_ALIVE, Message, decode, encode
 log = logging.getLogger(__name__)
 POLL = 0.5  # s between checks while nothing arrives
 Handler = Callable[[str, bytes], None]
+
+
+@runtime_checkable
+class Timed(Protocol):
+    """A handler that also has work due at given wall-clock times (time.time()), e.g. realtime deliveries."""
+
+    def __call__(self, key: str, payload: bytes) -> None: ...
+
+    def due(self) -> float | None:
+        """When the next timed work is due, or None."""
+        ...
+
+    def on_time(self) -> None:
+        """Do the work that is due now."""
+        ...
 
 
 def free_port() -> int:
@@ -69,7 +85,7 @@ class Inbox:
     """Everything this process subscribed to, in arrival order, for one thread to consume."""
 
     def __init__(self) -> None:
-        self._queue: queue.Queue[Received | str] = queue.Queue()
+        self._queue: queue.SimpleQueue[Received | str] = queue.SimpleQueue()  # C-implemented: cheaper per message
         self._keep: list[Any] = []  # subscribers live as long as the inbox
 
     def subscribe(self, session: zenoh.Session, key: str) -> None:
@@ -120,10 +136,15 @@ def decode_or_none(payload: bytes) -> Message | None:
 
 
 def serve(
-    name: str, connect: Sequence[str], keys: Sequence[str], token: str, make_handler: Callable[[Publishers], Handler]
+    name: str,
+    connect: Sequence[str],
+    keys: Sequence[str],
+    token: str,
+    make_handler: Callable[[Publishers], Handler | Timed],
 ) -> int:
     """A child process's life: join the run, subscribe to keys, declare its liveliness token, hand every message to
-    the handler, until the stop message or the supervisor's disappearance (so no child outlives its run)."""
+    the handler (and, for a Timed one, wake up when its work is due), until the stop message or the supervisor's
+    disappearance (so no child outlives its run)."""
     with open_session("client", connect=connect) as session:
         inbox = Inbox()
         for key in (*keys, STOP_KEY):
@@ -131,14 +152,28 @@ def serve(
         inbox.watch_liveliness(session, SUPERVISOR_ALIVE)
         alive = session.liveliness().declare_token(token)
         handle = make_handler(Publishers(session))
+        timed = handle if isinstance(handle, Timed) else None
         while True:
-            item = inbox.get(POLL)
-            if item == f"-{SUPERVISOR_ALIVE}":
-                log.warning("%s: the supervisor is gone, stopping", name)
-                break
+            item = inbox.get(_timeout(timed))
             if isinstance(item, Received):
                 if item.key == STOP_KEY:
                     break
                 handle(item.key, item.payload)
+            elif item == f"-{SUPERVISOR_ALIVE}":
+                log.warning("%s: the supervisor is gone, stopping", name)
+                break
+            if timed is not None:
+                _run_due(timed)
         alive.undeclare()
     return 0
+
+
+def _timeout(timed: Timed | None) -> float:
+    due = timed.due() if timed is not None else None
+    return POLL if due is None else min(POLL, max(0.0, due - time.time()))
+
+
+def _run_due(handle: Timed) -> None:
+    due = handle.due()
+    if due is not None and due <= time.time():
+        handle.on_time()

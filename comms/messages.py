@@ -9,6 +9,7 @@ index. Parsers (`parse_*`) raise ValueError for anything malformed: receivers co
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -28,7 +29,8 @@ FAULT_KEY = f"{ROOT}/run/fault"
 GRAPH_KEY = f"{ROOT}/run/graph"
 STOP_KEY = f"{ROOT}/run/stop"
 TICK_KEY = f"{ROOT}/clock/tick"
-COMMS_EVENT_KEY = f"{ROOT}/comms/event"
+COMMS_EVENT_KEY = f"{ROOT}/comms/event"  # the log: one record per link event
+COMMS_EVENTS_KEY = f"{ROOT}/comms/events"  # the bus: the link events of one step, in one message
 COMMS_DONE_KEY = f"{ROOT}/comms/done"
 COMMS_STATS_KEY = f"{ROOT}/comms/stats"
 ALIVE_PREFIX = f"{ROOT}/alive"
@@ -131,23 +133,33 @@ def tx_message(tx: Transmission) -> Message:
     }
 
 
-def rx_message(vehicle_id: int, k: int, t: float, receptions: list[Reception]) -> Message:
-    return {
-        "t": t,
-        "k": k,
-        "vehicle": vehicle_id,
-        "receptions": [
-            {
-                "sender": r.sender,
-                "seq": r.seq,
-                "stamp": r.stamp,
-                "arrival": r.arrival,
-                "gamma": r.gamma,
-                "gamma_dot": r.gamma_dot,
-            }
-            for r in receptions
-        ],
-    }
+def rx_message(
+    vehicle_id: int, k: int, t: float, receptions: list[Reception], wall_of: Callable[[float], float] | None = None
+) -> Message:
+    """Receptions for step k. Realtime deliveries also carry `due`: the wall-clock time (wall_of(arrival)) at
+    which each should reach the vehicle, so it can measure how late it did."""
+    return {"t": t, "k": k, "vehicle": vehicle_id, "receptions": [_reception(r, wall_of) for r in receptions]}
+
+
+def _reception(r: Reception, wall_of: Callable[[float], float] | None) -> Message:
+    item = {"sender": r.sender, "seq": r.seq, "stamp": r.stamp, "arrival": r.arrival, "gamma": r.gamma,
+            "gamma_dot": r.gamma_dot}  # fmt: skip
+    if wall_of is not None:
+        item["due"] = wall_of(r.arrival)
+    return item
+
+
+def step_message(state: Message, tx: Message | None, rx: Message | None) -> Message:
+    """What a vehicle publishes once per step on its state key: its state, with the transmission it made and the
+    reception batch it took in (one bus message instead of three; the log splits it back with split_step)."""
+    return {**state, "tx": tx, "rx": rx}
+
+
+def split_step(message: Message) -> tuple[Message, Message | None, Message | None]:
+    """(state, tx, rx) records of a vehicle's step message, as the log keeps them."""
+    state = dict(message)
+    tx, rx = state.pop("tx", None), state.pop("rx", None)
+    return state, tx if isinstance(tx, dict) else None, rx if isinstance(rx, dict) else None
 
 
 def event_message(event: LinkEvent) -> Message:
@@ -162,6 +174,11 @@ def event_message(event: LinkEvent) -> Message:
     }
 
 
+def events_message(t: float, k: int, events: list[LinkEvent]) -> Message:
+    """The bus form of one step's link events (the log keeps one cpf/comms/event record per event)."""
+    return {"t": t, "k": k, "events": [event_message(event) for event in events]}
+
+
 def tick_message(
     k: int,
     t: float,
@@ -170,9 +187,12 @@ def tick_message(
     network: Network | None = None,
     alive: list[int] | None = None,
     comms: bool = True,
+    wall: float | None = None,
+    speed: float = 1.0,
 ) -> Message:
     """The supervisor's clock: step k starts at t. With it, what acts over the step: faults on vehicles (only those
-    with any), the network (graph and link faults), the vehicles alive, whether the broker is up."""
+    with any), the network (graph and link faults), the vehicles alive, whether the broker is up. Realtime runs
+    also say when t is on the wall clock (time.time()) and how fast simulation time runs: wall + (t' - t) / speed."""
     return {
         "t": t,
         "k": k,
@@ -181,6 +201,8 @@ def tick_message(
         "network": network.message() if network is not None else None,
         "alive": alive,
         "comms": comms,
+        "wall": wall,
+        "speed": speed,
     }
 
 
@@ -306,6 +328,13 @@ class Tick:
     network: Network | None  # None: the scenario's graph, no link faults
     alive: list[int] | None  # None: every vehicle
     comms: bool
+    wall: float | None = None  # realtime: the wall-clock time (time.time()) of t; None: lockstep
+    speed: float = 1.0  # realtime: simulated seconds per wall-clock second
+
+    def wall_of(self, t: float) -> float:
+        """The wall-clock time of simulation time t (realtime runs only)."""
+        assert self.wall is not None
+        return self.wall + (t - self.t) / self.speed
 
 
 def parse_tick(message: Message) -> Tick:
@@ -326,8 +355,17 @@ def parse_tick(message: Message) -> Tick:
         raise ValueError("field 'alive' is not a list of vehicle ids")
     return Tick(
         _get(message, "k", int), _number(message, "t"), _get(message, "final", bool), disturbed,
-        None if net is None else _network(net), alive, _get(message, "comms", bool),
+        None if net is None else _network(net), alive, _get(message, "comms", bool), *_realtime(message),
     )  # fmt: skip
+
+
+def _realtime(message: Message) -> tuple[float | None, float]:
+    """(wall, speed) of a tick; absent in lockstep ticks and in logs older than realtime delivery."""
+    wall = None if message.get("wall") is None else _number(message, "wall")
+    speed = _number(message, "speed") if "speed" in message else 1.0
+    if speed <= 0.0:
+        raise ValueError("field 'speed' is not positive")
+    return wall, speed
 
 
 def _is_int(value: object) -> bool:
@@ -359,6 +397,14 @@ def _network(net: object) -> Network:
         _get(net, "blackout", bool),
         frozenset(silent),
     )
+
+
+def parse_events(message: Message) -> list[Message]:
+    """The event messages of a cpf/comms/events batch (each still to be checked with parse_event)."""
+    events = _get(message, "events", list)
+    if not all(isinstance(event, dict) for event in events):
+        raise ValueError("an event is not a map")
+    return events
 
 
 def parse_event(message: Message) -> LinkEvent:

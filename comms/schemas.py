@@ -65,7 +65,9 @@ STATE = _object(
         "lyapunov": NUMBER,
         "tx_seq": INTEGER,
         "estimate_age": {"type": "array", "items": _vector(2)},
+        "rx_lateness": _vector(),  # realtime: how late (s, wall clock) each reception taken in here was delivered
     },
+    optional=("rx_lateness",),
 )
 TRANSMISSION = _object(
     "cpf.Transmission",
@@ -82,7 +84,16 @@ TRANSMISSION = _object(
 )
 _RECEPTION = _object(
     "cpf.Reception",
-    {"sender": INTEGER, "seq": INTEGER, "stamp": NUMBER, "arrival": NUMBER, "gamma": NUMBER, "gamma_dot": NUMBER},
+    {
+        "sender": INTEGER,
+        "seq": INTEGER,
+        "stamp": NUMBER,
+        "arrival": NUMBER,
+        "gamma": NUMBER,
+        "gamma_dot": NUMBER,
+        "due": NUMBER,
+    },
+    optional=("due",),  # realtime: the wall-clock time (time.time()) the delivery was due
 )
 RECEPTIONS = _object(
     "cpf.Receptions",
@@ -128,7 +139,10 @@ TICK = _object(
         "network": _NETWORK,
         "alive": {"type": ["array", "null"], "items": INTEGER},  # null: every vehicle
         "comms": BOOLEAN,
+        "wall": {"type": ["number", "null"]},  # realtime: t on the wall clock (time.time()); null: lockstep
+        "speed": NUMBER,  # realtime: simulated s per wall-clock s
     },
+    optional=("wall", "speed"),  # logs from before realtime delivery
 )
 _LINK_BOOK = _object(
     "cpf.LinkBook",

@@ -141,11 +141,11 @@ def _run(args: argparse.Namespace) -> int:
     summary = summarize(
         result.series, scenario.scenario.duration, faults, rep.transient, tube, rep.coordination_tolerance
     )
-    factor = scenario.scenario.duration / max(result.wall_time, 1e-9)
+    factor = scenario.scenario.duration / max(result.stepping_time, 1e-9)
     print(
         f"{scenario.scenario.name}: {len(scenario.vehicles)} vehicles, {args.engine} engine, "
-        f"{scenario.scenario.duration:g} s simulated in {result.wall_time:.2f} s ({factor:.0f}x real time), "
-        f"{result.messages} messages -> {out}"
+        f"{scenario.scenario.duration:g} s simulated in {result.wall_time:.2f} s "
+        f"(stepping {result.stepping_time:.2f} s, {factor:.0f}x real time), {result.messages} messages -> {out}"
     )
     comms = comms_summary(result.link_stats, result.stats_history, result.estimate_ages)
     print(format_summary(summary))
@@ -193,7 +193,8 @@ def _comms(args: argparse.Namespace) -> int:
 
     scenario = load_scenario(args.scenario, args.set, args.fault)
     seed = scenario.scenario.seed if args.seed is None else args.seed
-    return run_broker(broker_core(scenario, seed), scenario.vehicle_ids, [args.connect], args.start_step)
+    dt = scenario.scenario.step
+    return run_broker(broker_core(scenario, seed), scenario.vehicle_ids, dt, [args.connect], args.start_step)
 
 
 def _report(args: argparse.Namespace) -> int:

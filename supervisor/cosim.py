@@ -24,6 +24,7 @@ from comms.messages import (
     COMMS_ALIVE,
     COMMS_DONE_KEY,
     COMMS_EVENT_KEY,
+    COMMS_EVENTS_KEY,
     FAULT_KEY,
     GRAPH_KEY,
     META_KEY,
@@ -34,7 +35,12 @@ from comms.messages import (
     Message,
     event_message,
     parse_event,
+    parse_events,
+    rx_key,
+    split_step,
+    state_key,
     tick_message,
+    tx_key,
     vehicle_alive_key,
     vehicle_of_key,
 )
@@ -146,15 +152,30 @@ class _Supervisor:
         if message is None:
             self.malformed += 1
             return
-        t = message.get("t")
-        self.rec.write(item.key, t if isinstance(t, int | float) else self.t, message)
         owned = vehicle_of_key(item.key)
-        if owned is not None and owned[1] == "state" and isinstance(message.get("k"), int):
-            self._state(owned[0], message)
-        elif item.key == COMMS_EVENT_KEY:
-            self._event(message)
-        elif item.key == COMMS_DONE_KEY:
-            self.done = message
+        if owned is not None and owned[1] == "state":
+            self._step(owned[0], message)
+        elif item.key == COMMS_EVENTS_KEY:
+            self._events(message)
+        else:
+            self._write(item.key, message)
+            if item.key == COMMS_DONE_KEY:
+                self.done = message
+
+    def _write(self, key: str, message: Message) -> None:
+        t = message.get("t")
+        self.rec.write(key, t if isinstance(t, int | float) else self.t, message)
+
+    def _step(self, vid: int, message: Message) -> None:
+        """A vehicle's step message, recorded as the log keeps it: reception batch, transmission, state."""
+        state, tx, rx = split_step(message)
+        if rx is not None:
+            self._write(rx_key(vid), rx)
+        if tx is not None:
+            self._write(tx_key(vid), tx)
+        self._write(state_key(vid), state)
+        if isinstance(state.get("k"), int):
+            self._state(vid, state)
 
     def _state(self, vid: int, message: Message) -> None:
         self.builder.add(message)
@@ -163,10 +184,18 @@ class _Supervisor:
         if message.get("tx_seq"):
             self.last_seq[vid] = message["tx_seq"]
 
-    def _event(self, message: Message) -> None:
-        self.broker_events += 1
-        with contextlib.suppress(ValueError):  # a malformed event is recorded but not booked
-            self.books.add([parse_event(message)])
+    def _events(self, batch: Message) -> None:
+        """A step's link events: one log record each; a malformed one is recorded but not booked."""
+        try:
+            events = parse_events(batch)
+        except ValueError:
+            self.malformed += 1
+            return
+        self.broker_events += len(events)
+        for message in events:
+            self._write(COMMS_EVENT_KEY, message)
+            with contextlib.suppress(ValueError):
+                self.books.add([parse_event(message)])
 
     def publish(self, pubs: Publishers, key: str, t: float, message: Message) -> None:
         pubs.put(key, message)
@@ -266,7 +295,7 @@ def run_zenoh(
         tempfile.TemporaryDirectory(prefix="cpf-resume-") as resume_dir,
     ):
         inbox = Inbox()
-        inbox.subscribe(session, f"{ROOT}/vehicle/**")
+        inbox.subscribe(session, f"{ROOT}/vehicle/*/state")
         inbox.subscribe(session, f"{ROOT}/comms/**")
         inbox.watch_liveliness(session, f"{ALIVE_PREFIX}/**")
         token = session.liveliness().declare_token(SUPERVISOR_ALIVE)
@@ -286,13 +315,15 @@ def run_zenoh(
             with contextlib.suppress(Exception):  # already failing: the process group still stops the children
                 run.publish(pubs, STOP_KEY, run.t, {"t": run.t, "reason": "end of run"})
             token.undeclare()
+        stepping = progress.stepping_time()
         wall = progress.done(steps * scenario.scenario.step)
         messages = rec.count
     books = run.books
     end = steps * scenario.scenario.step
     return RunResult(
-        run.builder.series(), wall, messages, books.counts, books.stats.snapshot(end), books.lambda2, run.builder.ages
-    )
+        run.builder.series(), wall, messages, books.counts, books.stats.snapshot(end), books.lambda2, run.builder.ages,
+        stepping,
+    )  # fmt: skip
 
 
 def _drive(
@@ -301,7 +332,8 @@ def _drive(
     """The clock: one tick per sync step, each waiting for every live vehicle's state; then the final tick."""
     sc, dt = run.sc, run.dt
     run.started = True
-    wall_start = time.monotonic()
+    progress.begin()
+    wall_start, epoch_start = time.monotonic(), time.time()  # pacing; the wall clock the other processes share
     edges = sc.graph.edges
     for k in range(steps + 1):
         t = run.t = k * dt
@@ -318,7 +350,8 @@ def _drive(
         if network.edges != edges and not final:
             edges = network.edges
             run.publish(pubs, GRAPH_KEY, t, graph_message(t, edges))
-        tick = tick_message(k, t, final, disturbed, network, list(run.alive), run.comms_up)
+        wall = epoch_start + t / speed if clock == "realtime" else None
+        tick = tick_message(k, t, final, disturbed, network, list(run.alive), run.comms_up, wall, speed)
         run.publish(pubs, TICK_KEY, t, tick)
         if final:
             _finish(run)

@@ -24,6 +24,7 @@ from comms.messages import (
     COMMS_ALIVE,
     COMMS_DONE_KEY,
     COMMS_EVENT_KEY,
+    COMMS_EVENTS_KEY,
     COMMS_STATS_KEY,
     ROOT,
     STOP_KEY,
@@ -35,8 +36,8 @@ from comms.messages import (
     rx_key,
     state_key,
     state_message,
+    step_message,
     tick_message,
-    tx_key,
     tx_message,
 )
 from comms.network import Network
@@ -164,8 +165,7 @@ def test_broker_relays_to_graph_neighbours_and_survives_malformed_messages(tmp_p
 
             # every vehicle transmits at t = 0 and reports its state of step 0; tick 1 hands out what arrived
             for vid in IDS:
-                pubs.put(tx_key(vid), sent[vid])
-                pubs.put(state_key(vid), states[vid])
+                pubs.put(state_key(vid), step_message(states[vid], sent[vid], None))
             pubs.put(TICK_KEY, tick_message(1, 0.1, False))
             batches = {vid: listener.next(rx_key(vid)) for vid in IDS}
             heard = {vid: [r["sender"] for r in batch["receptions"]] for vid, batch in batches.items()}
@@ -183,7 +183,10 @@ def test_broker_relays_to_graph_neighbours_and_survives_malformed_messages(tmp_p
                     assert abs(r["gamma"] - told["gamma"]) <= 2**-24 * abs(told["gamma"])
                     assert 0.0 < r["arrival"] < 0.1  # some 11 ms of flight over 16-17 m
                     arrivals[(r["sender"], vid)] = r["arrival"]
-            events = [listener.next(COMMS_EVENT_KEY) for _ in range(8)]
+            batch = listener.next(COMMS_EVENTS_KEY)  # one message per step on the bus
+            assert (batch["t"], batch["k"]) == (0.1, 1)
+            events = batch["events"]
+            assert len(events) == 8
             for event in events:
                 assert_valid(event, COMMS_EVENT_KEY)
             links = {(1, 2), (1, 3), (2, 1), (3, 1)}
@@ -194,8 +197,8 @@ def test_broker_relays_to_graph_neighbours_and_survives_malformed_messages(tmp_p
                 assert event["t"] == arrivals[link] and event["delay"] == pytest.approx(arrivals[link])
 
             # three malformed messages: garbage, a transmission on another vehicle's key, a state without position
-            put_raw(session, tx_key(2), b"\xc1 this is not msgpack")
-            pubs.put(tx_key(2), sent[3])
+            put_raw(session, state_key(2), b"\xc1 this is not msgpack")
+            pubs.put(state_key(2), step_message(states[2], sent[3], None))  # a stale state with another's packet
             pubs.put(state_key(1), {k: v for k, v in states[1].items() if k != "position"} | {"k": 1})
 
             # the broker keeps working: step 1 without transmissions
@@ -212,7 +215,7 @@ def test_broker_relays_to_graph_neighbours_and_survives_malformed_messages(tmp_p
             done = listener.next(COMMS_DONE_KEY)
             assert_valid(done, COMMS_DONE_KEY)
             assert done == {"t": 0.3, "k": 3, "events": 8, "malformed": 3}
-            assert listener.pending(COMMS_EVENT_KEY) == 0  # nothing was left in flight
+            assert listener.pending(COMMS_EVENTS_KEY) == 0  # nothing was left in flight
             # link statistics: only the final snapshot (a run shorter than one window), books balanced
             stats = listener.next(COMMS_STATS_KEY)
             assert_valid(stats, COMMS_STATS_KEY)
@@ -227,7 +230,8 @@ def test_broker_relays_to_graph_neighbours_and_survives_malformed_messages(tmp_p
 
             pubs.put(STOP_KEY, {"t": 0.3, "reason": "end of test"})
             assert exit_code(proc, log) == 0
-    assert log.read_text().count("dropped a malformed message") == 3
+    text = log.read_text()
+    assert text.count("dropped a malformed message") == 2 and text.count("dropped a malformed transmission") == 1
 
 
 def test_broker_exits_by_itself_when_the_supervisor_disappears(tmp_path):
@@ -254,14 +258,13 @@ class RecordingPublishers(Publishers):
 def test_broker_survives_a_transmission_its_wire_frame_cannot_carry():
     scenario = load_scenario(REPO / "configs" / "paper.toml")
     pubs = RecordingPublishers()
-    broker = Broker(broker_core(scenario, 1), IDS, pubs)
+    broker = Broker(broker_core(scenario, 1), IDS, pubs, DT)
     fleet = {telemetry.vehicle_id: (telemetry, model, sent) for telemetry, model, sent in first_step()}
     broker.take(TICK_KEY, encode(tick_message(0, 0.0, False)))
     assert broker.advance() is False
     for vid, (telemetry, model, sent) in fleet.items():
         told = tx_message(sent) | ({"gamma": 1e39} if vid == 2 else {})
-        broker.take(tx_key(vid), encode(told))
-        broker.take(state_key(vid), encode(state_message(telemetry, model, 0, sent.seq)))
+        broker.take(state_key(vid), encode(step_message(state_message(telemetry, model, 0, sent.seq), told, None)))
     broker.take(TICK_KEY, encode(tick_message(1, 0.1, False)))
     broker.advance()
     assert broker.books.malformed == 1
@@ -284,19 +287,18 @@ def fleet() -> Fleet:
     return {telemetry.vehicle_id: (telemetry, model, sent) for telemetry, model, sent in first_step()}
 
 
-def pure_broker(start_step: int = 0) -> tuple[Broker, RecordingPublishers]:
-    scenario = load_scenario(REPO / "configs" / "paper.toml")
+def pure_broker(start_step: int = 0, overrides: tuple[str, ...] = ()) -> tuple[Broker, RecordingPublishers]:
+    scenario = load_scenario(REPO / "configs" / "paper.toml", overrides)
     pubs = RecordingPublishers()
-    return Broker(broker_core(scenario, 1), IDS, pubs, start_step), pubs
+    return Broker(broker_core(scenario, 1), IDS, pubs, DT, start_step), pubs
 
 
 def report(broker: Broker, fleet: Fleet, k: int, vehicles: tuple[int, ...] = IDS, seq: int | None = None) -> None:
     """The vehicles' states of step k, each with its transmission at t_k (numbered seq) unless seq is None."""
     for vid in vehicles:
         telemetry, model, sent = fleet[vid]
-        if seq is not None:
-            broker.take(tx_key(vid), encode(tx_message(replace(sent, seq=seq, t=k * DT))))
-        broker.take(state_key(vid), encode(state_message(telemetry, model, k, seq or 0)))
+        tx = tx_message(replace(sent, seq=seq, t=k * DT)) if seq is not None else None
+        broker.take(state_key(vid), encode(step_message(state_message(telemetry, model, k, seq or 0), tx, None)))
 
 
 def tick(broker: Broker, k: int, network: Network | None = None, alive: list[int] | None = None) -> bool:
@@ -317,7 +319,7 @@ def batches(pubs: RecordingPublishers, k: int) -> dict[int, list[int]]:
 
 def link_events(pubs: RecordingPublishers) -> set[tuple[str, int, int, int, str | None]]:
     """Every link event so far as (kind, sender, receiver, seq, reason); the list is cleared."""
-    events = [message for key, message in pubs.messages if key == COMMS_EVENT_KEY]
+    events = [event for key, message in pubs.messages if key == COMMS_EVENTS_KEY for event in message["events"]]
     for event in events:
         assert_valid(event, COMMS_EVENT_KEY)
     pubs.messages.clear()
@@ -411,3 +413,69 @@ def test_a_silent_modem_is_dropped_on_each_of_its_links(fleet):
     for j in (2, 3):
         book = books[(1, j)]
         assert (book["sent"], book["delivered"], book["dropped"]) == (1, 0, {"modem_silent": 1})
+
+
+# --- realtime: each reception handed out when its arrival comes on the wall clock ----------------------------------
+
+
+PAPER_LINKS = {(1, 2), (2, 1), (1, 3), (3, 1)}
+
+
+def realtime_tick(broker: Broker, k: int, wall: float) -> bool:
+    """Tick k of a realtime run whose t = 0 was at wall-clock time `wall` (speed 1)."""
+    broker.take(TICK_KEY, encode(tick_message(k, k * DT, False, wall=wall + k * DT, speed=1.0)))
+    return broker.advance()
+
+
+def test_realtime_receptions_are_due_at_their_arrival_on_the_wall_clock(fleet):
+    broker, pubs = pure_broker()
+    start = time.time() - 100.0  # t = 0 was long ago: every arrival is due now
+    realtime_tick(broker, 0, start)
+    assert broker.due() is None  # nothing in flight
+    report(broker, fleet, 0, seq=1)
+    broker.advance()
+    assert broker.submitted == 0  # in the water at once, without waiting for tick 1
+    first = broker.core.channel.next_arrival()
+    assert first is not None and 0.0 < first < DT
+    assert broker.due() == pytest.approx(start + first)
+    broker.on_time()
+    deliveries = [(key, m) for key, m in pubs.messages if key.endswith("/rx")]
+    heard = {m["vehicle"]: sorted(r["sender"] for r in m["receptions"]) for _, m in deliveries}
+    assert heard == {1: [2, 3], 2: [1], 3: [1]}
+    for key, message in deliveries:
+        assert_valid(message, key)
+        assert message["k"] == 1  # taken in at the first sync instant after arrival
+        for r in message["receptions"]:
+            assert r["due"] == pytest.approx(start + r["arrival"], abs=1e-6)
+    assert broker.due() is None  # everything delivered
+    pubs.messages.clear()
+    realtime_tick(broker, 1, start)  # nothing left to hand out at the tick; the step's events go out with it
+    assert not [m for key, m in pubs.messages if key.endswith("/rx")]
+    assert link_events(pubs) == delivered(PAPER_LINKS, 1)
+
+
+def test_realtime_holds_a_reception_until_no_later_transmission_can_spoil_it(fleet):
+    broker, _ = pure_broker(overrides=("comms.preamble=0.15",))  # every packet arrives after t_1
+    start = time.time() - 100.0
+    realtime_tick(broker, 0, start)
+    report(broker, fleet, 0, seq=1)
+    broker.advance()
+    first = broker.core.channel.next_arrival()
+    assert first is not None and DT < first < 2 * DT
+    assert broker.due() is None  # step 1's transmissions, not in yet, could still collide with it
+    realtime_tick(broker, 1, start)
+    assert broker.due() is None
+    report(broker, fleet, 1)
+    broker.advance()
+    assert broker.submitted == 1
+    assert broker.due() == pytest.approx(start + first)
+
+
+def test_a_vehicle_killed_after_reporting_its_step_never_transmits_it(fleet):
+    broker, pubs = pure_broker()
+    tick(broker, 0)
+    report(broker, fleet, 0, seq=1)  # all three report; then vehicle 3 is killed before tick 1
+    tick(broker, 1, alive=[1, 2])
+    assert broker.next_k == 2
+    assert batches(pubs, 1) == {1: [2], 2: [1]}
+    assert link_events(pubs) == delivered({(1, 2), (2, 1)}, 1)  # as the in-process engine: its modem never sent

@@ -6,6 +6,7 @@ MCAP, and no process of ours left behind, whatever happens.
 
 from __future__ import annotations
 
+import math
 import re
 import signal
 import subprocess
@@ -87,18 +88,39 @@ def test_every_link_balances_and_the_mcap_reads_back(tmp_path, paper_text):
     assert {schema.encoding for schema in summary.schemas.values()} == {"jsonschema"}
 
 
-def test_realtime_clock_paces_the_run_and_changes_nothing_else(tmp_path, paper_text):
-    scenario = write_scenario(tmp_path, shortened(paper_text, 10.0))
+def test_realtime_clock_paces_the_run_delivers_at_arrival_and_changes_nothing_else(tmp_path, paper_text):
+    scenario = write_scenario(tmp_path, shortened(paper_text, 4.0))
     started = time.monotonic()
-    real = cpf(
-        "run", str(scenario), "--clock", "realtime", "--speed", "20", "--out", "rt.mcap", "--quiet", cwd=tmp_path
-    )
+    real = cpf("run", str(scenario), "--clock", "realtime", "--speed", "5", "--out", "rt.mcap", "--quiet", cwd=tmp_path)
     elapsed = time.monotonic() - started
     assert real.returncode == 0, real.stderr
-    assert elapsed >= 10.0 / 20  # paced: it cannot finish before the wall clock allows
+    assert elapsed >= 4.0 / 5  # paced: it cannot finish before the wall clock allows
     lock = cpf("run", str(scenario), "--out", "lock.mcap", "--quiet", cwd=tmp_path)
     assert lock.returncode == 0, lock.stderr
-    assert states(tmp_path / "rt.mcap") == states(tmp_path / "lock.mcap")
+
+    # every delivered packet reached its vehicle as its own timed delivery, and the vehicle said how late it came
+    rx = [(topic, m) for topic, _, m in read_messages(tmp_path / "rt.mcap") if topic.endswith("/rx")]
+    heard = [r for _, m in rx for r in m["receptions"]]
+    assert heard and all("due" in r for r in heard)
+    real_states = states(tmp_path / "rt.mcap")
+    lateness = [late for m in real_states.values() for late in m.pop("rx_lateness")]
+    assert len(lateness) == len(heard)
+    in_time = [m for m in events(tmp_path / "rt.mcap", "delivered") if m["t"] <= 3.9 + 1e-9]  # a step took it in
+    delivered = {(m["sender"], m["receiver"], m["seq"]) for m in in_time}
+    assert {(r["sender"], int(topic.split("/")[2]), r["seq"]) for topic, m in rx for r in m["receptions"]} == delivered
+
+    # the same run as lockstep up to the first reception the wall clock made a vehicle take in a step late
+    late_steps = [m["k"] for _, m in rx for r in m["receptions"] if m["k"] > math.ceil(r["arrival"] / 0.1 - 1e-6)]
+    first_late = min(late_steps, default=len(real_states))
+    lockstep = states(tmp_path / "lock.mcap")
+    assert {key: m for key, m in real_states.items() if key[1] < first_late} == {
+        key: m for key, m in lockstep.items() if key[1] < first_late
+    }
+    assert len(real_states) == len(lockstep)
+
+
+def events(path: Path, kind: str) -> list[dict]:
+    return [m for topic, _, m in read_messages(path) if topic == "cpf/comms/event" and m["kind"] == kind]
 
 
 def test_bad_scenario_starts_nothing(tmp_path, paper_text):

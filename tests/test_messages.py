@@ -33,15 +33,19 @@ from comms.messages import (
     decode,
     encode,
     event_message,
+    events_message,
     parse_event,
+    parse_events,
     parse_rx,
     parse_state,
     parse_tick,
     parse_tx,
     rx_key,
     rx_message,
+    split_step,
     state_key,
     state_message,
+    step_message,
     tick_message,
     tx_key,
     tx_message,
@@ -146,7 +150,8 @@ def assert_valid(message: Message, key: str) -> None:
     schema = schema_for(key)
     assert schema is not None, f"no schema for {key}"
     assert schema_errors(message, schema) == []
-    assert set(message) == set(schema["properties"]), "the schema describes exactly the fields that are built"
+    fields, described = set(message), set(schema["properties"])
+    assert set(schema["required"]) <= fields <= described, "the schema describes exactly the fields that are built"
     if HAVE_JSONSCHEMA:  # pragma: no cover - not a dependency; used when present
         import jsonschema
 
@@ -270,7 +275,7 @@ def test_rx_message_round_trips_through_parse_rx():
     assert_valid(message, rx_key(2))
     for item in message["receptions"]:
         assert schema_errors(item, RECEPTIONS["properties"]["receptions"]["items"]) == []
-        assert set(item) == set(RECEPTIONS["properties"]["receptions"]["items"]["properties"])
+        assert set(item) == set(RECEPTIONS["properties"]["receptions"]["items"]["required"])
     assert wire(message) == message
     assert parse_rx(wire(message)) == (5, [Heard(1, 0.4, 10.5, 0.99), Heard(3, 0.3, -1.0, 1.01)])
     channel = Channel(ChannelParams(jitter=0.01), seed=1)
@@ -380,6 +385,8 @@ def test_tick_message_spells_out_the_faults():
         },
         "alive": [1, 2],
         "comms": False,
+        "wall": None,
+        "speed": 1.0,
     }
     assert tick_message(0, 0.0, False) == {
         "t": 0.0,
@@ -389,8 +396,51 @@ def test_tick_message_spells_out_the_faults():
         "network": None,
         "alive": None,
         "comms": True,
+        "wall": None,
+        "speed": 1.0,
     }
     assert "caps" not in message
+
+
+def test_a_realtime_tick_maps_simulation_time_to_the_wall_clock():
+    message = tick_message(30, 3.0, False, wall=1_000_000.0, speed=4.0)
+    assert_valid_tick(message)
+    tick = parse_tick(wire(message))
+    assert (tick.wall, tick.speed) == (1_000_000.0, 4.0)
+    assert tick.wall_of(3.4) == pytest.approx(1_000_000.1)
+    old = {key: value for key, value in message.items() if key not in ("wall", "speed")}  # logs from before
+    assert (parse_tick(old).wall, parse_tick(old).speed) == (None, 1.0)
+    with pytest.raises(ValueError, match="speed"):
+        parse_tick(message | {"speed": 0.0})
+
+
+def test_realtime_receptions_say_when_they_were_due():
+    reception = Reception(2, 1, 5, 0.4, 0.42, 10.5, 0.99)
+    message = rx_message(2, 5, 0.42, [reception], wall_of=lambda t: 100.0 + t)
+    assert_valid(message, rx_key(2))
+    assert message["receptions"][0]["due"] == pytest.approx(100.42)
+    assert parse_rx(wire(message)) == (5, [Heard(1, 0.4, 10.5, 0.99)])
+
+
+def test_a_step_message_splits_back_into_the_records_the_log_keeps():
+    (telemetry, model, sent), *_ = first_step()
+    state = state_message(telemetry, model, 0, sent.seq)
+    tx = tx_message(sent)
+    rx = rx_message(telemetry.vehicle_id, 0, 0.0, [])
+    assert split_step(wire(step_message(state, tx, rx))) == (state, tx, rx)
+    assert split_step(wire(step_message(state, None, None))) == (state, None, None)
+    whole, alone = (parse_state(m, telemetry.vehicle_id) for m in (step_message(state, tx, rx), state))
+    assert (whole.k, whole.tx_seq) == (alone.k, alone.tx_seq)  # the broker reads the state part as it is
+    assert np.array_equal(whole.kinematics.position, alone.kinematics.position)
+
+
+def test_a_step_s_link_events_travel_as_one_message():
+    events = [LinkEvent(0.1, 1, 2, 3, "sent"), LinkEvent(0.11, 1, 2, 3, "delivered", delay=0.01)]
+    batch = wire(events_message(0.2, 2, events))
+    assert [parse_event(m) for m in parse_events(batch)] == events
+    for bad in ({"t": 0.2}, {"events": [1]}, {"events": "x"}):
+        with pytest.raises(ValueError):
+            parse_events(bad)
 
 
 def test_a_parsed_network_acts_as_the_one_sent():

@@ -1,26 +1,30 @@
 """The vehicle process: the only Zenoh code of a vehicle. It moves messages; the math is vehicles.runtime.
 
-Per sync step k it needs the supervisor's tick (time, faults acting on it) and the broker's reception batch for k;
-with both it runs node_step, then publishes its transmission (if any) and its state. comms.bus.serve runs its life:
-it stops on the stop message, or by itself when the supervisor's liveliness token disappears (no orphans).
+Per sync step k it needs the supervisor's tick (time, faults acting on it) and, in lockstep, the broker's reception
+batch for k; with both it runs node_step, then publishes one step message: its state, the transmission it made (if
+any) and the receptions it took in. In realtime the broker delivers each reception at its arrival time on the wall
+clock; the vehicle takes in at tick k whatever has arrived and reports how late each delivery was. comms.bus.serve
+runs its life: it stops on the stop message, or by itself when the supervisor's liveliness token disappears.
 """
 
 from __future__ import annotations
 
 import logging
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 from comms.bus import Handler, Publishers, decode_or_none, serve
 from comms.messages import (
     TICK_KEY,
+    Message,
     Tick,
     parse_rx,
     parse_tick,
     rx_key,
     state_key,
     state_message,
-    tx_key,
+    step_message,
     tx_message,
     vehicle_alive_key,
 )
@@ -32,11 +36,25 @@ log = logging.getLogger(__name__)
 
 @dataclass
 class _Pending:
-    """Ticks and reception batches that arrived ahead of the step that needs them."""
+    """Ticks and receptions that arrived ahead of the step that needs them."""
 
     ticks: dict[int, Tick] = field(default_factory=dict)
-    batches: dict[int, list[Heard]] = field(default_factory=dict)
+    batches: dict[int, tuple[list[Heard], Message | None]] = field(default_factory=dict)  # lockstep, by step
+    live: list[tuple[Heard, Message, float]] = field(default_factory=list)  # realtime: (heard, item, s late)
     malformed: int = 0
+
+    def ready(self, k: int) -> bool:
+        tick = self.ticks.get(k)
+        return tick is not None and (tick.wall is not None or k in self.batches)
+
+    def receptions(self, tick: Tick, vid: int) -> tuple[list[Heard], Message | None, list[float]]:
+        """What the vehicle takes in at this tick, the batch to report (None: the broker is down), lateness (s)."""
+        if tick.wall is None:
+            heard, batch = self.batches.pop(tick.k)
+            return heard, batch, []
+        live, self.live = self.live, []
+        batch = {"t": tick.t, "k": tick.k, "vehicle": vid, "receptions": [item for _, item, _ in live]}
+        return [h for h, _, _ in live], batch if tick.comms else None, [late for _, _, late in live]
 
 
 def run_vehicle(
@@ -58,9 +76,9 @@ def run_vehicle(
         def handle(key: str, payload: bytes) -> None:
             nonlocal node, k
             _take(key, payload, vid, pending)
-            while k in pending.ticks and k in pending.batches:
-                tick, heard = pending.ticks.pop(k), pending.batches.pop(k)
-                node = _step(cfg, radio, node, tick, heard, neighbours, dt, publishers)
+            while pending.ready(k):
+                tick = pending.ticks.pop(k)
+                node = _step(cfg, radio, node, tick, pending.receptions(tick, vid), neighbours, dt, publishers)
                 k += 1
 
         return handle
@@ -79,13 +97,27 @@ def _take(key: str, payload: bytes, vid: int, pending: _Pending) -> None:
             if not tick.final:
                 pending.ticks[tick.k] = tick
             if not tick.comms:
-                pending.batches[tick.k] = []  # the broker is down: no receptions will come
+                pending.batches[tick.k] = ([], None)  # the broker is down: no receptions will come
         elif key == rx_key(vid):
-            k, heard = parse_rx(message)
-            pending.batches[k] = heard
+            _file_rx(message, pending)
     except ValueError as exc:
         pending.malformed += 1
         log.warning("vehicle %d: dropped a malformed message on %s: %s", vid, key, exc)
+
+
+def _file_rx(message: Message, pending: _Pending) -> None:
+    """A lockstep batch is filed by its step; realtime deliveries (they carry `due`) as they come, with how late."""
+    k, heard = parse_rx(message)
+    items = message["receptions"]
+    if not any("due" in item for item in items):
+        pending.batches[k] = (heard, message)
+        return
+    now = time.time()
+    for h, item in zip(heard, items, strict=True):
+        due = item.get("due")
+        if not isinstance(due, int | float):
+            raise ValueError("a realtime reception without a numeric 'due'")
+        pending.live.append((h, item, now - due))
 
 
 def _step(
@@ -93,18 +125,19 @@ def _step(
     radio: Radio,
     node: NodeState,
     tick: Tick,
-    heard: list[Heard],
+    receptions: tuple[list[Heard], Message | None, list[float]],
     neighbours: Sequence[int],
     dt: float,
     publishers: Publishers,
 ) -> NodeState:
     vid = cfg.vehicle_id
+    heard, batch, lateness = receptions
     dist = tick.disturbed.get(vid, Disturbances())
     current = tick.network.neighbours(vid) if tick.network is not None else neighbours
     node, out = node_step(cfg, radio, node, tick.t, dt, heard, current, dist)
     tx = out.transmission
-    if tx is not None:
-        publishers.put(tx_key(vid), tx_message(tx))
     state = state_message(out.telemetry, cfg.model, tick.k, tx.seq if tx else 0, out.estimate_ages)
-    publishers.put(state_key(vid), state)
+    if tick.wall is not None:
+        state["rx_lateness"] = lateness
+    publishers.put(state_key(vid), step_message(state, tx_message(tx) if tx else None, batch))
     return node
