@@ -51,12 +51,13 @@ from vehicles.transmission import Transmission
 @dataclass(frozen=True, slots=True)
 class RunResult:
     series: Series
-    wall_time: float
+    wall_time: float  # s, start-up included
     messages: int
     link_counts: dict[str, int]
     link_stats: Message | None  # the supervisor's books of every link at the end (cpf/comms/stats layout)
     stats_history: list[Message]  # {"t", "lambda2"} of the delivered graph per stats window
     estimate_ages: dict[tuple[int, int], list[float]]  # (sender, receiver) -> [sum, count, max] of ages
+    stepping_time: float = 0.0  # s of wall time from the first sync step to the end
 
 
 class _InProcessRun:
@@ -177,14 +178,16 @@ def run_inprocess(
         rec.write(META_KEY, 0.0, run_meta(scenario, scenario_file, scenario_toml, seed, "inprocess", "lockstep"))
         rec.write(GRAPH_KEY, 0.0, graph_message(0.0, scenario.graph.edges))
         run = _InProcessRun(scenario, rec, seed)
+        progress.begin()
         for k in range(steps):
             run.step(k)
             progress.update((k + 1) * dt)
         run.finish(steps * dt)
+        stepping = progress.stepping_time()
         wall = progress.done(steps * dt)
         messages = rec.count
     books = run.books
     return RunResult(
         run.builder.series(), wall, messages, books.counts, books.stats.snapshot(steps * dt), books.lambda2,
-        run.builder.ages,
+        run.builder.ages, stepping,
     )  # fmt: skip

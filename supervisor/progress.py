@@ -13,21 +13,30 @@ class Progress:
         self.stream = stream
         self.enabled = enabled
         self.started = time.perf_counter()
+        self.stepping = self.started  # when the first sync step began (after any process start-up)
         self._last = self.started
         self._tty = stream.isatty()
+
+    def begin(self) -> None:
+        """Stepping starts now: the real-time factor counts from here, start-up excluded."""
+        self.stepping = self._last = time.perf_counter()
 
     def update(self, t: float, force: bool = False) -> None:
         now = time.perf_counter()
         if not self.enabled or (now - self._last < 1.0 and not force):
             return
         self._last = now
-        factor = t / max(now - self.started, 1e-9)
+        factor = t / max(now - self.stepping, 1e-9)
         line = f"t = {t:7.1f} / {self.duration:.0f} s   {factor:6.1f}x real time"
         self.stream.write(("\r" + line) if self._tty else (line + "\n"))
         self.stream.flush()
 
+    def stepping_time(self) -> float:
+        """Wall time since stepping began."""
+        return time.perf_counter() - self.stepping
+
     def done(self, t: float) -> float:
-        """Final line; returns the wall time."""
+        """Final line; returns the whole wall time, start-up included."""
         self.update(t, force=True)
         if self.enabled and self._tty:
             self.stream.write("\n")

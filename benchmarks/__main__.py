@@ -1,0 +1,49 @@
+"""Every benchmark of issue 7 in one run: `.venv/bin/python -m benchmarks` (or `make bench`).
+
+1. engines: the paper scenario with the in-process and the Zenoh lockstep engine (best of --repeat), and the ratio;
+2. scaling: N = --sizes vehicles on a ring graph, both engines: real-time factor, wall time per sync step, CPU time
+   and resident memory per vehicle process;
+3. realtime: the paper scenario on the realtime clock at --speed 1: delivery lateness p50 / p99 against the
+   channel's computed arrival times.
+Each part is also a module of its own (benchmarks.bench_engines, bench_scaling, bench_realtime). Results go to
+benchmarks/results/*.json; the targets are printed next to the numbers. Speed is checked here, never in tests.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from benchmarks import bench_engines, bench_realtime, bench_scaling
+
+ROOT = Path(__file__).resolve().parent.parent
+RESULTS = ROOT / "benchmarks" / "results"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--repeat", type=int, default=2, help="runs per engine for the paper scenario (best kept)")
+    parser.add_argument("--sizes", default="3,10,30,50", help="fleet sizes for the scaling runs")
+    parser.add_argument("--scaling-duration", type=float, default=20.0, help="simulated s per scaling run")
+    parser.add_argument("--realtime-duration", type=float, default=60.0, help="simulated s on the realtime clock")
+    args = parser.parse_args()
+    paper = ROOT / "configs" / "paper.toml"
+
+    engines = bench_engines.measure(paper, args.repeat)
+    print(bench_engines.summary(engines), flush=True)
+    scaling = []
+    for n in (int(s) for s in args.sizes.split(",")):
+        scaling.append(bench_scaling.measure(n, args.scaling_duration))
+        print(bench_scaling.summary(scaling[-1]), flush=True)
+    realtime = bench_realtime.measure(paper, args.realtime_duration, 1.0)
+    print(bench_realtime.summary(realtime), flush=True)
+
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    everything = {"engines": engines, "scaling": scaling, "realtime": realtime}
+    (RESULTS / "all.json").write_text(json.dumps(everything, indent=2))
+    print(f"written: {RESULTS / 'all.json'}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,91 @@
+"""Realtime delivery accuracy: `.venv/bin/python -m benchmarks.bench_realtime [--duration 60] [--speed 1]`.
+
+Runs a scenario (default the paper's, first --duration simulated seconds) with the Zenoh engine on the realtime
+clock. The broker hands out each reception when the channel's computed arrival time comes on the wall clock; each
+vehicle process notes how late (wall clock) every delivery reached it, and its state messages carry those numbers
+(`rx_lateness`). Prints p50 / p99 / max lateness and how many receptions were taken in a step later than their
+arrival called for; writes benchmarks/results/realtime.json.
+"""
+
+from __future__ import annotations
+
+import argparse
+import io
+import json
+import math
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from supervisor.cosim import BusOptions, run_zenoh
+from supervisor.progress import Progress
+from supervisor.recorder import read_messages
+from supervisor.scenario import load_scenario
+
+ROOT = Path(__file__).resolve().parent.parent
+RESULTS = ROOT / "benchmarks" / "results"
+STEP_SLACK = 1e-6  # s: an arrival this close after a sync instant is taken in at it
+
+
+def lateness(log: Path, dt: float) -> dict[str, Any]:
+    """Delivery lateness (ms) from the vehicles' state messages, and receptions taken in later than lockstep would."""
+    late: list[float] = []
+    receptions = taken_late = 0
+    for topic, _, message in read_messages(log):
+        if topic.endswith("/state"):
+            late += message.get("rx_lateness", [])
+        elif topic.endswith("/rx"):
+            for r in message["receptions"]:
+                receptions += 1
+                taken_late += message["k"] > math.ceil(r["arrival"] / dt - STEP_SLACK)
+    ms = np.array(late) * 1e3
+    percentiles = {f"p{p}_ms": float(np.percentile(ms, p)) for p in (50, 90, 99)} if len(ms) else {}
+    return {
+        "deliveries": len(ms),
+        **percentiles,
+        "max_ms": float(ms.max()) if len(ms) else None,
+        "min_ms": float(ms.min()) if len(ms) else None,
+        "receptions": receptions,
+        "taken_in_a_step_late": taken_late,
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--scenario", type=Path, default=ROOT / "configs" / "paper.toml")
+    parser.add_argument("--duration", type=float, default=60.0, help="simulated seconds")
+    parser.add_argument("--speed", type=float, default=1.0, help="simulated seconds per wall-clock second")
+    args = parser.parse_args()
+    result = measure(args.scenario, args.duration, args.speed)
+    print(summary(result))
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    (RESULTS / "realtime.json").write_text(json.dumps(result, indent=2))
+
+
+def measure(scenario_path: Path, duration: float, speed: float) -> dict[str, Any]:
+    overrides = (f"scenario.duration={duration}",)
+    scenario = load_scenario(scenario_path, overrides)
+    text = scenario_path.read_text()
+    with tempfile.TemporaryDirectory(prefix="cpf-realtime-") as tmp:
+        log = Path(tmp) / "run.mcap"
+        quiet = Progress(duration, io.StringIO(), enabled=False)
+        bus = BusOptions(overrides=overrides)
+        run_zenoh(scenario, scenario_path, text, log, 0, "realtime", speed, bus, quiet)
+        return {"scenario": str(scenario_path), "duration_s": duration, "speed": speed,
+                **lateness(log, scenario.scenario.step)}  # fmt: skip
+
+
+def summary(result: dict[str, Any]) -> str:
+    if not result["deliveries"]:
+        return "realtime: no deliveries"
+    return (
+        f"realtime at --speed {result['speed']:g}: {result['deliveries']} deliveries, lateness p50 "
+        f"{result['p50_ms']:.2f} ms, p99 {result['p99_ms']:.2f} ms, max {result['max_ms']:.2f} ms; "
+        f"{result['taken_in_a_step_late']} of {result['receptions']} receptions taken in a step late"
+    )
+
+
+if __name__ == "__main__":
+    main()
