@@ -9,7 +9,14 @@ import numpy as np
 import pytest
 
 from vehicles.dynamics import PLANAR, SPATIAL, Model
-from vehicles.geometry import FloatArray, roll_pitch_yaw, rotation_2d, rotation_from_rpy
+from vehicles.geometry import (
+    FloatArray,
+    orthonormalize,
+    reorthonormalized,
+    roll_pitch_yaw,
+    rotation_2d,
+    rotation_from_rpy,
+)
 from vehicles.params import PRESETS, VehicleParams
 
 REMUS = PRESETS["remus100"]
@@ -108,10 +115,22 @@ def test_planar_model_is_the_spatial_model_restricted_to_the_plane():
     np.testing.assert_allclose(w3[2], w2[0], rtol=1e-12)
 
 
-@pytest.mark.parametrize("model", [SPATIAL, PLANAR])
-@pytest.mark.parametrize("delta", [-1.0, -0.3, 2.5])
-def test_delta_inverse_is_the_inverse_the_controller_relies_on(model, delta):
-    np.testing.assert_allclose(model.delta_inverse(delta) @ model.delta_matrix(delta), np.eye(model.dim), atol=1e-15)
+@pytest.mark.parametrize("drift", [0.0, 1e-13, 1e-10, 1e-7, 1e-4, 1e-2, 0.3])
+def test_reorthonormalized_is_the_svd_polar_projection(drift):
+    """The float Newton-Schulz projection of each step agrees with the SVD one to its own round-off."""
+    rng = np.random.default_rng(3)
+    for _ in range(200):
+        drifted = rotation_from_rpy(*rng.uniform(-3.0, 3.0, 3)) + drift * rng.normal(size=(3, 3))
+        got = np.array(reorthonormalized(drifted.reshape(9).tolist())).reshape(3, 3)
+        np.testing.assert_allclose(got, orthonormalize(drifted), rtol=0, atol=1e-14)
+        np.testing.assert_allclose(got @ got.T, np.eye(3), rtol=0, atol=4e-15)  # the SVD itself: ~2e-15
+
+
+def test_reorthonormalized_keeps_the_reflection_guard():
+    reflected = np.diag([1.0, 1.0, -1.0]) + 1e-9
+    got = np.array(reorthonormalized(reflected.reshape(9).tolist())).reshape(3, 3)
+    np.testing.assert_array_equal(got, orthonormalize(reflected))
+    assert np.linalg.det(got) == pytest.approx(1.0)
 
 
 def eq2_reference(prm: VehicleParams, rot: FloatArray, v: FloatArray, w: FloatArray, tau: FloatArray):

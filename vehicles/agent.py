@@ -10,14 +10,12 @@ from __future__ import annotations
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
-import numpy as np
-
 from vehicles.coordination import CoordinationGains, correction
-from vehicles.dynamics import Model
+from vehicles.dynamics import Model, kinematics, reorthonormalize, with_inputs
 from vehicles.estimates import NeighbourEstimate, Predictor, newer, predict
 from vehicles.geometry import FloatArray
 from vehicles.params import VehicleParams
-from vehicles.path_following import ControllerConstants, PathFollowingGains, PathFollowingOutput, path_following
+from vehicles.path_following import Control, ControllerConstants, PathFollowingGains, control
 from vehicles.paths import Path
 
 
@@ -34,7 +32,7 @@ class VehicleConfig:
 
     def __post_init__(self) -> None:
         # Computed once per vehicle: the controller uses them at every RK4 stage.
-        object.__setattr__(self, "constants", ControllerConstants.of(self.model, self.params, self.path_following))
+        object.__setattr__(self, "constants", ControllerConstants.of(self.params, self.path_following))
 
 
 @dataclass(frozen=True, slots=True)
@@ -92,37 +90,27 @@ def _closed_loop(
     cfg: VehicleConfig,
     state: VehicleState,
     t: float,
-    z: FloatArray,
+    z: Sequence[float],
     neighbours: Sequence[int],
     dist: Disturbances,
-) -> tuple[FloatArray, PathFollowingOutput, float]:
-    """Derivative of z = [x, gamma, gamma_dot], with the controller outputs and v_tilde that produced it."""
-    n = cfg.model.state_size
-    x, gamma, gamma_dot = z[:n], float(z[n]), float(z[n + 1])
+) -> tuple[list[float], Control, float]:
+    """Derivative of z = [lifted x (18), gamma, gamma_dot], with the controller outputs and v_tilde that produced it."""
+    gamma, gamma_dot = z[18], z[19]
     cap = dist.gamma_dot_cap
     if cap is not None:
         gamma_dot = min(gamma_dot, cap)
     v_tilde = correction(gamma, gamma_dot, _neighbour_values(cfg, state, t, neighbours), cfg.coordination)
-    out = path_following(
-        cfg.model,
-        cfg.params,
-        cfg.path_following,
-        cfg.path,
-        x,
-        gamma,
-        gamma_dot,
-        cfg.coordination.v_r,
-        v_tilde,
-        cfg.constants,
-    )
+    out = control(cfg.model, cfg.params, cfg.constants, cfg.path, z, gamma, gamma_dot, cfg.coordination.v_r, v_tilde)
     gamma_ddot = out.gamma_ddot
     if cap is not None and gamma_dot >= cap:
         gamma_ddot = min(gamma_ddot, 0.0)  # held at the cap: no wind-up
-    zdot = np.empty(n + 2)
-    zdot[:n] = cfg.model.derivative_from(x, *cfg.model.with_input(*out.drift, out.tau, cfg.params))
-    zdot[n] = gamma_dot
-    zdot[n + 1] = gamma_ddot
-    return zdot, out, v_tilde
+    xdot = kinematics(z, with_inputs(out.drift, out.tau, cfg.params))
+    return [*xdot, gamma_dot, gamma_ddot], out, v_tilde
+
+
+def _advance(z: Sequence[float], h: float, zdot: Sequence[float]) -> list[float]:
+    """z + h zdot, elementwise (an RK4 stage point)."""
+    return [a + h * b for a, b in zip(z, zdot, strict=True)]
 
 
 def step(
@@ -132,23 +120,27 @@ def step(
     neighbours: Sequence[int],
     dist: Disturbances = Disturbances(),
 ) -> tuple[VehicleState, Telemetry]:
-    """Advance one RK4 step of dt; the telemetry describes the state at the start of the step."""
-    n = cfg.model.state_size
+    """Advance one RK4 step of dt; the telemetry describes the state at the start of the step.
+
+    Integrated in floats on the lifted state (vehicles.dynamics): arrays only at the boundary."""
+    model = cfg.model
     t = state.t
-    z = np.concatenate((state.x, (state.gamma, state.gamma_dot)))
+    z = [*model.lift(state.x), state.gamma, state.gamma_dot]
     k1, out, v_tilde = _closed_loop(cfg, state, t, z, neighbours, dist)
-    k2 = _closed_loop(cfg, state, t + dt / 2, z + dt / 2 * k1, neighbours, dist)[0]
-    k3 = _closed_loop(cfg, state, t + dt / 2, z + dt / 2 * k2, neighbours, dist)[0]
-    k4 = _closed_loop(cfg, state, t + dt, z + dt * k3, neighbours, dist)[0]
-    z_next = z + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-    gamma_dot_next = float(z_next[n + 1])
+    k2 = _closed_loop(cfg, state, t + dt / 2, _advance(z, dt / 2, k1), neighbours, dist)[0]
+    k3 = _closed_loop(cfg, state, t + dt / 2, _advance(z, dt / 2, k2), neighbours, dist)[0]
+    k4 = _closed_loop(cfg, state, t + dt, _advance(z, dt, k3), neighbours, dist)[0]
+    h = dt / 6
+    z_next = [a + h * (b1 + 2 * b2 + 2 * b3 + b4) for a, b1, b2, b3, b4 in zip(z, k1, k2, k3, k4, strict=True)]
+    gamma_dot_next = z_next[19]
     if dist.gamma_dot_cap is not None:
         gamma_dot_next = min(gamma_dot_next, dist.gamma_dot_cap)
     telemetry = Telemetry(
-        cfg.vehicle_id, t, state.gamma, float(z[n + 1]), state.x, out.error, out.tau, v_tilde, out.lyapunov
-    )
+        cfg.vehicle_id, t, state.gamma, state.gamma_dot, state.x, model.vector(out.error), model.inputs(out.tau),
+        v_tilde, out.lyapunov,
+    )  # fmt: skip
     next_state = replace(
-        state, t=t + dt, x=cfg.model.normalize(z_next[:n]), gamma=float(z_next[n]), gamma_dot=gamma_dot_next
+        state, t=t + dt, x=model.lower(reorthonormalize(z_next[:18])), gamma=z_next[18], gamma_dot=gamma_dot_next
     )
     return next_state, telemetry
 

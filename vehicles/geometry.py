@@ -7,6 +7,7 @@ forward, y to port, z up when R = I. R maps body coordinates into inertial ones 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -32,6 +33,38 @@ def orthonormalize(rotation: FloatArray) -> FloatArray:
         u[:, -1] = -u[:, -1]
         nearest = u @ vt
     return nearest
+
+
+# How far R'R may be from I for the Newton-Schulz projection; beyond it (never after an RK4 step) the SVD takes over.
+_NEWTON_SCHULZ_RANGE = 1e-3
+# Below this |R'R - I|, one more iteration leaves an error of 0.75 |R'R - I|^2 < 1e-16: round-off.
+_ONE_ITERATION_LEFT = 1e-8
+
+
+def reorthonormalized(r: Sequence[float]) -> tuple[float, ...]:
+    """orthonormalize for a row-major 3x3 matrix that integration has moved slightly off SO(3), in floats.
+
+    Newton-Schulz, X <- X - X (X'X - I) / 2, converges quadratically to the same polar factor as the SVD while
+    X'X - I is small: one iteration takes RK4's drift below round-off, without numpy's per-call cost. A matrix far
+    from a rotation, or a reflection, goes to orthonormalize and its guard."""
+    m = tuple(r)
+    for _ in range(4):
+        a, b, c, d, e, f, g, h, i = m
+        # E / 2 with E = X'X - I, from the columns (a, d, g), (b, e, h), (c, f, i); symmetric.
+        e11, e22, e33 = a * a + d * d + g * g - 1.0, b * b + e * e + h * h - 1.0, c * c + f * f + i * i - 1.0
+        e12, e13, e23 = a * b + d * e + g * h, a * c + d * f + g * i, b * c + e * f + h * i
+        drift = max(abs(e11), abs(e22), abs(e33), abs(e12), abs(e13), abs(e23))
+        if drift > _NEWTON_SCHULZ_RANGE or a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g) <= 0.0:
+            break
+        e11, e22, e33, e12, e13, e23 = 0.5 * e11, 0.5 * e22, 0.5 * e33, 0.5 * e12, 0.5 * e13, 0.5 * e23
+        m = (
+            a - (a * e11 + b * e12 + c * e13), b - (a * e12 + b * e22 + c * e23), c - (a * e13 + b * e23 + c * e33),
+            d - (d * e11 + e * e12 + f * e13), e - (d * e12 + e * e22 + f * e23), f - (d * e13 + e * e23 + f * e33),
+            g - (g * e11 + h * e12 + i * e13), h - (g * e12 + h * e22 + i * e23), i - (g * e13 + h * e23 + i * e33),
+        )  # fmt: skip
+        if drift < _ONE_ITERATION_LEFT:
+            return m
+    return tuple(orthonormalize(np.array(r, dtype=float).reshape(3, 3)).reshape(9).tolist())
 
 
 def rotation_from_rpy(roll: float, pitch: float, yaw: float) -> FloatArray:

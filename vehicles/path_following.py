@@ -11,16 +11,18 @@ yaw torques can steer in every direction:
 
 V = (rho - 1) + zeta^2 / 2 + |z2|^2 / 2 has V_dot = -sigma' K1 sigma - k_zeta zeta^2 - z2' K2 z2 + zeta v_tilde,
 so with no coordination input and no saturation V never increases, and the vehicle converges to the tube
-|p - p_d| -> |delta| around its path. The same code serves the spatial and the planar model.
+|p - p_d| -> |delta| around its path. `control` writes the law once, in floats on the lifted state (see
+vehicles.dynamics), for the spatial and the planar model; `path_following` is its array interface.
 """
 
 from __future__ import annotations
 
+import math
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import NamedTuple
 
-import numpy as np
-
-from vehicles.dynamics import Model
+from vehicles.dynamics import Accelerations, Model, Vec3
 from vehicles.geometry import FloatArray
 from vehicles.params import VehicleParams
 from vehicles.paths import Path
@@ -46,24 +48,31 @@ class PathFollowingOutput:
     drift: tuple[FloatArray, FloatArray]  # (v_dot, omega_dot) with no input: the model adds tau's part
 
 
+class Control(NamedTuple):
+    """The controller's outputs in floats, in 3-D (a planar vehicle's: the restriction, see `control`)."""
+
+    tau: Vec3  # saturated (tau_u, tau_q, tau_r)
+    gamma_ddot: float
+    error: Vec3
+    z1: Vec3
+    lyapunov: float
+    drift: Accelerations
+
+
 @dataclass(frozen=True, slots=True)
 class ControllerConstants:
     """What the controller uses at every evaluation and never changes for a vehicle: computed once."""
 
-    delta_vec: FloatArray
-    delta_mat: FloatArray
-    delta_inv: FloatArray
-    input_inertia: FloatArray
-    limits: FloatArray
-    no_input: FloatArray
+    gains: PathFollowingGains
+    inverse_delta: float
+    input_inertia: Vec3  # how hard each input pushes its own actuated velocity: (m_u, J_q, J_r)
+    limits: Vec3  # |tau_u|, |tau_q|, |tau_r|
 
     @staticmethod
-    def of(model: Model, prm: VehicleParams, gains: PathFollowingGains) -> ControllerConstants:
-        delta_vec = np.zeros(model.dim)
-        delta_vec[0] = gains.delta
+    def of(prm: VehicleParams, gains: PathFollowingGains) -> ControllerConstants:
         return ControllerConstants(
-            delta_vec, model.delta_matrix(gains.delta), model.delta_inverse(gains.delta),
-            model.input_inertia(prm), model.input_limits(prm), np.zeros(model.dim),
+            gains, 1.0 / gains.delta, (prm.mass[0], prm.inertia[1], prm.inertia[2]),
+            (prm.max_surge_force, prm.max_torque, prm.max_torque),
         )  # fmt: skip
 
 
@@ -80,36 +89,82 @@ def path_following(
     constants: ControllerConstants | None = None,
 ) -> PathFollowingOutput:
     """Inputs and gamma_ddot for state x on path at gamma, desired speed v_d (constant) plus correction.
-    constants: ControllerConstants.of(model, prm, gains), passed in by callers that evaluate it often."""
-    c = constants or ControllerConstants.of(model, prm, gains)
-    s = model.unpack(x)
-    dim = model.dim
-    p_d, p_g, p_gg = path.evaluate(gamma)
-    rot_t = s.rotation.T
-    error = s.position - p_d[:dim]
-    z1 = rot_t @ error - c.delta_vec
-    rho = float(np.sqrt(1.0 + z1 @ z1))
-    sigma = z1 / rho
-    tangent = rot_t @ p_g[:dim]  # R' p_d^gamma
-    w_hat = model.skew(s.angular_velocity)
-    delta_mat, delta_inv = c.delta_mat, c.delta_inv
-    nu_c, nu_u = model.split(s.velocity, s.angular_velocity)
+    constants: ControllerConstants.of(prm, gains), passed in by callers that evaluate it often."""
+    c = constants or ControllerConstants.of(prm, gains)
+    out = control(model, prm, c, path, model.lift(x), gamma, gamma_dot, v_d, correction)
+    v_dot0, w_dot0 = out.drift
+    return PathFollowingOutput(
+        model.inputs(out.tau), out.gamma_ddot, model.vector(out.error), model.vector(out.z1), out.lyapunov,
+        (model.vector(v_dot0), model.angular(w_dot0)),
+    )  # fmt: skip
 
-    z1_dot = -w_hat @ z1 + delta_mat @ nu_c + nu_u - tangent * gamma_dot
-    sigma_dot = (z1_dot - sigma * (sigma @ z1_dot)) / rho
-    alpha = delta_inv @ (-gains.k1 * sigma - nu_u + tangent * v_d)
+
+def control(
+    model: Model,
+    prm: VehicleParams,
+    c: ControllerConstants,
+    path: Path,
+    s: Sequence[float],
+    gamma: float,
+    gamma_dot: float,
+    v_d: float,
+    correction: float,
+) -> Control:
+    """The law of the module docstring for a lifted state s (vehicles.dynamics), in floats.
+
+    Written once, in 3-D, for both models: the actuated velocities are (u, q, r), so
+        Delta = [[1, 0, 0], [0, 0, -delta], [0, delta, 0]],   nu_c = (u, q, r),   nu_u = (0, v, w).
+    A planar vehicle's lifted state has p = q = w = 0 and it sees its path's horizontal projection, so the out-of-plane
+    rows are exact zeros (tau_q = 0) and the in-plane ones are the planar law with Delta = [[1, 0], [0, -delta]]."""
+    gains, inv_delta, delta = c.gains, c.inverse_delta, c.gains.delta
+    k1 = gains.k1
+    p_d, p_g, p_gg = (model.path_seen(tuple(vec.tolist())) for vec in path.evaluate(gamma))
+    r11, r12, r13, r21, r22, r23, r31, r32, r33 = s[3:12]
+    u, v, w, p, q, r = s[12:18]
+
+    error = (s[0] - p_d[0], s[1] - p_d[1], s[2] - p_d[2])
+    # z1 = R' error - delta; tangent = R' p_d^gamma
+    z1x = r11 * error[0] + r21 * error[1] + r31 * error[2] - delta
+    z1y = r12 * error[0] + r22 * error[1] + r32 * error[2]
+    z1z = r13 * error[0] + r23 * error[1] + r33 * error[2]
+    tx = r11 * p_g[0] + r21 * p_g[1] + r31 * p_g[2]
+    ty = r12 * p_g[0] + r22 * p_g[1] + r32 * p_g[2]
+    tz = r13 * p_g[0] + r23 * p_g[1] + r33 * p_g[2]
+    rho = math.sqrt(1.0 + z1x * z1x + z1y * z1y + z1z * z1z)
+    sx, sy, sz = z1x / rho, z1y / rho, z1z / rho  # sigma
+
+    # z1_dot = -S(omega) z1 + Delta nu_c + nu_u - tangent gamma_dot; Delta nu_c + nu_u = (u, v - delta r, w + delta q)
+    dz1x = -(q * z1z - r * z1y) + u - tx * gamma_dot
+    dz1y = -(r * z1x - p * z1z) + (-delta * r + v) - ty * gamma_dot
+    dz1z = -(p * z1y - q * z1x) + (delta * q + w) - tz * gamma_dot
+    along = sx * dz1x + sy * dz1y + sz * dz1z
+    dsx, dsy, dsz = (dz1x - sx * along) / rho, (dz1y - sy * along) / rho, (dz1z - sz * along) / rho  # sigma_dot
+
+    # alpha = Delta^-1 (-k1 sigma - nu_u + tangent v_d), with Delta^-1 (a, b, c) = (a, c / delta, -b / delta)
+    ay, az = -k1 * sy - v + ty * v_d, -k1 * sz - w + tz * v_d
+    alpha_u, alpha_q, alpha_r = -k1 * sx + tx * v_d, inv_delta * az, -inv_delta * ay
 
     # Accelerations with zero input: the unactuated ones are exact, the actuated ones are what the input must add to.
-    v_dot0, w_dot0 = model.accelerations(s.rotation, s.velocity, s.angular_velocity, c.no_input, prm)
-    nu_c_dot0, nu_u_dot = model.split(v_dot0, w_dot0)
-    tangent_dot = -w_hat @ tangent + rot_t @ p_gg[:dim] * gamma_dot
-    alpha_dot = delta_inv @ (-gains.k1 * sigma_dot - nu_u_dot + tangent_dot * v_d)
+    drift = model.drift(s, prm)
+    (du, dv, dw), (_, dq, dr) = drift
+    # tangent_dot = -S(omega) tangent + R' p_d^gammagamma gamma_dot
+    dtx = -(q * tz - r * ty) + (r11 * p_gg[0] + r21 * p_gg[1] + r31 * p_gg[2]) * gamma_dot
+    dty = -(r * tx - p * tz) + (r12 * p_gg[0] + r22 * p_gg[1] + r32 * p_gg[2]) * gamma_dot
+    dtz = -(p * ty - q * tx) + (r13 * p_gg[0] + r23 * p_gg[1] + r33 * p_gg[2]) * gamma_dot
+    day, daz = -k1 * dsy - dv + dty * v_d, -k1 * dsz - dw + dtz * v_d
+    dalpha_u, dalpha_q, dalpha_r = -k1 * dsx + dtx * v_d, inv_delta * daz, -inv_delta * day
 
-    z2 = nu_c - alpha
-    nu_c_dot = alpha_dot - delta_mat.T @ sigma - gains.k2 * z2
-    tau = np.clip(c.input_inertia * (nu_c_dot - nu_c_dot0), -c.limits, c.limits)
+    # nu_c_dot = alpha_dot - Delta' sigma - k2 z2, Delta' sigma = (sigma_x, delta sigma_z, -delta sigma_y)
+    k2 = gains.k2
+    z2u, z2q, z2r = u - alpha_u, q - alpha_q, r - alpha_r
+    (m_u, j_q, j_r), (lim_u, lim_q, lim_r) = c.input_inertia, c.limits
+    tau = (
+        min(max(m_u * (dalpha_u - sx - k2 * z2u - du), -lim_u), lim_u),
+        min(max(j_q * (dalpha_q - delta * sz - k2 * z2q - dq), -lim_q), lim_q),
+        min(max(j_r * (dalpha_r + delta * sy - k2 * z2r - dr), -lim_r), lim_r),
+    )
 
     zeta = gamma_dot - v_d
-    gamma_ddot = -gains.k_zeta * zeta + float(sigma @ tangent) + correction
-    lyapunov = (rho - 1.0) + 0.5 * zeta * zeta + 0.5 * float(z2 @ z2)
-    return PathFollowingOutput(tau, gamma_ddot, error, z1, lyapunov, (v_dot0, w_dot0))
+    gamma_ddot = -gains.k_zeta * zeta + (sx * tx + sy * ty + sz * tz) + correction
+    lyapunov = (rho - 1.0) + 0.5 * zeta * zeta + 0.5 * (z2u * z2u + z2q * z2q + z2r * z2r)
+    return Control(tau, gamma_ddot, error, (z1x, z1y, z1z), lyapunov, drift)
