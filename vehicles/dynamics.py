@@ -32,12 +32,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vehicles.geometry import FloatArray, reorthonormalized
+from vehicles.geometry import Float3, FloatArray, reorthonormalized
 from vehicles.params import VehicleParams
 
-Vec3 = tuple[float, float, float]
-Accelerations = tuple[Vec3, Vec3]  # (v_dot, omega_dot), body frame
-NO_INPUT: Vec3 = (0.0, 0.0, 0.0)
+Accelerations = tuple[Float3, Float3]  # (v_dot, omega_dot), body frame
+PathVectors = tuple[Float3, Float3, Float3]  # (p_d, dp_d/dgamma, d2p_d/dgamma2)
+NO_INPUT: Float3 = (0.0, 0.0, 0.0)
 
 
 @dataclass(frozen=True, slots=True)
@@ -69,7 +69,7 @@ def kinematics(s: Sequence[float], acc: Accelerations) -> tuple[float, ...]:
     )  # fmt: skip
 
 
-def with_inputs(drift: Accelerations, tau: Vec3, prm: VehicleParams) -> Accelerations:
+def with_inputs(drift: Accelerations, tau: Float3, prm: VehicleParams) -> Accelerations:
     """Accelerations with inputs tau = (tau_u, tau_q, tau_r) from those with none: (2) is linear in the input
     (B1 = e1, B2 = [e2 e3] constant)."""
     (du, dv, dw), (dp, dq, dr) = drift
@@ -144,9 +144,9 @@ class SpatialModel:
     def drift(self, s: Sequence[float], prm: VehicleParams) -> Accelerations:
         return spatial_drift(s, prm)
 
-    def path_seen(self, p: Vec3) -> Vec3:
-        """A path vector as the vehicle follows it: all of it."""
-        return p
+    def path_seen(self, path: PathVectors) -> PathVectors:
+        """The path's (p_d, dp_d/dgamma, d2p_d/dgamma2) as the vehicle follows them: all of them."""
+        return path
 
     def vector(self, v: Sequence[float]) -> FloatArray:
         """A body or inertial 3-vector in this model's dimensions."""
@@ -156,11 +156,11 @@ class SpatialModel:
         """An angular 3-vector (rate or acceleration) in this model's dimensions."""
         return np.array(w, dtype=float)
 
-    def inputs(self, tau: Vec3) -> FloatArray:
+    def inputs(self, tau: Float3) -> FloatArray:
         """This model's inputs from (tau_u, tau_q, tau_r)."""
         return np.array(tau, dtype=float)
 
-    def lift_inputs(self, tau: FloatArray) -> Vec3:
+    def lift_inputs(self, tau: FloatArray) -> Float3:
         return float(tau[0]), float(tau[1]), float(tau[2])
 
     def accelerations(
@@ -213,9 +213,10 @@ class PlanarModel:
     def drift(self, s: Sequence[float], prm: VehicleParams) -> Accelerations:
         return planar_drift(s, prm)
 
-    def path_seen(self, p: Vec3) -> Vec3:
-        """A path vector as the vehicle follows it: its horizontal projection."""
-        return p[0], p[1], 0.0
+    def path_seen(self, path: PathVectors) -> PathVectors:
+        """The path's (p_d, dp_d/dgamma, d2p_d/dgamma2) as the vehicle follows them: their horizontal projection."""
+        p, dp, d2p = path
+        return (p[0], p[1], 0.0), (dp[0], dp[1], 0.0), (d2p[0], d2p[1], 0.0)
 
     def vector(self, v: Sequence[float]) -> FloatArray:
         return np.array(v[:2], dtype=float)
@@ -223,10 +224,10 @@ class PlanarModel:
     def angular(self, w: Sequence[float]) -> FloatArray:
         return np.array(w[2:], dtype=float)
 
-    def inputs(self, tau: Vec3) -> FloatArray:
+    def inputs(self, tau: Float3) -> FloatArray:
         return np.array((tau[0], tau[2]), dtype=float)
 
-    def lift_inputs(self, tau: FloatArray) -> Vec3:
+    def lift_inputs(self, tau: FloatArray) -> Float3:
         return float(tau[0]), 0.0, float(tau[1])
 
     def accelerations(

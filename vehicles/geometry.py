@@ -13,6 +13,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 FloatArray = NDArray[np.float64]
+Float3 = tuple[float, float, float]  # a 3-vector as plain floats, for the hot path
 
 
 def skew(x: FloatArray) -> FloatArray:

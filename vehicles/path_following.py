@@ -22,8 +22,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import NamedTuple
 
-from vehicles.dynamics import Accelerations, Model, Vec3
-from vehicles.geometry import FloatArray
+from vehicles.dynamics import Accelerations, Model
+from vehicles.geometry import Float3, FloatArray
 from vehicles.params import VehicleParams
 from vehicles.paths import Path
 
@@ -51,10 +51,10 @@ class PathFollowingOutput:
 class Control(NamedTuple):
     """The controller's outputs in floats, in 3-D (a planar vehicle's: the restriction, see `control`)."""
 
-    tau: Vec3  # saturated (tau_u, tau_q, tau_r)
+    tau: Float3  # saturated (tau_u, tau_q, tau_r)
     gamma_ddot: float
-    error: Vec3
-    z1: Vec3
+    error: Float3
+    z1: Float3
     lyapunov: float
     drift: Accelerations
 
@@ -65,8 +65,8 @@ class ControllerConstants:
 
     gains: PathFollowingGains
     inverse_delta: float
-    input_inertia: Vec3  # how hard each input pushes its own actuated velocity: (m_u, J_q, J_r)
-    limits: Vec3  # |tau_u|, |tau_q|, |tau_r|
+    input_inertia: Float3  # how hard each input pushes its own actuated velocity: (m_u, J_q, J_r)
+    limits: Float3  # |tau_u|, |tau_q|, |tau_r|
 
     @staticmethod
     def of(prm: VehicleParams, gains: PathFollowingGains) -> ControllerConstants:
@@ -118,7 +118,7 @@ def control(
     rows are exact zeros (tau_q = 0) and the in-plane ones are the planar law with Delta = [[1, 0], [0, -delta]]."""
     gains, inv_delta, delta = c.gains, c.inverse_delta, c.gains.delta
     k1 = gains.k1
-    p_d, p_g, p_gg = (model.path_seen(tuple(vec.tolist())) for vec in path.evaluate(gamma))
+    p_d, p_g, p_gg = model.path_seen(path.evaluate_floats(gamma))
     r11, r12, r13, r21, r22, r23, r31, r32, r33 = s[3:12]
     u, v, w, p, q, r = s[12:18]
 

@@ -10,8 +10,8 @@ Units: positions in metres; gamma is dimensionless (its meaning depends on the p
 divided by ``scale`` for the lawnmower), so dp_d/dgamma is in m per unit gamma and d2p_d/dgamma2 in m per
 unit gamma squared.
 
-``evaluate`` runs several times per integration step per vehicle, so it uses scalar ``math`` and builds
-exactly one small array per returned vector.  ``positions`` is the vectorised counterpart for plotting.
+``evaluate_floats`` runs four times per integration step per vehicle, so it is scalar ``math`` returning tuples of
+floats; ``evaluate`` is the same as arrays, and ``positions`` the vectorised counterpart for plotting.
 """
 
 from __future__ import annotations
@@ -25,6 +25,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import minimize_scalar
 
+from vehicles.geometry import Float3
+
 Vec3: TypeAlias = NDArray[np.float64]
 """A vector of shape (3,), float64."""
 
@@ -37,6 +39,10 @@ class Path(Protocol):
 
     def evaluate(self, gamma: float) -> tuple[Vec3, Vec3, Vec3]:
         """(p_d, dp_d/dgamma, d2p_d/dgamma2) at gamma, each shape (3,) float64."""
+        ...
+
+    def evaluate_floats(self, gamma: float) -> tuple[Float3, Float3, Float3]:
+        """The same as 3-tuples of floats, for the controller's hot path."""
         ...
 
     def positions(self, gammas: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -79,6 +85,11 @@ def _vec3(name: str, value: tuple[float, float, float]) -> tuple[float, float, f
     return x, y, z
 
 
+def _arrays(vectors: tuple[Float3, Float3, Float3]) -> tuple[Vec3, Vec3, Vec3]:
+    p, dp, d2p = vectors
+    return np.array(p), np.array(dp), np.array(d2p)
+
+
 def _gamma_array(gammas: ArrayLike) -> NDArray[np.float64]:
     g = np.atleast_1d(np.asarray(gammas, dtype=np.float64))
     if g.ndim != 1:
@@ -118,15 +129,19 @@ class Helix:
 
     def evaluate(self, gamma: float) -> tuple[Vec3, Vec3, Vec3]:
         """(p_d [m], dp_d/dgamma [m/gamma], d2p_d/dgamma2 [m/gamma^2]) at gamma."""
+        return _arrays(self.evaluate_floats(gamma))
+
+    def evaluate_floats(self, gamma: float) -> tuple[Float3, Float3, Float3]:
         c, w = self.radius, self._omega
         a = w * gamma + self.phase
         ca, sa = math.cos(a), math.sin(a)
         cx, cy, cz = self.center
-        p = np.array((c * ca + cx, c * sa + cy, self.climb * gamma + cz))
-        dp = np.array((-c * w * sa, c * w * ca, self.climb))
         cw2 = c * w * w
-        d2p = np.array((-cw2 * ca, -cw2 * sa, 0.0))
-        return p, dp, d2p
+        return (
+            (c * ca + cx, c * sa + cy, self.climb * gamma + cz),
+            (-c * w * sa, c * w * ca, self.climb),
+            (-cw2 * ca, -cw2 * sa, 0.0),
+        )
 
     def positions(self, gammas: NDArray[np.float64]) -> NDArray[np.float64]:
         """p_d [m] at many gammas, shape (n, 3)."""
@@ -164,6 +179,9 @@ class Circle:
         """(p_d [m], dp_d/dgamma [m/gamma], d2p_d/dgamma2 [m/gamma^2]) at gamma."""
         return self._helix.evaluate(gamma)
 
+    def evaluate_floats(self, gamma: float) -> tuple[Float3, Float3, Float3]:
+        return self._helix.evaluate_floats(gamma)
+
     def positions(self, gammas: NDArray[np.float64]) -> NDArray[np.float64]:
         """p_d [m] at many gammas, shape (n, 3)."""
         return self._helix.positions(gammas)
@@ -187,9 +205,11 @@ class Line:
 
     def evaluate(self, gamma: float) -> tuple[Vec3, Vec3, Vec3]:
         """(p_d [m], dp_d/dgamma [m/gamma], d2p_d/dgamma2 = 0) at gamma."""
+        return _arrays(self.evaluate_floats(gamma))
+
+    def evaluate_floats(self, gamma: float) -> tuple[Float3, Float3, Float3]:
         (sx, sy, sz), (vx, vy, vz) = self.start, self.velocity
-        p = np.array((sx + gamma * vx, sy + gamma * vy, sz + gamma * vz))
-        return p, np.array((vx, vy, vz)), np.zeros(3)
+        return (sx + gamma * vx, sy + gamma * vy, sz + gamma * vz), (vx, vy, vz), (0.0, 0.0, 0.0)
 
     def positions(self, gammas: NDArray[np.float64]) -> NDArray[np.float64]:
         """p_d [m] at many gammas, shape (n, 3)."""
@@ -273,6 +293,9 @@ class Lawnmower:
 
     def evaluate(self, gamma: float) -> tuple[Vec3, Vec3, Vec3]:
         """(p_d [m], dp_d/dgamma [m/gamma], d2p_d/dgamma2 [m/gamma^2]) at gamma."""
+        return _arrays(self.evaluate_floats(gamma))
+
+    def evaluate_floats(self, gamma: float) -> tuple[Float3, Float3, Float3]:
         s = gamma * self.scale
         # Segment i starts at _breaks[i]; a join belongs to the following segment.  Before 0 use leg 0,
         # after the end the last segment (always a leg), so extrapolation is straight.
@@ -282,20 +305,12 @@ class Lawnmower:
         z = self.origin[2]
         k = self.scale
         if not self._is_arc[i]:
-            return (
-                np.array((a + ls * c, b + ls * d, z)),
-                np.array((k * c, k * d, 0.0)),
-                np.zeros(3),
-            )
+            return (a + ls * c, b + ls * d, z), (k * c, k * d, 0.0), (0.0, 0.0, 0.0)
         r = 0.5 * self.spacing
         theta = c + d * ls / r
         ct, st = math.cos(theta), math.sin(theta)
         kk_r = k * k / r  # centripetal term: speed^2 / radius
-        return (
-            np.array((a + r * ct, b + r * st, z)),
-            np.array((-k * d * st, k * d * ct, 0.0)),
-            np.array((-kk_r * ct, -kk_r * st, 0.0)),
-        )
+        return (a + r * ct, b + r * st, z), (-k * d * st, k * d * ct, 0.0), (-kk_r * ct, -kk_r * st, 0.0)
 
     def positions(self, gammas: NDArray[np.float64]) -> NDArray[np.float64]:
         """p_d [m] at many gammas, shape (n, 3)."""
