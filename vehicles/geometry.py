@@ -16,16 +16,6 @@ FloatArray = NDArray[np.float64]
 Float3 = tuple[float, float, float]  # a 3-vector as plain floats, for the hot path
 
 
-def skew(x: FloatArray) -> FloatArray:
-    """S(x) of the paper: S(x) y = x cross y, for x in R^3."""
-    return np.array([[0.0, -x[2], x[1]], [x[2], 0.0, -x[0]], [-x[1], x[0], 0.0]])
-
-
-def skew2(r: float) -> FloatArray:
-    """The planar S(omega) = [[0, -r], [r, 0]]."""
-    return np.array([[0.0, -r], [r, 0.0]])
-
-
 def orthonormalize(rotation: FloatArray) -> FloatArray:
     """The rotation nearest to a drifted one (polar factor), so integration error never leaves SO(n)."""
     u, _, vt = np.linalg.svd(rotation)
