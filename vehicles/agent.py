@@ -11,12 +11,15 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
 from vehicles.coordination import CoordinationGains, correction
-from vehicles.dynamics import Model, kinematics, reorthonormalize, with_inputs
+from vehicles.dynamics import LIFTED_SIZE, Model, kinematics, reorthonormalize, with_inputs
 from vehicles.estimates import NeighbourEstimate, Predictor, newer, predict
 from vehicles.geometry import FloatArray
 from vehicles.params import VehicleParams
 from vehicles.path_following import Control, ControllerConstants, PathFollowingGains, control
 from vehicles.paths import Path
+
+# Where gamma and gamma_dot sit in the integrated vector z = [lifted x, gamma, gamma_dot].
+_GAMMA, _GAMMA_DOT = LIFTED_SIZE, LIFTED_SIZE + 1
 
 
 @dataclass(frozen=True, slots=True)
@@ -94,8 +97,8 @@ def _closed_loop(
     neighbours: Sequence[int],
     dist: Disturbances,
 ) -> tuple[list[float], Control, float]:
-    """Derivative of z = [lifted x (18), gamma, gamma_dot], with the controller outputs and v_tilde that produced it."""
-    gamma, gamma_dot = z[18], z[19]
+    """Derivative of z = [lifted x, gamma, gamma_dot], with the controller outputs and v_tilde that produced it."""
+    gamma, gamma_dot = z[_GAMMA], z[_GAMMA_DOT]
     cap = dist.gamma_dot_cap
     if cap is not None:
         gamma_dot = min(gamma_dot, cap)
@@ -125,22 +128,26 @@ def step(
     Integrated in floats on the lifted state (vehicles.dynamics): arrays only at the boundary."""
     model = cfg.model
     t = state.t
-    z = [*model.lift(state.x), state.gamma, state.gamma_dot]
+    z = [*model.lift(state.x), float(state.gamma), float(state.gamma_dot)]
     k1, out, v_tilde = _closed_loop(cfg, state, t, z, neighbours, dist)
     k2 = _closed_loop(cfg, state, t + dt / 2, _advance(z, dt / 2, k1), neighbours, dist)[0]
     k3 = _closed_loop(cfg, state, t + dt / 2, _advance(z, dt / 2, k2), neighbours, dist)[0]
     k4 = _closed_loop(cfg, state, t + dt, _advance(z, dt, k3), neighbours, dist)[0]
     h = dt / 6
     z_next = [a + h * (b1 + 2 * b2 + 2 * b3 + b4) for a, b1, b2, b3, b4 in zip(z, k1, k2, k3, k4, strict=True)]
-    gamma_dot_next = z_next[19]
+    gamma_dot_next = z_next[_GAMMA_DOT]
     if dist.gamma_dot_cap is not None:
         gamma_dot_next = min(gamma_dot_next, dist.gamma_dot_cap)
     telemetry = Telemetry(
-        cfg.vehicle_id, t, state.gamma, state.gamma_dot, state.x, model.vector(out.error), model.inputs(out.tau),
+        cfg.vehicle_id, t, state.gamma, z[_GAMMA_DOT], state.x, model.vector(out.error), model.inputs(out.tau),
         v_tilde, out.lyapunov,
     )  # fmt: skip
     next_state = replace(
-        state, t=t + dt, x=model.lower(reorthonormalize(z_next[:18])), gamma=z_next[18], gamma_dot=gamma_dot_next
+        state,
+        t=t + dt,
+        x=model.lower(reorthonormalize(z_next[:LIFTED_SIZE])),
+        gamma=z_next[_GAMMA],
+        gamma_dot=gamma_dot_next,
     )
     return next_state, telemetry
 

@@ -36,6 +36,7 @@ from vehicles.geometry import Float3, FloatArray, reorthonormalized
 from vehicles.params import VehicleParams
 
 Accelerations = tuple[Float3, Float3]  # (v_dot, omega_dot), body frame
+LIFTED_SIZE = 18  # p (3), R (9, row-major), v (3), omega (3): the spatial layout, for both models
 PathVectors = tuple[Float3, Float3, Float3]  # (p_d, dp_d/dgamma, d2p_d/dgamma2)
 NO_INPUT: Float3 = (0.0, 0.0, 0.0)
 
@@ -114,7 +115,7 @@ def planar_drift(s: Sequence[float], prm: VehicleParams) -> Accelerations:
 
 def reorthonormalize(s: Sequence[float]) -> list[float]:
     """A lifted state with its attitude projected back onto SO(3) after an integration step."""
-    return [*s[0:3], *reorthonormalized(s[3:12]), *s[12:18]]
+    return [*s[0:3], *reorthonormalized(s[3:12]), *s[12:LIFTED_SIZE]]
 
 
 # --- the models: array interface for setup, telemetry and tests, and what the hot path needs of each -------------
