@@ -114,8 +114,9 @@ def control(
 
     Written once, in 3-D, for both models: the actuated velocities are (u, q, r), so
         Delta = [[1, 0, 0], [0, 0, -delta], [0, delta, 0]],   nu_c = (u, q, r),   nu_u = (0, v, w).
-    A planar vehicle's lifted state has p = q = w = 0 and it sees its path's horizontal projection, so the out-of-plane
-    rows are exact zeros (tau_q = 0) and the in-plane ones are the planar law with Delta = [[1, 0], [0, -delta]]."""
+    A planar vehicle's lifted state has no heave, roll or pitch rate (w = p = q = 0) and it sees its path's horizontal
+    projection, so the out-of-plane rows are exact zeros (tau_q = 0) and the in-plane ones are the planar law with
+    Delta = [[1, 0], [0, -delta]]."""
     gains, inv_delta, delta = c.gains, c.inverse_delta, c.gains.delta
     k1 = gains.k1
     p_d, p_g, p_gg = model.path_seen(path.evaluate_floats(gamma))
