@@ -134,9 +134,10 @@ class Channel:
             self._sending.setdefault(tx.sender, []).append(_Airtime(tx.t, tx.t + on_air, tx.sender, tx.seq))
         events: list[LinkEvent] = []
         sender_at = np.asarray(tx.position)
+        collisions = self.params.modem.collisions
         for j in sorted(everyone):
-            if j == tx.sender:
-                continue
+            if j == tx.sender or not (collisions or j in receivers):
+                continue  # without collisions a non-neighbour's position does not matter: skip its time of flight
             flight = time_of_flight(sender_at, everyone[j].position, everyone[j].velocity, self.params.sound_speed)
             start = tx.t + flight
             if j in receivers:
