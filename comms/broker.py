@@ -2,10 +2,11 @@
 
 Thin Zenoh adapter around comms.broker_core. Each vehicle's step message carries its state and its transmission.
 Lockstep: at tick k the broker waits until it holds every vehicle's step message of k-1, submits those
-transmissions to the channel and publishes step k's reception batches (one per vehicle) and the step's link events
-(one message). Realtime (the ticks carry the wall clock): a step's transmissions are submitted as soon as its
-messages are in, and each reception is published when its arrival time comes on the wall clock; a reception is
-never handed out before every transmission that could still spoil it (collisions, half-duplex) is in the water.
+transmissions to the channel and publishes one batches message for the whole fleet (tick k and every vehicle's
+receptions: each vehicle waits for this one message per step) and the step's link events (one message).
+Realtime (the ticks carry the wall clock): a step's transmissions are submitted as soon as its messages are in,
+and each reception is published on its vehicle's rx key when its arrival time comes on the wall clock; none is
+handed out before every transmission that could still spoil it (collisions, half-duplex) is in the water.
 On the final tick it flushes the channel and reports how many events it published.
 """
 
@@ -25,10 +26,12 @@ from comms.messages import (
     COMMS_DONE_KEY,
     COMMS_EVENTS_KEY,
     COMMS_STATS_KEY,
+    COMMS_STEP_KEY,
     ROOT,
     TICK_KEY,
     StateReport,
     Tick,
+    batches_message,
     events_message,
     parse_state,
     parse_tick,
@@ -47,6 +50,7 @@ class _Books:
     """What has arrived, filed by step, until the step that needs it is handled."""
 
     ticks: dict[int, Tick] = field(default_factory=dict)
+    raw_ticks: dict[int, dict[str, object]] = field(default_factory=dict)  # forwarded to the vehicles
     states: dict[int, dict[int, tuple[StateReport, Transmission | None]]] = field(default_factory=dict)
     published: int = 0
     malformed: int = 0
@@ -76,7 +80,7 @@ class Broker:
                 raise ValueError("undecodable")
             if key == TICK_KEY:
                 tick = parse_tick(message)
-                self.books.ticks[tick.k] = tick
+                self.books.ticks[tick.k], self.books.raw_ticks[tick.k] = tick, message
             elif owned is not None and owned[1] == "state":
                 report = parse_state(message, owned[0])
                 self.books.states.setdefault(report.k, {})[report.vehicle] = (report, self._tx(message, owned[0]))
@@ -107,6 +111,7 @@ class Broker:
                 tick = self.books.ticks[self.next_k]
                 self._handle(tick)  # still filed while it runs: it says who is alive at the end of step k-1
                 del self.books.ticks[self.next_k]
+                del self.books.raw_ticks[self.next_k]
                 self.next_k += 1
                 if tick.final:
                     return True
@@ -162,11 +167,10 @@ class Broker:
             return
         self._publish_events(tick)
         self._publish_stats(tick.t)
-        if tick.wall is None:
-            for v in alive:
-                self.publishers.put(rx_key(v), rx_message(v, tick.k, tick.t, batches[v]))
-        else:
+        if tick.wall is not None:  # realtime: late deliveries go out as such; the batches message is the tick
             self._publish_live(tick, batches)
+            batches = {v: [] for v in batches}
+        self.publishers.put(COMMS_STEP_KEY, batches_message(self.books.raw_ticks[tick.k], batches))
 
     # --- realtime deliveries ---------------------------------------------------------------------------------
 

@@ -31,6 +31,7 @@ STOP_KEY = f"{ROOT}/run/stop"
 TICK_KEY = f"{ROOT}/clock/tick"
 COMMS_EVENT_KEY = f"{ROOT}/comms/event"  # the log: one record per link event
 COMMS_EVENTS_KEY = f"{ROOT}/comms/events"  # the bus: the link events of one step, in one message
+COMMS_STEP_KEY = f"{ROOT}/comms/step"  # the bus: tick k and every vehicle's reception batch, in one message
 COMMS_DONE_KEY = f"{ROOT}/comms/done"
 COMMS_STATS_KEY = f"{ROOT}/comms/stats"
 ALIVE_PREFIX = f"{ROOT}/alive"
@@ -146,6 +147,26 @@ def _reception(r: Reception, wall_of: Callable[[float], float] | None) -> Messag
     if wall_of is not None:
         item["due"] = wall_of(r.arrival)
     return item
+
+
+def batches_message(tick: Message, batches: dict[int, list[Reception]] | None) -> Message:
+    """What every vehicle needs to run step k, in one message the broker publishes for the whole fleet: the tick and
+    each vehicle's receptions (batches None: the broker is down, the supervisor says so itself)."""
+    rx = None if batches is None else [[v, [_reception(r, None) for r in batches[v]]] for v in sorted(batches)]
+    return {"t": tick["t"], "k": tick["k"], "tick": tick, "rx": rx}
+
+
+def parse_batches(message: Message, vid: int) -> tuple[Tick, Message | None]:
+    """(tick, vid's reception batch as an rx message) of a batches message; the batch is None if the broker is
+    down, empty if the broker has nothing for vid."""
+    tick = parse_tick(_get(message, "tick", dict))
+    batches = message.get("rx")
+    if batches is None:
+        return tick, None
+    if not isinstance(batches, list) or not all(isinstance(b, list) and len(b) == 2 for b in batches):
+        raise ValueError("field 'rx' is not a list of [vehicle, receptions] pairs")
+    mine: list[Any] = next((receptions for v, receptions in batches if v == vid), [])
+    return tick, {"t": tick.t, "k": tick.k, "vehicle": vid, "receptions": mine}
 
 
 def step_message(state: Message, tx: Message | None, rx: Message | None) -> Message:

@@ -25,6 +25,8 @@ from comms.messages import (
     COMMS_DONE_KEY,
     COMMS_EVENT_KEY,
     COMMS_EVENTS_KEY,
+    COMMS_STATS_KEY,
+    COMMS_STEP_KEY,
     FAULT_KEY,
     GRAPH_KEY,
     META_KEY,
@@ -33,6 +35,7 @@ from comms.messages import (
     SUPERVISOR_ALIVE,
     TICK_KEY,
     Message,
+    batches_message,
     event_message,
     parse_event,
     parse_events,
@@ -49,6 +52,7 @@ from comms.stats import LinkStats
 from supervisor.books import LinkBooks
 from supervisor.errors import SimulationError
 from supervisor.faults import ProcessAction, disturbances, events_at, network_at, process_actions
+from supervisor.fleet import initial_state, vehicle_config
 from supervisor.inprocess import RunResult
 from supervisor.metadata import graph_message, run_meta
 from supervisor.processes import ProcessGroup
@@ -213,7 +217,17 @@ class _Supervisor:
     def spawn_vehicle(self, vid: int, resume: list[str] | None = None) -> None:
         self.expected[vehicle_alive_key(vid)] = f"vehicle {vid}"
         if vid not in self.bus.remote:
-            self.procs.spawn(f"vehicle {vid}", self._argv("vehicle", "--id", str(vid), *(resume or [])))
+            start = resume or self._gamma0(vid)
+            self.procs.spawn(f"vehicle {vid}", self._argv("vehicle", "--id", str(vid), *start))
+
+    def _gamma0(self, vid: int) -> list[str]:
+        """The vehicle's initial gamma, resolved here once: a child then never searches its path for the nearest
+        point (and never imports scipy for it), which makes a large fleet start much faster."""
+        index = self.sc.vehicle_ids.index(vid)
+        if self.sc.vehicles[index].gamma0 != "closest":
+            return []
+        gamma0 = initial_state(self.sc, vehicle_config(self.sc, vid)).gamma
+        return ["--set", f"vehicles.{index}.gamma0={gamma0!r}"]
 
     def _argv(self, command: str, *extra: str) -> list[str]:
         sets = [arg for override in self.bus.overrides for arg in ("--set", override)]
@@ -297,7 +311,8 @@ def run_zenoh(
     ):
         inbox = Inbox()
         inbox.subscribe(session, f"{ROOT}/vehicle/*/state")
-        inbox.subscribe(session, f"{ROOT}/comms/**")
+        for key in (COMMS_EVENTS_KEY, COMMS_STATS_KEY, COMMS_DONE_KEY):  # not the batches: vehicles' business
+            inbox.subscribe(session, key)
         inbox.watch_liveliness(session, f"{ALIVE_PREFIX}/**")
         token = session.liveliness().declare_token(SUPERVISOR_ALIVE)
         pubs = Publishers(session)
@@ -359,6 +374,8 @@ def _drive(
         alive = None if set(run.alive) == set(sc.vehicle_ids) else list(run.alive)
         tick = tick_message(k, t, final, disturbed, spelt, alive, run.comms_up, wall, speed)
         run.publish(pubs, TICK_KEY, t, tick)
+        if not run.comms_up and not final:  # no broker to hand the vehicles their tick: no receptions either
+            pubs.put(COMMS_STEP_KEY, batches_message(tick, None))
         if final:
             _finish(run)
         else:

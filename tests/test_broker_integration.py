@@ -26,6 +26,7 @@ from comms.messages import (
     COMMS_EVENT_KEY,
     COMMS_EVENTS_KEY,
     COMMS_STATS_KEY,
+    COMMS_STEP_KEY,
     ROOT,
     STOP_KEY,
     SUPERVISOR_ALIVE,
@@ -33,6 +34,7 @@ from comms.messages import (
     Message,
     decode,
     encode,
+    parse_batches,
     rx_key,
     state_key,
     state_message,
@@ -142,6 +144,17 @@ def exit_code(proc: subprocess.Popen[bytes], log: Path) -> int:
         pytest.fail(f"the broker is still running {EXIT_TIMEOUT} s later:\n{log.read_text()}")
 
 
+def fleet_batches(step: Message) -> dict[int, Message]:
+    """Each vehicle's reception batch in a batches message, as the vehicle reads it."""
+    assert {vid for vid, _ in step["rx"]} == set(IDS)
+    out = {}
+    for vid in IDS:
+        batch = parse_batches(step, vid)[1]
+        assert batch is not None
+        out[vid] = batch
+    return out
+
+
 def put_raw(session: zenoh.Session, key: str, payload: bytes) -> None:
     session.put(key, payload, congestion_control=zenoh.CongestionControl.BLOCK, express=True)
 
@@ -158,8 +171,9 @@ def test_broker_relays_to_graph_neighbours_and_survives_malformed_messages(tmp_p
 
             # step 0: nothing is in flight yet, still every vehicle gets its (empty) batch
             pubs.put(TICK_KEY, tick_message(0, 0.0, False))
-            for vid in IDS:
-                batch = listener.next(rx_key(vid))
+            step = listener.next(COMMS_STEP_KEY)  # one message for the whole fleet: the tick and every batch
+            assert step["tick"] == tick_message(0, 0.0, False)
+            for vid, batch in fleet_batches(step).items():
                 assert batch == {"t": 0.0, "k": 0, "vehicle": vid, "receptions": []}
                 assert_valid(batch, rx_key(vid))
 
@@ -167,7 +181,7 @@ def test_broker_relays_to_graph_neighbours_and_survives_malformed_messages(tmp_p
             for vid in IDS:
                 pubs.put(state_key(vid), step_message(states[vid], sent[vid], None))
             pubs.put(TICK_KEY, tick_message(1, 0.1, False))
-            batches = {vid: listener.next(rx_key(vid)) for vid in IDS}
+            batches = fleet_batches(listener.next(COMMS_STEP_KEY))
             heard = {vid: [r["sender"] for r in batch["receptions"]] for vid, batch in batches.items()}
             assert heard == {1: [2, 3], 2: [1], 3: [1]}  # graph 2 - 1 - 3; 2 is nearer 1 than 3 is
             arrivals: dict[tuple[int, int], float] = {}
@@ -205,8 +219,8 @@ def test_broker_relays_to_graph_neighbours_and_survives_malformed_messages(tmp_p
             for vid in IDS:
                 pubs.put(state_key(vid), states[vid] | {"k": 1, "tx_seq": 0})
             pubs.put(TICK_KEY, tick_message(2, 0.2, False))
-            for vid in IDS:
-                assert listener.next(rx_key(vid)) == {"t": 0.2, "k": 2, "vehicle": vid, "receptions": []}
+            for vid, batch in fleet_batches(listener.next(COMMS_STEP_KEY)).items():
+                assert batch == {"t": 0.2, "k": 2, "vehicle": vid, "receptions": []}
 
             # the final tick: the broker's books close and it reports the malformed messages
             for vid in IDS:
@@ -226,7 +240,7 @@ def test_broker_relays_to_graph_neighbours_and_survives_malformed_messages(tmp_p
                 assert (book["sent"], book["delivered"], book["dropped"]) == (1, 1, {}), link
                 assert book["mean_delay"] == book["max_delay"] == pytest.approx(arrivals[link])
             assert stats["lambda2"] == pytest.approx(1.0)  # the path graph 2 - 1 - 3, every link delivered
-            assert all(listener.pending(rx_key(vid)) == 0 for vid in IDS)  # no batches for the final tick
+            assert listener.pending(COMMS_STEP_KEY) == 0  # no batches for the final tick
 
             pubs.put(STOP_KEY, {"t": 0.3, "reason": "end of test"})
             assert exit_code(proc, log) == 0
@@ -269,10 +283,7 @@ def test_broker_survives_a_transmission_its_wire_frame_cannot_carry():
     broker.advance()
     assert broker.books.malformed == 1
     assert broker.next_k == 2  # step 1 was handled: it did not wait for the packet that could not be carried
-    batches = [m for key, m in pubs.messages if key.endswith("/rx") and m["k"] == 1]
-    assert len(batches) == 3
-    heard_by_1 = {r["sender"] for m in batches if m["vehicle"] == 1 for r in m["receptions"]}
-    assert heard_by_1 == {3}  # 3's packet went through; 2's was dropped as malformed
+    assert batches(pubs, 1)[1] == [3]  # 3's packet went through; 2's was dropped as malformed
 
 
 # --- the broker's bookkeeping, driven directly (no Zenoh) ----------------------------------------------------------
@@ -307,13 +318,15 @@ def tick(broker: Broker, k: int, network: Network | None = None, alive: list[int
 
 
 def batches(pubs: RecordingPublishers, k: int) -> dict[int, list[int]]:
-    """Step k's reception batches: who heard whom."""
+    """Step k's reception batches (the vehicles served at k): who heard whom."""
+    steps = [message for key, message in pubs.messages if key == COMMS_STEP_KEY and message["k"] == k]
+    assert len(steps) == 1
     out = {}
-    for key, message in pubs.messages:
-        if key.endswith("/rx") and message["k"] == k:
-            assert key == rx_key(message["vehicle"]) and message["vehicle"] not in out
-            assert_valid(message, key)
-            out[message["vehicle"]] = [r["sender"] for r in message["receptions"]]
+    for vid, receptions in steps[0]["rx"]:
+        batch = parse_batches(steps[0], vid)[1]
+        assert batch is not None and vid not in out
+        assert_valid(batch, rx_key(vid))
+        out[vid] = [r["sender"] for r in receptions]
     return out
 
 

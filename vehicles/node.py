@@ -1,10 +1,12 @@
 """The vehicle process: the only Zenoh code of a vehicle. It moves messages; the math is vehicles.runtime.
 
-Per sync step k it needs the supervisor's tick (time, faults acting on it) and, in lockstep, the broker's reception
-batch for k; with both it runs node_step, then publishes one step message: its state, the transmission it made (if
-any) and the receptions it took in. In realtime the broker delivers each reception at its arrival time on the wall
-clock; the vehicle takes in at tick k whatever has arrived and reports how late each delivery was. comms.bus.serve
-runs its life: it stops on the stop message, or by itself when the supervisor's liveliness token disappears.
+Per sync step k it needs the supervisor's tick (time, faults acting on it) and, in lockstep, its reception batch for
+k: both come in the one batches message the broker publishes for the whole fleet at each step (the supervisor
+publishes it while the broker is down). It runs node_step, then publishes one step message: its state, the
+transmission it made (if any) and the receptions it took in. In realtime the broker delivers each reception at its
+arrival time on the wall clock; the vehicle takes in at tick k whatever has arrived and reports how late each
+delivery was. comms.bus.serve runs its life: it stops on the stop message, or by itself when the supervisor's
+liveliness token disappears (no orphans).
 """
 
 from __future__ import annotations
@@ -16,11 +18,11 @@ from dataclasses import dataclass, field
 
 from comms.bus import Handler, Publishers, decode_or_none, serve
 from comms.messages import (
-    TICK_KEY,
+    COMMS_STEP_KEY,
     Message,
     Tick,
+    parse_batches,
     parse_rx,
-    parse_tick,
     rx_key,
     state_key,
     state_message,
@@ -39,20 +41,19 @@ class _Pending:
     """Ticks and receptions that arrived ahead of the step that needs them."""
 
     ticks: dict[int, Tick] = field(default_factory=dict)
-    batches: dict[int, tuple[list[Heard], Message | None]] = field(default_factory=dict)  # lockstep, by step
+    batches: dict[int, tuple[list[Heard], Message | None]] = field(default_factory=dict)  # by step
     live: list[tuple[Heard, Message, float]] = field(default_factory=list)  # realtime: (heard, item, s late)
     malformed: int = 0
 
     def ready(self, k: int) -> bool:
-        tick = self.ticks.get(k)
-        return tick is not None and (tick.wall is not None or k in self.batches)
+        return k in self.ticks
 
     def receptions(self, tick: Tick, vid: int) -> tuple[list[Heard], Message | None, list[float]]:
         """What the vehicle takes in at this tick, the batch to report (None: the broker is down), lateness (s)."""
+        heard, batch = self.batches.pop(tick.k)
         if tick.wall is None:
-            heard, batch = self.batches.pop(tick.k)
             return heard, batch, []
-        live, self.live = self.live, []
+        live, self.live = self.live, []  # realtime: whatever reached the vehicle by now
         batch = {"t": tick.t, "k": tick.k, "vehicle": vid, "receptions": [item for _, item, _ in live]}
         return [h for h, _, _ in live], batch if tick.comms else None, [late for _, _, late in live]
 
@@ -83,7 +84,7 @@ def run_vehicle(
 
         return handle
 
-    return serve(f"vehicle {vid}", connect, (TICK_KEY, rx_key(vid)), vehicle_alive_key(vid), handler)
+    return serve(f"vehicle {vid}", connect, (COMMS_STEP_KEY, rx_key(vid)), vehicle_alive_key(vid), handler)
 
 
 def _take(key: str, payload: bytes, vid: int, pending: _Pending) -> None:
@@ -92,12 +93,11 @@ def _take(key: str, payload: bytes, vid: int, pending: _Pending) -> None:
     try:
         if message is None:
             raise ValueError("undecodable")
-        if key == TICK_KEY:
-            tick = parse_tick(message)
+        if key == COMMS_STEP_KEY:
+            tick, batch = parse_batches(message, vid)
             if not tick.final:
                 pending.ticks[tick.k] = tick
-            if not tick.comms:
-                pending.batches[tick.k] = ([], None)  # the broker is down: no receptions will come
+                pending.batches[tick.k] = ([] if batch is None else parse_rx(batch)[1], batch)
         elif key == rx_key(vid):
             _file_rx(message, pending)
     except ValueError as exc:
@@ -106,17 +106,13 @@ def _take(key: str, payload: bytes, vid: int, pending: _Pending) -> None:
 
 
 def _file_rx(message: Message, pending: _Pending) -> None:
-    """A lockstep batch is filed by its step; realtime deliveries (they carry `due`) as they come, with how late."""
-    k, heard = parse_rx(message)
-    items = message["receptions"]
-    if not any("due" in item for item in items):
-        pending.batches[k] = (heard, message)
-        return
+    """Realtime deliveries, as they come, with how late each reached the vehicle."""
     now = time.time()
-    for h, item in zip(heard, items, strict=True):
+    _, heard = parse_rx(message)
+    for h, item in zip(heard, message["receptions"], strict=True):
         due = item.get("due")
-        if not isinstance(due, int | float):
-            raise ValueError("a realtime reception without a numeric 'due'")
+        if not isinstance(due, int | float) or isinstance(due, bool):
+            raise ValueError("a realtime delivery without a numeric 'due'")
         pending.live.append((h, item, now - due))
 
 
