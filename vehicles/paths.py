@@ -23,7 +23,6 @@ from typing import Protocol, TypeAlias, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import minimize_scalar
 
 from vehicles.geometry import Float3
 
@@ -361,6 +360,8 @@ def closest_gamma(path: Path, point: NDArray[np.float64], lo: float, hi: float, 
     def dist2(g: float) -> float:
         p = path.evaluate(g)[0]
         return float(np.dot(p - q, p - q))
+
+    from scipy.optimize import minimize_scalar  # here: only start-up needs it, and it costs 0.25 s to import
 
     # Minimise over the offset from g_best: Brent's tolerance grows with |x|, and the offset stays small.
     res = minimize_scalar(
