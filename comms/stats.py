@@ -64,7 +64,7 @@ class LinkStats:
         while self._recent and self._recent[0][0] <= t - self.window:
             self._recent.popleft()
         index = {v: i for i, v in enumerate(self.vehicles)}
-        edges = {(index[s], index[r]) for _, s, r in self._recent if s in index and r in index}
+        edges = {(index[s], index[r]) for at, s, r in self._recent if at <= t and s in index and r in index}
         return algebraic_connectivity(laplacian(len(self.vehicles), edges))
 
     def totals(self) -> dict[str, int]:

@@ -37,7 +37,8 @@ class LinkBooks:
         return [LinkEvent(t, s, r, seq, "dropped", reason=reason) for s, r, seq in sorted(self.open)]
 
     def window(self, t: float) -> None:
-        """Call once per step: records the delivered graph's lambda_2 at every window boundary."""
+        """Call once per step, once every delivery up to t is booked: records the delivered graph's lambda_2 at
+        every window boundary (deliveries booked ahead of t do not count)."""
         if self._next_window is None:
             self._next_window = self.stats.window
         if t + 1e-9 >= self._next_window:

@@ -107,6 +107,7 @@ class _Supervisor:
         self.bus = BusOptions()
         self.seed = 0
         self._next_poll = 0.0
+        self.clock: _Clock | None = None
 
     # --- the bus -------------------------------------------------------------------------------------------
 
@@ -151,6 +152,8 @@ class _Supervisor:
         self.alive = [i for i in self.alive if i != vid]
         self.expected.pop(vehicle_alive_key(vid), None)
         self.procs.forget(name)
+        if self.clock is not None:
+            self.clock.reissue()
 
     def _record(self, item: Received) -> None:
         message = decode_or_none(item.payload)
@@ -342,46 +345,83 @@ def run_zenoh(
     )  # fmt: skip
 
 
+class _Clock:
+    """Issues the ticks: what is in force over each step, with the faults and process actions due then."""
+
+    def __init__(self, run: _Supervisor, pubs: Publishers, clock: str, speed: float, resume_dir: Path) -> None:
+        self.run, self.pubs, self.clock, self.speed, self.resume_dir = run, pubs, clock, speed, resume_dir
+        self.edges = run.sc.graph.edges
+        self.usual = Network(tuple((a, b) for a, b in self.edges))  # the scenario's graph, no link faults
+        self.wall_start, self.epoch_start = time.monotonic(), time.time()  # pacing; the wall clock processes share
+        self.issued: Message | None = None
+        self.ahead = False  # the latest tick went out before every state of the step before it was in
+
+    def can_run_ahead(self, k: int) -> bool:
+        """Tick k may go out before the states of step k-1 are in: lockstep, and no kill or restart due at k."""
+        run = self.run
+        return self.clock == "lockstep" and not process_actions(run.sc.faults, k * run.dt, run.dt)
+
+    def issue(self, k: int, final: bool, ahead: bool = False) -> None:
+        run, sc, dt = self.run, self.run.sc, self.run.dt
+        t, self.ahead = k * dt, ahead
+        if self.clock == "realtime":
+            _pace(run, self.wall_start + t / self.speed)
+        if not final:
+            for event in events_at(sc.faults, t, dt):
+                run.publish(self.pubs, FAULT_KEY, t, event.message())
+            for action in process_actions(sc.faults, t, dt):
+                run.carry_out(action, k, self.pubs, self.resume_dir)
+        network = network_at(sc, t, dt)
+        if network.edges != self.edges and not final:
+            self.edges = network.edges
+            run.publish(self.pubs, GRAPH_KEY, t, graph_message(t, self.edges))
+        self._publish(k, t, final, network)
+
+    def _publish(self, k: int, t: float, final: bool, network: Network) -> None:
+        run, sc = self.run, self.run.sc
+        disturbed = {i: d for i in run.alive if (d := disturbances(sc.faults, i, t, run.dt)) != Disturbances()}
+        wall = self.epoch_start + t / self.speed if self.clock == "realtime" else None
+        # The common case in its short form (null: the scenario's graph without link faults, every vehicle alive):
+        # every process parses every tick, and with a large fleet the long form costs more than the step itself.
+        spelt = None if network == self.usual else network
+        alive = None if set(run.alive) == set(sc.vehicle_ids) else list(run.alive)
+        self.issued = tick_message(k, t, final, disturbed, spelt, alive, run.comms_up, wall, self.speed)
+        run.publish(self.pubs, TICK_KEY, t, self.issued)
+        if not run.comms_up and not final:  # no broker to hand the vehicles their tick: no receptions either
+            self.pubs.put(COMMS_STEP_KEY, batches_message(self.issued, None))
+
+    def reissue(self) -> None:
+        """A vehicle was lost after the latest tick went out ahead counting it alive: say it again without it, or
+        the broker would wait for that vehicle's state forever."""
+        tick = self.issued
+        if tick is not None and self.ahead:
+            k = int(tick["k"])
+            self._publish(k, tick["t"], bool(tick["final"]), network_at(self.run.sc, tick["t"], self.run.dt))
+
+
 def _drive(
     run: _Supervisor, pubs: Publishers, steps: int, clock: str, speed: float, progress: Progress, resume_dir: Path
 ) -> None:
-    """The clock: one tick per sync step, each waiting for every live vehicle's state; then the final tick."""
-    sc, dt = run.sc, run.dt
+    """The clock. In lockstep, tick k+1 goes out as soon as the states of step k-1 are in (one step ahead, so the
+    broker starts step k+1 the moment the states of step k arrive, without a round trip through the supervisor);
+    a tick that kills or restarts a process, and every realtime tick, waits for the states of the step before."""
     run.started = True
     progress.begin()
-    wall_start, epoch_start = time.monotonic(), time.time()  # pacing; the wall clock the other processes share
-    edges = sc.graph.edges
-    usual = Network(tuple((a, b) for a, b in edges))
-    for k in range(steps + 1):
-        t = run.t = k * dt
-        if clock == "realtime":
-            _pace(run, wall_start + t / speed)
-        final = k == steps
-        if not final:
-            for event in events_at(sc.faults, t, dt):
-                run.publish(pubs, FAULT_KEY, t, event.message())
-            for action in process_actions(sc.faults, t, dt):
-                run.carry_out(action, k, pubs, resume_dir)
-        disturbed = {i: d for i in run.alive if (d := disturbances(sc.faults, i, t, dt)) != Disturbances()}
-        network = network_at(sc, t, dt)
-        if network.edges != edges and not final:
-            edges = network.edges
-            run.publish(pubs, GRAPH_KEY, t, graph_message(t, edges))
-        wall = epoch_start + t / speed if clock == "realtime" else None
-        # The common case in its short form (null: the scenario's graph without link faults, every vehicle alive):
-        # every process parses every tick, and with a large fleet the long form costs more than the step itself.
-        spelt = None if network == usual else network
-        alive = None if set(run.alive) == set(sc.vehicle_ids) else list(run.alive)
-        tick = tick_message(k, t, final, disturbed, spelt, alive, run.comms_up, wall, speed)
-        run.publish(pubs, TICK_KEY, t, tick)
-        if not run.comms_up and not final:  # no broker to hand the vehicles their tick: no receptions either
-            pubs.put(COMMS_STEP_KEY, batches_message(tick, None))
-        if final:
-            _finish(run)
-        else:
-            run.wait_until(_all_stepped(run, k), f"every vehicle's state of step {k}", STEP_TIMEOUT)
-            run.books.window(t + dt)
-            progress.update(t + dt)
+    ticks = run.clock = _Clock(run, pubs, clock, speed, resume_dir)
+    ticks.issue(0, final=steps == 0)
+    for k in range(steps):
+        run.t = k * run.dt
+        ahead = ticks.can_run_ahead(k + 1)
+        if ahead:
+            ticks.issue(k + 1, final=k + 1 == steps, ahead=True)
+        run.wait_until(_all_stepped(run, k), f"every vehicle's state of step {k}", STEP_TIMEOUT)
+        run.books.window(k * run.dt)  # the broker's events of tick k came before the batches the vehicles stepped on
+        progress.update((k + 1) * run.dt)
+        if not ahead:
+            run.t = (k + 1) * run.dt
+            ticks.issue(k + 1, final=k + 1 == steps)
+    run.t = steps * run.dt
+    _finish(run)
 
 
 def _finish(run: _Supervisor) -> None:
@@ -389,6 +429,7 @@ def _finish(run: _Supervisor) -> None:
     if run.comms_up:
         run.wait_until(lambda: _books_closed(run), "the broker's end-of-run report", STEP_TIMEOUT)
     run._close_open("end_of_run")
+    run.books.window(run.t)
 
 
 def _all_stepped(run: _Supervisor, k: int) -> Callable[[], bool]:

@@ -87,10 +87,10 @@ class _InProcessRun:
         if k > 0 and self.network is not None and network.edges != self.network.edges:
             self.rec.write(GRAPH_KEY, t, graph_message(t, network.edges))
         heard = self._channel(k, t)
+        self.books.window(t)  # every delivery up to t is booked now
         self.sent, self.where, self.network = [], {}, network
         for i in self.alive:
             self._vehicle(i, k, t, heard.get(i), network)
-        self.books.window(t + self.dt)
 
     def _channel(self, k: int, t: float) -> dict[int, Message]:
         """The broker's work at t: submit last step's transmissions, deliver what is due (nothing if it is down)."""
@@ -156,6 +156,7 @@ class _InProcessRun:
             self._record_events(self.broker.deliver(end, self.alive)[1] + self.broker.finish(end))
             self._record_snapshot(self.broker.snapshot_due(end, final=True))
         self._record_events(self.books.close_open(end, "end_of_run"))  # if the broker was down at the end
+        self.books.window(end)
 
     def _record_snapshot(self, snapshot: Message | None) -> None:
         """The broker's own statistics, as the broker process publishes them."""

@@ -19,7 +19,7 @@ class Progress:
 
     def begin(self) -> None:
         """Stepping starts now: the real-time factor counts from here, start-up excluded."""
-        self.stepping = self._last = time.perf_counter()
+        self.stepping = time.perf_counter()
 
     def update(self, t: float, force: bool = False) -> None:
         now = time.perf_counter()
