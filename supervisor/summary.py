@@ -6,6 +6,7 @@ counted only after the initial transient (scenario [report] transient).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from itertools import pairwise
@@ -129,11 +130,16 @@ def format_summary(summary: Summary) -> str:
             f"{p.name:<22}{span:>14}{p.max_coordination_error:>12.4g}{p.final_coordination_error:>12.3g}"
             f"{p.max_path_error:>15.3f}  {rates}"
         )
-    tube_ok = summary.max_path_error_after_transient <= summary.tube_radius
-    lines.append(
-        f"path-following error after the transient: max {summary.max_path_error_after_transient:.3f} m, "
-        f"tube {summary.tube_radius:.3f} m ({'inside' if tube_ok else 'OUTSIDE'})"
-    )
+    worst = summary.max_path_error_after_transient
+    if math.isnan(worst):  # the run ends inside the transient: nothing to judge
+        lines.append(f"path-following error after the transient: none (the run ends within it); tube "
+                     f"{summary.tube_radius:.3f} m")  # fmt: skip
+    else:
+        tube_ok = worst <= summary.tube_radius
+        lines.append(
+            f"path-following error after the transient: max {worst:.3f} m, "
+            f"tube {summary.tube_radius:.3f} m ({'inside' if tube_ok else 'OUTSIDE'})"
+        )
     tol = summary.tolerance
     lines.append(f"coordination error below {tol:g} from t = {_time(summary.sync_time)} s (first phase)")
     if summary.resync_time is not None or len(summary.phases) > 1:

@@ -182,3 +182,11 @@ def test_acoustic_paper_scenario_on_tdma_keeps_formation(tmp_path):
     assert summary.phases[0].final_coordination_error < 1.0
     assert summary.phases[2].final_coordination_error < 1.0
     assert summary.max_path_error_after_transient <= summary.tube_radius
+
+
+def test_a_run_shorter_than_the_transient_does_not_judge_the_tube(tmp_path, paper_text):
+    from supervisor.summary import format_summary
+
+    _, summary = run_text(shortened(paper_text, 5.0), tmp_path / "short.mcap")
+    text = format_summary(summary)
+    assert "none (the run ends within it)" in text and "nan" not in text and "OUTSIDE" not in text
