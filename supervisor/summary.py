@@ -126,9 +126,10 @@ def format_summary(summary: Summary) -> str:
     for p in summary.phases:
         span = f"{p.start:.0f}-{p.end:.0f}"
         rates = " ".join(f"{v:.3f}" for v in p.mean_gamma_dot)
+        path = "-" if math.isnan(p.max_path_error) else f"{p.max_path_error:.3f}"  # "-": within the transient
         lines.append(
             f"{p.name:<22}{span:>14}{p.max_coordination_error:>12.4g}{p.final_coordination_error:>12.3g}"
-            f"{p.max_path_error:>15.3f}  {rates}"
+            f"{path:>15}  {rates}"
         )
     worst = summary.max_path_error_after_transient
     if math.isnan(worst):  # the run ends inside the transient: nothing to judge
