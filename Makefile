@@ -6,7 +6,7 @@ STAMP := $(VENV)/.installed
 SCENARIO ?= configs/paper.toml
 OUT ?= runs/paper
 
-.PHONY: run test lint typecheck unit clean
+.PHONY: run test bench lint typecheck unit clean
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -18,6 +18,9 @@ run: $(STAMP)
 	mkdir -p $(OUT)
 	$(BIN)/cpf run $(SCENARIO) --out $(OUT)/run.mcap
 	$(BIN)/cpf report $(OUT)/run.mcap --out $(OUT)
+
+bench: $(STAMP)
+	$(BIN)/python -m benchmarks
 
 lint: $(STAMP)
 	$(BIN)/ruff check .
