@@ -151,8 +151,10 @@ def _reception(r: Reception, wall_of: Callable[[float], float] | None) -> Messag
 
 def batches_message(tick: Message, batches: dict[int, list[Reception]] | None) -> Message:
     """What every vehicle needs to run step k, in one message the broker publishes for the whole fleet: the tick and
-    each vehicle's receptions (batches None: the broker is down, the supervisor says so itself)."""
-    rx = None if batches is None else [[v, [_reception(r, None) for r in batches[v]]] for v in sorted(batches)]
+    each vehicle's receptions (batches None: the broker is down, the supervisor says so itself). Each vehicle's
+    receptions are packed on their own (vehicle id -> msgpack bytes), so a vehicle unpacks only its own: the whole
+    message grows with the fleet, and every vehicle reads it."""
+    rx = None if batches is None else {v: encode_list([_reception(r, None) for r in batches[v]]) for v in batches}
     return {"t": tick["t"], "k": tick["k"], "tick": tick, "rx": rx}
 
 
@@ -163,10 +165,29 @@ def parse_batches(message: Message, vid: int) -> tuple[Tick, Message | None]:
     batches = message.get("rx")
     if batches is None:
         return tick, None
-    if not isinstance(batches, list) or not all(isinstance(b, list) and len(b) == 2 for b in batches):
-        raise ValueError("field 'rx' is not a list of [vehicle, receptions] pairs")
-    mine: list[Any] = next((receptions for v, receptions in batches if v == vid), [])
+    if not isinstance(batches, dict):
+        raise ValueError("field 'rx' is not a map of vehicle id to packed receptions")
+    packed = batches.get(vid)
+    if packed is not None and not isinstance(packed, bytes):
+        raise ValueError(f"the receptions of vehicle {vid} are not packed bytes")
+    mine = decode_list(packed) if packed is not None else []
     return tick, {"t": tick.t, "k": tick.k, "vehicle": vid, "receptions": mine}
+
+
+def encode_list(items: list[Any]) -> bytes:
+    data: bytes = msgpack.packb(items, use_bin_type=True)
+    return data
+
+
+def decode_list(data: bytes) -> list[Any]:
+    """Inverse of encode_list; ValueError for anything that is not a msgpack array."""
+    try:
+        items = msgpack.unpackb(data, raw=False, strict_map_key=False)
+    except Exception as exc:  # msgpack raises several unrelated types for garbage
+        raise ValueError(f"undecodable receptions: {exc}") from exc
+    if not isinstance(items, list):
+        raise ValueError("packed receptions are not a list")
+    return items
 
 
 def step_message(state: Message, tx: Message | None, rx: Message | None) -> Message:

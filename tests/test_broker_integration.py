@@ -146,7 +146,7 @@ def exit_code(proc: subprocess.Popen[bytes], log: Path) -> int:
 
 def fleet_batches(step: Message) -> dict[int, Message]:
     """Each vehicle's reception batch in a batches message, as the vehicle reads it."""
-    assert {vid for vid, _ in step["rx"]} == set(IDS)
+    assert set(step["rx"]) == set(IDS)
     out = {}
     for vid in IDS:
         batch = parse_batches(step, vid)[1]
@@ -322,11 +322,11 @@ def batches(pubs: RecordingPublishers, k: int) -> dict[int, list[int]]:
     steps = [message for key, message in pubs.messages if key == COMMS_STEP_KEY and message["k"] == k]
     assert len(steps) == 1
     out = {}
-    for vid, receptions in steps[0]["rx"]:
+    for vid in steps[0]["rx"]:
         batch = parse_batches(steps[0], vid)[1]
         assert batch is not None and vid not in out
         assert_valid(batch, rx_key(vid))
-        out[vid] = [r["sender"] for r in receptions]
+        out[vid] = [r["sender"] for r in batch["receptions"]]
     return out
 
 

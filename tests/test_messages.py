@@ -30,10 +30,12 @@ from comms.messages import (
     TICK_KEY,
     Message,
     Tick,
+    batches_message,
     decode,
     encode,
     event_message,
     events_message,
+    parse_batches,
     parse_event,
     parse_events,
     parse_rx,
@@ -1061,3 +1063,16 @@ def test_parse_tx_rejects_what_the_wire_frame_cannot_carry(name, value):
     message = with_(VALID_TX, **{name: value})
     with pytest.raises(ValueError):
         parse_tx(message, 2)
+
+
+def test_a_vehicle_reads_only_its_own_packed_batch_and_refuses_garbage():
+    tick = tick_message(3, 0.3, False)
+    mine = Reception(2, 1, 5, 0.2, 0.25, 10.5, 0.99)
+    message = wire(batches_message(tick, {2: [mine], 3: []}))
+    assert parse_batches(message, 2) == (parse_tick(tick), rx_message(2, 3, 0.3, [mine]))
+    assert parse_batches(message, 3)[1] == rx_message(3, 3, 0.3, [])
+    assert parse_batches(message, 9)[1] == rx_message(9, 3, 0.3, [])  # nothing for a vehicle it does not name
+    assert parse_batches(wire(batches_message(tick, None)), 2)[1] is None  # the broker is down
+    for rx in ([[2, []]], {2: b"\xc1garbage"}, {2: encode({"not": "a list"})}, {2: "text"}):
+        with pytest.raises(ValueError):
+            parse_batches(message | {"rx": rx}, 2)
