@@ -69,7 +69,7 @@ class Broker:
         self.first = start_step
         self.submitted = start_step - 1  # the last step whose transmissions are in the water
         self.clock: Tick | None = None  # the latest tick handled: realtime deliveries are timed by it
-        self.unpublished: list[LinkEvent] = []  # realtime: events since the last events message
+        self.unpublished: list[LinkEvent] = []  # link events not yet published (one events message per tick)
 
     def take(self, key: str, payload: bytes) -> None:
         """File one incoming message; count and drop it if malformed or on a key its sender does not own."""
