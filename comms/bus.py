@@ -55,6 +55,7 @@ def config(mode: str, listen: Sequence[str] = (), connect: Sequence[str] = ()) -
     conf = zenoh.Config()
     conf.insert_json5("mode", json.dumps(mode))
     conf.insert_json5("scouting/multicast/enabled", "false")
+    conf.insert_json5("scouting/delay", "0")  # nothing to scout with explicit endpoints: a router opened in 0.5 s
     if mode == "client":
         conf.insert_json5("connect/timeout_ms", str(CONNECT_TIMEOUT_MS))
     if listen:
