@@ -169,7 +169,7 @@ def _finite(value: object) -> object:
 
 
 def _vehicle(args: argparse.Namespace) -> int:
-    from supervisor.fleet import initial_state, radio, restore_state, vehicle_config
+    from supervisor.fleet import initial_state, radio, restarted_node, vehicle_config
     from supervisor.scenario import load_scenario
     from vehicles.node import run_vehicle
     from vehicles.runtime import NodeState
@@ -179,7 +179,7 @@ def _vehicle(args: argparse.Namespace) -> int:
         raise ScenarioError(f"{args.scenario}: --id: no vehicle {args.id} in [[vehicles]] {scenario.vehicle_ids}")
     cfg = vehicle_config(scenario, args.id)
     if args.resume is not None:
-        initial = NodeState(restore_state(cfg, json.loads(args.resume.read_text())), args.resume_seq)
+        initial = restarted_node(cfg, json.loads(args.resume.read_text()), args.resume_seq)
     else:
         initial = NodeState(initial_state(scenario, cfg))
     neighbours, dt = scenario.neighbours(args.id), scenario.scenario.step

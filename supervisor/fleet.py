@@ -35,7 +35,7 @@ from vehicles.dynamics import PLANAR, SPATIAL, Model
 from vehicles.geometry import rotation_2d, rotation_from_rpy
 from vehicles.path_following import PathFollowingGains
 from vehicles.paths import Circle, Helix, Lawnmower, Line, Path, closest_gamma
-from vehicles.runtime import Radio
+from vehicles.runtime import NodeState, Radio
 from vehicles.transmission import EventTriggeredPolicy, PeriodicPolicy, Policy, Tdma
 
 # How far along a path the initial-gamma search looks, in units of gamma, either side of zero.
@@ -184,3 +184,9 @@ def restore_state(config: VehicleConfig, message: Message) -> VehicleState:
     return VehicleState(
         float(message["t"]), config.model.normalize(x), float(message["gamma"]), float(message["gamma_dot"])
     )
+
+
+def restarted_node(config: VehicleConfig, last_state: Message, seq: int) -> NodeState:
+    """A restarted vehicle process: its last recorded state, its transmission count, and nothing else (no
+    neighbour estimates, no transmission-policy memory). Every engine and `cpf resim` restart a vehicle this way."""
+    return NodeState(restore_state(config, last_state), seq)

@@ -37,7 +37,7 @@ from comms.stats import LinkStats
 from supervisor.books import LinkBooks
 from supervisor.errors import SimulationError
 from supervisor.faults import ProcessAction, disturbances, events_at, network_at, process_actions
-from supervisor.fleet import broker_core, initial_state, radio, restore_state, vehicle_config
+from supervisor.fleet import broker_core, initial_state, radio, restarted_node, vehicle_config
 from supervisor.metadata import graph_message, run_meta
 from supervisor.progress import Progress
 from supervisor.recorder import Recorder
@@ -134,9 +134,8 @@ class _InProcessRun:
         elif action.vehicle is not None and action.action == "kill":
             self._lose_vehicle(action.vehicle, t)
         elif action.vehicle is not None and action.vehicle not in self.alive:
-            cfg = self.configs[action.vehicle]
-            seq = self.nodes[action.vehicle].seq
-            self.nodes[action.vehicle] = NodeState(restore_state(cfg, self.last_state[action.vehicle]), seq)
+            vid = action.vehicle
+            self.nodes[vid] = restarted_node(self.configs[vid], self.last_state[vid], self.nodes[vid].seq)
             self.alive = sorted([*self.alive, action.vehicle])
 
     def _lose_vehicle(self, vid: int, t: float) -> None:

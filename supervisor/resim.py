@@ -13,10 +13,10 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from comms.messages import META_KEY, parse_rx, state_key, state_message, vehicle_of_key
+from comms.messages import META_KEY, Message, parse_rx, state_key, state_message, vehicle_of_key
 from supervisor.errors import ScenarioError
 from supervisor.faults import disturbances, network_at
-from supervisor.fleet import initial_state, radio, vehicle_config
+from supervisor.fleet import initial_state, radio, restarted_node, vehicle_config
 from supervisor.recorder import Recorder, read_messages
 from supervisor.scenario import apply_override, validate_data
 from supervisor.scenario_schema import Scenario
@@ -59,6 +59,7 @@ def resimulate(log: Path, overrides: Sequence[str], out: Path) -> tuple[Scenario
     configs = {i: vehicle_config(sc, i) for i in ids}
     nodes = {i: NodeState(initial_state(sc, configs[i])) for i in ids}
     radios = {i: radio(sc, i) for i in ids}
+    last_state: dict[int, Message] = {}
     original, new = SeriesBuilder(ids, steps, dt), SeriesBuilder(ids, steps, dt)
     for topic, _, message in read_messages(log):
         if topic.endswith("/state"):
@@ -71,6 +72,8 @@ def resimulate(log: Path, overrides: Sequence[str], out: Path) -> tuple[Scenario
             for i in ids:
                 if (i, k) not in stepped:
                     continue
+                if k > 0 and (i, k - 1) not in stepped:  # its process was restarted, as the engines do it
+                    nodes[i] = restarted_node(configs[i], last_state[i], nodes[i].seq)
                 dist = disturbances(sc.faults, i, t, dt)
                 batch = heard.get((i, k), [])
                 nodes[i], step_out = node_step(
@@ -82,4 +85,5 @@ def resimulate(log: Path, overrides: Sequence[str], out: Path) -> tuple[Scenario
                 )
                 rec.write(state_key(i), t, state)
                 new.add(state)
+                last_state[i] = state
     return sc, original.series(), new.series()

@@ -81,6 +81,9 @@ def lossy_run(tmp_path: Path, extra: str = "") -> Path:
         "[[faults]]", f"[comms]\nloss = 0.3\n{extra}\n[comms.transmit]\nperiod = 0.5\n\n[[faults]]", 1
     )
     text += '\n[[faults]]\nkind = "blackout"\nstart = 20.0\nend = 25.0\n'
+    # vehicle 3's process killed at 40 s and restarted at 42 s, from its last recorded state
+    text += '\n[[faults]]\nkind = "vehicle_kill"\nvehicle = 3\nstart = 40.0\nend = 42.0\n'
+    text = text.replace("seed = 0\n", 'seed = 0\non_vehicle_loss = "continue"\n', 1)
     scenario = parse_scenario(text, "lossy.toml")
     out = tmp_path / "lossy.mcap"
     run_inprocess(scenario, "lossy.toml", text, out, 3, Progress(60.0, io.StringIO(), enabled=False))
@@ -95,7 +98,7 @@ def test_resimulating_with_no_change_reproduces_the_run_exactly(tmp_path):
     log = lossy_run(tmp_path)
     resimulate(log, [], tmp_path / "same.mcap")
     original, again = states(log), states(tmp_path / "same.mcap")
-    assert len(original) == 1800 and again == original
+    assert len(original) == 1800 - 20 and again == original  # vehicle 3 was down for 20 steps
 
 
 def test_resimulating_with_other_gains_hears_the_same_packets_and_acts_differently(tmp_path):
