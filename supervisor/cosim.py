@@ -200,10 +200,12 @@ class _Supervisor:
             self.malformed += 1
             return
         self.broker_events += len(events)
+        booked = []
         for message in events:
             self._write(COMMS_EVENT_KEY, message)
             with contextlib.suppress(ValueError):
-                self.books.add([parse_event(message)])
+                booked.append(parse_event(message))
+        self.books.add(booked)
 
     def publish(self, pubs: Publishers, key: str, t: float, message: Message) -> None:
         pubs.put(key, message)
@@ -384,7 +386,7 @@ class _Clock:
         # The common case in its short form (null: the scenario's graph without link faults, every vehicle alive):
         # every process parses every tick, and with a large fleet the long form costs more than the step itself.
         spelt = None if network == self.usual else network
-        alive = None if set(run.alive) == set(sc.vehicle_ids) else list(run.alive)
+        alive = None if len(run.alive) == len(sc.vehicle_ids) else list(run.alive)  # alive: a subset of the ids
         self.issued = tick_message(k, t, final, disturbed, spelt, alive, run.comms_up, wall, self.speed)
         run.publish(self.pubs, TICK_KEY, t, self.issued)
         if not run.comms_up and not final:  # no broker to hand the vehicles their tick: no receptions either
@@ -415,6 +417,7 @@ def _drive(
         if ahead:
             ticks.issue(k + 1, final=k + 1 == steps, ahead=True)
         run.wait_until(_all_stepped(run, k), f"every vehicle's state of step {k}", STEP_TIMEOUT)
+        run.states.pop(k)
         run.books.window(k * run.dt)  # the broker's events of tick k came before the batches the vehicles stepped on
         progress.update((k + 1) * run.dt)
         if not ahead:
@@ -430,10 +433,12 @@ def _finish(run: _Supervisor) -> None:
         run.wait_until(lambda: _books_closed(run), "the broker's end-of-run report", STEP_TIMEOUT)
     run._close_open("end_of_run")
     run.books.window(run.t)
+    if run.malformed:
+        print(f"cpf: warning: {run.malformed} malformed messages on the bus were dropped", file=sys.stderr)
 
 
 def _all_stepped(run: _Supervisor, k: int) -> Callable[[], bool]:
-    return lambda: set(run.alive) <= run.states.get(k, set())
+    return lambda: all(v in run.states.setdefault(k, set()) for v in run.alive)
 
 
 def _books_closed(run: _Supervisor) -> bool:
