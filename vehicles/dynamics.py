@@ -38,7 +38,6 @@ from vehicles.params import VehicleParams
 Accelerations = tuple[Float3, Float3]  # (v_dot, omega_dot), body frame
 LIFTED_SIZE = 18  # p (3), R (9, row-major), v (3), omega (3): the spatial layout, for both models
 PathVectors = tuple[Float3, Float3, Float3]  # (p_d, dp_d/dgamma, d2p_d/dgamma2)
-NO_INPUT: Float3 = (0.0, 0.0, 0.0)
 
 
 @dataclass(frozen=True, slots=True)
@@ -170,12 +169,6 @@ class SpatialModel:
         """(v_dot, omega_dot) of eq. (2) for inputs tau = (tau_u, tau_q, tau_r)."""
         return _accelerations(self, rot, v, w, tau, prm)
 
-    def with_input(
-        self, v_dot0: FloatArray, w_dot0: FloatArray, tau: FloatArray, prm: VehicleParams
-    ) -> tuple[FloatArray, FloatArray]:
-        """Accelerations with inputs tau from those with none."""
-        return _with_input(self, v_dot0, w_dot0, tau, prm)
-
     def derivative(self, x: FloatArray, tau: FloatArray, prm: VehicleParams) -> FloatArray:
         return _derivative(self, x, tau, prm)
 
@@ -237,11 +230,6 @@ class PlanarModel:
         """(v_dot, r_dot) for inputs tau = (tau_u, tau_r)."""
         return _accelerations(self, rot, v, w, tau, prm)
 
-    def with_input(
-        self, v_dot0: FloatArray, w_dot0: FloatArray, tau: FloatArray, prm: VehicleParams
-    ) -> tuple[FloatArray, FloatArray]:
-        return _with_input(self, v_dot0, w_dot0, tau, prm)
-
     def derivative(self, x: FloatArray, tau: FloatArray, prm: VehicleParams) -> FloatArray:
         return _derivative(self, x, tau, prm)
 
@@ -272,10 +260,3 @@ def _accelerations(
     s = model.lift(model.pack(np.zeros(model.dim), rot, v, w))
     v_dot, w_dot = with_inputs(model.drift(s, prm), model.lift_inputs(tau), prm)
     return model.vector(v_dot), model.angular(w_dot)
-
-
-def _with_input(
-    model: Model, v_dot0: FloatArray, w_dot0: FloatArray, tau: FloatArray, prm: VehicleParams
-) -> tuple[FloatArray, FloatArray]:
-    v_dot, w_dot = with_inputs((NO_INPUT, NO_INPUT), model.lift_inputs(tau), prm)
-    return v_dot0 + model.vector(v_dot), w_dot0 + model.angular(w_dot)
