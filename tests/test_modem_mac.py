@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from collections import Counter
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -533,3 +533,51 @@ def test_gilbert_elliott_loss_in_the_channel_is_bursty_at_its_long_run_rate():
         runs = np.flatnonzero(edges == -1) - np.flatnonzero(edges == 1)
         sigma_run = math.sqrt(1 - ge.r) / ge.r / math.sqrt(len(runs))
         assert abs(runs.mean() - 5.0) < 4 * sigma_run  # bursts of 5 on average, not Bernoulli's 1.25
+
+
+# --- what a faulty vehicle broadcasts (runtime.node_step with disturbances) -------------------------------------------
+
+
+def broadcasts(dist_at: Callable[[int], Disturbances], steps: int = 12) -> list[tuple[float, Transmission]]:
+    """(true gamma at t, transmission) of vehicle 1 of the paper, transmitting every step, under dist_at(k)."""
+    scenario = load_scenario(PAPER)
+    cfg = vehicle_config(scenario, 1)
+    node, dt, out = NodeState(initial_state(scenario, cfg)), scenario.scenario.step, []
+    for k in range(steps):
+        gamma = node.vehicle.gamma
+        node, step = node_step(cfg, Radio(PeriodicPolicy(dt)), node, k * dt, dt, [], [2, 3], dist_at(k))
+        assert step.transmission is not None
+        out.append((gamma, step.transmission))
+    return out
+
+
+def test_a_gamma_offset_shifts_what_is_sent_and_nothing_else():
+    clean = broadcasts(lambda k: Disturbances())
+    offset = broadcasts(lambda k: Disturbances(gamma_offset=0.7))
+    for (gamma, tx), (_, plain) in zip(offset, clean, strict=True):
+        assert tx.gamma == pytest.approx(gamma + 0.7, abs=1e-12) and plain.gamma == gamma
+        assert tx.gamma_dot == plain.gamma_dot and tx.data_time == plain.data_time
+
+
+def test_a_frozen_gamma_sensor_repeats_the_reading_it_stuck_at():
+    sent = broadcasts(lambda k: Disturbances(gamma_freeze=3 <= k < 8))
+    frozen = [tx.gamma for _, tx in sent[3:8]]
+    assert frozen == [sent[3][0]] * 5  # the reading of step 3, five times
+    assert [tx.gamma for _, tx in sent[8:]] == [gamma for gamma, _ in sent[8:]]  # live again
+    assert len({gamma for gamma, _ in sent[3:8]}) == 5  # while the true gamma moved on
+
+
+def test_a_skewed_clock_stamps_the_data_with_its_own_time():
+    for k, (_, tx) in enumerate(broadcasts(lambda k: Disturbances(clock_offset=0.25))):
+        assert tx.t == pytest.approx(k * 0.1) and tx.data_time == pytest.approx(k * 0.1 + 0.25)
+
+
+def test_a_late_older_message_never_replaces_a_newer_estimate():
+    from vehicles.agent import receive
+
+    scenario = load_scenario(PAPER)
+    state = initial_state(scenario, vehicle_config(scenario, 1))
+    state = receive(state, 2, NeighbourEstimate(5.0, 1.0, 2.0))
+    assert receive(state, 2, NeighbourEstimate(4.0, 1.0, 1.5)) is state  # reordered: older, ignored
+    assert receive(state, 2, NeighbourEstimate(4.0, 1.0, 2.0)) is state  # same stamp: nothing new
+    assert receive(state, 2, NeighbourEstimate(6.0, 1.0, 2.5)).estimates[2].gamma == 6.0
