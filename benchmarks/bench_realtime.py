@@ -12,13 +12,13 @@ from __future__ import annotations
 import argparse
 import io
 import json
-import math
 import tempfile
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from comms.channel import intake_step
 from supervisor.cosim import BusOptions, run_zenoh
 from supervisor.progress import Progress
 from supervisor.recorder import read_messages
@@ -26,7 +26,6 @@ from supervisor.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "benchmarks" / "results"
-STEP_SLACK = 1e-6  # s: an arrival this close after a sync instant is taken in at it
 
 
 def lateness(log: Path, dt: float) -> dict[str, Any]:
@@ -39,7 +38,7 @@ def lateness(log: Path, dt: float) -> dict[str, Any]:
         elif topic.endswith("/rx"):
             for r in message["receptions"]:
                 receptions += 1
-                taken_late += message["k"] > math.ceil(r["arrival"] / dt - STEP_SLACK)
+                taken_late += message["k"] > intake_step(r["arrival"], dt)
     ms = np.array(late) * 1e3
     percentiles = {f"p{p}_ms": float(np.percentile(ms, p)) for p in (50, 90, 99)} if len(ms) else {}
     return {

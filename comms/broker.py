@@ -13,14 +13,13 @@ On the final tick it flushes the channel and reports how many events it publishe
 from __future__ import annotations
 
 import logging
-import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 from comms.broker_core import BrokerCore
 from comms.bus import Publishers, Timed, decode_or_none, serve
-from comms.channel import ARRIVAL_SLACK, Kinematics, LinkEvent, Reception
+from comms.channel import ARRIVAL_SLACK, Kinematics, LinkEvent, Reception, intake_step
 from comms.messages import (
     COMMS_ALIVE,
     COMMS_DONE_KEY,
@@ -198,7 +197,7 @@ class Broker:
     def _publish_live(self, clock: Tick, batches: dict[int, list[Reception]]) -> None:
         for v, receptions in batches.items():
             if receptions:
-                k = math.ceil(receptions[-1].arrival / self.dt - 1e-6)  # the step that takes them in
+                k = intake_step(receptions[-1].arrival, self.dt)
                 self.publishers.put(rx_key(v), rx_message(v, k, receptions[-1].arrival, receptions, clock.wall_of))
 
     # --- reports ---------------------------------------------------------------------------------------------

@@ -15,6 +15,7 @@ So per link: sent = delivered + dropped, always. Every directed link draws from 
 from __future__ import annotations
 
 import heapq
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Literal
@@ -30,6 +31,13 @@ from vehicles.transmission import Transmission
 
 EventKind = Literal["sent", "delivered", "dropped"]
 ARRIVAL_SLACK = 1e-9  # s: an arrival this close after a sync instant counts as at it (float rounding of k * dt)
+
+
+def intake_step(arrival: float, dt: float) -> int:
+    """The sync step whose instant first takes in a packet arriving then (deliver(t) hands out arrivals <= t)."""
+    return math.ceil((arrival - ARRIVAL_SLACK) / dt)
+
+
 MEMORY = 120.0  # s of past airtime kept for half-duplex and collision checks (far above any packet's duration)
 
 

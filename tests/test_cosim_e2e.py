@@ -6,7 +6,6 @@ MCAP, and no process of ours left behind, whatever happens.
 
 from __future__ import annotations
 
-import math
 import re
 import signal
 import subprocess
@@ -17,6 +16,7 @@ from pathlib import Path
 import pytest
 from mcap.reader import make_reader
 
+from comms.channel import intake_step
 from supervisor.recorder import read_messages
 from tests.conftest import shortened
 from tests.procs import cpf, kill_vehicle_process, processes_with, start_cpf, wait_for_progress
@@ -110,7 +110,7 @@ def test_realtime_clock_paces_the_run_delivers_at_arrival_and_changes_nothing_el
     assert {(r["sender"], int(topic.split("/")[2]), r["seq"]) for topic, m in rx for r in m["receptions"]} == delivered
 
     # the same run as lockstep up to the first reception the wall clock made a vehicle take in a step late
-    late_steps = [m["k"] for _, m in rx for r in m["receptions"] if m["k"] > math.ceil(r["arrival"] / 0.1 - 1e-6)]
+    late_steps = [m["k"] for _, m in rx for r in m["receptions"] if m["k"] > intake_step(r["arrival"], 0.1)]
     first_late = min(late_steps, default=len(real_states))
     lockstep = states(tmp_path / "lock.mcap")
     assert {key: m for key, m in real_states.items() if key[1] < first_late} == {
