@@ -49,7 +49,7 @@ class _Books:
     """What has arrived, filed by step, until the step that needs it is handled."""
 
     ticks: dict[int, Tick] = field(default_factory=dict)
-    raw_ticks: dict[int, dict[str, object]] = field(default_factory=dict)  # forwarded to the vehicles
+    raw_ticks: dict[int, dict[str, object]] = field(default_factory=dict)  # as received: forwarded to the vehicles
     states: dict[int, dict[int, tuple[StateReport, Transmission | None]]] = field(default_factory=dict)
     published: int = 0
     malformed: int = 0
@@ -65,7 +65,6 @@ class Broker:
         self.dt = dt
         self.books = _Books()
         self.next_k = start_step  # a restarted broker resumes mid-run, with nothing of the past in flight
-        self.first = start_step
         self.submitted = start_step - 1  # the last step whose transmissions are in the water
         self.clock: Tick | None = None  # the latest tick handled: realtime deliveries are timed by it
         self.unpublished: list[LinkEvent] = []  # link events not yet published (one events message per tick)
@@ -82,7 +81,8 @@ class Broker:
                 self.books.ticks[tick.k], self.books.raw_ticks[tick.k] = tick, message
             elif owned is not None and owned[1] == "state":
                 report = parse_state(message, owned[0])
-                self.books.states.setdefault(report.k, {})[report.vehicle] = (report, self._tx(message, owned[0]))
+                if report.k > self.submitted:  # a late duplicate of a step already in the water is dropped
+                    self.books.states.setdefault(report.k, {})[report.vehicle] = (report, self._tx(message, owned[0]))
         except ValueError as exc:
             self.books.malformed += 1
             log.warning("comms: dropped a malformed message on %s: %s", key, exc)
@@ -124,17 +124,21 @@ class Broker:
         return self.clock if self.clock is not None and self.clock.k == k else self.books.ticks.get(k)
 
     def _expected(self, k: int) -> list[int]:
-        """Vehicles whose step message of step k counts: alive then and still alive at the next tick."""
+        """Vehicles whose step message of step k counts: alive then and still alive at the next tick (if it is
+        known; a tick that holds its step's packets makes sure it is)."""
         then, after = self._tick_of(k), self._tick_of(k + 1)
         before = then.alive if then is not None and then.alive is not None else self.vehicles
-        now = after.alive if after is not None and after.alive is not None else before
+        if after is None or after.alive is None:
+            return list(before)
+        now = set(after.alive)
         return [v for v in before if v in now]
 
     def _can_submit(self, k: int) -> bool:
         """Whether step k's transmissions can go in the water: every expected vehicle's message of k is in."""
         if k <= self.submitted:
             return True
-        if self._tick_of(k) is None:
+        tick = self._tick_of(k)
+        if tick is None or (tick.hold and self._tick_of(k + 1) is None):
             return False
         states = self.books.states.get(k, {})
         return all(v in states for v in self._expected(k))
@@ -152,7 +156,6 @@ class Broker:
     def _handle(self, tick: Tick) -> None:
         if tick.k - 1 > self.submitted:
             self._submit(tick.k - 1)
-        self.books.states.pop(tick.k - 1, None)  # a restarted broker's first tick: sent before it existed
         self.clock = tick
         alive = tick.alive if tick.alive is not None else self.vehicles
         batches, delivered = self.core.deliver(tick.t, alive)
@@ -168,7 +171,7 @@ class Broker:
         self._publish_stats(tick.t)
         if tick.wall is not None:  # realtime: late deliveries go out as such; the batches message is the tick
             self._publish_live(tick, batches)
-            batches = {v: [] for v in batches}
+            batches = {}  # a vehicle named nowhere has nothing: realtime vehicles take in their own deliveries
         self.publishers.put(COMMS_STEP_KEY, batches_message(self.books.raw_ticks[tick.k], batches))
 
     # --- realtime deliveries ---------------------------------------------------------------------------------

@@ -230,10 +230,13 @@ def tick_message(
     comms: bool = True,
     wall: float | None = None,
     speed: float = 1.0,
+    hold: bool = False,
 ) -> Message:
     """The supervisor's clock: step k starts at t. With it, what acts over the step: faults on vehicles (only those
     with any), the network (graph and link faults), the vehicles alive, whether the broker is up. Realtime runs
-    also say when t is on the wall clock (time.time()) and how fast simulation time runs: wall + (t' - t) / speed."""
+    also say when t is on the wall clock (time.time()) and how fast simulation time runs: wall + (t' - t) / speed.
+    hold: a process is killed or restarted at the next tick, so this step's transmissions wait for it (realtime
+    brokers otherwise send them before the next tick, which alone says who survived the step)."""
     return {
         "t": t,
         "k": k,
@@ -244,6 +247,7 @@ def tick_message(
         "comms": comms,
         "wall": wall,
         "speed": speed,
+        "hold": hold,
     }
 
 
@@ -382,6 +386,7 @@ class Tick:
     comms: bool
     wall: float | None = None  # realtime: the wall-clock time (time.time()) of t; None: lockstep
     speed: float = 1.0  # realtime: simulated seconds per wall-clock second
+    hold: bool = False  # a process is killed or restarted at the next tick: this step's packets wait for it
 
     def wall_of(self, t: float) -> float:
         """The wall-clock time of simulation time t (realtime runs only)."""
@@ -408,6 +413,7 @@ def parse_tick(message: Message) -> Tick:
     return Tick(
         _get(message, "k", int), _number(message, "t"), _get(message, "final", bool), disturbed,
         None if net is None else _network(net), alive, _get(message, "comms", bool), *_realtime(message),
+        _get(message, "hold", bool) if "hold" in message else False,
     )  # fmt: skip
 
 

@@ -141,8 +141,9 @@ TICK = _object(
         "comms": BOOLEAN,
         "wall": {"type": ["number", "null"]},  # realtime: t on the wall clock (time.time()); null: lockstep
         "speed": NUMBER,  # realtime: simulated s per wall-clock s
+        "hold": BOOLEAN,  # a process is killed or restarted at the next tick
     },
-    optional=("wall", "speed"),  # logs from before realtime delivery
+    optional=("wall", "speed", "hold"),  # logs from before realtime delivery
 )
 _LINK_BOOK = _object(
     "cpf.LinkBook",

@@ -387,7 +387,8 @@ class _Clock:
         # every process parses every tick, and with a large fleet the long form costs more than the step itself.
         spelt = None if network == self.usual else network
         alive = None if len(run.alive) == len(sc.vehicle_ids) else list(run.alive)  # alive: a subset of the ids
-        self.issued = tick_message(k, t, final, disturbed, spelt, alive, run.comms_up, wall, self.speed)
+        hold = not final and bool(process_actions(sc.faults, t + run.dt, run.dt))
+        self.issued = tick_message(k, t, final, disturbed, spelt, alive, run.comms_up, wall, self.speed, hold)
         run.publish(self.pubs, TICK_KEY, t, self.issued)
         if not run.comms_up and not final:  # no broker to hand the vehicles their tick: no receptions either
             self.pubs.put(COMMS_STEP_KEY, batches_message(self.issued, None))

@@ -36,6 +36,7 @@ from comms.messages import (
     encode,
     parse_batches,
     rx_key,
+    rx_message,
     state_key,
     state_message,
     step_message,
@@ -212,7 +213,7 @@ def test_broker_relays_to_graph_neighbours_and_survives_malformed_messages(tmp_p
 
             # three malformed messages: garbage, a transmission on another vehicle's key, a state without position
             put_raw(session, state_key(2), b"\xc1 this is not msgpack")
-            pubs.put(state_key(2), step_message(states[2], sent[3], None))  # a stale state with another's packet
+            pubs.put(state_key(2), step_message(states[2] | {"k": 1, "tx_seq": 0}, sent[3], None))  # another's packet
             pubs.put(state_key(1), {k: v for k, v in states[1].items() if k != "position"} | {"k": 1})
 
             # the broker keeps working: step 1 without transmissions
@@ -434,10 +435,15 @@ def test_a_silent_modem_is_dropped_on_each_of_its_links(fleet):
 PAPER_LINKS = {(1, 2), (2, 1), (1, 3), (3, 1)}
 
 
-def realtime_tick(broker: Broker, k: int, wall: float) -> bool:
+def realtime_tick(broker: Broker, k: int, wall: float, alive: list[int] | None = None, hold: bool = False) -> bool:
     """Tick k of a realtime run whose t = 0 was at wall-clock time `wall` (speed 1)."""
-    broker.take(TICK_KEY, encode(tick_message(k, k * DT, False, wall=wall + k * DT, speed=1.0)))
+    tick = tick_message(k, k * DT, False, None, None, alive, wall=wall + k * DT, speed=1.0, hold=hold)
+    broker.take(TICK_KEY, encode(tick))
     return broker.advance()
+
+
+def live_deliveries(pubs: RecordingPublishers) -> list[Message]:
+    return [m for key, m in pubs.messages if key.endswith("/rx")]
 
 
 def test_realtime_receptions_are_due_at_their_arrival_on_the_wall_clock(fleet):
@@ -492,3 +498,40 @@ def test_a_vehicle_killed_after_reporting_its_step_never_transmits_it(fleet):
     assert broker.next_k == 2
     assert batches(pubs, 1) == {1: [2], 2: [1]}
     assert link_events(pubs) == delivered({(1, 2), (2, 1)}, 1)  # as the in-process engine: its modem never sent
+
+
+def test_realtime_never_hands_out_a_reception_a_later_transmission_could_still_spoil(fleet):
+    broker, pubs = pure_broker(overrides=("comms.preamble=0.15",))  # every packet arrives after t_1
+    realtime_tick(broker, 0, time.time() - 100.0)  # long ago: by the wall clock everything is due
+    report(broker, fleet, 0, seq=1)
+    broker.advance()
+    broker.on_time()
+    assert live_deliveries(pubs) == []  # step 1's packets are not in yet
+
+
+def test_realtime_receptions_due_before_the_tick_that_finds_them_go_out_with_it_as_deliveries(fleet):
+    broker, pubs = pure_broker()
+    start = time.time() - 100.0
+    realtime_tick(broker, 0, start)
+    report(broker, fleet, 0, seq=1)
+    broker.advance()  # in the water; nobody woke the broker to hand them out (no on_time)
+    realtime_tick(broker, 1, start)
+    late = live_deliveries(pubs)
+    assert {m["vehicle"]: sorted(r["sender"] for r in m["receptions"]) for m in late} == {1: [2, 3], 2: [1], 3: [1]}
+    assert all(m["k"] == 1 and all("due" in r for r in m["receptions"]) for m in late)
+    steps = [m for key, m in pubs.messages if key == COMMS_STEP_KEY and m["k"] == 1]
+    assert len(steps) == 1 and all(parse_batches(steps[0], v)[1] == rx_message(v, 1, DT, []) for v in IDS)
+
+
+def test_realtime_waits_for_the_next_tick_before_sending_a_step_whose_end_kills_a_vehicle(fleet):
+    broker, pubs = pure_broker()
+    start = time.time() - 100.0
+    realtime_tick(broker, 0, start, hold=True)  # vehicle 3 is killed at tick 1
+    report(broker, fleet, 0, seq=1)
+    broker.advance()
+    assert broker.submitted == -1  # held: only tick 1 says who survived step 0
+    realtime_tick(broker, 1, start, alive=[1, 2])
+    assert broker.submitted == 0
+    broker.on_time()
+    realtime_tick(broker, 2, start, alive=[1, 2])
+    assert link_events(pubs) == delivered({(1, 2), (2, 1)}, 1)  # as lockstep and the in-process engine

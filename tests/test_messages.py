@@ -389,6 +389,7 @@ def test_tick_message_spells_out_the_faults():
         "comms": False,
         "wall": None,
         "speed": 1.0,
+        "hold": False,
     }
     assert tick_message(0, 0.0, False) == {
         "t": 0.0,
@@ -400,6 +401,7 @@ def test_tick_message_spells_out_the_faults():
         "comms": True,
         "wall": None,
         "speed": 1.0,
+        "hold": False,
     }
     assert "caps" not in message
 
@@ -410,8 +412,9 @@ def test_a_realtime_tick_maps_simulation_time_to_the_wall_clock():
     tick = parse_tick(wire(message))
     assert (tick.wall, tick.speed) == (1_000_000.0, 4.0)
     assert tick.wall_of(3.4) == pytest.approx(1_000_000.1)
-    old = {key: value for key, value in message.items() if key not in ("wall", "speed")}  # logs from before
-    assert (parse_tick(old).wall, parse_tick(old).speed) == (None, 1.0)
+    old = {key: value for key, value in message.items() if key not in ("wall", "speed", "hold")}  # older logs
+    assert (parse_tick(old).wall, parse_tick(old).speed, parse_tick(old).hold) == (None, 1.0, False)
+    assert parse_tick(wire(tick_message(30, 3.0, False, hold=True))).hold is True
     with pytest.raises(ValueError, match="speed"):
         parse_tick(message | {"speed": 0.0})
 
