@@ -121,6 +121,7 @@ def _run(args: argparse.Namespace) -> int:
     from supervisor.cosim import BusOptions, run_zenoh
     from supervisor.faults import intervals
     from supervisor.inprocess import run_inprocess
+    from supervisor.metrics import finite
     from supervisor.progress import Progress
     from supervisor.scenario import load_scenario
     from supervisor.summary import format_summary, summarize
@@ -153,19 +154,8 @@ def _run(args: argparse.Namespace) -> int:
     if args.metrics:
         args.metrics.parent.mkdir(parents=True, exist_ok=True)
         metrics = {"coordination": summary.as_dict(), "comms": comms.as_dict(), "links": result.link_counts}
-        args.metrics.write_text(json.dumps(_finite(metrics), indent=2, allow_nan=False))
+        args.metrics.write_text(json.dumps(finite(metrics), indent=2, allow_nan=False))
     return 0
-
-
-def _finite(value: object) -> object:
-    """JSON has no NaN or infinity: such numbers become null."""
-    if isinstance(value, float):
-        return value if value == value and abs(value) != float("inf") else None
-    if isinstance(value, dict):
-        return {k: _finite(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_finite(v) for v in value]
-    return value
 
 
 def _vehicle(args: argparse.Namespace) -> int:

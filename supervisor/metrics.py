@@ -77,7 +77,7 @@ def run_metrics(run: RunData) -> dict[str, Any]:
             series, settings.duration, settings.faults, settings.transient, settings.tube_radius, settings.tolerance
         )
         metrics |= _coordination(series, summary)
-    return _finite(metrics)
+    return finite(metrics)
 
 
 def run_settings(run: RunData) -> Settings:
@@ -210,12 +210,12 @@ def _run_info(run: RunData) -> dict[str, Any]:
     return {**{k: meta.get(k) for k in keys}, "vehicles": list(run.vehicles), "t_first": start, "t_last": end}
 
 
-def _finite(value: Any) -> Any:
+def finite(value: Any) -> Any:
     """The value with every NaN or infinity replaced by None (strict JSON has neither)."""
     if isinstance(value, float):
         return value if math.isfinite(value) else None
     if isinstance(value, dict):
-        return {k: _finite(v) for k, v in value.items()}
+        return {k: finite(v) for k, v in value.items()}
     if isinstance(value, list | tuple):
-        return [_finite(v) for v in value]
+        return [finite(v) for v in value]
     return value

@@ -25,11 +25,11 @@ from supervisor.summary import Series
 from vehicles.runtime import Heard, NodeState, node_step
 
 
-def _load(log: Path) -> tuple[dict[str, Any], dict[tuple[int, int], list[Heard]], set[tuple[int, int]]]:
-    """The run's metadata, the receptions per (vehicle, step), and the (vehicle, step) pairs that were stepped."""
+def _load(log: Path) -> tuple[dict[str, Any], dict[tuple[int, int], list[Heard]], list[Message]]:
+    """The run's metadata, the receptions per (vehicle, step), and the state messages (who was stepped when)."""
     meta: dict[str, Any] | None = None
     heard: dict[tuple[int, int], list[Heard]] = {}
-    stepped: set[tuple[int, int]] = set()
+    states: list[Message] = []
     for topic, _, message in read_messages(log):
         owned = vehicle_of_key(topic)
         if topic == META_KEY:
@@ -38,10 +38,10 @@ def _load(log: Path) -> tuple[dict[str, Any], dict[tuple[int, int], list[Heard]]
             k, batch = parse_rx(message)
             heard[(owned[0], k)] = batch
         elif owned is not None and owned[1] == "state":
-            stepped.add((owned[0], message["k"]))
+            states.append(message)
     if meta is None or "scenario" not in meta:
         raise ScenarioError(f"{log}: no run metadata with the scenario in it (written by an older cpf?)")
-    return meta, heard, stepped
+    return meta, heard, states
 
 
 def scenario_of(meta: dict[str, Any], overrides: Sequence[str], source: str) -> Scenario:
@@ -53,7 +53,8 @@ def scenario_of(meta: dict[str, Any], overrides: Sequence[str], source: str) -> 
 
 def resimulate(log: Path, overrides: Sequence[str], out: Path) -> tuple[Scenario, Series, Series]:
     """Re-run the log's vehicles with overrides; write their states to out. Returns (scenario, original, new)."""
-    meta, heard, stepped = _load(log)
+    meta, heard, states = _load(log)
+    stepped = {(m["vehicle"], m["k"]) for m in states}
     sc = scenario_of(meta, overrides, str(log))
     dt, steps, ids = sc.scenario.step, round(sc.scenario.duration / sc.scenario.step), sc.vehicle_ids
     configs = {i: vehicle_config(sc, i) for i in ids}
@@ -61,9 +62,8 @@ def resimulate(log: Path, overrides: Sequence[str], out: Path) -> tuple[Scenario
     radios = {i: radio(sc, i) for i in ids}
     last_state: dict[int, Message] = {}
     original, new = SeriesBuilder(ids, steps, dt), SeriesBuilder(ids, steps, dt)
-    for topic, _, message in read_messages(log):
-        if topic.endswith("/state"):
-            original.add(message)
+    for message in states:
+        original.add(message)
     with Recorder(out) as rec:
         rec.write(META_KEY, 0.0, {**meta, "engine": "resim", "scenario": sc.model_dump(mode="json")})
         for k in range(steps):

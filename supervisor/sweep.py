@@ -4,7 +4,7 @@
 combination (each with its own seed), one process per job. Every finished run leaves DIR/runs/<id>.json, so an
 interrupted sweep resumes where it stopped. Results: DIR/results.csv (one row per run) and, per swept parameter, a
 plot of the steady-state coordination error and the packets sent and delivered against it, with the spread across
-seeds. Steady state: the largest max|gamma_i - gamma_j| over the final STEADY_WINDOW seconds of a run.
+seeds. Steady state: the largest max|gamma_i - gamma_j| over the final STEADY_STATE_WINDOW seconds of a run.
 """
 
 from __future__ import annotations
@@ -23,13 +23,12 @@ from itertools import product
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 from tqdm import tqdm
 
 from supervisor.errors import ScenarioError, SimulationError
+from supervisor.metrics import STEADY_STATE_WINDOW
 from supervisor.scenario import split_outside_brackets
-
-STEADY_WINDOW = 50.0  # s at the end of a run over which the steady-state coordination error is taken
+from supervisor.summary import coordination_error
 
 
 @dataclass(frozen=True, slots=True)
@@ -115,8 +114,8 @@ def _run(engine: str, scenario: Any, path: Path, text: str, out: Path, seed: int
 
 def _measures(result: Any, summary: Any, scenario: Any) -> dict[str, Any]:
     series = result.series
-    coordination = np.ptp(series.gamma, axis=1)
-    tail = series.t >= series.t[-1] - STEADY_WINDOW
+    coordination = coordination_error(series.gamma)
+    tail = series.t >= series.t[-1] - STEADY_STATE_WINDOW
     settled = series.t >= min(scenario.report.transient, series.t[-1])
     return {
         "steady_coordination_error": float(coordination[tail].max()),

@@ -13,7 +13,8 @@ from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from supervisor.sweep import STEADY_WINDOW, Param
+from supervisor.metrics import STEADY_STATE_WINDOW
+from supervisor.sweep import Param
 
 FLOOR = 1e-6  # log axes: errors below this are drawn at it
 
@@ -33,7 +34,9 @@ def plot_sweep(rows: Sequence[dict[str, Any]], params: Sequence[Param], out_dir:
             _band(packet_ax, chosen, param, "sent", f"sent {label}".strip(), log=False)
             _band(packet_ax, chosen, param, "delivered", f"delivered {label}".strip(), log=False)
         seeds = len({r["seed"] for r in rows})
-        error_ax.set(xlabel=param.key, ylabel=f"max|gamma_i - gamma_j|, final {STEADY_WINDOW:.0f} s", yscale="log")
+        error_ax.set(
+            xlabel=param.key, ylabel=f"max|gamma_i - gamma_j|, final {STEADY_STATE_WINDOW:.0f} s", yscale="log"
+        )
         error_ax.set_title(f"Steady-state coordination error ({seeds} seeds: median, 10-90 %)")
         resync_ax.set(xlabel=param.key, ylabel="s (never: not drawn)")
         resync_ax.set_title("Coordination back below tolerance at")
