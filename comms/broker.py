@@ -18,7 +18,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 from comms.broker_core import BrokerCore
-from comms.bus import Publishers, Timed, decode_or_none, serve
+from comms.bus import Publishers, Timed, serve
 from comms.channel import ARRIVAL_SLACK, Kinematics, LinkEvent, Reception, intake_step
 from comms.messages import (
     COMMS_ALIVE,
@@ -31,6 +31,7 @@ from comms.messages import (
     StateReport,
     Tick,
     batches_message,
+    decode,
     events_message,
     parse_state,
     parse_tick,
@@ -71,11 +72,9 @@ class Broker:
 
     def take(self, key: str, payload: bytes) -> None:
         """File one incoming message; count and drop it if malformed or on a key its sender does not own."""
-        message = decode_or_none(payload)
         owned = vehicle_of_key(key)
         try:
-            if message is None:
-                raise ValueError("undecodable")
+            message = decode(payload)
             if key == TICK_KEY:
                 tick = parse_tick(message)
                 self.books.ticks[tick.k], self.books.raw_ticks[tick.k] = tick, message

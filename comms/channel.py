@@ -38,6 +38,7 @@ def intake_step(arrival: float, dt: float) -> int:
     return math.ceil((arrival - ARRIVAL_SLACK) / dt)
 
 
+INTACT = Network(())  # no link faults
 MEMORY = 120.0  # s of past airtime kept for half-duplex and collision checks (far above any packet's duration)
 
 
@@ -135,7 +136,7 @@ class Channel:
         """Put a transmission in the water. receivers: the sender's neighbours now; everyone: all vehicles'
         kinematics at the transmission time (non-neighbours matter for collisions); network: link faults in force.
         Returns the events of now."""
-        intact = network or Network(())
+        intact = network or INTACT
         size = self.params.packet_bytes or size_bytes
         on_air = self.params.modem.airtime(size)
         if self.params.modem.half_duplex:

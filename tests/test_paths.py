@@ -174,7 +174,10 @@ def test_circle_is_flat_helix() -> None:
     for gamma in np.linspace(-30.0, 30.0, 13):
         for a, b in zip(circle.evaluate(float(gamma)), helix.evaluate(float(gamma)), strict=True):
             np.testing.assert_allclose(a, b, rtol=0, atol=0)
-        assert circle.evaluate(float(gamma))[0][2] == -12.0
+        # and it is the circle: written out here, not through the Helix it delegates to
+        angle = 2 * np.pi * gamma / -25.0 - 1.0
+        expected = (4.0 + 8.0 * np.cos(angle), 5.0 + 8.0 * np.sin(angle), -12.0)
+        np.testing.assert_allclose(circle.evaluate(float(gamma))[0], expected, atol=1e-12)
 
 
 def test_line_is_start_plus_gamma_velocity() -> None:

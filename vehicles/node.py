@@ -16,11 +16,12 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
-from comms.bus import Handler, Publishers, decode_or_none, serve
+from comms.bus import Handler, Publishers, serve
 from comms.messages import (
     COMMS_STEP_KEY,
     Message,
     Tick,
+    decode,
     parse_batches,
     parse_rx,
     rx_key,
@@ -89,10 +90,8 @@ def run_vehicle(
 
 def _take(key: str, payload: bytes, vid: int, pending: _Pending) -> None:
     """File an incoming message by step; a malformed one is counted and dropped."""
-    message = decode_or_none(payload)
     try:
-        if message is None:
-            raise ValueError("undecodable")
+        message = decode(payload)
         if key == COMMS_STEP_KEY:
             tick, batch = parse_batches(message, vid)
             if not tick.final:
