@@ -47,8 +47,8 @@ path = {{ type = "line", start = [0.0, {10.0 * i}, -10.0], velocity = [1.0, 0.0,
 class ProcessSampler:
     """Samples CPU time and resident memory of the processes whose command line mentions a marker."""
 
-    def __init__(self, marker: str) -> None:
-        self.marker = marker
+    def __init__(self, marker: str, expected: int) -> None:
+        self.marker, self.expected = marker, expected
         self.cpu: dict[int, float] = {}
         self.rss: dict[int, int] = {}
         self._stop = threading.Event()
@@ -63,8 +63,11 @@ class ProcessSampler:
         self._thread.join()
 
     def _loop(self) -> None:
+        found: list[int] = []
         while not self._stop.wait(0.2):
-            for pid in self._vehicles():
+            if len(found) < self.expected:  # scanning /proc costs: only until every vehicle process is there
+                found = self._vehicles()
+            for pid in found:
                 self._sample(pid)
 
     def _vehicles(self) -> list[int]:
@@ -100,7 +103,7 @@ def measure(n: int, duration: float) -> dict[str, Any]:
         quiet = Progress(duration, io.StringIO(), False)
         result = run_inprocess(scenario, str(path), text, Path(tmp) / "i.mcap", 0, quiet)
         row["inprocess"] = _rates(result.stepping_time, duration, steps)
-        with ProcessSampler(str(path)) as sampler:
+        with ProcessSampler(str(path), n) as sampler:
             quiet = Progress(duration, io.StringIO(), False)
             result = run_zenoh(scenario, path, text, Path(tmp) / "z.mcap", 0, "lockstep", 1.0, BusOptions(), quiet)
         count = max(1, len(sampler.rss))

@@ -29,7 +29,7 @@ def main() -> None:
     scenario = load_scenario(args.scenario)
     cfg = vehicle_config(scenario, args.vehicle)
     dt = scenario.scenario.step
-    neighbours = sorted({j for edge in scenario.graph.edges for j in edge if args.vehicle in edge} - {args.vehicle})
+    neighbours = scenario.neighbours(args.vehicle)
     state = initial_state(scenario, cfg)
     heard = {j: NeighbourEstimate(state.gamma, 0.5 * cfg.coordination.v_r, 0.0) for j in neighbours}
     state = replace(state, estimates=heard)
