@@ -19,8 +19,10 @@ def cpf(*args: str, cwd: Path, timeout: float = 300) -> subprocess.CompletedProc
 
 
 def start_cpf(args: Sequence[str], cwd: Path) -> subprocess.Popen[str]:
-    """cpf in the background, stderr readable line by line (the progress lines)."""
-    return subprocess.Popen([CPF, *args], cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    """cpf in the background, stderr readable line by line (the progress lines). Its temporary files go under cwd:
+    a cpf the test SIGKILLs cannot remove them itself."""
+    env = {**os.environ, "TMPDIR": str(cwd)}
+    return subprocess.Popen([CPF, *args], cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
 
 
 def processes_with(marker: str) -> list[tuple[int, str]]:
