@@ -4,21 +4,22 @@ Thin Zenoh adapter around comms.broker_core. Each vehicle's step message carries
 Lockstep: at tick k the broker waits until it holds every vehicle's step message of k-1, submits those
 transmissions to the channel and publishes one batches message for the whole fleet (tick k and every vehicle's
 receptions: each vehicle waits for this one message per step) and the step's link events (one message).
-Realtime (the ticks carry the wall clock): a step's transmissions are submitted as soon as its messages are in,
-and each reception is published on its vehicle's rx key when its arrival time comes on the wall clock; none is
-handed out before every transmission that could still spoil it (collisions, half-duplex) is in the water.
+Realtime (the ticks carry the wall clock): a step's transmissions are submitted as soon as its messages are in, and
+every reception that they decide is published on its vehicle's rx key at once, ahead of its arrival, stamped with
+the wall-clock time it is due (its arrival); the vehicle holds it until then. None is handed out before every
+transmission that could still spoil it (collisions, half-duplex) is in the water. Sending ahead takes the bus's
+latency out of the delivery time: a reception is late only if it could not be decided and carried in time.
 On the final tick it flushes the channel and reports how many events it published.
 """
 
 from __future__ import annotations
 
 import logging
-import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 from comms.broker_core import BrokerCore
-from comms.bus import Publishers, Timed, serve
+from comms.bus import Handler, Publishers, serve
 from comms.channel import ARRIVAL_SLACK, Kinematics, LinkEvent, Reception, intake_step
 from comms.messages import (
     COMMS_ALIVE,
@@ -105,6 +106,7 @@ class Broker:
         while True:
             if self._realtime() and self._can_submit(self.submitted + 1):
                 self._submit(self.submitted + 1)
+                self._release()
             elif self.next_k in self.books.ticks and self._can_submit(self.next_k - 1):
                 tick = self.books.ticks[self.next_k]
                 self._handle(tick)  # still filed while it runs: it says who is alive at the end of step k-1
@@ -175,24 +177,13 @@ class Broker:
 
     # --- realtime deliveries ---------------------------------------------------------------------------------
 
-    def due(self) -> float | None:
-        """When the next reception is due on the wall clock; None in lockstep or if it cannot be decided yet."""
-        clock = self.clock
-        if clock is None or clock.wall is None or clock.final:
-            return None
-        arrival = self.core.channel.next_arrival()
-        if arrival is None or arrival + ARRIVAL_SLACK >= (self.submitted + 1) * self.dt:
-            return None  # step submitted+1's transmissions may still spoil it
-        return clock.wall_of(arrival)
-
-    def on_time(self) -> None:
-        """Hand out every reception due by now (never past what the submitted transmissions decide)."""
+    def _release(self) -> None:
+        """Hand out, ahead of their arrival, every reception the submitted transmissions decide: arrivals up to the
+        next step's instant (step submitted+1's packets, not in yet, could spoil any later one)."""
         clock = self.clock
         assert clock is not None and clock.wall is not None
-        now = clock.t + (time.time() - clock.wall) * clock.speed
-        horizon = min(now, (self.submitted + 1) * self.dt - 2 * ARRIVAL_SLACK)
         alive = clock.alive if clock.alive is not None else self.vehicles
-        batches, delivered = self.core.deliver(horizon, alive)
+        batches, delivered = self.core.deliver((self.submitted + 1) * self.dt - 2 * ARRIVAL_SLACK, alive)
         self.unpublished += delivered
         self._publish_live(clock, batches)
 
@@ -216,30 +207,19 @@ class Broker:
             self.unpublished = []
 
 
-class _Handler:
-    """The broker as comms.bus.serve drives it: messages in, and timed work for realtime deliveries."""
-
-    def __init__(self, broker: Broker) -> None:
-        self.broker = broker
-
-    def __call__(self, key: str, payload: bytes) -> None:
-        self.broker.take(key, payload)
-        self.broker.advance()
-
-    def due(self) -> float | None:
-        return self.broker.due()
-
-    def on_time(self) -> None:
-        self.broker.on_time()
-
-
 def run_broker(
     core: BrokerCore, vehicles: Sequence[int], dt: float, connect: Sequence[str], start_step: int = 0
 ) -> int:
     """Serve the channel from step start_step until the stop message or the supervisor's disappearance."""
 
-    def handler(publishers: Publishers) -> Timed:
-        return _Handler(Broker(core, vehicles, publishers, dt, start_step))
+    def handler(publishers: Publishers) -> Handler:
+        broker = Broker(core, vehicles, publishers, dt, start_step)
+
+        def handle(key: str, payload: bytes) -> None:
+            broker.take(key, payload)
+            broker.advance()
+
+        return handle
 
     keys = (TICK_KEY, f"{ROOT}/vehicle/*/state")
     return serve("comms", connect, keys, COMMS_ALIVE, handler)

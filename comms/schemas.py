@@ -65,7 +65,7 @@ STATE = _object(
         "lyapunov": NUMBER,
         "tx_seq": INTEGER,
         "estimate_age": {"type": "array", "items": _vector(2)},
-        "rx_lateness": _vector(),  # realtime: how late (s, wall clock) each reception taken in here was delivered
+        "rx_lateness": _vector(),  # realtime: s (wall clock) from each reception's arrival to its coming (< 0: ahead)
     },
     optional=("rx_lateness",),
 )

@@ -429,7 +429,7 @@ def test_a_silent_modem_is_dropped_on_each_of_its_links(fleet):
         assert (book["sent"], book["delivered"], book["dropped"]) == (1, 0, {"modem_silent": 1})
 
 
-# --- realtime: each reception handed out when its arrival comes on the wall clock ----------------------------------
+# --- realtime: each reception handed out as soon as it is decided, stamped with its arrival on the wall clock -----
 
 
 PAPER_LINKS = {(1, 2), (2, 1), (1, 3), (3, 1)}
@@ -446,18 +446,13 @@ def live_deliveries(pubs: RecordingPublishers) -> list[Message]:
     return [m for key, m in pubs.messages if key.endswith("/rx")]
 
 
-def test_realtime_receptions_are_due_at_their_arrival_on_the_wall_clock(fleet):
+def test_realtime_receptions_go_out_once_decided_ahead_of_their_arrival_and_say_when_it_is(fleet):
     broker, pubs = pure_broker()
-    start = time.time() - 100.0  # t = 0 was long ago: every arrival is due now
+    start = time.time() + 100.0  # t = 0 is still to come: by the wall clock nothing has arrived yet
     realtime_tick(broker, 0, start)
-    assert broker.due() is None  # nothing in flight
     report(broker, fleet, 0, seq=1)
     broker.advance()
     assert broker.submitted == 0  # in the water at once, without waiting for tick 1
-    first = broker.core.channel.next_arrival()
-    assert first is not None and 0.0 < first < DT
-    assert broker.due() == pytest.approx(start + first)
-    broker.on_time()
     deliveries = [(key, m) for key, m in pubs.messages if key.endswith("/rx")]
     heard = {m["vehicle"]: sorted(r["sender"] for r in m["receptions"]) for _, m in deliveries}
     assert heard == {1: [2, 3], 2: [1], 3: [1]}
@@ -465,29 +460,30 @@ def test_realtime_receptions_are_due_at_their_arrival_on_the_wall_clock(fleet):
         assert_valid(message, key)
         assert message["k"] == 1  # taken in at the first sync instant after arrival
         for r in message["receptions"]:
+            assert 0.0 < r["arrival"] < DT
             assert r["due"] == pytest.approx(start + r["arrival"], abs=1e-6)
-    assert broker.due() is None  # everything delivered
     pubs.messages.clear()
     realtime_tick(broker, 1, start)  # nothing left to hand out at the tick; the step's events go out with it
-    assert not [m for key, m in pubs.messages if key.endswith("/rx")]
+    assert not live_deliveries(pubs)
+    steps = [m for key, m in pubs.messages if key == COMMS_STEP_KEY and m["k"] == 1]
+    assert len(steps) == 1 and all(parse_batches(steps[0], v)[1] == rx_message(v, 1, DT, []) for v in IDS)
     assert link_events(pubs) == delivered(PAPER_LINKS, 1)
 
 
 def test_realtime_holds_a_reception_until_no_later_transmission_can_spoil_it(fleet):
-    broker, _ = pure_broker(overrides=("comms.preamble=0.15",))  # every packet arrives after t_1
-    start = time.time() - 100.0
+    broker, pubs = pure_broker(overrides=("comms.preamble=0.15",))  # every packet arrives after t_1
+    start = time.time() - 100.0  # long ago: by the wall clock every arrival is past
     realtime_tick(broker, 0, start)
     report(broker, fleet, 0, seq=1)
     broker.advance()
-    first = broker.core.channel.next_arrival()
-    assert first is not None and DT < first < 2 * DT
-    assert broker.due() is None  # step 1's transmissions, not in yet, could still collide with it
+    assert broker.submitted == 0 and live_deliveries(pubs) == []  # step 1's packets could still collide with them
     realtime_tick(broker, 1, start)
-    assert broker.due() is None
-    report(broker, fleet, 1)
+    assert live_deliveries(pubs) == []
+    report(broker, fleet, 1)  # no transmission at step 1: step 0's packets are decided
     broker.advance()
-    assert broker.submitted == 1
-    assert broker.due() == pytest.approx(start + first)
+    out = live_deliveries(pubs)
+    assert {m["vehicle"]: sorted(r["sender"] for r in m["receptions"]) for m in out} == {1: [2, 3], 2: [1], 3: [1]}
+    assert all(m["k"] == 2 and all(DT < r["arrival"] < 2 * DT for r in m["receptions"]) for m in out)
 
 
 def test_a_vehicle_killed_after_reporting_its_step_never_transmits_it(fleet):
@@ -500,29 +496,6 @@ def test_a_vehicle_killed_after_reporting_its_step_never_transmits_it(fleet):
     assert link_events(pubs) == delivered({(1, 2), (2, 1)}, 1)  # as the in-process engine: its modem never sent
 
 
-def test_realtime_never_hands_out_a_reception_a_later_transmission_could_still_spoil(fleet):
-    broker, pubs = pure_broker(overrides=("comms.preamble=0.15",))  # every packet arrives after t_1
-    realtime_tick(broker, 0, time.time() - 100.0)  # long ago: by the wall clock everything is due
-    report(broker, fleet, 0, seq=1)
-    broker.advance()
-    broker.on_time()
-    assert live_deliveries(pubs) == []  # step 1's packets are not in yet
-
-
-def test_realtime_receptions_due_before_the_tick_that_finds_them_go_out_with_it_as_deliveries(fleet):
-    broker, pubs = pure_broker()
-    start = time.time() - 100.0
-    realtime_tick(broker, 0, start)
-    report(broker, fleet, 0, seq=1)
-    broker.advance()  # in the water; nobody woke the broker to hand them out (no on_time)
-    realtime_tick(broker, 1, start)
-    late = live_deliveries(pubs)
-    assert {m["vehicle"]: sorted(r["sender"] for r in m["receptions"]) for m in late} == {1: [2, 3], 2: [1], 3: [1]}
-    assert all(m["k"] == 1 and all("due" in r for r in m["receptions"]) for m in late)
-    steps = [m for key, m in pubs.messages if key == COMMS_STEP_KEY and m["k"] == 1]
-    assert len(steps) == 1 and all(parse_batches(steps[0], v)[1] == rx_message(v, 1, DT, []) for v in IDS)
-
-
 def test_realtime_waits_for_the_next_tick_before_sending_a_step_whose_end_kills_a_vehicle(fleet):
     broker, pubs = pure_broker()
     start = time.time() - 100.0
@@ -532,6 +505,5 @@ def test_realtime_waits_for_the_next_tick_before_sending_a_step_whose_end_kills_
     assert broker.submitted == -1  # held: only tick 1 says who survived step 0
     realtime_tick(broker, 1, start, alive=[1, 2])
     assert broker.submitted == 0
-    broker.on_time()
     realtime_tick(broker, 2, start, alive=[1, 2])
     assert link_events(pubs) == delivered({(1, 2), (2, 1)}, 1)  # as lockstep and the in-process engine

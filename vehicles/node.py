@@ -3,10 +3,10 @@
 Per sync step k it needs the supervisor's tick (time, faults acting on it) and, in lockstep, its reception batch for
 k: both come in the one batches message the broker publishes for the whole fleet at each step (the supervisor
 publishes it while the broker is down). It runs node_step, then publishes one step message: its state, the
-transmission it made (if any) and the receptions it took in. In realtime the broker delivers each reception at its
-arrival time on the wall clock; the vehicle takes in at tick k whatever has arrived and reports how late each
-delivery was. comms.bus.serve runs its life: it stops on the stop message, or by itself when the supervisor's
-liveliness token disappears (no orphans).
+transmission it made (if any) and the receptions it took in. In realtime the broker sends each reception as soon
+as the channel has decided it, usually ahead of its arrival: the vehicle holds it until the step its arrival calls
+for, and reports how late each one reached it against its arrival (negative: how far ahead). comms.bus.serve runs
+its life: it stops on the stop message, or by itself when the supervisor's liveliness token disappears (no orphans).
 """
 
 from __future__ import annotations
@@ -16,7 +16,8 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
-from comms.bus import Handler, Publishers, serve
+from comms.bus import Publishers, Timed, serve
+from comms.channel import intake_step
 from comms.messages import (
     COMMS_STEP_KEY,
     Message,
@@ -37,13 +38,24 @@ from vehicles.runtime import Heard, NodeState, Radio, node_step
 log = logging.getLogger(__name__)
 
 
+@dataclass(frozen=True, slots=True)
+class _Live:
+    """A realtime reception as it reached the vehicle: taken in at `step`; `late` s after its arrival (wall clock;
+    negative: it came ahead and was held)."""
+
+    step: int
+    heard: Heard
+    item: Message
+    late: float
+
+
 @dataclass
 class _Pending:
     """Ticks and receptions that arrived ahead of the step that needs them."""
 
     ticks: dict[int, Tick] = field(default_factory=dict)
     batches: dict[int, tuple[list[Heard], Message | None]] = field(default_factory=dict)  # by step
-    live: list[tuple[Heard, Message, float]] = field(default_factory=list)  # realtime: (heard, item, s late)
+    live: list[_Live] = field(default_factory=list)  # realtime: receptions held until their step
     malformed: int = 0
 
     def ready(self, k: int) -> bool:
@@ -54,9 +66,10 @@ class _Pending:
         heard, batch = self.batches.pop(tick.k)
         if tick.wall is None:
             return heard, batch, []
-        live, self.live = self.live, []  # realtime: whatever reached the vehicle by now
-        batch = {"t": tick.t, "k": tick.k, "vehicle": vid, "receptions": [item for _, item, _ in live]}
-        return [h for h, _, _ in live], batch if tick.comms else None, [late for _, _, late in live]
+        live = [r for r in self.live if r.step <= tick.k]  # realtime: what has arrived by this step's instant
+        self.live = [r for r in self.live if r.step > tick.k]
+        batch = {"t": tick.t, "k": tick.k, "vehicle": vid, "receptions": [r.item for r in live]}
+        return [r.heard for r in live], batch if tick.comms else None, [r.late for r in live]
 
 
 def run_vehicle(
@@ -72,23 +85,52 @@ def run_vehicle(
     supervisor disappears; returns the exit code. neighbours: the scenario's, until a tick says otherwise."""
     vid = cfg.vehicle_id
 
-    def handler(publishers: Publishers) -> Handler:
-        node, pending, k = initial, _Pending(), start_step
-
-        def handle(key: str, payload: bytes) -> None:
-            nonlocal node, k
-            _take(key, payload, vid, pending)
-            while pending.ready(k):
-                tick = pending.ticks.pop(k)
-                node = _step(cfg, radio, node, tick, pending.receptions(tick, vid), neighbours, dt, publishers)
-                k += 1
-
-        return handle
+    def handler(publishers: Publishers) -> Timed:
+        return _Vehicle(cfg, radio, initial, neighbours, dt, publishers, start_step)
 
     return serve(f"vehicle {vid}", connect, (COMMS_STEP_KEY, rx_key(vid)), vehicle_alive_key(vid), handler)
 
 
-def _take(key: str, payload: bytes, vid: int, pending: _Pending) -> None:
+class _Vehicle:
+    """The vehicle as comms.bus.serve drives it: it steps once it has the tick of its next step and, in realtime,
+    once that step's wall-clock time has come (ticks go out ahead, so the bus's latency is not in the step's)."""
+
+    def __init__(
+        self,
+        cfg: VehicleConfig,
+        radio: Radio,
+        node: NodeState,
+        neighbours: Sequence[int],
+        dt: float,
+        publishers: Publishers,
+        k: int,
+    ) -> None:
+        self.cfg, self.radio, self.node, self.neighbours, self.dt = cfg, radio, node, neighbours, dt
+        self.publishers, self.k, self.pending = publishers, k, _Pending()
+
+    def __call__(self, key: str, payload: bytes) -> None:
+        _take(key, payload, self.cfg.vehicle_id, self.pending, self.dt)
+        self.on_time()
+
+    def due(self) -> float | None:
+        tick = self.pending.ticks.get(self.k)
+        return tick.wall if tick is not None else None
+
+    def on_time(self) -> None:
+        """Run every step whose tick is in and whose time has come."""
+        while self.pending.ready(self.k):
+            wall = self.pending.ticks[self.k].wall
+            if wall is not None and wall > time.time():
+                return
+            tick = self.pending.ticks.pop(self.k)
+            receptions = self.pending.receptions(tick, self.cfg.vehicle_id)
+            self.node = _step(
+                self.cfg, self.radio, self.node, tick, receptions, self.neighbours, self.dt, self.publishers
+            )
+            self.k += 1
+
+
+def _take(key: str, payload: bytes, vid: int, pending: _Pending, dt: float) -> None:
     """File an incoming message by step; a malformed one is counted and dropped."""
     try:
         message = decode(payload)
@@ -98,21 +140,21 @@ def _take(key: str, payload: bytes, vid: int, pending: _Pending) -> None:
                 pending.ticks[tick.k] = tick
                 pending.batches[tick.k] = ([] if batch is None else parse_rx(batch)[1], batch)
         elif key == rx_key(vid):
-            _file_rx(message, pending)
+            _file_rx(message, pending, dt)
     except ValueError as exc:
         pending.malformed += 1
         log.warning("vehicle %d: dropped a malformed message on %s: %s", vid, key, exc)
 
 
-def _file_rx(message: Message, pending: _Pending) -> None:
-    """Realtime deliveries, as they come, with how late each reached the vehicle."""
+def _file_rx(message: Message, pending: _Pending, dt: float) -> None:
+    """Realtime deliveries, as they come (usually ahead of their arrival), with how late each reached the vehicle."""
     now = time.time()
     _, heard = parse_rx(message)
     for h, item in zip(heard, message["receptions"], strict=True):
-        due = item.get("due")
-        if not isinstance(due, int | float) or isinstance(due, bool):
-            raise ValueError("a realtime delivery without a numeric 'due'")
-        pending.live.append((h, item, now - due))
+        due, arrival = item.get("due"), item.get("arrival")
+        if not all(isinstance(x, int | float) and not isinstance(x, bool) for x in (due, arrival)):
+            raise ValueError("a realtime delivery without a numeric 'due' and 'arrival'")
+        pending.live.append(_Live(intake_step(arrival, dt), h, item, now - due))
 
 
 def _step(
