@@ -4,9 +4,12 @@
 2. realtime: the paper scenario on the realtime clock at --speed 1: delivery lateness p50 / p99 against the
    channel's computed arrival times;
 3. scaling: N = --sizes vehicles on a ring graph, both engines: real-time factor, wall time per sync step, CPU time
-   and resident memory per vehicle process.
-Each part is also a module of its own (benchmarks.bench_engines, bench_scaling, bench_realtime). Results go to
-benchmarks/results/*.json; the targets are printed next to the numbers. Speed is checked here, never in tests.
+   and resident memory per vehicle process;
+4. bus floor: the Zenoh engine's message pattern with no work in it, for 3 and 50 vehicles: what the
+   process-per-vehicle architecture costs per step before any of our code runs.
+Each part is also a module of its own (benchmarks.bench_engines, bench_scaling, bench_realtime, bench_bus_floor).
+Results go to benchmarks/results/*.json; the targets are printed next to the numbers. Speed is checked here, never
+in tests.
 """
 
 from __future__ import annotations
@@ -15,7 +18,7 @@ import argparse
 import json
 from pathlib import Path
 
-from benchmarks import bench_engines, bench_realtime, bench_scaling
+from benchmarks import bench_bus_floor, bench_engines, bench_realtime, bench_scaling
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "benchmarks" / "results"
@@ -41,8 +44,12 @@ def main() -> None:
         scaling.append(bench_scaling.measure(n, args.scaling_duration))
         print(bench_scaling.summary(scaling[-1]), flush=True)
 
+    floor = [bench_bus_floor.measure_row(n, 2000) for n in (3, 50)]
+    for row in floor:
+        print(bench_bus_floor.summary(row), flush=True)
+
     RESULTS.mkdir(parents=True, exist_ok=True)
-    everything = {"engines": engines, "scaling": scaling, "realtime": realtime}
+    everything = {"engines": engines, "scaling": scaling, "realtime": realtime, "bus_floor": floor}
     (RESULTS / "all.json").write_text(json.dumps(everything, indent=2))
     print(f"written: {RESULTS / 'all.json'}")
 

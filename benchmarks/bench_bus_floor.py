@@ -1,0 +1,161 @@
+"""The floor the bus sets: `.venv/bin/python -m benchmarks.bench_bus_floor [--sizes 3,50] [--steps 2000]`.
+
+The Zenoh engine's message pattern with no work in it, to tell the cost of the process-per-vehicle architecture
+from the cost of our code. A router (in this process, which also takes in and decodes every message, as the
+supervisor does), a broker process and N vehicle processes on comms.bus, as the real ones: per step the supervisor
+publishes a tick, the broker waits for the tick and every vehicle's step message of the step before and publishes
+one batches message (each vehicle's part packed on its own), each vehicle waits for it and publishes a step message
+of the real size. No dynamics, no channel, no recording. Prints wall time per step; if the bus alone needs more than
+1.5x the in-process engine's whole step, the issue-7 ratio cannot be met with this architecture.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import msgpack
+
+from comms.bus import Handler, Inbox, Publishers, Received, free_port, open_session, serve
+from comms.messages import ALIVE_PREFIX, STOP_KEY, SUPERVISOR_ALIVE, decode
+
+RESULTS = Path(__file__).resolve().parent / "results"
+ROOT_KEY = "floor"
+TICK, STEP = f"{ROOT_KEY}/tick", f"{ROOT_KEY}/comms/step"
+STATE_FLOATS = 40  # about what a vehicle's state message carries (position, rotation, velocities, errors, ...)
+
+
+def state_key(vid: int) -> str:
+    return f"{ROOT_KEY}/vehicle/{vid}/state"
+
+
+def vehicle_handler(vid: int) -> Callable[[Publishers], Handler]:
+    def make(publishers: Publishers) -> Handler:
+        def handle(key: str, payload: bytes) -> None:
+            message = decode(payload)
+            mine = msgpack.unpackb(message["rx"][vid]) if vid in message["rx"] else []
+            state = {"k": message["k"], "vehicle": vid, "heard": len(mine)}
+            state.update({f"x{i}": 0.1 * i + message["k"] for i in range(STATE_FLOATS)})
+            publishers.put(state_key(vid), state)
+
+        return handle
+
+    return make
+
+
+def broker_handler(n: int) -> Callable[[Publishers], Handler]:
+    def make(publishers: Publishers) -> Handler:
+        ticks: set[int] = set()
+        states: dict[int, int] = {}
+        next_k = 0
+
+        def handle(key: str, payload: bytes) -> None:
+            nonlocal next_k
+            message = decode(payload)
+            if key == TICK:
+                ticks.add(message["k"])
+            else:
+                states[message["k"]] = states.get(message["k"], 0) + 1
+            while next_k in ticks and (next_k == 0 or states.get(next_k - 1) == n):
+                reception = {"sender": 1, "seq": next_k, "stamp": 0.1, "arrival": 0.2, "gamma": 1.0, "gamma_dot": 1.0}
+                rx = {v: msgpack.packb([reception, reception]) for v in range(1, n + 1)}
+                publishers.put(STEP, {"t": next_k * 0.1, "k": next_k, "tick": {"k": next_k}, "rx": rx})
+                ticks.discard(next_k)
+                states.pop(next_k - 1, None)
+                next_k += 1
+
+        return handle
+
+    return make
+
+
+def child(argv: list[str]) -> int:
+    role, connect, n = argv[0], [argv[1]], int(argv[2])
+    if role == "broker":
+        keys = (TICK, f"{ROOT_KEY}/vehicle/*/state")
+        return serve("floor broker", connect, keys, f"{ALIVE_PREFIX}/comms", broker_handler(n))
+    vid = int(role)
+    return serve(f"floor vehicle {vid}", connect, (STEP,), f"{ALIVE_PREFIX}/vehicle/{vid}", vehicle_handler(vid))
+
+
+def measure(n: int, steps: int) -> float:
+    """Wall time per step (s) of the bare pattern with n vehicles."""
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    with open_session("router", listen=[endpoint]) as session:
+        inbox = Inbox()
+        for key in (f"{ROOT_KEY}/vehicle/*/state", STEP):
+            inbox.subscribe(session, key)
+        inbox.watch_liveliness(session, f"{ALIVE_PREFIX}/**")
+        token = session.liveliness().declare_token(SUPERVISOR_ALIVE)
+        pubs = Publishers(session)
+        me = [sys.executable, "-m", "benchmarks.bench_bus_floor", "--child"]
+        procs = [subprocess.Popen([*me, role, endpoint, str(n)], stderr=subprocess.DEVNULL, start_new_session=True)
+                 for role in ["broker", *map(str, range(1, n + 1))]]  # fmt: skip
+        try:
+            present: set[str] = set()
+            while len(present) < n + 1:  # readiness: every child's liveliness token
+                item = inbox.get(60.0)
+                if item is None:
+                    raise TimeoutError("children did not come up")
+                if isinstance(item, str) and item.startswith("+") and item != f"+{SUPERVISOR_ALIVE}":
+                    present.add(item)
+            started = time.perf_counter()
+            pubs.put(TICK, {"k": 0})
+            done: dict[int, int] = {}
+            for k in range(steps):
+                pubs.put(TICK, {"k": k + 1})  # one step ahead, as the lockstep clock
+                while done.get(k, 0) < n:
+                    item = inbox.get(60.0)
+                    if item is None:
+                        raise TimeoutError(f"step {k} did not complete")
+                    if isinstance(item, Received):
+                        message = decode(item.payload)  # the supervisor decodes everything it records
+                        if item.key != STEP:
+                            done[message["k"]] = done.get(message["k"], 0) + 1
+            return (time.perf_counter() - started) / steps
+        finally:
+            pubs.put(STOP_KEY, {"reason": "done"})
+            token.undeclare()
+            for proc in procs:
+                try:
+                    proc.wait(timeout=5)
+                except subprocess.TimeoutExpired:
+                    proc.kill()
+                    proc.wait()
+
+
+def main() -> None:
+    if len(sys.argv) > 1 and sys.argv[1] == "--child":
+        sys.exit(child(sys.argv[2:]))
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--sizes", default="3,50", help="fleet sizes, comma-separated")
+    parser.add_argument("--steps", type=int, default=2000, help="sync steps per size")
+    args = parser.parse_args()
+    rows = [measure_row(int(n), args.steps) for n in args.sizes.split(",")]
+    for row in rows:
+        print(summary(row), flush=True)
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    (RESULTS / "bus_floor.json").write_text(json.dumps(rows, indent=2))
+
+
+def measure_row(n: int, steps: int) -> dict[str, Any]:
+    steps = steps if n <= 10 else max(200, steps // 10)  # a large fleet: fewer steps, the same precision
+    per_step = measure(n, steps)
+    return {"vehicles": n, "steps": steps, "ms_per_step": per_step * 1e3, "realtime_factor_at_0.1s": 0.1 / per_step}
+
+
+def summary(row: dict[str, Any]) -> str:
+    return (
+        f"N={row['vehicles']:3d}  bare bus pattern: {row['ms_per_step']:6.2f} ms per sync step "
+        f"({row['realtime_factor_at_0.1s']:6.1f}x real time at a 0.1 s step)"
+    )
+
+
+if __name__ == "__main__":
+    main()

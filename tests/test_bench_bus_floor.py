@@ -1,0 +1,12 @@
+"""The bus-floor benchmark runs its bare message pattern to the end and leaves no process behind (no timing here)."""
+
+from __future__ import annotations
+
+from benchmarks.bench_bus_floor import measure_row
+from tests.procs import processes_with
+
+
+def test_the_bare_bus_pattern_completes_every_step_and_stops_its_children() -> None:
+    row = measure_row(3, 20)
+    assert row["steps"] == 20 and row["ms_per_step"] > 0.0
+    assert processes_with("benchmarks.bench_bus_floor --child") == []
