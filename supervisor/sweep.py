@@ -87,11 +87,11 @@ def run_one(scenario_path: str, spec: RunSpec, runs_dir: str, engine: str) -> di
     from supervisor.scenario import load_scenario
     from supervisor.summary import summarize
 
-    scenario = load_scenario(Path(scenario_path), [_override(k, v) for k, v in spec.settings])
-    text = Path(scenario_path).read_text(encoding="utf-8")
+    overrides = tuple(_override(k, v) for k, v in spec.settings)
+    scenario = load_scenario(Path(scenario_path), overrides)
     quiet = Progress(scenario.scenario.duration, io.StringIO(), enabled=False)
     with tempfile.TemporaryDirectory(prefix="cpf-sweep-") as tmp:
-        result = _run(engine, scenario, Path(scenario_path), text, Path(tmp) / "run.mcap", spec.seed, quiet)
+        result = _run(engine, scenario, Path(scenario_path), overrides, Path(tmp) / "run.mcap", spec.seed, quiet)
     rep = scenario.report
     tube = abs(scenario.path_following.delta) + rep.tube_margin
     summary = summarize(
@@ -102,11 +102,13 @@ def run_one(scenario_path: str, spec: RunSpec, runs_dir: str, engine: str) -> di
     return row
 
 
-def _run(engine: str, scenario: Any, path: Path, text: str, out: Path, seed: int, quiet: Any) -> Any:
+def _run(engine: str, scenario: Any, path: Path, overrides: tuple[str, ...], out: Path, seed: int, quiet: Any) -> Any:
+    """The run on either engine; the Zenoh engine's processes load the scenario file themselves, with overrides."""
+    text = path.read_text(encoding="utf-8")
     if engine == "zenoh":
         from supervisor.cosim import BusOptions, run_zenoh
 
-        return run_zenoh(scenario, path, text, out, seed, "lockstep", 1.0, BusOptions(), quiet)
+        return run_zenoh(scenario, path, text, out, seed, "lockstep", 1.0, BusOptions(overrides=overrides), quiet)
     from supervisor.inprocess import run_inprocess
 
     return run_inprocess(scenario, str(path), text, out, seed, quiet)

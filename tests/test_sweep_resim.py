@@ -67,6 +67,19 @@ def test_a_sweep_writes_every_run_and_resumes_without_redoing(tmp_path, paper_te
     assert read_rows(tmp_path / "sw/results.csv") == rows  # and it came out the same
 
 
+def test_a_sweep_over_zenoh_gives_the_results_of_the_in_process_engine(tmp_path, paper_text):
+    scenario = tmp_path / "s.toml"
+    scenario.write_text(shortened(paper_text, 10.0))
+    rows = {}
+    for engine in ("zenoh", "inprocess"):
+        args = ["sweep", str(scenario), "--param", "comms.loss=0,0.5", "--seeds", "1", "--jobs", "2"]
+        done = cpf(*args, "--engine", engine, "--out", engine, cwd=tmp_path)
+        assert done.returncode == 0, done.stderr
+        rows[engine] = read_rows(tmp_path / engine / "results.csv")
+    assert len(rows["zenoh"]) == 2 and rows["zenoh"] == rows["inprocess"]
+    assert int(rows["zenoh"][1]["dropped"]) > 0
+
+
 def test_a_bad_sweep_parameter_fails_before_running_anything(tmp_path, paper_text):
     scenario = tmp_path / "s.toml"
     scenario.write_text(paper_text)
