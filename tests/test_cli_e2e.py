@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 from pathlib import Path
@@ -52,3 +53,21 @@ def test_report_of_a_missing_log_is_a_one_line_error(tmp_path):
     done = cpf("report", "nope.mcap", cwd=tmp_path)
     assert done.returncode == 2
     assert done.stderr.strip().splitlines() == ["cpf: error: nope.mcap: no such log file"]
+
+
+def test_run_metrics_json_says_what_the_printed_summary_says(tmp_path, paper_text):
+    scenario = tmp_path / "short.toml"
+    scenario.write_text(shortened(paper_text, 60.0) + "\n[comms]\nloss = 0.3\n")
+    args = ["run", str(scenario), "--engine", "inprocess", "--out", "m.mcap", "--metrics", "out/m.json", "--quiet"]
+    done = cpf(*args, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    metrics = json.loads((tmp_path / "out/m.json").read_text())
+    assert set(metrics) == {"coordination", "comms", "links"}
+    coordination = metrics["coordination"]
+    assert [p["name"] for p in coordination["phases"]] == ["whole run"]
+    assert f"max {coordination['max_path_error_after_transient']:.3f} m" in done.stdout
+    links = metrics["links"]
+    assert links["sent"] == links["delivered"] + links["dropped"] and links["dropped"] > 0
+    rows = metrics["comms"]["links"]
+    assert {(r["sender"], r["receiver"]) for r in rows} == {(1, 2), (2, 1), (1, 3), (3, 1)}
+    assert sum(r["sent"] for r in rows) == links["sent"]
