@@ -58,6 +58,7 @@ from supervisor.metadata import graph_message, run_meta
 from supervisor.processes import ProcessGroup
 from supervisor.progress import Progress
 from supervisor.recorder import Recorder
+from supervisor.scenario import load_scenario
 from supervisor.scenario_schema import Scenario
 from supervisor.series import SeriesBuilder
 from vehicles.agent import Disturbances
@@ -307,6 +308,8 @@ def run_zenoh(
     progress: Progress,
 ) -> RunResult:
     """Run the scenario over Zenoh with one process per vehicle and a broker; record everything to out."""
+    if load_scenario(scenario_path, bus.overrides, bus.faults) != scenario:  # what every child process will load
+        raise ValueError(f"run_zenoh: the scenario is not {scenario_path} with bus.overrides and bus.faults")
     endpoint = bus.listen or f"tcp/127.0.0.1:{free_port()}"
     mode, listen, connect = ("client", [], [bus.connect]) if bus.connect else ("router", [endpoint], [])
     steps = round(scenario.scenario.duration / scenario.scenario.step)

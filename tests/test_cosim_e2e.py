@@ -6,6 +6,7 @@ MCAP, and no process of ours left behind, whatever happens.
 
 from __future__ import annotations
 
+import io
 import re
 import signal
 import subprocess
@@ -17,8 +18,11 @@ import pytest
 from mcap.reader import make_reader
 
 from comms.channel import intake_step
+from supervisor.cosim import BusOptions, run_zenoh
+from supervisor.progress import Progress
 from supervisor.recorder import read_messages
-from tests.conftest import shortened
+from supervisor.scenario import load_scenario
+from tests.conftest import CONFIGS, shortened
 from tests.procs import cpf, kill_vehicle_process, processes_with, start_cpf, wait_for_progress
 
 pytestmark = pytest.mark.e2e
@@ -197,3 +201,13 @@ def test_a_vehicle_started_by_hand_joins_the_run(tmp_path, paper_text):
         by_hand.kill()
     assert len([key for key in states(tmp_path / "run.mcap") if key[0] == 3]) == 50
     assert processes_with(str(scenario)) == []
+
+
+def test_run_zenoh_refuses_a_scenario_its_processes_would_not_load(tmp_path):
+    """The children load the scenario file with bus.overrides: a scenario changed any other way is refused."""
+    path = CONFIGS / "paper.toml"
+    changed = load_scenario(path, ("comms.loss=0.5",))
+    quiet = Progress(1.0, io.StringIO(), enabled=False)
+    with pytest.raises(ValueError, match=r"bus\.overrides"):
+        run_zenoh(changed, path, path.read_text(), tmp_path / "x.mcap", 0, "lockstep", 1.0, BusOptions(), quiet)
+    assert not (tmp_path / "x.mcap").exists()
