@@ -66,8 +66,9 @@ STATE = _object(
         "tx_seq": INTEGER,
         "estimate_age": {"type": "array", "items": _vector(2)},
         "rx_lateness": _vector(),  # realtime: s (wall clock) from each reception's arrival to its coming (< 0: ahead)
+        "step_lateness": NUMBER,  # realtime: s (wall clock) from t_k to the vehicle's starting its step
     },
-    optional=("rx_lateness",),
+    optional=("rx_lateness", "step_lateness"),
 )
 TRANSMISSION = _object(
     "cpf.Transmission",

@@ -109,6 +109,8 @@ def test_realtime_clock_paces_the_run_delivers_at_arrival_and_changes_nothing_el
     real_states = states(tmp_path / "rt.mcap")
     lateness = [late for m in real_states.values() for late in m.pop("rx_lateness")]
     assert len(lateness) == len(heard)
+    began = [m.pop("step_lateness") for m in real_states.values()]
+    assert min(began) >= 0.0  # a tick goes out ahead, but no vehicle begins a step before its time
     in_time = [m for m in events(tmp_path / "rt.mcap", "delivered") if m["t"] <= 3.9 + 1e-9]  # a step took it in
     delivered = {(m["sender"], m["receiver"], m["seq"]) for m in in_time}
     assert {(r["sender"], int(topic.split("/")[2]), r["seq"]) for topic, m in rx for r in m["receptions"]} == delivered

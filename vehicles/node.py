@@ -171,10 +171,12 @@ def _step(
     heard, batch, lateness = receptions
     dist = tick.disturbed.get(vid, Disturbances())
     current = tick.network.neighbours(vid) if tick.network is not None else neighbours
+    started = time.time()
     node, out = node_step(cfg, radio, node, tick.t, dt, heard, current, dist)
     tx = out.transmission
     state = state_message(out.telemetry, cfg.model, tick.k, tx.seq if tx else 0, out.estimate_ages)
     if tick.wall is not None:
         state["rx_lateness"] = lateness
+        state["step_lateness"] = started - tick.wall  # how late the vehicle began its step of t_k
     publishers.put(state_key(vid), step_message(state, tx_message(tx) if tx else None, batch))
     return node
