@@ -375,6 +375,15 @@ def _rotation(message: Message) -> list[float]:
     return r
 
 
+MAX_TICK_LEAD = 0.02  # s of wall clock
+
+
+def tick_lead(dt: float, speed: float) -> float:
+    """How long (wall clock) before its time a realtime tick goes out: processes act on it at its time by their own
+    clocks, so the bus's latency is not in the step's. At most a quarter step, and MAX_TICK_LEAD."""
+    return min(MAX_TICK_LEAD, 0.25 * dt / speed)
+
+
 @dataclass(frozen=True, slots=True)
 class Tick:
     k: int

@@ -42,6 +42,7 @@ from comms.messages import (
     rx_key,
     split_step,
     state_key,
+    tick_lead,
     tick_message,
     tx_key,
     vehicle_alive_key,
@@ -65,8 +66,6 @@ from vehicles.agent import Disturbances
 
 START_TIMEOUT = 60.0  # s for a process to declare its liveliness token
 STEP_TIMEOUT = 60.0  # s for one sync step before the run is declared stuck
-TICK_LEAD = 0.02  # s of wall clock (at most a quarter step) a realtime tick goes out before its time: processes
-# act on it at its time by their own clocks, so the bus's latency is not in the step's
 POLL_CHILDREN = 0.1  # s between checks of the children's exits (liveliness usually reports a death first)
 
 
@@ -360,7 +359,7 @@ class _Clock:
         self.edges = run.sc.graph.edges
         self.usual = Network(tuple((a, b) for a, b in self.edges))  # the scenario's graph, no link faults
         self.wall_start, self.epoch_start = time.monotonic(), time.time()  # pacing; the wall clock processes share
-        self.lead = min(TICK_LEAD, 0.25 * run.dt / speed)
+        self.lead = tick_lead(run.dt, speed)
         self.issued: Message | None = None
         self.ahead = False  # the latest tick went out before every state of the step before it was in
 

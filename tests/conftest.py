@@ -7,6 +7,9 @@ from pathlib import Path
 
 import pytest
 
+from comms.bus import Publishers
+from comms.messages import Message
+
 ROOT = Path(__file__).resolve().parent.parent
 CONFIGS = ROOT / "configs"
 
@@ -19,3 +22,13 @@ def shortened(text: str, duration: float) -> str:
 @pytest.fixture
 def paper_text() -> str:
     return (CONFIGS / "paper.toml").read_text()
+
+
+class RecordingPublishers(Publishers):
+    """What a process would publish, kept in a list (no Zenoh session)."""
+
+    def __init__(self) -> None:
+        self.messages: list[tuple[str, Message]] = []
+
+    def put(self, key: str, message: Message) -> None:
+        self.messages.append((key, message))

@@ -46,6 +46,7 @@ from comms.messages import (
 from comms.network import Network
 from supervisor.fleet import broker_core
 from supervisor.scenario import load_scenario
+from tests.conftest import RecordingPublishers
 from tests.test_messages import assert_valid, first_step
 from vehicles.agent import Telemetry
 from vehicles.dynamics import Model
@@ -258,16 +259,6 @@ def test_broker_exits_by_itself_when_the_supervisor_disappears(tmp_path):
             session.close()
             assert exit_code(proc, log) == 0
     assert "the supervisor is gone" in log.read_text()
-
-
-class RecordingPublishers(Publishers):
-    """What the broker would publish, kept in a list (no Zenoh session)."""
-
-    def __init__(self) -> None:
-        self.messages: list[tuple[str, Message]] = []
-
-    def put(self, key: str, message: Message) -> None:
-        self.messages.append((key, message))
 
 
 def test_broker_survives_a_transmission_its_wire_frame_cannot_carry():

@@ -2,38 +2,50 @@
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
-from comms.bus import Publishers
+import pytest
+
 from comms.channel import Reception
 from comms.messages import (
     COMMS_STEP_KEY,
     Message,
     batches_message,
-    decode,
     encode,
     rx_key,
     rx_message,
     state_key,
+    tick_lead,
     tick_message,
 )
 from supervisor.fleet import initial_state, radio, vehicle_config
 from supervisor.scenario import load_scenario
+from tests.conftest import RecordingPublishers
+from vehicles import node as node_module
 from vehicles.node import _Vehicle
 from vehicles.runtime import NodeState
 
 REPO = Path(__file__).resolve().parent.parent
 DT = 0.1
 VID = 2
+LEAD = tick_lead(DT, 1.0)
 
 
-class RecordingPublishers(Publishers):
-    def __init__(self) -> None:
-        self.messages: list[tuple[str, Message]] = []
+class FakeClock:
+    """time.time() of the vehicle process, set by the test."""
 
-    def put(self, key: str, message: Message) -> None:
-        self.messages.append((key, decode(encode(message))))
+    def __init__(self, now: float) -> None:
+        self.now = now
+
+    def time(self) -> float:
+        return self.now
+
+
+@pytest.fixture
+def clock(monkeypatch: pytest.MonkeyPatch) -> FakeClock:
+    fake = FakeClock(1000.0)
+    monkeypatch.setattr(node_module, "time", fake)
+    return fake
 
 
 def vehicle() -> tuple[_Vehicle, RecordingPublishers]:
@@ -44,8 +56,8 @@ def vehicle() -> tuple[_Vehicle, RecordingPublishers]:
     return node, pubs
 
 
-def send_tick(node: _Vehicle, k: int, wall: float | None) -> None:
-    tick = tick_message(k, k * DT, False, wall=wall)
+def send_tick(node: _Vehicle, k: int, wall: float | None, comms: bool = True) -> None:
+    tick = tick_message(k, k * DT, False, comms=comms, wall=wall)
     node(COMMS_STEP_KEY, encode(batches_message(tick, {} if wall is not None else {VID: []})))
 
 
@@ -64,28 +76,49 @@ def test_lockstep_steps_as_soon_as_the_tick_is_in() -> None:
     assert node.due() is None
 
 
-def test_realtime_steps_at_the_ticks_time_not_when_it_comes() -> None:
+def test_realtime_steps_at_the_ticks_time_not_when_it_comes(clock: FakeClock) -> None:
     node, pubs = vehicle()
-    start = time.time() + 100.0  # t = 0 is 100 s away
-    send_tick(node, 0, start)
-    assert steps(pubs) == [] and node.due() == start
+    send_tick(node, 0, clock.now + 0.01)  # came 10 ms ahead
+    assert steps(pubs) == [] and node.due() == pytest.approx(clock.now + 0.01)
+    clock.now += 0.009
     node.on_time()
-    assert steps(pubs) == []  # still not its time
-    send_tick(node, 1, start - 200.0 + DT)  # a tick whose time has come waits for the step before it
-    assert steps(pubs) == []
+    assert steps(pubs) == []  # not its time yet
+    clock.now += 0.001
+    node.on_time()
+    assert [m["k"] for m in steps(pubs)] == [0] and steps(pubs)[0]["step_lateness"] == pytest.approx(0.0, abs=1e-9)
 
 
-def test_realtime_holds_a_reception_that_came_ahead_until_the_step_its_arrival_calls_for() -> None:
+def test_realtime_waits_no_longer_than_the_lead_when_its_clock_lags_the_supervisors(clock: FakeClock) -> None:
     node, pubs = vehicle()
-    start = time.time() - 10.0  # every step's time has come
-    ahead = time.time() + 50.0  # the broker stamped it due later than now: it came ahead
+    send_tick(node, 0, clock.now + 100.0)  # by this host's clock the tick is 100 s early: its clock lags
+    assert node.due() == pytest.approx(clock.now + LEAD)
+    clock.now += LEAD
+    node.on_time()
+    assert [m["k"] for m in steps(pubs)] == [0]
+
+
+def test_realtime_holds_a_reception_that_came_ahead_until_the_step_its_arrival_calls_for(clock: FakeClock) -> None:
+    node, pubs = vehicle()
+    ahead = clock.now + 50.0  # the broker stamped it due 50 s from now: it came ahead
     early = rx_message(VID, 2, 0.15, [reception(0.15)], lambda t: ahead)  # arrives between t_1 and t_2
     node(rx_key(VID), encode(early))
-    send_tick(node, 0, start)
-    send_tick(node, 1, start)
+    send_tick(node, 0, clock.now)
+    send_tick(node, 1, clock.now)
     assert [(m["k"], m["rx"]["receptions"]) for m in steps(pubs)] == [(0, []), (1, [])]  # held at k = 0 and 1
-    send_tick(node, 2, start)
+    send_tick(node, 2, clock.now)
     last = steps(pubs)[-1]
     assert last["rx"]["k"] == 2 and [r["sender"] for r in last["rx"]["receptions"]] == [1]
-    assert len(last["rx_lateness"]) == 1 and -50.0 < last["rx_lateness"][0] < -49.0  # how far ahead it came
+    assert last["rx_lateness"] == [pytest.approx(-50.0)]  # how far ahead it came
+    assert node.pending.live == []
+
+
+def test_realtime_takes_in_nothing_at_a_tick_the_broker_did_not_live_to(clock: FakeClock) -> None:
+    """A reception held for step 1, when the broker dies at tick 1: it never reported it delivered, and lockstep
+    would never hand it out."""
+    node, pubs = vehicle()
+    node(rx_key(VID), encode(rx_message(VID, 1, 0.05, [reception(0.05)], lambda t: clock.now)))
+    send_tick(node, 0, clock.now)
+    send_tick(node, 1, clock.now, comms=False)
+    last = steps(pubs)[-1]
+    assert last["k"] == 1 and last["rx"] is None and last["rx_lateness"] == []
     assert node.pending.live == []

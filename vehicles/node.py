@@ -29,6 +29,7 @@ from comms.messages import (
     state_key,
     state_message,
     step_message,
+    tick_lead,
     tx_message,
     vehicle_alive_key,
 )
@@ -54,6 +55,7 @@ class _Pending:
     """Ticks and receptions that arrived ahead of the step that needs them."""
 
     ticks: dict[int, Tick] = field(default_factory=dict)
+    start_at: dict[int, float] = field(default_factory=dict)  # realtime: when to begin each step (time.time())
     batches: dict[int, tuple[list[Heard], Message | None]] = field(default_factory=dict)  # by step
     live: list[_Live] = field(default_factory=list)  # realtime: receptions held until their step
     malformed: int = 0
@@ -68,8 +70,10 @@ class _Pending:
             return heard, batch, []
         live = [r for r in self.live if r.step <= tick.k]  # realtime: what has arrived by this step's instant
         self.live = [r for r in self.live if r.step > tick.k]
+        if not tick.comms:  # the broker died before it could report them delivered: lockstep never hands them out
+            return [], None, []
         batch = {"t": tick.t, "k": tick.k, "vehicle": vid, "receptions": [r.item for r in live]}
-        return [r.heard for r in live], batch if tick.comms else None, [r.late for r in live]
+        return [r.heard for r in live], batch, [r.late for r in live]
 
 
 def run_vehicle(
@@ -93,7 +97,8 @@ def run_vehicle(
 
 class _Vehicle:
     """The vehicle as comms.bus.serve drives it: it steps once it has the tick of its next step and, in realtime,
-    once that step's wall-clock time has come (ticks go out ahead, so the bus's latency is not in the step's)."""
+    once that step's wall-clock time has come (ticks go out ahead, so the bus's latency is not in the step's), or
+    at the latest the tick's lead after the tick came (its host's clock may lag the supervisor's)."""
 
     def __init__(
         self,
@@ -113,15 +118,15 @@ class _Vehicle:
         self.on_time()
 
     def due(self) -> float | None:
-        tick = self.pending.ticks.get(self.k)
-        return tick.wall if tick is not None else None
+        return self.pending.start_at.get(self.k)
 
     def on_time(self) -> None:
         """Run every step whose tick is in and whose time has come."""
         while self.pending.ready(self.k):
-            wall = self.pending.ticks[self.k].wall
-            if wall is not None and wall > time.time():
+            start_at = self.pending.start_at.get(self.k)
+            if start_at is not None and start_at > time.time():
                 return
+            self.pending.start_at.pop(self.k, None)
             tick = self.pending.ticks.pop(self.k)
             receptions = self.pending.receptions(tick, self.cfg.vehicle_id)
             self.node = _step(
@@ -138,6 +143,9 @@ def _take(key: str, payload: bytes, vid: int, pending: _Pending, dt: float) -> N
             tick, batch = parse_batches(message, vid)
             if not tick.final:
                 pending.ticks[tick.k] = tick
+                if tick.wall is not None:  # its time, but never more than the lead after it came: a host whose
+                    # clock lags the supervisor's must not hold the whole fleet back
+                    pending.start_at[tick.k] = min(tick.wall, time.time() + tick_lead(dt, tick.speed))
                 pending.batches[tick.k] = ([] if batch is None else parse_rx(batch)[1], batch)
         elif key == rx_key(vid):
             _file_rx(message, pending, dt)
