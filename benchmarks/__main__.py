@@ -1,8 +1,8 @@
 """Every benchmark of issue 7 in one run: `.venv/bin/python -m benchmarks` (or `make bench`).
 
 1. engines: the paper scenario with the in-process and the Zenoh lockstep engine (best of --repeat), and the ratio;
-2. realtime: the paper scenario on the realtime clock at --speed 1: delivery lateness p50 / p99 against the
-   channel's computed arrival times;
+2. realtime: the paper scenario on the realtime clock at --speed 1: delivery error p50 / p99 against the
+   channel's computed arrival times, and how late the vehicles began their steps;
 3. scaling: N = --sizes vehicles on a ring graph, both engines: real-time factor, wall time per sync step, CPU time
    and resident memory per vehicle process;
 4. bus floor: the Zenoh engine's message pattern with no work in it, for 3 and 50 vehicles: what the

@@ -1,12 +1,13 @@
 """The floor the bus sets: `.venv/bin/python -m benchmarks.bench_bus_floor [--sizes 3,50] [--steps 2000]`.
 
 The Zenoh engine's message pattern with no work in it, to tell the cost of the process-per-vehicle architecture
-from the cost of our code. A router (in this process, which also takes in and decodes every message, as the
-supervisor does), a broker process and N vehicle processes on comms.bus, as the real ones: per step the supervisor
-publishes a tick, the broker waits for the tick and every vehicle's step message of the step before and publishes
-one batches message (each vehicle's part packed on its own), each vehicle waits for it and publishes a step message
-of the real size. No dynamics, no channel, no recording. Prints wall time per step; if the bus alone needs more than
-1.5x the in-process engine's whole step, the issue-7 ratio cannot be met with this architecture.
+from the cost of our code. A router (in this process, which also takes in and decodes what the supervisor records:
+the vehicles' step messages and the broker's events), a broker process and N vehicle processes on comms.bus, as the
+real ones: per step the supervisor publishes a tick, the broker waits for the tick and every vehicle's step message
+of the step before and publishes one batches message (each vehicle's part packed on its own) and one events
+message, each vehicle waits for the batches and publishes a step message of about the real size. No dynamics, no
+channel, no recording. Prints wall time per step; if the bus alone needs more than 1.5x the in-process engine's
+whole step, the issue-7 ratio cannot be met with this architecture.
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ from comms.messages import ALIVE_PREFIX, STOP_KEY, SUPERVISOR_ALIVE, decode
 
 RESULTS = Path(__file__).resolve().parent / "results"
 ROOT_KEY = "floor"
-TICK, STEP = f"{ROOT_KEY}/tick", f"{ROOT_KEY}/comms/step"
+TICK, STEP, EVENTS = f"{ROOT_KEY}/tick", f"{ROOT_KEY}/comms/step", f"{ROOT_KEY}/comms/events"
 STATE_FLOATS = 40  # about what a vehicle's state message carries (position, rotation, velocities, errors, ...)
 
 
@@ -66,6 +67,8 @@ def broker_handler(n: int) -> Callable[[Publishers], Handler]:
                 reception = {"sender": 1, "seq": next_k, "stamp": 0.1, "arrival": 0.2, "gamma": 1.0, "gamma_dot": 1.0}
                 rx = {v: msgpack.packb([reception, reception]) for v in range(1, n + 1)}
                 publishers.put(STEP, {"t": next_k * 0.1, "k": next_k, "tick": {"k": next_k}, "rx": rx})
+                event = {"t": next_k * 0.1, "sender": 1, "receiver": 2, "seq": next_k, "kind": "delivered"}
+                publishers.put(EVENTS, {"t": next_k * 0.1, "k": next_k, "events": [event] * (4 * n)})
                 ticks.discard(next_k)
                 states.pop(next_k - 1, None)
                 next_k += 1
@@ -89,7 +92,7 @@ def measure(n: int, steps: int) -> float:
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     with open_session("router", listen=[endpoint]) as session:
         inbox = Inbox()
-        for key in (f"{ROOT_KEY}/vehicle/*/state", STEP):
+        for key in (f"{ROOT_KEY}/vehicle/*/state", EVENTS):  # as the supervisor: not the batches
             inbox.subscribe(session, key)
         inbox.watch_liveliness(session, f"{ALIVE_PREFIX}/**")
         token = session.liveliness().declare_token(SUPERVISOR_ALIVE)
@@ -116,7 +119,7 @@ def measure(n: int, steps: int) -> float:
                         raise TimeoutError(f"step {k} did not complete")
                     if isinstance(item, Received):
                         message = decode(item.payload)  # the supervisor decodes everything it records
-                        if item.key != STEP:
+                        if item.key != EVENTS:
                             done[message["k"]] = done.get(message["k"], 0) + 1
             return (time.perf_counter() - started) / steps
         finally:

@@ -5,10 +5,10 @@ Lockstep: at tick k the broker waits until it holds every vehicle's step message
 transmissions to the channel and publishes one batches message for the whole fleet (tick k and every vehicle's
 receptions: each vehicle waits for this one message per step) and the step's link events (one message).
 Realtime (the ticks carry the wall clock): a step's transmissions are submitted as soon as its messages are in, and
-every reception that they decide is published on its vehicle's rx key at once, ahead of its arrival, stamped with
-the wall-clock time it is due (its arrival); the vehicle holds it until then. None is handed out before every
-transmission that could still spoil it (collisions, half-duplex) is in the water. Sending ahead takes the bus's
-latency out of the delivery time: a reception is late only if it could not be decided and carried in time.
+every reception that they decide is published on its vehicle's rx key at once, usually ahead of its arrival,
+stamped with the wall-clock time it is due (its arrival); the vehicle holds it until the step its arrival calls
+for. None is handed out before every transmission that could still spoil it (collisions, half-duplex) is in the
+water. Sending ahead takes the bus's latency out of the delivery time.
 On the final tick it flushes the channel and reports how many events it published.
 """
 
@@ -158,9 +158,7 @@ class Broker:
         if tick.k - 1 > self.submitted:
             self._submit(tick.k - 1)
         self.clock = tick
-        alive = tick.alive if tick.alive is not None else self.vehicles
-        batches, delivered = self.core.deliver(tick.t, alive)
-        self.unpublished += delivered
+        batches = self._deliver(tick.t)
         if tick.final:
             self.unpublished += self.core.finish(tick.t)
             self._publish_events(tick)
@@ -180,12 +178,16 @@ class Broker:
     def _release(self) -> None:
         """Hand out, ahead of their arrival, every reception the submitted transmissions decide: arrivals up to the
         next step's instant (step submitted+1's packets, not in yet, could spoil any later one)."""
+        assert self.clock is not None and self.clock.wall is not None
+        self._publish_live(self.clock, self._deliver((self.submitted + 1) * self.dt - 2 * ARRIVAL_SLACK))
+
+    def _deliver(self, t: float) -> dict[int, list[Reception]]:
+        """Receptions arriving by t, per vehicle alive at the latest tick; their events wait for the next tick's."""
         clock = self.clock
-        assert clock is not None and clock.wall is not None
-        alive = clock.alive if clock.alive is not None else self.vehicles
-        batches, delivered = self.core.deliver((self.submitted + 1) * self.dt - 2 * ARRIVAL_SLACK, alive)
+        alive = clock.alive if clock is not None and clock.alive is not None else self.vehicles
+        batches, delivered = self.core.deliver(t, alive)
         self.unpublished += delivered
-        self._publish_live(clock, batches)
+        return batches
 
     def _publish_live(self, clock: Tick, batches: dict[int, list[Reception]]) -> None:
         for v, receptions in batches.items():

@@ -27,7 +27,7 @@ Handler = Callable[[str, bytes], None]
 
 @runtime_checkable
 class Timed(Protocol):
-    """A handler that also has work due at given wall-clock times (time.time()), e.g. realtime deliveries."""
+    """A handler that also has work due at given wall-clock times (time.time()), e.g. a realtime vehicle's steps."""
 
     def __call__(self, key: str, payload: bytes) -> None: ...
 

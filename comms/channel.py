@@ -186,10 +186,6 @@ class Channel:
         if self.params.modem.collisions:
             self._heard.setdefault(j, []).append(airtime)
 
-    def next_arrival(self) -> float | None:
-        """When the earliest packet still in flight arrives (delivered or not), or None."""
-        return self._in_flight[0][0] if self._in_flight else None
-
     def deliver(self, t: float) -> tuple[list[Reception], list[LinkEvent]]:
         """Everything whose arrival is no later than t, in arrival order: receptions and their events."""
         out: list[Reception] = []

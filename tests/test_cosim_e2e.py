@@ -92,7 +92,7 @@ def test_every_link_balances_and_the_mcap_reads_back(tmp_path, paper_text):
     assert {schema.encoding for schema in summary.schemas.values()} == {"jsonschema"}
 
 
-def test_realtime_clock_paces_the_run_delivers_at_arrival_and_changes_nothing_else(tmp_path, paper_text):
+def test_realtime_clock_paces_the_run_holds_deliveries_to_their_arrival_and_changes_nothing_else(tmp_path, paper_text):
     scenario = write_scenario(tmp_path, shortened(paper_text, 4.0))
     started = time.monotonic()
     real = cpf("run", str(scenario), "--clock", "realtime", "--speed", "5", "--out", "rt.mcap", "--quiet", cwd=tmp_path)
@@ -117,6 +117,7 @@ def test_realtime_clock_paces_the_run_delivers_at_arrival_and_changes_nothing_el
 
     # the same run as lockstep up to the first reception the wall clock made a vehicle take in a step late
     late_steps = [m["k"] for _, m in rx for r in m["receptions"] if m["k"] > intake_step(r["arrival"], 0.1)]
+    assert len(late_steps) <= 0.05 * len(heard)  # a step late is the exception, or little would be compared below
     first_late = min(late_steps, default=len(real_states))
     lockstep = states(tmp_path / "lock.mcap")
     assert {key: m for key, m in real_states.items() if key[1] < first_late} == {
