@@ -6,7 +6,8 @@
 3. scaling: N = --sizes vehicles on a ring graph, both engines: real-time factor, wall time per sync step, CPU time
    and resident memory per vehicle process;
 4. bus floor: the Zenoh engine's message pattern with no work in it, for 3 and 50 vehicles: what the
-   process-per-vehicle architecture costs per step before any of our code runs.
+   process-per-vehicle architecture costs per step before any of our code runs (and, for 50, with 25 vehicles per
+   process: what grouping them would buy).
 Each part is also a module of its own (benchmarks.bench_engines, bench_scaling, bench_realtime, bench_bus_floor).
 Results go to benchmarks/results/*.json; the targets are printed next to the numbers. Speed is checked here, never
 in tests.
@@ -44,7 +45,7 @@ def main() -> None:
         scaling.append(bench_scaling.measure(n, args.scaling_duration))
         print(bench_scaling.summary(scaling[-1]), flush=True)
 
-    floor = [bench_bus_floor.measure_row(n, 2000) for n in (3, 50)]
+    floor = [bench_bus_floor.measure_row(n, 2000, per) for n, per in ((3, 1), (50, 1), (50, 25))]
     for row in floor:
         print(bench_bus_floor.summary(row), flush=True)
 

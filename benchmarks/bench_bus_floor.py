@@ -7,7 +7,8 @@ real ones: per step the supervisor publishes a tick, the broker waits for the ti
 of the step before and publishes one batches message (each vehicle's part packed on its own) and one events
 message, each vehicle waits for the batches and publishes a step message of about the real size. No dynamics, no
 channel, no recording. Prints wall time per step; if the bus alone needs more than 1.5x the in-process engine's
-whole step, the issue-7 ratio cannot be met with this architecture.
+whole step, the issue-7 ratio cannot be met with this architecture. --per-process M puts M vehicles in each
+process (each still with its own messages), to see what grouping them would buy.
 """
 
 from __future__ import annotations
@@ -36,14 +37,17 @@ def state_key(vid: int) -> str:
     return f"{ROOT_KEY}/vehicle/{vid}/state"
 
 
-def vehicle_handler(vid: int) -> Callable[[Publishers], Handler]:
+def vehicles_handler(vids: range) -> Callable[[Publishers], Handler]:
+    """One process's vehicles (one each, as the engine; several only to see what grouping would buy)."""
+
     def make(publishers: Publishers) -> Handler:
         def handle(key: str, payload: bytes) -> None:
             message = decode(payload)
-            mine = msgpack.unpackb(message["rx"][vid]) if vid in message["rx"] else []
-            state = {"k": message["k"], "vehicle": vid, "heard": len(mine)}
-            state.update({f"x{i}": 0.1 * i + message["k"] for i in range(STATE_FLOATS)})
-            publishers.put(state_key(vid), state)
+            for vid in vids:
+                mine = msgpack.unpackb(message["rx"][vid]) if vid in message["rx"] else []
+                state = {"k": message["k"], "vehicle": vid, "heard": len(mine)}
+                state.update({f"x{i}": 0.1 * i + message["k"] for i in range(STATE_FLOATS)})
+                publishers.put(state_key(vid), state)
 
         return handle
 
@@ -83,12 +87,13 @@ def child(argv: list[str]) -> int:
     if role == "broker":
         keys = (TICK, f"{ROOT_KEY}/vehicle/*/state")
         return serve("floor broker", connect, keys, f"{ALIVE_PREFIX}/comms", broker_handler(n))
-    vid = int(role)
-    return serve(f"floor vehicle {vid}", connect, (STEP,), f"{ALIVE_PREFIX}/vehicle/{vid}", vehicle_handler(vid))
+    first, last = (int(v) for v in role.split("-"))
+    token = f"{ALIVE_PREFIX}/vehicle/{first}-{last}"
+    return serve(f"floor vehicles {role}", connect, (STEP,), token, vehicles_handler(range(first, last + 1)))
 
 
-def measure(n: int, steps: int) -> float:
-    """Wall time per step (s) of the bare pattern with n vehicles."""
+def measure(n: int, steps: int, per_process: int = 1) -> float:
+    """Wall time per step (s) of the bare pattern with n vehicles, per_process of them in each process."""
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     with open_session("router", listen=[endpoint]) as session:
         inbox = Inbox()
@@ -99,10 +104,10 @@ def measure(n: int, steps: int) -> float:
         pubs = Publishers(session)
         me = [sys.executable, "-m", "benchmarks.bench_bus_floor", "--child"]
         procs = [subprocess.Popen([*me, role, endpoint, str(n)], stderr=subprocess.DEVNULL, start_new_session=True)
-                 for role in ["broker", *map(str, range(1, n + 1))]]  # fmt: skip
+                 for role in ["broker", *_groups(n, per_process)]]  # fmt: skip
         try:
             present: set[str] = set()
-            while len(present) < n + 1:  # readiness: every child's liveliness token
+            while len(present) < len(procs):  # readiness: every child's liveliness token
                 item = inbox.get(60.0)
                 if item is None:
                     raise TimeoutError("children did not come up")
@@ -139,23 +144,31 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--sizes", default="3,50", help="fleet sizes, comma-separated")
     parser.add_argument("--steps", type=int, default=2000, help="sync steps per size")
+    parser.add_argument("--per-process", type=int, default=1, help="vehicles per process (the engine: 1)")
     args = parser.parse_args()
-    rows = [measure_row(int(n), args.steps) for n in args.sizes.split(",")]
+    rows = [measure_row(int(n), args.steps, args.per_process) for n in args.sizes.split(",")]
     for row in rows:
         print(summary(row), flush=True)
     RESULTS.mkdir(parents=True, exist_ok=True)
     (RESULTS / "bus_floor.json").write_text(json.dumps(rows, indent=2))
 
 
-def measure_row(n: int, steps: int) -> dict[str, Any]:
+def _groups(n: int, per_process: int) -> list[str]:
+    """Child roles "first-last": the vehicles of each process."""
+    return [f"{a}-{min(a + per_process - 1, n)}" for a in range(1, n + 1, per_process)]
+
+
+def measure_row(n: int, steps: int, per_process: int = 1) -> dict[str, Any]:
     steps = steps if n <= 10 else max(200, steps // 10)  # a large fleet: fewer steps, the same precision
-    per_step = measure(n, steps)
-    return {"vehicles": n, "steps": steps, "ms_per_step": per_step * 1e3, "realtime_factor_at_0.1s": 0.1 / per_step}
+    per_step = measure(n, steps, per_process)
+    return {"vehicles": n, "vehicles_per_process": per_process, "steps": steps, "ms_per_step": per_step * 1e3,
+            "realtime_factor_at_0.1s": 0.1 / per_step}  # fmt: skip
 
 
 def summary(row: dict[str, Any]) -> str:
+    grouped = f", {row['vehicles_per_process']} vehicles per process" if row["vehicles_per_process"] > 1 else ""
     return (
-        f"N={row['vehicles']:3d}  bare bus pattern: {row['ms_per_step']:6.2f} ms per sync step "
+        f"N={row['vehicles']:3d}  bare bus pattern{grouped}: {row['ms_per_step']:6.2f} ms per sync step "
         f"({row['realtime_factor_at_0.1s']:6.1f}x real time at a 0.1 s step)"
     )
 
