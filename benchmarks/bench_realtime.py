@@ -19,45 +19,13 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from comms.channel import intake_step
 from supervisor.cosim import BusOptions, run_zenoh
 from supervisor.progress import Progress
-from supervisor.recorder import read_messages
+from supervisor.realtime_timing import format_timing
 from supervisor.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "benchmarks" / "results"
-
-
-def lateness(log: Path, dt: float) -> dict[str, Any]:
-    """Delivery error (ms) from the vehicles' state messages, and receptions taken in later than lockstep would."""
-    late: list[float] = []
-    step_late: list[float] = []
-    receptions = taken_late = 0
-    for topic, _, message in read_messages(log):
-        if topic.endswith("/state"):
-            late += message.get("rx_lateness", [])
-            step_late.append(message.get("step_lateness", np.nan))
-        elif topic.endswith("/rx"):
-            for r in message["receptions"]:
-                receptions += 1
-                taken_late += message["k"] > intake_step(r["arrival"], dt)
-    reached = np.array(late) * 1e3  # ms after the arrival; negative: ahead of it
-    error = np.maximum(reached, 0.0)  # a reception that came ahead is held until its arrival: no error
-    percentiles = {f"p{p}_ms": float(np.percentile(error, p)) for p in (50, 90, 99)} if len(error) else {}
-    return {
-        "deliveries": len(error),
-        **percentiles,
-        "max_ms": float(error.max()) if len(error) else None,
-        "ahead_share": float(np.mean(reached <= 0.0)) if len(reached) else None,
-        "ahead_p50_ms": float(np.percentile(-reached, 50)) if len(reached) else None,
-        "receptions": receptions,
-        "taken_in_a_step_late": taken_late,
-        "step_lateness_p50_ms": float(np.nanpercentile(step_late, 50) * 1e3) if step_late else None,
-        "step_lateness_p99_ms": float(np.nanpercentile(step_late, 99) * 1e3) if step_late else None,
-    }
 
 
 def main() -> None:
@@ -80,22 +48,13 @@ def measure(scenario_path: Path, duration: float, speed: float) -> dict[str, Any
         log = Path(tmp) / "run.mcap"
         quiet = Progress(duration, io.StringIO(), enabled=False)
         bus = BusOptions(overrides=overrides)
-        run_zenoh(scenario, scenario_path, text, log, 0, "realtime", speed, bus, quiet)
-        return {"scenario": str(scenario_path), "duration_s": duration, "speed": speed,
-                **lateness(log, scenario.scenario.step)}  # fmt: skip
+        result = run_zenoh(scenario, scenario_path, text, log, 0, "realtime", speed, bus, quiet)
+    assert result.realtime is not None  # a realtime run always says how it kept to the wall clock
+    return {"scenario": str(scenario_path), "duration_s": duration, "speed": speed, **result.realtime}
 
 
 def summary(result: dict[str, Any]) -> str:
-    if not result["deliveries"]:
-        return "realtime: no deliveries"
-    return (
-        f"realtime at --speed {result['speed']:g}: {result['deliveries']} deliveries, delivery error p50 "
-        f"{result['p50_ms']:.2f} ms, p99 {result['p99_ms']:.2f} ms, max {result['max_ms']:.2f} ms; "
-        f"{result['ahead_share']:.1%} reached their vehicle ahead of arrival (median {result['ahead_p50_ms']:.1f} ms "
-        f"ahead); {result['taken_in_a_step_late']} of {result['receptions']} receptions taken in a step late; "
-        f"vehicles began their steps {result['step_lateness_p50_ms']:.2f} ms (p50) / "
-        f"{result['step_lateness_p99_ms']:.2f} ms (p99) after t_k"
-    )
+    return f"--speed {result['speed']:g}, {result['deliveries']} deliveries; {format_timing(result)}"
 
 
 if __name__ == "__main__":

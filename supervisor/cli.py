@@ -123,6 +123,7 @@ def _run(args: argparse.Namespace) -> int:
     from supervisor.inprocess import run_inprocess
     from supervisor.metrics import finite
     from supervisor.progress import Progress
+    from supervisor.realtime_timing import format_timing
     from supervisor.scenario import load_scenario
     from supervisor.summary import format_summary, summarize
 
@@ -151,9 +152,13 @@ def _run(args: argparse.Namespace) -> int:
     comms = comms_summary(result.link_stats, result.stats_history, result.estimate_ages)
     print(format_summary(summary))
     print(format_comms(comms))
+    if result.realtime is not None:
+        print(format_timing(result.realtime))
     if args.metrics:
         args.metrics.parent.mkdir(parents=True, exist_ok=True)
         metrics = {"coordination": summary.as_dict(), "comms": comms.as_dict(), "links": result.link_counts}
+        if result.realtime is not None:
+            metrics["realtime"] = result.realtime
         args.metrics.write_text(json.dumps(finite(metrics), indent=2, allow_nan=False))
     return 0
 

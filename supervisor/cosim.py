@@ -58,6 +58,7 @@ from supervisor.inprocess import RunResult
 from supervisor.metadata import graph_message, run_meta
 from supervisor.processes import ProcessGroup
 from supervisor.progress import Progress
+from supervisor.realtime_timing import RealtimeTiming
 from supervisor.recorder import Recorder
 from supervisor.scenario import load_scenario
 from supervisor.scenario_schema import Scenario
@@ -110,6 +111,7 @@ class _Supervisor:
         self.seed = 0
         self._next_poll = 0.0
         self.clock: _Clock | None = None
+        self.timing: RealtimeTiming | None = None  # realtime runs: how well they keep to the wall clock
 
     # --- the bus -------------------------------------------------------------------------------------------
 
@@ -179,6 +181,10 @@ class _Supervisor:
     def _step(self, vid: int, message: Message) -> None:
         """A vehicle's step message, recorded as the log keeps it: reception batch, transmission, state."""
         state, tx, rx = split_step(message)
+        if self.timing is not None:
+            self.timing.add_state(state)
+            if rx is not None:
+                self.timing.add_rx(rx)
         if rx is not None:
             self._write(rx_key(vid), rx)
         if tx is not None:
@@ -327,6 +333,7 @@ def run_zenoh(
         pubs = Publishers(session)
         run = _Supervisor(scenario, rec, inbox, procs, scenario_path)
         run.connect, run.bus, run.seed = bus.connect or _local(endpoint), bus, seed
+        run.timing = RealtimeTiming(scenario.scenario.step) if clock == "realtime" else None
         try:
             run.spawn_comms()
             for vid in scenario.vehicle_ids:
@@ -347,7 +354,7 @@ def run_zenoh(
     end = steps * scenario.scenario.step
     return RunResult(
         run.builder.series(), wall, messages, books.counts, books.stats.snapshot(end), books.lambda2, run.builder.ages,
-        stepping,
+        stepping, run.timing.as_dict() if run.timing is not None else None,
     )  # fmt: skip
 
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 import sys
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from comms.broker_core import BrokerCore
 from comms.channel import Kinematics, LinkEvent
@@ -58,6 +59,7 @@ class RunResult:
     stats_history: list[Message]  # {"t", "lambda2"} of the delivered graph per stats window
     estimate_ages: dict[tuple[int, int], list[float]]  # (sender, receiver) -> [sum, count, max] of ages
     stepping_time: float = 0.0  # s of wall time from the first sync step to the end
+    realtime: dict[str, Any] | None = None  # realtime runs: how well they kept to the wall clock (realtime_timing)
 
 
 class _InProcessRun:

@@ -118,6 +118,8 @@ def test_realtime_clock_paces_the_run_holds_deliveries_to_their_arrival_and_chan
     # the same run as lockstep up to the first reception the wall clock made a vehicle take in a step late
     late_steps = [m["k"] for _, m in rx for r in m["receptions"] if m["k"] > intake_step(r["arrival"], 0.1)]
     assert len(late_steps) <= 0.05 * len(heard)  # a step late is the exception, or little would be compared below
+    assert "realtime: delivery error p50 " in real.stdout  # the run says how it kept to the wall clock
+    assert f"; {len(late_steps)} of {len(heard)} receptions taken in a step late; steps began " in real.stdout
     first_late = min(late_steps, default=len(real_states))
     lockstep = states(tmp_path / "lock.mcap")
     assert {key: m for key, m in real_states.items() if key[1] < first_late} == {

@@ -1,0 +1,39 @@
+"""supervisor.realtime_timing: how a realtime run kept to the wall clock, from the vehicles' records."""
+
+from __future__ import annotations
+
+import pytest
+
+from supervisor.realtime_timing import RealtimeTiming, format_timing
+
+DT = 0.1
+
+
+def test_delivery_error_counts_only_lateness_and_steps_taken_late_come_from_arrival_steps() -> None:
+    timing = RealtimeTiming(DT)
+    timing.add_state({"k": 3, "rx_lateness": [-0.004, 0.002, -0.001], "step_lateness": 0.0005})
+    timing.add_state({"k": 4, "rx_lateness": [0.010], "step_lateness": 0.0015})
+    timing.add_rx({"k": 3, "receptions": [{"arrival": 0.25}, {"arrival": 0.29}]})  # due at k = 3: on time
+    timing.add_rx({"k": 4, "receptions": [{"arrival": 0.28}]})  # due at k = 3, taken at k = 4
+    out = timing.as_dict()
+    assert out["deliveries"] == 4 and out["receptions"] == 3 and out["taken_in_a_step_late"] == 1
+    assert out["max_ms"] == pytest.approx(10.0) and out["p50_ms"] == pytest.approx(1.0)  # errors 0, 2, 0, 10 ms
+    assert out["ahead_share"] == pytest.approx(0.5)
+    assert out["step_lateness_p50_ms"] == pytest.approx(1.0)
+    line = format_timing(out)
+    assert "1 of 3 receptions taken in a step late" in line and "max 10.00 ms" in line and "50% came ahead" in line
+
+
+def test_fields_that_are_not_numbers_are_left_out_and_never_raise() -> None:
+    timing = RealtimeTiming(DT)
+    timing.add_state({"rx_lateness": ["x", None, True, float("nan"), 0.001], "step_lateness": "late"})
+    timing.add_state({"rx_lateness": 5})
+    timing.add_rx({"k": "3", "receptions": [{"arrival": 0.2}]})
+    timing.add_rx({"k": 3, "receptions": ["not a map", {"arrival": None}]})
+    out = timing.as_dict()
+    assert out["deliveries"] == 1 and out["receptions"] == 0 and out["step_lateness_p50_ms"] is None
+    assert format_timing(out).endswith("no steps")
+
+
+def test_a_run_without_deliveries_says_so() -> None:
+    assert format_timing(RealtimeTiming(DT).as_dict()).startswith("realtime: no deliveries")
