@@ -122,3 +122,11 @@ def test_realtime_takes_in_nothing_at_a_tick_the_broker_did_not_live_to(clock: F
     last = steps(pubs)[-1]
     assert last["k"] == 1 and last["rx"] is None and last["rx_lateness"] == []
     assert node.pending.live == []
+
+
+def test_a_realtime_batch_with_one_malformed_delivery_is_dropped_whole(clock: FakeClock) -> None:
+    node, _ = vehicle()
+    message = rx_message(VID, 1, 0.05, [reception(0.04), reception(0.05)], lambda t: clock.now)
+    del message["receptions"][1]["due"]
+    node(rx_key(VID), encode(message))
+    assert node.pending.live == [] and node.pending.malformed == 1

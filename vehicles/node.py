@@ -25,6 +25,7 @@ from comms.messages import (
     decode,
     parse_batches,
     parse_rx,
+    parse_timed_rx,
     rx_key,
     state_key,
     state_message,
@@ -157,11 +158,8 @@ def _take(key: str, payload: bytes, vid: int, pending: _Pending, dt: float) -> N
 def _file_rx(message: Message, pending: _Pending, dt: float) -> None:
     """Realtime deliveries, as they come (usually ahead of their arrival), with how late each reached the vehicle."""
     now = time.time()
-    _, heard = parse_rx(message)
-    for h, item in zip(heard, message["receptions"], strict=True):
-        due, arrival = item.get("due"), item.get("arrival")
-        if not all(isinstance(x, int | float) and not isinstance(x, bool) for x in (due, arrival)):
-            raise ValueError("a realtime delivery without a numeric 'due' and 'arrival'")
+    timed = parse_timed_rx(message)
+    for (h, arrival, due), item in zip(timed, message["receptions"], strict=True):
         pending.live.append(_Live(intake_step(arrival, dt), h, item, now - due))
 
 
@@ -179,7 +177,7 @@ def _step(
     heard, batch, lateness = receptions
     dist = tick.disturbed.get(vid, Disturbances())
     current = tick.network.neighbours(vid) if tick.network is not None else neighbours
-    started = time.time()
+    started = time.time() if tick.wall is not None else 0.0
     node, out = node_step(cfg, radio, node, tick.t, dt, heard, current, dist)
     tx = out.transmission
     state = state_message(out.telemetry, cfg.model, tick.k, tx.seq if tx else 0, out.estimate_ages)
