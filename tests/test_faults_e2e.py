@@ -233,3 +233,13 @@ def test_graph_switches_are_published_as_the_graph_in_force(tmp_path, paper_text
             if topic == "cpf/run/graph"
         ]
         assert graphs == [(0.0, [[1, 2], [1, 3]]), (5.0, [[1, 2], [2, 3]]), (10.0, [[1, 2], [1, 3]])], engine
+
+
+def test_a_run_goes_on_through_steps_with_no_vehicle_alive(tmp_path, paper_text):
+    scenario = tmp_path / "s.toml"
+    scenario.write_text(shortened(paper_text, 10.0))
+    kills = [arg for v in (1, 2, 3) for arg in ("--fault", f"kind=vehicle_kill,vehicle={v},start=4,end=6")]
+    zen, inp = run_both(tmp_path, scenario, ["--set", "scenario.on_vehicle_loss=continue", *kills])
+    assert zen == inp
+    states = zen[0]
+    assert not any(40 <= k < 60 for _, k in states) and {v for v, k in states if k >= 60} == {1, 2, 3}
