@@ -81,12 +81,14 @@ def assert_complete(path: Path) -> None:
 
 
 def run_both(tmp_path: Path, scenario: Path, extra: list[str]) -> tuple[tuple, tuple]:
-    results = []
+    results, lambda2 = [], []
     for engine in ("zenoh", "inprocess"):
         done = cpf("run", str(scenario), "--engine", engine, *extra, "--out", f"{engine}.mcap", "--quiet", cwd=tmp_path)
         assert done.returncode == 0, done.stderr
         assert_complete(tmp_path / f"{engine}.mcap")
         results.append(read_run(tmp_path / f"{engine}.mcap"))
+        lambda2.append([line for line in done.stdout.splitlines() if line.startswith("delivered-graph lambda_2")])
+    assert len(lambda2[0]) == 1 and lambda2[0] == lambda2[1]  # the supervisor's own books agree too
     return results[0], results[1]
 
 
