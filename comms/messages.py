@@ -339,11 +339,11 @@ def parse_rx(message: Message) -> tuple[int, list[Heard]]:
     return k, heard
 
 
-def parse_timed_rx(message: Message) -> list[tuple[Heard, float, float]]:
-    """(heard, arrival, due) of each realtime delivery of a reception batch; all checked before any is used."""
-    _, heard = parse_rx(message)
+def parse_timed_rx(message: Message) -> tuple[int, list[tuple[Heard, float, float]]]:
+    """(k, (heard, arrival, due) of each realtime delivery) of a reception batch; all checked before any is used."""
+    k, heard = parse_rx(message)
     items = message["receptions"]
-    return [(h, _number(item, "arrival"), _number(item, "due")) for h, item in zip(heard, items, strict=True)]
+    return k, [(h, _number(item, "arrival"), _number(item, "due")) for h, item in zip(heard, items, strict=True)]
 
 
 @dataclass(frozen=True, slots=True)

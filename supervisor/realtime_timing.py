@@ -11,7 +11,7 @@ from typing import Any, TypeGuard
 import numpy as np
 
 from comms.channel import intake_step
-from comms.messages import Message
+from comms.messages import Message, parse_timed_rx
 
 
 @dataclass
@@ -29,13 +29,14 @@ class RealtimeTiming:
             self.began.append(float(began))
 
     def add_rx(self, rx: Message) -> None:
-        """A vehicle's reception batch: which receptions it took in later than their arrival called for."""
-        k = rx.get("k")
-        for r in _list(rx.get("receptions")):
-            arrival = r.get("arrival") if isinstance(r, dict) else None
-            if isinstance(k, int) and _number(arrival):
-                self.receptions += 1
-                self.taken_late += k > intake_step(float(arrival), self.dt)
+        """A vehicle's reception batch: which receptions it took in later than their arrival called for (a batch
+        that does not parse is left out whole)."""
+        try:
+            k, timed = parse_timed_rx(rx)
+        except ValueError:
+            return
+        self.receptions += len(timed)
+        self.taken_late += sum(k > intake_step(arrival, self.dt) for _, arrival, _ in timed)
 
     def as_dict(self) -> dict[str, Any]:
         """In ms: the delivery error max(0, reached - arrival) p50/p90/p99/max, how many came ahead, step starts."""
@@ -48,7 +49,6 @@ class RealtimeTiming:
             **{f"p{p}_ms": float(np.percentile(error, p)) if some else None for p in (50, 90, 99)},
             "max_ms": float(error.max()) if some else None,
             "ahead_share": float(np.mean(reached <= 0.0)) if some else None,
-            "ahead_p50_ms": float(np.percentile(-reached, 50)) if some else None,
             "receptions": self.receptions,
             "taken_in_a_step_late": self.taken_late,
             "step_lateness_p50_ms": float(np.percentile(began, 50)) if len(began) else None,

@@ -245,3 +245,16 @@ def test_a_run_goes_on_through_steps_with_no_vehicle_alive(tmp_path, paper_text)
     assert zen == inp
     states = zen[0]
     assert not any(40 <= k < 60 for _, k in states) and {v for v, k in states if k >= 60} == {1, 2, 3}
+
+
+def test_realtime_sends_no_packet_for_the_step_a_scheduled_kill_ends(tmp_path, paper_text):
+    """The tick before a kill holds its step's packets until the next tick says who survived (as lockstep)."""
+    scenario = tmp_path / "s.toml"
+    scenario.write_text(shortened(paper_text, 5.0))
+    args = ["--set", "scenario.on_vehicle_loss=continue", "--fault", "kind=vehicle_kill,vehicle=3,start=3,end=4"]
+    done = cpf("run", str(scenario), "--clock", "realtime", "--speed", "5", *args, "--out", "rt.mcap", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    sent = {round(m["t"], 6) for topic, _, m in read_messages(tmp_path / "rt.mcap")
+            if topic == "cpf/comms/event" and m["kind"] == "sent" and m["sender"] == 3}  # fmt: skip
+    assert 2.8 in sent and 2.9 not in sent  # it reported step 2.9 s, then was killed at 3 s before sending it
+    assert 4.0 in sent  # and sent again once restarted

@@ -4,17 +4,24 @@ from __future__ import annotations
 
 import pytest
 
+from comms.channel import Reception
+from comms.messages import Message, rx_message
 from supervisor.realtime_timing import RealtimeTiming, format_timing
 
 DT = 0.1
+
+
+def batch(k: int, *arrivals: float) -> Message:
+    """A realtime reception batch as a vehicle records it: taken in at step k."""
+    return rx_message(2, k, k * DT, [Reception(2, 1, 1, 0.0, a, 5.0, 1.0) for a in arrivals], lambda t: 100.0 + t)
 
 
 def test_delivery_error_counts_only_lateness_and_steps_taken_late_come_from_arrival_steps() -> None:
     timing = RealtimeTiming(DT)
     timing.add_state({"k": 3, "rx_lateness": [-0.004, 0.002, -0.001], "step_lateness": 0.0005})
     timing.add_state({"k": 4, "rx_lateness": [0.010], "step_lateness": 0.0015})
-    timing.add_rx({"k": 3, "receptions": [{"arrival": 0.25}, {"arrival": 0.29}]})  # due at k = 3: on time
-    timing.add_rx({"k": 4, "receptions": [{"arrival": 0.28}]})  # due at k = 3, taken at k = 4
+    timing.add_rx(batch(3, 0.25, 0.29))  # due at k = 3: on time
+    timing.add_rx(batch(4, 0.28))  # due at k = 3, taken at k = 4
     out = timing.as_dict()
     assert out["deliveries"] == 4 and out["receptions"] == 3 and out["taken_in_a_step_late"] == 1
     assert out["max_ms"] == pytest.approx(10.0) and out["p50_ms"] == pytest.approx(1.0)  # errors 0, 2, 0, 10 ms
@@ -28,8 +35,11 @@ def test_fields_that_are_not_numbers_are_left_out_and_never_raise() -> None:
     timing = RealtimeTiming(DT)
     timing.add_state({"rx_lateness": ["x", None, True, float("nan"), 0.001], "step_lateness": "late"})
     timing.add_state({"rx_lateness": 5})
-    timing.add_rx({"k": "3", "receptions": [{"arrival": 0.2}]})
-    timing.add_rx({"k": 3, "receptions": ["not a map", {"arrival": None}]})
+    timing.add_rx({**batch(3, 0.2), "k": "3"})
+    timing.add_rx({**batch(3, 0.2), "receptions": ["not a map"]})
+    bad_arrival = batch(3, 0.2, 0.25)
+    bad_arrival["receptions"][1]["arrival"] = None
+    timing.add_rx(bad_arrival)  # left out whole
     out = timing.as_dict()
     assert out["deliveries"] == 1 and out["receptions"] == 0 and out["step_lateness_p50_ms"] is None
     assert format_timing(out).endswith("no steps")

@@ -158,7 +158,7 @@ def _take(key: str, payload: bytes, vid: int, pending: _Pending, dt: float) -> N
 def _file_rx(message: Message, pending: _Pending, dt: float) -> None:
     """Realtime deliveries, as they come (usually ahead of their arrival), with how late each reached the vehicle."""
     now = time.time()
-    timed = parse_timed_rx(message)
+    _, timed = parse_timed_rx(message)
     for (h, arrival, due), item in zip(timed, message["receptions"], strict=True):
         pending.live.append(_Live(intake_step(arrival, dt), h, item, now - due))
 
