@@ -36,7 +36,7 @@ class Timed(Protocol):
         ...
 
     def on_time(self) -> None:
-        """Do the work that is due now."""
+        """Do whatever work is due by now (called after every message and on every wake-up)."""
         ...
 
 
@@ -164,7 +164,7 @@ def serve(
                 log.warning("%s: the supervisor is gone, stopping", name)
                 break
             if timed is not None:
-                _run_due(timed)
+                timed.on_time()  # it checks what is due
         alive.undeclare()
     return 0
 
@@ -172,9 +172,3 @@ def serve(
 def _timeout(timed: Timed | None) -> float:
     due = timed.due() if timed is not None else None
     return POLL if due is None else min(POLL, max(0.0, due - time.time()))
-
-
-def _run_due(handle: Timed) -> None:
-    due = handle.due()
-    if due is not None and due <= time.time():
-        handle.on_time()

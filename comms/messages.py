@@ -339,11 +339,12 @@ def parse_rx(message: Message) -> tuple[int, list[Heard]]:
     return k, heard
 
 
-def parse_timed_rx(message: Message) -> tuple[int, list[tuple[Heard, float, float]]]:
-    """(k, (heard, arrival, due) of each realtime delivery) of a reception batch; all checked before any is used."""
+def parse_timed_rx(message: Message) -> tuple[int, list[tuple[Heard, float, float, Message]]]:
+    """(k, (heard, arrival, due, item) of each realtime delivery) of a reception batch; all checked before any is
+    used."""
     k, heard = parse_rx(message)
     items = message["receptions"]
-    return k, [(h, _number(item, "arrival"), _number(item, "due")) for h, item in zip(heard, items, strict=True)]
+    return k, [(h, _number(i, "arrival"), _number(i, "due"), i) for h, i in zip(heard, items, strict=True)]
 
 
 @dataclass(frozen=True, slots=True)

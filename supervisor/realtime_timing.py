@@ -36,7 +36,7 @@ class RealtimeTiming:
         except ValueError:
             return
         self.receptions += len(timed)
-        self.taken_late += sum(k > intake_step(arrival, self.dt) for _, arrival, _ in timed)
+        self.taken_late += sum(k > intake_step(arrival, self.dt) for _, arrival, _, _ in timed)
 
     def as_dict(self) -> dict[str, Any]:
         """In ms: the delivery error max(0, reached - arrival) p50/p90/p99/max, how many came ahead, step starts."""

@@ -7,6 +7,7 @@ MCAP, and no process of ours left behind, whatever happens.
 from __future__ import annotations
 
 import io
+import json
 import re
 import signal
 import subprocess
@@ -95,7 +96,8 @@ def test_every_link_balances_and_the_mcap_reads_back(tmp_path, paper_text):
 def test_realtime_clock_paces_the_run_holds_deliveries_to_their_arrival_and_changes_nothing_else(tmp_path, paper_text):
     scenario = write_scenario(tmp_path, shortened(paper_text, 4.0))
     started = time.monotonic()
-    real = cpf("run", str(scenario), "--clock", "realtime", "--speed", "5", "--out", "rt.mcap", "--quiet", cwd=tmp_path)
+    args = ["--clock", "realtime", "--speed", "5", "--out", "rt.mcap", "--metrics", "rt.json", "--quiet"]
+    real = cpf("run", str(scenario), *args, cwd=tmp_path)
     elapsed = time.monotonic() - started
     assert real.returncode == 0, real.stderr
     assert elapsed >= 4.0 / 5  # paced: it cannot finish before the wall clock allows
@@ -120,6 +122,9 @@ def test_realtime_clock_paces_the_run_holds_deliveries_to_their_arrival_and_chan
     assert len(late_steps) <= 0.05 * len(heard)  # a step late is the exception, or little would be compared below
     assert "realtime: delivery error p50 " in real.stdout  # the run says how it kept to the wall clock
     assert f"; {len(late_steps)} of {len(heard)} receptions taken in a step late; steps began " in real.stdout
+    timing = json.loads((tmp_path / "rt.json").read_text())["realtime"]
+    assert (timing["receptions"], timing["taken_in_a_step_late"]) == (len(heard), len(late_steps))
+    assert timing["deliveries"] == len(lateness)
     first_late = min(late_steps, default=len(real_states))
     lockstep = states(tmp_path / "lock.mcap")
     assert {key: m for key, m in real_states.items() if key[1] < first_late} == {

@@ -58,7 +58,13 @@ def vehicle() -> tuple[_Vehicle, RecordingPublishers]:
 
 def send_tick(node: _Vehicle, k: int, wall: float | None, comms: bool = True) -> None:
     tick = tick_message(k, k * DT, False, comms=comms, wall=wall)
-    node(COMMS_STEP_KEY, encode(batches_message(tick, {} if wall is not None else {VID: []})))
+    serve_one(node, COMMS_STEP_KEY, encode(batches_message(tick, {} if wall is not None else {VID: []})))
+
+
+def serve_one(node: _Vehicle, key: str, payload: bytes) -> None:
+    """What comms.bus.serve does with each message: hand it over, then run what is due."""
+    node(key, payload)
+    node.on_time()
 
 
 def steps(pubs: RecordingPublishers) -> list[Message]:
@@ -101,7 +107,7 @@ def test_realtime_holds_a_reception_that_came_ahead_until_the_step_its_arrival_c
     node, pubs = vehicle()
     ahead = clock.now + 50.0  # the broker stamped it due 50 s from now: it came ahead
     early = rx_message(VID, 2, 0.15, [reception(0.15)], lambda t: ahead)  # arrives between t_1 and t_2
-    node(rx_key(VID), encode(early))
+    serve_one(node, rx_key(VID), encode(early))
     send_tick(node, 0, clock.now)
     send_tick(node, 1, clock.now)
     assert [(m["k"], m["rx"]["receptions"]) for m in steps(pubs)] == [(0, []), (1, [])]  # held at k = 0 and 1
@@ -116,7 +122,7 @@ def test_realtime_takes_in_nothing_at_a_tick_the_broker_did_not_live_to(clock: F
     """A reception held for step 1, when the broker dies at tick 1: it never reported it delivered, and lockstep
     would never hand it out."""
     node, pubs = vehicle()
-    node(rx_key(VID), encode(rx_message(VID, 1, 0.05, [reception(0.05)], lambda t: clock.now)))
+    serve_one(node, rx_key(VID), encode(rx_message(VID, 1, 0.05, [reception(0.05)], lambda t: clock.now)))
     send_tick(node, 0, clock.now)
     send_tick(node, 1, clock.now, comms=False)
     last = steps(pubs)[-1]
@@ -128,5 +134,5 @@ def test_a_realtime_batch_with_one_malformed_delivery_is_dropped_whole(clock: Fa
     node, _ = vehicle()
     message = rx_message(VID, 1, 0.05, [reception(0.04), reception(0.05)], lambda t: clock.now)
     del message["receptions"][1]["due"]
-    node(rx_key(VID), encode(message))
+    serve_one(node, rx_key(VID), encode(message))
     assert node.pending.live == [] and node.pending.malformed == 1

@@ -115,8 +115,7 @@ class _Vehicle:
         self.publishers, self.k, self.pending = publishers, k, _Pending()
 
     def __call__(self, key: str, payload: bytes) -> None:
-        _take(key, payload, self.cfg.vehicle_id, self.pending, self.dt)
-        self.on_time()
+        _take(key, payload, self.cfg.vehicle_id, self.pending, self.dt)  # comms.bus.serve then calls on_time
 
     def due(self) -> float | None:
         return self.pending.start_at.get(self.k)
@@ -159,8 +158,7 @@ def _file_rx(message: Message, pending: _Pending, dt: float) -> None:
     """Realtime deliveries, as they come (usually ahead of their arrival), with how late each reached the vehicle."""
     now = time.time()
     _, timed = parse_timed_rx(message)
-    for (h, arrival, due), item in zip(timed, message["receptions"], strict=True):
-        pending.live.append(_Live(intake_step(arrival, dt), h, item, now - due))
+    pending.live += [_Live(intake_step(arrival, dt), h, item, now - due) for h, arrival, due, item in timed]
 
 
 def _step(
