@@ -369,11 +369,17 @@ class _Clock:
         self.lead = tick_lead(run.dt, speed)
         self.issued: Message | None = None
         self.ahead = False  # the latest tick went out before every state of the step before it was in
+        self._actions: dict[int, list[ProcessAction]] = {}  # by step: each is asked for at k-1 (hold), ahead, at k
+
+    def actions(self, k: int) -> list[ProcessAction]:
+        """Kills and restarts due at step k."""
+        if k not in self._actions:
+            self._actions = {k: process_actions(self.run.sc.faults, k * self.run.dt, self.run.dt)}  # keep only k
+        return self._actions[k]
 
     def can_run_ahead(self, k: int) -> bool:
         """Tick k may go out before the states of step k-1 are in: lockstep, and no kill or restart due at k."""
-        run = self.run
-        return self.clock == "lockstep" and not process_actions(run.sc.faults, k * run.dt, run.dt)
+        return self.clock == "lockstep" and not self.actions(k)
 
     def issue(self, k: int, final: bool, ahead: bool = False) -> None:
         run, sc, dt = self.run, self.run.sc, self.run.dt
@@ -383,7 +389,7 @@ class _Clock:
         if not final:
             for event in events_at(sc.faults, t, dt):
                 run.publish(self.pubs, FAULT_KEY, t, event.message())
-            for action in process_actions(sc.faults, t, dt):
+            for action in self.actions(k):
                 run.carry_out(action, k, self.pubs, self.resume_dir)
         network = network_at(sc, t, dt)
         if network.edges != self.edges and not final:
@@ -399,7 +405,7 @@ class _Clock:
         # every process parses every tick, and with a large fleet the long form costs more than the step itself.
         spelt = None if network == self.usual else network
         alive = None if len(run.alive) == len(sc.vehicle_ids) else list(run.alive)  # alive: a subset of the ids
-        hold = not final and bool(process_actions(sc.faults, t + run.dt, run.dt))
+        hold = not final and bool(self.actions(k + 1))
         self.issued = tick_message(k, t, final, disturbed, spelt, alive, run.comms_up, wall, self.speed, hold)
         run.publish(self.pubs, TICK_KEY, t, self.issued)
         if not run.comms_up and not final:  # no broker to hand the vehicles their tick: no receptions either
