@@ -86,11 +86,10 @@ def path_following(
     gamma_dot: float,
     v_d: float,
     correction: float,
-    constants: ControllerConstants | None = None,
 ) -> PathFollowingOutput:
-    """Inputs and gamma_ddot for state x on path at gamma, desired speed v_d (constant) plus correction.
-    constants: ControllerConstants.of(prm, gains), passed in by callers that evaluate it often."""
-    c = constants or ControllerConstants.of(prm, gains)
+    """Inputs and gamma_ddot for state x on path at gamma, desired speed v_d (constant) plus correction: `control`
+    on arrays (the closed loop calls `control` with constants it computed once)."""
+    c = ControllerConstants.of(prm, gains)
     out = control(model, prm, c, path, model.lift(x), gamma, gamma_dot, v_d, correction)
     v_dot0, w_dot0 = out.drift
     return PathFollowingOutput(
