@@ -74,18 +74,22 @@ def vehicle_of_key(key: str) -> tuple[int, str] | None:
 # --- wire format --------------------------------------------------------------------------------------------
 
 
-def encode(message: Message) -> bytes:
-    """Wire format (msgpack)."""
+def encode(message: Message | list[Any]) -> bytes:
+    """Wire format (msgpack): a message, or a list packed on its own inside one (encode_list)."""
     data: bytes = msgpack.packb(message, use_bin_type=True)
     return data
 
 
+def _unpack(data: bytes, what: str) -> Any:
+    try:
+        return msgpack.unpackb(data, raw=False, strict_map_key=False)
+    except Exception as exc:  # msgpack raises several unrelated types for garbage
+        raise ValueError(f"undecodable {what}: {exc}") from exc
+
+
 def decode(data: bytes) -> Message:
     """Inverse of encode; raises ValueError for anything that is not a msgpack map."""
-    try:
-        message = msgpack.unpackb(data, raw=False, strict_map_key=False)
-    except Exception as exc:  # msgpack raises several unrelated types for garbage
-        raise ValueError(f"undecodable message: {exc}") from exc
+    message = _unpack(data, "message")
     if not isinstance(message, dict):
         raise ValueError(f"message is a {type(message).__name__}, not a map")
     return message
@@ -174,17 +178,12 @@ def parse_batches(message: Message, vid: int) -> tuple[Tick, Message | None]:
     return tick, {"t": tick.t, "k": tick.k, "vehicle": vid, "receptions": mine}
 
 
-def encode_list(items: list[Any]) -> bytes:
-    data: bytes = msgpack.packb(items, use_bin_type=True)
-    return data
+encode_list = encode  # a vehicle's receptions, packed on their own inside the batches message
 
 
 def decode_list(data: bytes) -> list[Any]:
     """Inverse of encode_list; ValueError for anything that is not a msgpack array."""
-    try:
-        items = msgpack.unpackb(data, raw=False, strict_map_key=False)
-    except Exception as exc:  # msgpack raises several unrelated types for garbage
-        raise ValueError(f"undecodable receptions: {exc}") from exc
+    items = _unpack(data, "receptions")
     if not isinstance(items, list):
         raise ValueError("packed receptions are not a list")
     return items
