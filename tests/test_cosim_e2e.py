@@ -150,7 +150,8 @@ def test_bad_scenario_starts_nothing(tmp_path, paper_text):
 
 def test_a_vehicle_killed_with_sigkill_stops_the_run_cleanly(tmp_path, paper_text):
     scenario = write_scenario(tmp_path, paper_text)
-    run = start_cpf(["run", str(scenario), "--out", "killed.mcap"], tmp_path)
+    long_run = ["--set", "scenario.duration=20000"]  # cannot end on its own before the kill (see the SIGINT test)
+    run = start_cpf(["run", str(scenario), "--out", "killed.mcap", *long_run], tmp_path)
     try:
         wait_for_progress(run, simulated=5.0)
         kill_vehicle_process(str(scenario), 2)
@@ -169,7 +170,10 @@ def test_a_vehicle_killed_with_sigkill_stops_the_run_cleanly(tmp_path, paper_tex
 
 def test_sigint_to_cpf_stops_everything_and_keeps_the_log(tmp_path, paper_text):
     scenario = write_scenario(tmp_path, paper_text)
-    run = start_cpf(["run", str(scenario), "--out", "interrupted.mcap"], tmp_path)
+    # Long enough that the run cannot end on its own before the signal, however late a loaded machine lets the test
+    # read the progress line (the 400 s paper run takes ~3 s: the signal sometimes found it already finished).
+    long_run = ["--set", "scenario.duration=20000"]
+    run = start_cpf(["run", str(scenario), "--out", "interrupted.mcap", *long_run], tmp_path)
     try:
         wait_for_progress(run, simulated=5.0)
         run.send_signal(signal.SIGINT)
