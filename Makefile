@@ -6,7 +6,7 @@ STAMP := $(VENV)/.installed
 SCENARIO ?= configs/paper.toml
 OUT ?= runs/paper
 
-.PHONY: run test bench lint typecheck unit clean
+.PHONY: run test bench lint typecheck unit clean docs readme
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -18,6 +18,16 @@ run: $(STAMP)
 	mkdir -p $(OUT)
 	$(BIN)/cpf run $(SCENARIO) --out $(OUT)/run.mcap
 	$(BIN)/cpf report $(OUT)/run.mcap --out $(OUT)
+
+# The scenario reference and JSON Schema, generated from supervisor/scenario_schema.py (tests/test_reference.py).
+docs: $(STAMP)
+	mkdir -p docs
+	$(BIN)/cpf schema --markdown > docs/scenario-reference.md
+	$(BIN)/cpf schema > docs/scenario.schema.json
+
+# The README's example outputs, rerun with the current code (tests/test_readme.py checks the paper block).
+readme: $(STAMP)
+	$(BIN)/python scripts/readme_numbers.py
 
 bench: $(STAMP)
 	$(BIN)/python -m benchmarks

@@ -11,6 +11,7 @@ import logging
 import os
 import signal
 import sys
+import textwrap
 from collections.abc import Sequence
 from pathlib import Path
 from types import FrameType
@@ -44,8 +45,21 @@ def _ids(text: str) -> tuple[int, ...]:
         raise argparse.ArgumentTypeError(f"expected comma-separated vehicle ids, got {text!r}") from None
 
 
+class _Help(argparse.ArgumentDefaultsHelpFormatter):
+    """--help shows every option's default, unless its help already says it or there is none worth showing."""
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        text = action.help or ""
+        trivial = action.default is None or action.default is False or action.default in ([], ())
+        if not action.option_strings or trivial or action.default is argparse.SUPPRESS or "default" in text:
+            return action.help
+        return f"{text} (default: %(default)s)"
+
+
 def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="cpf", description="Coordinated path-following co-simulator for AUV fleets.")
+    parser = argparse.ArgumentParser(
+        prog="cpf", description="Coordinated path-following co-simulator for AUV fleets.", formatter_class=_Help
+    )
     sub = parser.add_subparsers(dest="command", required=True)
     run = sub.add_parser("run", help="simulate a scenario and record it to MCAP")
     run.add_argument("scenario", type=Path, help="scenario file (TOML)")
@@ -113,7 +127,21 @@ def _parser() -> argparse.ArgumentParser:
     repair = sub.add_parser("recover", help="rebuild the summary and index of a log whose writer was killed")
     repair.add_argument("log", type=Path, help="MCAP file, possibly cut short (no footer, partial last chunk)")
     repair.add_argument("--out", type=Path, default=None, help="MCAP file to write (default: <log>.recovered.mcap)")
+    _add_learning_commands(sub)
+    for command in sub.choices.values():
+        command.formatter_class = _Help
     return parser
+
+
+def _add_learning_commands(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """schema, validate, presets: the scenario format without reading the source."""
+    schema = sub.add_parser("schema", help="the JSON Schema of a scenario file, for editors (or the reference)")
+    schema.add_argument("--markdown", action="store_true", help="the scenario reference (docs/scenario-reference.md)")
+    check = sub.add_parser("validate", help="check a scenario (every error at once) and say what it would run")
+    check.add_argument("scenario", type=Path, help="scenario file (TOML)")
+    check.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override a value (repeatable)")
+    check.add_argument("--fault", action="append", default=[], metavar="SPEC", help="add a fault (repeatable)")
+    sub.add_parser("presets", help="the vehicle and modem presets a scenario can name, with their key numbers")
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -274,6 +302,29 @@ def _recover(args: argparse.Namespace) -> int:
     return 0
 
 
+def _schema(args: argparse.Namespace) -> int:
+    from supervisor.reference import markdown, schema_text
+
+    print(markdown() if args.markdown else schema_text(), end="")
+    return 0
+
+
+def _validate(args: argparse.Namespace) -> int:
+    from supervisor.explain import what_would_run
+    from supervisor.scenario import load_scenario
+
+    scenario = load_scenario(args.scenario, args.set, args.fault)  # ScenarioError: every error, exit 2
+    print(textwrap.fill(f"{args.scenario}: valid. {what_would_run(scenario)}", width=100, break_on_hyphens=False))
+    return 0
+
+
+def _presets(args: argparse.Namespace) -> int:
+    from supervisor.presets_table import presets_text
+
+    print(presets_text())
+    return 0
+
+
 def _interrupt(signum: int, frame: FrameType | None) -> None:
     raise KeyboardInterrupt  # SIGTERM cleans up like Ctrl-C: children stopped, log closed
 
@@ -288,6 +339,9 @@ COMMANDS = {
     "sweep": _sweep,
     "resim": _resim,
     "replay": _replay,
+    "schema": _schema,
+    "validate": _validate,
+    "presets": _presets,
 }
 
 

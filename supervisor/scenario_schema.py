@@ -5,10 +5,12 @@ Parsing, cross-field checks and one-line error messages live in supervisor/scena
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, Strict, field_validator
+from pydantic import BaseModel, ConfigDict, Field, JsonValue, Strict, field_validator
 
+from comms.modem import PRESETS as MODEMS
 from vehicles.coordination import Law
 from vehicles.estimates import Predictor
 from vehicles.params import PRESETS, VehicleParams
@@ -19,6 +21,12 @@ Int = Annotated[int, Strict()]
 Vec3 = tuple[Float, Float, Float]
 
 
+def _one_of(names: Iterable[str]) -> dict[str, JsonValue]:
+    """The allowed names of a key checked by a validator, for the JSON Schema (editors complete them)."""
+    choices: list[JsonValue] = [*sorted(names)]
+    return {"enum": choices}
+
+
 class _Strict(BaseModel):
     # Lax mode so that TOML arrays become tuples; the numbers themselves are strict (Float, Int).
     # TOML has nan and inf literals; no field of a scenario may take them.
@@ -26,19 +34,31 @@ class _Strict(BaseModel):
 
 
 class RunSection(_Strict):
-    name: str
-    description: str = ""
+    """The run as a whole: its name, how long and in what steps it is simulated, the random seed and the model."""
+
+    name: str = Field(description="names the run: the default log is runs/<name>.mcap")
+    description: str = Field(default="", description="one line for people; shown by cpf info")
     duration: Float = Field(gt=0, description="simulated time, s")
     step: Float = Field(gt=0, description="integration and sync step, s")
-    seed: Int = Field(default=0, ge=0)
-    dimension: Literal[2, 3] = 3  # 3: the 6-DOF model; 2: the planar variant
-    on_vehicle_loss: Literal["abort", "continue"] = "abort"  # a vehicle process that dies: stop, or go on without it
+    seed: Int = Field(default=0, ge=0, description="seed of every random stream (loss, jitter); cpf run --seed wins")
+    dimension: Literal[2, 3] = Field(
+        default=3, description="3: the 6-DOF model of eqs. (1)-(2); 2: the planar variant (x, y and yaw only)"
+    )
+    on_vehicle_loss: Literal["abort", "continue"] = Field(
+        default="abort", description="a vehicle process that dies: stop the run (abort), or go on without it"
+    )
 
 
 class VehicleModelSection(_Strict):
-    preset: str = "remus100"
+    """The vehicle model every AUV of the fleet uses: a named preset (cpf presets lists them) and changes to it."""
+
+    preset: str = Field(default="remus100", description="vehicle preset", json_schema_extra=_one_of(PRESETS))
     # Names and shapes (number or 3-vector) are checked against the preset by _check_overrides.
-    overrides: dict[str, Float | Vec3] = {}
+    overrides: dict[str, Float | Vec3] = Field(
+        default={},
+        description=f"parameter = value, replacing the preset's; names: {', '.join(VehicleParams.__dataclass_fields__)}"
+        " (units: kg, kg m^2, N s/m, N s^2/m^2, N m s, N m s^2, N, m; 3 numbers for the diagonal ones)",
+    )
 
     @field_validator("preset")
     @classmethod
@@ -49,10 +69,15 @@ class VehicleModelSection(_Strict):
 
 
 class PathFollowingSection(_Strict):
-    delta: Float = Field(default=-1.0, description="offset of the controlled point, m (its size: tube radius)")
-    k1: Float = Field(default=0.5, gt=0)
-    k2: Float = Field(default=1.0, gt=0)
-    k_zeta: Float = Field(default=1.0, gt=0)
+    """Gains of each vehicle's path-following controller (the delta-shifted backstepping design)."""
+
+    delta: Float = Field(
+        default=-1.0, description="offset of the controlled point along the body x axis, m (negative: behind; its "
+        "size is the tube radius); non-zero",
+    )  # fmt: skip
+    k1: Float = Field(default=0.5, gt=0, description="K1: gain on the position error, m/s")
+    k2: Float = Field(default=1.0, gt=0, description="K2: gain on the velocity error, 1/s")
+    k_zeta: Float = Field(default=1.0, gt=0, description="gain on the speed error gamma_dot - v_r, 1/s")
 
     @field_validator("delta")
     @classmethod
@@ -63,96 +88,132 @@ class PathFollowingSection(_Strict):
 
 
 class CoordinationSection(_Strict):
-    law: Law = "corrected"
-    k: Float = Field(default=0.2, gt=0)
-    k2: Float = Field(default=1.0, gt=0)
-    v_r: Float = Field(default=1.0, description="reference speed of the path parameters, 1/s")
-    predictor: Predictor = "first_order"
+    """The coordination law (5) that synchronises the path parameters gamma_i over the communication graph."""
+
+    law: Law = Field(
+        default="corrected",
+        description="corrected: law (5) on the speed error gamma_dot - v_r (settles at v_r); literal: as printed "
+        "(settles at k_zeta v_r / (k_zeta + k2))",
+    )
+    k: Float = Field(default=0.2, gt=0, description="K = diag(k): gain on the disagreement with neighbours, 1/s")
+    k2: Float = Field(default=1.0, gt=0, description="K2 = diag(k2), 1/s")
+    v_r: Float = Field(default=1.0, description="reference speed of the path parameters, unit of gamma per s")
+    predictor: Predictor = Field(
+        default="first_order",
+        description="how a neighbour's gamma is predicted between messages: first_order (gamma + gamma_dot age), "
+        "hold (last value), reference (gamma + v_r age)",
+    )
 
 
 class GraphSection(_Strict):
-    edges: tuple[tuple[Int, Int], ...]
+    """The communication graph: who hears whom (undirected; must be connected)."""
+
+    edges: tuple[tuple[Int, Int], ...] = Field(description="pairs of vehicle ids, e.g. [[1, 2], [1, 3]]")
 
 
 class HelixPath(_Strict):
+    """p_d(gamma) = center + [radius cos(2 pi gamma / period + phase), radius sin(2 pi gamma / period + phase),
+    climb gamma]. gamma counts revolutions in units of 1/period: one turn per `period` units of gamma (with period =
+    2 pi, gamma is the angle in rad); at gamma_dot = v_r a vehicle moves at v_r sqrt((2 pi radius / period)^2 +
+    climb^2) m/s."""
+
     type: Literal["helix"]
-    radius: Float = Field(gt=0)
-    climb: Float
-    period: Float
-    phase: Float = 0.0
-    center: Vec3 = (0.0, 0.0, 0.0)
+    radius: Float = Field(gt=0, description="m")
+    climb: Float = Field(description="m of height per unit of gamma (z up; 0: a circle)")
+    period: Float = Field(description="units of gamma per revolution; non-zero, negative turns clockwise from above")
+    phase: Float = Field(default=0.0, description="angle at gamma = 0, rad (from +x towards +y)")
+    center: Vec3 = Field(default=(0.0, 0.0, 0.0), description="[x, y, z] of the axis at gamma = 0, m")
 
 
 class CirclePath(_Strict):
+    """A horizontal circle at height center[2]: the helix with climb 0. gamma counts revolutions in units of
+    1/period (with period = 2 pi, gamma is the angle in rad: vehicles on circles of different radii are abreast
+    when their gammas agree, the paper's Fig. 2); at gamma_dot = v_r a vehicle moves at 2 pi radius v_r / period
+    m/s."""
+
     type: Literal["circle"]
-    radius: Float = Field(gt=0)
-    period: Float
-    phase: Float = 0.0
-    center: Vec3 = (0.0, 0.0, 0.0)
+    radius: Float = Field(gt=0, description="m")
+    period: Float = Field(description="units of gamma per revolution; non-zero, negative turns clockwise from above")
+    phase: Float = Field(default=0.0, description="angle at gamma = 0, rad (from +x towards +y)")
+    center: Vec3 = Field(default=(0.0, 0.0, 0.0), description="[x, y, z] of the centre, m")
 
 
 class LinePath(_Strict):
+    """p_d(gamma) = start + gamma velocity. gamma is distance along the line in units of |velocity| m (a unit
+    velocity makes gamma metres, and v_r m/s)."""
+
     type: Literal["line"]
-    start: Vec3
-    velocity: Vec3
+    start: Vec3 = Field(description="[x, y, z] at gamma = 0, m")
+    velocity: Vec3 = Field(description="[x, y, z] m per unit of gamma; non-zero")
 
 
 class LawnmowerPath(_Strict):
+    """A survey pattern in the plane z = origin[2]: `legs` parallel legs joined by half-circle turns of radius
+    spacing / 2, advancing to the left of the first leg. gamma = arc length / scale (scale = 1: gamma in metres of
+    path, v_r in m/s); before gamma = 0 and after the last leg the path goes on straight."""
+
     type: Literal["lawnmower"]
-    origin: Vec3
-    leg_length: Float = Field(gt=0)
-    spacing: Float = Field(gt=0)
-    legs: Int = Field(ge=1, le=10_000)  # the path is built leg by leg when the scenario is checked
-    heading: Float = 0.0
-    scale: Float = Field(default=1.0, gt=0)
+    origin: Vec3 = Field(description="[x, y, z] where the first leg starts (gamma = 0), m")
+    leg_length: Float = Field(gt=0, description="m")
+    spacing: Float = Field(gt=0, description="distance between legs, m")
+    # The path is built leg by leg when the scenario is checked: hence the bound.
+    legs: Int = Field(ge=1, le=10_000, description="number of legs")
+    heading: Float = Field(default=0.0, description="direction of the first leg, rad (from +x towards +y)")
+    scale: Float = Field(default=1.0, gt=0, description="m of path per unit of gamma")
 
 
 PathSpec = Annotated[HelixPath | CirclePath | LinePath | LawnmowerPath, Field(discriminator="type")]
 
 
 class VehicleSection(_Strict):
-    id: Int = Field(ge=1)
-    position: Vec3
-    attitude_rpy_deg: Vec3 = (0.0, 0.0, 0.0)
-    velocity: Vec3 = (0.0, 0.0, 0.0)
-    angular_velocity: Vec3 = (0.0, 0.0, 0.0)
-    gamma0: Float | Literal["closest"] = "closest"
-    path: PathSpec
+    """One AUV: its id, where it starts and the path it follows."""
+
+    id: Int = Field(ge=1, description="vehicle id, unique, at most 255 (one byte on the wire)")
+    position: Vec3 = Field(description="initial [x, y, z], m (z up)")
+    attitude_rpy_deg: Vec3 = Field(default=(0.0, 0.0, 0.0), description="initial roll, pitch, yaw, deg")
+    velocity: Vec3 = Field(default=(0.0, 0.0, 0.0), description="initial body velocity [u, v, w], m/s")
+    angular_velocity: Vec3 = Field(default=(0.0, 0.0, 0.0), description="initial body rates [p, q, r], rad/s")
+    gamma0: Float | Literal["closest"] = Field(
+        default="closest",
+        description="initial path parameter (unit: the path's gamma), or closest: the nearest point searched within "
+        "one period around gamma = 0 for periodic paths (circle, helix), nearest to gamma = 0 otherwise",
+    )
+    path: PathSpec = Field(description="the path p_d(gamma): a table with type = helix, circle, line or lawnmower")
 
 
 class _Fault(_Strict):
     """Every fault acts on [start, end); end none: to the end of the run."""
 
-    start: Float = Field(ge=0, description="s")
-    end: Float | None = Field(default=None, description="s")
+    start: Float = Field(ge=0, description="when the fault begins, s")
+    end: Float | None = Field(default=None, description="when it ends, s (after start; omitted: the end of the run)")
 
 
 class SpeedCapFault(_Fault):
     """The paper's fault: vehicle's gamma_dot capped, its neighbours not told."""
 
     kind: Literal["speed_cap"]
-    vehicle: Int
-    gamma_dot_max: Float
+    vehicle: Int = Field(description="vehicle id")
+    gamma_dot_max: Float = Field(description="cap on its gamma_dot, unit of gamma per s")
 
 
 class LinkDownFault(_Fault):
     """A link fails: its packets are lost (reason link_down). both: the reverse direction too."""
 
     kind: Literal["link_down"]
-    sender: Int
-    receiver: Int
-    both: bool = True
+    sender: Int = Field(description="vehicle id")
+    receiver: Int = Field(description="vehicle id")
+    both: bool = Field(default=True, description="the reverse direction too")
 
 
 class LinkDegradedFault(_Fault):
     """A link gets worse: extra independent loss (reason degraded) and extra delay."""
 
     kind: Literal["link_degraded"]
-    sender: Int
-    receiver: Int
-    both: bool = True
-    extra_loss: Float = Field(default=0.0, ge=0, le=1)
-    extra_delay: Float = Field(default=0.0, ge=0, description="s")
+    sender: Int = Field(description="vehicle id")
+    receiver: Int = Field(description="vehicle id")
+    both: bool = Field(default=True, description="the reverse direction too")
+    extra_loss: Float = Field(default=0.0, ge=0, le=1, description="probability a packet is lost, on top")
+    extra_delay: Float = Field(default=0.0, ge=0, description="added to every packet's delay, s")
 
 
 class BlackoutFault(_Fault):
@@ -165,14 +226,14 @@ class ModemSilentFault(_Fault):
     """A vehicle's modem sends nothing, though the vehicle believes it does (reason modem_silent)."""
 
     kind: Literal["modem_silent"]
-    vehicle: Int
+    vehicle: Int = Field(description="vehicle id")
 
 
 class GraphSwitchFault(_Fault):
     """The communication graph becomes `edges` (possibly disconnected); vehicles use their new neighbours."""
 
     kind: Literal["graph_switch"]
-    edges: tuple[tuple[Int, Int], ...]
+    edges: tuple[tuple[Int, Int], ...] = Field(description="the new graph: pairs of vehicle ids (may be empty)")
 
 
 class VehicleKillFault(_Fault):
@@ -180,7 +241,7 @@ class VehicleKillFault(_Fault):
     recorded state. What the run does meanwhile is scenario.on_vehicle_loss."""
 
     kind: Literal["vehicle_kill"]
-    vehicle: Int
+    vehicle: Int = Field(description="vehicle id")
 
 
 class BrokerKillFault(_Fault):
@@ -194,23 +255,23 @@ class FrozenGammaFault(_Fault):
     """A faulty sensor: the vehicle keeps broadcasting the gamma and gamma_dot it had at start."""
 
     kind: Literal["frozen_gamma"]
-    vehicle: Int
+    vehicle: Int = Field(description="vehicle id")
 
 
 class GammaOffsetFault(_Fault):
     """A faulty sensor: the vehicle broadcasts gamma + offset."""
 
     kind: Literal["gamma_offset"]
-    vehicle: Int
-    offset: Float
+    vehicle: Int = Field(description="vehicle id")
+    offset: Float = Field(description="added to the gamma it broadcasts, unit of gamma")
 
 
 class ClockSkewFault(_Fault):
     """The vehicle's clock runs `offset` s ahead (behind if negative): its messages carry skewed time stamps."""
 
     kind: Literal["clock_skew"]
-    vehicle: Int
-    offset: Float
+    vehicle: Int = Field(description="vehicle id")
+    offset: Float = Field(description="its clock's error, s (positive: ahead)")
 
 
 FaultSpec = Annotated[
@@ -241,8 +302,8 @@ class WaterSection(_Strict):
 class BurstSection(_Strict):
     """Gilbert-Elliott loss given as its long-run loss rate and mean burst length (packets)."""
 
-    mean_loss: Float = Field(ge=0, lt=1)
-    mean_burst: Float = Field(ge=1)
+    mean_loss: Float = Field(ge=0, lt=1, description="long-run share of packets lost")
+    mean_burst: Float = Field(ge=1, description="mean number of packets lost in a row")
 
 
 class LinkBudgetSection(_Strict):
@@ -250,18 +311,18 @@ class LinkBudgetSection(_Strict):
 
     type: Literal["link_budget"]
     source_level: Float = Field(description="dB re 1 uPa at 1 m")
-    spreading: Float = Field(default=1.5, ge=1, le=2)
-    shipping: Float = Field(default=0.5, ge=0, le=1)
-    wind: Float = Field(default=0.0, ge=0, description="m/s")
-    directivity: Float = Field(default=0.0, description="dB")
+    spreading: Float = Field(default=1.5, ge=1, le=2, description="spreading exponent k (1 cylindrical, 2 spherical)")
+    shipping: Float = Field(default=0.5, ge=0, le=1, description="shipping activity for the ambient noise (Coates)")
+    wind: Float = Field(default=0.0, ge=0, description="wind speed for the ambient noise, m/s")
+    directivity: Float = Field(default=0.0, description="directivity index added to the SNR, dB")
 
 
 class RangeTableSection(_Strict):
     """Range-dependent loss from a table of packet success probability against range (m)."""
 
     type: Literal["table"]
-    ranges: tuple[Float, ...] = Field(min_length=1)
-    success: tuple[Float, ...] = Field(min_length=1)
+    ranges: tuple[Float, ...] = Field(min_length=1, description="ranges, m, ascending")
+    success: tuple[Float, ...] = Field(min_length=1, description="probability a packet arrives at each range")
 
 
 RangeSpec = Annotated[LinkBudgetSection | RangeTableSection, Field(discriminator="type")]
@@ -270,18 +331,20 @@ RangeSpec = Annotated[LinkBudgetSection | RangeTableSection, Field(discriminator
 class LinkSection(_Strict):
     """One directed link's own loss and extra delay (its loss and burst replace the fleet-wide ones)."""
 
-    sender: Int
-    receiver: Int
-    loss: Float | None = Field(default=None, ge=0, le=1)
-    burst: BurstSection | None = None
-    extra_delay: Float = Field(default=0.0, ge=0, description="s")
+    sender: Int = Field(description="vehicle id")
+    receiver: Int = Field(description="vehicle id; sender -> receiver must be an edge of the graph")
+    loss: Float | None = Field(default=None, ge=0, le=1, description="independent loss; omitted: comms.loss")
+    burst: BurstSection | None = Field(default=None, description="bursty loss; omitted: comms.burst")
+    extra_delay: Float = Field(default=0.0, ge=0, description="added to every packet's delay, s")
 
 
 class TransmitSection(_Strict):
     """When vehicles transmit: periodically, or when their gamma leaves what their neighbours predict."""
 
-    policy: Literal["periodic", "event"] = "periodic"
-    period: Float | None = Field(default=None, gt=0, description="periodic: s between messages; none: every step")
+    policy: Literal["periodic", "event"] = Field(
+        default="periodic", description="periodic: every period; event: when gamma leaves the prediction by h(t)"
+    )
+    period: Float | None = Field(default=None, gt=0, description="periodic: s between messages; omitted: every step")
     threshold: Float = Field(default=0.05, gt=0, description="event: c0 of h(t) = c0 + c1 exp(-alpha t)")
     threshold_decay: Float = Field(default=0.0, ge=0, description="event: c1")
     decay_rate: Float = Field(default=0.0, ge=0, description="event: alpha, 1/s")
@@ -290,55 +353,70 @@ class TransmitSection(_Strict):
 
 
 class TdmaSection(_Strict):
-    slot: Float = Field(gt=0, description="s; must hold a packet's airtime plus the longest propagation delay")
-    order: tuple[Int, ...] | None = None  # slot owners in order; default: vehicle ids as listed
+    """A TDMA schedule: each vehicle transmits only in its own slot; a frame is one slot per vehicle."""
+
+    slot: Float = Field(
+        gt=0, description="s, a whole number of steps; must hold a packet's airtime plus the longest propagation delay"
+    )
+    order: tuple[Int, ...] | None = Field(
+        default=None, description="slot owners in order, every vehicle once; omitted: the ids as listed"
+    )
 
 
 class CommsSection(_Strict):
     """The acoustic channel between vehicles (comms/channel.py). Defaults: the ideal channel."""
 
     sound_speed: Float | WaterSection = Field(default=1500.0, description="m/s, or water properties")
-    modem: str = "ideal"
+    modem: str = Field(
+        default="ideal", description="modem preset (cpf presets): bitrate, frames, duplex, carrier",
+        json_schema_extra=_one_of(MODEMS),
+    )  # fmt: skip
     bitrate: Float | None = Field(default=None, gt=0, description="bit/s, overrides the modem's")
     preamble: Float | None = Field(default=None, ge=0, description="s, overrides the modem's")
-    frame_bytes: Int | None = Field(default=None, gt=0)
-    half_duplex: bool | None = None
-    collisions: bool | None = None
-    packet_bytes: Int | None = Field(default=None, gt=0, description="none: the encoded message size (15 B)")
+    frame_bytes: Int | None = Field(default=None, gt=0, description="fixed frame size, B, overrides the modem's")
+    half_duplex: bool | None = Field(default=None, description="deaf while transmitting; overrides the modem's")
+    collisions: bool | None = Field(default=None, description="overlapping packets lost; overrides the modem's")
+    packet_bytes: Int | None = Field(
+        default=None, gt=0, description="B on air; omitted: the encoded message size (15 B)"
+    )
     jitter: Float = Field(default=0.0, ge=0, description="extra delay, uniform on [0, jitter], s")
     loss: Float = Field(default=0.0, ge=0, le=1, description="independent (Bernoulli) loss per directed link")
-    burst: BurstSection | None = None
-    range: RangeSpec | None = None
-    links: tuple[LinkSection, ...] = ()
-    transmit: TransmitSection = TransmitSection()
-    tdma: TdmaSection | None = None
+    burst: BurstSection | None = Field(default=None, description="bursty (Gilbert-Elliott) loss per directed link")
+    range: RangeSpec | None = Field(default=None, description="range-dependent loss: type = link_budget or table")
+    links: tuple[LinkSection, ...] = Field(default=(), description="per directed link settings ([[comms.links]])")
+    transmit: TransmitSection = Field(default=TransmitSection(), description="when vehicles transmit")
+    tdma: TdmaSection | None = Field(default=None, description="a TDMA schedule; omitted: transmit at will")
     stats_window: Float = Field(default=10.0, gt=0, description="s: link statistics and delivered lambda_2")
 
     @field_validator("modem")
     @classmethod
     def _known_modem(cls, value: str) -> str:
-        from comms.modem import PRESETS as MODEMS
-
         if value not in MODEMS:
             raise ValueError(f"unknown modem {value!r}, expected one of {sorted(MODEMS)}")
         return value
 
 
 class ReportSection(_Strict):
+    """What the run summary and cpf report measure against."""
+
     transient: Float = Field(default=50.0, ge=0, description="initial time left out of path-following stats, s")
     tube_margin: Float = Field(default=0.2, ge=0, description="allowed excess over |delta| in the tube, m")
-    coordination_tolerance: Float = Field(default=0.01, gt=0)
+    coordination_tolerance: Float = Field(
+        default=0.01, gt=0, description="max|gamma_i - gamma_j| below which the fleet counts as coordinated"
+    )
 
 
 class Scenario(_Strict):
+    """A cpf-cosim scenario file (TOML). Lengths in m, times in s, angles in rad unless the name says deg."""
+
     scenario: RunSection
     vehicle: VehicleModelSection = VehicleModelSection()
     path_following: PathFollowingSection = PathFollowingSection()
     coordination: CoordinationSection = CoordinationSection()
     graph: GraphSection
-    vehicles: tuple[VehicleSection, ...] = Field(min_length=2)
+    vehicles: tuple[VehicleSection, ...] = Field(min_length=2, description="the fleet: one [[vehicles]] per AUV")
     comms: CommsSection = CommsSection()
-    faults: tuple[FaultSpec, ...] = ()
+    faults: tuple[FaultSpec, ...] = Field(default=(), description="the fault schedule: one [[faults]] per fault")
     report: ReportSection = ReportSection()
 
     @property

@@ -1,0 +1,96 @@
+"""What a validated scenario would run, in one paragraph (`cpf validate`): the fleet and its paths, time, graph,
+channel, transmission and faults, with the numbers the scenario file leaves implicit (modem airtime, TDMA frame)."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from typing import Any
+
+from comms.wire import SIZE
+from supervisor.fleet import modem_params, sound_speed
+from supervisor.info import _fault
+from supervisor.scenario_schema import CommsSection, Scenario, TransmitSection, VehicleSection
+
+__all__ = ["what_would_run"]
+
+
+def what_would_run(sc: Scenario) -> str:
+    """One paragraph: what `cpf run` would simulate with this scenario."""
+    run = sc.scenario
+    steps = round(run.duration / run.step)
+    model = "the 6-DOF model" if run.dimension == 3 else "the planar model"
+    sentences = [
+        f"{run.name}: {len(sc.vehicles)} vehicles ({sc.vehicle.preset}{_overrides(sc)}, {model}) for "
+        f"{_num(run.duration)} s in {steps} steps of {_num(run.step)} s, seed {run.seed}",
+        "paths: " + "; ".join(_vehicle(v) for v in sc.vehicles),
+        f"coordination: {sc.coordination.law} law, k {_num(sc.coordination.k)}, v_r {_num(sc.coordination.v_r)} "
+        f"per s, over the graph {_edges(sc.graph.edges)}",
+        "comms: " + _comms(sc),
+        "transmission: " + _transmit(sc.comms.transmit, sc.comms, len(sc.vehicles)),
+        "faults: " + ("; ".join(_fault(f.model_dump()) for f in sc.faults) or "none"),
+        f"a vehicle lost: {run.on_vehicle_loss}",
+    ]
+    return ". ".join([sentences[0], *(s[0].upper() + s[1:] for s in sentences[1:])]) + "."
+
+
+def _vehicle(v: VehicleSection) -> str:
+    spec = v.path.model_dump()
+    shape = ", ".join(f"{key} {_value(value)}" for key, value in spec.items() if key != "type")
+    gamma0 = v.gamma0 if isinstance(v.gamma0, str) else _num(v.gamma0)
+    return f"{v.id} from {_value(v.position)} on a {spec['type']} ({shape}), gamma0 {gamma0}"
+
+
+def _comms(sc: Scenario) -> str:
+    c = sc.comms
+    radio = modem_params(sc)
+    size = c.packet_bytes or SIZE
+    parts = [f"{c.modem} modem"]
+    if radio.bitrate is not None:
+        parts.append(f"{_num(radio.bitrate)} bit/s, {_num(radio.airtime(size))} s on air per {size}-B packet")
+    parts += [name.replace("_", "-") for name in ("half_duplex", "collisions") if getattr(radio, name)]
+    parts.append(f"sound speed {sound_speed(sc):.0f} m/s")
+    if c.loss:
+        parts.append(f"loss {_num(c.loss)}")
+    if c.burst is not None:
+        parts.append(f"bursts (mean loss {_num(c.burst.mean_loss)}, mean burst {_num(c.burst.mean_burst)} packets)")
+    if c.range is not None:
+        parts.append(f"range-dependent loss ({c.range.type})")
+    if c.jitter:
+        parts.append(f"jitter up to {_num(c.jitter)} s")
+    if c.links:
+        parts.append(f"own settings on {len(c.links)} directed link{'s' if len(c.links) > 1 else ''}")
+    if len(parts) == 2 and c.modem == "ideal":
+        parts.append("no loss")
+    return ", ".join(parts)
+
+
+def _transmit(tx: TransmitSection, c: CommsSection, fleet: int) -> str:
+    if tx.policy == "periodic":
+        text = "periodic, " + (f"every {_num(tx.period)} s" if tx.period is not None else "every step")
+    else:
+        text = f"event-triggered (threshold {_num(tx.threshold)}"
+        text += f", at least {_num(tx.min_interval)} s apart" if tx.min_interval else ""
+        text += f", heartbeat {_num(tx.heartbeat)} s" if tx.heartbeat is not None else ""
+        text += ")"
+    if c.tdma is not None:
+        text += f", on TDMA slots of {_num(c.tdma.slot)} s (frame {_num(c.tdma.slot * fleet)} s)"
+    return text
+
+
+def _overrides(sc: Scenario) -> str:
+    names = sorted(sc.vehicle.overrides)
+    return f" with {', '.join(names)} overridden" if names else ""
+
+
+def _edges(edges: Iterable[tuple[int, int]]) -> str:
+    return ", ".join(f"{i}-{j}" for i, j in edges)
+
+
+def _value(value: Any) -> str:
+    if isinstance(value, tuple | list):
+        return "(" + ", ".join(_value(item) for item in value) + ")"
+    return _num(value) if isinstance(value, float) else str(value)
+
+
+def _num(value: float | None) -> str:
+    return "-" if value is None else f"{value:g}"

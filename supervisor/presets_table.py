@@ -1,0 +1,82 @@
+"""`cpf presets`: the vehicle and modem presets a scenario can name, with their key numbers.
+
+Everything is read from the presets themselves (vehicles/params.py, comms/modem.py) or derived from them with the
+model's own equations (top speed: full thrust against the surge damping; airtime of one cpf message), so a new preset
+shows up here without a change.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+from comms.modem import PRESETS as MODEMS
+from comms.modem import ModemParams
+from comms.wire import SIZE
+from vehicles.params import GRAVITY, PRESETS, VehicleParams
+
+__all__ = ["presets_text", "top_speed"]
+
+VEHICLE_HEAD = (
+    "vehicle", "mass [kg]", "M11/M22 [kg]", "W - B [N]", "max thrust [N]", "max torque [N m]", "top speed [m/s]",
+)  # fmt: skip
+MODEM_HEAD = (
+    "modem", "bit/s", "preamble [s]", "frame [B]", "max [B]", "duplex", "collisions", "carrier [kHz]",
+    "band [Hz]", "modulation", f"airtime {SIZE} B [s]",
+)  # fmt: skip
+
+
+def top_speed(params: VehicleParams) -> float:
+    """Steady surge speed at full thrust, m/s: max_surge_force = X_u u + X_|u|u u^2 (surge damping of the model)."""
+    lin, quad, force = params.linear_damping[0], params.quadratic_damping[0], params.max_surge_force
+    if quad == 0:
+        return force / lin if lin > 0 else math.inf
+    return (-lin + math.sqrt(lin * lin + 4.0 * quad * force)) / (2.0 * quad)
+
+
+def _vehicle_row(name: str, p: VehicleParams) -> tuple[str, ...]:
+    return (
+        name, f"{p.weight / GRAVITY:.2f}", f"{p.mass[0]:.2f} / {p.mass[1]:.2f}", f"{p.weight - p.buoyancy:+.1f}",
+        f"{p.max_surge_force:g}", f"{p.max_torque:g}", f"{top_speed(p):.2f}",
+    )  # fmt: skip
+
+
+def _modem_row(name: str, m: ModemParams) -> tuple[str, ...]:
+    def opt(value: float | None) -> str:
+        return "-" if value is None else f"{value:g}"
+
+    return (
+        name, "unlimited" if m.bitrate is None else f"{m.bitrate:g}", f"{m.preamble:g}", opt(m.frame_bytes),
+        opt(m.max_bytes), "half" if m.half_duplex else "full", "yes" if m.collisions else "no",
+        f"{m.frequency_khz:g}", f"{m.bandwidth_hz:g}", m.modulation, f"{m.airtime(SIZE):.3g}",
+    )  # fmt: skip
+
+
+def _table(head: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]:
+    widths = [max(len(row[i]) for row in [head, *rows]) for i in range(len(head))]
+
+    def line(cells: Sequence[str]) -> str:
+        first = f"{cells[0]:<{widths[0]}}"
+        return "  ".join([first, *(f"{c:>{w}}" for c, w in zip(cells[1:], widths[1:], strict=True))]).rstrip()
+
+    return [line(head), *(line(row) for row in rows)]
+
+
+def presets_text() -> str:
+    """Both tables, with what their columns mean."""
+    vehicles = _table(VEHICLE_HEAD, [_vehicle_row(n, p) for n, p in sorted(PRESETS.items())])
+    modems = _table(MODEM_HEAD, [_modem_row(n, m) for n, m in sorted(MODEMS.items())])
+    return "\n".join(
+        [
+            "Vehicle presets ([vehicle] preset = NAME; any parameter can be changed in [vehicle] overrides):",
+            *vehicles,
+            "  mass: rigid body (W / g); M11/M22: surge / sway with added mass; W - B < 0: buoyant;",
+            "  top speed: steady surge at full thrust against the model's surge damping.",
+            "",
+            "Modem presets ([comms] modem = NAME; bitrate, preamble, frame_bytes, half_duplex, collisions can be",
+            "changed in [comms]; the source level is the link budget's:",
+            '[comms] range = { type = "link_budget", source_level = ... }):',
+            *modems,
+            f"  airtime: preamble + bits / bitrate of one cpf message ({SIZE} B, padded to whole frames).",
+        ]
+    )
