@@ -195,19 +195,18 @@ def _comms(args: argparse.Namespace) -> int:
 def _report(args: argparse.Namespace) -> int:
     from supervisor.report import write_report
 
-    if not args.log.is_file():
-        raise ScenarioError(f"{args.log}: no such log file")
     for path in write_report(args.log, args.out or args.log.parent):
         print(path)
     return 0
 
 
 def _info(args: argparse.Namespace) -> int:
-    from supervisor.info import describe
+    from supervisor.info import overview
 
-    if not args.log.is_file():
-        raise ScenarioError(f"{args.log}: no such log file")
-    print(describe(args.log))
+    text, problem = overview(args.log)
+    print(text)
+    if problem is not None:  # described as far as it goes, and still an error: scripts must not take it as whole
+        raise problem
     return 0
 
 
@@ -230,8 +229,6 @@ def _resim(args: argparse.Namespace) -> int:
     from supervisor.resim import resimulate
     from supervisor.summary import format_summary, summarize
 
-    if not args.log.is_file():
-        raise ScenarioError(f"{args.log}: no such log file")
     out = args.out or args.log.with_name(f"{args.log.stem}.resim.mcap")
     sc, original, new = resimulate(args.log, args.set, out)
     rep, duration = sc.report, sc.scenario.duration

@@ -17,7 +17,8 @@ from comms.messages import META_KEY, Message, parse_rx, state_key, state_message
 from supervisor.errors import ScenarioError
 from supervisor.faults import disturbances, network_at
 from supervisor.fleet import initial_state, radio, restarted_node, vehicle_config
-from supervisor.recorder import Recorder, read_messages
+from supervisor.logfile import messages
+from supervisor.recorder import Recorder
 from supervisor.scenario import apply_override, validate_data
 from supervisor.scenario_schema import Scenario
 from supervisor.series import SeriesBuilder
@@ -30,7 +31,7 @@ def _load(log: Path) -> tuple[dict[str, Any], dict[tuple[int, int], list[Heard]]
     meta: dict[str, Any] | None = None
     heard: dict[tuple[int, int], list[Heard]] = {}
     states: list[Message] = []
-    for topic, _, message in read_messages(log):
+    for topic, _, message in messages(log):
         owned = vehicle_of_key(topic)
         if topic == META_KEY:
             meta = message

@@ -200,7 +200,7 @@ def test_without_connect_the_replayer_runs_a_router_subscribers_connect_to(log, 
         for session in sessions:
             session.close()
     assert re.fullmatch(r"Zenoh router listening on tcp/127\.0\.0\.1:\d+", lines[0])
-    assert report.endpoint == lines[0] and report.interrupted and report.passes >= 1
+    assert report.endpoint == lines[0] and report.interrupted  # after a pass or within one: the subscriber decides
     assert {key for key, _, _ in received} == {topic for topic, _, _ in logged}
 
 
@@ -208,8 +208,8 @@ def test_without_connect_the_replayer_runs_a_router_subscribers_connect_to(log, 
     ("name", "content", "reason"),
     [
         ("missing.mcap", None, "no such log file"),
-        ("empty.mcap", b"", "not a readable MCAP log"),
-        ("text.mcap", b"this is not an MCAP file, just some text" * 4, "not a readable MCAP log"),
+        ("empty.mcap", b"", "not an MCAP file"),
+        ("text.mcap", b"this is not an MCAP file, just some text" * 4, "not an MCAP file"),
     ],
 )
 def test_a_log_that_is_missing_or_no_mcap_is_a_scenario_error_naming_it(tmp_path, name, content, reason):
@@ -223,7 +223,7 @@ def test_a_log_that_is_missing_or_no_mcap_is_a_scenario_error_naming_it(tmp_path
 def test_a_cut_log_is_an_error_that_points_to_recover(tmp_path, log):
     cut = tmp_path / "cut.mcap"
     cut.write_bytes(log.read_bytes()[:-10])
-    with pytest.raises(ScenarioError, match=r"cut\.mcap: not a readable MCAP log .*cpf recover"):
+    with pytest.raises(ScenarioError, match=r"cut\.mcap: cut short or damaged .*cpf recover"):
         replay(cut, speed=0, connect="tcp/127.0.0.1:9")
 
 
