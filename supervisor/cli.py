@@ -15,6 +15,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from types import FrameType
 
+from supervisor import resim_settings  # light: the table only, for the help text
 from supervisor.errors import CpfError, ScenarioError
 
 EXIT_RUNTIME, EXIT_INPUT, EXIT_INTERRUPTED = 1, 2, 130
@@ -95,7 +96,7 @@ def _parser() -> argparse.ArgumentParser:
     sweep.add_argument("--out", type=Path, required=True, help="directory: runs/, results.csv, plots")
     resim = sub.add_parser("resim", help="re-run the vehicles against the receptions recorded in a log")
     resim.add_argument("log", type=Path, help="MCAP file written by cpf run")
-    resim.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="what to change (repeatable)")
+    resim.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help=resim_settings.help_text())
     resim.add_argument("--out", type=Path, default=None, help="MCAP file to write (default: <log>.resim.mcap)")
     info = sub.add_parser("info", help="what a recorded run is: scenario, engine, duration, faults, topics")
     info.add_argument("log", type=Path, help="MCAP file written by cpf run (one cut short too)")
