@@ -1,8 +1,10 @@
 """Replay of a recorded run: every message of an MCAP log published again on Zenoh with its original timing.
 
-`cpf replay RUN.mcap` reads the log in log-time order (streamed, chunk by chunk: a long log is never held in memory)
-and puts each message, re-encoded as msgpack (the live wire format, comms.messages.encode), on its topic as key
-expression, so live tools and a user's own subscribers see the run again. The message logged at simulation time t
+`cpf replay RUN.mcap` reads the log in log-time order (streamed, chunk by chunk: a long log is never held in memory),
+turns its records back into the messages a live run puts on the bus (supervisor.replay_bus: the same keys and forms)
+and puts each, encoded as msgpack (the live wire format, comms.messages.encode), on its key, so a subscriber written
+against a live run sees the run again, and the reverse. A window that starts late begins with the latest meta and
+graph and the faults in force. The message logged at simulation time t
 goes out at wall time t0 + (t - t_first) / speed; speed 0 means as fast as possible (publishers block rather than
 drop, so nothing is lost either way). `start` and `end` (simulation seconds, both inclusive) select a window;
 `loop` replays it again and again until interrupted. Liveliness keys (cpf/alive/...), channels that are not JSON and
@@ -29,15 +31,17 @@ from typing import TextIO
 import zenoh
 
 from comms.bus import Publishers, free_port, open_session
-from comms.messages import ALIVE_PREFIX, Message
+from comms.messages import ALIVE_PREFIX, FAULT_KEY, GRAPH_KEY, META_KEY, Message
 from supervisor.errors import ScenarioError
 from supervisor.logfile import messages, verify
 from supervisor.recorder import seconds_to_ns
+from supervisor.replay_bus import bus_form, latched
 
 # (topic, log time ns, message); message None: not to be published (skipped)
 Record = tuple[str, int, Message | None]
 NS_PER_S = 1e9
 PROGRESS_INTERVAL = 1.0  # s of wall time between progress lines
+LATCHED = (META_KEY, GRAPH_KEY, FAULT_KEY)  # state a subscriber joining late needs (supervisor.replay_bus.latched)
 
 
 @dataclass(slots=True)
@@ -166,6 +170,32 @@ def _records(path: Path, window: tuple[float | None, float | None]) -> Generator
         yield topic, stamp, message if playable[topic] and isinstance(message, dict) else None
 
 
+def _bus_records(
+    path: Path, window: tuple[float | None, float | None], report: ReplayReport
+) -> Generator[tuple[str, int, Message], None, None]:
+    """The window's records in the form a live run publishes them (supervisor.replay_bus), after what a subscriber
+    needs first when the window starts late (latest meta and graph, faults in force), stamped at its start. Records
+    not to be published are counted as skipped."""
+    meta = next((m for _, _, m in messages(path, lambda topic: topic == META_KEY)), None)
+    start = window[0]
+    if start is not None and start > 0:
+        begin = seconds_to_ns(start)
+        before = messages(path, lambda topic: topic in LATCHED, None, begin - 1)
+        for topic, _, message in latched(before):
+            yield topic, begin, message
+
+    def playable() -> Generator[Record, None, None]:
+        with contextlib.closing(_records(path, window)) as records:
+            for record in records:
+                if record[2] is None:
+                    report.skipped += 1
+                else:
+                    yield record
+
+    with contextlib.closing(playable()) as records:
+        yield from bus_form(records, meta if isinstance(meta, dict) else {})
+
+
 def _playable(topic: str) -> bool:
     """Whether a topic's messages can go back on the bus: not a liveliness key, a key one can put on."""
     if topic.startswith(f"{ALIVE_PREFIX}/") or topic == ALIVE_PREFIX:
@@ -192,11 +222,8 @@ def _pass(
 ) -> None:
     """One pass over the window: each message put at t0 + (t - t_first) / speed of wall time."""
     origin: tuple[int, float] | None = None  # (log time ns, wall time) of the pass's first message
-    with contextlib.closing(_records(path, window)) as records:
+    with contextlib.closing(_bus_records(path, window, report)) as records:
         for topic, stamp, message in records:
-            if message is None:
-                report.skipped += 1
-                continue
             if origin is None:
                 origin = (stamp, time.monotonic())
             elif speed > 0:
