@@ -122,8 +122,9 @@ def _strict_summary(path: Path, reader: McapReader) -> Summary | None:
     """The summary (None if the writer wrote none); LogError for a log without its footer."""
     try:
         return reader.get_summary()
-    except Exception as exc:  # see messages; a file too short for a footer raises OSError on the seek
-        raise damaged(path, f"no footer at its end, its writer did not finish it: {_reason(exc)}") from None
+    except Exception:  # see messages; a file too short for a footer raises OSError on the seek. mcap's own text
+        # (bytes read as a record length, ...) would only puzzle a user: say what it means
+        raise damaged(path, "no footer at its end, its writer did not finish it") from None
 
 
 def _decoded(path: Path, channel: Channel, data: bytes) -> Any:
