@@ -16,6 +16,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from types import FrameType
 
+from supervisor import resim_settings  # light: the table only, for the help text
 from supervisor.errors import CpfError, ScenarioError
 
 EXIT_RUNTIME, EXIT_INPUT, EXIT_INTERRUPTED = 1, 2, 130
@@ -109,7 +110,7 @@ def _parser() -> argparse.ArgumentParser:
     sweep.add_argument("--out", type=Path, required=True, help="directory: runs/, results.csv, plots")
     resim = sub.add_parser("resim", help="re-run the vehicles against the receptions recorded in a log")
     resim.add_argument("log", type=Path, help="MCAP file written by cpf run")
-    resim.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="what to change (repeatable)")
+    resim.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help=resim_settings.help_text())
     resim.add_argument("--out", type=Path, default=None, help="MCAP file to write (default: <log>.resim.mcap)")
     info = sub.add_parser("info", help="what a recorded run is: scenario, engine, duration, faults, topics")
     info.add_argument("log", type=Path, help="MCAP file written by cpf run (one cut short too)")
@@ -223,19 +224,18 @@ def _comms(args: argparse.Namespace) -> int:
 def _report(args: argparse.Namespace) -> int:
     from supervisor.report import write_report
 
-    if not args.log.is_file():
-        raise ScenarioError(f"{args.log}: no such log file")
     for path in write_report(args.log, args.out or args.log.parent):
         print(path)
     return 0
 
 
 def _info(args: argparse.Namespace) -> int:
-    from supervisor.info import describe
+    from supervisor.info import overview
 
-    if not args.log.is_file():
-        raise ScenarioError(f"{args.log}: no such log file")
-    print(describe(args.log))
+    text, problem = overview(args.log)
+    print(text)
+    if problem is not None:  # described as far as it goes, and still an error: scripts must not take it as whole
+        raise problem
     return 0
 
 
@@ -258,8 +258,6 @@ def _resim(args: argparse.Namespace) -> int:
     from supervisor.resim import resimulate
     from supervisor.summary import format_summary, summarize
 
-    if not args.log.is_file():
-        raise ScenarioError(f"{args.log}: no such log file")
     out = args.out or args.log.with_name(f"{args.log.stem}.resim.mcap")
     sc, original, new = resimulate(args.log, args.set, out)
     rep, duration = sc.report, sc.scenario.duration

@@ -100,12 +100,7 @@ class Recorder:
 
 
 def read_messages(path: Path) -> list[tuple[str, int, dict[str, Any]]]:
-    """(topic, log time ns, message) of every message in log-time order."""
-    from mcap.reader import make_reader
+    """(topic, log time ns, message) of every message in log-time order (supervisor.logfile reads every log)."""
+    from supervisor.logfile import read_messages as read
 
-    with path.open("rb") as stream:
-        reader = make_reader(stream)
-        return [
-            (channel.topic, message.log_time, json.loads(message.data))
-            for _, channel, message in reader.iter_messages(log_time_order=True)
-        ]
+    return read(path)

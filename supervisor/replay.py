@@ -1,8 +1,10 @@
 """Replay of a recorded run: every message of an MCAP log published again on Zenoh with its original timing.
 
-`cpf replay RUN.mcap` reads the log in log-time order (streamed, chunk by chunk: a long log is never held in memory)
-and puts each message, re-encoded as msgpack (the live wire format, comms.messages.encode), on its topic as key
-expression, so live tools and a user's own subscribers see the run again. The message logged at simulation time t
+`cpf replay RUN.mcap` reads the log in log-time order (streamed, chunk by chunk: a long log is never held in memory),
+turns its records back into the messages a live run puts on the bus (supervisor.replay_bus: the same keys and forms)
+and puts each, encoded as msgpack (the live wire format, comms.messages.encode), on its key, so a subscriber written
+against a live run sees the run again, and the reverse. A window that starts late begins with the latest meta and
+graph and the faults in force. The message logged at simulation time t
 goes out at wall time t0 + (t - t_first) / speed; speed 0 means as fast as possible (publishers block rather than
 drop, so nothing is lost either way). `start` and `end` (simulation seconds, both inclusive) select a window;
 `loop` replays it again and again until interrupted. Liveliness keys (cpf/alive/...), channels that are not JSON and
@@ -17,9 +19,7 @@ the command line prints it and waits for Enter or --delay seconds, so subscriber
 from __future__ import annotations
 
 import contextlib
-import json
 import math
-import struct
 import sys
 import time
 from collections import Counter
@@ -29,19 +29,19 @@ from pathlib import Path
 from typing import TextIO
 
 import zenoh
-from mcap.exceptions import McapError
-from mcap.reader import make_reader
-from mcap.records import Channel
 
 from comms.bus import Publishers, free_port, open_session
-from comms.messages import ALIVE_PREFIX, Message
+from comms.messages import ALIVE_PREFIX, FAULT_KEY, GRAPH_KEY, META_KEY, Message
 from supervisor.errors import ScenarioError
+from supervisor.logfile import messages, verify
 from supervisor.recorder import seconds_to_ns
+from supervisor.replay_bus import bus_form, latched
 
 # (topic, log time ns, message); message None: not to be published (skipped)
 Record = tuple[str, int, Message | None]
 NS_PER_S = 1e9
 PROGRESS_INTERVAL = 1.0  # s of wall time between progress lines
+LATCHED = (META_KEY, GRAPH_KEY, FAULT_KEY)  # state a subscriber joining late needs (supervisor.replay_bus.latched)
 
 
 @dataclass(slots=True)
@@ -90,12 +90,13 @@ def replay(
 ) -> ReplayReport:
     """Publish the log's messages with start <= t <= end (s) on Zenoh, paced at speed (0: as fast as possible).
 
-    ScenarioError (nothing opened yet) for a file that is missing or no readable MCAP, a window that selects nothing,
-    or bad arguments; ConnectionError if the session cannot be opened. Ctrl-C (KeyboardInterrupt) ends the replay
-    cleanly: the session is closed and the report, marked interrupted, returned. progress, if given, is called with
-    the log time (s) of every message published.
+    ScenarioError (nothing opened yet) for a file that is missing, no MCAP, cut short or damaged (LogError), a window
+    that selects nothing, or bad arguments; ConnectionError if the session cannot be opened. Ctrl-C
+    (KeyboardInterrupt) ends the replay cleanly: the session is closed and the report, marked interrupted, returned.
+    progress, if given, is called with the log time (s) of every message published.
     """
     _check(path, speed, start, end, connect, listen)
+    verify(path)  # a log cut short or damaged is refused before anything is published
     window = (start, end)
     if _first(path, window) is None:
         raise ScenarioError(f"{path}: no message to replay in {_describe_window(window)}")
@@ -157,38 +158,47 @@ def _first(path: Path, window: tuple[float | None, float | None]) -> Record | No
 
 
 def _records(path: Path, window: tuple[float | None, float | None]) -> Generator[Record, None, None]:
-    """The log's records of the window in log-time order, read chunk by chunk; ScenarioError for an unreadable log."""
+    """The log's records of the window in log-time order, read chunk by chunk; LogError (supervisor.logfile) for a
+    log that is missing, not an MCAP, cut short or damaged."""
     start, end = window
-    try:
-        stream = path.open("rb")
-    except FileNotFoundError:
-        raise ScenarioError(f"{path}: no such log file") from None
-    except OSError as exc:
-        raise ScenarioError(f"{path}: cannot read the log: {exc.strerror or exc}") from None
-    playable: dict[int, bool] = {}
-    with stream:
-        try:
-            reader = make_reader(stream)
-            for _, channel, message in reader.iter_messages(
-                log_time_order=True,
-                starting_at=None if start is None else seconds_to_ns(start),
-                ending_at=None if end is None else seconds_to_ns(end),
-            ):
-                if channel.id not in playable:
-                    playable[channel.id] = _playable(channel)
-                data = json.loads(message.data) if playable[channel.id] else None
-                yield channel.topic, message.log_time, data
-        except (McapError, struct.error, OSError, ValueError) as exc:
-            reason = str(exc) or type(exc).__name__
-            raise ScenarioError(
-                f"{path}: not a readable MCAP log ({reason}); a log cut short can be repaired with `cpf recover`"
-            ) from None
+    playable: dict[str, bool] = {}
+    for topic, stamp, message in messages(
+        path, None, None if start is None else seconds_to_ns(start), None if end is None else seconds_to_ns(end)
+    ):
+        if topic not in playable:
+            playable[topic] = _playable(topic)
+        yield topic, stamp, message if playable[topic] and isinstance(message, dict) else None
 
 
-def _playable(channel: Channel) -> bool:
-    """Whether a channel's messages can go back on the bus: JSON, not a liveliness key, a key one can put on."""
-    topic = channel.topic
-    if channel.message_encoding != "json" or topic.startswith(f"{ALIVE_PREFIX}/") or topic == ALIVE_PREFIX:
+def _bus_records(
+    path: Path, window: tuple[float | None, float | None], report: ReplayReport
+) -> Generator[tuple[str, int, Message], None, None]:
+    """The window's records in the form a live run publishes them (supervisor.replay_bus), after what a subscriber
+    needs first when the window starts late (latest meta and graph, faults in force), stamped at its start. Records
+    not to be published are counted as skipped."""
+    meta = next((m for _, _, m in messages(path, lambda topic: topic == META_KEY)), None)
+    start = window[0]
+    if start is not None and start > 0:
+        begin = seconds_to_ns(start)
+        before = messages(path, lambda topic: topic in LATCHED, None, begin - 1)
+        for topic, _, message in latched(before):
+            yield topic, begin, message
+
+    def playable() -> Generator[Record, None, None]:
+        with contextlib.closing(_records(path, window)) as records:
+            for record in records:
+                if record[2] is None:
+                    report.skipped += 1
+                else:
+                    yield record
+
+    with contextlib.closing(playable()) as records:
+        yield from bus_form(records, meta if isinstance(meta, dict) else {})
+
+
+def _playable(topic: str) -> bool:
+    """Whether a topic's messages can go back on the bus: not a liveliness key, a key one can put on."""
+    if topic.startswith(f"{ALIVE_PREFIX}/") or topic == ALIVE_PREFIX:
         return False
     if "*" in topic or "$" in topic:
         return False
@@ -212,11 +222,8 @@ def _pass(
 ) -> None:
     """One pass over the window: each message put at t0 + (t - t_first) / speed of wall time."""
     origin: tuple[int, float] | None = None  # (log time ns, wall time) of the pass's first message
-    with contextlib.closing(_records(path, window)) as records:
+    with contextlib.closing(_bus_records(path, window, report)) as records:
         for topic, stamp, message in records:
-            if message is None:
-                report.skipped += 1
-                continue
             if origin is None:
                 origin = (stamp, time.monotonic())
             elif speed > 0:
@@ -244,14 +251,16 @@ def _count(report: ReplayReport, topic: str, stamp: int) -> None:
 # --- for the command line -------------------------------------------------------------------------------------
 
 
-def wait_to_start(delay: float | None, stream: TextIO = sys.stdout) -> Callable[[str], None]:
-    """An on_ready for the command line: print where the session is, then wait for Enter (delay None; end of input
-    counts as Enter) or delay seconds, so subscribers can connect before the first message."""
+def wait_to_start(delay: float | None, stream: TextIO | None = None) -> Callable[[str], None]:
+    """An on_ready for the command line: print where the session is (stream, default: sys.stdout when called), then
+    wait for Enter (delay None; end of input counts as Enter) or delay seconds, so subscribers can connect before the
+    first message."""
 
     def ready(where: str) -> None:
-        print(where, file=stream, flush=True)
+        out = sys.stdout if stream is None else stream
+        print(where, file=out, flush=True)
         if delay is None:
-            print("press Enter to start the replay", file=stream, flush=True)
+            print("press Enter to start the replay", file=out, flush=True)
             with contextlib.suppress(EOFError):
                 input()
         elif delay > 0:
@@ -264,9 +273,9 @@ class ProgressLine:
     """A progress for the command line: the log time being replayed, at most once a second of wall time (one line
     rewritten in place on a terminal; call close() before printing anything else)."""
 
-    def __init__(self, stream: TextIO = sys.stderr) -> None:
-        self._stream = stream
-        self._tty = stream.isatty()
+    def __init__(self, stream: TextIO | None = None) -> None:
+        self._stream = sys.stderr if stream is None else stream  # looked up now: tests and callers swap sys.stderr
+        self._tty = self._stream.isatty()
         self._last: float | None = None
 
     def __call__(self, t: float) -> None:

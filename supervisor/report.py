@@ -3,7 +3,7 @@ of its acoustic channel.
 
 ``load_run`` turns a run's MCAP into per-vehicle numpy arrays, fault intervals, the communication graph, every link
 event per directed link, the broker's stats snapshots and the age of each vehicle's neighbour estimates (it skips
-the vehicles' tx and rx messages, which the link events cover; a log cut short is read up to its cut).
+the vehicles' tx and rx messages, which the link events cover; a log cut short is refused: `cpf recover` first).
 ``write_figures`` renders the PNGs (the channel's in supervisor.report_comms); ``write_report`` adds metrics.json
 (supervisor.metrics). Figures are built on ``matplotlib.figure.Figure`` directly (Agg canvas, no pyplot), so
 nothing touches global plotting state and the module is safe to use from tests and threads.
@@ -25,7 +25,7 @@ from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
 from comms.messages import COMMS_EVENT_KEY, COMMS_STATS_KEY, FAULT_KEY, GRAPH_KEY, META_KEY, vehicle_of_key
-from supervisor.info import read_raw
+from supervisor import logfile
 
 __all__ = [
     "DPI",
@@ -187,10 +187,10 @@ class _Collected:
 
 
 def load_run(path: Path) -> RunData:
-    """Read a run's MCAP into arrays (a log cut short is read as far as it goes; LogError if not an MCAP)."""
+    """Read a run's MCAP into arrays; LogError (pointing to `cpf recover`) for a log cut short or damaged."""
     got = _Collected()
-    for message in read_raw(path, _wanted).messages:
-        got.add(message.topic, json.loads(message.data))
+    for topic, _, message in logfile.messages(path, _wanted):
+        got.add(topic, message)
     vehicles = {v: _series(v, got.states[v]) for v in sorted(got.states)}
     start, end = _time_range(vehicles, got.meta)
     events = got.fault_events

@@ -4,11 +4,17 @@
 have done with the very same packets: the channel is not simulated again, each vehicle hears at each step exactly
 what it heard in the run. Vehicles step only where they were alive in the run. With no --set, it reproduces the
 run's state stream exactly (the same pure functions on the same inputs); tests hold it to that.
+
+So only what acts inside a vehicle can change (supervisor.resim_settings.SETTINGS, also what `cpf resim --help`
+lists); a setting of the channel, the graph, the faults, the step, the seed or the fleet's shape would not act on the
+recorded receptions, and is refused (ScenarioError) rather than silently ignored. The duration can only shrink:
+nothing was recorded after it.
 """
 
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -17,7 +23,9 @@ from comms.messages import META_KEY, Message, parse_rx, state_key, state_message
 from supervisor.errors import ScenarioError
 from supervisor.faults import disturbances, network_at
 from supervisor.fleet import initial_state, radio, restarted_node, vehicle_config
-from supervisor.recorder import Recorder, read_messages
+from supervisor.logfile import messages
+from supervisor.recorder import Recorder
+from supervisor.resim_settings import check_override
 from supervisor.scenario import apply_override, validate_data
 from supervisor.scenario_schema import Scenario
 from supervisor.series import SeriesBuilder
@@ -25,12 +33,28 @@ from supervisor.summary import Series
 from vehicles.runtime import Heard, NodeState, node_step
 
 
+def _check_duration(log: Path, meta: dict[str, Any], sc: Scenario, overrides: Sequence[str]) -> None:
+    recorded = float(meta["scenario"]["scenario"]["duration"])
+    if sc.scenario.duration > recorded * (1 + 1e-12):
+        given = next((o for o in overrides if o.partition("=")[0].strip() == "scenario.duration"), "")
+        raise ScenarioError(
+            f"{log}: --set {given.strip()}: resim cannot apply it (the run recorded only {recorded:g} s: no "
+            f"receptions after that); a shorter duration it can"
+        )
+    steps = sc.scenario.duration / sc.scenario.step
+    if not math.isclose(steps, round(steps), abs_tol=1e-9):
+        raise ScenarioError(
+            f"{log}: --set scenario.duration={sc.scenario.duration:g}: not a whole number of steps of "
+            f"{sc.scenario.step:g} s"
+        )
+
+
 def _load(log: Path) -> tuple[dict[str, Any], dict[tuple[int, int], list[Heard]], list[Message]]:
     """The run's metadata, the receptions per (vehicle, step), and the state messages (who was stepped when)."""
     meta: dict[str, Any] | None = None
     heard: dict[tuple[int, int], list[Heard]] = {}
     states: list[Message] = []
-    for topic, _, message in read_messages(log):
+    for topic, _, message in messages(log):
         owned = vehicle_of_key(topic)
         if topic == META_KEY:
             meta = message
@@ -53,9 +77,12 @@ def scenario_of(meta: dict[str, Any], overrides: Sequence[str], source: str) -> 
 
 def resimulate(log: Path, overrides: Sequence[str], out: Path) -> tuple[Scenario, Series, Series]:
     """Re-run the log's vehicles with overrides; write their states to out. Returns (scenario, original, new)."""
+    for override in overrides:
+        check_override(log, override)  # before reading the log: a refusal costs nothing
     meta, heard, states = _load(log)
     stepped = {(m["vehicle"], m["k"]) for m in states}
     sc = scenario_of(meta, overrides, str(log))
+    _check_duration(log, meta, sc, overrides)
     dt, steps, ids = sc.scenario.step, round(sc.scenario.duration / sc.scenario.step), sc.vehicle_ids
     configs = {i: vehicle_config(sc, i) for i in ids}
     nodes = {i: NodeState(initial_state(sc, configs[i])) for i in ids}

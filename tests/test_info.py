@@ -13,8 +13,9 @@ from mcap.records import ChunkIndex
 from mcap.writer import Writer
 
 from supervisor import info
-from supervisor.info import LogError, describe, read_raw
+from supervisor.info import LogError, describe, overview
 from supervisor.inprocess import run_inprocess
+from supervisor.logfile import read_raw
 from supervisor.progress import Progress
 from supervisor.recorder import read_messages
 from supervisor.recover import recover
@@ -80,7 +81,7 @@ def test_describe_reads_only_the_summary_and_meta(log: Path, monkeypatch: pytest
     def no_scan(*args: object) -> None:
         raise AssertionError("the whole log was read")
 
-    monkeypatch.setattr(info, "_scan", no_scan)
+    monkeypatch.setattr(info, "scan", no_scan)
     assert "scenario   paper" in describe(log)
 
 
@@ -90,8 +91,10 @@ def test_describe_a_cut_log(log: Path, tmp_path: Path) -> None:
     assert len(chunks) > 1
     cut = tmp_path / "cut.mcap"
     cut.write_bytes(log.read_bytes()[: chunks[-1]])  # in the middle of the last chunk
-    text = describe(cut)
+    text, problem = overview(cut)
     assert "CUT SHORT, no summary" in text and "cpf recover" in text
+    assert problem is not None and f"try `cpf recover {cut}`" in str(problem)
+    assert overview(log)[1] is None
     assert "scenario   paper (configs/paper.toml)" in text
     kept = recover(cut, tmp_path / "fixed.mcap")
     counts = topic_counts(text)
@@ -133,5 +136,5 @@ def test_not_a_log(tmp_path: Path) -> None:
     text_file.write_text("hello")
     with pytest.raises(LogError, match=r"notes\.mcap: not an MCAP file"):
         describe(text_file)
-    with pytest.raises(LogError, match=r"missing\.mcap: cannot read the log"):
+    with pytest.raises(LogError, match=r"missing\.mcap: no such log file"):
         describe(tmp_path / "missing.mcap")

@@ -1,0 +1,149 @@
+"""The log's records turned back into what a live run puts on the bus, for `cpf replay` (supervisor/replay.py).
+
+The log keeps some messages in another form than the bus carries them (README, "Key expressions and messages"): a
+vehicle's step message is split into its rx, tx and state records, a step's link events into one cpf/comms/event
+record each, and the broker's cpf/comms/step (tick and every vehicle's receptions) is not kept. `bus_form` undoes
+that, instant by instant of log time, so a subscriber written against a replay works on a live run and the reverse:
+
+- cpf/vehicle/<id>/state carries its `tx` and `rx` again (the step message), and the rx and tx records are not
+  published on their own (a realtime run's broker does publish rx batches: those of a realtime log are);
+- link events go out as one cpf/comms/events message per step, at the next step instant after them, as the broker
+  publishes them at the next tick;
+- after each (not final) cpf/clock/tick, cpf/comms/step with the tick and each vehicle's receptions of that step
+  (realtime: none, the vehicles take in their own deliveries).
+
+`latched` gives what a subscriber joining at a later time needs first: the latest meta and graph, and the start of
+every fault still in force.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import math
+from collections.abc import Iterable, Iterator
+from typing import Any
+
+from comms.messages import (
+    COMMS_EVENT_KEY,
+    COMMS_EVENTS_KEY,
+    COMMS_STEP_KEY,
+    FAULT_KEY,
+    GRAPH_KEY,
+    META_KEY,
+    TICK_KEY,
+    Message,
+    encode_list,
+    rx_key,
+    step_message,
+    vehicle_of_key,
+)
+
+Record = tuple[str, int, Any]  # (topic, log time ns, message)
+NS_PER_S = 1e9
+
+
+def bus_form(records: Iterable[Record], meta: Message) -> Iterator[Record]:
+    """The live bus's messages for records in log-time order (meta: the run's, for its step and clock). A log that
+    is no cpf run (no step in meta) is passed through as it is."""
+    step = meta.get("step")
+    if not isinstance(step, int | float) or step <= 0:
+        yield from records
+        return
+    form = _BusForm(float(step), meta.get("clock") == "realtime")
+    for stamp, group in itertools.groupby(records, key=lambda record: record[1]):
+        yield from form.instant(stamp, list(group))
+    yield from form.flush_events(None)
+
+
+def latched(before: Iterable[Record]) -> list[Record]:
+    """What a subscriber needs first when a replay starts after these records: the last meta, the last graph and
+    the start of every fault that has not ended, in that order."""
+    meta: Record | None = None
+    graph: Record | None = None
+    faults: dict[str, Record] = {}
+    for record in before:
+        topic, _, message = record
+        if topic == META_KEY:
+            meta = record
+        elif topic == GRAPH_KEY:
+            graph = record
+        elif topic == FAULT_KEY and isinstance(message, dict):
+            which = json.dumps([message.get("kind"), message.get("detail")], sort_keys=True)
+            if message.get("phase") == "start":
+                faults[which] = record
+            else:
+                faults.pop(which, None)
+    return [record for record in (meta, graph, *faults.values()) if record is not None]
+
+
+class _BusForm:
+    def __init__(self, step: float, realtime: bool) -> None:
+        self.step = step
+        self.realtime = realtime
+        self.events: list[Message] = []  # link events not yet published
+        self.tx: dict[int, Message] = {}  # per vehicle, its transmission record waiting for its state
+        self.rx: dict[int, Message] = {}  # per vehicle, its reception batch waiting for its state
+
+    def instant(self, stamp: int, group: list[Record]) -> Iterator[Record]:
+        """The bus messages of one instant of log time: the supervisor's, then the broker's, then the vehicles'."""
+        k = self._step_of(stamp)
+        ticked = False
+        for topic, _, message in group:
+            owned = vehicle_of_key(topic)
+            if topic == COMMS_EVENT_KEY:
+                continue
+            if owned is not None and owned[1] in ("rx", "tx", "state"):
+                continue
+            if topic == TICK_KEY and k is not None and not ticked:
+                yield topic, stamp, message
+                yield from self._broker(stamp, k, message, group)
+                ticked = True
+                continue
+            yield topic, stamp, message
+        if k is not None and not ticked:  # a log without ticks (the in-process engine): events at the step instant
+            yield from self.flush_events(stamp)
+        yield from self._vehicles(stamp, group)
+        self.events += [message for topic, _, message in group if topic == COMMS_EVENT_KEY]
+
+    def _broker(self, stamp: int, k: int, tick: Any, group: list[Record]) -> Iterator[Record]:
+        yield from self.flush_events(stamp)
+        if not isinstance(tick, dict) or tick.get("final"):
+            return
+        batches: dict[int, bytes] = {}
+        for topic, _, message in group:
+            owned = vehicle_of_key(topic)
+            if owned is not None and owned[1] == "rx" and isinstance(message, dict) and message.get("k") == k:
+                batches[owned[0]] = encode_list(message.get("receptions", []))
+        rx = {} if self.realtime else (batches if tick.get("comms", True) else None)
+        yield COMMS_STEP_KEY, stamp, {"t": tick.get("t"), "k": tick.get("k"), "tick": tick, "rx": rx}
+
+    def _vehicles(self, stamp: int, group: list[Record]) -> Iterator[Record]:
+        for topic, _, message in group:
+            owned = vehicle_of_key(topic)
+            if owned is None or not isinstance(message, dict):
+                continue
+            vehicle, leaf = owned
+            if leaf == "tx":
+                self.tx[vehicle] = message
+            elif leaf == "rx":
+                self.rx[vehicle] = message
+                if self.realtime:  # the broker's deliveries, on the vehicle's rx key
+                    yield rx_key(vehicle), stamp, message
+            elif leaf == "state":
+                yield topic, stamp, step_message(message, self.tx.pop(vehicle, None), self.rx.pop(vehicle, None))
+
+    def flush_events(self, stamp: int | None) -> Iterator[Record]:
+        """The events waiting, as one batch of the step at stamp (None: the end of the log, at their last time)."""
+        if not self.events:
+            return
+        if stamp is None:
+            stamp = round(max(float(e.get("t", 0.0)) for e in self.events) * NS_PER_S)
+        k = round(stamp / NS_PER_S / self.step)
+        yield COMMS_EVENTS_KEY, stamp, {"t": stamp / NS_PER_S, "k": k, "events": self.events}
+        self.events = []
+
+    def _step_of(self, stamp: int) -> int | None:
+        """The step whose instant stamp is, if it is one."""
+        k = round(stamp / NS_PER_S / self.step)
+        return k if math.isclose(k * self.step, stamp / NS_PER_S, abs_tol=1e-9) else None
