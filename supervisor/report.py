@@ -11,7 +11,6 @@ nothing touches global plotting state and the module is safe to use from tests a
 
 from __future__ import annotations
 
-import itertools
 import json
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
@@ -19,13 +18,23 @@ from pathlib import Path
 from typing import Any, NamedTuple, TypeAlias
 
 import numpy as np
-from matplotlib.axes import Axes
-from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
 from comms.messages import COMMS_EVENT_KEY, COMMS_STATS_KEY, FAULT_KEY, GRAPH_KEY, META_KEY, vehicle_of_key
 from supervisor import logfile
+from supervisor.figures import (  # colour, finish_time_axes and new_figure: for supervisor.report_comms
+    DPI,
+    colour,
+    fig_coordination_errors,
+    fig_gamma_dot,
+    fig_path_following_errors,
+    fig_trajectories,
+    fig_velocities,
+    finish_time_axes,
+    new_figure,
+    save,
+)
 
 __all__ = [
     "DPI",
@@ -34,19 +43,16 @@ __all__ = [
     "LinkLog",
     "RunData",
     "VehicleSeries",
+    "colour",
+    "finish_time_axes",
     "load_run",
+    "new_figure",
     "write_figures",
     "write_report",
 ]
 
 Array: TypeAlias = NDArray[np.float64]
 Edge: TypeAlias = tuple[int, int]
-
-DPI = 120
-FAULT_COLOUR = "tab:red"
-FAULT_ALPHA = 0.15
-FAULT_HATCHES = ("", "//", "\\\\", "xx", "..")  # tells distinct fault labels apart under one colour
-SYMLOG_LINTHRESH = 1e-3
 
 
 # --- data ---------------------------------------------------------------------------------------------------
@@ -312,7 +318,7 @@ def _intervals_from_meta(meta: dict[str, Any], run_end: float) -> list[FaultInte
     return sorted(intervals, key=lambda f: (f.start, f.end))
 
 
-# --- figures ------------------------------------------------------------------------------------------------
+# --- report ------------------------------------------------------------------------------------------------
 
 
 METRICS_FILE = "metrics.json"
@@ -332,152 +338,24 @@ def write_report(log: Path, out_dir: Path) -> list[Path]:
 def write_figures(run: RunData, out_dir: Path) -> list[Path]:
     """Render every figure of the run into out_dir as PNG; returns the paths written.
 
-    The paper's analogues (fig3-fig6, gamma_dot), then the channel's (comms_*: supervisor.report_comms)."""
+    The paper's analogues (fig3-fig6, gamma_dot: supervisor.figures, which says how each adapts to the fleet and
+    the run), then the channel's (comms_*: supervisor.report_comms)."""
     from supervisor.report_comms import comms_figures  # it builds on this module's data and helpers
 
     out_dir.mkdir(parents=True, exist_ok=True)
     figures: list[tuple[str, Callable[[RunData], Figure]]] = [
-        ("fig3_trajectories.png", _fig_trajectories),
-        ("fig4_path_following_errors.png", _fig_path_following_errors),
-        ("fig5_coordination_errors.png", _fig_coordination_errors),
+        ("fig3_trajectories.png", fig_trajectories),
+        ("fig4_path_following_errors.png", fig_path_following_errors),
+        ("fig5_coordination_errors.png", fig_coordination_errors),
     ]
     figures += [(f"fig6_velocities_auv{v}.png", _velocities_figure(v)) for v in run.vehicles]
-    figures.append(("gamma_dot.png", _fig_gamma_dot))
+    figures.append(("gamma_dot.png", fig_gamma_dot))
     figures += comms_figures(run)
-    return [_save(build(run), out_dir / name) for name, build in figures]
-
-
-def _save(fig: Figure, path: Path) -> Path:
-    FigureCanvasAgg(fig)  # explicit Agg canvas: no dependency on the configured backend
-    fig.savefig(path, dpi=DPI)
-    return path
-
-
-def new_figure(width: float = 9.0, height: float = 5.0) -> Figure:
-    return Figure(figsize=(width, height), layout="constrained")
-
-
-def colour(index: int) -> str:
-    return f"C{index % 10}"
-
-
-def _shade_faults(ax: Axes, faults: Sequence[FaultInterval]) -> None:
-    """Light red band per fault interval; each distinct label enters the legend once."""
-    hatches = {
-        label: FAULT_HATCHES[k % len(FAULT_HATCHES)] for k, label in enumerate(dict.fromkeys(f.label for f in faults))
-    }
-    seen: set[str] = set()
-    for fault in faults:
-        label = fault.label if fault.label not in seen else "_nolegend_"
-        seen.add(fault.label)
-        ax.axvspan(
-            fault.start,
-            fault.end,
-            color=FAULT_COLOUR,
-            alpha=FAULT_ALPHA,
-            hatch=hatches[fault.label],
-            label=label,
-        )
-
-
-def finish_time_axes(ax: Axes, run: RunData, ylabel: str, title: str | None = None) -> None:
-    """Decorate a time-axis plot: fault bands, labels, grid and (if anything is labelled) a legend."""
-    _shade_faults(ax, run.faults)
-    ax.set_xlabel("t [s]")
-    ax.set_ylabel(ylabel)
-    if title:
-        ax.set_title(title)
-    ax.grid(True, alpha=0.3)
-    start, end = run.t_range
-    if end > start:
-        ax.set_xlim(start, end)
-    if ax.get_legend_handles_labels()[0]:  # an empty legend call warns, and warnings fail the tests
-        ax.legend(loc="best", fontsize="small")
-
-
-def _fig_trajectories(run: RunData) -> Figure:
-    """Fig. 3: actual (solid) and desired (dashed) trajectories in 3-D, start points marked."""
-    fig = new_figure(8.0, 7.0)
-    ax: Any = fig.add_subplot(projection="3d")  # Axes3D: mpl_toolkits is untyped
-    for k, series in enumerate(run.vehicles.values()):
-        c, p, pd = colour(k), series.position, series.desired
-        ax.plot(p[:, 0], p[:, 1], p[:, 2], color=c, lw=1.4, label=f"AUV {series.vehicle}")
-        ax.plot(pd[:, 0], pd[:, 1], pd[:, 2], color=c, lw=1.0, ls="--", label=f"path {series.vehicle}")
-        if len(p):
-            ax.scatter(*p[0], color=c, marker="o", s=40)
-            ax.scatter(*pd[0], color=c, marker="x", s=40)
-    ax.set_xlabel("x [m]")
-    ax.set_ylabel("y [m]")
-    ax.set_zlabel("z [m]")
-    ax.set_title(f"Coordinated path-following: {run.name}\n(solid: vehicle, dashed: desired path, o/x: start)")
-    if run.vehicles:
-        ax.legend(loc="upper left", fontsize="small", ncols=2)
-    return fig
-
-
-def _fig_path_following_errors(run: RunData) -> Figure:
-    """Fig. 4: |p_i - p_d_i| per vehicle with the tube radius."""
-    fig = new_figure()
-    ax = fig.add_subplot()
-    for k, series in enumerate(run.vehicles.values()):
-        ax.plot(series.t, series.error_norm, color=colour(k), label=f"AUV {series.vehicle}")
-    radius = run.meta.get("tube_radius")
-    if radius is not None:
-        ax.axhline(float(radius), color="k", ls="--", lw=1.0, label=f"tube radius {float(radius):g} m")
-    ax.set_ylim(bottom=0.0)
-    finish_time_axes(ax, run, r"$|p_i - p_{d_i}|$ [m]", f"Path-following errors: {run.name}")
-    return fig
-
-
-def _fig_coordination_errors(run: RunData) -> Figure:
-    """Fig. 5: gamma_i - gamma_j for every pair i < j, symlog so transient and steady state both show."""
-    fig = new_figure()
-    ax = fig.add_subplot()
-    for k, (a, b) in enumerate(itertools.combinations(run.vehicles.values(), 2)):
-        t, diff = _difference(a, b)
-        ax.plot(t, diff, color=colour(k), label=rf"$\gamma_{{{a.vehicle}}} - \gamma_{{{b.vehicle}}}$")
-    ax.axhline(0.0, color="k", lw=0.6)
-    ax.set_yscale("symlog", linthresh=SYMLOG_LINTHRESH)
-    finish_time_axes(ax, run, r"$\gamma_i - \gamma_j$ [-] (symlog)", f"Coordination errors: {run.name}")
-    return fig
-
-
-def _difference(a: VehicleSeries, b: VehicleSeries) -> tuple[Array, Array]:
-    """gamma_a - gamma_b on a's time stamps within the common time span (b interpolated if stamps differ)."""
-    if a.t.shape == b.t.shape and np.array_equal(a.t, b.t):
-        return a.t, a.gamma - b.gamma
-    if not (a.t.size and b.t.size):
-        return np.empty(0), np.empty(0)
-    keep = (a.t >= b.t[0]) & (a.t <= b.t[-1])
-    return a.t[keep], a.gamma[keep] - np.interp(a.t[keep], b.t, b.gamma)
+    return [save(build(run), out_dir / name) for name, build in figures]
 
 
 def _velocities_figure(vehicle: int) -> Callable[[RunData], Figure]:
     def build(run: RunData) -> Figure:
-        return _fig_velocities(run, run.vehicles[vehicle])
+        return fig_velocities(run, run.vehicles[vehicle])
 
     return build
-
-
-def _fig_velocities(run: RunData, series: VehicleSeries) -> Figure:
-    """Figs. 6-8: surge u, sway v and heave w of one vehicle, stacked."""
-    fig = new_figure(9.0, 7.0)
-    axes = fig.subplots(3, 1, sharex=True)
-    names = (("u", "surge"), ("v", "sway"), ("w", "heave"))
-    for k, (ax, (symbol, name)) in enumerate(zip(axes, names, strict=True)):
-        ax.plot(series.t, series.velocity[:, k], color=colour(k), label=f"{symbol} ({name})")
-        finish_time_axes(ax, run, f"{symbol} [m/s]")
-        if k < 2:
-            ax.set_xlabel("")
-    fig.suptitle(f"Linear velocities of AUV {series.vehicle} (body frame): {run.name}")
-    return fig
-
-
-def _fig_gamma_dot(run: RunData) -> Figure:
-    """Speed of each virtual target along its path."""
-    fig = new_figure()
-    ax = fig.add_subplot()
-    for k, series in enumerate(run.vehicles.values()):
-        ax.plot(series.t, series.gamma_dot, color=colour(k), label=f"AUV {series.vehicle}")
-    finish_time_axes(ax, run, r"$\dot\gamma_i$ [1/s]", f"Path parameter rates: {run.name}")
-    return fig

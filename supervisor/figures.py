@@ -1,0 +1,359 @@
+"""The paper's figures of a recorded run (Figs. 3-8 of Aguiar & Pascoal, "Coordinated path-following control of
+multiple AUVs") and the helpers every run figure shares, drawn so that a reader can follow them at any fleet size.
+
+Rules that decide what is drawn (each chosen by the data, never by the scenario's name):
+
+- Colours: one per vehicle, the same vehicle in the same colour in every figure; tab10 up to 10 vehicles, tab20 up
+  to 20, evenly spaced hues of a continuous colormap beyond, so no two vehicles share a colour.
+- Legends: up to LEGEND_INSIDE_MAX entries inside the axes where they hide least; more go beside the axes, in columns
+  of at most LEGEND_ROWS_MAX, and constrained layout keeps them within the saved image.
+- Coordination errors (Fig. 5): up to PAIRWISE_MAX_VEHICLES vehicles, gamma_i - gamma_j for every pair as in the
+  paper; more vehicles, each vehicle's gamma_i minus the mean gamma of the vehicles alive at that instant (NaN where
+  a vehicle is down), with the fleet's spread max gamma - min gamma, the coordination error of the summary. The
+  axis is symlog when the errors of the final quarter are SYMLOG_DECADES decades below their peak (transient and
+  steady state both show), linear otherwise (symlog would turn every zero crossing into a wall).
+- Trajectories (Fig. 3): a planar run (scenario dimension 2), or one whose depth span is at most FLAT_RATIO of its
+  horizontal span, is drawn top-down (x-y) only, with equal axes: a 3-D view would blow 0.2 m of depth up into
+  dives. Any other run gets the 3-D view with equal scaling on all three axes beside the top-down view.
+
+Figures are built on ``matplotlib.figure.Figure`` directly (Agg canvas, no pyplot): no global plotting state.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from matplotlib import colormaps
+from matplotlib.axes import Axes
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from matplotlib.legend import Legend
+from matplotlib.lines import Line2D
+from numpy.typing import NDArray
+
+if TYPE_CHECKING:  # only for annotations: supervisor.report imports this module
+    from pathlib import Path
+
+    from supervisor.report import FaultInterval, RunData, VehicleSeries
+
+__all__ = [
+    "DPI",
+    "FLAT_RATIO",
+    "PAIRWISE_MAX_VEHICLES",
+    "aligned",
+    "colour",
+    "distinct_colours",
+    "fig_coordination_errors",
+    "fig_gamma_dot",
+    "fig_path_following_errors",
+    "fig_trajectories",
+    "fig_velocities",
+    "finish_time_axes",
+    "is_flat",
+    "new_figure",
+    "place_legend",
+    "save",
+]
+
+Array = NDArray[np.float64]
+
+DPI = 120
+FAULT_COLOUR = "tab:red"
+FAULT_ALPHA = 0.15
+FAULT_HATCHES = ("", "//", "\\\\", "xx", "..")  # tells distinct fault labels apart under one colour
+SYMLOG_LINTHRESH = 1e-3
+SYMLOG_DECADES = 2  # coordination errors are drawn symlog only if they fall this many decades by the end
+PAIRWISE_MAX_VEHICLES = 4  # 6 pairs: the paper's Fig. 5 shows 3; at 5 vehicles there would be 10 lines
+FLAT_RATIO = 0.1  # depth span / horizontal span at or below which the trajectories are drawn top-down only
+LEGEND_INSIDE_MAX = 6
+LEGEND_ROWS_MAX = 16
+TIME_DECIMALS = 9  # time stamps of different vehicles are matched after rounding to 1 ns
+
+
+# --- shared helpers ----------------------------------------------------------------------------------------
+
+
+def save(fig: Figure, path: Path) -> Path:
+    FigureCanvasAgg(fig)  # explicit Agg canvas: no dependency on the configured backend
+    fig.savefig(path, dpi=DPI)
+    return path
+
+
+def new_figure(width: float = 9.0, height: float = 5.0) -> Figure:
+    return Figure(figsize=(width, height), layout="constrained")
+
+
+def colour(index: int) -> str:
+    return f"C{index % 10}"
+
+
+def distinct_colours(n: int) -> list[Any]:
+    """n colours, no two alike: tab10, tab20, then evenly spaced hues of turbo (its ends are too dark/light)."""
+    if n <= 10:
+        return [colormaps["tab10"](k) for k in range(n)]
+    if n <= 20:
+        return [colormaps["tab20"](k) for k in range(n)]
+    return [colormaps["turbo"](x) for x in np.linspace(0.05, 0.95, n)]
+
+
+def place_legend(ax: Axes, fontsize: str = "small") -> Legend | None:
+    """A legend that neither hides the data nor leaves the image: inside while short, beside the axes in columns
+    when long (constrained layout makes room for it); none when nothing is labelled (an empty legend warns)."""
+    count = len(ax.get_legend_handles_labels()[0])
+    if count == 0:
+        return None
+    if count <= LEGEND_INSIDE_MAX:
+        return ax.legend(loc="best", fontsize=fontsize)
+    columns = math.ceil(count / LEGEND_ROWS_MAX)
+    return ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, ncols=columns, fontsize=fontsize)
+
+
+def _shade_faults(ax: Axes, faults: Sequence[FaultInterval]) -> None:
+    """Light red band per fault interval; each distinct label enters the legend once."""
+    labels = list(dict.fromkeys(f.label for f in faults))
+    hatches = {label: FAULT_HATCHES[k % len(FAULT_HATCHES)] for k, label in enumerate(labels)}
+    seen: set[str] = set()
+    for fault in faults:
+        label = fault.label if fault.label not in seen else "_nolegend_"
+        seen.add(fault.label)
+        ax.axvspan(
+            fault.start, fault.end, color=FAULT_COLOUR, alpha=FAULT_ALPHA, hatch=hatches[fault.label], label=label
+        )
+
+
+def finish_time_axes(ax: Axes, run: RunData, ylabel: str, title: str | None = None) -> None:
+    """Decorate a time-axis plot: fault bands, labels, grid and (if anything is labelled) a legend."""
+    _shade_faults(ax, run.faults)
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel(ylabel)
+    if title:
+        ax.set_title(title)
+    ax.grid(True, alpha=0.3)
+    start, end = run.t_range
+    if end > start:
+        ax.set_xlim(start, end)
+    place_legend(ax)
+
+
+def _vehicle_colours(run: RunData) -> dict[int, Any]:
+    return dict(zip(run.vehicles, distinct_colours(len(run.vehicles)), strict=True))
+
+
+# --- Fig. 3: trajectories --------------------------------------------------------------------------------------
+
+
+def is_flat(run: RunData) -> bool:
+    """Whether the run is best seen from above: planar, or its depth span at most FLAT_RATIO of the horizontal."""
+    if run.meta.get("scenario", {}).get("scenario", {}).get("dimension") == 2:
+        return True
+    points = _all_points(run)
+    if not len(points):
+        return True
+    span = np.ptp(points, axis=0)
+    return bool(span[2] <= FLAT_RATIO * max(span[0], span[1]))
+
+
+def _all_points(run: RunData) -> Array:
+    """Every recorded vehicle and desired position, finite rows only, shape (n, 3)."""
+    rows = [p for s in run.vehicles.values() for p in (s.position, s.desired)]
+    points = np.concatenate(rows) if rows else np.empty((0, 3))
+    return points[np.isfinite(points).all(axis=1)]
+
+
+def fig_trajectories(run: RunData) -> Figure:
+    """Fig. 3: actual (solid) and desired (dashed) trajectories, start and end marked; top-down for flat runs,
+    else 3-D at equal scale beside the top-down view."""
+    flat = is_flat(run)
+    fig = new_figure(9.0, 7.5) if flat else new_figure(15.0, 7.0)
+    if not flat:  # constrained layout does not see the 3-D axes' z label: keep it off the top-down view's y label
+        fig.set_layout_engine("constrained", wspace=0.12)
+    colours = _vehicle_colours(run)
+    if not flat:
+        _draw_3d(fig.add_subplot(1, 2, 1, projection="3d"), run, colours)
+    top = fig.add_subplot(1, 1, 1) if flat else fig.add_subplot(1, 2, 2)
+    _draw_top_down(top, run, colours, _depth_note(run) if flat else "")
+    fig.suptitle(f"Coordinated path-following: {run.name}")
+    handles = [Line2D([], [], color=colours[v], lw=1.6, label=f"AUV {v}") for v in run.vehicles]
+    handles += _style_key()
+    fig.legend(handles=handles, loc="outside right upper", fontsize="small", ncols=math.ceil(len(handles) / 20))
+    return fig
+
+
+def _style_key() -> list[Line2D]:
+    """What the line styles and markers mean (in black: they apply to every vehicle)."""
+    return [
+        Line2D([], [], color="k", lw=1.6, label="vehicle"),
+        Line2D([], [], color="k", lw=1.0, ls="--", label="desired path"),
+        Line2D([], [], color="k", ls="", marker="o", label="vehicle start"),
+        Line2D([], [], color="k", ls="", marker="x", label="path start"),
+        Line2D([], [], color="k", ls="", marker="s", label="vehicle end"),
+    ]
+
+
+def _draw_top_down(ax: Axes, run: RunData, colours: dict[int, Any], note: str) -> None:
+    for vehicle, series in run.vehicles.items():
+        c, p, pd = colours[vehicle], series.position, series.desired
+        ax.plot(pd[:, 0], pd[:, 1], color=c, lw=1.0, ls="--")
+        ax.plot(p[:, 0], p[:, 1], color=c, lw=1.6)
+        if len(p):
+            ax.plot(*p[0, :2], color=c, marker="o", ls="")
+            ax.plot(*pd[0, :2], color=c, marker="x", ls="")
+            ax.plot(*p[-1, :2], color=c, marker="s", ls="")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.grid(True, alpha=0.3)
+    ax.set_title(f"Top-down (x-y), equal axes{note}", fontsize="medium")
+
+
+def _depth_note(run: RunData) -> str:
+    """What the top-down view leaves out: the depth range, unless the run is planar."""
+    points = _all_points(run)
+    if not len(points) or run.meta.get("scenario", {}).get("scenario", {}).get("dimension") == 2:
+        return ""
+    return f"; z from {points[:, 2].min():.2f} to {points[:, 2].max():.2f} m, not drawn"
+
+
+def _draw_3d(ax: Any, run: RunData, colours: dict[int, Any]) -> None:
+    """3-D view at equal scale: one metre is as long along z as along x and y (Axes3D: mpl_toolkits is untyped)."""
+    for vehicle, series in run.vehicles.items():
+        c, p, pd = colours[vehicle], series.position, series.desired
+        ax.plot(pd[:, 0], pd[:, 1], pd[:, 2], color=c, lw=1.0, ls="--")
+        ax.plot(p[:, 0], p[:, 1], p[:, 2], color=c, lw=1.6)
+        if len(p):
+            ax.scatter(*p[0], color=c, marker="o", s=30)
+            ax.scatter(*pd[0], color=c, marker="x", s=30)
+            ax.scatter(*p[-1], color=c, marker="s", s=30)
+    points = _all_points(run)
+    low, high = points.min(axis=0), points.max(axis=0)
+    span = np.maximum(high - low, 1e-3 * max(float(np.ptp(points)), 1.0))  # a zero span would collapse the box
+    middle = 0.5 * (low + high)
+    ax.set_xlim(middle[0] - span[0] / 2, middle[0] + span[0] / 2)
+    ax.set_ylim(middle[1] - span[1] / 2, middle[1] + span[1] / 2)
+    ax.set_zlim(middle[2] - span[2] / 2, middle[2] + span[2] / 2)
+    ax.set_box_aspect(tuple(span))
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_zlabel("z [m] (up)")
+    ax.set_title("3-D, equal scale on x, y and z", fontsize="medium")
+
+
+# --- Fig. 4, 5: errors ---------------------------------------------------------------------------------------
+
+
+def fig_path_following_errors(run: RunData) -> Figure:
+    """Fig. 4: |p_i - p_d_i| per vehicle with the tube radius."""
+    fig = new_figure()
+    ax = fig.add_subplot()
+    _per_vehicle(ax, run, lambda s: s.error_norm)
+    radius = run.meta.get("tube_radius")
+    if radius is not None:
+        ax.axhline(float(radius), color="k", ls="--", lw=1.0, label=f"tube radius {float(radius):g} m")
+    ax.set_ylim(bottom=0.0)
+    finish_time_axes(ax, run, r"$|p_i - p_{d_i}|$ [m]", f"Path-following errors: {run.name}")
+    return fig
+
+
+def aligned(run: RunData, column: Callable[[VehicleSeries], Array]) -> tuple[Array, Array]:
+    """(t, values): one column per vehicle (run.vehicles order) on the union of their time stamps; NaN where a
+    vehicle has no state (not started yet, down after a kill, its log cut short), so lines break there."""
+    stamps = [np.round(s.t, TIME_DECIMALS) for s in run.vehicles.values()]
+    t = np.unique(np.concatenate(stamps)) if stamps else np.empty(0)
+    values = np.full((len(t), len(stamps)), np.nan)
+    for k, (series, own) in enumerate(zip(run.vehicles.values(), stamps, strict=True)):
+        values[np.searchsorted(t, own), k] = column(series)
+    return t, values
+
+
+def _per_vehicle(ax: Axes, run: RunData, column: Callable[[VehicleSeries], Array]) -> None:
+    """One line per vehicle in its colour, broken where the vehicle was down."""
+    t, values = aligned(run, column)
+    for k, (vehicle, c) in enumerate(_vehicle_colours(run).items()):
+        ax.plot(t, values[:, k], color=c, label=f"AUV {vehicle}")
+
+
+def fig_coordination_errors(run: RunData) -> Figure:
+    """Fig. 5: pairwise gamma_i - gamma_j for small fleets, each vehicle's distance from the fleet's mean gamma for
+    larger ones (see the module docstring); symlog, so the transient and the steady state both show."""
+    fig = new_figure(10.0, 5.5)
+    ax = fig.add_subplot()
+    t, gamma = aligned(run, lambda s: s.gamma)
+    if len(run.vehicles) <= PAIRWISE_MAX_VEHICLES:
+        errors = _pairwise(ax, run, t, gamma)
+        ylabel, what = r"$\gamma_i - \gamma_j$ [-]", "Coordination errors"
+    else:
+        errors = _from_mean(ax, run, t, gamma)
+        ylabel, what = r"$\gamma_i - \bar\gamma$ [-]", "Coordination: each vehicle against the fleet's mean"
+    ax.axhline(0.0, color="k", lw=0.6)
+    if _converges(t, errors):
+        ax.set_yscale("symlog", linthresh=SYMLOG_LINTHRESH)
+        ylabel += " (symlog)"
+    finish_time_axes(ax, run, ylabel, f"{what}: {run.name}")
+    return fig
+
+
+def _converges(t: Array, errors: Array) -> bool:
+    """Whether the errors of the final quarter of the run are at least SYMLOG_DECADES decades below their peak: a
+    symlog axis then shows the transient and the steady state both; otherwise it would only turn every crossing of
+    zero into a wall through the decades, and a linear axis reads better."""
+    finite = np.abs(errors[np.isfinite(errors)])
+    if not finite.size or not t.size:
+        return False
+    tail = np.abs(errors[t >= t[0] + 0.75 * (t[-1] - t[0])])
+    tail = tail[np.isfinite(tail)]
+    return bool(tail.size) and float(tail.max()) <= float(finite.max()) * 10.0**-SYMLOG_DECADES
+
+
+def _pairwise(ax: Axes, run: RunData, t: Array, gamma: Array) -> Array:
+    """gamma_i - gamma_j of every pair, one line each; returns them, one column per pair."""
+    ids = list(run.vehicles)
+    pairs = list(itertools.combinations(range(len(ids)), 2))
+    errors = np.empty((len(t), len(pairs)))
+    for k, ((a, b), c) in enumerate(zip(pairs, distinct_colours(len(pairs)), strict=True)):
+        errors[:, k] = gamma[:, a] - gamma[:, b]
+        ax.plot(t, errors[:, k], color=c, label=rf"$\gamma_{{{ids[a]}}} - \gamma_{{{ids[b]}}}$")
+    return errors
+
+
+def _from_mean(ax: Axes, run: RunData, t: Array, gamma: Array) -> Array:
+    """gamma_i minus the mean over the vehicles alive at each instant, and the fleet's spread (max - min); returns
+    the spread."""
+    alive = np.isfinite(gamma).any(axis=1)
+    mean, spread = np.full(len(t), np.nan), np.full(len(t), np.nan)
+    mean[alive] = np.nanmean(gamma[alive], axis=1)
+    spread[alive] = np.nanmax(gamma[alive], axis=1) - np.nanmin(gamma[alive], axis=1)
+    colours = _vehicle_colours(run)
+    for column, vehicle in enumerate(run.vehicles):
+        ax.plot(t, gamma[:, column] - mean, color=colours[vehicle], lw=1.2, label=rf"$\gamma_{{{vehicle}}}$")
+    ax.plot(t, spread, color="k", lw=2.0, ls=":", label=r"spread $\max_i \gamma_i - \min_i \gamma_i$")
+    return spread
+
+
+# --- Figs. 6-8 and gamma_dot ---------------------------------------------------------------------------------
+
+
+def fig_velocities(run: RunData, series: VehicleSeries) -> Figure:
+    """Figs. 6-8: surge u, sway v and heave w of one vehicle, stacked."""
+    fig = new_figure(9.0, 7.0)
+    axes = fig.subplots(3, 1, sharex=True)
+    names = (("u", "surge"), ("v", "sway"), ("w", "heave"))
+    for k, (ax, (symbol, name)) in enumerate(zip(axes, names, strict=True)):
+        ax.plot(series.t, series.velocity[:, k], color=colour(k), label=f"{symbol} ({name})")
+        finish_time_axes(ax, run, f"{symbol} [m/s]")
+        if k < 2:
+            ax.set_xlabel("")
+    fig.suptitle(f"Linear velocities of AUV {series.vehicle} (body frame): {run.name}")
+    return fig
+
+
+def fig_gamma_dot(run: RunData) -> Figure:
+    """Speed of each virtual target along its path."""
+    fig = new_figure()
+    ax = fig.add_subplot()
+    _per_vehicle(ax, run, lambda s: s.gamma_dot)
+    finish_time_axes(ax, run, r"$\dot\gamma_i$ [1/s]", f"Path parameter rates: {run.name}")
+    return fig
