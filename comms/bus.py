@@ -147,7 +147,7 @@ def serve(
     """A child process's life: join the run, answer on its hello key which scenario it runs (hello, before its
     token appears), subscribe to keys, declare its liveliness token, hand every message to the handler (and, for a
     Timed one, wake up when its work is due), until the stop message or the supervisor's disappearance (so no
-    child outlives its run). Exit code 0, or 1 if the supervisor stopped the run before its end."""
+    child outlives its run)."""
     with open_session("client", connect=connect) as session:
         inbox = Inbox()
         for key in (*keys, STOP_KEY):
@@ -157,12 +157,11 @@ def serve(
         alive = session.liveliness().declare_token(token)
         handle = make_handler(Publishers(session))
         timed = handle if isinstance(handle, Timed) else None
-        code = 0
         while True:
             item = inbox.get(_timeout(timed))
             if isinstance(item, Received):
                 if item.key == STOP_KEY:
-                    code = _stopped(name, item.payload)
+                    _stopped(name, item.payload)
                     break
                 handle(item.key, item.payload)
             elif item == f"-{SUPERVISOR_ALIVE}":
@@ -173,7 +172,7 @@ def serve(
         alive.undeclare()
         if answer is not None:
             answer.undeclare()
-    return code
+    return 0
 
 
 def _answer(session: zenoh.Session, key: str, hello: Message) -> zenoh.Queryable[None]:
@@ -182,15 +181,13 @@ def _answer(session: zenoh.Session, key: str, hello: Message) -> zenoh.Queryable
     return session.declare_queryable(key, lambda query: query.reply(key, payload))
 
 
-def _stopped(name: str, payload: bytes) -> int:
-    """The supervisor's stop message: the end of the run says nothing (exit code 0); any other reason is told
-    (exit code 1: the run failed, e.g. this process was refused)."""
+def _stopped(name: str, payload: bytes) -> None:
+    """The supervisor's stop message: the end of the run says nothing; any other reason (e.g. this process was
+    refused) is told. Either way the process did what it was asked: exit code 0."""
     message = decode_or_none(payload) or {}
     reason = message.get("reason", STOP_END)
-    if reason == STOP_END:
-        return 0
-    log.warning("%s: stopped by the supervisor: %s", name, reason)
-    return 1
+    if reason != STOP_END:
+        log.warning("%s: stopped by the supervisor: %s", name, reason)
 
 
 def _timeout(timed: Timed | None) -> float:

@@ -174,9 +174,9 @@ def _run(args: argparse.Namespace) -> int:
     from supervisor.summary import format_summary, summarize
 
     scenario = load_scenario(args.scenario, args.set, args.fault)
-    errors = _option_errors(args, scenario)
+    errors = [f"{args.scenario}: {line}" for line in _option_errors(args, scenario)]
     if errors:
-        raise ScenarioError("\n".join(f"{args.scenario}: {line}" for line in errors), errors)
+        raise ScenarioError("\n".join(errors), errors)
     for warning in scenario_warnings(scenario):
         log.warning("%s: %s", args.scenario, warning)
     seed = scenario.scenario.seed if args.seed is None else args.seed
