@@ -29,6 +29,7 @@ from comms.messages import (
     COMMS_STEP_KEY,
     ROOT,
     TICK_KEY,
+    Message,
     StateReport,
     Tick,
     batches_message,
@@ -210,9 +211,15 @@ class Broker:
 
 
 def run_broker(
-    core: BrokerCore, vehicles: Sequence[int], dt: float, connect: Sequence[str], start_step: int = 0
+    core: BrokerCore,
+    vehicles: Sequence[int],
+    dt: float,
+    connect: Sequence[str],
+    start_step: int = 0,
+    hello: Message | None = None,
 ) -> int:
-    """Serve the channel from step start_step until the stop message or the supervisor's disappearance."""
+    """Serve the channel from step start_step until the stop message or the supervisor's disappearance. hello: the
+    answer to the supervisor's question which scenario (and seed) the broker runs (comms.messages.hello_message)."""
 
     def handler(publishers: Publishers) -> Handler:
         broker = Broker(core, vehicles, publishers, dt, start_step)
@@ -224,4 +231,4 @@ def run_broker(
         return handle
 
     keys = (TICK_KEY, f"{ROOT}/vehicle/*/state")
-    return serve("comms", connect, keys, COMMS_ALIVE, handler)
+    return serve("comms", connect, keys, COMMS_ALIVE, handler, hello)

@@ -18,7 +18,7 @@ from typing import Any, Protocol, runtime_checkable
 
 import zenoh
 
-from comms.messages import STOP_KEY, SUPERVISOR_ALIVE, Message, decode, encode
+from comms.messages import STOP_END, STOP_KEY, SUPERVISOR_ALIVE, Message, decode, encode, hello_key
 
 log = logging.getLogger(__name__)
 POLL = 0.5  # s between checks while nothing arrives
@@ -142,15 +142,18 @@ def serve(
     keys: Sequence[str],
     token: str,
     make_handler: Callable[[Publishers], Handler | Timed],
+    hello: Message | None = None,
 ) -> int:
-    """A child process's life: join the run, subscribe to keys, declare its liveliness token, hand every message to
-    the handler (and, for a Timed one, wake up when its work is due), until the stop message or the supervisor's
-    disappearance (so no child outlives its run)."""
+    """A child process's life: join the run, answer on its hello key which scenario it runs (hello, before its
+    token appears), subscribe to keys, declare its liveliness token, hand every message to the handler (and, for a
+    Timed one, wake up when its work is due), until the stop message or the supervisor's disappearance (so no
+    child outlives its run)."""
     with open_session("client", connect=connect) as session:
         inbox = Inbox()
         for key in (*keys, STOP_KEY):
             inbox.subscribe(session, key)
         inbox.watch_liveliness(session, SUPERVISOR_ALIVE)
+        answer = _answer(session, hello_key(token), hello) if hello is not None else None
         alive = session.liveliness().declare_token(token)
         handle = make_handler(Publishers(session))
         timed = handle if isinstance(handle, Timed) else None
@@ -158,6 +161,7 @@ def serve(
             item = inbox.get(_timeout(timed))
             if isinstance(item, Received):
                 if item.key == STOP_KEY:
+                    _stopped(name, item.payload)
                     break
                 handle(item.key, item.payload)
             elif item == f"-{SUPERVISOR_ALIVE}":
@@ -166,7 +170,24 @@ def serve(
             if timed is not None:
                 timed.on_time()  # it checks what is due
         alive.undeclare()
+        if answer is not None:
+            answer.undeclare()
     return 0
+
+
+def _answer(session: zenoh.Session, key: str, hello: Message) -> zenoh.Queryable[None]:
+    """A queryable that answers every query on key with hello."""
+    payload = encode(hello)
+    return session.declare_queryable(key, lambda query: query.reply(key, payload))
+
+
+def _stopped(name: str, payload: bytes) -> None:
+    """The supervisor's stop message: the end of the run says nothing; any other reason (e.g. this process was
+    refused) is told. Either way the process did what it was asked: exit code 0."""
+    message = decode_or_none(payload) or {}
+    reason = message.get("reason", STOP_END)
+    if reason != STOP_END:
+        log.warning("%s: stopped by the supervisor: %s", name, reason)
 
 
 def _timeout(timed: Timed | None) -> float:

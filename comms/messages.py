@@ -37,6 +37,8 @@ COMMS_STATS_KEY = f"{ROOT}/comms/stats"
 ALIVE_PREFIX = f"{ROOT}/alive"
 SUPERVISOR_ALIVE = f"{ALIVE_PREFIX}/supervisor"
 COMMS_ALIVE = f"{ALIVE_PREFIX}/comms"
+HELLO_PREFIX = f"{ROOT}/hello"  # queryables: each process says which scenario it runs (hello_message)
+STOP_END = "end of run"  # the stop message's reason when the run finished
 
 Message = dict[str, Any]
 MAX_SPEED = 100.0  # m/s: far above any AUV, far below the speed of sound
@@ -61,6 +63,12 @@ def rx_key(vehicle_id: int) -> str:
 
 def vehicle_alive_key(vehicle_id: int) -> str:
     return f"{ALIVE_PREFIX}/vehicle/{vehicle_id}"
+
+
+def hello_key(alive_key: str) -> str:
+    """Where the process holding a liveliness token answers which scenario it runs: cpf/hello/<what follows
+    cpf/alive/>. It declares the queryable before its token, so whoever sees the token can ask at once."""
+    return HELLO_PREFIX + alive_key.removeprefix(ALIVE_PREFIX)
 
 
 def vehicle_of_key(key: str) -> tuple[int, str] | None:
@@ -253,6 +261,26 @@ def tick_message(
 def _disturbed(vid: int, d: Disturbances) -> Message:
     return {"vehicle": vid, "cap": d.gamma_dot_cap, "freeze": d.gamma_freeze, "offset": d.gamma_offset,
             "skew": d.clock_offset}  # fmt: skip
+
+
+def hello_message(process: str, digest: str, sections: dict[str, str]) -> Message:
+    """A process's answer on its hello key: the sha256 (hex) of the scenario it runs, as validated (and of the
+    run's seed where it uses it), as a whole and per top-level section, so a supervisor can say what differs."""
+    return {"process": process, "digest": digest, "sections": dict(sections)}
+
+
+@dataclass(frozen=True, slots=True)
+class Hello:
+    process: str
+    digest: str
+    sections: dict[str, str]
+
+
+def parse_hello(message: Message) -> Hello:
+    sections = _get(message, "sections", dict)
+    if not all(isinstance(k, str) and isinstance(v, str) for k, v in sections.items()):
+        raise ValueError("field 'sections' is not a map of section name to digest")
+    return Hello(_get(message, "process", str), _get(message, "digest", str), sections)
 
 
 # --- parsing what arrives -------------------------------------------------------------------------------------

@@ -13,6 +13,7 @@ from comms.messages import (
     COMMS_STATS_KEY,
     FAULT_KEY,
     GRAPH_KEY,
+    HELLO_PREFIX,
     META_KEY,
     STOP_KEY,
     TICK_KEY,
@@ -186,7 +187,11 @@ FAULT = _object(
     "cpf.FaultEvent", {"t": NUMBER, "kind": STRING, "phase": {"enum": ["start", "end"]}, "detail": {"type": "object"}}
 )
 GRAPH = _object("cpf.Graph", {"t": NUMBER, "edges": {"type": "array", "items": _vector(2)}})
-STOP = _object("cpf.Stop", {"t": NUMBER, "reason": STRING})
+STOP = _object("cpf.Stop", {"t": NUMBER, "reason": STRING})  # "end of run", or why the run stopped early
+HELLO = _object(
+    "cpf.Hello",  # a query's reply, not published: which scenario a process runs (sha256 hex, whole and per section)
+    {"process": STRING, "digest": STRING, "sections": {"type": "object", "additionalProperties": STRING}},
+)
 
 _BY_KEY = {
     META_KEY: META,
@@ -206,4 +211,6 @@ def schema_for(key: str) -> Schema | None:
     owned = vehicle_of_key(key)
     if owned is not None:
         return _BY_LEAF.get(owned[1])
+    if key.startswith(HELLO_PREFIX + "/"):
+        return HELLO
     return _BY_KEY.get(key)

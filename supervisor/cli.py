@@ -15,11 +15,17 @@ import textwrap
 from collections.abc import Sequence
 from pathlib import Path
 from types import FrameType
+from typing import TYPE_CHECKING
 
 from supervisor import resim_settings  # light: the table only, for the help text
 from supervisor.errors import CpfError, ScenarioError
 
+if TYPE_CHECKING:
+    from supervisor.scenario_schema import Scenario
+
 EXIT_RUNTIME, EXIT_INPUT, EXIT_INTERRUPTED = 1, 2, 130
+START_TIMEOUT = 60.0  # s: cpf run's default --start-timeout
+log = logging.getLogger("cpf")
 
 
 def _positive(text: str) -> float:
@@ -66,13 +72,19 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("scenario", type=Path, help="scenario file (TOML)")
     run.add_argument("--engine", choices=["zenoh", "inprocess"], default="zenoh", help="default: zenoh")
     run.add_argument("--clock", choices=["lockstep", "realtime"], default="lockstep", help="default: lockstep")
-    run.add_argument("--speed", type=_positive, default=1.0, help="realtime clock: simulated s per wall s")
+    run.add_argument(
+        "--speed", type=_positive, default=None, help="realtime clock only: simulated s per wall s (default: 1)"
+    )
     run.add_argument("--seed", type=_seed, default=None, help="random seed (default: the scenario's)")
     run.add_argument("--out", type=Path, default=None, help="MCAP file to write (default: runs/<name>.mcap)")
     run.add_argument("--metrics", type=Path, default=None, help="also write the summary as JSON here")
     run.add_argument("--listen", default=None, help="Zenoh endpoint for the supervisor's router")
     run.add_argument("--connect", default=None, help="join this Zenoh router instead of running one")
     run.add_argument("--remote", type=_ids, default=(), help="vehicle ids started by hand elsewhere (not spawned)")
+    run.add_argument(
+        "--start-timeout", type=_positive, default=None, metavar="S",
+        help=f"zenoh engine: s to wait for every process to come alive (default: {START_TIMEOUT:g})",
+    )  # fmt: skip
     run.add_argument("--quiet", action="store_true", help="no progress line")
 
     vehicle = sub.add_parser("vehicle", help="run one vehicle process (the supervisor starts these)")
@@ -94,6 +106,9 @@ def _parser() -> argparse.ArgumentParser:
     vehicle.add_argument("--resume", type=Path, default=None, help="a recorded state message to restart from")
     vehicle.add_argument("--start-step", type=int, default=0, help="the sync step to resume at")
     vehicle.add_argument("--resume-seq", type=int, default=0, help="the last transmission's sequence number")
+    vehicle.add_argument(
+        "--gamma0", type=float, default=None, help="the initial gamma, when the supervisor resolved 'closest' for it"
+    )
     comms.add_argument("--start-step", type=int, default=0, help="the sync step to resume at (after a restart)")
     report = sub.add_parser("report", help="figures and metrics (metrics.json) of a recorded run")
     report.add_argument("log", type=Path, help="MCAP file written by cpf run")
@@ -145,6 +160,36 @@ def _add_learning_commands(sub: argparse._SubParsersAction[argparse.ArgumentPars
     sub.add_parser("presets", help="the vehicle and modem presets a scenario can name, with their key numbers")
 
 
+def _option_errors(args: argparse.Namespace, scenario: Scenario) -> list[str]:
+    """Option combinations that cannot do what they say, '<option>: <problem>, got <value>' each. Checked before
+    anything starts, for both engines alike."""
+    from supervisor.scenario_schema import VehicleKillFault
+
+    errors = [
+        f"--remote: no vehicle {vid} in [[vehicles]] {scenario.vehicle_ids}, got {vid}"
+        for vid in args.remote
+        if vid not in scenario.vehicle_ids
+    ]
+    if args.engine == "inprocess":
+        given = {"--remote": args.remote or None, "--listen": args.listen, "--connect": args.connect}
+        given["--start-timeout"] = args.start_timeout
+        errors += [
+            f"{option}: only the zenoh engine has processes to place (--engine inprocess runs one), got {value}"
+            for option, value in given.items()
+            if value is not None
+        ]
+    if args.speed is not None and args.clock != "realtime":
+        errors.append(f"--speed: only the realtime clock is paced (add --clock realtime), got {args.speed:g}")
+    killed = {f.vehicle: index for index, f in enumerate(scenario.faults) if isinstance(f, VehicleKillFault)}
+    errors += [
+        f"--remote: faults[{killed[vid]}] kills vehicle {vid}, which the supervisor cannot do to a process it did "
+        f"not start, got {vid}"
+        for vid in args.remote
+        if vid in killed
+    ]
+    return errors
+
+
 def _run(args: argparse.Namespace) -> int:
     from supervisor.comms_summary import comms_summary, format_comms
     from supervisor.cosim import BusOptions, run_zenoh
@@ -154,18 +199,27 @@ def _run(args: argparse.Namespace) -> int:
     from supervisor.progress import Progress
     from supervisor.realtime_timing import format_timing
     from supervisor.scenario import load_scenario
+    from supervisor.scenario_checks import scenario_warnings
     from supervisor.summary import format_summary, summarize
 
     scenario = load_scenario(args.scenario, args.set, args.fault)
+    errors = [f"{args.scenario}: {line}" for line in _option_errors(args, scenario)]
+    if errors:
+        raise ScenarioError("\n".join(errors), errors)
+    for warning in scenario_warnings(scenario):
+        log.warning("%s: %s", args.scenario, warning)
     seed = scenario.scenario.seed if args.seed is None else args.seed
     out = args.out or Path("runs") / f"{scenario.scenario.name}.mcap"
     text = args.scenario.read_text(encoding="utf-8")
     progress = Progress(scenario.scenario.duration, enabled=not args.quiet)
+    speed = 1.0 if args.speed is None else args.speed
     if args.engine == "inprocess":
         result = run_inprocess(scenario, str(args.scenario), text, out, seed, progress)
     else:
-        bus = BusOptions(args.listen, args.connect, args.remote, tuple(args.set), tuple(args.fault))
-        result = run_zenoh(scenario, args.scenario, text, out, seed, args.clock, args.speed, bus, progress)
+        timeout = START_TIMEOUT if args.start_timeout is None else args.start_timeout
+        bus = BusOptions(args.listen, args.connect, args.remote, tuple(args.set), tuple(args.fault), timeout)
+        logging.getLogger("supervisor.cosim").setLevel(logging.INFO)  # "waiting for ...": --quiet or not
+        result = run_zenoh(scenario, args.scenario, text, out, seed, args.clock, speed, bus, progress)
     faults = intervals(scenario)
     rep = scenario.report
     tube = abs(scenario.path_following.delta) + rep.tube_margin
@@ -195,6 +249,7 @@ def _run(args: argparse.Namespace) -> int:
 def _vehicle(args: argparse.Namespace) -> int:
     from supervisor.fleet import initial_state, radio, restarted_node, vehicle_config
     from supervisor.scenario import load_scenario
+    from supervisor.scenario_digest import hello
     from vehicles.node import run_vehicle
     from vehicles.runtime import NodeState
 
@@ -205,20 +260,34 @@ def _vehicle(args: argparse.Namespace) -> int:
     if args.resume is not None:
         initial = restarted_node(cfg, json.loads(args.resume.read_text()), args.resume_seq)
     else:
-        initial = NodeState(initial_state(scenario, cfg))
+        initial = NodeState(initial_state(_starting_at(scenario, args.id, args.gamma0), cfg))
     neighbours, dt = scenario.neighbours(args.id), scenario.scenario.step
-    return run_vehicle(cfg, initial, radio(scenario, args.id), neighbours, dt, [args.connect], args.start_step)
+    return run_vehicle(
+        cfg, initial, radio(scenario, args.id), neighbours, dt, [args.connect], args.start_step,
+        hello(f"vehicle {args.id}", scenario),
+    )  # fmt: skip
+
+
+def _starting_at(scenario: Scenario, vid: int, gamma0: float | None) -> Scenario:
+    """The scenario with vehicle vid's gamma0 set (the supervisor resolved "closest" for it: no search here); the
+    scenario itself, and so its digest, stays the supervisor's."""
+    if gamma0 is None:
+        return scenario
+    vehicles = tuple(v.model_copy(update={"gamma0": gamma0}) if v.id == vid else v for v in scenario.vehicles)
+    return scenario.model_copy(update={"vehicles": vehicles})
 
 
 def _comms(args: argparse.Namespace) -> int:
     from comms.broker import run_broker
     from supervisor.fleet import broker_core
     from supervisor.scenario import load_scenario
+    from supervisor.scenario_digest import hello
 
     scenario = load_scenario(args.scenario, args.set, args.fault)
     seed = scenario.scenario.seed if args.seed is None else args.seed
-    dt = scenario.scenario.step
-    return run_broker(broker_core(scenario, seed), scenario.vehicle_ids, dt, [args.connect], args.start_step)
+    dt, ids = scenario.scenario.step, scenario.vehicle_ids
+    greeting = hello("comms broker", scenario, seed)
+    return run_broker(broker_core(scenario, seed), ids, dt, [args.connect], args.start_step, greeting)
 
 
 def _report(args: argparse.Namespace) -> int:
@@ -353,7 +422,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return EXIT_RUNTIME
     except ScenarioError as exc:
-        print(f"cpf: error: {exc}", file=sys.stderr)
+        for line in exc.errors:  # every error found, one line each
+            print(f"cpf: error: {line}", file=sys.stderr)
         return EXIT_INPUT
     except (CpfError, ConnectionError) as exc:
         print(f"cpf: error: {exc}", file=sys.stderr)

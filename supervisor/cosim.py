@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import logging
 import sys
 import tempfile
 import time
@@ -31,9 +32,11 @@ from comms.messages import (
     GRAPH_KEY,
     META_KEY,
     ROOT,
+    STOP_END,
     STOP_KEY,
     SUPERVISOR_ALIVE,
     TICK_KEY,
+    Hello,
     Message,
     batches_message,
     event_message,
@@ -61,11 +64,15 @@ from supervisor.progress import Progress
 from supervisor.realtime_timing import RealtimeTiming
 from supervisor.recorder import Recorder
 from supervisor.scenario import load_scenario
+from supervisor.scenario_digest import section_digests
 from supervisor.scenario_schema import Scenario
 from supervisor.series import SeriesBuilder
+from supervisor.startup import REPORT_EVERY, ask_hello, check_hello, missing_names
 from vehicles.agent import Disturbances
 
-START_TIMEOUT = 60.0  # s for a process to declare its liveliness token
+START_TIMEOUT = 60.0  # s for a process to declare its liveliness token (cpf run --start-timeout)
+STOP_DEADLINE = 3.0  # s for the processes to leave after the stop message, before the supervisor's token goes
+log = logging.getLogger(__name__)
 STEP_TIMEOUT = 60.0  # s for one sync step before the run is declared stuck
 POLL_CHILDREN = 0.1  # s between checks of the children's exits (liveliness usually reports a death first)
 
@@ -78,12 +85,14 @@ class BusOptions:
         remote: tuple[int, ...] = (),
         overrides: tuple[str, ...] = (),
         faults: tuple[str, ...] = (),
+        start_timeout: float = START_TIMEOUT,
     ) -> None:
         self.listen = listen  # endpoint for the supervisor's router; default a free localhost port
         self.connect = connect  # join an existing router instead of being one
         self.remote = remote  # vehicles started by hand elsewhere: waited for, not spawned
         self.overrides = overrides  # --set KEY=VALUE, passed on to every child
         self.faults = faults  # --fault SPEC, passed on to every child
+        self.start_timeout = start_timeout  # s for every process to come alive
 
 
 class _Supervisor:
@@ -112,6 +121,8 @@ class _Supervisor:
         self._next_poll = 0.0
         self.clock: _Clock | None = None
         self.timing: RealtimeTiming | None = None  # realtime runs: how well they keep to the wall clock
+        self.ask: Callable[[str], Hello | None] = lambda key: None  # a process's hello, by its liveliness key
+        self.digests: dict[str, dict[str, str]] = {}  # "vehicle" / "comms": what their hellos must say (set_seed)
 
     # --- the bus -------------------------------------------------------------------------------------------
 
@@ -122,12 +133,25 @@ class _Supervisor:
         elif isinstance(item, Received):
             self._record(item)
 
-    def wait_until(self, ready: Callable[[], bool], what: str, timeout: float) -> None:
-        end = time.monotonic() + timeout
+    def set_seed(self, seed: int) -> None:
+        """The run's seed, and so the digests every process must prove (the broker's covers the seed)."""
+        self.seed = seed
+        self.digests = {"vehicle": section_digests(self.sc), "comms": section_digests(self.sc, seed)}
+
+    def wait_until(
+        self, ready: Callable[[], bool], what: str | Callable[[], str], timeout: float, report: bool = False
+    ) -> None:
+        """Pump the bus until ready(); SimulationError after timeout s. what: what is waited for (a callable: worked
+        out when it is said); report: say so every REPORT_EVERY s."""
+        start = time.monotonic()
+        end, next_report = start + timeout, start + REPORT_EVERY
         while not ready():
             now = time.monotonic()
             if now > end:
-                raise SimulationError(f"timed out after {timeout:.0f} s waiting for {what}")
+                raise SimulationError(f"timed out after {timeout:g} s waiting for {_say(what)}")
+            if report and now >= next_report:
+                next_report = now + REPORT_EVERY
+                log.info("waiting for %s (%.0f s of %g s)", _say(what), now - start, timeout)
             if now >= self._next_poll:  # children's exits, at most every POLL_CHILDREN s: waitpid is not free
                 self._next_poll = now + POLL_CHILDREN
                 ended = self.procs.first_ended()
@@ -138,7 +162,10 @@ class _Supervisor:
     def _liveliness(self, change: str) -> None:
         sign, key = change[0], change[1:]
         if sign == "+":
-            self.present.add(key)
+            self.present.add(key)  # before the check: a refused process is still waited for to leave (wind_down)
+            if key in self.expected:  # a process the run needs: it must run the supervisor's scenario
+                kind = "comms" if key == COMMS_ALIVE else "vehicle"
+                check_hello(self.expected[key], self.digests[kind], self.ask(key))
             return
         self.present.discard(key)
         if key in self.expected:
@@ -240,7 +267,7 @@ class _Supervisor:
         if self.sc.vehicles[index].gamma0 != "closest":
             return []
         gamma0 = initial_state(self.sc, vehicle_config(self.sc, vid)).gamma
-        return ["--set", f"vehicles.{index}.gamma0={gamma0!r}"]
+        return ["--gamma0", repr(gamma0)]  # not a --set: the vehicle's scenario (and digest) stays the supervisor's
 
     def _argv(self, command: str, *extra: str) -> list[str]:
         sets = [arg for override in self.bus.overrides for arg in ("--set", override)]
@@ -248,9 +275,23 @@ class _Supervisor:
         base = [sys.executable, "-m", "supervisor.cli", command, str(self.path), "--connect", self.connect]
         return [*base, *sets, *faults, *extra]
 
+    def missing(self) -> list[str]:
+        """The processes the run needs whose liveliness token is not (or no longer) there."""
+        return [self.expected[key] for key in sorted(set(self.expected) - self.present)]
+
     def await_alive(self) -> None:
-        missing = lambda: sorted(set(self.expected) - self.present)  # noqa: E731
-        self.wait_until(lambda: not missing(), "every process to come alive", START_TIMEOUT)
+        """Wait for every process the run needs, naming the missing ones every few seconds."""
+        what = lambda: f"{missing_names(self.missing(), self.bus.remote)} to come alive"  # noqa: E731
+        self.wait_until(lambda: not self.missing(), what, self.bus.start_timeout, report=True)
+
+    def wind_down(self, deadline: float = STOP_DEADLINE) -> None:
+        """After the stop message: wait (a while) for the processes to leave, so that none sees the supervisor
+        go before its stop message (it would report the supervisor gone; the token's end can overtake the
+        message)."""
+        self.expected.clear()  # leaving is what they are asked to do now, not a loss
+        end = time.monotonic() + deadline
+        while self.present & _process_tokens(self.sc) and time.monotonic() < end:
+            self.pump(0.05)
 
     def carry_out(self, action: ProcessAction, k: int, pubs: Publishers, resume_dir: Path) -> None:
         """A scheduled kill or restart."""
@@ -296,6 +337,19 @@ class _Supervisor:
             self.rec.write(COMMS_EVENT_KEY, event.t, event_message(event))
 
 
+def _reachable(endpoint: str) -> str:
+    """How another host names an endpoint the supervisor listens on (an unspecified address: any of this host's)."""
+    return endpoint.replace("0.0.0.0", "<this host>").replace("[::]", "<this host>")
+
+
+def _say(what: str | Callable[[], str]) -> str:
+    return what if isinstance(what, str) else what()
+
+
+def _process_tokens(sc: Scenario) -> set[str]:
+    return {COMMS_ALIVE, *(vehicle_alive_key(v) for v in sc.vehicle_ids)}
+
+
 def _local(endpoint: str) -> str:
     """How processes on this machine reach an endpoint the supervisor listens on."""
     return endpoint.replace("0.0.0.0", "127.0.0.1").replace("[::]", "[::1]")
@@ -332,20 +386,26 @@ def run_zenoh(
         token = session.liveliness().declare_token(SUPERVISOR_ALIVE)
         pubs = Publishers(session)
         run = _Supervisor(scenario, rec, inbox, procs, scenario_path)
-        run.connect, run.bus, run.seed = bus.connect or _local(endpoint), bus, seed
+        run.connect, run.bus = bus.connect or _local(endpoint), bus
+        run.set_seed(seed)
+        run.ask = lambda key: ask_hello(session, key)
         run.timing = RealtimeTiming(scenario.scenario.step) if clock == "realtime" else None
+        # In the log from the start: a run that never starts (a process missing or refused) still says what it was.
+        meta = run_meta(scenario, str(scenario_path), scenario_toml, seed, "zenoh", clock)
+        rec.write(META_KEY, 0.0, meta)
+        reason = STOP_END
         try:
-            run.spawn_comms()
-            for vid in scenario.vehicle_ids:
-                run.spawn_vehicle(vid)
-            run.await_alive()
-            meta = run_meta(scenario, str(scenario_path), scenario_toml, seed, "zenoh", clock)
-            run.publish(pubs, META_KEY, 0.0, meta)
+            _start(run, endpoint)
+            pubs.put(META_KEY, meta)
             run.publish(pubs, GRAPH_KEY, 0.0, graph_message(0.0, scenario.graph.edges))
             _drive(run, pubs, steps, clock, speed, progress, Path(resume_dir))
+        except BaseException as exc:
+            reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            raise
         finally:
             with contextlib.suppress(Exception):  # already failing: the process group still stops the children
-                run.publish(pubs, STOP_KEY, run.t, {"t": run.t, "reason": "end of run"})
+                run.publish(pubs, STOP_KEY, run.t, {"t": run.t, "reason": reason})
+                run.wind_down()
             token.undeclare()
         stepping = progress.stepping_time()
         wall = progress.done(steps * scenario.scenario.step)
@@ -356,6 +416,21 @@ def run_zenoh(
         run.builder.series(), wall, messages, books.counts, books.stats.snapshot(end), books.lambda2, run.builder.ages,
         stepping, run.timing.as_dict() if run.timing is not None else None,
     )  # fmt: skip
+
+
+def _start(run: _Supervisor, endpoint: str) -> None:
+    """Start the broker and the vehicles (those started by hand: say how), and wait for every one to come alive
+    running the supervisor's scenario."""
+    run.spawn_comms()
+    for vid in run.sc.vehicle_ids:
+        run.spawn_vehicle(vid)
+    if run.bus.remote:
+        ids = ", ".join(str(v) for v in run.bus.remote)
+        log.info(
+            "start vehicles %s by hand: cpf vehicle %s --id N --connect %s (with this run's --set and --fault)",
+            ids, run.path, _reachable(run.bus.connect or endpoint),
+        )  # fmt: skip
+    run.await_alive()
 
 
 class _Clock:

@@ -6,7 +6,14 @@ class CpfError(Exception):
 
 
 class ScenarioError(CpfError):
-    """The scenario (file or command-line override) is invalid: set-up never started. Exit code 2."""
+    """The scenario (file or command-line override) is invalid: set-up never started. Exit code 2.
+
+    errors: every error found, one line each (the message is these lines; the first is the usual one-line error).
+    """
+
+    def __init__(self, message: str, errors: list[str] | None = None) -> None:
+        super().__init__(message)
+        self.errors: list[str] = list(errors) if errors else str(message).splitlines()
 
 
 class SimulationError(CpfError):

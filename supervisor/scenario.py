@@ -9,30 +9,18 @@ from __future__ import annotations
 
 import re
 import tomllib
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
-import numpy as np
-from pydantic import ValidationError
+from pydantic import TypeAdapter, ValidationError
 from pydantic_core import ErrorDetails
 
 from supervisor.errors import ScenarioError
-from supervisor.scenario_schema import LINK_FAULTS, FaultSpec, GraphSwitchFault, Scenario
-from vehicles.params import PRESETS, VehicleParams
-from vehicles.paths import Path as PathLike
+from supervisor.scenario_checks import cross_field_errors, format_location
+from supervisor.scenario_schema import Scenario
 
 # --- error messages ---------------------------------------------------------------------------------------
-
-
-def _format_location(loc: Iterable[int | str]) -> str:
-    text = ""
-    for part in loc:
-        if isinstance(part, int) or not part.isidentifier():
-            text += f"[{part!r}]"  # a list index, or a key TOML had to quote
-        else:
-            text += f".{part}" if text else part
-    return text or "(top level)"
 
 
 def _show(value: object) -> str:
@@ -82,164 +70,119 @@ def _describe(error: ErrorDetails, data: object) -> tuple[str, str]:
     if kind in ("union_tag_invalid", "union_tag_not_found"):
         loc.append(str(ctx["discriminator"]).strip("'"))
         if kind == "union_tag_not_found":
-            return _format_location(loc), _PROBLEMS["missing"]
-        return _format_location(loc), f"must be one of {ctx['expected_tags']}, got {_show(ctx['tag'])}"
+            return format_location(loc), _PROBLEMS["missing"]
+        return format_location(loc), f"must be one of {ctx['expected_tags']}, got {_show(ctx['tag'])}"
     if kind == "missing" and loc and isinstance(loc[-1], int):  # a short array: pydantic reports its first absent item
-        return _format_location(loc[:-1]), f"too few items, got {_show(value)}"
+        return format_location(loc[:-1]), f"too few items, got {_show(value)}"
     problem = _PROBLEMS.get(kind) or error["msg"].removeprefix("Value error, ")
     problem = problem.replace("Input should be", "must be").replace("Tuple should have", "must have")
     shown = "" if kind in ("missing", "extra_forbidden") else f", got {_show(value)}"
-    return _format_location(loc), re.sub(r" after validation, not \d+$", "", problem) + shown
+    return format_location(loc), re.sub(r" after validation, not \d+$", "", problem) + shown
 
 
-def _one_line(exc: ValidationError, data: object) -> str:
+def _pydantic_errors(exc: ValidationError, data: object) -> list[str]:
+    """One '<field>: <problem>, got <value>' per field pydantic rejected, a misspelt key first (it also makes the
+    real one "missing"). A union's members' complaints about one field become one line; a collection's "too few
+    items" that only counts the items rejected on their own is left out."""
     errors = exc.errors()
-    # A misspelt key also makes the real one "missing": report the misspelling first.
     errors.sort(key=lambda e: e["type"] != "extra_forbidden")
-    described = [_describe(error, data) for error in errors]
-    field, problem = described[0]
-    more = len({f for f, _ in described}) - 1
-    suffix = f" (and {more} more field{'s' if more > 1 else ''} with errors)" if more else ""
-    return f"{field}: {problem}{suffix}"
+    locs = [e["loc"] for e in errors]
+    kept = [e for e in errors if not (e["type"] == "too_short" and _has_inner(e["loc"], locs))]
+    by_field: dict[str, list[str]] = {}
+    for error in kept:
+        field, problem = _describe(error, data)
+        by_field.setdefault(field, []).append(problem)
+    return [f"{field}: {_either(problems)}" for field, problems in by_field.items()]
+
+
+def _has_inner(loc: tuple[int | str, ...], locs: list[tuple[int | str, ...]]) -> bool:
+    return any(len(other) > len(loc) and other[: len(loc)] == loc for other in locs)
+
+
+def _either(problems: list[str]) -> str:
+    """'must be a valid number, got 'x'' and 'must be 'closest', got 'x'' -> 'must be a valid number or 'closest',
+    got 'x''."""
+    if len(problems) == 1:
+        return problems[0]
+    heads = [p.rpartition(", got ")[0] or p for p in problems]
+    got = problems[0].rpartition(", got ")[2] if ", got " in problems[0] else ""
+    wanted = [heads[0], *(h.removeprefix("must be ") for h in heads[1:])]
+    return " or ".join(dict.fromkeys(wanted)) + (f", got {got}" if got else "")
+
+
+def _line(source: str, message: str) -> str:
+    """'<source>: <message>', forced onto one line whatever the source and message hold."""
+    return "\\n".join(f"{source}: {message}".splitlines())
 
 
 def _error(source: str, message: str) -> ScenarioError:
-    """ScenarioError('<source>: <message>'), forced onto one line whatever the source and message hold."""
-    return ScenarioError("\\n".join(f"{source}: {message}".splitlines()))
+    return ScenarioError(_line(source, message))
 
 
-# --- cross-field checks -----------------------------------------------------------------------------------
+def _errors(lines: list[str]) -> ScenarioError:
+    """One ScenarioError for every error found: a line each, the first the usual one-line message."""
+    return ScenarioError("\n".join(lines), lines)
 
 
-def _check_consistency(sc: Scenario) -> None:
-    """Cross-field rules pydantic cannot express field by field."""
-    ids = sc.vehicle_ids
-    for index, vid in enumerate(ids):
-        if ids.index(vid) != index:
-            raise ScenarioError(f"vehicles[{index}].id: duplicate vehicle id, got {vid}")
-    _check_graph(sc)
-    for index, fault in enumerate(sc.faults):
-        _check_fault(index, fault, ids)
-    if sc.scenario.step > sc.scenario.duration:
-        raise ScenarioError(f"scenario.step: must not exceed duration ({sc.scenario.duration}), got {sc.scenario.step}")
-    _check_overrides(sc)
-    _check_paths(sc)
-    _check_comms(sc)
+# --- validation ---------------------------------------------------------------------------------------------
+
+_SECTIONS: dict[str, TypeAdapter[Any]] = {}
 
 
-def _check_fault(index: int, fault: FaultSpec, ids: list[int]) -> None:
-    named = {"vehicle": getattr(fault, "vehicle", None), "sender": getattr(fault, "sender", None)}
-    named["receiver"] = getattr(fault, "receiver", None)
-    for field_name, vid in named.items():
-        if vid is not None and vid not in ids:
-            raise ScenarioError(f"faults[{index}].{field_name}: no such vehicle in {ids}, got {vid}")
-    if fault.end is not None and fault.end <= fault.start:
-        raise ScenarioError(f"faults[{index}].end: must be after start ({fault.start}), got {fault.end}")
-    if isinstance(fault, LINK_FAULTS) and fault.sender == fault.receiver:
-        raise ScenarioError(f"faults[{index}].receiver: a link joins two vehicles, got {fault.receiver}")
-    if isinstance(fault, GraphSwitchFault):
-        for edge in fault.edges:
-            if edge[0] not in ids or edge[1] not in ids or edge[0] == edge[1]:
-                raise ScenarioError(f"faults[{index}].edges: not an edge between two vehicles {ids}, got {list(edge)}")
+def _section_adapter(name: str) -> TypeAdapter[Any]:
+    """A validator of one top-level section, exactly as Scenario validates it (its type and constraints)."""
+    if name not in _SECTIONS:
+        info = Scenario.model_fields[name]
+        section: Any = Annotated[info.annotation, info]  # a type built at run time: mypy cannot follow it
+        _SECTIONS[name] = TypeAdapter(section)
+    return _SECTIONS[name]
 
 
-def _check_comms(sc: Scenario) -> None:
-    """Links, TDMA order and packet size against the fleet and the modem; the models' own checks."""
-    from comms.wire import MAX_VEHICLE_ID, SIZE
-    from supervisor.fleet import channel_params, modem_params
+def _partial(data: dict[str, Any], rejected: set[str]) -> Scenario:
+    """A Scenario of the sections pydantic accepted (the rejected ones at their defaults, or absent): the
+    cross-field rules that read only accepted sections can still run on it."""
+    good = {
+        name: _section_adapter(name).validate_python(data[name])
+        for name in Scenario.model_fields
+        if name not in rejected and name in data
+    }
+    return Scenario.model_construct(**good)
 
-    ids = sc.vehicle_ids
-    if max(ids) > MAX_VEHICLE_ID:
-        raise ScenarioError(f"vehicles: ids must fit the 1-byte wire field (<= {MAX_VEHICLE_ID}), got {max(ids)}")
-    edges = {tuple(e) for e in sc.graph.edges} | {(j, i) for i, j in sc.graph.edges}
-    for index, link in enumerate(sc.comms.links):
-        if (link.sender, link.receiver) not in edges:
-            raise ScenarioError(f"comms.links[{index}]: not a link of the graph, got {link.sender} -> {link.receiver}")
-    tdma = sc.comms.tdma
-    slots = tdma.slot / sc.scenario.step if tdma is not None else 1.0
-    if tdma is not None and (slots < 1 - 1e-9 or abs(slots - round(slots)) > 1e-6):
-        raise ScenarioError(f"comms.tdma.slot: must be a whole number of steps ({sc.scenario.step} s), got {tdma.slot}")
-    if tdma is not None and tdma.order is not None and sorted(tdma.order) != sorted(ids):
-        raise ScenarioError(f"comms.tdma.order: must list every vehicle once {sorted(ids)}, got {list(tdma.order)}")
-    radio = modem_params(sc)
-    size = sc.comms.packet_bytes or SIZE
-    if radio.max_bytes is not None and size > radio.max_bytes:
-        raise ScenarioError(f"comms.packet_bytes: the {sc.comms.modem} modem takes {radio.max_bytes} B, got {size}")
+
+def _validate(data: dict[str, Any]) -> tuple[Scenario | None, list[str]]:
+    """(the scenario if valid, every error '<field>: <problem>, got <value>': pydantic's, then the cross-field
+    rules' on the sections pydantic accepted)."""
     try:
-        channel_params(sc)
-    except ValueError as exc:
-        raise ScenarioError(f"comms: {exc}") from exc
-
-
-def _check_graph(sc: Scenario) -> None:
-    ids, edges = sc.vehicle_ids, sc.graph.edges
-    for index, (i, j) in enumerate(edges):
-        for end in (i, j):
-            if end not in ids:
-                raise ScenarioError(
-                    f"graph.edges[{index}]: vehicle {end} is not in [[vehicles]] ids {ids}, got {[i, j]}"
-                )
-        if i == j:
-            raise ScenarioError(f"graph.edges[{index}]: an edge must join two vehicles, got {[i, j]}")
-    reached = {ids[0]}
-    for _ in ids:  # each pass reaches at least one more vehicle, or nothing more can be reached
-        reached |= {j for i, j in edges if i in reached} | {i for i, j in edges if j in reached}
-    unreached = [vid for vid in ids if vid not in reached]
-    if unreached:
-        raise ScenarioError(
-            f"graph.edges: the graph must be connected, vehicles {unreached} cannot reach vehicle {ids[0]}, "
-            f"got {[list(e) for e in edges]}"
-        )
-
-
-def _check_overrides(sc: Scenario) -> None:
-    """Each override names a VehicleParams field and has its shape: a number, or an array of 3 numbers."""
-    defaults = PRESETS[sc.vehicle.preset]
-    known = list(VehicleParams.__dataclass_fields__)
-    for name, value in sc.vehicle.overrides.items():
-        where = _format_location(["vehicle", "overrides", name])
-        if name not in known:
-            raise ScenarioError(f"{where}: unknown vehicle parameter, expected one of {known}")
-        vector = isinstance(getattr(defaults, name), tuple)
-        if vector != isinstance(value, tuple):
-            shape = "an array of 3 numbers" if vector else "a number"
-            raise ScenarioError(f"{where}: must be {shape}, got {list(value) if isinstance(value, tuple) else value}")
-
-
-def _finite_at_zero(path: PathLike) -> bool:
-    try:
-        return all(np.isfinite(vector).all() for vector in path.evaluate(0.0))
-    except (ValueError, OverflowError):  # math.cos(inf) and the like
-        return False
-
-
-def _check_paths(sc: Scenario) -> None:
-    """Build each path as the run will: its own checks (e.g. period != 0) become field errors here."""
-    from supervisor.fleet import build_path  # supervisor.fleet imports this module
-
-    for index, vehicle in enumerate(sc.vehicles):
+        scenario = Scenario.model_validate(data)
+    except ValidationError as exc:
+        rejected = {str(e["loc"][0]) for e in exc.errors() if e["loc"]}
+        if not isinstance(data, dict) or any(not e["loc"] for e in exc.errors()):
+            return None, _pydantic_errors(exc, data)
         try:
-            path = build_path(vehicle.path)
-        except ValueError as exc:  # vehicles.paths messages start with the parameter: "period must be ..."
-            name, _, problem = str(exc).partition(" ")
-            raise ScenarioError(f"vehicles[{index}].path.{name}: {problem}") from exc
-        if not _finite_at_zero(path):  # e.g. period = 5e-324: 2 pi / period overflows
-            values = ", ".join(f"{key} = {value}" for key, value in vehicle.path if key != "type")
-            raise ScenarioError(f"vehicles[{index}].path: not finite at gamma = 0, got {values}")
+            partial = _partial(data, rejected)
+        except ValidationError:  # cannot happen (each section on its own as in the whole): report what we have
+            return None, _pydantic_errors(exc, data)
+        return None, _pydantic_errors(exc, data) + cross_field_errors(partial, rejected)
+    errors = cross_field_errors(scenario)
+    return (None if errors else scenario), errors
+
+
+def scenario_errors(data: dict[str, Any], source: str) -> list[str]:
+    """Every error of a parsed scenario (TOML as a dict, --set and --fault applied), one line each:
+    '<source>: <field>: <problem>, got <value>'; [] if it is valid. For tools that report rather than stop
+    (cpf validate); validate_data raises them instead."""
+    return [_line(source, line) for line in dict.fromkeys(_validate(data)[1])]
 
 
 # --- entry points -----------------------------------------------------------------------------------------
 
 
 def validate_data(data: dict[str, Any], source: str) -> Scenario:
-    """Scenario from parsed TOML; ScenarioError('<source>: <field>: <problem>, got <value>') otherwise."""
-    try:
-        scenario = Scenario.model_validate(data)
-        _check_consistency(scenario)
-    except ValidationError as exc:
-        raise _error(source, _one_line(exc, data)) from exc
-    except ScenarioError as exc:
-        raise _error(source, str(exc)) from exc
+    """Scenario from parsed TOML; otherwise a ScenarioError with every error, one line each
+    ('<source>: <field>: <problem>, got <value>'), in its message and its errors."""
+    scenario, errors = _validate(data)
+    if scenario is None:
+        raise _errors([_line(source, line) for line in dict.fromkeys(errors)])
     return scenario
 
 

@@ -196,7 +196,9 @@ def spatial_fleet() -> list[tuple[Telemetry, Model, Transmission]]:
 
 @pytest.fixture(scope="module")
 def planar_fleet() -> list[tuple[Telemetry, Model, Transmission]]:
-    return first_step(("scenario.dimension=2",))
+    # The paper's fleet in the plane z = 0 (the planar model refuses a climb or a vehicle off its path's plane).
+    planar = [f"vehicles.{i}.{key}" for i in range(3) for key in ("path.climb=0.0", "position.2=0.0")]
+    return first_step(("scenario.dimension=2", *planar))
 
 
 def turning_telemetry(model: Model) -> Telemetry:

@@ -38,9 +38,14 @@ def paper_with(old: str, new: str) -> str:
 
 
 def error_of(text: str) -> str:
+    """The first error (the usual one-line message); every error is one such line of the message."""
     with pytest.raises(ScenarioError) as info:
         parse_scenario(text, SOURCE)
-    return str(info.value)
+    errors = info.value.errors
+    assert str(info.value) == "\n".join(errors)
+    for line in errors:
+        assert_one_line(line)
+    return errors[0]
 
 
 def assert_one_line(message: str, source: str = SOURCE) -> None:
@@ -211,8 +216,11 @@ def test_a_bad_scenario_is_one_line_naming_file_field_and_value(text: str, field
 
 
 def test_a_misspelt_key_is_reported_before_the_missing_one() -> None:
-    message = error_of(paper_with("duration = 400.0", "durration = 400.0"))
-    assert "unknown key" in message and "more field" in message
+    with pytest.raises(ScenarioError) as info:
+        parse_scenario(paper_with("duration = 400.0", "durration = 400.0"), SOURCE)
+    first, second = info.value.errors
+    assert first == f"{SOURCE}: scenario.durration: unknown key"
+    assert second == f"{SOURCE}: scenario.duration: missing required field"
 
 
 def test_invalid_toml_names_the_file_and_the_line() -> None:
@@ -349,8 +357,9 @@ def test_damaged_data_is_valid_or_a_one_line_scenario_error(data: st.DataObject)
     try:
         scenario = validate_data(doc, SOURCE)
     except ScenarioError as exc:
-        message = str(exc)
-        assert_one_line(message)
-        assert len(message) > len(f"{SOURCE}: ") + 3
+        assert str(exc) == "\n".join(exc.errors)
+        for message in exc.errors:
+            assert_one_line(message)
+            assert len(message) > len(f"{SOURCE}: ") + 3
     else:
         assert isinstance(scenario, Scenario)

@@ -85,15 +85,18 @@ def run_vehicle(
     dt: float,
     connect: Sequence[str],
     start_step: int = 0,
+    hello: Message | None = None,
 ) -> int:
     """Serve one vehicle from step start_step (a restarted process resumes mid-run) until told to stop or the
-    supervisor disappears; returns the exit code. neighbours: the scenario's, until a tick says otherwise."""
+    supervisor disappears; returns the exit code. neighbours: the scenario's, until a tick says otherwise.
+    hello: the answer to the supervisor's question which scenario the vehicle runs (comms.messages.hello_message)."""
     vid = cfg.vehicle_id
 
     def handler(publishers: Publishers) -> Timed:
         return _Vehicle(cfg, radio, initial, neighbours, dt, publishers, start_step)
 
-    return serve(f"vehicle {vid}", connect, (COMMS_STEP_KEY, rx_key(vid)), vehicle_alive_key(vid), handler)
+    keys = (COMMS_STEP_KEY, rx_key(vid))
+    return serve(f"vehicle {vid}", connect, keys, vehicle_alive_key(vid), handler, hello)
 
 
 class _Vehicle:

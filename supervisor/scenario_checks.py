@@ -1,0 +1,290 @@
+"""Cross-field rules of a scenario, the ones pydantic cannot express field by field.
+
+Every rule yields all the errors it finds, each '<field>: <problem>, got <value>' (supervisor/scenario.py adds the
+file). A rule runs only if the sections it reads validated: `cross_field_errors` is also called on a scenario whose
+other sections pydantic rejected, so that a file shows every error at once without one section's error making up
+another's.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterable, Iterator
+
+import numpy as np
+
+from supervisor.faults import active, network_at
+from supervisor.scenario_schema import (
+    LINK_FAULTS,
+    FaultSpec,
+    GraphSwitchFault,
+    HelixPath,
+    LinePath,
+    PathSpec,
+    Scenario,
+    VehicleSection,
+)
+from vehicles.params import PRESETS, VehicleParams
+from vehicles.paths import Path as PathLike
+
+Check = Callable[[Scenario], Iterator[str]]
+STEP_TOLERANCE = 1e-6  # relative: how close to a whole number of steps a duration or slot must be
+
+
+def format_location(loc: Iterable[int | str]) -> str:
+    text = ""
+    for part in loc:
+        if isinstance(part, int) or not part.isidentifier():
+            text += f"[{part!r}]"  # a list index, or a key TOML had to quote
+        else:
+            text += f".{part}" if text else part
+    return text or "(top level)"
+
+
+def steps_of(sc: Scenario) -> int:
+    return round(sc.scenario.duration / sc.scenario.step)
+
+
+# --- the rules ----------------------------------------------------------------------------------------------
+
+
+def _ids(sc: Scenario) -> Iterator[str]:
+    ids = sc.vehicle_ids
+    for index, vid in enumerate(ids):
+        if ids.index(vid) != index:
+            yield f"vehicles[{index}].id: duplicate vehicle id, got {vid}"
+
+
+def _step(sc: Scenario) -> Iterator[str]:
+    """The run is a whole number of steps: the run's end, the summaries and the log agree on its duration."""
+    step, duration = sc.scenario.step, sc.scenario.duration
+    if step > duration:
+        yield f"scenario.step: must not exceed duration ({duration}), got {step}"
+        return
+    ratio = duration / step
+    if abs(ratio - round(ratio)) > STEP_TOLERANCE * max(1.0, ratio):
+        yield f"scenario.step: must divide duration ({duration}) into whole steps ({ratio:.6g} of them), got {step}"
+
+
+def _graph(sc: Scenario) -> Iterator[str]:
+    ids, edges = sc.vehicle_ids, sc.graph.edges
+    ends_ok = True
+    for index, (i, j) in enumerate(edges):
+        for end in (i, j):
+            if end not in ids:
+                ends_ok = False
+                yield f"graph.edges[{index}]: vehicle {end} is not in [[vehicles]] ids {ids}, got {[i, j]}"
+        if i == j:
+            yield f"graph.edges[{index}]: an edge must join two vehicles, got {[i, j]}"
+    if not ends_ok:
+        return  # connectivity of a graph with unknown vehicles says nothing more
+    reached = {ids[0]}
+    for _ in ids:  # each pass reaches at least one more vehicle, or nothing more can be reached
+        reached |= {j for i, j in edges if i in reached} | {i for i, j in edges if j in reached}
+    unreached = [vid for vid in ids if vid not in reached]
+    if unreached:
+        yield (
+            f"graph.edges: the graph must be connected, vehicles {unreached} cannot reach vehicle {ids[0]}, "
+            f"got {[list(e) for e in edges]}"
+        )
+
+
+def _faults(sc: Scenario) -> Iterator[str]:
+    for index, fault in enumerate(sc.faults):
+        found = list(_fault_fields(index, fault, sc.vehicle_ids))
+        yield from found
+        if not found:
+            yield from _fault_timing(index, fault, sc)
+            if isinstance(fault, LINK_FAULTS) and _first_step(fault.start, sc.scenario.step) < steps_of(sc):
+                yield from _link_in_graph(index, fault, sc)
+
+
+def _fault_fields(index: int, fault: FaultSpec, ids: list[int]) -> Iterator[str]:
+    for field_name in ("vehicle", "sender", "receiver"):
+        vid = getattr(fault, field_name, None)
+        if vid is not None and vid not in ids:
+            yield f"faults[{index}].{field_name}: no such vehicle in {ids}, got {vid}"
+    if fault.end is not None and fault.end <= fault.start:
+        yield f"faults[{index}].end: must be after start ({fault.start}), got {fault.end}"
+    if isinstance(fault, LINK_FAULTS) and fault.sender == fault.receiver:
+        yield f"faults[{index}].receiver: a link joins two vehicles, got {fault.receiver}"
+    if isinstance(fault, GraphSwitchFault):
+        for edge in fault.edges:
+            if edge[0] not in ids or edge[1] not in ids or edge[0] == edge[1]:
+                yield f"faults[{index}].edges: not an edge between two vehicles {ids}, got {list(edge)}"
+
+
+def _first_step(t: float, dt: float) -> int:
+    """The first sync step a time on [t, ...) acts in: faults take effect at step boundaries, to half a step."""
+    return max(0, math.ceil(t / dt - 0.5 - 1e-9))
+
+
+def _fault_timing(index: int, fault: FaultSpec, sc: Scenario) -> Iterator[str]:
+    """A fault that ends within the step it starts in would act on no step, whatever the run's length: an error.
+    (One that starts at or after the end of the run is only a warning: a shortened run of a longer scenario.)"""
+    dt = sc.scenario.step
+    k = _first_step(fault.start, dt)
+    if k < steps_of(sc) and not active(fault, k * dt, dt):
+        yield f"faults[{index}].end: ends within the step it starts in ({dt:g} s), got {fault.end}"
+
+
+def _link_in_graph(index: int, fault: FaultSpec, sc: Scenario) -> Iterator[str]:
+    """A link fault acts on a link of the communication graph in force at some step while it acts (the scenario's
+    graph, or one a graph_switch puts in force then): on any other link it would do nothing."""
+    sender, receiver = getattr(fault, "sender"), getattr(fault, "receiver")  # noqa: B009 - LINK_FAULTS have both
+    dt, steps = sc.scenario.step, steps_of(sc)
+    changes = [fault.start] + [t for f in sc.faults if isinstance(f, GraphSwitchFault) for t in (f.start, f.end)]
+    graphs = set()
+    for t in changes:
+        k = _first_step(t, dt) if t is not None else steps
+        if k < steps and active(fault, k * dt, dt):
+            graphs.add(network_at(sc, k * dt, dt).edges)
+    links = {frozenset(edge) for edges in graphs for edge in edges}
+    if frozenset((sender, receiver)) not in links:
+        yield f"faults[{index}]: not a link of the graph while the fault acts, got {sender} -> {receiver}"
+
+
+def _overrides(sc: Scenario) -> Iterator[str]:
+    """Each override names a VehicleParams field and has its shape: a number, or an array of 3 numbers."""
+    defaults = PRESETS[sc.vehicle.preset]
+    known = list(VehicleParams.__dataclass_fields__)
+    for name, value in sc.vehicle.overrides.items():
+        where = format_location(["vehicle", "overrides", name])
+        if name not in known:
+            yield f"{where}: unknown vehicle parameter, expected one of {known}"
+            continue
+        vector = isinstance(getattr(defaults, name), tuple)
+        if vector != isinstance(value, tuple):
+            shape = "an array of 3 numbers" if vector else "a number"
+            yield f"{where}: must be {shape}, got {list(value) if isinstance(value, tuple) else value}"
+
+
+def _finite_at_zero(path: PathLike) -> bool:
+    try:
+        return all(np.isfinite(vector).all() for vector in path.evaluate(0.0))
+    except (ValueError, OverflowError):  # math.cos(inf) and the like
+        return False
+
+
+def _paths(sc: Scenario) -> Iterator[str]:
+    """Build each path as the run will: its own checks (e.g. period != 0) become field errors here."""
+    from supervisor.fleet import build_path  # supervisor.fleet imports supervisor.scenario
+
+    for index, vehicle in enumerate(sc.vehicles):
+        try:
+            path = build_path(vehicle.path)
+        except ValueError as exc:  # vehicles.paths messages start with the parameter: "period must be ..."
+            name, _, problem = str(exc).partition(" ")
+            yield f"vehicles[{index}].path.{name}: {problem}"
+            continue
+        if not _finite_at_zero(path):  # e.g. period = 5e-324: 2 pi / period overflows
+            values = ", ".join(f"{key} = {value}" for key, value in vehicle.path if key != "type")
+            yield f"vehicles[{index}].path: not finite at gamma = 0, got {values}"
+
+
+def _comms(sc: Scenario) -> Iterator[str]:
+    """Links, TDMA order and packet size against the fleet and the modem; the models' own checks."""
+    from comms.wire import MAX_VEHICLE_ID, SIZE
+    from supervisor.fleet import channel_params, modem_params
+
+    ids = sc.vehicle_ids
+    if max(ids) > MAX_VEHICLE_ID:
+        yield f"vehicles: ids must fit the 1-byte wire field (<= {MAX_VEHICLE_ID}), got {max(ids)}"
+    edges = {tuple(e) for e in sc.graph.edges} | {(j, i) for i, j in sc.graph.edges}
+    for index, link in enumerate(sc.comms.links):
+        if (link.sender, link.receiver) not in edges:
+            yield f"comms.links[{index}]: not a link of the graph, got {link.sender} -> {link.receiver}"
+    tdma = sc.comms.tdma
+    slots = tdma.slot / sc.scenario.step if tdma is not None else 1.0
+    if tdma is not None and (slots < 1 - 1e-9 or abs(slots - round(slots)) > STEP_TOLERANCE):
+        yield f"comms.tdma.slot: must be a whole number of steps ({sc.scenario.step} s), got {tdma.slot}"
+    if tdma is not None and tdma.order is not None and sorted(tdma.order) != sorted(ids):
+        yield f"comms.tdma.order: must list every vehicle once {sorted(ids)}, got {list(tdma.order)}"
+    radio = modem_params(sc)
+    size = sc.comms.packet_bytes or SIZE
+    if radio.max_bytes is not None and size > radio.max_bytes:
+        yield f"comms.packet_bytes: the {sc.comms.modem} modem takes {radio.max_bytes} B, got {size}"
+    try:
+        channel_params(sc)
+    except ValueError as exc:
+        yield f"comms: {exc}"
+
+
+def _out_of_plane(spec: PathSpec) -> tuple[str, float] | None:
+    """(field, value) that takes a path out of its horizontal plane, or None: circles and lawnmowers lie in the
+    plane z = center[2] / origin[2] by construction; a helix climbs, a line may go up or down."""
+    if isinstance(spec, HelixPath) and spec.climb != 0.0:
+        return "climb", spec.climb
+    if isinstance(spec, LinePath) and spec.velocity[2] != 0.0:
+        return "velocity", spec.velocity[2]
+    return None
+
+
+PLANAR = "dimension 2 (planar) keeps every vehicle in its path's horizontal plane"
+
+
+def _planar(sc: Scenario) -> Iterator[str]:
+    """The planar model simulates x, y and yaw in the plane of each vehicle's path (at the path's z): anything out
+    of that plane in a scenario would be dropped without a word, so it is refused instead."""
+    if sc.scenario.dimension != 2:
+        return
+    for index, vehicle in enumerate(sc.vehicles):
+        out = _out_of_plane(vehicle.path)
+        if out is not None:
+            yield f"vehicles[{index}].path.{out[0]}: {PLANAR} (no climb), got {out[1]}"
+            continue
+        yield from _planar_vehicle(index, vehicle)
+
+
+def _planar_vehicle(index: int, vehicle: VehicleSection) -> Iterator[str]:
+    from supervisor.fleet import build_path
+
+    try:
+        height = float(build_path(vehicle.path).evaluate(0.0)[0][2])
+    except (ValueError, OverflowError):
+        return  # _paths reports it
+    if vehicle.position[2] != height:
+        yield f"vehicles[{index}].position: {PLANAR} (z = {height:g}), got z = {vehicle.position[2]}"
+    dropped = {
+        "velocity": ("w", vehicle.velocity[2:]),
+        "angular_velocity": ("p, q", vehicle.angular_velocity[:2]),
+        "attitude_rpy_deg": ("roll, pitch", vehicle.attitude_rpy_deg[:2]),
+    }
+    for name, (parts, values) in dropped.items():
+        if any(v != 0.0 for v in values):
+            yield f"vehicles[{index}].{name}: dimension 2 (planar) has no {parts}, got {list(values)}"
+
+
+# Each rule with the top-level sections it reads: it runs only if all of them validated.
+RULES: tuple[tuple[frozenset[str], Check], ...] = (
+    (frozenset({"vehicles"}), _ids),
+    (frozenset({"scenario"}), _step),
+    (frozenset({"vehicles", "graph"}), _graph),
+    (frozenset({"vehicles", "graph", "faults", "scenario"}), _faults),
+    (frozenset({"vehicle"}), _overrides),
+    (frozenset({"vehicles"}), _paths),
+    (frozenset({"vehicles", "graph", "comms", "scenario"}), _comms),
+    (frozenset({"vehicles", "scenario"}), _planar),
+)
+
+
+def cross_field_errors(sc: Scenario, rejected: frozenset[str] | set[str] = frozenset()) -> list[str]:
+    """Every cross-field error of sc, '<field>: <problem>, got <value>' each; rules that read a section named in
+    rejected (pydantic refused it: sc holds a stand-in there) are skipped."""
+    out: list[str] = []
+    for sections, rule in RULES:
+        if not sections & rejected:
+            out += rule(sc)
+    return out
+
+
+def scenario_warnings(sc: Scenario) -> list[str]:
+    """What a valid scenario holds that will not happen, '<field>: <problem>, got <value>' each: faults that start
+    at or after the end of the run (a run shortened with --set scenario.duration=... is a fair thing to ask for)."""
+    steps, dt, end = steps_of(sc), sc.scenario.step, sc.scenario.duration
+    return [
+        f"faults[{index}].start: at or after the end of the run ({end:g} s), the {fault.kind} fault never acts, "
+        f"got {fault.start}"
+        for index, fault in enumerate(sc.faults)
+        if _first_step(fault.start, dt) >= steps
+    ]

@@ -1,0 +1,49 @@
+"""The start of a distributed run, the supervisor's side: who is still missing, and whether each process that came
+alive runs the supervisor's scenario (its hello, comms.messages.hello_message, against the expected digests)."""
+
+from __future__ import annotations
+
+import contextlib
+
+import zenoh
+
+from comms.messages import Hello, decode, hello_key, parse_hello
+from supervisor.errors import ScenarioError
+from supervisor.scenario_digest import difference
+
+HELLO_TIMEOUT = 10.0  # s for a process that just declared its token to answer which scenario it runs
+REPORT_EVERY = 5.0  # s between "waiting for ..." lines
+
+
+def missing_names(names: list[str], remote: tuple[int, ...]) -> str:
+    """'vehicles 2, 3 (started by hand), vehicle 4 and the comms broker' for process names as the supervisor
+    keeps them ('vehicle 2', 'comms broker')."""
+    vehicles = [int(n.split()[1]) for n in names if n.startswith("vehicle ")]
+    by_hand = [v for v in vehicles if v in remote]
+    parts = []
+    for ids, how in ((by_hand, " (started by hand)"), ([v for v in vehicles if v not in by_hand], "")):
+        if ids:
+            parts.append(f"vehicle{'s' if len(ids) > 1 else ''} {', '.join(str(v) for v in sorted(ids))}{how}")
+    parts += [f"the {n}" for n in names if not n.startswith("vehicle ")]
+    return ", ".join(parts[:-1]) + (" and " if len(parts) > 1 else "") + parts[-1] if parts else "nothing"
+
+
+def ask_hello(session: zenoh.Session, alive_key: str, timeout: float = HELLO_TIMEOUT) -> Hello | None:
+    """The hello of the process holding alive_key; None if it does not answer (or answers nonsense)."""
+    for reply in session.get(hello_key(alive_key), timeout=timeout):
+        if reply.ok is not None:
+            with contextlib.suppress(ValueError):
+                return parse_hello(decode(reply.ok.payload.to_bytes()))
+    return None
+
+
+def check_hello(name: str, expected: dict[str, str], got: Hello | None) -> None:
+    """ScenarioError unless the process runs the expected scenario (exit 2: it was started with other input)."""
+    if got is None:
+        raise ScenarioError(
+            f"{name} did not say which scenario it runs (no answer on its hello key): it is not a cpf process of "
+            "this version; refused"
+        )
+    mismatch = difference(name, expected, got)
+    if mismatch is not None:
+        raise ScenarioError(mismatch)

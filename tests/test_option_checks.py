@@ -1,0 +1,184 @@
+"""Input that used to be accepted silently: refused before anything starts (exit 2, one line each), or a warning
+where the run still makes sense.
+
+    vehicle 2 ---- vehicle 1 ---- vehicle 3        (the paper's graph: there is no link 2 - 3)
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from supervisor.cli import main
+from supervisor.errors import ScenarioError
+from supervisor.scenario import parse_scenario
+from supervisor.scenario_checks import scenario_warnings
+from tests.conftest import CONFIGS
+from tests.procs import cpf
+
+PAPER = (CONFIGS / "paper.toml").read_text()
+SOURCE = "s.toml"
+
+
+def with_faults(*tables: str, text: str = PAPER) -> str:
+    return text + "".join(f"\n[[faults]]\n{table}\n" for table in tables)
+
+
+def errors_of(text: str, overrides: tuple[str, ...] = ()) -> list[str]:
+    with pytest.raises(ScenarioError) as info:
+        parse_scenario(text, SOURCE, overrides)
+    return info.value.errors
+
+
+# --- options of cpf run ---------------------------------------------------------------------------------------
+
+
+@pytest.fixture
+def paper_file(tmp_path: Path) -> Path:
+    path = tmp_path / "paper.toml"
+    path.write_text(PAPER)
+    return path
+
+
+OPTIONS = {
+    "no such vehicle": (["--remote", "2,7"], "--remote: no vehicle 7 in [[vehicles]] [1, 2, 3], got 7"),
+    "remote in process": (["--engine", "inprocess", "--remote", "2"], "--remote: only the zenoh engine"),
+    "listen in process": (["--engine", "inprocess", "--listen", "tcp/127.0.0.1:7447"], "--listen: only the zenoh"),
+    "connect in process": (["--engine", "inprocess", "--connect", "tcp/127.0.0.1:7447"], "--connect: only the zenoh"),
+    "timeout in process": (["--engine", "inprocess", "--start-timeout", "5"], "--start-timeout: only the zenoh"),
+    "speed in lockstep": (["--speed", "2"], "--speed: only the realtime clock is paced (add --clock realtime), got 2"),
+    "a remote vehicle killed": (
+        ["--remote", "2", "--fault", "kind=vehicle_kill,vehicle=2,start=1,end=2"],
+        "--remote: faults[1] kills vehicle 2, which the supervisor cannot do",
+    ),
+}
+
+
+@pytest.mark.parametrize(("options", "expected"), list(OPTIONS.values()), ids=list(OPTIONS))
+def test_an_option_that_cannot_do_what_it_says_is_refused_before_anything_starts(
+    options: list[str], expected: str, paper_file: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = paper_file.parent / "never.mcap"
+    assert main(["run", str(paper_file), "--out", str(out), "--quiet", *options]) == 2
+    lines = capsys.readouterr().err.splitlines()
+    assert len(lines) == 1, lines
+    assert lines[0].startswith(f"cpf: error: {paper_file}: {expected}"), lines
+    assert not out.exists()  # nothing half-done
+
+
+def test_every_bad_option_is_reported_at_once(paper_file: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    options = ["--engine", "inprocess", "--remote", "9", "--speed", "3"]
+    assert main(["run", str(paper_file), "--out", str(paper_file.parent / "x.mcap"), *options]) == 2
+    lines = capsys.readouterr().err.splitlines()
+    assert [line.split(": ")[3] for line in lines] == ["--remote", "--remote", "--speed"], lines
+
+
+def test_speed_with_the_realtime_clock_is_accepted() -> None:
+    from argparse import Namespace
+
+    from supervisor.cli import _option_errors
+
+    scenario = parse_scenario(PAPER)
+    args = Namespace(remote=(2, 3), engine="zenoh", listen=None, connect=None, start_timeout=5.0, speed=2.0)
+    assert _option_errors(Namespace(**vars(args), clock="realtime"), scenario) == []
+
+
+# --- scenario rules -----------------------------------------------------------------------------------------
+
+LINK_DOWN_23 = 'kind = "link_down"\nsender = 2\nreceiver = 3\nstart = {start}\nend = {end}'
+SWITCH_TO_CHAIN = 'kind = "graph_switch"\nedges = [[1, 2], [2, 3]]\nstart = 100.0\nend = 200.0'
+
+
+def test_a_link_fault_on_a_link_never_in_the_graph_is_refused() -> None:
+    text = with_faults(LINK_DOWN_23.format(start=10.0, end=20.0))
+    assert errors_of(text) == [f"{SOURCE}: faults[1]: not a link of the graph while the fault acts, got 2 -> 3"]
+    degraded = with_faults('kind = "link_degraded"\nsender = 3\nreceiver = 2\nstart = 1.0\nextra_loss = 0.5')
+    assert errors_of(degraded) == [f"{SOURCE}: faults[1]: not a link of the graph while the fault acts, got 3 -> 2"]
+
+
+def test_a_link_fault_on_a_link_a_graph_switch_puts_in_force_while_it_acts_is_accepted() -> None:
+    during = with_faults(SWITCH_TO_CHAIN, LINK_DOWN_23.format(start=150.0, end=300.0))
+    assert [f.kind for f in parse_scenario(during).faults] == ["speed_cap", "graph_switch", "link_down"]
+    after = with_faults(SWITCH_TO_CHAIN, LINK_DOWN_23.format(start=200.0, end=300.0))  # the switch is over at 200
+    assert errors_of(after) == [f"{SOURCE}: faults[2]: not a link of the graph while the fault acts, got 2 -> 3"]
+
+
+def test_a_fault_that_ends_within_the_step_it_starts_in_is_refused() -> None:
+    text = with_faults('kind = "blackout"\nstart = 10.0\nend = 10.04')  # step 0.1 s
+    assert errors_of(text) == [f"{SOURCE}: faults[1].end: ends within the step it starts in (0.1 s), got 10.04"]
+
+
+def test_a_fault_after_the_end_of_the_run_is_a_warning_not_an_error() -> None:
+    """A shortened run of a longer scenario is a fair request: the run makes sense, the fault just never acts."""
+    scenario = parse_scenario(with_faults('kind = "blackout"\nstart = 400.0'), overrides=("scenario.duration=100",))
+    assert scenario_warnings(scenario) == [
+        "faults[0].start: at or after the end of the run (100 s), the speed_cap fault never acts, got 150.0",
+        "faults[1].start: at or after the end of the run (100 s), the blackout fault never acts, got 400.0",
+    ]
+    assert scenario_warnings(parse_scenario(PAPER)) == []
+
+
+def test_cpf_run_prints_the_warning(paper_file: Path) -> None:
+    args = ["--engine", "inprocess", "--set", "scenario.duration=0.5", "--out", "short.mcap", "--quiet"]
+    done = cpf("run", str(paper_file), *args, cwd=paper_file.parent)
+    assert done.returncode == 0, done.stderr
+    assert done.stderr.splitlines() == [
+        f"cpf run: {paper_file}: faults[0].start: at or after the end of the run (0.5 s), the speed_cap fault "
+        "never acts, got 150.0"
+    ]
+
+
+@pytest.mark.parametrize("step", ["0.3", "0.15", "7.0"])
+def test_a_step_that_does_not_divide_the_duration_is_refused(step: str) -> None:
+    (line,) = errors_of(PAPER, (f"scenario.step={step}",))
+    assert line.startswith(f"{SOURCE}: scenario.step: must divide duration (400.0) into whole steps"), line
+    assert line.endswith(f"got {step}"), line
+
+
+@pytest.mark.parametrize("step", ["0.1", "0.05", "0.2", "400.0"])
+def test_a_step_that_divides_the_duration_is_accepted(step: str) -> None:
+    assert parse_scenario(PAPER, overrides=(f"scenario.step={step}", "faults=[]")).scenario.step == float(step)
+
+
+# --- dimension 2 ----------------------------------------------------------------------------------------------
+
+PLANAR = ("scenario.dimension=2",)
+FLAT = tuple(f"vehicles.{i}.{key}" for i in range(3) for key in ("path.climb=0.0", "position.2=0.0"))
+
+
+def test_the_planar_model_refuses_a_climbing_helix() -> None:
+    errors = errors_of(PAPER, PLANAR)
+    assert errors == [
+        f"{SOURCE}: vehicles[{i}].path.climb: dimension 2 (planar) keeps every vehicle in its path's horizontal "
+        "plane (no climb), got 0.05"
+        for i in range(3)
+    ]
+
+
+def test_the_planar_model_refuses_a_vehicle_off_its_paths_plane_and_motion_out_of_the_plane() -> None:
+    overrides = (*PLANAR, *FLAT, "vehicles.0.position.2=-5.0", "vehicles.1.velocity=[1.0, 0.0, 0.2]")
+    assert errors_of(PAPER, (*overrides, "vehicles.2.attitude_rpy_deg=[0.0, 10.0, 45.0]")) == [
+        f"{SOURCE}: vehicles[0].position: dimension 2 (planar) keeps every vehicle in its path's horizontal plane "
+        "(z = 0), got z = -5.0",
+        f"{SOURCE}: vehicles[1].velocity: dimension 2 (planar) has no w, got [0.2]",
+        f"{SOURCE}: vehicles[2].attitude_rpy_deg: dimension 2 (planar) has no roll, pitch, got [0.0, 10.0]",
+    ]
+
+
+def test_the_planar_model_refuses_a_line_that_dives() -> None:
+    line = "vehicles.0.path={type = 'line', start = [0.0, 0.0, 0.0], velocity = [1.0, 0.0, -0.1]}"
+    errors = errors_of(PAPER, (*PLANAR, *FLAT, line, "vehicles.0.position.2=0.0"))
+    assert errors == [
+        f"{SOURCE}: vehicles[0].path.velocity: dimension 2 (planar) keeps every vehicle in its path's horizontal "
+        "plane (no climb), got -0.1"
+    ]
+
+
+def test_the_planar_model_takes_flat_paths_at_any_depth() -> None:
+    deep = tuple(f"vehicles.{i}.{key}" for i in range(3) for key in ("path.center=[0.0, 0.0, -10.0]",))
+    moved = tuple(f"vehicles.{i}.position.2=-10.0" for i in range(3))
+    no_climb = tuple(f"vehicles.{i}.path.climb=0.0" for i in range(3))
+    assert parse_scenario(PAPER, overrides=(*PLANAR, *FLAT)).scenario.dimension == 2  # helices that do not climb
+    scenario = parse_scenario(PAPER, overrides=(*PLANAR, *no_climb, *deep, *moved))
+    assert [v.position[2] for v in scenario.vehicles] == [-10.0] * 3
