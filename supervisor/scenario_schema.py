@@ -32,7 +32,8 @@ class RunSection(_Strict):
     step: Float = Field(gt=0, description="integration and sync step, s")
     seed: Int = Field(default=0, ge=0)
     dimension: Literal[2, 3] = 3  # 3: the 6-DOF model; 2: the planar variant
-    on_vehicle_loss: Literal["abort", "continue"] = "abort"  # a vehicle process that dies: stop, or go on without it
+    # A vehicle process that dies unscheduled: stop, or go on without it (a scheduled vehicle_kill never stops a run).
+    on_vehicle_loss: Literal["abort", "continue"] = "abort"
 
 
 class VehicleModelSection(_Strict):
@@ -177,7 +178,9 @@ class GraphSwitchFault(_Fault):
 
 class VehicleKillFault(_Fault):
     """The vehicle's process is killed with SIGKILL at start and, if end is given, restarted then from its last
-    recorded state. What the run does meanwhile is scenario.on_vehicle_loss."""
+    recorded state. The kill is the fault, not a loss: the run goes on without the vehicle (to its restart, or to
+    the end of the run without end) whatever scenario.on_vehicle_loss says, which is for deaths nobody scheduled.
+    Both the kill and the restart are announced and recorded (cpf/run/fault, start and end)."""
 
     kind: Literal["vehicle_kill"]
     vehicle: Int
