@@ -449,7 +449,12 @@ def _difference(a: VehicleSeries, b: VehicleSeries) -> tuple[Array, Array]:
     if not (a.t.size and b.t.size):
         return np.empty(0), np.empty(0)
     keep = (a.t >= b.t[0]) & (a.t <= b.t[-1])
-    return a.t[keep], a.gamma[keep] - np.interp(a.t[keep], b.t, b.gamma)
+    t, diff = a.t[keep], a.gamma[keep] - np.interp(a.t[keep], b.t, b.gamma)
+    gaps = np.diff(b.t)
+    if gaps.size:  # where b was down (a gap in its states), there is no difference: NaN, not an interpolated one
+        after = np.clip(np.searchsorted(b.t, t), 1, b.t.size - 1)
+        diff[(b.t[after] - b.t[after - 1] > 1.5 * np.median(gaps)) & (b.t[after - 1] < t) & (t < b.t[after])] = np.nan
+    return t, diff
 
 
 def _velocities_figure(vehicle: int) -> Callable[[RunData], Figure]:
