@@ -49,11 +49,10 @@ from comms.messages import (
     vehicle_of_key,
 )
 from comms.network import Network
-from comms.stats import LinkStats
 from supervisor.books import LinkBooks
 from supervisor.errors import SimulationError
 from supervisor.faults import ProcessAction, disturbances, events_at, network_at, process_actions
-from supervisor.fleet import initial_state, vehicle_config
+from supervisor.fleet import initial_state, link_stats, vehicle_config
 from supervisor.inprocess import RunResult
 from supervisor.metadata import graph_message, run_meta
 from supervisor.processes import ProcessGroup
@@ -93,7 +92,7 @@ class _Supervisor:
         self.sc, self.rec, self.inbox, self.procs, self.path = sc, rec, inbox, procs, path
         self.dt = sc.scenario.step
         self.builder = SeriesBuilder(sc.vehicle_ids, round(sc.scenario.duration / self.dt), self.dt)
-        self.books = LinkBooks(LinkStats(sc.vehicle_ids, sc.comms.stats_window))
+        self.books = LinkBooks(link_stats(sc))
         self.alive: list[int] = list(sc.vehicle_ids)
         self.comms_up = True
         self.present: set[str] = set()  # liveliness tokens seen and not gone

@@ -182,8 +182,40 @@ def radio(scenario: Scenario, vehicle_id: int) -> Radio:
 
 def broker_core(scenario: Scenario, seed: int) -> BrokerCore:
     neighbours = {i: scenario.neighbours(i) for i in scenario.vehicle_ids}
-    stats = LinkStats(scenario.vehicle_ids, scenario.comms.stats_window)
-    return BrokerCore(Channel(channel_params(scenario), seed), neighbours, stats)
+    return BrokerCore(Channel(channel_params(scenario), seed), neighbours, link_stats(scenario))
+
+
+# A delivery keeps its pair in the delivered graph for this many transmit intervals: more than one, so that the
+# spread of delays (jitter, time of flight) does not let a link that delivers every interval drop out; less than two,
+# so that a single lost packet shows.
+HORIZON_INTERVALS = 1.5
+
+
+def link_stats(scenario: Scenario) -> LinkStats:
+    """The link books the broker and the supervisor keep: snapshots every stats window, lambda_2 of the delivered
+    graph over delivered_graph_horizon."""
+    return LinkStats(scenario.vehicle_ids, scenario.comms.stats_window, delivered_graph_horizon(scenario))
+
+
+def delivered_graph_horizon(scenario: Scenario) -> float:
+    """s a delivery keeps its pair in the delivered graph (lambda_2): the stats window, or HORIZON_INTERVALS times the
+    longest interval a vehicle's schedule leaves between transmissions if that is longer."""
+    interval = transmit_interval(scenario)
+    window = scenario.comms.stats_window
+    return window if interval is None else max(window, HORIZON_INTERVALS * interval)
+
+
+def transmit_interval(scenario: Scenario) -> float | None:
+    """The longest time [s] a vehicle's schedule leaves between two of its transmissions: its period (every step
+    without one), or the heartbeat of the event policy, held until its next TDMA slot. None for the event policy
+    without a heartbeat: a vehicle may then rightly stay quiet for as long as its gamma is predictable."""
+    tx, dt, tdma = scenario.comms.transmit, scenario.scenario.step, scenario.comms.tdma
+    interval = (tx.period or dt) if tx.policy == "periodic" else tx.heartbeat
+    if interval is None or tdma is None:
+        return interval
+    # One slot per vehicle and frame (validated): a wish due `interval` after a slot waits for a later slot start.
+    frame = tdma.slot * len(tdma.order or scenario.vehicle_ids)
+    return frame * max(1, math.ceil((interval - dt / 2) / frame))
 
 
 def restore_state(config: VehicleConfig, message: Message) -> VehicleState:

@@ -34,10 +34,9 @@ from comms.messages import (
     tx_message,
 )
 from comms.network import Network
-from comms.stats import LinkStats
 from supervisor.books import LinkBooks
 from supervisor.faults import ProcessAction, disturbances, events_at, network_at, process_actions
-from supervisor.fleet import broker_core, initial_state, radio, restarted_node, vehicle_config
+from supervisor.fleet import broker_core, initial_state, link_stats, radio, restarted_node, vehicle_config
 from supervisor.metadata import graph_message, run_meta
 from supervisor.progress import Progress
 from supervisor.recorder import Recorder
@@ -71,7 +70,7 @@ class _InProcessRun:
         self.radios = {i: radio(scenario, i) for i in ids}
         self.alive = list(ids)
         self.broker: BrokerCore | None = broker_core(scenario, seed)
-        self.books = LinkBooks(LinkStats(ids, scenario.comms.stats_window))
+        self.books = LinkBooks(link_stats(scenario))
         self.builder = SeriesBuilder(ids, round(scenario.scenario.duration / self.dt), self.dt)
         self.last_state: dict[int, Message] = {}
         self.sent: list[Transmission] = []

@@ -21,7 +21,9 @@ Definitions (t: simulation time of the recorded vehicle states, s):
   sent, delivered, dropped, dropped by cause, still in flight (sent - delivered - dropped: 0 in a complete log), and
   the delivery delays.
 - estimate age: per (neighbour -> holder), the mean and largest age of the holder's estimate of the neighbour.
-- lambda_2: of the delivered graph over the broker's stats windows (min, mean, windows at 0 = disconnected).
+- lambda_2: of the delivered graph over the broker's stats windows (min, mean, windows at 0 = disconnected); the
+  graph of a window holds the pairs that delivered within the last `horizon` s (the window, or 1.5 transmit
+  intervals if the vehicles' schedule leaves longer between packets: supervisor.fleet.delivered_graph_horizon).
 """
 
 from __future__ import annotations
@@ -34,6 +36,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
+from comms.stats import clamp_lambda2
 from supervisor.errors import ScenarioError
 from supervisor.faults import intervals
 from supervisor.scenario import validate_data
@@ -193,15 +196,16 @@ def _ages(run: RunData) -> dict[str, Any]:
 
 
 def _lambda2(run: RunData) -> dict[str, Any]:
-    values = np.array([float(s["lambda2"]) for s in run.stats])
+    values = np.array([clamp_lambda2(float(s["lambda2"])) for s in run.stats])  # an older log: -1e-17 for 0
     if not values.size:
-        return {"windows": 0, "min": None, "mean": None, "max": None, "disconnected_windows": 0}
+        return {"windows": 0, "min": None, "mean": None, "max": None, "disconnected_windows": 0, "horizon": None}
     return {
         "windows": int(values.size),
         "min": float(values.min()),
         "mean": float(values.mean()),
         "max": float(values.max()),
-        "disconnected_windows": int((values <= 1e-9).sum()),
+        "disconnected_windows": int((values <= 0.0).sum()),
+        "horizon": float(run.stats[-1].get("horizon", run.stats[-1]["window"])),
     }
 
 
