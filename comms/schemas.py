@@ -161,7 +161,14 @@ _LINK_BOOK = _object(
 )
 COMMS_STATS = _object(
     "cpf.CommsStats",
-    {"t": NUMBER, "window": NUMBER, "lambda2": NUMBER, "links": {"type": "array", "items": _LINK_BOOK}},
+    {
+        "t": NUMBER,
+        "window": NUMBER,
+        "horizon": NUMBER,  # s a delivery keeps its pair in the delivered graph lambda2 is of (absent in older logs)
+        "lambda2": NUMBER,
+        "links": {"type": "array", "items": _LINK_BOOK},
+    },
+    optional=("horizon",),
 )
 COMMS_DONE = _object("cpf.CommsDone", {"t": NUMBER, "k": INTEGER, "events": INTEGER, "malformed": INTEGER})
 META = _object(

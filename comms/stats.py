@@ -1,8 +1,10 @@
 """Per-directed-link statistics of a run, and the connectivity the channel actually delivered.
 
 Fed with the channel's link events, it keeps per link: packets sent, delivered, dropped by cause, and the mean and
-largest delay. Over sliding windows it computes lambda_2 of the undirected graph whose edges are the pairs that
-delivered at least one packet (either way) in the window: zero means the delivered graph was disconnected.
+largest delay. Every window it computes lambda_2 of the undirected graph whose edges are the pairs that delivered at
+least one packet (either way) within the last `horizon` s: zero means the delivered graph was disconnected. The
+horizon is the window unless the caller gives a longer one: a vehicle that transmits once a TDMA frame longer than
+the window would otherwise leave its links out of most windows although they deliver every frame.
 """
 
 from __future__ import annotations
@@ -13,6 +15,13 @@ from dataclasses import dataclass, field
 
 from comms.channel import LinkEvent
 from vehicles.coordination import algebraic_connectivity, laplacian
+
+CONNECTED = 1e-9  # lambda_2 at or below this is 0 (disconnected): eigvalsh gives +-1e-17 there, never less than 4/n^2
+
+
+def clamp_lambda2(value: float) -> float:
+    """lambda_2 with the rounding of a disconnected graph's (tiny, possibly negative) eigenvalue set to 0."""
+    return value if value > CONNECTED else 0.0
 
 
 @dataclass
@@ -47,9 +56,10 @@ class LinkBook:
 
 
 class LinkStats:
-    def __init__(self, vehicles: Sequence[int], window: float) -> None:
+    def __init__(self, vehicles: Sequence[int], window: float, horizon: float | None = None) -> None:
         self.vehicles = list(vehicles)
-        self.window = window
+        self.window = window  # s between snapshots
+        self.horizon = window if horizon is None else max(horizon, window)  # s a delivery keeps its pair connected
         self.books: dict[tuple[int, int], LinkBook] = {}
         self._recent: deque[tuple[float, int, int]] = deque()  # (arrival, sender, receiver) of deliveries
 
@@ -60,12 +70,12 @@ class LinkStats:
                 self._recent.append((event.t, event.sender, event.receiver))
 
     def delivered_connectivity(self, t: float) -> float:
-        """lambda_2 of the graph of pairs that delivered in (t - window, t]."""
-        while self._recent and self._recent[0][0] <= t - self.window:
+        """lambda_2 (>= 0) of the graph of pairs that delivered in (t - horizon, t]."""
+        while self._recent and self._recent[0][0] <= t - self.horizon:
             self._recent.popleft()
         index = {v: i for i, v in enumerate(self.vehicles)}
         edges = {(index[s], index[r]) for at, s, r in self._recent if at <= t and s in index and r in index}
-        return algebraic_connectivity(laplacian(len(self.vehicles), edges))
+        return clamp_lambda2(algebraic_connectivity(laplacian(len(self.vehicles), edges)))
 
     def totals(self) -> dict[str, int]:
         """Packets sent, delivered and dropped over every link."""
@@ -77,10 +87,11 @@ class LinkStats:
         }
 
     def snapshot(self, t: float) -> dict[str, object]:
-        """The message published on cpf/comms/stats: cumulative books per link, and this window's lambda_2."""
+        """The message published on cpf/comms/stats: cumulative books per link, and lambda_2 now (over the horizon)."""
         return {
             "t": t,
             "window": self.window,
+            "horizon": self.horizon,
             "lambda2": self.delivered_connectivity(t),
             "links": [book.as_message(s, r) for (s, r), book in sorted(self.books.items())],
         }

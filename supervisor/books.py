@@ -19,7 +19,7 @@ from comms.stats import LinkStats
 class LinkBooks:
     stats: LinkStats
     open: dict[tuple[int, int, int], float] = field(default_factory=dict)  # (sender, receiver, seq) -> sent at
-    lambda2: list[Message] = field(default_factory=list)  # {"t", "lambda2"} per stats window
+    lambda2: list[Message] = field(default_factory=list)  # {"t", "lambda2"} per stats window, lambda2 >= 0
     _next_window: float | None = None
 
     def add(self, events: Iterable[LinkEvent]) -> None:
@@ -38,7 +38,7 @@ class LinkBooks:
 
     def window(self, t: float) -> None:
         """Call once per step, once every delivery up to t is booked: records the delivered graph's lambda_2 at
-        every window boundary (deliveries booked ahead of t do not count)."""
+        every window boundary, over the stats' horizon (deliveries booked ahead of t do not count)."""
         if self._next_window is None:
             self._next_window = self.stats.window
         if t + 1e-9 >= self._next_window:

@@ -1,11 +1,18 @@
 """The communication side of a run summary: what each directed link carried, lost and how late, how old the
-neighbour estimates got, and how connected the delivered graph stayed."""
+neighbour estimates got, and how connected the delivered graph stayed.
+
+The delivered graph at the end of each stats window holds the pairs that delivered a packet (either way) within the
+last `horizon` s: the window, or 1.5 transmit intervals when a vehicle's schedule (its period held to its TDMA slot,
+or its heartbeat) leaves longer between its packets (supervisor.fleet.delivered_graph_horizon).
+"""
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass
 from typing import Any
+
+from comms.stats import clamp_lambda2
 
 
 @dataclass(frozen=True, slots=True)
@@ -27,6 +34,8 @@ class CommsSummary:
     lambda2_min: float | None  # of the delivered graph over the stats windows
     lambda2_mean: float | None
     windows: int
+    window: float | None = None  # s between two lambda_2 values
+    horizon: float | None = None  # s a delivery keeps its pair in the delivered graph
 
     def as_dict(self) -> dict[str, object]:
         return asdict(self)
@@ -48,12 +57,16 @@ def comms_summary(
             )
         )  # fmt: skip
     # The final snapshot's window may be partial; it still counts, it is what the end of the run delivered.
-    lambdas = [float(s["lambda2"]) for s in history]
+    lambdas = [clamp_lambda2(float(s["lambda2"])) for s in history]  # an older log may hold -1e-17 for 0
+    window = float(final["window"]) if final and "window" in final else None
+    horizon = float(final.get("horizon", window)) if final and window is not None else None
     return CommsSummary(
         tuple(rows),
         min(lambdas) if lambdas else None,
         sum(lambdas) / len(lambdas) if lambdas else None,
         len(lambdas),
+        window,
+        horizon,
     )
 
 
@@ -68,10 +81,20 @@ def format_comms(summary: CommsSummary) -> str:
         )
     if summary.lambda2_min is not None and summary.lambda2_mean is not None:
         lines.append(
-            f"delivered-graph lambda_2 over {summary.windows} windows: min {summary.lambda2_min:.3f}, "
-            f"mean {summary.lambda2_mean:.3f} (0 = disconnected)"
+            f"delivered-graph lambda_2 over {summary.windows} windows{_counted(summary)}: "
+            f"min {summary.lambda2_min:.3f}, mean {summary.lambda2_mean:.3f} (0 = disconnected)"
         )
     return "\n".join(lines)
+
+
+def _counted(summary: CommsSummary) -> str:
+    """What the delivered graph of a window holds."""
+    window, horizon = summary.window, summary.horizon
+    if window is None or horizon is None:
+        return ""
+    if horizon <= window:
+        return f" of {window:g} s (pairs that delivered in the window)"
+    return f" of {window:g} s (pairs that delivered in the last {horizon:g} s, 1.5 transmit intervals)"
 
 
 def _pair(a: float | None, b: float | None) -> str:

@@ -52,11 +52,10 @@ from comms.messages import (
     vehicle_of_key,
 )
 from comms.network import Network
-from comms.stats import LinkStats
 from supervisor.books import LinkBooks
 from supervisor.errors import SimulationError
 from supervisor.faults import ProcessAction, disturbances, events_at, network_at, process_actions
-from supervisor.fleet import initial_state, vehicle_config
+from supervisor.fleet import initial_state, link_stats, vehicle_config
 from supervisor.inprocess import RunResult
 from supervisor.metadata import graph_message, run_meta
 from supervisor.processes import ProcessGroup
@@ -102,7 +101,7 @@ class _Supervisor:
         self.sc, self.rec, self.inbox, self.procs, self.path = sc, rec, inbox, procs, path
         self.dt = sc.scenario.step
         self.builder = SeriesBuilder(sc.vehicle_ids, round(sc.scenario.duration / self.dt), self.dt)
-        self.books = LinkBooks(LinkStats(sc.vehicle_ids, sc.comms.stats_window))
+        self.books = LinkBooks(link_stats(sc))
         self.alive: list[int] = list(sc.vehicle_ids)
         self.comms_up = True
         self.present: set[str] = set()  # liveliness tokens seen and not gone
@@ -294,33 +293,38 @@ class _Supervisor:
             self.pump(0.05)
 
     def carry_out(self, action: ProcessAction, k: int, pubs: Publishers, resume_dir: Path) -> None:
-        """A scheduled kill or restart."""
-        name = "comms broker" if action.target == "comms" else f"vehicle {action.vehicle}"
+        """A scheduled kill or restart: the schedule is the fault, not a loss, so the run goes on whatever
+        scenario.on_vehicle_loss says (that is for deaths nobody scheduled)."""
         if action.action == "kill":
-            self._kill(name, pubs)
+            if self._kill(action.name):
+                action.announce(self.t)
         elif action.target == "comms":
             self.spawn_comms(start_step=k)
             self.await_alive()
             self.comms_up = True
+            action.announce(self.t)
         elif action.vehicle is not None and action.vehicle not in self.alive:
             self._restart_vehicle(action.vehicle, k, resume_dir)
+            action.announce(self.t, float(self.last_state[action.vehicle]["t"]))
 
-    def _kill(self, name: str, pubs: Publishers) -> None:
+    def _kill(self, name: str) -> bool:
+        """SIGKILL to a process this supervisor started, its going awaited; False if there is none to kill."""
         child = self.procs.named(name)
         if child is None:
             print(f"cpf: warning: cannot kill {name}: not started by this supervisor", file=sys.stderr)
-            return
-        key = COMMS_ALIVE if name == "comms broker" else vehicle_alive_key(int(name.split()[1]))
-        if name == "comms broker":
-            self.expected.pop(key)  # its loss is the fault itself, not a failure of the run
-            child.kill()
-            self.procs.forget(name)
-            self.wait_until(lambda: key not in self.present, f"{name} to be noticed gone", START_TIMEOUT)
+            return False
+        vid = None if name == "comms broker" else int(name.split()[1])
+        key = COMMS_ALIVE if vid is None else vehicle_alive_key(vid)
+        self.expected.pop(key, None)  # its going is the fault itself, not a failure of the run
+        child.kill()
+        self.procs.forget(name)
+        self.wait_until(lambda: key not in self.present, f"{name} to be noticed gone", START_TIMEOUT)
+        if vid is None:
             self.comms_up = False
             self._close_open("broker_down")
-            return
-        child.kill()  # noticed through its liveliness token, then handled by on_vehicle_loss
-        self.wait_until(lambda: key not in self.expected, f"{name} to be noticed gone", START_TIMEOUT)
+        else:
+            self.alive = [i for i in self.alive if i != vid]
+        return True
 
     def _restart_vehicle(self, vid: int, k: int, resume_dir: Path) -> None:
         state_file = resume_dir / f"vehicle-{vid}.json"

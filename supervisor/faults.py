@@ -7,6 +7,7 @@ engines call these functions, so a schedule does the same in both.
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -24,8 +25,11 @@ from supervisor.scenario_schema import (
     ModemSilentFault,
     Scenario,
     SpeedCapFault,
+    VehicleKillFault,
 )
 from vehicles.agent import Disturbances
+
+log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True, slots=True)
@@ -108,18 +112,42 @@ def events_at(faults: Sequence[FaultSpec], t: float, dt: float) -> list[FaultEve
 
 @dataclass(frozen=True, slots=True)
 class ProcessAction:
+    """A scheduled kill or restart. A scheduled kill is the fault itself, not a loss: the run goes on without the
+    process (whatever scenario.on_vehicle_loss says, which is about unscheduled deaths) until its restart, if any."""
+
     action: str  # "kill" | "restart"
     target: str  # "comms" | "vehicle"
     vehicle: int | None = None
+    until: float | None = None  # a kill: when the process is restarted (None: never)
+
+    @property
+    def name(self) -> str:
+        return "comms broker" if self.target == "comms" else f"vehicle {self.vehicle}"
+
+    @property
+    def kind(self) -> str:
+        return "broker_kill" if self.target == "comms" else "vehicle_kill"
+
+    def announce(self, t: float, resumed_from: float | None = None) -> None:
+        """Say what the schedule does now (the log records it as the fault's start or end on cpf/run/fault)."""
+        if self.action == "kill":
+            then = "the run goes on without it" if self.until is None else f"restarted at t = {self.until:.1f} s"
+            log.warning("%s killed at t = %.1f s (scheduled %s; %s)", self.name, t, self.kind, then)
+        else:
+            since = "" if resumed_from is None else f" from its state of t = {resumed_from:.1f} s"
+            log.warning("%s restarted at t = %.1f s%s (scheduled %s)", self.name, t, since, self.kind)
 
 
 def process_actions(faults: Sequence[FaultSpec], t: float, dt: float) -> list[ProcessAction]:
     """Kills and restarts due at the step starting at t (kills before restarts)."""
     out = []
-    for event in events_at(faults, t, dt):
-        if event.kind in ("vehicle_kill", "broker_kill"):
-            target = "vehicle" if event.kind == "vehicle_kill" else "comms"
-            vehicle = event.detail.get("vehicle") if target == "vehicle" else None
-            action = "kill" if event.phase == "start" else "restart"
-            out.append(ProcessAction(action, target, vehicle))  # type: ignore[arg-type]
+    by_kind = {"vehicle_kill": "vehicle", "broker_kill": "comms"}
+    for fault, event in ((f, e) for f in faults for e in events_at([f], t, dt) if e.kind in by_kind):
+        target = by_kind[event.kind]
+        vehicle = fault.vehicle if isinstance(fault, VehicleKillFault) else None
+        end = end_of(fault, dt)
+        if event.phase == "start":
+            out.append(ProcessAction("kill", target, vehicle, end if end != float("inf") else None))
+        else:
+            out.append(ProcessAction("restart", target, vehicle))
     return sorted(out, key=lambda a: a.action != "kill")

@@ -34,12 +34,9 @@ from vehicles.coordination import CoordinationGains
 from vehicles.dynamics import PLANAR, SPATIAL, Model
 from vehicles.geometry import rotation_2d, rotation_from_rpy
 from vehicles.path_following import PathFollowingGains
-from vehicles.paths import Circle, Helix, Lawnmower, Line, Path, closest_gamma
+from vehicles.paths import Circle, Helix, Lawnmower, Line, Path, nearest_gamma
 from vehicles.runtime import NodeState, Radio
 from vehicles.transmission import EventTriggeredPolicy, PeriodicPolicy, Policy, Tdma
-
-# How far along a path the initial-gamma search looks, in units of gamma, either side of zero.
-CLOSEST_SEARCH_SPAN = 1000.0
 
 
 def build_path(spec: PathSpec) -> Path:
@@ -72,7 +69,7 @@ def vehicle_config(scenario: Scenario, vehicle_id: int) -> VehicleConfig:
 
 
 def initial_state(scenario: Scenario, config: VehicleConfig) -> VehicleState:
-    """The vehicle at rest (or as given) at t = 0, gamma0 at the nearest path point unless given."""
+    """The vehicle at rest (or as given) at t = 0, at its initial gamma (initial_gamma)."""
     section = _section(scenario, config.vehicle_id)
     roll, pitch, yaw = (math.radians(a) for a in section.attitude_rpy_deg)
     position = np.array(section.position, dtype=float)
@@ -82,16 +79,34 @@ def initial_state(scenario: Scenario, config: VehicleConfig) -> VehicleState:
     else:
         rot = rotation_2d(yaw)
         x = PLANAR.pack(position[:2], rot, np.array(section.velocity[:2]), np.array(section.angular_velocity[2:]))
-    if section.gamma0 == "closest":
-        target = position if config.model.dim == 3 else np.array([*position[:2], _path_height(config.path)])
-        gamma0 = closest_gamma(config.path, target, -CLOSEST_SEARCH_SPAN, CLOSEST_SEARCH_SPAN)
-    else:
-        gamma0 = float(section.gamma0)
-    return VehicleState(t=0.0, x=x, gamma=gamma0, gamma_dot=0.0)
+    return VehicleState(t=0.0, x=x, gamma=initial_gamma(scenario, config.vehicle_id), gamma_dot=0.0)
+
+
+def initial_gamma(scenario: Scenario, vehicle_id: int) -> float:
+    """The vehicle's gamma0: as given, or for gamma0 = "closest" the gamma of its path's point nearest its start,
+    searched where the fleet agrees on it (vehicles.nearest.nearest_gamma). The reference gamma is the first
+    [[vehicles]] entry's gamma0: its given number, or its nearest point within half a period of gamma = 0 (on a
+    circle or helix; on a line or lawnmower, the nearest point of the whole path). Every other vehicle on a circle or
+    helix then takes its nearest point within half a period of that reference, so vehicles started side by side
+    start on the same lap, with nearly equal gammas; a vehicle on a line or lawnmower takes the nearest point of its
+    whole path. Equally near points: the one nearest the reference."""
+    section = _section(scenario, vehicle_id)
+    if section.gamma0 != "closest":
+        return float(section.gamma0)
+    first = scenario.vehicles[0]
+    reference = _nearest(scenario, first, 0.0) if first.gamma0 == "closest" else float(first.gamma0)
+    return reference if section.id == first.id else _nearest(scenario, section, reference)
+
+
+def _nearest(scenario: Scenario, section: VehicleSection, reference: float) -> float:
+    path = build_path(section.path)
+    target = np.array(section.position, dtype=float)
+    if scenario.scenario.dimension == 2:  # a planar vehicle ignores z: measure in the path's own plane
+        target[2] = _path_height(path)
+    return nearest_gamma(path, target, reference)
 
 
 def _path_height(path: Path) -> float:
-    """A planar vehicle ignores z: measure its distance to the path in the path's own plane."""
     return float(path.evaluate(0.0)[0][2])
 
 
@@ -167,8 +182,40 @@ def radio(scenario: Scenario, vehicle_id: int) -> Radio:
 
 def broker_core(scenario: Scenario, seed: int) -> BrokerCore:
     neighbours = {i: scenario.neighbours(i) for i in scenario.vehicle_ids}
-    stats = LinkStats(scenario.vehicle_ids, scenario.comms.stats_window)
-    return BrokerCore(Channel(channel_params(scenario), seed), neighbours, stats)
+    return BrokerCore(Channel(channel_params(scenario), seed), neighbours, link_stats(scenario))
+
+
+# A delivery keeps its pair in the delivered graph for this many transmit intervals: more than one, so that the
+# spread of delays (jitter, time of flight) does not let a link that delivers every interval drop out; less than two,
+# so that a single lost packet shows.
+HORIZON_INTERVALS = 1.5
+
+
+def link_stats(scenario: Scenario) -> LinkStats:
+    """The link books the broker and the supervisor keep: snapshots every stats window, lambda_2 of the delivered
+    graph over delivered_graph_horizon."""
+    return LinkStats(scenario.vehicle_ids, scenario.comms.stats_window, delivered_graph_horizon(scenario))
+
+
+def delivered_graph_horizon(scenario: Scenario) -> float:
+    """s a delivery keeps its pair in the delivered graph (lambda_2): the stats window, or HORIZON_INTERVALS times the
+    longest interval a vehicle's schedule leaves between transmissions if that is longer."""
+    interval = transmit_interval(scenario)
+    window = scenario.comms.stats_window
+    return window if interval is None else max(window, HORIZON_INTERVALS * interval)
+
+
+def transmit_interval(scenario: Scenario) -> float | None:
+    """The longest time [s] a vehicle's schedule leaves between two of its transmissions: its period (every step
+    without one), or the heartbeat of the event policy, held until its next TDMA slot. None for the event policy
+    without a heartbeat: a vehicle may then rightly stay quiet for as long as its gamma is predictable."""
+    tx, dt, tdma = scenario.comms.transmit, scenario.scenario.step, scenario.comms.tdma
+    interval = (tx.period or dt) if tx.policy == "periodic" else tx.heartbeat
+    if interval is None or tdma is None:
+        return interval
+    # One slot per vehicle and frame (validated): a wish due `interval` after a slot waits for a later slot start.
+    frame = tdma.slot * len(tdma.order or scenario.vehicle_ids)
+    return frame * max(1, math.ceil((interval - dt / 2) / frame))
 
 
 def restore_state(config: VehicleConfig, message: Message) -> VehicleState:

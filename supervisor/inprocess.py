@@ -2,14 +2,14 @@
 
 It runs exactly the pipeline of the multi-process engine (vehicles.runtime.node_step for each vehicle,
 comms.broker_core for the channel, messages built and parsed the same way, the same fault schedule), in one process
-and one thread. Process faults are emulated as the Zenoh engine performs them: a killed vehicle stops stepping (or
-aborts the run) and restarts from its last recorded state; a killed broker loses what it had in flight and
-restarts afresh. It is the reference the Zenoh engine must reproduce, and the speed floor it is measured against.
+and one thread. Process faults are emulated as the Zenoh engine performs them: a killed vehicle stops stepping (the run
+goes on: a scheduled kill is the fault, not a loss) and restarts from its last recorded state; a killed broker loses
+what it had in flight and restarts afresh. It is the reference the Zenoh engine must reproduce, and the speed floor
+it is measured against.
 """
 
 from __future__ import annotations
 
-import sys
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -34,11 +34,9 @@ from comms.messages import (
     tx_message,
 )
 from comms.network import Network
-from comms.stats import LinkStats
 from supervisor.books import LinkBooks
-from supervisor.errors import SimulationError
 from supervisor.faults import ProcessAction, disturbances, events_at, network_at, process_actions
-from supervisor.fleet import broker_core, initial_state, radio, restarted_node, vehicle_config
+from supervisor.fleet import broker_core, initial_state, link_stats, radio, restarted_node, vehicle_config
 from supervisor.metadata import graph_message, run_meta
 from supervisor.progress import Progress
 from supervisor.recorder import Recorder
@@ -72,7 +70,7 @@ class _InProcessRun:
         self.radios = {i: radio(scenario, i) for i in ids}
         self.alive = list(ids)
         self.broker: BrokerCore | None = broker_core(scenario, seed)
-        self.books = LinkBooks(LinkStats(ids, scenario.comms.stats_window))
+        self.books = LinkBooks(link_stats(scenario))
         self.builder = SeriesBuilder(ids, round(scenario.scenario.duration / self.dt), self.dt)
         self.last_state: dict[int, Message] = {}
         self.sent: list[Transmission] = []
@@ -126,27 +124,27 @@ class _InProcessRun:
         self.where[i] = parse_state(state, i).kinematics
 
     def _act(self, action: ProcessAction, t: float) -> None:
-        """A scheduled kill or restart, as the Zenoh engine carries it out."""
-        if action.target == "comms" and action.action == "kill":
-            if self.broker is not None:
+        """A scheduled kill or restart, as the Zenoh engine carries it out (the schedule is the fault, not a loss:
+        the run goes on whatever scenario.on_vehicle_loss says)."""
+        vid = action.vehicle
+        if action.target == "comms":
+            if action.action == "kill" and self.broker is not None:
                 self._record_events(self.books.close_open(t, "broker_down"))
-            self.broker, self.sent, self.where = None, [], {}
-        elif action.target == "comms":  # a fresh broker: nothing of the past in flight or in its statistics
-            self.broker, self.sent, self.where = broker_core(self.sc, self.seed), [], {}
-        elif action.vehicle is not None and action.action == "kill":
-            self._lose_vehicle(action.vehicle, t)
-        elif action.vehicle is not None and action.vehicle not in self.alive:
-            vid = action.vehicle
+            # Restarted: a fresh broker, nothing of the past in flight or in its statistics.
+            self.broker = None if action.action == "kill" else broker_core(self.sc, self.seed)
+            self.sent, self.where = [], {}
+        elif vid is None or (vid in self.alive) != (action.action == "kill"):
+            return  # a dead vehicle is not killed again, a live one not restarted
+        elif action.action == "kill":
+            self._kill_vehicle(vid)
+        else:
             self.nodes[vid] = restarted_node(self.configs[vid], self.last_state[vid], self.nodes[vid].seq)
-            self.alive = sorted([*self.alive, action.vehicle])
+            self.alive = sorted([*self.alive, vid])
+            action.announce(t, float(self.last_state[vid]["t"]))
+            return
+        action.announce(t)
 
-    def _lose_vehicle(self, vid: int, t: float) -> None:
-        if self.sc.scenario.on_vehicle_loss == "abort":
-            raise SimulationError(f"vehicle {vid} stopped at t = {t:.1f} s (killed by SIGKILL)")
-        print(
-            f"cpf: warning: vehicle {vid} lost at t = {t:.1f} s (killed by SIGKILL); going on without it",
-            file=sys.stderr,
-        )
+    def _kill_vehicle(self, vid: int) -> None:
         self.alive = [i for i in self.alive if i != vid]
         self.where.pop(vid, None)
         self.sent = [tx for tx in self.sent if tx.sender != vid]  # it died before its modem could send them

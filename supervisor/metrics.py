@@ -2,8 +2,9 @@
 
 Definitions (t: simulation time of the recorded vehicle states, s):
 
-- coordination error: max_{i,j} |gamma_i - gamma_j| at each recorded step (supervisor.summary.coordination_error);
-  a step where a vehicle has no state (it was down) counts as NaN, exactly as in `cpf run`'s summary.
+- coordination error: max_{i,j} |gamma_i - gamma_j| at each recorded step (supervisor.summary.coordination_error)
+  over the vehicles alive then (a vehicle that is down has no state); none while fewer than two are alive. Every
+  statistic below is, like `cpf run`'s summary, over the vehicles alive at each instant.
 - phases: supervisor.summary.phase_bounds over the scenario's duration, cut at the starts and ends of the scenario's
   faults (from the log's meta: the validated scenario, --fault included; open ends closed at the end of the run).
   Per phase: peak and final coordination error, peak path-following error after the transient, mean gamma_dot.
@@ -13,14 +14,16 @@ Definitions (t: simulation time of the recorded vehicle states, s):
 - steady-state coordination error: the largest coordination error over the final STEADY_STATE_WINDOW = 50 s of the
   recorded states, [t_end - 50 s, t_end], whatever faults act then.
 - path following: the largest |p - p_d| after report.transient, the tube radius |delta| + report.tube_margin, and
-  whether it stayed inside.
+  whether it stayed inside (None: no state after the transient).
 - gamma_dot at the end: each vehicle's last recorded gamma_dot.
 - packets: counted from the link events of the log (cpf/comms/event), which cover the whole run whichever broker
   process emitted them (the broker's own stats restart with a restarted broker): per directed link and in total,
   sent, delivered, dropped, dropped by cause, still in flight (sent - delivered - dropped: 0 in a complete log), and
   the delivery delays.
 - estimate age: per (neighbour -> holder), the mean and largest age of the holder's estimate of the neighbour.
-- lambda_2: of the delivered graph over the broker's stats windows (min, mean, windows at 0 = disconnected).
+- lambda_2: of the delivered graph over the broker's stats windows (min, mean, windows at 0 = disconnected); the
+  graph of a window holds the pairs that delivered within the last `horizon` s (the window, or 1.5 transmit
+  intervals if the vehicles' schedule leaves longer between packets: supervisor.fleet.delivered_graph_horizon).
 """
 
 from __future__ import annotations
@@ -33,11 +36,12 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
+from comms.stats import clamp_lambda2
 from supervisor.errors import ScenarioError
 from supervisor.faults import intervals
 from supervisor.scenario import validate_data
 from supervisor.scenario_schema import ReportSection
-from supervisor.summary import PhaseStats, Series, Summary, coordination_error, summarize
+from supervisor.summary import PhaseStats, Series, Summary, coordination_error, nan_max, summarize
 
 if TYPE_CHECKING:
     from supervisor.report import LinkLog, RunData
@@ -123,6 +127,7 @@ def _step_index(t: np.ndarray, step: float) -> np.ndarray:
 
 def _coordination(series: Series, summary: Summary) -> dict[str, Any]:
     coord = coordination_error(series.gamma)
+    worst = summary.max_path_error_after_transient
     end = float(series.t[-1])
     final = series.t >= end - STEADY_STATE_WINDOW
     after_faults = summary.phases[-1].name == "after faults"
@@ -131,14 +136,14 @@ def _coordination(series: Series, summary: Summary) -> dict[str, Any]:
             "tolerance": summary.tolerance,
             "convergence_time": summary.sync_time,
             "reconvergence_time": summary.resync_time if after_faults else None,
-            "steady_state_error": float(coord[final].max()),
+            "steady_state_error": nan_max(coord[final]),
             "steady_state_window": [max(end - STEADY_STATE_WINDOW, float(series.t[0])), end],
             "phases": [_phase(p, series.vehicle_ids) for p in summary.phases],
         },
         "path_following": {
             "max_error_after_transient": summary.max_path_error_after_transient,
             "tube_radius": summary.tube_radius,
-            "inside_tube": bool(summary.max_path_error_after_transient <= summary.tube_radius),
+            "inside_tube": None if math.isnan(worst) else bool(worst <= summary.tube_radius),
         },
         "gamma_dot_end": {str(v): _last(series.gamma_dot[:, k]) for k, v in enumerate(series.vehicle_ids)},
     }
@@ -191,15 +196,16 @@ def _ages(run: RunData) -> dict[str, Any]:
 
 
 def _lambda2(run: RunData) -> dict[str, Any]:
-    values = np.array([float(s["lambda2"]) for s in run.stats])
+    values = np.array([clamp_lambda2(float(s["lambda2"])) for s in run.stats])  # an older log: -1e-17 for 0
     if not values.size:
-        return {"windows": 0, "min": None, "mean": None, "max": None, "disconnected_windows": 0}
+        return {"windows": 0, "min": None, "mean": None, "max": None, "disconnected_windows": 0, "horizon": None}
     return {
         "windows": int(values.size),
         "min": float(values.min()),
         "mean": float(values.mean()),
         "max": float(values.max()),
-        "disconnected_windows": int((values <= 1e-9).sum()),
+        "disconnected_windows": int((values <= 0.0).sum()),
+        "horizon": float(run.stats[-1].get("horizon", run.stats[-1]["window"])),
     }
 
 

@@ -93,9 +93,12 @@ examples in `configs/examples/` or from `configs/paper.toml`.
 OUTRO = """
 Checks the schema alone cannot express, made when a scenario is loaded (`cpf validate`): vehicle ids unique; graph
 edges, links, TDMA order and faults naming vehicles of `[[vehicles]]`; the graph connected; `[[comms.links]]` on edges
-of the graph; a fault's `end` after its `start`; `scenario.step` not longer than `duration`; `comms.tdma.slot` a whole
-number of steps; `packet_bytes` within the modem's limit; vehicle overrides named after the preset's parameters with
-its shapes; every path finite at gamma = 0.
+of the graph; a fault's `end` after its `start` and at least a step later; a `link_down` or `link_degraded` fault on a
+link of the graph in force while it acts (the scenario's, or one a `graph_switch` puts in force); `scenario.step` not
+longer than `duration` and dividing it; `comms.tdma.slot` a whole number of steps; `packet_bytes` within the modem's
+limit; vehicle overrides named after the preset's parameters with its shapes; every path finite at gamma = 0; with
+`dimension = 2`, every vehicle in its path's horizontal plane (no climbing helix or diving line, no heave, roll or
+pitch). A fault that starts at or after the end of the run is a warning (it never acts), not an error.
 """
 
 

@@ -15,6 +15,7 @@ import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
+from comms.stats import clamp_lambda2
 from supervisor.report import AgeSeries, Array, LinkLog, RunData, colour, finish_time_axes, new_figure
 from vehicles.coordination import algebraic_connectivity, laplacian
 
@@ -188,27 +189,33 @@ def _age_line(ax: Axes, neighbour: int, ages: AgeSeries) -> None:
 
 
 def fig_lambda2(run: RunData) -> Figure:
-    """lambda_2 of the graph of pairs that delivered in each stats window, against the scenario graph's."""
+    """lambda_2 of the graph of pairs that delivered within the stats' horizon (the window, or longer when the
+    vehicles transmit less often: supervisor.fleet.delivered_graph_horizon), per window, against the scenario
+    graph's."""
     fig = new_figure()
     ax = fig.add_subplot()
     previous = -math.inf
     for k, snap in enumerate(run.stats):
-        t, window, value = float(snap["t"]), float(snap["window"]), float(snap["lambda2"])
+        t, window, value = float(snap["t"]), float(snap["window"]), clamp_lambda2(float(snap["lambda2"]))
         start = max(t - window, previous)  # a final, partial window starts where the last one ended
         ax.hlines(
             value, start, t, color="tab:blue", lw=2.0, label="delivered graph, per window" if k == 0 else "_nolegend_"
         )
         previous = t
-    values = np.array([float(s["lambda2"]) for s in run.stats])
+    values = np.array([clamp_lambda2(float(s["lambda2"])) for s in run.stats])  # an older log: -1e-17 for 0
     ends = np.array([float(s["t"]) for s in run.stats])
     ax.plot(ends, values, "o", color="tab:blue", ms=3.5)
     nominal = _nominal_lambda2(run)
     ax.axhline(nominal, color="k", ls="--", lw=1.0, label=rf"scenario graph: $\lambda_2$ = {nominal:.3g}")
     ax.axhline(0.0, color="0.5", lw=0.6)
     ax.set_ylim(-0.05 * max(nominal, 1.0), HEADROOM * max(nominal, float(values.max()), 1e-3))
-    disconnected = int((values <= 1e-9).sum())
+    disconnected = int((values <= 0.0).sum())
+    window = float(run.stats[0]["window"])
+    horizon = float(run.stats[0].get("horizon", window))
+    counted = "in the window" if horizon <= window else f"in the last {horizon:g} s"
     title = (
-        rf"Delivered-graph connectivity $\lambda_2$ per {float(run.stats[0]['window']):g} s window: {run.name}"
+        rf"Delivered-graph connectivity $\lambda_2$ per {window:g} s window (pairs that delivered {counted}): "
+        f"{run.name}"
         f"\n{len(values)} windows, min {values.min():.3g}, mean {values.mean():.3g}, "
         f"{disconnected} of them disconnected ($\\lambda_2$ = 0)"
     )
@@ -223,4 +230,4 @@ def _nominal_lambda2(run: RunData) -> float:
     ids = [int(v) for v in run.meta.get("vehicles", [])] or sorted(run.vehicles)
     index = {v: i for i, v in enumerate(ids)}
     edges = [(index[i], index[j]) for i, j in run.edges if i in index and j in index]
-    return algebraic_connectivity(laplacian(len(ids), edges))
+    return clamp_lambda2(algebraic_connectivity(laplacian(len(ids), edges)))

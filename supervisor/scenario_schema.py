@@ -45,7 +45,11 @@ class RunSection(_Strict):
         default=3, description="3: the 6-DOF model of eqs. (1)-(2); 2: the planar variant (x, y and yaw only)"
     )
     on_vehicle_loss: Literal["abort", "continue"] = Field(
-        default="abort", description="a vehicle process that dies: stop the run (abort), or go on without it"
+        default="abort",
+        description=(
+            "a vehicle process that dies unscheduled: stop the run (abort), or go on without it "
+            "(a scheduled vehicle_kill never stops a run)"
+        ),
     )
 
 
@@ -238,7 +242,9 @@ class GraphSwitchFault(_Fault):
 
 class VehicleKillFault(_Fault):
     """The vehicle's process is killed with SIGKILL at start and, if end is given, restarted then from its last
-    recorded state. What the run does meanwhile is scenario.on_vehicle_loss."""
+    recorded state. The kill is the fault, not a loss: the run goes on without the vehicle (to its restart, or to
+    the end of the run without end) whatever scenario.on_vehicle_loss says, which is for deaths nobody scheduled.
+    Both the kill and the restart are announced and recorded (cpf/run/fault, start and end)."""
 
     kind: Literal["vehicle_kill"]
     vehicle: Int = Field(description="vehicle id")

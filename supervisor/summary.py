@@ -2,6 +2,10 @@
 
 Phases are cut at fault starts and ends (for the paper: before the fault, during, after). Path-following errors are
 counted only after the initial transient (scenario [report] transient).
+
+A vehicle that is down (killed, lost) has no state: its entries in the series are NaN. Every statistic is over the
+vehicles alive at each instant: the coordination error over the pairs alive (NaN while fewer than two are), the
+path-following error over the vehicles alive, each vehicle's mean gamma_dot over the instants it was alive.
 """
 
 from __future__ import annotations
@@ -18,7 +22,7 @@ from vehicles.geometry import FloatArray
 
 @dataclass(frozen=True, slots=True)
 class Series:
-    """Time series of a run: row k is time t[k], column i is vehicle vehicle_ids[i]."""
+    """Time series of a run: row k is time t[k], column i is vehicle vehicle_ids[i]; NaN where it has no state."""
 
     vehicle_ids: tuple[int, ...]
     t: FloatArray
@@ -32,10 +36,10 @@ class PhaseStats:
     name: str
     start: float
     end: float
-    max_coordination_error: float
-    final_coordination_error: float
-    max_path_error: float  # after the transient; nan if the phase lies inside it
-    mean_gamma_dot: tuple[float, ...]
+    max_coordination_error: float  # nan if fewer than two vehicles were alive throughout
+    final_coordination_error: float  # at the phase's last instant with two vehicles alive
+    max_path_error: float  # after the transient; nan if the phase lies inside it (or no vehicle was alive)
+    mean_gamma_dot: tuple[float, ...]  # each over the instants the vehicle was alive; nan if it never was
 
 
 @dataclass(frozen=True, slots=True)
@@ -46,15 +50,40 @@ class Summary:
     sync_time: float | None  # when the coordination error first stays below tolerance until the first phase ends
     resync_time: float | None  # the same, within the last phase
     tolerance: float
+    transient: float = 0.0  # s: path-following errors count from then on
 
     def as_dict(self) -> dict[str, object]:
         return asdict(self)
 
 
 def coordination_error(gamma: FloatArray) -> FloatArray:
-    """max_{i,j} |gamma_i - gamma_j| at each time."""
-    result: FloatArray = gamma.max(axis=1) - gamma.min(axis=1)
+    """max_{i,j} |gamma_i - gamma_j| over the vehicles alive (gamma not NaN) at each time; NaN while fewer than two
+    are alive (no pair to compare)."""
+    alive = ~np.isnan(gamma)
+    highest = np.where(alive, gamma, -np.inf).max(axis=1, initial=-np.inf)
+    lowest = np.where(alive, gamma, np.inf).min(axis=1, initial=np.inf)
+    result: FloatArray = np.where(alive.sum(axis=1) >= 2, highest - lowest, np.nan)
     return result
+
+
+def nan_max(values: FloatArray) -> float:
+    """The largest value that is not NaN; NaN if there is none (numpy's nanmax warns then)."""
+    known = values[~np.isnan(values)]
+    return float(known.max()) if known.size else math.nan
+
+
+def nan_last(values: FloatArray) -> float:
+    """The last value that is not NaN; NaN if there is none."""
+    known = values[~np.isnan(values)]
+    return float(known[-1]) if known.size else math.nan
+
+
+def nan_mean_columns(values: FloatArray) -> tuple[float, ...]:
+    """Each column's mean over its values that are not NaN; NaN for a column without any."""
+    known = ~np.isnan(values)
+    counts = known.sum(axis=0)
+    sums = np.where(known, values, 0.0).sum(axis=0)
+    return tuple(float(s / n) if n else math.nan for s, n in zip(sums, counts, strict=True))
 
 
 def phase_bounds(duration: float, faults: Sequence[tuple[str, float, float]]) -> list[tuple[str, float, float]]:
@@ -98,10 +127,8 @@ def summarize(
         settled = mask & (series.t >= transient)
         stats.append(
             PhaseStats(
-                name, start, end,
-                float(coord[mask].max()), float(coord[mask][-1]),
-                float(series.path_error[settled].max()) if settled.any() else float("nan"),
-                tuple(float(v) for v in series.gamma_dot[mask].mean(axis=0)),
+                name, start, end, nan_max(coord[mask]), nan_last(coord[mask]),
+                nan_max(series.path_error[settled]), nan_mean_columns(series.gamma_dot[mask]),
             )
         )  # fmt: skip
     first, last = stats[0], stats[-1]
@@ -111,10 +138,11 @@ def summarize(
     return Summary(
         phases=tuple(stats),
         tube_radius=tube_radius,
-        max_path_error_after_transient=float(series.path_error[after].max()) if after.any() else float("nan"),
+        max_path_error_after_transient=nan_max(series.path_error[after]),
         sync_time=settle_time(series.t[in_first], coord[in_first], tolerance),
         resync_time=settle_time(series.t[in_last], coord[in_last], tolerance) if len(stats) > 1 else None,
         tolerance=tolerance,
+        transient=transient,
     )
 
 
@@ -125,16 +153,17 @@ def format_summary(summary: Summary) -> str:
     ]
     for p in summary.phases:
         span = f"{p.start:.0f}-{p.end:.0f}"
-        rates = " ".join(f"{v:.3f}" for v in p.mean_gamma_dot)
-        path = "-" if math.isnan(p.max_path_error) else f"{p.max_path_error:.3f}"  # "-": within the transient
+        rates = " ".join(_number(v, ".3f") for v in p.mean_gamma_dot)  # "-": the vehicle was down all the phase
+        path = _number(p.max_path_error, ".3f")  # "-": within the transient
         lines.append(
-            f"{p.name:<22}{span:>14}{p.max_coordination_error:>12.4g}{p.final_coordination_error:>12.3g}"
-            f"{path:>15}  {rates}"
+            f"{p.name:<22}{span:>14}{_number(p.max_coordination_error, '.4g'):>12}"
+            f"{_number(p.final_coordination_error, '.3g'):>12}{path:>15}  {rates}"
         )
     worst = summary.max_path_error_after_transient
-    if math.isnan(worst):  # the run ends inside the transient: nothing to judge
-        lines.append(f"path-following error after the transient: none (the run ends within it); tube "
-                     f"{summary.tube_radius:.3f} m")  # fmt: skip
+    if math.isnan(worst):  # nothing to judge
+        ends_within = not summary.phases or summary.phases[-1].end <= summary.transient
+        why = "the run ends within it" if ends_within else "no vehicle was alive after it"
+        lines.append(f"path-following error after the transient: none ({why}); tube {summary.tube_radius:.3f} m")
     else:
         tube_ok = worst <= summary.tube_radius
         lines.append(
@@ -146,6 +175,11 @@ def format_summary(summary: Summary) -> str:
     if summary.resync_time is not None or len(summary.phases) > 1:
         lines.append(f"coordination error below {tol:g} again from t = {_time(summary.resync_time)} s (last phase)")
     return "\n".join(lines)
+
+
+def _number(value: float, spec: str) -> str:
+    """value formatted, or "-" for NaN (nothing to say: no vehicle, or no pair of vehicles, alive)."""
+    return "-" if math.isnan(value) else format(value, spec)
 
 
 def _time(value: float | None) -> str:

@@ -109,23 +109,13 @@ def test_every_kind_of_fault_gives_the_same_run_in_both_engines(tmp_path, paper_
     assert processes_with(str(scenario)) == []
 
 
-def test_a_lost_vehicle_stops_the_run_when_the_scenario_says_abort(tmp_path, paper_text):
-    scenario = tmp_path / "s.toml"
-    scenario.write_text(shortened(paper_text, 30.0))
-    done = cpf("run", str(scenario), "--fault", "kind=vehicle_kill,vehicle=2,start=10", "--out", "r.mcap", cwd=tmp_path)
-    assert done.returncode == 1
-    assert done.stderr.strip().splitlines()[-1] == "cpf: error: vehicle 2 stopped at t = 10.0 s (killed by SIGKILL)"
-    assert_complete(tmp_path / "r.mcap")
-    assert processes_with(str(scenario)) == []
-
-
 def test_a_restarted_vehicle_rejoins_from_its_last_recorded_state(tmp_path, paper_text):
     scenario = tmp_path / "s.toml"
     scenario.write_text(shortened(paper_text, 30.0))
     extra = ["--set", "scenario.on_vehicle_loss=continue", "--fault", "kind=vehicle_kill,vehicle=3,start=10,end=12"]
     done = cpf("run", str(scenario), *extra, "--out", "r.mcap", "--quiet", cwd=tmp_path)
     assert done.returncode == 0, done.stderr
-    assert "vehicle 3 lost at t = 10.0 s (killed by SIGKILL); going on without it" in done.stderr
+    assert "vehicle 3 killed at t = 10.0 s (scheduled vehicle_kill; restarted at t = 12.0 s)" in done.stderr
     states, _, _ = read_run(tmp_path / "r.mcap")
     last_before, first_after = states[(3, 99)], states[(3, 120)]
     assert all((3, k) not in states for k in range(100, 120))

@@ -25,11 +25,12 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vehicles.geometry import Float3
+from vehicles.nearest import closest_gamma, nearest_gamma  # where a vehicle starts on its path
 
 Vec3: TypeAlias = NDArray[np.float64]
 """A vector of shape (3,), float64."""
 
-__all__ = ["Circle", "Helix", "Lawnmower", "Line", "Path", "Vec3", "closest_gamma"]
+__all__ = ["Circle", "Helix", "Lawnmower", "Line", "Path", "Vec3", "closest_gamma", "nearest_gamma"]
 
 
 @runtime_checkable
@@ -46,6 +47,18 @@ class Path(Protocol):
 
     def positions(self, gammas: NDArray[np.float64]) -> NDArray[np.float64]:
         """p_d at many gammas, shape (n, 3) -- for plotting; vectorised."""
+        ...
+
+    @property
+    def gamma_period(self) -> float | None:
+        """T > 0 if the path's horizontal course repeats every T of gamma (circle; a helix also climbs by
+        climb * T per period), None if it never repeats (line, lawnmower)."""
+        ...
+
+    @property
+    def straight_beyond(self) -> tuple[float, float] | None:
+        """For a path that never repeats: (a, b), a <= b, such that it runs straight for gamma <= a and for
+        gamma >= b (so its point nearest anything lies within reach of [a, b]); None for a periodic path."""
         ...
 
 
@@ -152,6 +165,15 @@ class Helix:
         out[:, 2] = self.climb * g + self.center[2]
         return out
 
+    @property
+    def gamma_period(self) -> float:
+        """|period|: one revolution (the helix is then climb * |period| higher)."""
+        return abs(self.period)
+
+    @property
+    def straight_beyond(self) -> None:
+        return None
+
 
 @dataclass(frozen=True, slots=True)
 class Circle:
@@ -185,6 +207,15 @@ class Circle:
         """p_d [m] at many gammas, shape (n, 3)."""
         return self._helix.positions(gammas)
 
+    @property
+    def gamma_period(self) -> float:
+        """|period|: one revolution."""
+        return abs(self.period)
+
+    @property
+    def straight_beyond(self) -> None:
+        return None
+
 
 @dataclass(frozen=True, slots=True)
 class Line:
@@ -216,6 +247,15 @@ class Line:
         start = np.asarray(self.start, dtype=np.float64)
         velocity = np.asarray(self.velocity, dtype=np.float64)
         return start + g[:, None] * velocity
+
+    @property
+    def gamma_period(self) -> None:
+        return None
+
+    @property
+    def straight_beyond(self) -> tuple[float, float]:
+        """Straight everywhere."""
+        return (0.0, 0.0)
 
 
 @dataclass(frozen=True, slots=True)
@@ -329,65 +369,11 @@ class Lawnmower:
         out[:, 2] = self.origin[2]
         return out
 
+    @property
+    def gamma_period(self) -> None:
+        return None
 
-# --- utilities --------------------------------------------------------------------------------------------
-
-
-def closest_gamma(path: Path, point: NDArray[np.float64], lo: float, hi: float, samples: int = 2001) -> float:
-    """The gamma in [lo, hi] whose p_d is nearest to point [m, shape (3,)].
-
-    Coarse search over ``samples`` evenly spaced gammas, then a bounded scalar minimisation between the
-    best sample's neighbours, then a guarded Newton polish.  Meant for start-up (choosing initial gammas),
-    not for the hot path.  With several equally near points, returns one of them.
-    """
-    if not (math.isfinite(lo) and math.isfinite(hi)) or hi < lo:
-        raise ValueError(f"need finite lo <= hi, got lo={lo!r}, hi={hi!r}")
-    if samples < 2:
-        raise ValueError(f"samples must be >= 2, got {samples!r}")
-    q = np.asarray(point, dtype=np.float64)
-    if q.shape != (3,):
-        raise ValueError(f"point must have shape (3,), got {q.shape}")
-    if hi == lo:
-        return float(lo)
-
-    gs = np.linspace(lo, hi, samples)
-    d2 = np.sum((path.positions(gs) - q) ** 2, axis=1)
-    i = int(np.argmin(d2))
-    g_best = float(gs[i])
-    a = float(gs[max(i - 1, 0)])
-    b = float(gs[min(i + 1, samples - 1)])
-
-    def dist2(g: float) -> float:
-        p = path.evaluate(g)[0]
-        return float(np.dot(p - q, p - q))
-
-    from scipy.optimize import minimize_scalar  # here: only start-up needs it, and it costs 0.25 s to import
-
-    # Minimise over the offset from g_best: Brent's tolerance grows with |x|, and the offset stays small.
-    res = minimize_scalar(
-        lambda t: dist2(g_best + t),
-        bounds=(a - g_best, b - g_best),
-        method="bounded",
-        options={"xatol": 1e-12 * max(1.0, b - a)},
-    )
-    g = g_best + float(res.x) if dist2(g_best + float(res.x)) <= d2[i] else g_best
-
-    # Newton on f'(g) = (p - q) . dp = 0: the distance is flat at the minimum, so its argmin is only
-    # resolved to ~sqrt(eps), while the root of f' is resolved to ~eps.  Steps are accepted only while
-    # |f'| shrinks and they stay within the bracket, so this can only polish, never wander off.
-    p, dp, ddp = path.evaluate(g)
-    grad = float(np.dot(p - q, dp))
-    for _ in range(6):
-        curv = float(np.dot(dp, dp) + np.dot(p - q, ddp))
-        if curv <= 0.0 or grad == 0.0:
-            break
-        step = grad / curv
-        if abs(step) > b - a:
-            break
-        g_new = min(max(g - step, lo), hi)
-        p, dp, ddp = path.evaluate(g_new)
-        grad_new = float(np.dot(p - q, dp))
-        if abs(grad_new) >= abs(grad):
-            break
-        g, grad = g_new, grad_new
-    return float(g)
+    @property
+    def straight_beyond(self) -> tuple[float, float]:
+        """Straight before the first leg starts and after the last leg ends (the pattern's extensions)."""
+        return (0.0, self.length / self.scale)

@@ -1,0 +1,115 @@
+"""Statistics while a vehicle is down: over the vehicles alive at each instant, never NaN because one is missing.
+
+A vehicle that is down has no state: NaN in the run's Series (both engines), no record in the log (cpf report).
+Three vehicles over 100 s (1 s steps); vehicle 3 is down on [40, 60) s, the phase "during vehicle_kill".
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from supervisor.figures import aligned
+from supervisor.metrics import run_metrics
+from supervisor.report import RunData, VehicleSeries
+from supervisor.summary import Series, coordination_error, format_summary, summarize
+
+DURATION, TRANSIENT, TUBE = 100.0, 10.0, 1.2
+FAULTS = [("vehicle_kill", 40.0, 60.0)]
+T = np.arange(100, dtype=float)
+DOWN = (T >= 40) & (T < 60)
+
+
+def fleet() -> Series:
+    """gamma_i = t + offset_i (offsets 0, 0.5, 2: coordination error 2 while vehicle 3 is alive, 0.5 without it);
+    path errors 0.8, 0.9 and 1.1 m; gamma_dot 1, 1 and 2. Vehicle 3: NaN while down."""
+    gamma = np.stack([T, T + 0.5, T + 2.0], axis=1)
+    gamma_dot = np.tile([1.0, 1.0, 2.0], (T.size, 1))
+    error = np.tile([0.8, 0.9, 1.1], (T.size, 1))
+    for column in (gamma, gamma_dot, error):
+        column[DOWN, 2] = np.nan
+    return Series((1, 2, 3), T, gamma, gamma_dot, error)
+
+
+def test_coordination_error_is_over_the_pairs_alive() -> None:
+    gamma = np.array([[0.0, 1.0, np.nan], [np.nan, np.nan, 5.0], [1.0, 1.5, 3.0], [np.nan] * 3])
+    got = coordination_error(gamma)
+    np.testing.assert_array_equal(got[[0, 2]], [1.0, 2.0])
+    assert math.isnan(got[1]) and math.isnan(got[3])  # fewer than two alive: no pair to compare
+
+
+def test_phase_statistics_while_a_vehicle_is_down_are_over_the_vehicles_alive() -> None:
+    summary = summarize(fleet(), DURATION, FAULTS, TRANSIENT, TUBE, 0.01)
+    before, during, after = summary.phases
+    assert during.name == "during vehicle_kill"
+    assert (during.max_coordination_error, during.final_coordination_error) == (0.5, 0.5)
+    assert during.max_path_error == 0.9
+    assert during.mean_gamma_dot[:2] == (1.0, 1.0) and math.isnan(during.mean_gamma_dot[2])
+    assert (before.max_coordination_error, after.max_path_error, after.mean_gamma_dot) == (2.0, 1.1, (1.0, 1.0, 2.0))
+    assert summary.max_path_error_after_transient == 1.1
+
+
+def test_a_vehicles_mean_rate_is_over_the_instants_it_was_alive() -> None:
+    series = fleet()
+    series.gamma_dot[:, 2] = np.where(T < 40, 3.0, 2.0)  # 3 before the kill, 2 after; NaN while down
+    series.gamma_dot[DOWN, 2] = np.nan
+    whole = summarize(series, DURATION, [], TRANSIENT, TUBE, 0.01).phases[0]
+    assert whole.mean_gamma_dot[2] == pytest.approx((40 * 3.0 + 40 * 2.0) / 80)
+
+
+def test_the_summary_prints_numbers_while_a_vehicle_is_down() -> None:
+    text = format_summary(summarize(fleet(), DURATION, FAULTS, TRANSIENT, TUBE, 0.01))
+    during = next(line for line in text.splitlines() if line.startswith("during vehicle_kill")).split()
+    assert during[3:] == ["0.5", "0.5", "0.900", "1.000", "1.000", "-"]  # "-": vehicle 3's rate, it was down
+    assert "nan" not in text
+    assert "path-following error after the transient: max 1.100 m, tube 1.200 m (inside)" in text
+
+
+def test_the_summary_says_why_there_is_no_path_error_to_judge() -> None:
+    series = fleet()
+    inside = format_summary(summarize(series, DURATION, [], 200.0, TUBE, 0.01))
+    assert "path-following error after the transient: none (the run ends within it)" in inside
+    series.path_error[T >= 90] = np.nan  # nobody alive after the transient
+    nobody = format_summary(summarize(series, DURATION, [], 90.0, TUBE, 0.01))
+    assert "path-following error after the transient: none (no vehicle was alive after it)" in nobody
+
+
+def vehicle_series(vid: int, t: np.ndarray, gamma: np.ndarray, error: float) -> VehicleSeries:
+    n = t.size
+    errors = np.zeros((n, 3))
+    errors[:, 0] = error
+    zeros = np.zeros((n, 3))
+    return VehicleSeries(vid, t, gamma, np.ones(n), zeros, zeros, errors, zeros, zeros, np.zeros(n))
+
+
+def report_run() -> RunData:
+    """The fleet as `cpf report` reads a log: a down vehicle has no records, so its series has a gap."""
+    series = fleet()
+    vehicles = {}
+    for col, vid in enumerate(series.vehicle_ids):
+        alive = ~np.isnan(series.gamma[:, col])
+        vehicles[vid] = vehicle_series(vid, T[alive], series.gamma[alive, col], float(series.path_error[0, col]))
+    meta = {"step": 1.0, "duration": DURATION, "tube_radius": TUBE, "faults": [{"kind": "vehicle_kill", "start": 40.0,
+            "end": 60.0}]}  # fmt: skip
+    return RunData(meta, vehicles, [], [(1, 2), (1, 3)])
+
+
+def test_report_metrics_while_a_vehicle_is_down_are_over_the_vehicles_alive() -> None:
+    metrics = run_metrics(report_run())  # no scenario in the meta: transient 50 s, the default
+    coordination, path = metrics["coordination"], metrics["path_following"]
+    during = coordination["phases"][1]
+    assert (during["max_coordination_error"], during["max_path_error"]) == (0.5, 0.9)
+    assert during["mean_gamma_dot"] == {"1": 1.0, "2": 1.0, "3": None}
+    assert path == {"max_error_after_transient": 1.1, "tube_radius": TUBE, "inside_tube": True}
+    assert coordination["steady_state_error"] == 2.0
+
+
+def test_the_coordination_figure_draws_nothing_where_a_vehicle_was_down() -> None:
+    run = report_run()
+    t, gamma = aligned(run, lambda s: s.gamma)
+    diff = gamma[:, 0] - gamma[:, 2]  # vehicle 1 - vehicle 3, as the pairwise figure draws it
+    assert t.size == 100
+    assert np.isnan(diff[DOWN]).all()  # not interpolated across the gap
+    np.testing.assert_allclose(diff[~DOWN], -2.0)

@@ -1,0 +1,126 @@
+"""The delivered graph's lambda_2 when vehicles transmit less often than every stats window.
+
+A pair is in the delivered graph of a window if it delivered within the last `horizon` s: the stats window, or 1.5
+transmit intervals (the period held to the TDMA slot, or the event policy's heartbeat) if that is longer. Six AUVs
+on a line graph, TDMA with 4 s slots (a 24 s frame) and a 10 s stats window: every link delivers every frame, so
+once every pair has heard from one of its two every window is connected.
+
+    1 - 2 - 3 - 4 - 5 - 6        (graph; each transmits once per 24 s frame)
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from comms.channel import LinkEvent
+from comms.stats import LinkStats, clamp_lambda2
+from supervisor.comms_summary import comms_summary, format_comms
+from supervisor.fleet import delivered_graph_horizon, transmit_interval
+from supervisor.inprocess import run_inprocess
+from supervisor.metrics import run_metrics
+from supervisor.progress import Progress
+from supervisor.report import RunData
+from supervisor.report_comms import fig_lambda2
+from supervisor.scenario import parse_scenario
+from supervisor.scenario_schema import Scenario
+from vehicles.coordination import algebraic_connectivity, laplacian
+
+PATH_GRAPH_6 = 2 * (1 - math.cos(math.pi / 6))  # lambda_2 of the path graph on six vertices
+
+
+def tdma_fleet(transmit: str = "period = 1.0", slot: float = 4.0, duration: float = 100.0, n: int = 6) -> str:
+    edges = [[i, i + 1] for i in range(1, n)]
+    text = f'[scenario]\nname = "tdma{n}"\nduration = {duration}\nstep = 0.1\n\n[graph]\nedges = {edges}\n'
+    for i in range(1, n + 1):
+        text += f"""
+[[vehicles]]
+id = {i}
+position = [-2.0, {20.0 * i - 1.0}, -10.0]
+path = {{ type = "line", start = [0.0, {20.0 * i}, -10.0], velocity = [1.0, 0.0, 0.0] }}
+"""
+    text += f"\n[comms]\nstats_window = 10.0\n\n[comms.transmit]\n{transmit}\n"
+    return text + (f"\n[comms.tdma]\nslot = {slot}\n" if slot else "")
+
+
+def scenario(text: str) -> Scenario:
+    return parse_scenario(text, "tdma.toml")
+
+
+@pytest.mark.parametrize(
+    ("transmit", "slot", "interval", "horizon"),
+    [
+        ("period = 1.0", 4.0, 24.0, 36.0),  # the wish waits for the vehicle's slot: once a frame
+        ("period = 30.0", 4.0, 48.0, 72.0),  # due 30 s after a slot: the slot two frames on
+        ("period = 24.0", 4.0, 24.0, 36.0),
+        ('policy = "event"\nthreshold = 0.1\nheartbeat = 12.0', 2.0, 12.0, 18.0),
+        ("period = 1.0", 0.0, 1.0, 10.0),  # no TDMA, a packet a second: the window says it all
+        ("", 0.0, 0.1, 10.0),  # every step
+        ('policy = "event"\nthreshold = 0.1', 4.0, None, 10.0),  # may rightly stay quiet: no interval to expect
+    ],
+)
+def test_the_horizon_covers_the_longest_interval_a_schedule_leaves(
+    transmit: str, slot: float, interval: float | None, horizon: float
+) -> None:
+    sc = scenario(tdma_fleet(transmit, slot))
+    assert transmit_interval(sc) == (None if interval is None else pytest.approx(interval))
+    assert delivered_graph_horizon(sc) == pytest.approx(horizon)
+
+
+def test_every_window_is_connected_when_every_link_delivers_every_tdma_frame(tmp_path: Path) -> None:
+    sc = scenario(tdma_fleet())
+    quiet = Progress(sc.scenario.duration, enabled=False)
+    result = run_inprocess(sc, "tdma.toml", "", tmp_path / "run.mcap", 0, quiet)
+    history = [(float(h["t"]), float(h["lambda2"])) for h in result.stats_history]
+    assert len(history) == 10
+    # Slots start at 0, 4, ..., 20 s: by 20 s each pair has heard one of its two (5 -> 6 at 16 s), and from then
+    # on every window holds every link. At 10 s only 1, 2 and 3 had spoken: 0, not -1e-17.
+    assert history[0] == (10.0, 0.0)
+    assert [round(v, 9) for _, v in history[1:]] == [round(PATH_GRAPH_6, 9)] * 9
+    line = format_comms(comms_summary(result.link_stats, result.stats_history, result.estimate_ages)).splitlines()[-1]
+    assert line == (
+        "delivered-graph lambda_2 over 10 windows of 10 s (pairs that delivered in the last 36 s, 1.5 transmit "
+        f"intervals): min 0.000, mean {0.9 * PATH_GRAPH_6:.3f} (0 = disconnected)"
+    )
+
+
+def test_a_single_lost_packet_still_shows() -> None:
+    """Deliveries every 24 s on 1 -> 2 with one of them lost: the horizon (36 s) runs out before the next."""
+    stats = LinkStats([1, 2], window=10.0, horizon=36.0)
+    arrivals = [4.0, 28.0, 76.0]  # the one of 52 s lost
+    stats.add([LinkEvent(t, 1, 2, k, "delivered", delay=0.0) for k, t in enumerate(arrivals)])
+    assert [stats.delivered_connectivity(t) for t in (30.0, 60.0, 70.0, 80.0, 100.0)] == [2.0, 2.0, 0.0, 2.0, 2.0]
+
+
+def test_a_disconnected_graph_has_lambda2_zero_never_a_rounding_error() -> None:
+    tiny = algebraic_connectivity(laplacian(5, {(0, 1), (2, 3), (3, 4), (2, 4)}))
+    assert abs(tiny) < 1e-12  # what eigvalsh says: +-1e-17 or so
+    assert clamp_lambda2(tiny) == 0.0 and clamp_lambda2(-3e-17) == 0.0 and clamp_lambda2(8e-18) == 0.0
+    assert clamp_lambda2(4.0 / 1000**2) == 4.0 / 1000**2  # the smallest of a connected graph of 1000 vertices
+
+
+def test_an_older_logs_rounding_errors_print_as_zero() -> None:
+    final = {"t": 30.0, "window": 10.0, "lambda2": -2e-17, "links": []}
+    history = [{"t": 10.0, "lambda2": -2e-17}, {"t": 20.0, "lambda2": 8e-18}, {"t": 30.0, "lambda2": 1.0}]
+    text = format_comms(comms_summary(final, history, {}))
+    assert "-0.000" not in text
+    assert text.splitlines()[-1] == (
+        "delivered-graph lambda_2 over 3 windows of 10 s (pairs that delivered in the window): min 0.000, mean 0.333 "
+        "(0 = disconnected)"
+    )
+    run = RunData({"vehicles": [1, 2]}, {}, [], [(1, 2)], stats=[{**final, **h} for h in history])
+    lam = run_metrics(run)["lambda2"]
+    assert (lam["min"], lam["disconnected_windows"], lam["horizon"]) == (0.0, 2, 10.0)
+    title = fig_lambda2(run).axes[0].get_title()
+    assert "min 0, mean 0.333, 2 of them disconnected" in title and "e-1" not in title
+
+
+def test_the_lambda2_figure_says_over_what_the_graph_is_taken() -> None:
+    stats = [{"t": 10.0 * k, "window": 10.0, "horizon": 36.0, "lambda2": 0.268, "links": []} for k in range(1, 4)]
+    run = RunData({"vehicles": [1, 2, 3]}, {}, [], [(1, 2), (2, 3)], stats=stats)
+    title = fig_lambda2(run).axes[0].get_title()
+    assert "per 10 s window (pairs that delivered in the last 36 s)" in title
+    assert np.isclose(run_metrics(run)["lambda2"]["horizon"], 36.0)
