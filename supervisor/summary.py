@@ -170,17 +170,19 @@ def format_summary(summary: Summary) -> str:
             f"path-following error after the transient: max {worst:.3f} m, "
             f"tube {summary.tube_radius:.3f} m ({'inside' if tube_ok else 'OUTSIDE'})"
         )
-    tol = summary.tolerance
-    lines.append(f"coordination error below {tol:g} from t = {_time(summary.sync_time)} s (first phase)")
+    lines.append(_settled("", summary.sync_time, summary.tolerance, "first phase"))
     if summary.resync_time is not None or len(summary.phases) > 1:
-        lines.append(f"coordination error below {tol:g} again from t = {_time(summary.resync_time)} s (last phase)")
+        lines.append(_settled(" again", summary.resync_time, summary.tolerance, "last phase"))
     return "\n".join(lines)
+
+
+def _settled(again: str, time: float | None, tolerance: float, phase: str) -> str:
+    if time is None:
+        return f"coordination error never below {tolerance:g} to the end of the {phase}"
+    return f"coordination error below {tolerance:g}{again} from t = {time:.1f} s ({phase})"
 
 
 def _number(value: float, spec: str) -> str:
     """value formatted, or "-" for NaN (nothing to say: no vehicle, or no pair of vehicles, alive)."""
     return "-" if math.isnan(value) else format(value, spec)
 
-
-def _time(value: float | None) -> str:
-    return "never" if value is None else f"{value:.1f}"

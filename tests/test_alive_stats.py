@@ -113,3 +113,11 @@ def test_the_coordination_figure_draws_nothing_where_a_vehicle_was_down() -> Non
     assert t.size == 100
     assert np.isnan(diff[DOWN]).all()  # not interpolated across the gap
     np.testing.assert_allclose(diff[~DOWN], -2.0)
+
+
+def test_a_fleet_that_never_settles_is_said_in_words() -> None:
+    """It printed 'below 0.01 from t = never s'."""
+    text = format_summary(summarize(fleet(), DURATION, FAULTS, TRANSIENT, TUBE, 0.01))  # 2 apart: never below 0.01
+    assert "coordination error never below 0.01 to the end of the first phase" in text
+    assert "coordination error never below 0.01 to the end of the last phase" in text
+    assert "never s" not in text
