@@ -214,10 +214,9 @@ def fig_lambda2(run: RunData) -> Figure:
     horizon = float(run.stats[0].get("horizon", window))
     counted = "in the window" if horizon <= window else f"in the last {horizon:g} s"
     title = (
-        rf"Delivered-graph connectivity $\lambda_2$ per {window:g} s window (pairs that delivered {counted}): "
-        f"{run.name}"
-        f"\n{len(values)} windows, min {values.min():.3g}, mean {values.mean():.3g}, "
-        f"{disconnected} of them disconnected ($\\lambda_2$ = 0)"
+        rf"Delivered-graph connectivity $\lambda_2$: {run.name}"
+        f"\nper {window:g} s window (pairs that delivered {counted})\n{len(values)} windows: "
+        f"min {values.min():.3g}, mean {values.mean():.3g}, {disconnected} disconnected ($\\lambda_2$ = 0)"
     )
     finish_time_axes(ax, run, r"$\lambda_2$ of the delivered graph", title)
     start, end = run.t_range
