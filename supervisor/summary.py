@@ -185,4 +185,3 @@ def _settled(again: str, time: float | None, tolerance: float, phase: str) -> st
 def _number(value: float, spec: str) -> str:
     """value formatted, or "-" for NaN (nothing to say: no vehicle, or no pair of vehicles, alive)."""
     return "-" if math.isnan(value) else format(value, spec)
-
