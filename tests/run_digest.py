@@ -1,0 +1,98 @@
+"""Digests of what a run recorded, by kind of record, to hold a restructuring to bit-identical results.
+
+`python -m tests.run_digest` runs the reference runs (the paper scenario, paper_acoustic and a 20-seed fault soak,
+on the engines named below) and writes tests/data/run_digests.json; tests/test_bit_identical.py runs them again and
+compares. Regenerate the file only for a change that is meant to change results, and say so in the commit.
+
+A digest is the SHA-256 of every record of one kind (state, tx, rx, event, fault, graph, stats) in canonical form:
+sorted keys, floats as Python prints them (round-trip exact), ordered by log time and then by content (processes
+that write at the same simulated instant may reach the recorder in any order).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from supervisor.record.recorder import read_messages
+from tests.conftest import CONFIGS, shortened
+from tests.procs import cpf
+from tests.test_faults_e2e import random_schedule
+
+FIXTURE = Path(__file__).resolve().parent / "data" / "run_digests.json"
+KINDS = {
+    "state": "/state",
+    "tx": "/tx",
+    "rx": "/rx",
+    "event": "cpf/comms/event",
+    "fault": "cpf/run/fault",
+    "graph": "cpf/run/graph",
+    "stats": "cpf/comms/stats",
+}
+SOAK_SEEDS = range(20)
+
+
+def kind_of(topic: str) -> str | None:
+    for kind, mark in KINDS.items():
+        if topic.endswith(mark) or topic == mark:
+            return kind
+    return None
+
+
+def digest(log: Path) -> dict[str, str]:
+    """kind -> 'count:sha256' of the log's records of that kind."""
+    rows: dict[str, list[tuple[int, str]]] = {kind: [] for kind in KINDS}
+    for topic, log_time, message in read_messages(log):
+        kind = kind_of(topic)
+        if kind is not None:
+            rows[kind].append((log_time, topic + json.dumps(message, sort_keys=True)))
+    out = {}
+    for kind, found in rows.items():
+        found.sort()
+        text = "\n".join(line for _, line in found)
+        out[kind] = f"{len(found)}:{hashlib.sha256(text.encode()).hexdigest()}"
+    return out
+
+
+def reference_runs() -> dict[str, tuple[str, list[str]]]:
+    """name -> (scenario text, extra cpf run arguments)."""
+    paper = (CONFIGS / "paper.toml").read_text()
+    acoustic = (CONFIGS / "paper_acoustic.toml").read_text()
+    runs: dict[str, tuple[str, list[str]]] = {}
+    for engine in ("inprocess", "zenoh"):
+        runs[f"paper-{engine}"] = (paper, ["--engine", engine])
+        runs[f"acoustic-{engine}"] = (acoustic, ["--engine", engine])
+    for seed in SOAK_SEEDS:
+        faults = random_schedule(np.random.default_rng(seed), 30.0)
+        extra = [arg for spec in faults for arg in ("--fault", spec)]
+        runs[f"soak{seed}-inprocess"] = (shortened(paper, 30.0), ["--engine", "inprocess", "--seed", str(seed), *extra])
+    return runs
+
+
+def run_and_digest(name: str, text: str, extra: list[str], workdir: Path) -> dict[str, str]:
+    scenario = workdir / f"{name}.toml"
+    scenario.write_text(text)
+    out = workdir / f"{name}.mcap"
+    done = cpf("run", str(scenario), "--quiet", "--out", str(out), *extra, cwd=workdir)
+    if done.returncode != 0:
+        raise RuntimeError(f"{name}: cpf run failed: {done.stderr.strip()}")
+    return digest(out)
+
+
+def main(workdir: Path) -> int:
+    results = {name: run_and_digest(name, text, extra, workdir) for name, (text, extra) in reference_runs().items()}
+    FIXTURE.parent.mkdir(parents=True, exist_ok=True)
+    FIXTURE.write_text(json.dumps(results, indent=1, sort_keys=True) + "\n")
+    print(f"{len(results)} runs -> {FIXTURE}")
+    return 0
+
+
+if __name__ == "__main__":
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        sys.exit(main(Path(tmp)))
