@@ -19,7 +19,7 @@ run: $(STAMP)
 	$(BIN)/cpf run $(SCENARIO) --out $(OUT)/run.mcap
 	$(BIN)/cpf report $(OUT)/run.mcap --out $(OUT)
 
-# The scenario reference and JSON Schema, generated from supervisor/scenario_schema.py (tests/test_reference.py).
+# The scenario reference and JSON Schema, generated from supervisor/config/scenario_schema.py (tests/test_reference.py).
 docs: $(STAMP)
 	mkdir -p docs
 	$(BIN)/cpf schema --markdown > docs/scenario-reference.md
@@ -34,6 +34,7 @@ bench: $(STAMP)
 
 lint: $(STAMP)
 	$(BIN)/ruff check .
+	$(BIN)/lint-imports
 	$(BIN)/ruff format --check .
 
 typecheck: $(STAMP)

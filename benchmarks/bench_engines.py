@@ -16,10 +16,10 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from supervisor.cosim import BusOptions, run_zenoh
-from supervisor.inprocess import run_inprocess
-from supervisor.progress import Progress
-from supervisor.scenario import load_scenario
+from supervisor.config.scenario import load_scenario
+from supervisor.engine.cosim import BusOptions, run_zenoh
+from supervisor.engine.inprocess import run_inprocess
+from supervisor.engine.progress import Progress
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "benchmarks" / "results"

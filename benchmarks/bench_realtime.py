@@ -19,10 +19,10 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-from supervisor.cosim import BusOptions, run_zenoh
-from supervisor.progress import Progress
-from supervisor.realtime_timing import format_timing
-from supervisor.scenario import load_scenario
+from supervisor.config.scenario import load_scenario
+from supervisor.engine.cosim import BusOptions, run_zenoh
+from supervisor.engine.progress import Progress
+from supervisor.engine.realtime_timing import format_timing
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "benchmarks" / "results"

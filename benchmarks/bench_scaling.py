@@ -18,10 +18,10 @@ import threading
 from pathlib import Path
 from typing import Any
 
-from supervisor.cosim import BusOptions, run_zenoh
-from supervisor.inprocess import run_inprocess
-from supervisor.progress import Progress
-from supervisor.scenario import parse_scenario
+from supervisor.config.scenario import parse_scenario
+from supervisor.engine.cosim import BusOptions, run_zenoh
+from supervisor.engine.inprocess import run_inprocess
+from supervisor.engine.progress import Progress
 
 RESULTS = Path(__file__).resolve().parent / "results"
 TICKS = os.sysconf("SC_CLK_TCK")

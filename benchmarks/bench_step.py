@@ -12,8 +12,8 @@ import timeit
 from dataclasses import replace
 from pathlib import Path
 
-from supervisor.fleet import initial_state, vehicle_config
-from supervisor.scenario import load_scenario
+from supervisor.config.fleet import initial_state, vehicle_config
+from supervisor.config.scenario import load_scenario
 from vehicles.agent import step
 from vehicles.estimates import NeighbourEstimate
 

@@ -17,11 +17,11 @@ from pathlib import Path
 from types import FrameType
 from typing import TYPE_CHECKING
 
-from supervisor import resim_settings  # light: the table only, for the help text
+from supervisor.engine import resim_settings  # light: the table only, for the help text
 from supervisor.errors import CpfError, ScenarioError
 
 if TYPE_CHECKING:
-    from supervisor.scenario_schema import Scenario
+    from supervisor.config.scenario_schema import Scenario
 
 EXIT_RUNTIME, EXIT_INPUT, EXIT_INTERRUPTED = 1, 2, 130
 START_TIMEOUT = 60.0  # s: cpf run's default --start-timeout
@@ -163,7 +163,7 @@ def _add_learning_commands(sub: argparse._SubParsersAction[argparse.ArgumentPars
 def _option_errors(args: argparse.Namespace, scenario: Scenario) -> list[str]:
     """Option combinations that cannot do what they say, '<option>: <problem>, got <value>' each. Checked before
     anything starts, for both engines alike."""
-    from supervisor.scenario_schema import VehicleKillFault
+    from supervisor.config.scenario_schema import VehicleKillFault
 
     errors = [
         f"--remote: no vehicle {vid} in [[vehicles]] {scenario.vehicle_ids}, got {vid}"
@@ -191,16 +191,16 @@ def _option_errors(args: argparse.Namespace, scenario: Scenario) -> list[str]:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from supervisor.comms_summary import comms_summary, format_comms
-    from supervisor.cosim import BusOptions, run_zenoh
-    from supervisor.faults import intervals
-    from supervisor.inprocess import run_inprocess
-    from supervisor.metrics import finite
-    from supervisor.progress import Progress
-    from supervisor.realtime_timing import format_timing
-    from supervisor.scenario import load_scenario
-    from supervisor.scenario_checks import scenario_warnings
-    from supervisor.summary import format_summary, summarize
+    from supervisor.analysis.comms_summary import comms_summary, format_comms
+    from supervisor.analysis.metrics import finite
+    from supervisor.analysis.summary import format_summary, summarize
+    from supervisor.config.derived import intervals, tube_radius
+    from supervisor.config.scenario import load_scenario
+    from supervisor.config.scenario_checks import scenario_warnings
+    from supervisor.engine.cosim import BusOptions, run_zenoh
+    from supervisor.engine.inprocess import run_inprocess
+    from supervisor.engine.progress import Progress
+    from supervisor.engine.realtime_timing import format_timing
 
     scenario = load_scenario(args.scenario, args.set, args.fault)
     errors = [f"{args.scenario}: {line}" for line in _option_errors(args, scenario)]
@@ -218,11 +218,11 @@ def _run(args: argparse.Namespace) -> int:
     else:
         timeout = START_TIMEOUT if args.start_timeout is None else args.start_timeout
         bus = BusOptions(args.listen, args.connect, args.remote, tuple(args.set), tuple(args.fault), timeout)
-        logging.getLogger("supervisor.cosim").setLevel(logging.INFO)  # "waiting for ...": --quiet or not
+        logging.getLogger("supervisor.engine.cosim").setLevel(logging.INFO)  # "waiting for ...": --quiet or not
         result = run_zenoh(scenario, args.scenario, text, out, seed, args.clock, speed, bus, progress)
     faults = intervals(scenario)
     rep = scenario.report
-    tube = abs(scenario.path_following.delta) + rep.tube_margin
+    tube = tube_radius(scenario)
     summary = summarize(
         result.series, scenario.scenario.duration, faults, rep.transient, tube, rep.coordination_tolerance
     )
@@ -247,9 +247,9 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def _vehicle(args: argparse.Namespace) -> int:
-    from supervisor.fleet import initial_state, radio, restarted_node, vehicle_config
-    from supervisor.scenario import load_scenario
-    from supervisor.scenario_digest import hello
+    from supervisor.config.fleet import initial_state, radio, restarted_node, vehicle_config
+    from supervisor.config.scenario import load_scenario
+    from supervisor.config.scenario_digest import hello
     from vehicles.node import run_vehicle
     from vehicles.runtime import NodeState
 
@@ -279,9 +279,9 @@ def _starting_at(scenario: Scenario, vid: int, gamma0: float | None) -> Scenario
 
 def _comms(args: argparse.Namespace) -> int:
     from comms.broker import run_broker
-    from supervisor.fleet import broker_core
-    from supervisor.scenario import load_scenario
-    from supervisor.scenario_digest import hello
+    from supervisor.config.fleet import broker_core
+    from supervisor.config.scenario import load_scenario
+    from supervisor.config.scenario_digest import hello
 
     scenario = load_scenario(args.scenario, args.set, args.fault)
     seed = scenario.scenario.seed if args.seed is None else args.seed
@@ -291,7 +291,7 @@ def _comms(args: argparse.Namespace) -> int:
 
 
 def _report(args: argparse.Namespace) -> int:
-    from supervisor.report import write_report
+    from supervisor.analysis.report import write_report
 
     for path in write_report(args.log, args.out or args.log.parent):
         print(path)
@@ -299,7 +299,7 @@ def _report(args: argparse.Namespace) -> int:
 
 
 def _info(args: argparse.Namespace) -> int:
-    from supervisor.info import overview
+    from supervisor.tools.info import overview
 
     text, problem = overview(args.log)
     print(text)
@@ -309,8 +309,8 @@ def _info(args: argparse.Namespace) -> int:
 
 
 def _sweep(args: argparse.Namespace) -> int:
-    from supervisor.sweep import parse_param, sweep
-    from supervisor.sweep_plot import plot_sweep
+    from supervisor.tools.sweep import parse_param, sweep
+    from supervisor.tools.sweep_plot import plot_sweep
 
     if args.seeds < 1 or args.jobs < 1:
         raise ScenarioError(f"--seeds and --jobs must be >= 1, got {args.seeds} and {args.jobs}")
@@ -323,14 +323,14 @@ def _sweep(args: argparse.Namespace) -> int:
 
 
 def _resim(args: argparse.Namespace) -> int:
-    from supervisor.faults import intervals
-    from supervisor.resim import resimulate
-    from supervisor.summary import format_summary, summarize
+    from supervisor.analysis.summary import format_summary, summarize
+    from supervisor.config.derived import intervals, tube_radius
+    from supervisor.engine.resim import resimulate
 
     out = args.out or args.log.with_name(f"{args.log.stem}.resim.mcap")
     sc, original, new = resimulate(args.log, args.set, out)
     rep, duration = sc.report, sc.scenario.duration
-    tube = abs(sc.path_following.delta) + rep.tube_margin
+    tube = tube_radius(sc)
     for title, series in (("as run", original), (f"re-simulated with {' '.join(args.set) or 'no change'}", new)):
         print(f"{title}:")
         print(
@@ -341,7 +341,7 @@ def _resim(args: argparse.Namespace) -> int:
 
 
 def _replay(args: argparse.Namespace) -> int:
-    from supervisor.replay import ProgressLine, replay, wait_to_start
+    from supervisor.tools.replay import ProgressLine, replay, wait_to_start
 
     progress = ProgressLine()
     try:
@@ -356,7 +356,7 @@ def _replay(args: argparse.Namespace) -> int:
 
 
 def _recover(args: argparse.Namespace) -> int:
-    from supervisor.recover import RecoveryError, recover
+    from supervisor.record.recover import RecoveryError, recover
 
     if not args.log.is_file():
         raise ScenarioError(f"{args.log}: no such log file")
@@ -370,15 +370,15 @@ def _recover(args: argparse.Namespace) -> int:
 
 
 def _schema(args: argparse.Namespace) -> int:
-    from supervisor.reference import markdown, schema_text
+    from supervisor.config.reference import markdown, schema_text
 
     print(markdown() if args.markdown else schema_text(), end="")
     return 0
 
 
 def _validate(args: argparse.Namespace) -> int:
-    from supervisor.explain import what_would_run
-    from supervisor.scenario import load_scenario
+    from supervisor.config.explain import what_would_run
+    from supervisor.config.scenario import load_scenario
 
     scenario = load_scenario(args.scenario, args.set, args.fault)  # ScenarioError: every error, exit 2
     print(textwrap.fill(f"{args.scenario}: valid. {what_would_run(scenario)}", width=100, break_on_hyphens=False))
@@ -386,7 +386,7 @@ def _validate(args: argparse.Namespace) -> int:
 
 
 def _presets(args: argparse.Namespace) -> int:
-    from supervisor.presets_table import presets_text
+    from supervisor.config.presets_table import presets_text
 
     print(presets_text())
     return 0

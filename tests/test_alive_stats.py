@@ -11,10 +11,10 @@ import math
 import numpy as np
 import pytest
 
-from supervisor.figures import aligned
-from supervisor.metrics import run_metrics
-from supervisor.report import RunData, VehicleSeries
-from supervisor.summary import Series, coordination_error, format_summary, summarize
+from supervisor.analysis.figures import aligned
+from supervisor.analysis.metrics import run_metrics
+from supervisor.analysis.report import RunData, VehicleSeries
+from supervisor.analysis.summary import Series, coordination_error, format_summary, summarize
 
 DURATION, TRANSIENT, TUBE = 100.0, 10.0, 1.2
 FAULTS = [("vehicle_kill", 40.0, 60.0)]

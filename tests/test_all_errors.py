@@ -9,8 +9,8 @@ from pathlib import Path
 
 import pytest
 
+from supervisor.config.scenario import load_scenario, parse_scenario, scenario_errors, validate_data
 from supervisor.errors import ScenarioError
-from supervisor.scenario import load_scenario, parse_scenario, scenario_errors, validate_data
 from tests.conftest import CONFIGS
 from tests.procs import cpf
 

@@ -44,8 +44,8 @@ from comms.messages import (
     tx_message,
 )
 from comms.network import Network
-from supervisor.fleet import broker_core
-from supervisor.scenario import load_scenario
+from supervisor.config.fleet import broker_core
+from supervisor.config.scenario import load_scenario
 from tests.conftest import RecordingPublishers
 from tests.test_messages import assert_valid, first_step
 from vehicles.agent import Telemetry

@@ -21,8 +21,8 @@ from comms.loss import Bernoulli
 from comms.modem import ModemParams
 from comms.stats import LinkStats
 from comms.wire import SIZE, encode_coordination
+from supervisor.config.scenario import parse_scenario
 from supervisor.errors import ScenarioError
-from supervisor.scenario import parse_scenario
 from vehicles.geometry import FloatArray
 from vehicles.transmission import Transmission
 

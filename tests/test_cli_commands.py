@@ -9,10 +9,10 @@ import pytest
 
 from comms.modem import PRESETS as MODEMS
 from supervisor.cli import _parser, main
+from supervisor.config.presets_table import top_speed
+from supervisor.config.reference import json_schema, markdown
+from supervisor.config.scenario import load_scenario
 from supervisor.errors import ScenarioError
-from supervisor.presets_table import top_speed
-from supervisor.reference import json_schema, markdown
-from supervisor.scenario import load_scenario
 from tests.conftest import CONFIGS
 from vehicles.params import PRESETS
 

@@ -19,10 +19,10 @@ import pytest
 from mcap.reader import make_reader
 
 from comms.channel import intake_step
-from supervisor.cosim import BusOptions, run_zenoh
-from supervisor.progress import Progress
-from supervisor.recorder import read_messages
-from supervisor.scenario import load_scenario
+from supervisor.config.scenario import load_scenario
+from supervisor.engine.cosim import BusOptions, run_zenoh
+from supervisor.engine.progress import Progress
+from supervisor.record.recorder import read_messages
 from tests.conftest import CONFIGS, shortened
 from tests.procs import cpf, kill_vehicle_process, processes_with, start_cpf, wait_for_progress
 

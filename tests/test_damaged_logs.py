@@ -1,5 +1,5 @@
 """Every command that reads a log (report, info, resim, replay) refuses a log cut short or damaged alike: exit 2, one
-line on stderr that names the log and points to `cpf recover`, never a traceback (supervisor/logfile.py)."""
+line on stderr that names the log and points to `cpf recover`, never a traceback (supervisor/record/logfile.py)."""
 
 from __future__ import annotations
 
@@ -10,11 +10,11 @@ import pytest
 from mcap.reader import make_reader
 
 from supervisor import cli
-from supervisor.inprocess import run_inprocess
-from supervisor.logfile import LogError, messages, verify
-from supervisor.progress import Progress
-from supervisor.recover import recover
-from supervisor.scenario import parse_scenario
+from supervisor.config.scenario import parse_scenario
+from supervisor.engine.inprocess import run_inprocess
+from supervisor.engine.progress import Progress
+from supervisor.record.logfile import LogError, messages, verify
+from supervisor.record.recover import recover
 from tests.conftest import CONFIGS, shortened
 
 DURATION = 20.0  # s simulated: a few chunks

@@ -11,8 +11,8 @@ from pathlib import Path
 
 import pytest
 
-from supervisor.scenario import load_scenario
-from supervisor.scenario_schema import FaultSpec
+from supervisor.config.scenario import load_scenario
+from supervisor.config.scenario_schema import FaultSpec
 from tests.conftest import CONFIGS
 from tests.procs import cpf
 

@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import pytest
 
+from supervisor.config.derived import active, intervals
+from supervisor.config.scenario import fault_table, parse_scenario
 from supervisor.errors import ScenarioError
-from supervisor.faults import active, disturbances, events_at, intervals, network_at, process_actions
-from supervisor.scenario import fault_table, parse_scenario
+from supervisor.plan.faults import disturbances, events_at, network_at, process_actions
 from tests.conftest import CONFIGS
 
 DT = 0.1

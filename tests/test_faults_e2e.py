@@ -17,7 +17,7 @@ import pytest
 from mcap.exceptions import McapError
 from mcap.reader import make_reader
 
-from supervisor.recorder import read_messages
+from supervisor.record.recorder import read_messages
 from tests.conftest import shortened
 from tests.procs import cpf, kill_vehicle_process, processes_with, start_cpf, wait_for_no_processes, wait_for_progress
 

@@ -1,4 +1,4 @@
-"""Tests for the figures people read (supervisor.figures through write_figures, supervisor.sweep_plot through
+"""Tests for the figures people read (analysis.figures through write_figures, supervisor.tools.sweep_plot through
 plot_sweep): asserted on the matplotlib objects each figure was saved from, not on pixels.
 
 Synthetic fleets: n vehicles on concentric circles (radius 10 + 5 i m), gammas converging to t from spread starts,
@@ -19,12 +19,12 @@ import pytest
 from matplotlib.figure import Figure
 from matplotlib.text import Text
 
-from supervisor.inprocess import run_inprocess
-from supervisor.progress import Progress
-from supervisor.report import RunData, VehicleSeries, write_figures, write_report
-from supervisor.scenario import parse_scenario
-from supervisor.sweep import Param
-from supervisor.sweep_plot import plot_sweep
+from supervisor.analysis.report import RunData, VehicleSeries, write_figures, write_report
+from supervisor.config.scenario import parse_scenario
+from supervisor.engine.inprocess import run_inprocess
+from supervisor.engine.progress import Progress
+from supervisor.tools.sweep import Param
+from supervisor.tools.sweep_plot import plot_sweep
 from tests.conftest import shortened
 
 STEP, DURATION, PERIOD = 0.5, 200.0, 300.0

@@ -1,4 +1,4 @@
-"""Tests for supervisor.info: describing a log from its summary, from reading it, and when it is cut short."""
+"""Tests for supervisor.tools.info: describing a log from its summary, from reading it, and when it is cut short."""
 
 from __future__ import annotations
 
@@ -12,14 +12,14 @@ from mcap.reader import make_reader
 from mcap.records import ChunkIndex
 from mcap.writer import Writer
 
-from supervisor import info
-from supervisor.info import LogError, describe, overview
-from supervisor.inprocess import run_inprocess
-from supervisor.logfile import read_raw
-from supervisor.progress import Progress
-from supervisor.recorder import read_messages
-from supervisor.recover import recover
-from supervisor.scenario import parse_scenario
+from supervisor.config.scenario import parse_scenario
+from supervisor.engine.inprocess import run_inprocess
+from supervisor.engine.progress import Progress
+from supervisor.record.logfile import read_raw
+from supervisor.record.recorder import read_messages
+from supervisor.record.recover import recover
+from supervisor.tools import info
+from supervisor.tools.info import LogError, describe, overview
 from tests.conftest import CONFIGS, shortened
 
 DURATION = 30.0
@@ -43,7 +43,7 @@ def topic_counts(text: str) -> dict[str, int]:
 
 
 def logged_counts(path: Path) -> dict[str, int]:
-    """Messages per topic as supervisor.recorder reads them (a different reader)."""
+    """Messages per topic as supervisor.record.recorder reads them (a different reader)."""
     return dict(Counter(topic for topic, _, _ in read_messages(path)))
 
 

@@ -1,6 +1,6 @@
 """gamma0 = "closest": where each vehicle starts along its path, and that a fleet started side by side agrees.
 
-The rule (supervisor.fleet.initial_gamma, vehicles.nearest.nearest_gamma): the first vehicle takes its nearest point
+The rule (config.fleet.initial_gamma, vehicles.nearest.nearest_gamma): the first vehicle takes its nearest point
 within half a period of gamma = 0 (a circle or helix) or on its whole path (a line or lawnmower); every other vehicle
 on a circle or helix takes its nearest point within half a period of the first vehicle's gamma0, on a line or
 lawnmower the nearest point of its whole path. Ties: the point nearest that reference.
@@ -19,9 +19,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from supervisor.fleet import build_path, initial_state, vehicle_config
-from supervisor.scenario import load_scenario, parse_scenario
-from supervisor.scenario_schema import CirclePath, HelixPath, Scenario, VehicleSection
+from supervisor.config.fleet import build_path, initial_state, vehicle_config
+from supervisor.config.scenario import load_scenario, parse_scenario
+from supervisor.config.scenario_schema import CirclePath, HelixPath, Scenario, VehicleSection
 from vehicles.nearest import nearest_gamma, search_interval
 from vehicles.paths import Circle, Helix, Lawnmower, Line
 from vehicles.paths import Path as PathModel

@@ -9,12 +9,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from supervisor.faults import intervals
-from supervisor.inprocess import RunResult, run_inprocess
-from supervisor.progress import Progress
-from supervisor.recorder import read_messages
-from supervisor.scenario import parse_scenario
-from supervisor.summary import Summary, summarize
+from supervisor.analysis.summary import Summary, summarize
+from supervisor.config.derived import intervals
+from supervisor.config.scenario import parse_scenario
+from supervisor.engine.inprocess import RunResult, run_inprocess
+from supervisor.engine.progress import Progress
+from supervisor.record.recorder import read_messages
 from tests.conftest import CONFIGS, shortened
 
 
@@ -185,7 +185,7 @@ def test_acoustic_paper_scenario_on_tdma_keeps_formation(tmp_path):
 
 
 def test_a_run_shorter_than_the_transient_does_not_judge_the_tube(tmp_path, paper_text):
-    from supervisor.summary import format_summary
+    from supervisor.analysis.summary import format_summary
 
     _, summary = run_text(shortened(paper_text, 5.0), tmp_path / "short.mcap")
     text = format_summary(summary)

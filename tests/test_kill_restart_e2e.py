@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from supervisor.recorder import read_messages
+from supervisor.record.recorder import read_messages
 from tests.conftest import shortened
 from tests.procs import cpf, processes_with
 

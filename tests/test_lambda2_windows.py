@@ -18,15 +18,15 @@ import pytest
 
 from comms.channel import LinkEvent
 from comms.stats import LinkStats, clamp_lambda2
-from supervisor.comms_summary import comms_summary, format_comms
-from supervisor.fleet import delivered_graph_horizon, transmit_interval
-from supervisor.inprocess import run_inprocess
-from supervisor.metrics import run_metrics
-from supervisor.progress import Progress
-from supervisor.report import RunData
-from supervisor.report_comms import fig_lambda2
-from supervisor.scenario import parse_scenario
-from supervisor.scenario_schema import Scenario
+from supervisor.analysis.comms_summary import comms_summary, format_comms
+from supervisor.analysis.metrics import run_metrics
+from supervisor.analysis.report import RunData
+from supervisor.analysis.report_comms import fig_lambda2
+from supervisor.config.fleet import delivered_graph_horizon, transmit_interval
+from supervisor.config.scenario import parse_scenario
+from supervisor.config.scenario_schema import Scenario
+from supervisor.engine.inprocess import run_inprocess
+from supervisor.engine.progress import Progress
 from vehicles.coordination import algebraic_connectivity, laplacian
 
 PATH_GRAPH_6 = 2 * (1 - math.cos(math.pi / 6))  # lambda_2 of the path graph on six vertices

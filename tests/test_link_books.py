@@ -6,7 +6,7 @@ import pytest
 
 from comms.channel import LinkEvent
 from comms.stats import LinkStats
-from supervisor.books import LinkBooks
+from supervisor.engine.books import LinkBooks
 
 IDS = (1, 2, 3)
 

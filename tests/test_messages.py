@@ -68,8 +68,8 @@ from comms.schemas import (
 )
 from comms.stats import LinkStats
 from comms.wire import SIZE, encode_coordination
-from supervisor.fleet import initial_state, radio, vehicle_config
-from supervisor.scenario import load_scenario
+from supervisor.config.fleet import initial_state, radio, vehicle_config
+from supervisor.config.scenario import load_scenario
 from vehicles.agent import Disturbances, Telemetry
 from vehicles.dynamics import PLANAR, SPATIAL, Model
 from vehicles.geometry import rotation_2d, rotation_from_rpy

@@ -21,8 +21,8 @@ from comms.loss import Bernoulli, GilbertElliott
 from comms.modem import PRESETS, ModemParams, modem
 from comms.stats import LinkStats
 from comms.wire import SIZE, decode_coordination, encode_coordination
-from supervisor.fleet import initial_state, vehicle_config
-from supervisor.scenario import load_scenario
+from supervisor.config.fleet import initial_state, vehicle_config
+from supervisor.config.scenario import load_scenario
 from vehicles.agent import Disturbances
 from vehicles.estimates import NeighbourEstimate
 from vehicles.runtime import NodeState, Radio, node_step

@@ -11,9 +11,9 @@ from pathlib import Path
 import pytest
 
 from supervisor.cli import main
+from supervisor.config.scenario import parse_scenario
+from supervisor.config.scenario_checks import scenario_warnings
 from supervisor.errors import ScenarioError
-from supervisor.scenario import parse_scenario
-from supervisor.scenario_checks import scenario_warnings
 from tests.conftest import CONFIGS
 from tests.procs import cpf
 

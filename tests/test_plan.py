@@ -1,13 +1,13 @@
-"""The step plan (supervisor/plan.py) against the fault schedule asked step by step, and its change steps."""
+"""The step plan (supervisor/plan/schedule.py) against the fault schedule asked step by step, and its change steps."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from supervisor.faults import disturbances, events_at, network_at, process_actions
-from supervisor.plan import Schedule
-from supervisor.scenario import parse_scenario
+from supervisor.config.scenario import parse_scenario
+from supervisor.plan.faults import disturbances, events_at, network_at, process_actions
+from supervisor.plan.schedule import Schedule
 from tests.conftest import shortened
 from tests.test_faults_e2e import random_schedule
 from vehicles.agent import Disturbances

@@ -1,4 +1,4 @@
-"""supervisor.realtime_timing: how a realtime run kept to the wall clock, from the vehicles' records."""
+"""supervisor.engine.realtime_timing: how a realtime run kept to the wall clock, from the vehicles' records."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import pytest
 
 from comms.channel import Reception
 from comms.messages import Message, rx_message
-from supervisor.realtime_timing import RealtimeTiming, format_timing
+from supervisor.engine.realtime_timing import RealtimeTiming, format_timing
 
 DT = 0.1
 

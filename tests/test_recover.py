@@ -1,4 +1,4 @@
-"""Tests for supervisor.recover and the recorder's crash safety: truncated logs, a SIGKILLed writer, bad input."""
+"""Tests for record.recover and the recorder's crash safety: truncated logs, a SIGKILLed writer, bad input."""
 
 from __future__ import annotations
 
@@ -21,9 +21,9 @@ from mcap.opcode import Opcode
 from mcap.reader import make_reader
 
 from comms.messages import COMMS_STATS_KEY, META_KEY, TICK_KEY, rx_key, state_key, tick_message, tx_key
-from supervisor import recorder
-from supervisor.recorder import Recorder, seconds_to_ns
-from supervisor.recover import MAGIC, RecoveryError, recover
+from supervisor.record import recorder
+from supervisor.record.recorder import Recorder, seconds_to_ns
+from supervisor.record.recover import MAGIC, RecoveryError, recover
 
 ROOT = Path(__file__).resolve().parent.parent
 VEHICLES = (1, 2, 3, 4)
@@ -227,7 +227,7 @@ def test_the_recorder_hands_a_chunk_to_the_os_every_flush_interval(
 CHILD = """
 import sys, time
 from pathlib import Path
-from supervisor.recorder import Recorder
+from supervisor.record.recorder import Recorder
 
 rec = Recorder(Path(sys.argv[1]))
 keys = ["cpf/vehicle/1/state", "cpf/vehicle/2/state", "cpf/vehicle/3/state", "cpf/clock/tick"]

@@ -11,8 +11,8 @@ import jsonschema
 import pytest
 from pydantic import BaseModel
 
-from supervisor.reference import json_schema, markdown, schema_text
-from supervisor.scenario_schema import FaultSpec, PathSpec, Scenario
+from supervisor.config.reference import json_schema, markdown, schema_text
+from supervisor.config.scenario_schema import FaultSpec, PathSpec, Scenario
 from tests.conftest import CONFIGS, ROOT
 
 DOCS = ROOT / "docs"

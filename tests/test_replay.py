@@ -1,4 +1,4 @@
-"""`cpf replay` (supervisor/replay.py): a real run's log published again over localhost Zenoh and counted back."""
+"""`cpf replay` (supervisor/tools/replay.py): a real run's log published again over localhost Zenoh and counted back."""
 
 from __future__ import annotations
 
@@ -17,13 +17,13 @@ import zenoh
 
 from comms.bus import free_port, open_session
 from comms.messages import META_KEY, ROOT, Message, decode
+from supervisor.config.scenario import parse_scenario
+from supervisor.engine.inprocess import run_inprocess
+from supervisor.engine.progress import Progress
 from supervisor.errors import ScenarioError
-from supervisor.inprocess import run_inprocess
-from supervisor.progress import Progress
-from supervisor.recorder import read_messages, seconds_to_ns
-from supervisor.replay import ReplayReport, replay
-from supervisor.replay_bus import bus_form, latched
-from supervisor.scenario import parse_scenario
+from supervisor.record.recorder import read_messages, seconds_to_ns
+from supervisor.tools.replay import ReplayReport, replay
+from supervisor.tools.replay_bus import bus_form, latched
 
 pytestmark = pytest.mark.integration
 
@@ -59,7 +59,7 @@ def logged(raw: Logged) -> Logged:
 
 def bus_window(raw: Logged, start: float | None = None, end: float | None = None) -> Logged:
     """What a replay of the window publishes: the latched state before it (at its start), then its records in the
-    form of the live bus (supervisor.replay_bus)."""
+    form of the live bus (supervisor.tools.replay_bus)."""
     lo = 0 if start is None else seconds_to_ns(start)
     hi = raw[-1][1] if end is None else seconds_to_ns(end)
     meta = next(m for t, _, m in raw if t == META_KEY)

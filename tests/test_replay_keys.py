@@ -25,11 +25,11 @@ from comms.messages import (
     decode,
     state_key,
 )
-from supervisor.cosim import BusOptions, run_zenoh
-from supervisor.progress import Progress
-from supervisor.recorder import read_messages
-from supervisor.replay import replay
-from supervisor.scenario import parse_scenario
+from supervisor.config.scenario import parse_scenario
+from supervisor.engine.cosim import BusOptions, run_zenoh
+from supervisor.engine.progress import Progress
+from supervisor.record.recorder import read_messages
+from supervisor.tools.replay import replay
 from tests.conftest import CONFIGS, shortened
 from tests.test_replay import router
 

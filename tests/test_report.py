@@ -1,4 +1,4 @@
-"""Tests for supervisor.report: loading a recorded run into arrays, fault intervals, and the PNG figures."""
+"""Tests for supervisor.analysis.report: loading a recorded run into arrays, fault intervals, and the PNG figures."""
 
 from __future__ import annotations
 
@@ -15,15 +15,15 @@ import numpy as np
 import pytest
 
 from comms.messages import COMMS_EVENT_KEY, COMMS_STATS_KEY, FAULT_KEY, GRAPH_KEY, META_KEY, state_key
-from supervisor.info import LogError
-from supervisor.inprocess import RunResult, run_inprocess
-from supervisor.metrics import STEADY_STATE_WINDOW, run_metrics
-from supervisor.progress import Progress
-from supervisor.recorder import Recorder, read_messages
-from supervisor.recover import recover
-from supervisor.report import FaultInterval, RunData, load_run, write_figures, write_report
-from supervisor.scenario import parse_scenario
-from supervisor.summary import summarize
+from supervisor.analysis.metrics import STEADY_STATE_WINDOW, run_metrics
+from supervisor.analysis.report import FaultInterval, RunData, load_run, write_figures, write_report
+from supervisor.analysis.summary import summarize
+from supervisor.config.scenario import parse_scenario
+from supervisor.engine.inprocess import RunResult, run_inprocess
+from supervisor.engine.progress import Progress
+from supervisor.record.recorder import Recorder, read_messages
+from supervisor.record.recover import recover
+from supervisor.tools.info import LogError
 from tests.conftest import CONFIGS, shortened
 
 # --- a synthetic run --------------------------------------------------------------------------------------
@@ -387,7 +387,7 @@ def _no_constant(name: str) -> None:
 
 @pytest.fixture(scope="module")
 def logged(real: RealRun) -> list[tuple[str, int, dict[str, Any]]]:
-    """The log as supervisor.recorder reads it: independent of the report's reader."""
+    """The log as supervisor.record.recorder reads it: independent of the report's reader."""
     return read_messages(real.log)
 
 

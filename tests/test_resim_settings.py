@@ -1,5 +1,5 @@
 """`cpf resim` applies only settings that act inside a vehicle; any other --set is refused (exit 2, one line naming
-the key and value and why), never silently ignored (supervisor/resim_settings.py, supervisor/resim.py)."""
+the key and value and why), never silently ignored (supervisor/engine/resim_settings.py, supervisor/engine/resim.py)."""
 
 from __future__ import annotations
 
@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 
 from supervisor import cli
+from supervisor.config.scenario import parse_scenario
+from supervisor.engine.inprocess import run_inprocess
+from supervisor.engine.progress import Progress
+from supervisor.engine.resim import resimulate
+from supervisor.engine.resim_settings import SETTINGS, check_override
 from supervisor.errors import ScenarioError
-from supervisor.inprocess import run_inprocess
-from supervisor.progress import Progress
-from supervisor.resim import resimulate
-from supervisor.resim_settings import SETTINGS, check_override
-from supervisor.scenario import parse_scenario
 from tests.conftest import CONFIGS, shortened
 
 DURATION = 20.0

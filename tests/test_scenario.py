@@ -1,4 +1,4 @@
-"""Tests for supervisor.scenario: the valid configs, one-line errors naming file, field and value, the CLI's exit 2."""
+"""Tests for config.scenario: the valid configs, one-line errors naming file, field and value, the CLI's exit 2."""
 
 from __future__ import annotations
 
@@ -14,9 +14,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from supervisor.config.scenario import load_scenario, parse_scenario, validate_data
+from supervisor.config.scenario_schema import HelixPath, Scenario, SpeedCapFault
 from supervisor.errors import ScenarioError
-from supervisor.scenario import load_scenario, parse_scenario, validate_data
-from supervisor.scenario_schema import HelixPath, Scenario, SpeedCapFault
 
 ROOT = Path(__file__).resolve().parent.parent
 PAPER = (ROOT / "configs" / "paper.toml").read_text()

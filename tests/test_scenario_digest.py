@@ -17,10 +17,10 @@ from comms.messages import (
     parse_hello,
     vehicle_alive_key,
 )
+from supervisor.config.scenario import parse_scenario
+from supervisor.config.scenario_digest import difference, hello, section_digests
+from supervisor.engine.startup import ask_hello, check_hello, missing_names
 from supervisor.errors import ScenarioError
-from supervisor.scenario import parse_scenario
-from supervisor.scenario_digest import difference, hello, section_digests
-from supervisor.startup import ask_hello, check_hello, missing_names
 from tests.conftest import CONFIGS
 from tests.test_messages import assert_valid
 

@@ -8,13 +8,13 @@ from pathlib import Path
 
 import pytest
 
+from supervisor.config.scenario import parse_scenario
+from supervisor.engine.inprocess import run_inprocess
+from supervisor.engine.progress import Progress
+from supervisor.engine.resim import resimulate
 from supervisor.errors import ScenarioError
-from supervisor.inprocess import run_inprocess
-from supervisor.progress import Progress
-from supervisor.recorder import read_messages
-from supervisor.resim import resimulate
-from supervisor.scenario import parse_scenario
-from supervisor.sweep import Param, grid, parse_param
+from supervisor.record.recorder import read_messages
+from supervisor.tools.sweep import Param, grid, parse_param
 from tests.conftest import CONFIGS, shortened
 from tests.procs import cpf
 

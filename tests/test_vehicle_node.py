@@ -18,8 +18,8 @@ from comms.messages import (
     tick_lead,
     tick_message,
 )
-from supervisor.fleet import initial_state, radio, vehicle_config
-from supervisor.scenario import load_scenario
+from supervisor.config.fleet import initial_state, radio, vehicle_config
+from supervisor.config.scenario import load_scenario
 from tests.conftest import RecordingPublishers
 from vehicles import node as node_module
 from vehicles.node import _Vehicle

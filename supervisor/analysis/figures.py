@@ -35,10 +35,10 @@ from matplotlib.legend import Legend
 from matplotlib.lines import Line2D
 from numpy.typing import NDArray
 
-if TYPE_CHECKING:  # only for annotations: supervisor.report imports this module
+if TYPE_CHECKING:  # only for annotations: supervisor.analysis.report imports this module
     from pathlib import Path
 
-    from supervisor.report import FaultInterval, RunData, VehicleSeries
+    from supervisor.analysis.report import FaultInterval, RunData, VehicleSeries
 
 __all__ = [
     "DPI",

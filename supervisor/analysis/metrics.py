@@ -2,10 +2,10 @@
 
 Definitions (t: simulation time of the recorded vehicle states, s):
 
-- coordination error: max_{i,j} |gamma_i - gamma_j| at each recorded step (supervisor.summary.coordination_error)
+- coordination error: max_{i,j} |gamma_i - gamma_j| at each recorded step (analysis.summary.coordination_error)
   over the vehicles alive then (a vehicle that is down has no state); none while fewer than two are alive. Every
   statistic below is, like `cpf run`'s summary, over the vehicles alive at each instant.
-- phases: supervisor.summary.phase_bounds over the scenario's duration, cut at the starts and ends of the scenario's
+- phases: analysis.summary.phase_bounds over the scenario's duration, cut at the starts and ends of the scenario's
   faults (from the log's meta: the validated scenario, --fault included; open ends closed at the end of the run).
   Per phase: peak and final coordination error, peak path-following error after the transient, mean gamma_dot.
 - convergence time: the first time after which the coordination error stays below report.coordination_tolerance
@@ -23,7 +23,7 @@ Definitions (t: simulation time of the recorded vehicle states, s):
 - estimate age: per (neighbour -> holder), the mean and largest age of the holder's estimate of the neighbour.
 - lambda_2: of the delivered graph over the broker's stats windows (min, mean, windows at 0 = disconnected); the
   graph of a window holds the pairs that delivered within the last `horizon` s (the window, or 1.5 transmit
-  intervals if the vehicles' schedule leaves longer between packets: supervisor.fleet.delivered_graph_horizon).
+  intervals if the vehicles' schedule leaves longer between packets: supervisor.config.fleet.delivered_graph_horizon).
 """
 
 from __future__ import annotations
@@ -37,14 +37,14 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 import numpy as np
 
 from comms.stats import clamp_lambda2
+from supervisor.analysis.summary import PhaseStats, Series, Summary, coordination_error, nan_max, summarize
+from supervisor.config.derived import intervals
+from supervisor.config.scenario import validate_data
+from supervisor.config.scenario_schema import ReportSection
 from supervisor.errors import ScenarioError
-from supervisor.faults import intervals
-from supervisor.scenario import validate_data
-from supervisor.scenario_schema import ReportSection
-from supervisor.summary import PhaseStats, Series, Summary, coordination_error, nan_max, summarize
 
 if TYPE_CHECKING:
-    from supervisor.report import LinkLog, RunData
+    from supervisor.analysis.report import LinkLog, RunData
 
 __all__ = ["STEADY_STATE_WINDOW", "Settings", "packet_counts", "run_metrics", "run_series", "run_settings"]
 
@@ -104,7 +104,7 @@ def _end(end: Any, duration: float) -> float:
 
 
 def run_series(run: RunData) -> Series:
-    """The vehicles' states on one time grid (by sync step), NaN where a vehicle has none, for supervisor.summary."""
+    """The vehicles' states on one time grid (by sync step), NaN where a vehicle has none, for analysis.summary."""
     ids = tuple(run.vehicles)
     if not ids:
         return Series((), np.empty(0), np.empty((0, 0)), np.empty((0, 0)), np.empty((0, 0)))

@@ -4,8 +4,8 @@ of its acoustic channel.
 ``load_run`` turns a run's MCAP into per-vehicle numpy arrays, fault intervals, the communication graph, every link
 event per directed link, the broker's stats snapshots and the age of each vehicle's neighbour estimates (it skips
 the vehicles' tx and rx messages, which the link events cover; a log cut short is refused: `cpf recover` first).
-``write_figures`` renders the PNGs (the channel's in supervisor.report_comms); ``write_report`` adds metrics.json
-(supervisor.metrics). Figures are built on ``matplotlib.figure.Figure`` directly (Agg canvas, no pyplot), so
+``write_figures`` renders the PNGs (the channel's in analysis.report_comms); ``write_report`` adds metrics.json
+(supervisor.analysis.metrics). Figures are built on ``matplotlib.figure.Figure`` directly (Agg canvas, no pyplot), so
 nothing touches global plotting state and the module is safe to use from tests and threads.
 """
 
@@ -22,8 +22,7 @@ from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
 from comms.messages import COMMS_EVENT_KEY, COMMS_STATS_KEY, FAULT_KEY, GRAPH_KEY, META_KEY, vehicle_of_key
-from supervisor import logfile
-from supervisor.figures import (  # colour, finish_time_axes and new_figure: for supervisor.report_comms
+from supervisor.analysis.figures import (  # colour, finish_time_axes, new_figure: for report_comms
     DPI,
     colour,
     fig_coordination_errors,
@@ -35,6 +34,7 @@ from supervisor.figures import (  # colour, finish_time_axes and new_figure: for
     new_figure,
     save,
 )
+from supervisor.record import logfile
 
 __all__ = [
     "DPI",
@@ -326,7 +326,7 @@ METRICS_FILE = "metrics.json"
 
 def write_report(log: Path, out_dir: Path) -> list[Path]:
     """Every figure of a recorded run and its metrics (metrics.json) into out_dir; returns the paths written."""
-    from supervisor.metrics import run_metrics
+    from supervisor.analysis.metrics import run_metrics
 
     run = load_run(log)
     paths = write_figures(run, out_dir)
@@ -338,9 +338,9 @@ def write_report(log: Path, out_dir: Path) -> list[Path]:
 def write_figures(run: RunData, out_dir: Path) -> list[Path]:
     """Render every figure of the run into out_dir as PNG; returns the paths written.
 
-    The paper's analogues (fig3-fig6, gamma_dot: supervisor.figures, which says how each adapts to the fleet and
-    the run), then the channel's (comms_*: supervisor.report_comms)."""
-    from supervisor.report_comms import comms_figures  # it builds on this module's data and helpers
+    The paper's analogues (fig3-fig6, gamma_dot: analysis.figures, which says how each adapts to the fleet and
+    the run), then the channel's (comms_*: supervisor.analysis.report_comms)."""
+    from supervisor.analysis.report_comms import comms_figures  # it builds on this module's data and helpers
 
     out_dir.mkdir(parents=True, exist_ok=True)
     figures: list[tuple[str, Callable[[RunData], Figure]]] = [

@@ -1,8 +1,8 @@
 """Figures of the acoustic channel of a recorded run: packets per directed link, delivery delays, how old each
 vehicle's neighbour estimates got, and the connectivity the channel delivered.
 
-Everything comes from the log (supervisor.report.load_run): the broker's link events, the vehicles' estimate ages
-and the broker's stats snapshots. Same conventions as supervisor.report: Figure objects on the Agg canvas, fault
+Everything comes from the log (analysis.report.load_run): the broker's link events, the vehicles' estimate ages
+and the broker's stats snapshots. Same conventions as analysis.report: Figure objects on the Agg canvas, fault
 intervals shaded on every time axis.
 """
 
@@ -16,7 +16,7 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 from comms.stats import clamp_lambda2
-from supervisor.report import AgeSeries, Array, LinkLog, RunData, colour, finish_time_axes, new_figure
+from supervisor.analysis.report import AgeSeries, Array, LinkLog, RunData, colour, finish_time_axes, new_figure
 from vehicles.coordination import algebraic_connectivity, laplacian
 
 __all__ = ["comms_figures"]
@@ -190,7 +190,7 @@ def _age_line(ax: Axes, neighbour: int, ages: AgeSeries) -> None:
 
 def fig_lambda2(run: RunData) -> Figure:
     """lambda_2 of the graph of pairs that delivered within the stats' horizon (the window, or longer when the
-    vehicles transmit less often: supervisor.fleet.delivered_graph_horizon), per window, against the scenario
+    vehicles transmit less often: supervisor.config.fleet.delivered_graph_horizon), per window, against the scenario
     graph's."""
     fig = new_figure()
     ax = fig.add_subplot()

@@ -7,7 +7,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from comms.messages import Message
-from supervisor.summary import Series
+from supervisor.analysis.summary import Series
 
 
 class SeriesBuilder:

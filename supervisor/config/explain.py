@@ -7,9 +7,10 @@ from collections.abc import Iterable
 from typing import Any
 
 from comms.wire import SIZE
-from supervisor.fleet import modem_params, sound_speed
-from supervisor.info import _fault
-from supervisor.scenario_schema import CommsSection, Scenario, TransmitSection, VehicleSection
+from supervisor.config.derived import steps_of
+from supervisor.config.describe import describe_fault
+from supervisor.config.fleet import modem_params, sound_speed
+from supervisor.config.scenario_schema import CommsSection, Scenario, TransmitSection, VehicleSection
 
 __all__ = ["what_would_run"]
 
@@ -17,7 +18,7 @@ __all__ = ["what_would_run"]
 def what_would_run(sc: Scenario) -> str:
     """One paragraph: what `cpf run` would simulate with this scenario."""
     run = sc.scenario
-    steps = round(run.duration / run.step)
+    steps = steps_of(sc)
     model = "the 6-DOF model" if run.dimension == 3 else "the planar model"
     sentences = [
         f"{run.name}: {len(sc.vehicles)} vehicles ({sc.vehicle.preset}{_overrides(sc)}, {model}) for "
@@ -27,7 +28,7 @@ def what_would_run(sc: Scenario) -> str:
         f"per s, over the graph {_edges(sc.graph.edges)}",
         "comms: " + _comms(sc),
         "transmission: " + _transmit(sc.comms.transmit, sc.comms, len(sc.vehicles)),
-        "faults: " + ("; ".join(_fault(f.model_dump()) for f in sc.faults) or "none"),
+        "faults: " + ("; ".join(describe_fault(f.model_dump()) for f in sc.faults) or "none"),
         f"a vehicle lost: {run.on_vehicle_loss}",
     ]
     return ". ".join([sentences[0], *(s[0].upper() + s[1:] for s in sentences[1:])]) + "."

@@ -16,7 +16,7 @@ from comms.loss import Bernoulli, Composite, GilbertElliott, LinkBudgetRange, Lo
 from comms.messages import Message
 from comms.modem import ModemParams, modem
 from comms.stats import LinkStats
-from supervisor.scenario_schema import (
+from supervisor.config.scenario_schema import (
     BurstSection,
     CirclePath,
     HelixPath,

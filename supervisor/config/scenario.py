@@ -16,9 +16,9 @@ from typing import Annotated, Any
 from pydantic import TypeAdapter, ValidationError
 from pydantic_core import ErrorDetails
 
+from supervisor.config.scenario_checks import cross_field_errors, format_location
+from supervisor.config.scenario_schema import Scenario
 from supervisor.errors import ScenarioError
-from supervisor.scenario_checks import cross_field_errors, format_location
-from supervisor.scenario_schema import Scenario
 
 # --- error messages ---------------------------------------------------------------------------------------
 

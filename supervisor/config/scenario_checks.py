@@ -1,6 +1,6 @@
 """Cross-field rules of a scenario, the ones pydantic cannot express field by field.
 
-Every rule yields all the errors it finds, each '<field>: <problem>, got <value>' (supervisor/scenario.py adds the
+Every rule yields all the errors it finds, each '<field>: <problem>, got <value>' (config/scenario.py adds the
 file). A rule runs only if the sections it reads validated: `cross_field_errors` is also called on a scenario whose
 other sections pydantic rejected, so that a file shows every error at once without one section's error making up
 another's.
@@ -8,13 +8,12 @@ another's.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Iterable, Iterator
 
 import numpy as np
 
-from supervisor.faults import active, network_at
-from supervisor.scenario_schema import (
+from supervisor.config.derived import active, first_step, graph_at, steps_of
+from supervisor.config.scenario_schema import (
     LINK_FAULTS,
     FaultSpec,
     GraphSwitchFault,
@@ -39,10 +38,6 @@ def format_location(loc: Iterable[int | str]) -> str:
         else:
             text += f".{part}" if text else part
     return text or "(top level)"
-
-
-def steps_of(sc: Scenario) -> int:
-    return round(sc.scenario.duration / sc.scenario.step)
 
 
 # --- the rules ----------------------------------------------------------------------------------------------
@@ -95,7 +90,7 @@ def _faults(sc: Scenario) -> Iterator[str]:
         yield from found
         if not found:
             yield from _fault_timing(index, fault, sc)
-            if isinstance(fault, LINK_FAULTS) and _first_step(fault.start, sc.scenario.step) < steps_of(sc):
+            if isinstance(fault, LINK_FAULTS) and first_step(fault.start, sc.scenario.step) < steps_of(sc):
                 yield from _link_in_graph(index, fault, sc)
 
 
@@ -114,16 +109,11 @@ def _fault_fields(index: int, fault: FaultSpec, ids: list[int]) -> Iterator[str]
                 yield f"faults[{index}].edges: not an edge between two vehicles {ids}, got {list(edge)}"
 
 
-def _first_step(t: float, dt: float) -> int:
-    """The first sync step a time on [t, ...) acts in: faults take effect at step boundaries, to half a step."""
-    return max(0, math.ceil(t / dt - 0.5 - 1e-9))
-
-
 def _fault_timing(index: int, fault: FaultSpec, sc: Scenario) -> Iterator[str]:
     """A fault that ends within the step it starts in would act on no step, whatever the run's length: an error.
     (One that starts at or after the end of the run is only a warning: a shortened run of a longer scenario.)"""
     dt = sc.scenario.step
-    k = _first_step(fault.start, dt)
+    k = first_step(fault.start, dt)
     if k < steps_of(sc) and not active(fault, k * dt, dt):
         yield f"faults[{index}].end: ends within the step it starts in ({dt:g} s), got {fault.end}"
 
@@ -136,9 +126,9 @@ def _link_in_graph(index: int, fault: FaultSpec, sc: Scenario) -> Iterator[str]:
     changes = [fault.start] + [t for f in sc.faults if isinstance(f, GraphSwitchFault) for t in (f.start, f.end)]
     graphs = set()
     for t in changes:
-        k = _first_step(t, dt) if t is not None else steps
+        k = first_step(t, dt) if t is not None else steps
         if k < steps and active(fault, k * dt, dt):
-            graphs.add(network_at(sc, k * dt, dt).edges)
+            graphs.add(graph_at(sc, k * dt, dt))
     links = {frozenset(edge) for edges in graphs for edge in edges}
     if frozenset((sender, receiver)) not in links:
         yield f"faults[{index}]: not a link of the graph while the fault acts, got {sender} -> {receiver}"
@@ -168,7 +158,7 @@ def _finite_at_zero(path: PathLike) -> bool:
 
 def _paths(sc: Scenario) -> Iterator[str]:
     """Build each path as the run will: its own checks (e.g. period != 0) become field errors here."""
-    from supervisor.fleet import build_path  # supervisor.fleet imports supervisor.scenario
+    from supervisor.config.fleet import build_path  # supervisor.config.fleet imports supervisor.config.scenario
 
     for index, vehicle in enumerate(sc.vehicles):
         try:
@@ -185,7 +175,7 @@ def _paths(sc: Scenario) -> Iterator[str]:
 def _comms(sc: Scenario) -> Iterator[str]:
     """Links, TDMA order and packet size against the fleet and the modem; the models' own checks."""
     from comms.wire import MAX_VEHICLE_ID, SIZE
-    from supervisor.fleet import channel_params, modem_params
+    from supervisor.config.fleet import channel_params, modem_params
 
     ids = sc.vehicle_ids
     if max(ids) > MAX_VEHICLE_ID:
@@ -237,7 +227,7 @@ def _planar(sc: Scenario) -> Iterator[str]:
 
 
 def _planar_vehicle(index: int, vehicle: VehicleSection) -> Iterator[str]:
-    from supervisor.fleet import build_path
+    from supervisor.config.fleet import build_path
 
     try:
         height = float(build_path(vehicle.path).evaluate(0.0)[0][2])
@@ -286,5 +276,5 @@ def scenario_warnings(sc: Scenario) -> list[str]:
         f"faults[{index}].start: at or after the end of the run ({end:g} s), the {fault.kind} fault never acts, "
         f"got {fault.start}"
         for index, fault in enumerate(sc.faults)
-        if _first_step(fault.start, dt) >= steps
+        if first_step(fault.start, dt) >= steps
     ]

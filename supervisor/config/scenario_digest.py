@@ -13,7 +13,7 @@ import hashlib
 import json
 
 from comms.messages import Hello, Message, hello_message
-from supervisor.scenario_schema import Scenario
+from supervisor.config.scenario_schema import Scenario
 
 
 def _sha(value: object) -> str:

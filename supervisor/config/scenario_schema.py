@@ -1,6 +1,6 @@
 """The scenario file's schema: typed, frozen pydantic models of every section.
 
-Parsing, cross-field checks and one-line error messages live in supervisor/scenario.py.
+Parsing, cross-field checks and one-line error messages live in supervisor/config/scenario.py.
 """
 
 from __future__ import annotations

@@ -52,21 +52,22 @@ from comms.messages import (
     vehicle_of_key,
 )
 from comms.network import Network
-from supervisor.books import LinkBooks
+from supervisor.analysis.series import SeriesBuilder
+from supervisor.config.derived import steps_of
+from supervisor.config.fleet import initial_state, link_stats, vehicle_config
+from supervisor.config.scenario import load_scenario
+from supervisor.config.scenario_digest import section_digests
+from supervisor.config.scenario_schema import Scenario
+from supervisor.engine.books import LinkBooks
+from supervisor.engine.inprocess import RunResult
+from supervisor.engine.metadata import graph_message, run_meta
+from supervisor.engine.processes import ProcessGroup
+from supervisor.engine.progress import Progress
+from supervisor.engine.realtime_timing import RealtimeTiming
+from supervisor.engine.startup import REPORT_EVERY, ask_hello, check_hello, missing_names
 from supervisor.errors import SimulationError
-from supervisor.faults import ProcessAction, disturbances, events_at, network_at, process_actions
-from supervisor.fleet import initial_state, link_stats, vehicle_config
-from supervisor.inprocess import RunResult
-from supervisor.metadata import graph_message, run_meta
-from supervisor.processes import ProcessGroup
-from supervisor.progress import Progress
-from supervisor.realtime_timing import RealtimeTiming
-from supervisor.recorder import Recorder
-from supervisor.scenario import load_scenario
-from supervisor.scenario_digest import section_digests
-from supervisor.scenario_schema import Scenario
-from supervisor.series import SeriesBuilder
-from supervisor.startup import REPORT_EVERY, ask_hello, check_hello, missing_names
+from supervisor.plan.faults import ProcessAction, disturbances, events_at, network_at, process_actions
+from supervisor.record.recorder import Recorder
 from vehicles.agent import Disturbances
 
 START_TIMEOUT = 60.0  # s for a process to declare its liveliness token (cpf run --start-timeout)
@@ -100,7 +101,7 @@ class _Supervisor:
     def __init__(self, sc: Scenario, rec: Recorder, inbox: Inbox, procs: ProcessGroup, path: Path) -> None:
         self.sc, self.rec, self.inbox, self.procs, self.path = sc, rec, inbox, procs, path
         self.dt = sc.scenario.step
-        self.builder = SeriesBuilder(sc.vehicle_ids, round(sc.scenario.duration / self.dt), self.dt)
+        self.builder = SeriesBuilder(sc.vehicle_ids, steps_of(sc), self.dt)
         self.books = LinkBooks(link_stats(sc))
         self.alive: list[int] = list(sc.vehicle_ids)
         self.comms_up = True
@@ -375,7 +376,7 @@ def run_zenoh(
         raise ValueError(f"run_zenoh: the scenario is not {scenario_path} with bus.overrides and bus.faults")
     endpoint = bus.listen or f"tcp/127.0.0.1:{free_port()}"
     mode, listen, connect = ("client", [], [bus.connect]) if bus.connect else ("router", [endpoint], [])
-    steps = round(scenario.scenario.duration / scenario.scenario.step)
+    steps = steps_of(scenario)
     with (
         open_session(mode, listen, connect) as session,
         Recorder(out) as rec,

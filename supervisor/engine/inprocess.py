@@ -34,15 +34,16 @@ from comms.messages import (
     tx_message,
 )
 from comms.network import Network
-from supervisor.books import LinkBooks
-from supervisor.faults import ProcessAction, disturbances, events_at, network_at, process_actions
-from supervisor.fleet import broker_core, initial_state, link_stats, radio, restarted_node, vehicle_config
-from supervisor.metadata import graph_message, run_meta
-from supervisor.progress import Progress
-from supervisor.recorder import Recorder
-from supervisor.scenario_schema import Scenario
-from supervisor.series import SeriesBuilder
-from supervisor.summary import Series
+from supervisor.analysis.series import SeriesBuilder
+from supervisor.analysis.summary import Series
+from supervisor.config.derived import steps_of
+from supervisor.config.fleet import broker_core, initial_state, link_stats, radio, restarted_node, vehicle_config
+from supervisor.config.scenario_schema import Scenario
+from supervisor.engine.books import LinkBooks
+from supervisor.engine.metadata import graph_message, run_meta
+from supervisor.engine.progress import Progress
+from supervisor.plan.faults import ProcessAction, disturbances, events_at, network_at, process_actions
+from supervisor.record.recorder import Recorder
 from vehicles.runtime import NodeState, node_step
 from vehicles.transmission import Transmission
 
@@ -71,7 +72,7 @@ class _InProcessRun:
         self.alive = list(ids)
         self.broker: BrokerCore | None = broker_core(scenario, seed)
         self.books = LinkBooks(link_stats(scenario))
-        self.builder = SeriesBuilder(ids, round(scenario.scenario.duration / self.dt), self.dt)
+        self.builder = SeriesBuilder(ids, steps_of(scenario), self.dt)
         self.last_state: dict[int, Message] = {}
         self.sent: list[Transmission] = []
         self.where: dict[int, Kinematics] = {}
@@ -173,7 +174,7 @@ def run_inprocess(
 ) -> RunResult:
     """Run the scenario, record every message to out (MCAP), and return what the summary needs."""
     dt = scenario.scenario.step
-    steps = round(scenario.scenario.duration / dt)
+    steps = steps_of(scenario)
     with Recorder(out) as rec:
         rec.write(META_KEY, 0.0, run_meta(scenario, scenario_file, scenario_toml, seed, "inprocess", "lockstep"))
         rec.write(GRAPH_KEY, 0.0, graph_message(0.0, scenario.graph.edges))

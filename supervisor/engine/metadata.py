@@ -7,7 +7,8 @@ from collections.abc import Iterable
 from importlib import metadata
 
 from comms.messages import Message
-from supervisor.scenario_schema import Scenario
+from supervisor.config.derived import tube_radius
+from supervisor.config.scenario_schema import Scenario
 
 
 def _version(package: str) -> str:
@@ -31,7 +32,7 @@ def run_meta(scenario: Scenario, scenario_file: str, scenario_toml: str, seed: i
         "vehicles": scenario.vehicle_ids,
         "edges": [list(e) for e in scenario.graph.edges],
         "faults": [f.model_dump() for f in scenario.faults],
-        "tube_radius": abs(scenario.path_following.delta) + scenario.report.tube_margin,
+        "tube_radius": tube_radius(scenario),
         "versions": {
             "cpf-cosim": _version("cpf-cosim"),
             "python": platform.python_version(),

@@ -5,7 +5,7 @@ have done with the very same packets: the channel is not simulated again, each v
 what it heard in the run. Vehicles step only where they were alive in the run. With no --set, it reproduces the
 run's state stream exactly (the same pure functions on the same inputs); tests hold it to that.
 
-So only what acts inside a vehicle can change (supervisor.resim_settings.SETTINGS, also what `cpf resim --help`
+So only what acts inside a vehicle can change (supervisor.engine.resim_settings.SETTINGS, also what `cpf resim --help`
 lists); a setting of the channel, the graph, the faults, the step, the seed or the fleet's shape would not act on the
 recorded receptions, and is refused (ScenarioError) rather than silently ignored. The duration can only shrink:
 nothing was recorded after it.
@@ -20,16 +20,17 @@ from pathlib import Path
 from typing import Any
 
 from comms.messages import META_KEY, Message, parse_rx, state_key, state_message, vehicle_of_key
+from supervisor.analysis.series import SeriesBuilder
+from supervisor.analysis.summary import Series
+from supervisor.config.derived import steps_of
+from supervisor.config.fleet import initial_state, radio, restarted_node, vehicle_config
+from supervisor.config.scenario import apply_override, validate_data
+from supervisor.config.scenario_schema import Scenario
+from supervisor.engine.resim_settings import check_override
 from supervisor.errors import ScenarioError
-from supervisor.faults import disturbances, network_at
-from supervisor.fleet import initial_state, radio, restarted_node, vehicle_config
-from supervisor.logfile import messages
-from supervisor.recorder import Recorder
-from supervisor.resim_settings import check_override
-from supervisor.scenario import apply_override, validate_data
-from supervisor.scenario_schema import Scenario
-from supervisor.series import SeriesBuilder
-from supervisor.summary import Series
+from supervisor.plan.faults import disturbances, network_at
+from supervisor.record.logfile import messages
+from supervisor.record.recorder import Recorder
 from vehicles.runtime import Heard, NodeState, node_step
 
 
@@ -83,7 +84,7 @@ def resimulate(log: Path, overrides: Sequence[str], out: Path) -> tuple[Scenario
     stepped = {(m["vehicle"], m["k"]) for m in states}
     sc = scenario_of(meta, overrides, str(log))
     _check_duration(log, meta, sc, overrides)
-    dt, steps, ids = sc.scenario.step, round(sc.scenario.duration / sc.scenario.step), sc.vehicle_ids
+    dt, steps, ids = sc.scenario.step, steps_of(sc), sc.vehicle_ids
     configs = {i: vehicle_config(sc, i) for i in ids}
     nodes = {i: NodeState(initial_state(sc, configs[i])) for i in ids}
     radios = {i: radio(sc, i) for i in ids}

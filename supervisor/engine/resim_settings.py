@@ -1,7 +1,7 @@
-"""What `cpf resim` can change: the one table its check (supervisor/resim.py) and its --help text both read.
+"""What `cpf resim` can change: the one table its check (supervisor/engine/resim.py) and its --help text both read.
 
 Re-simulation replays the receptions a run recorded, so only settings that act inside a vehicle can apply. Kept apart
-from supervisor/resim.py so that building the command line's help does not import the simulation (every `cpf`
+from supervisor/engine/resim.py so that building the command line's help does not import the simulation (every `cpf`
 process, the vehicles' too, builds it).
 """
 

@@ -8,8 +8,8 @@ import contextlib
 import zenoh
 
 from comms.messages import Hello, decode, hello_key, parse_hello
+from supervisor.config.scenario_digest import difference
 from supervisor.errors import ScenarioError
-from supervisor.scenario_digest import difference
 
 HELLO_TIMEOUT = 10.0  # s for a process that just declared its token to answer which scenario it runs
 REPORT_EVERY = 5.0  # s between "waiting for ..." lines

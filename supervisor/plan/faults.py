@@ -12,14 +12,13 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from comms.network import Network
-from supervisor.scenario_schema import (
+from supervisor.config.derived import active, end_of, graph_at
+from supervisor.config.scenario_schema import (
     BlackoutFault,
-    BrokerKillFault,
     ClockSkewFault,
     FaultSpec,
     FrozenGammaFault,
     GammaOffsetFault,
-    GraphSwitchFault,
     LinkDegradedFault,
     LinkDownFault,
     ModemSilentFault,
@@ -43,24 +42,6 @@ class FaultEvent:
         return {"t": self.t, "kind": self.kind, "phase": self.phase, "detail": self.detail}
 
 
-def end_of(fault: FaultSpec, dt: float) -> float:
-    """When a fault stops acting; a broker restarts one step after being killed unless told otherwise."""
-    if fault.end is not None:
-        return fault.end
-    return fault.start + dt if isinstance(fault, BrokerKillFault) else float("inf")
-
-
-def active(fault: FaultSpec, t: float, dt: float) -> bool:
-    eps = dt / 2
-    return fault.start - eps <= t < end_of(fault, dt) - eps
-
-
-def intervals(scenario: Scenario) -> list[tuple[str, float, float]]:
-    """(kind, start, end) of every fault, open ends closed at the end of the run: for summaries and plots."""
-    duration, dt = scenario.scenario.duration, scenario.scenario.step
-    return [(f.kind, f.start, min(end_of(f, dt), duration)) for f in scenario.faults]
-
-
 def disturbances(faults: Sequence[FaultSpec], vehicle_id: int, t: float, dt: float) -> Disturbances:
     """What the active faults do to one vehicle over the step starting at t."""
     mine = [f for f in faults if getattr(f, "vehicle", None) == vehicle_id and active(f, t, dt)]
@@ -76,8 +57,7 @@ def disturbances(faults: Sequence[FaultSpec], vehicle_id: int, t: float, dt: flo
 def network_at(scenario: Scenario, t: float, dt: float) -> Network:
     """The network over the step starting at t: the latest graph switch in force, and the link faults."""
     on = [f for f in scenario.faults if active(f, t, dt)]
-    switches = [f for f in on if isinstance(f, GraphSwitchFault)]
-    edges = max(switches, key=lambda f: f.start).edges if switches else scenario.graph.edges
+    edges = graph_at(scenario, t, dt)
     down: set[tuple[int, int]] = set()
     degraded: dict[tuple[int, int], tuple[float, float]] = {}
     for f in on:
@@ -91,7 +71,7 @@ def network_at(scenario: Scenario, t: float, dt: float) -> Network:
                 loss, delay = degraded.get(link, (0.0, 0.0))
                 degraded[link] = (1 - (1 - loss) * (1 - f.extra_loss), delay + f.extra_delay)
     return Network(
-        tuple(tuple(e) for e in edges),  # type: ignore[misc]
+        edges,
         frozenset(down),
         degraded,
         any(isinstance(f, BlackoutFault) for f in on),

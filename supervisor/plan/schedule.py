@@ -12,21 +12,14 @@ external change?" is one call (`next_change`): a window of steps inside which th
 from __future__ import annotations
 
 import bisect
+import math
 from dataclasses import dataclass
 from types import MappingProxyType
 
 from comms.network import Network
-from supervisor.faults import (
-    FaultEvent,
-    ProcessAction,
-    active,
-    disturbances,
-    end_of,
-    events_at,
-    network_at,
-    process_actions,
-)
-from supervisor.scenario_schema import FaultSpec, Scenario, VehicleKillFault
+from supervisor.config.derived import active, end_of, first_step, steps_of
+from supervisor.config.scenario_schema import FaultSpec, Scenario, VehicleKillFault
+from supervisor.plan.faults import FaultEvent, ProcessAction, disturbances, events_at, network_at, process_actions
 from vehicles.agent import Disturbances
 
 _NO_DISTURBANCES: MappingProxyType[int, Disturbances] = MappingProxyType({})
@@ -49,28 +42,18 @@ class StepPlan:
         return self.disturbances.get(vehicle, Disturbances())
 
 
-def _first_step_from(edge: float, dt: float) -> int:
-    """The first step k whose start k dt is at or after `edge` as `faults.active` compares it (half a step early)."""
-    k = max(0, round(edge / dt))
-    while k > 0 and (k - 1) * dt >= edge - dt / 2:
-        k -= 1
-    while k * dt < edge - dt / 2:
-        k += 1
-    return k
-
-
 class Schedule:
     """The scenario's fault schedule on the step grid: plans by step, and the steps where something changes."""
 
     def __init__(self, scenario: Scenario) -> None:
         self.scenario = scenario
         self.dt = scenario.scenario.step
-        self.steps = round(scenario.scenario.duration / self.dt)
+        self.steps = steps_of(scenario)
         changes = {0, self.steps}
         for fault in scenario.faults:
             for edge in (fault.start, _end_or_none(fault, self.dt)):
                 if edge is not None:
-                    k = _first_step_from(edge, self.dt)
+                    k = first_step(edge, self.dt)
                     if k <= self.steps:
                         changes.add(k)
         self._changes = sorted(changes)
@@ -116,4 +99,4 @@ class Schedule:
 
 def _end_or_none(fault: FaultSpec, dt: float) -> float | None:
     end = end_of(fault, dt)
-    return None if end == float("inf") else end
+    return None if math.isinf(end) else end

@@ -3,7 +3,7 @@
 The writer is closed in every case (normal end, error, Ctrl-C) so the file always ends with its summary and index.
 A SIGKILL cannot be caught, so the recorder is also crash-safe: the open chunk is finished and handed to the OS
 (no fsync: the OS keeps it if only the process dies) every FLUSH_INTERVAL of wall time and whenever it grows past
-CHUNK_BYTES. A killed run loses at most its last FLUSH_INTERVAL of messages; `cpf recover` (supervisor/recover.py)
+CHUNK_BYTES. A killed run loses at most its last FLUSH_INTERVAL of messages; `cpf recover` (record/recover.py)
 rebuilds the missing summary and index from the complete chunks.
 """
 
@@ -100,7 +100,7 @@ class Recorder:
 
 
 def read_messages(path: Path) -> list[tuple[str, int, dict[str, Any]]]:
-    """(topic, log time ns, message) of every message in log-time order (supervisor.logfile reads every log)."""
-    from supervisor.logfile import read_messages as read
+    """(topic, log time ns, message) of every message in log-time order (supervisor.record.logfile reads every log)."""
+    from supervisor.record.logfile import read_messages as read
 
     return read(path)

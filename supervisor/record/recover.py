@@ -4,7 +4,7 @@ The source is read record by record from its start. Every complete record is kep
 chunks whose data decompresses to the announced size and CRC, metadata, attachments); the scan stops cleanly at
 the first record that is truncated or corrupt, or at the end of the data section. What was kept is written, in the
 same order, to a new MCAP with a summary and an index: same topics, schemas, encodings, times, sequences and bytes.
-The Recorder (supervisor/recorder.py) finishes a chunk at least every half second, so a killed run loses at most
+The Recorder (supervisor/record/recorder.py) finishes a chunk at least every half second, so a killed run loses at most
 about its last second. The same repair with the mcap CLI: `mcap recover in.mcap -o out.mcap`.
 """
 

@@ -3,7 +3,7 @@
 A finished log ends with a summary (statistics, channels, chunk index): `describe` takes the message counts and the
 time span from it and decodes only the run's meta message (and checks every chunk's CRC). A log whose writer was
 killed has no summary: it is read linearly, record by record, up to the first record the file cuts short
-(supervisor.logfile.read_raw); such a log is described as far as it goes, marked CUT SHORT, and `overview` also
+(supervisor.record.logfile.read_raw); such a log is described as far as it goes, marked CUT SHORT, and `overview` also
 returns the error the other commands give for it (`cpf info` prints the description, then fails with that error).
 """
 
@@ -17,7 +17,8 @@ from mcap.records import Statistics
 from mcap.summary import Summary
 
 from comms.messages import META_KEY
-from supervisor.logfile import (
+from supervisor.config.describe import describe_fault, seconds
+from supervisor.record.logfile import (
     LogError,
     RawLog,
     RawMessage,
@@ -43,7 +44,7 @@ def describe(path: Path) -> str:
 
 
 def overview(path: Path) -> tuple[str, LogError | None]:
-    """describe's text, and the error a strict reader (supervisor.logfile) meets in the log: None if it is whole."""
+    """describe's text, and the error a strict reader (record.logfile) meets in the log: None if it is whole."""
     log, source, problem = _overview(path)
     meta = _meta(log)
     lines = [
@@ -109,15 +110,15 @@ def _run_lines(meta: dict[str, Any], log: RawLog) -> list[str]:
         return ["run        no cpf/run/meta message: not a cpf run, or cut before it"]
     vehicles = ", ".join(str(v) for v in meta.get("vehicles", [])) or "-"
     edges = ", ".join(f"{i}-{j}" for i, j in meta.get("edges", [])) or "-"
-    faults = [_fault(f) for f in meta.get("faults", [])] or ["none"]
+    faults = [describe_fault(f) for f in meta.get("faults", [])] or ["none"]
     description = (meta.get("scenario") or {}).get("scenario", {}).get("description")
     return [
         f"scenario   {meta.get('scenario_name', '?')} ({meta.get('scenario_file', '?')})",
         *([f"           {description}"] if description else []),
         f"engine     {meta.get('engine', '?')}, clock {meta.get('clock', '?')}, seed {meta.get('seed', '?')}, "
         f"step {meta.get('step', '?')} s",
-        f"duration   {_seconds(meta.get('duration'))} s simulated (scenario); messages from t = "
-        f"{_seconds(_ns(log.first_time))} to {_seconds(_ns(log.last_time))} s",
+        f"duration   {seconds(meta.get('duration'))} s simulated (scenario); messages from t = "
+        f"{seconds(_ns(log.first_time))} to {seconds(_ns(log.last_time))} s",
         f"vehicles   {vehicles}",
         f"graph      {edges}",
         f"faults     {faults[0]}",
@@ -125,38 +126,8 @@ def _run_lines(meta: dict[str, Any], log: RawLog) -> list[str]:
     ]
 
 
-TARGET_FIELDS = ("vehicle", "sender", "receiver", "both", "edges")
-
-
-def _fault(fault: dict[str, Any]) -> str:
-    """'kind on [start, end) s: target (parameters)'."""
-    end = fault.get("end")
-    window = f"[{_seconds(fault.get('start'))}, {'end' if end is None else _seconds(end)}) s"
-    return f"{fault.get('kind', '?')} on {window}: {_target(fault)}{_parameters(fault)}"
-
-
-def _target(fault: dict[str, Any]) -> str:
-    if fault.get("vehicle") is not None:
-        return f"vehicle {fault['vehicle']}"
-    if fault.get("sender") is not None:
-        arrow = "<->" if fault.get("both") else "->"
-        return f"link {fault['sender']}{arrow}{fault.get('receiver')}"
-    if fault.get("edges") is not None:
-        return "graph " + (", ".join(f"{i}-{j}" for i, j in fault["edges"]) or "without edges")
-    return "broker" if fault.get("kind") == "broker_kill" else "every link"
-
-
-def _parameters(fault: dict[str, Any]) -> str:
-    rest = {k: v for k, v in fault.items() if k not in ("kind", "start", "end", *TARGET_FIELDS)}
-    return f" ({', '.join(f'{k} {v}' for k, v in rest.items())})" if rest else ""
-
-
 def _ns(value: int | None) -> float | None:
     return None if value is None else value / 1e9
-
-
-def _seconds(value: Any) -> str:
-    return "?" if value is None else f"{float(value):g}"
 
 
 def _size(size: int) -> str:

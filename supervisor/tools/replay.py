@@ -1,7 +1,7 @@
 """Replay of a recorded run: every message of an MCAP log published again on Zenoh with its original timing.
 
 `cpf replay RUN.mcap` reads the log in log-time order (streamed, chunk by chunk: a long log is never held in memory),
-turns its records back into the messages a live run puts on the bus (supervisor.replay_bus: the same keys and forms)
+turns its records back into the messages a live run puts on the bus (tools.replay_bus: the same keys and forms)
 and puts each, encoded as msgpack (the live wire format, comms.messages.encode), on its key, so a subscriber written
 against a live run sees the run again, and the reverse. A window that starts late begins with the latest meta and
 graph and the faults in force. The message logged at simulation time t
@@ -33,15 +33,19 @@ import zenoh
 from comms.bus import Publishers, free_port, open_session
 from comms.messages import ALIVE_PREFIX, FAULT_KEY, GRAPH_KEY, META_KEY, Message
 from supervisor.errors import ScenarioError
-from supervisor.logfile import messages, verify
-from supervisor.recorder import seconds_to_ns
-from supervisor.replay_bus import bus_form, latched
+from supervisor.record.logfile import messages, verify
+from supervisor.record.recorder import seconds_to_ns
+from supervisor.tools.replay_bus import bus_form, latched
 
 # (topic, log time ns, message); message None: not to be published (skipped)
 Record = tuple[str, int, Message | None]
 NS_PER_S = 1e9
 PROGRESS_INTERVAL = 1.0  # s of wall time between progress lines
-LATCHED = (META_KEY, GRAPH_KEY, FAULT_KEY)  # state a subscriber joining late needs (supervisor.replay_bus.latched)
+LATCHED = (
+    META_KEY,
+    GRAPH_KEY,
+    FAULT_KEY,
+)  # state a subscriber joining late needs (supervisor.tools.replay_bus.latched)
 
 
 @dataclass(slots=True)
@@ -158,7 +162,7 @@ def _first(path: Path, window: tuple[float | None, float | None]) -> Record | No
 
 
 def _records(path: Path, window: tuple[float | None, float | None]) -> Generator[Record, None, None]:
-    """The log's records of the window in log-time order, read chunk by chunk; LogError (supervisor.logfile) for a
+    """The log's records of the window in log-time order, read chunk by chunk; LogError (record.logfile) for a
     log that is missing, not an MCAP, cut short or damaged."""
     start, end = window
     playable: dict[str, bool] = {}
@@ -173,7 +177,7 @@ def _records(path: Path, window: tuple[float | None, float | None]) -> Generator
 def _bus_records(
     path: Path, window: tuple[float | None, float | None], report: ReplayReport
 ) -> Generator[tuple[str, int, Message], None, None]:
-    """The window's records in the form a live run publishes them (supervisor.replay_bus), after what a subscriber
+    """The window's records in the form a live run publishes them (supervisor.tools.replay_bus), after what a subscriber
     needs first when the window starts late (latest meta and graph, faults in force), stamped at its start. Records
     not to be published are counted as skipped."""
     meta = next((m for _, _, m in messages(path, lambda topic: topic == META_KEY)), None)

@@ -1,4 +1,4 @@
-"""The log's records turned back into what a live run puts on the bus, for `cpf replay` (supervisor/replay.py).
+"""The log's records turned back into what a live run puts on the bus, for `cpf replay` (supervisor/tools/replay.py).
 
 The log keeps some messages in another form than the bus carries them (README, "Key expressions and messages"): a
 vehicle's step message is split into its rx, tx and state records, a step's link events into one cpf/comms/event

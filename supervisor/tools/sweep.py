@@ -25,10 +25,10 @@ from typing import Any
 
 from tqdm import tqdm
 
+from supervisor.analysis.metrics import STEADY_STATE_WINDOW
+from supervisor.analysis.summary import coordination_error
+from supervisor.config.scenario import split_outside_brackets
 from supervisor.errors import ScenarioError, SimulationError
-from supervisor.metrics import STEADY_STATE_WINDOW
-from supervisor.scenario import split_outside_brackets
-from supervisor.summary import coordination_error
 
 
 @dataclass(frozen=True, slots=True)
@@ -82,10 +82,10 @@ def _override(key: str, value: Any) -> str:
 
 def run_one(scenario_path: str, spec: RunSpec, runs_dir: str, engine: str) -> dict[str, Any]:
     """One run of the sweep (in a worker process): its metrics row, also written to runs_dir/<id>.json."""
-    from supervisor.faults import intervals
-    from supervisor.progress import Progress
-    from supervisor.scenario import load_scenario
-    from supervisor.summary import summarize
+    from supervisor.analysis.summary import summarize
+    from supervisor.config.derived import intervals, tube_radius
+    from supervisor.config.scenario import load_scenario
+    from supervisor.engine.progress import Progress
 
     overrides = tuple(_override(k, v) for k, v in spec.settings)
     scenario = load_scenario(Path(scenario_path), overrides)
@@ -93,7 +93,7 @@ def run_one(scenario_path: str, spec: RunSpec, runs_dir: str, engine: str) -> di
     with tempfile.TemporaryDirectory(prefix="cpf-sweep-") as tmp:
         result = _run(engine, scenario, Path(scenario_path), overrides, Path(tmp) / "run.mcap", spec.seed, quiet)
     rep = scenario.report
-    tube = abs(scenario.path_following.delta) + rep.tube_margin
+    tube = tube_radius(scenario)
     summary = summarize(
         result.series, scenario.scenario.duration, intervals(scenario), rep.transient, tube, rep.coordination_tolerance
     )
@@ -106,10 +106,10 @@ def _run(engine: str, scenario: Any, path: Path, overrides: tuple[str, ...], out
     """The run on either engine; the Zenoh engine's processes load the scenario file themselves, with overrides."""
     text = path.read_text(encoding="utf-8")
     if engine == "zenoh":
-        from supervisor.cosim import BusOptions, run_zenoh
+        from supervisor.engine.cosim import BusOptions, run_zenoh
 
         return run_zenoh(scenario, path, text, out, seed, "lockstep", 1.0, BusOptions(overrides=overrides), quiet)
-    from supervisor.inprocess import run_inprocess
+    from supervisor.engine.inprocess import run_inprocess
 
     return run_inprocess(scenario, str(path), text, out, seed, quiet)
 
@@ -136,7 +136,7 @@ def sweep(
     scenario_path: Path, params: Sequence[Param], seeds: int, jobs: int, out_dir: Path, engine: str = "inprocess"
 ) -> list[dict[str, Any]]:
     """Run (or resume) the whole sweep; returns every row, in grid order."""
-    from supervisor.scenario import load_scenario
+    from supervisor.config.scenario import load_scenario
 
     for param in params:  # every value must make a valid scenario: fail before running anything
         for value in param.values:

@@ -21,9 +21,9 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
-from supervisor.figures import distinct_colours, place_legend, save
-from supervisor.metrics import STEADY_STATE_WINDOW
-from supervisor.sweep import Param
+from supervisor.analysis.figures import distinct_colours, place_legend, save
+from supervisor.analysis.metrics import STEADY_STATE_WINDOW
+from supervisor.tools.sweep import Param
 
 FLOOR = 1e-6  # log axes: errors below this are drawn at it
 LOG_X_DECADES = 2

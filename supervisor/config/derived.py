@@ -1,0 +1,58 @@
+"""Numbers that follow from a scenario, each computed in one place: the number of steps, when a fault acts on the
+step grid, the graph in force, the tube radius.
+
+Faults take effect at sync-step boundaries: a fault on [start, end) acts during every step [t, t + dt) with
+start <= t < end, to within half a step, so that times given in a scenario land on the step grid robustly.
+"""
+
+from __future__ import annotations
+
+import math
+
+from supervisor.config.scenario_schema import BrokerKillFault, FaultSpec, GraphSwitchFault, Scenario
+
+
+def steps_of(scenario: Scenario) -> int:
+    """The run's sync steps: duration / step (the checks hold the step to dividing the duration)."""
+    return round(scenario.scenario.duration / scenario.scenario.step)
+
+
+def tube_radius(scenario: Scenario) -> float:
+    """Where path-following must keep each vehicle after the transient: |delta| plus the report's margin, m."""
+    return abs(scenario.path_following.delta) + scenario.report.tube_margin
+
+
+def end_of(fault: FaultSpec, dt: float) -> float:
+    """When a fault stops acting; a broker restarts one step after being killed unless told otherwise."""
+    if fault.end is not None:
+        return fault.end
+    return fault.start + dt if isinstance(fault, BrokerKillFault) else math.inf
+
+
+def active(fault: FaultSpec, t: float, dt: float) -> bool:
+    """Whether the fault acts over the step starting at t."""
+    eps = dt / 2
+    return fault.start - eps <= t < end_of(fault, dt) - eps
+
+
+def first_step(t: float, dt: float) -> int:
+    """The first sync step k whose start k dt a fault starting (or ending) at t acts from (half a step early)."""
+    k = max(0, round(t / dt))
+    while k > 0 and (k - 1) * dt >= t - dt / 2:
+        k -= 1
+    while k * dt < t - dt / 2:
+        k += 1
+    return k
+
+
+def intervals(scenario: Scenario) -> list[tuple[str, float, float]]:
+    """(kind, start, end) of every fault, open ends closed at the end of the run: for summaries and plots."""
+    duration, dt = scenario.scenario.duration, scenario.scenario.step
+    return [(f.kind, f.start, min(end_of(f, dt), duration)) for f in scenario.faults]
+
+
+def graph_at(scenario: Scenario, t: float, dt: float) -> tuple[tuple[int, int], ...]:
+    """The communication graph over the step starting at t: the latest graph switch in force, or the scenario's."""
+    switches = [f for f in scenario.faults if isinstance(f, GraphSwitchFault) and active(f, t, dt)]
+    edges = max(switches, key=lambda f: f.start).edges if switches else scenario.graph.edges
+    return tuple((int(i), int(j)) for i, j in edges)

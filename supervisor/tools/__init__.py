@@ -1,0 +1,1 @@
+"""Tools on recorded runs and many runs: info, replay, sweeps."""
