@@ -42,7 +42,7 @@ from comms.messages import (
     rx_message,
     vehicle_of_key,
 )
-from vehicles.transmission import Transmission
+from comms.records import Transmission
 
 log = logging.getLogger(__name__)
 

@@ -18,10 +18,7 @@ import numpy as np
 
 from comms.channel import Kinematics, LinkEvent, Reception
 from comms.network import Network
-from vehicles.agent import Disturbances, Telemetry
-from vehicles.dynamics import Model
-from vehicles.runtime import Heard
-from vehicles.transmission import Transmission
+from comms.records import Disturbances, Heard, Transmission
 
 ROOT = "cpf"
 META_KEY = f"{ROOT}/run/meta"
@@ -104,32 +101,6 @@ def decode(data: bytes) -> Message:
 
 
 # --- building messages ----------------------------------------------------------------------------------------
-
-
-def state_message(
-    telemetry: Telemetry, model: Model, k: int, tx_seq: int, ages: tuple[tuple[int, float], ...] = ()
-) -> Message:
-    """A vehicle's telemetry of step k (planar vehicles embedded in 3-D); tx_seq: its transmission then, or 0;
-    ages: how old each neighbour estimate it holds is."""
-    s = model.spatial(telemetry.x)
-    error = telemetry.error.tolist() + [0.0] * (3 - len(telemetry.error))
-    return {
-        "t": telemetry.t,
-        "k": k,
-        "vehicle": telemetry.vehicle_id,
-        "gamma": telemetry.gamma,
-        "gamma_dot": telemetry.gamma_dot,
-        "position": s.position.tolist(),
-        "rotation": s.rotation.reshape(9).tolist(),
-        "velocity": s.velocity.tolist(),
-        "angular_velocity": s.angular_velocity.tolist(),
-        "error": error,
-        "tau": telemetry.tau.tolist(),
-        "correction": telemetry.correction,
-        "lyapunov": telemetry.lyapunov,
-        "tx_seq": tx_seq,
-        "estimate_age": [[j, age] for j, age in ages],
-    }
 
 
 def tx_message(tx: Transmission) -> Message:

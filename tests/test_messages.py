@@ -46,7 +46,6 @@ from comms.messages import (
     rx_message,
     split_step,
     state_key,
-    state_message,
     step_message,
     tick_message,
     tx_key,
@@ -54,6 +53,7 @@ from comms.messages import (
     vehicle_of_key,
 )
 from comms.network import Network
+from comms.records import Disturbances, Heard, Transmission
 from comms.schemas import (
     COMMS_DONE,
     COMMS_STATS,
@@ -70,11 +70,11 @@ from comms.stats import LinkStats
 from comms.wire import SIZE, encode_coordination
 from supervisor.config.fleet import initial_state, radio, vehicle_config
 from supervisor.config.scenario import load_scenario
-from vehicles.agent import Disturbances, Telemetry
+from vehicles.agent import Telemetry
 from vehicles.dynamics import PLANAR, SPATIAL, Model
 from vehicles.geometry import rotation_2d, rotation_from_rpy
-from vehicles.runtime import Heard, NodeState, node_step
-from vehicles.transmission import Transmission
+from vehicles.report import state_message
+from vehicles.runtime import NodeState, node_step
 
 PAPER = Path(__file__).resolve().parent.parent / "configs" / "paper.toml"
 STILL_AT_150 = Kinematics(np.array([150.0, 0.0, 0.0]), np.zeros(3))
