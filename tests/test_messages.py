@@ -673,7 +673,19 @@ def state_cases() -> list[tuple[str, Message]]:
         ("velocity holds inf", with_(VALID_STATE, velocity=[INF, 0.0, 0.0])),
         ("velocity holds a bool", with_(VALID_STATE, velocity=[False, 0.0, 0.0])),
         ("another vehicle's key", with_(VALID_STATE, vehicle=5)),
+        # the diagnostics too: the state report is read whole (comms.state.StateReport.from_message)
+        ("t holds nan", with_(VALID_STATE, t=NAN)),
+        ("gamma is a string", with_(VALID_STATE, gamma="7.5")),
+        ("lyapunov is None", with_(VALID_STATE, lyapunov=None)),
+        ("error has 2 items", with_(VALID_STATE, error=[0.0, 0.0])),
+        ("tau holds a string", with_(VALID_STATE, tau=["1.0"])),
+        ("angular_velocity holds nan", with_(VALID_STATE, angular_velocity=[NAN, 0.0, 0.0])),
+        ("estimate_age holds a triple", with_(VALID_STATE, estimate_age=[[1, 0.5, 2]])),
+        ("estimate_age names a float vehicle", with_(VALID_STATE, estimate_age=[[1.0, 0.5]])),
+        ("rx_lateness is a number", with_(VALID_STATE, rx_lateness=0.5)),
+        ("step_lateness is a string", with_(VALID_STATE, step_lateness="late")),
     ]
+    cases += [(f"missing {name}", without(VALID_STATE, name)) for name in ("t", "gamma", "error", "tau", "lyapunov")]
     return cases
 
 
