@@ -15,13 +15,10 @@ from typing import Any
 import msgpack
 
 from comms.channel import LinkEvent, Reception
-from comms.fields import MAX_FLOAT32, MAX_TIME, Message
-from comms.fields import carried as _carried
+from comms.fields import Message
 from comms.fields import get as _get
 from comms.fields import is_int as _is_int
 from comms.fields import number as _number
-from comms.fields import vector3 as _vector3
-from comms.fields import velocity as _velocity
 from comms.network import Network
 from comms.records import Disturbances, Heard, Transmission
 from comms.state import StateReport
@@ -105,16 +102,8 @@ def decode(data: bytes) -> Message:
 
 
 def tx_message(tx: Transmission) -> Message:
-    return {
-        "t": tx.t,
-        "stamp": tx.data_time,
-        "sender": tx.sender,
-        "seq": tx.seq,
-        "gamma": tx.gamma,
-        "gamma_dot": tx.gamma_dot,
-        "position": list(tx.position),
-        "velocity": list(tx.velocity),
-    }
+    """A transmission's wire form (Transmission.to_message)."""
+    return tx.to_message()
 
 
 def rx_message(
@@ -259,25 +248,8 @@ def parse_hello(message: Message) -> Hello:
 
 
 def parse_tx(message: Message, key_vehicle: int) -> Transmission:
-    """A transmission, checked; its sender must own the key it came on, and the frame must be able to carry it."""
-    sender = _get(message, "sender", int)
-    if sender != key_vehicle:
-        raise ValueError(f"sender {sender} published on vehicle {key_vehicle}'s key")
-    seq = _get(message, "seq", int)
-    if seq < 0:
-        raise ValueError("field 'seq' is negative")
-    t = _carried(message, "t", 0.0, MAX_TIME)
-    stamp = _carried(message, "stamp", 0.0, MAX_TIME) if "stamp" in message else t
-    return Transmission(
-        sender,
-        seq,
-        t,
-        _carried(message, "gamma", -MAX_FLOAT32, MAX_FLOAT32),
-        _carried(message, "gamma_dot", -MAX_FLOAT32, MAX_FLOAT32),
-        _vector3(message, "position"),
-        _velocity(message, "velocity"),
-        None if stamp == t else stamp,
-    )
+    """A transmission, checked (Transmission.from_message)."""
+    return Transmission.from_message(message, key_vehicle)
 
 
 def parse_rx(message: Message) -> tuple[int, list[Heard]]:

@@ -17,6 +17,7 @@ from hypothesis import strategies as st
 
 from comms.broker_core import BrokerCore
 from comms.channel import Channel, ChannelParams, Kinematics, LinkEvent, Reception
+from comms.fields import MAX_TIME
 from comms.loss import Bernoulli
 from comms.messages import (
     COMMS_DONE_KEY,
@@ -24,7 +25,6 @@ from comms.messages import (
     COMMS_STATS_KEY,
     FAULT_KEY,
     GRAPH_KEY,
-    MAX_TIME,
     META_KEY,
     STOP_KEY,
     TICK_KEY,

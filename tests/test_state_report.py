@@ -8,7 +8,8 @@ import math
 import pytest
 
 from comms.messages import decode, encode, state_key, step_message
-from comms.schemas import STATE, schema_for
+from comms.records import Transmission
+from comms.schemas import STATE, TRANSMISSION, schema_for
 from comms.state import StateReport
 from vehicles.dynamics import PLANAR, SPATIAL
 from vehicles.report import state_message
@@ -57,3 +58,16 @@ def test_the_diagnostics_need_not_be_finite_but_the_kinematics_must():
     assert StateReport.from_message(diverged, 3).lyapunov == math.inf
     with pytest.raises(ValueError, match="not finite"):
         StateReport.from_message({**diverged, "position": [math.nan, 0.0, 0.0]}, 3)
+
+
+def test_the_transmission_schema_describes_exactly_the_fields_of_the_record():
+    assert set(TRANSMISSION["properties"]) == {f.name for f in dataclasses.fields(Transmission)}
+    assert set(TRANSMISSION["required"]) == set(TRANSMISSION["properties"])  # stamp is always written
+
+
+@pytest.mark.parametrize("stamp", [None, 12.75], ids=["own clock", "skewed clock"])
+def test_reading_a_transmission_is_the_inverse_of_writing_it(stamp):
+    tx = Transmission(3, 9, 12.5, 4.25, 0.98, (1.0, -2.0, 3.0), (1.2, 0.1, 0.0), stamp)
+    message = tx.to_message()
+    assert Transmission.from_message(decode(encode(message)), 3) == tx
+    assert Transmission.from_message(message, 3).to_message() == message
