@@ -20,7 +20,7 @@ from __future__ import annotations
 import math
 from typing import Literal
 
-from vehicles.geometry import FloatArray
+from comms.records import FloatArray
 
 
 def time_of_flight(

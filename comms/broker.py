@@ -30,19 +30,18 @@ from comms.messages import (
     ROOT,
     TICK_KEY,
     Message,
-    StateReport,
     Tick,
     batches_message,
     decode,
     events_message,
-    parse_state,
     parse_tick,
     parse_tx,
     rx_key,
     rx_message,
     vehicle_of_key,
 )
-from vehicles.transmission import Transmission
+from comms.records import Transmission
+from comms.state import StateReport
 
 log = logging.getLogger(__name__)
 
@@ -81,7 +80,7 @@ class Broker:
                 tick = parse_tick(message)
                 self.books.ticks[tick.k], self.books.raw_ticks[tick.k] = tick, message
             elif owned is not None and owned[1] == "state":
-                report = parse_state(message, owned[0])
+                report = StateReport.from_message(message, owned[0])
                 if report.k > self.submitted:  # a late duplicate of a step already in the water is dropped
                     self.books.states.setdefault(report.k, {})[report.vehicle] = (report, self._tx(message, owned[0]))
         except ValueError as exc:

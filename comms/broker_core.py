@@ -14,9 +14,9 @@ from dataclasses import dataclass, replace
 from comms.channel import Channel, Kinematics, LinkEvent, Reception
 from comms.messages import Message
 from comms.network import Network
+from comms.records import Transmission
 from comms.stats import LinkStats
 from comms.wire import decode_coordination, encode_coordination
-from vehicles.transmission import Transmission
 
 
 @dataclass

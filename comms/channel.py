@@ -26,8 +26,7 @@ from comms.acoustics import time_of_flight
 from comms.loss import LinkLoss, LossModel
 from comms.modem import ModemParams
 from comms.network import Impairment, Network
-from vehicles.geometry import FloatArray
-from vehicles.transmission import Transmission
+from comms.records import FloatArray, Transmission
 
 EventKind = Literal["sent", "delivered", "dropped"]
 ARRIVAL_SLACK = 1e-9  # s: an arrival this close after a sync instant counts as at it (float rounding of k * dt)

@@ -8,20 +8,20 @@ index. Parsers (`parse_*`) raise ValueError for anything malformed: receivers co
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 import msgpack
-import numpy as np
 
-from comms.channel import Kinematics, LinkEvent, Reception
+from comms.channel import LinkEvent, Reception
+from comms.fields import Message
+from comms.fields import get as _get
+from comms.fields import is_int as _is_int
+from comms.fields import number as _number
 from comms.network import Network
-from vehicles.agent import Disturbances, Telemetry
-from vehicles.dynamics import Model
-from vehicles.runtime import Heard
-from vehicles.transmission import Transmission
+from comms.records import Disturbances, Heard, Transmission
+from comms.state import StateReport
 
 ROOT = "cpf"
 META_KEY = f"{ROOT}/run/meta"
@@ -39,11 +39,6 @@ SUPERVISOR_ALIVE = f"{ALIVE_PREFIX}/supervisor"
 COMMS_ALIVE = f"{ALIVE_PREFIX}/comms"
 HELLO_PREFIX = f"{ROOT}/hello"  # queryables: each process says which scenario it runs (hello_message)
 STOP_END = "end of run"  # the stop message's reason when the run finished
-
-Message = dict[str, Any]
-MAX_SPEED = 100.0  # m/s: far above any AUV, far below the speed of sound
-MAX_FLOAT32 = 3.4e38  # what the frame's float32 fields hold
-MAX_TIME = (2**32 - 1) / 1000.0  # s: the frame's u32 millisecond time stamp
 
 
 def state_key(vehicle_id: int) -> str:
@@ -106,43 +101,9 @@ def decode(data: bytes) -> Message:
 # --- building messages ----------------------------------------------------------------------------------------
 
 
-def state_message(
-    telemetry: Telemetry, model: Model, k: int, tx_seq: int, ages: tuple[tuple[int, float], ...] = ()
-) -> Message:
-    """A vehicle's telemetry of step k (planar vehicles embedded in 3-D); tx_seq: its transmission then, or 0;
-    ages: how old each neighbour estimate it holds is."""
-    s = model.spatial(telemetry.x)
-    error = telemetry.error.tolist() + [0.0] * (3 - len(telemetry.error))
-    return {
-        "t": telemetry.t,
-        "k": k,
-        "vehicle": telemetry.vehicle_id,
-        "gamma": telemetry.gamma,
-        "gamma_dot": telemetry.gamma_dot,
-        "position": s.position.tolist(),
-        "rotation": s.rotation.reshape(9).tolist(),
-        "velocity": s.velocity.tolist(),
-        "angular_velocity": s.angular_velocity.tolist(),
-        "error": error,
-        "tau": telemetry.tau.tolist(),
-        "correction": telemetry.correction,
-        "lyapunov": telemetry.lyapunov,
-        "tx_seq": tx_seq,
-        "estimate_age": [[j, age] for j, age in ages],
-    }
-
-
 def tx_message(tx: Transmission) -> Message:
-    return {
-        "t": tx.t,
-        "stamp": tx.data_time,
-        "sender": tx.sender,
-        "seq": tx.seq,
-        "gamma": tx.gamma,
-        "gamma_dot": tx.gamma_dot,
-        "position": list(tx.position),
-        "velocity": list(tx.velocity),
-    }
+    """A transmission's wire form (Transmission.to_message)."""
+    return tx.to_message()
 
 
 def rx_message(
@@ -286,71 +247,9 @@ def parse_hello(message: Message) -> Hello:
 # --- parsing what arrives -------------------------------------------------------------------------------------
 
 
-def _get(message: Message, name: str, kind: type | tuple[type, ...]) -> Any:
-    if name not in message:
-        raise ValueError(f"missing field {name!r}")
-    value = message[name]
-    if isinstance(value, bool) and kind is not bool:
-        raise ValueError(f"field {name!r} is a bool")
-    if not isinstance(value, kind):
-        raise ValueError(f"field {name!r} has type {type(value).__name__}")
-    return value
-
-
-def _number(message: Message, name: str) -> float:
-    try:
-        value = float(_get(message, name, (int, float)))
-    except OverflowError:
-        raise ValueError(f"field {name!r} is too large") from None
-    if not math.isfinite(value):
-        raise ValueError(f"field {name!r} is not finite")
-    return value
-
-
-def _vector3(message: Message, name: str) -> tuple[float, float, float]:
-    value = _get(message, name, list)
-    if len(value) != 3:
-        raise ValueError(f"field {name!r} has {len(value)} items, not 3")
-    items = {"x": value[0], "y": value[1], "z": value[2]}
-    return (_number(items, "x"), _number(items, "y"), _number(items, "z"))
-
-
-def _velocity(message: Message, name: str) -> tuple[float, float, float]:
-    """A velocity no vehicle could exceed: anything faster is a corrupt message (and would break acoustics)."""
-    value = _vector3(message, name)
-    if math.hypot(*value) > MAX_SPEED:
-        raise ValueError(f"field {name!r} is faster than {MAX_SPEED:g} m/s")
-    return value
-
-
-def _carried(message: Message, name: str, low: float, high: float) -> float:
-    """A number the 15-byte modem frame can carry (comms.wire): anything else could not be sent."""
-    value = _number(message, name)
-    if not low <= value <= high:
-        raise ValueError(f"field {name!r} is outside what the modem frame carries [{low:g}, {high:g}]")
-    return value
-
-
 def parse_tx(message: Message, key_vehicle: int) -> Transmission:
-    """A transmission, checked; its sender must own the key it came on, and the frame must be able to carry it."""
-    sender = _get(message, "sender", int)
-    if sender != key_vehicle:
-        raise ValueError(f"sender {sender} published on vehicle {key_vehicle}'s key")
-    seq = _get(message, "seq", int)
-    if seq < 0:
-        raise ValueError("field 'seq' is negative")
-    t = _carried(message, "t", 0.0, MAX_TIME)
-    stamp = _carried(message, "stamp", 0.0, MAX_TIME) if "stamp" in message else t
-    return Transmission(
-        sender,
-        seq,
-        t,
-        _carried(message, "gamma", -MAX_FLOAT32, MAX_FLOAT32),
-        _carried(message, "gamma_dot", -MAX_FLOAT32, MAX_FLOAT32),
-        _vector3(message, "position"),
-        _velocity(message, "velocity"),
-        None if stamp == t else stamp,
-    )
+    """A transmission, checked (Transmission.from_message)."""
+    return Transmission.from_message(message, key_vehicle)
 
 
 def parse_rx(message: Message) -> tuple[int, list[Heard]]:
@@ -374,40 +273,9 @@ def parse_timed_rx(message: Message) -> tuple[int, list[tuple[Heard, float, floa
     return k, [(h, _number(i, "arrival"), _number(i, "due"), i) for h, i in zip(heard, items, strict=True)]
 
 
-@dataclass(frozen=True, slots=True)
-class StateReport:
-    """What the broker needs of a state message: when, where, how fast, and whether it transmitted."""
-
-    k: int
-    vehicle: int
-    kinematics: Kinematics
-    tx_seq: int
-
-
 def parse_state(message: Message, key_vehicle: int) -> StateReport:
-    """What the broker needs of a state message, checked. Plain floats: it runs for every vehicle at every step."""
-    vehicle = _get(message, "vehicle", int)
-    if vehicle != key_vehicle:
-        raise ValueError(f"vehicle {vehicle} published on vehicle {key_vehicle}'s key")
-    r = _rotation(message)
-    u, v, w = _velocity(message, "velocity")
-    velocity = np.array([r[i] * u + r[i + 1] * v + r[i + 2] * w for i in (0, 3, 6)])  # R v: inertial
-    position = np.array(_vector3(message, "position"))
-    return StateReport(_get(message, "k", int), vehicle, Kinematics(position, velocity), _get(message, "tx_seq", int))
-
-
-def _rotation(message: Message) -> list[float]:
-    """R (row-major) of a state message; R R' must be I to 1e-6."""
-    rotation = _get(message, "rotation", list)
-    if len(rotation) != 9:
-        raise ValueError("field 'rotation' is not 9 numbers")
-    r = [_number({"r": value}, "r") for value in rotation]
-    for i in (0, 3, 6):
-        for j in (0, 3, 6):
-            dot = r[i] * r[j] + r[i + 1] * r[j + 1] + r[i + 2] * r[j + 2]
-            if abs(dot - (i == j)) > 1e-6:
-                raise ValueError("field 'rotation' is not a rotation matrix")
-    return r
+    """A state report, checked (StateReport.from_message)."""
+    return StateReport.from_message(message, key_vehicle)
 
 
 MAX_TICK_LEAD = 0.02  # s of wall clock
@@ -468,10 +336,6 @@ def _realtime(message: Message) -> tuple[float | None, float]:
     if speed <= 0.0:
         raise ValueError("field 'speed' is not positive")
     return wall, speed
-
-
-def _is_int(value: object) -> bool:
-    return isinstance(value, int) and not isinstance(value, bool)
 
 
 def _pairs(items: object, width: int, name: str) -> list[list[Any]]:

@@ -11,7 +11,7 @@ from __future__ import annotations
 import struct
 from dataclasses import dataclass
 
-from vehicles.transmission import Transmission
+from comms.records import Transmission
 
 LAYOUT = struct.Struct("<BHIff")
 SIZE = LAYOUT.size  # 15 bytes

@@ -38,19 +38,19 @@ from comms.messages import (
     rx_key,
     rx_message,
     state_key,
-    state_message,
     step_message,
     tick_message,
     tx_message,
 )
 from comms.network import Network
+from comms.records import Transmission
 from supervisor.config.fleet import broker_core
 from supervisor.config.scenario import load_scenario
 from tests.conftest import RecordingPublishers
 from tests.test_messages import assert_valid, first_step
 from vehicles.agent import Telemetry
 from vehicles.dynamics import Model
-from vehicles.transmission import Transmission
+from vehicles.report import state_message
 
 pytestmark = pytest.mark.integration
 

@@ -19,12 +19,11 @@ from comms.broker_core import BrokerCore
 from comms.channel import ARRIVAL_SLACK, Channel, ChannelParams, Kinematics, LinkEvent, Reception
 from comms.loss import Bernoulli
 from comms.modem import ModemParams
+from comms.records import FloatArray, Transmission
 from comms.stats import LinkStats
 from comms.wire import SIZE, encode_coordination
 from supervisor.config.scenario import parse_scenario
 from supervisor.errors import ScenarioError
-from vehicles.geometry import FloatArray
-from vehicles.transmission import Transmission
 
 C = 1500.0
 ORIGIN = (0.0, 0.0, 0.0)

@@ -13,10 +13,11 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
+from comms.records import FloatArray
 from vehicles.agent import VehicleConfig, VehicleState, step
 from vehicles.coordination import CoordinationGains
 from vehicles.dynamics import PLANAR, SPATIAL, Model
-from vehicles.geometry import FloatArray, rotation_2d, rotation_from_rpy
+from vehicles.geometry import rotation_2d, rotation_from_rpy
 from vehicles.params import PRESETS, VehicleParams
 from vehicles.path_following import PathFollowingGains, path_following
 from vehicles.paths import Helix, Lawnmower, Path

@@ -6,14 +6,8 @@ import numpy as np
 import pytest
 from scipy.linalg import null_space
 
-from vehicles.coordination import (
-    CoordinationGains,
-    algebraic_connectivity,
-    correction,
-    correction_vector,
-    l_k,
-    laplacian,
-)
+from comms.graph import algebraic_connectivity, laplacian
+from vehicles.coordination import CoordinationGains, correction, correction_vector, l_k
 
 SEEDS = range(25)
 

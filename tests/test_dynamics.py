@@ -8,15 +8,9 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from comms.records import FloatArray
 from vehicles.dynamics import PLANAR, SPATIAL, Model
-from vehicles.geometry import (
-    FloatArray,
-    orthonormalize,
-    reorthonormalized,
-    roll_pitch_yaw,
-    rotation_2d,
-    rotation_from_rpy,
-)
+from vehicles.geometry import orthonormalize, reorthonormalized, roll_pitch_yaw, rotation_2d, rotation_from_rpy
 from vehicles.params import PRESETS, VehicleParams
 
 REMUS = PRESETS["remus100"]

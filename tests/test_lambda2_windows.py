@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from comms.channel import LinkEvent
+from comms.graph import algebraic_connectivity, laplacian
 from comms.stats import LinkStats, clamp_lambda2
 from supervisor.analysis.comms_summary import comms_summary, format_comms
 from supervisor.analysis.metrics import run_metrics
@@ -27,7 +28,6 @@ from supervisor.config.scenario import parse_scenario
 from supervisor.config.scenario_schema import Scenario
 from supervisor.engine.inprocess import run_inprocess
 from supervisor.engine.progress import Progress
-from vehicles.coordination import algebraic_connectivity, laplacian
 
 PATH_GRAPH_6 = 2 * (1 - math.cos(math.pi / 6))  # lambda_2 of the path graph on six vertices
 

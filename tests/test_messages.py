@@ -17,6 +17,7 @@ from hypothesis import strategies as st
 
 from comms.broker_core import BrokerCore
 from comms.channel import Channel, ChannelParams, Kinematics, LinkEvent, Reception
+from comms.fields import MAX_TIME
 from comms.loss import Bernoulli
 from comms.messages import (
     COMMS_DONE_KEY,
@@ -24,7 +25,6 @@ from comms.messages import (
     COMMS_STATS_KEY,
     FAULT_KEY,
     GRAPH_KEY,
-    MAX_TIME,
     META_KEY,
     STOP_KEY,
     TICK_KEY,
@@ -46,7 +46,6 @@ from comms.messages import (
     rx_message,
     split_step,
     state_key,
-    state_message,
     step_message,
     tick_message,
     tx_key,
@@ -54,6 +53,7 @@ from comms.messages import (
     vehicle_of_key,
 )
 from comms.network import Network
+from comms.records import Disturbances, Heard, Transmission
 from comms.schemas import (
     COMMS_DONE,
     COMMS_STATS,
@@ -70,11 +70,11 @@ from comms.stats import LinkStats
 from comms.wire import SIZE, encode_coordination
 from supervisor.config.fleet import initial_state, radio, vehicle_config
 from supervisor.config.scenario import load_scenario
-from vehicles.agent import Disturbances, Telemetry
+from vehicles.agent import Telemetry
 from vehicles.dynamics import PLANAR, SPATIAL, Model
 from vehicles.geometry import rotation_2d, rotation_from_rpy
-from vehicles.runtime import Heard, NodeState, node_step
-from vehicles.transmission import Transmission
+from vehicles.report import state_message
+from vehicles.runtime import NodeState, node_step
 
 PAPER = Path(__file__).resolve().parent.parent / "configs" / "paper.toml"
 STILL_AT_150 = Kinematics(np.array([150.0, 0.0, 0.0]), np.zeros(3))
@@ -673,7 +673,19 @@ def state_cases() -> list[tuple[str, Message]]:
         ("velocity holds inf", with_(VALID_STATE, velocity=[INF, 0.0, 0.0])),
         ("velocity holds a bool", with_(VALID_STATE, velocity=[False, 0.0, 0.0])),
         ("another vehicle's key", with_(VALID_STATE, vehicle=5)),
+        # the diagnostics too: the state report is read whole (comms.state.StateReport.from_message)
+        ("t holds nan", with_(VALID_STATE, t=NAN)),
+        ("gamma is a string", with_(VALID_STATE, gamma="7.5")),
+        ("lyapunov is None", with_(VALID_STATE, lyapunov=None)),
+        ("error has 2 items", with_(VALID_STATE, error=[0.0, 0.0])),
+        ("tau holds a string", with_(VALID_STATE, tau=["1.0"])),
+        ("angular_velocity holds nan", with_(VALID_STATE, angular_velocity=[NAN, 0.0, 0.0])),
+        ("estimate_age holds a triple", with_(VALID_STATE, estimate_age=[[1, 0.5, 2]])),
+        ("estimate_age names a float vehicle", with_(VALID_STATE, estimate_age=[[1.0, 0.5]])),
+        ("rx_lateness is a number", with_(VALID_STATE, rx_lateness=0.5)),
+        ("step_lateness is a string", with_(VALID_STATE, step_lateness="late")),
     ]
+    cases += [(f"missing {name}", without(VALID_STATE, name)) for name in ("t", "gamma", "error", "tau", "lyapunov")]
     return cases
 
 

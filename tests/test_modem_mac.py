@@ -19,14 +19,14 @@ import pytest
 from comms.channel import Channel, ChannelParams, Kinematics, LinkEvent, LinkParams, Reception
 from comms.loss import Bernoulli, GilbertElliott
 from comms.modem import PRESETS, ModemParams, modem
+from comms.records import Disturbances, Transmission
 from comms.stats import LinkStats
 from comms.wire import SIZE, decode_coordination, encode_coordination
 from supervisor.config.fleet import initial_state, vehicle_config
 from supervisor.config.scenario import load_scenario
-from vehicles.agent import Disturbances
 from vehicles.estimates import NeighbourEstimate
 from vehicles.runtime import NodeState, Radio, node_step
-from vehicles.transmission import EventTriggeredPolicy, PeriodicPolicy, Tdma, Transmission
+from vehicles.transmission import EventTriggeredPolicy, PeriodicPolicy, Tdma
 
 C = 1500.0
 PAPER = Path(__file__).resolve().parent.parent / "configs" / "paper.toml"

@@ -5,12 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from comms.records import Disturbances
 from supervisor.config.scenario import parse_scenario
 from supervisor.plan.faults import disturbances, events_at, network_at, process_actions
 from supervisor.plan.schedule import Schedule
 from tests.conftest import shortened
 from tests.test_faults_e2e import random_schedule
-from vehicles.agent import Disturbances
 
 
 def _direct(sc, k):

@@ -10,16 +10,17 @@ from __future__ import annotations
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
+from comms.records import Disturbances, FloatArray
 from vehicles.coordination import CoordinationGains, correction
 from vehicles.dynamics import LIFTED_SIZE, Model, kinematics, reorthonormalize, with_inputs
 from vehicles.estimates import NeighbourEstimate, Predictor, newer, predict
-from vehicles.geometry import FloatArray
 from vehicles.params import VehicleParams
 from vehicles.path_following import Control, ControllerConstants, PathFollowingGains, control
 from vehicles.paths import Path
 
 # Where gamma and gamma_dot sit in the integrated vector z = [lifted x, gamma, gamma_dot].
 _GAMMA, _GAMMA_DOT = LIFTED_SIZE, LIFTED_SIZE + 1
+UNDISTURBED = Disturbances()  # no fault acts on the vehicle
 
 
 @dataclass(frozen=True, slots=True)
@@ -60,17 +61,6 @@ class Telemetry:
     tau: FloatArray
     correction: float  # v_tilde_i
     lyapunov: float
-
-
-@dataclass(frozen=True, slots=True)
-class Disturbances:
-    """What faults do to a vehicle during a step. gamma_dot_cap: the paper's unannounced slowdown; the others
-    corrupt what it broadcasts: a frozen gamma sensor, a gamma offset, a skewed clock (s)."""
-
-    gamma_dot_cap: float | None = None
-    gamma_freeze: bool = False
-    gamma_offset: float = 0.0
-    clock_offset: float = 0.0
 
 
 def receive(state: VehicleState, sender: int, estimate: NeighbourEstimate) -> VehicleState:
@@ -121,7 +111,7 @@ def step(
     state: VehicleState,
     dt: float,
     neighbours: Sequence[int],
-    dist: Disturbances = Disturbances(),
+    dist: Disturbances = UNDISTURBED,
 ) -> tuple[VehicleState, Telemetry]:
     """Advance one RK4 step of dt; the telemetry describes the state at the start of the step.
 

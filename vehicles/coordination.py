@@ -1,4 +1,4 @@
-"""Coordination of the path parameters gamma_i: law (5) of the paper and the graph matrices it is built on.
+"""Coordination of the path parameters gamma_i: law (5) of the paper (its graph matrices are in comms.graph).
 
 Law (5), vector form: v_tilde = -K L gamma_dot - K2 (omega + K L gamma), omega = gamma_dot. Taken literally, together
 with the speed-error term of the path-following update it settles at gamma_dot = k_zeta v_r / (k_zeta + K2), not at
@@ -18,7 +18,7 @@ from typing import Literal
 
 import numpy as np
 
-from vehicles.geometry import FloatArray
+from comms.records import FloatArray
 
 Law = Literal["corrected", "literal"]
 
@@ -46,17 +46,6 @@ def correction(
     return -gains.k * sum_rate - gains.k2 * (speed_term + gains.k * sum_gamma)
 
 
-def laplacian(n: int, edges: Iterable[tuple[int, int]]) -> FloatArray:
-    """L = D - A of an undirected graph on nodes 0..n-1."""
-    lap = np.zeros((n, n))
-    for i, j in edges:
-        if i != j and lap[i, j] == 0.0:
-            lap[i, j] = lap[j, i] = -1.0
-            lap[i, i] += 1.0
-            lap[j, j] += 1.0
-    return lap
-
-
 def l_k(k_diag: Sequence[float]) -> FloatArray:
     """L_K = I - 1 1' K^-1 / (1' K^-1 1), the projection whose kernel is span{1} (Ghabcheloo et al., 2006)."""
     k_inv = 1.0 / np.asarray(k_diag, dtype=float)
@@ -72,8 +61,3 @@ def correction_vector(
     speed = gamma_dot - v_r if law == "corrected" else gamma_dot
     result: FloatArray = -k_diag * (lap @ gamma_dot) - k2_diag * (speed + k_diag * (lap @ gamma))
     return result
-
-
-def algebraic_connectivity(lap: FloatArray) -> float:
-    """lambda_2 of L: positive exactly when the graph is connected."""
-    return float(np.sort(np.linalg.eigvalsh(lap))[1]) if len(lap) > 1 else 0.0

@@ -32,7 +32,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vehicles.geometry import Float3, FloatArray, reorthonormalized
+from comms.records import FloatArray
+from vehicles.geometry import Float3, reorthonormalized
 from vehicles.params import VehicleParams
 
 Accelerations = tuple[Float3, Float3]  # (v_dot, omega_dot), body frame

@@ -10,9 +10,9 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
-from numpy.typing import NDArray
 
-FloatArray = NDArray[np.float64]
+from comms.records import FloatArray
+
 Float3 = tuple[float, float, float]  # a 3-vector as plain floats, for the hot path
 
 

@@ -28,14 +28,15 @@ from comms.messages import (
     parse_timed_rx,
     rx_key,
     state_key,
-    state_message,
     step_message,
     tick_lead,
     tx_message,
     vehicle_alive_key,
 )
-from vehicles.agent import Disturbances, VehicleConfig
-from vehicles.runtime import Heard, NodeState, Radio, node_step
+from comms.records import Disturbances, Heard
+from vehicles.agent import VehicleConfig
+from vehicles.report import state_message
+from vehicles.runtime import NodeState, Radio, node_step
 
 log = logging.getLogger(__name__)
 

@@ -22,8 +22,9 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import NamedTuple
 
+from comms.records import FloatArray
 from vehicles.dynamics import Accelerations, Model
-from vehicles.geometry import Float3, FloatArray
+from vehicles.geometry import Float3
 from vehicles.params import VehicleParams
 from vehicles.paths import Path
 

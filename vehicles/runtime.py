@@ -11,19 +11,10 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
-from vehicles.agent import Disturbances, Telemetry, VehicleConfig, VehicleState, own_estimate, receive, step
+from comms.records import Disturbances, Heard, Transmission
+from vehicles.agent import Telemetry, VehicleConfig, VehicleState, own_estimate, receive, step
 from vehicles.estimates import NeighbourEstimate
-from vehicles.transmission import PeriodicPolicy, Policy, Tdma, Transmission
-
-
-@dataclass(frozen=True, slots=True)
-class Heard:
-    """A reception as the vehicle sees it: who, the data and the time of the data."""
-
-    sender: int
-    stamp: float
-    gamma: float
-    gamma_dot: float
+from vehicles.transmission import PeriodicPolicy, Policy, Tdma
 
 
 @dataclass(frozen=True, slots=True)

@@ -18,24 +18,6 @@ from vehicles.estimates import NeighbourEstimate, Predictor, predict
 
 
 @dataclass(frozen=True, slots=True)
-class Transmission:
-    """A coordination message as it leaves a vehicle: its data and, for the channel emulator only, its kinematics."""
-
-    sender: int
-    seq: int
-    t: float  # transmission time (true simulation time), s
-    gamma: float
-    gamma_dot: float
-    position: tuple[float, float, float]  # inertial, m
-    velocity: tuple[float, float, float]  # inertial, m/s
-    stamp: float | None = None  # the time the message claims for its data; None: t (a skewed clock differs)
-
-    @property
-    def data_time(self) -> float:
-        return self.t if self.stamp is None else self.stamp
-
-
-@dataclass(frozen=True, slots=True)
 class PeriodicPolicy:
     period: float | None = None  # s; None: every sync step
 

@@ -15,9 +15,9 @@ import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
+from comms.graph import algebraic_connectivity, laplacian
 from comms.stats import clamp_lambda2
 from supervisor.analysis.report import AgeSeries, Array, LinkLog, RunData, colour, finish_time_axes, new_figure
-from vehicles.coordination import algebraic_connectivity, laplacian
 
 __all__ = ["comms_figures"]
 

@@ -15,6 +15,7 @@ from comms.channel import Channel, ChannelParams, LinkParams
 from comms.loss import Bernoulli, Composite, GilbertElliott, LinkBudgetRange, LossModel, RangeTable
 from comms.messages import Message
 from comms.modem import ModemParams, modem
+from comms.state import StateReport
 from comms.stats import LinkStats
 from supervisor.config.scenario_schema import (
     BurstSection,
@@ -219,18 +220,17 @@ def transmit_interval(scenario: Scenario) -> float | None:
 
 
 def restore_state(config: VehicleConfig, message: Message) -> VehicleState:
-    """A vehicle as its last recorded state message describes it: where a restarted process picks up."""
-    position = np.array(message["position"], dtype=float)
-    rotation = np.array(message["rotation"], dtype=float).reshape(3, 3)
-    velocity = np.array(message["velocity"], dtype=float)
-    angular = np.array(message["angular_velocity"], dtype=float)
+    """A vehicle as its last recorded state message describes it: where a restarted process picks up. ValueError if
+    the message is not a state report of this vehicle."""
+    report = StateReport.from_message(message, config.vehicle_id)
+    position, velocity = np.array(report.position, dtype=float), np.array(report.velocity, dtype=float)
+    angular = np.array(report.angular_velocity, dtype=float)
+    rotation = np.array(report.rotation, dtype=float).reshape(3, 3)
     if config.model.dim == 3:
         x = SPATIAL.pack(position, rotation, velocity, angular)
     else:
         x = PLANAR.pack(position[:2], rotation[:2, :2], velocity[:2], angular[2:])
-    return VehicleState(
-        float(message["t"]), config.model.normalize(x), float(message["gamma"]), float(message["gamma_dot"])
-    )
+    return VehicleState(report.t, config.model.normalize(x), float(report.gamma), float(report.gamma_dot))
 
 
 def restarted_node(config: VehicleConfig, last_state: Message, seq: int) -> NodeState:

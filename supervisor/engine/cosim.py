@@ -52,6 +52,7 @@ from comms.messages import (
     vehicle_of_key,
 )
 from comms.network import Network
+from comms.records import Disturbances
 from supervisor.analysis.series import SeriesBuilder
 from supervisor.config.derived import steps_of
 from supervisor.config.fleet import initial_state, link_stats, vehicle_config
@@ -68,7 +69,6 @@ from supervisor.engine.startup import REPORT_EVERY, ask_hello, check_hello, miss
 from supervisor.errors import SimulationError
 from supervisor.plan.faults import ProcessAction, disturbances, events_at, network_at, process_actions
 from supervisor.record.recorder import Recorder
-from vehicles.agent import Disturbances
 
 START_TIMEOUT = 60.0  # s for a process to declare its liveliness token (cpf run --start-timeout)
 STOP_DEADLINE = 3.0  # s for the processes to leave after the stop message, before the supervisor's token goes

@@ -29,11 +29,11 @@ from comms.messages import (
     rx_key,
     rx_message,
     state_key,
-    state_message,
     tx_key,
     tx_message,
 )
 from comms.network import Network
+from comms.records import Transmission
 from supervisor.analysis.series import SeriesBuilder
 from supervisor.analysis.summary import Series
 from supervisor.config.derived import steps_of
@@ -44,8 +44,8 @@ from supervisor.engine.metadata import graph_message, run_meta
 from supervisor.engine.progress import Progress
 from supervisor.plan.faults import ProcessAction, disturbances, events_at, network_at, process_actions
 from supervisor.record.recorder import Recorder
+from vehicles.report import state_message
 from vehicles.runtime import NodeState, node_step
-from vehicles.transmission import Transmission
 
 
 @dataclass(frozen=True, slots=True)

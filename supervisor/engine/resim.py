@@ -19,7 +19,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from comms.messages import META_KEY, Message, parse_rx, state_key, state_message, vehicle_of_key
+from comms.messages import META_KEY, Message, parse_rx, state_key, vehicle_of_key
+from comms.records import Heard
 from supervisor.analysis.series import SeriesBuilder
 from supervisor.analysis.summary import Series
 from supervisor.config.derived import steps_of
@@ -31,7 +32,8 @@ from supervisor.errors import ScenarioError
 from supervisor.plan.faults import disturbances, network_at
 from supervisor.record.logfile import messages
 from supervisor.record.recorder import Recorder
-from vehicles.runtime import Heard, NodeState, node_step
+from vehicles.report import state_message
+from vehicles.runtime import NodeState, node_step
 
 
 def _check_duration(log: Path, meta: dict[str, Any], sc: Scenario, overrides: Sequence[str]) -> None:

@@ -12,6 +12,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from comms.network import Network
+from comms.records import Disturbances
 from supervisor.config.derived import active, end_of, graph_at
 from supervisor.config.scenario_schema import (
     BlackoutFault,
@@ -26,7 +27,6 @@ from supervisor.config.scenario_schema import (
     SpeedCapFault,
     VehicleKillFault,
 )
-from vehicles.agent import Disturbances
 
 log = logging.getLogger(__name__)
 

@@ -17,10 +17,10 @@ from dataclasses import dataclass
 from types import MappingProxyType
 
 from comms.network import Network
+from comms.records import Disturbances
 from supervisor.config.derived import active, end_of, first_step, steps_of
 from supervisor.config.scenario_schema import FaultSpec, Scenario, VehicleKillFault
 from supervisor.plan.faults import FaultEvent, ProcessAction, disturbances, events_at, network_at, process_actions
-from vehicles.agent import Disturbances
 
 _NO_DISTURBANCES: MappingProxyType[int, Disturbances] = MappingProxyType({})
 

@@ -1,0 +1,77 @@
+"""Checked reading of one field of a message: the checks every parser (comms.messages, comms.state) shares.
+
+Each raises ValueError naming the field for anything malformed: receivers count and drop such messages.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+Message = dict[str, Any]
+MAX_SPEED = 100.0  # m/s: far above any AUV, far below the speed of sound
+MAX_FLOAT32 = 3.4e38  # what the frame's float32 fields hold
+MAX_TIME = (2**32 - 1) / 1000.0  # s: the frame's u32 millisecond time stamp
+
+
+def get(message: Message, name: str, kind: type | tuple[type, ...]) -> Any:
+    if name not in message:
+        raise ValueError(f"missing field {name!r}")
+    value = message[name]
+    if isinstance(value, bool) and kind is not bool:
+        raise ValueError(f"field {name!r} is a bool")
+    if not isinstance(value, kind):
+        raise ValueError(f"field {name!r} has type {type(value).__name__}")
+    return value
+
+
+def number(message: Message, name: str) -> float:
+    try:
+        value = float(get(message, name, (int, float)))
+    except OverflowError:
+        raise ValueError(f"field {name!r} is too large") from None
+    if not math.isfinite(value):
+        raise ValueError(f"field {name!r} is not finite")
+    return value
+
+
+def vector3(message: Message, name: str) -> tuple[float, float, float]:
+    value = get(message, name, list)
+    if len(value) != 3:
+        raise ValueError(f"field {name!r} has {len(value)} items, not 3")
+    items = {"x": value[0], "y": value[1], "z": value[2]}
+    return (number(items, "x"), number(items, "y"), number(items, "z"))
+
+
+def velocity(message: Message, name: str) -> tuple[float, float, float]:
+    """A velocity no vehicle could exceed: anything faster is a corrupt message (and would break acoustics)."""
+    value = vector3(message, name)
+    if math.hypot(*value) > MAX_SPEED:
+        raise ValueError(f"field {name!r} is faster than {MAX_SPEED:g} m/s")
+    return value
+
+
+def carried(message: Message, name: str, low: float, high: float) -> float:
+    """A number the 15-byte modem frame can carry (comms.wire): anything else could not be sent."""
+    value = number(message, name)
+    if not low <= value <= high:
+        raise ValueError(f"field {name!r} is outside what the modem frame carries [{low:g}, {high:g}]")
+    return value
+
+
+def rotation(message: Message) -> list[float]:
+    """R (row-major) of a state message; R R' must be I to 1e-6."""
+    rotation = get(message, "rotation", list)
+    if len(rotation) != 9:
+        raise ValueError("field 'rotation' is not 9 numbers")
+    r = [number({"r": value}, "r") for value in rotation]
+    for i in (0, 3, 6):
+        for j in (0, 3, 6):
+            dot = r[i] * r[j] + r[i + 1] * r[j + 1] + r[i + 2] * r[j + 2]
+            if abs(dot - (i == j)) > 1e-6:
+                raise ValueError("field 'rotation' is not a rotation matrix")
+    return r
+
+
+def is_int(value: object) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)

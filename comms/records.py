@@ -1,0 +1,87 @@
+"""The records comms carries between vehicles, the channel and the supervisor, as plain frozen dataclasses.
+
+They are the protocol's vocabulary: vehicles build and consume them, the channel and broker move them, the log keeps
+their wire form (a record's to_message / from_message where it has one,
+comms.messages otherwise). Nothing here knows how a vehicle works, so comms depends on no vehicle code.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from comms.fields import MAX_FLOAT32, MAX_TIME, Message, carried, get, vector3, velocity
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True, slots=True)
+class Transmission:
+    """A coordination message as it leaves a vehicle: its data and, for the channel emulator only, its kinematics."""
+
+    sender: int
+    seq: int
+    t: float  # transmission time (true simulation time), s
+    gamma: float
+    gamma_dot: float
+    position: tuple[float, float, float]  # inertial, m
+    velocity: tuple[float, float, float]  # inertial, m/s
+    stamp: float | None = None  # the time the message claims for its data; None: t (a skewed clock differs)
+
+    @property
+    def data_time(self) -> float:
+        return self.t if self.stamp is None else self.stamp
+
+    def to_message(self) -> Message:
+        """The wire form on a vehicle's tx key (schema comms.schemas.TRANSMISSION); stamp is always written."""
+        return {
+            "t": self.t,
+            "stamp": self.data_time,
+            "sender": self.sender,
+            "seq": self.seq,
+            "gamma": self.gamma,
+            "gamma_dot": self.gamma_dot,
+            "position": list(self.position),
+            "velocity": list(self.velocity),
+        }
+
+    @classmethod
+    def from_message(cls, message: Message, key_vehicle: int) -> Transmission:
+        """The inverse of to_message, checked: the sender must own the key it came on, and the modem frame must be
+        able to carry it. ValueError for anything malformed."""
+        sender = get(message, "sender", int)
+        if sender != key_vehicle:
+            raise ValueError(f"sender {sender} published on vehicle {key_vehicle}'s key")
+        seq = get(message, "seq", int)
+        if seq < 0:
+            raise ValueError("field 'seq' is negative")
+        t = carried(message, "t", 0.0, MAX_TIME)
+        stamp = carried(message, "stamp", 0.0, MAX_TIME) if "stamp" in message else t
+        return cls(
+            sender, seq, t, carried(message, "gamma", -MAX_FLOAT32, MAX_FLOAT32),
+            carried(message, "gamma_dot", -MAX_FLOAT32, MAX_FLOAT32), vector3(message, "position"),
+            velocity(message, "velocity"), None if stamp == t else stamp,
+        )  # fmt: skip
+
+
+@dataclass(frozen=True, slots=True)
+class Heard:
+    """A reception as the vehicle sees it: who, the data and the time of the data."""
+
+    sender: int
+    stamp: float
+    gamma: float
+    gamma_dot: float
+
+
+@dataclass(frozen=True, slots=True)
+class Disturbances:
+    """What faults do to a vehicle during a step (the tick carries them). gamma_dot_cap: the paper's unannounced
+    slowdown; the others corrupt what it broadcasts: a frozen gamma sensor, a gamma offset, a skewed clock (s)."""
+
+    gamma_dot_cap: float | None = None
+    gamma_freeze: bool = False
+    gamma_offset: float = 0.0
+    clock_offset: float = 0.0

@@ -1,0 +1,121 @@
+"""A vehicle's state report of one sync step: the record, its wire form and its checked reading, side by side.
+
+`to_message` gives the dict that travels on the vehicle's state key (msgpack on the bus, JSON in the log, schema
+comms.schemas.STATE); `from_message` is its inverse, checked: what the broker needs (position, attitude, velocity,
+which step, whether it transmitted) must be finite and physical, the diagnostics (gamma, errors, forces, Lyapunov
+value) need only be numbers. Keys a step message adds around the state (tx, rx) are not the state's and are ignored.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from comms.channel import Kinematics
+from comms.fields import Message, get, is_int, number, rotation, vector3, velocity
+
+Float3 = tuple[float, float, float]
+
+
+@dataclass(frozen=True, slots=True)
+class StateReport:
+    """What a vehicle says about itself at step k. position, rotation (R row-major, body to inertial) and velocity
+    (body frame) place it in 3-D (a planar vehicle is embedded); tx_seq: its transmission of step k, or 0."""
+
+    t: float
+    k: int
+    vehicle: int
+    gamma: float
+    gamma_dot: float
+    position: Float3  # inertial, m
+    rotation: tuple[float, ...]  # 9 numbers
+    velocity: Float3  # body frame, m/s
+    angular_velocity: Float3  # body frame, rad/s
+    error: Float3  # p - p_d(gamma), m (zero-padded for planar vehicles)
+    tau: tuple[float, ...]  # the inputs the controller asked for
+    correction: float  # v_tilde
+    lyapunov: float
+    tx_seq: int
+    estimate_age: tuple[tuple[int, float], ...]  # (neighbour, how old the estimate held of it is, s)
+    rx_lateness: tuple[float, ...] | None = None  # realtime: s from each reception's arrival to its coming
+    step_lateness: float | None = None  # realtime: s from t_k to the vehicle's starting its step
+
+    @property
+    def kinematics(self) -> Kinematics:
+        """Inertial position and velocity (R v): what the channel needs of the vehicle."""
+        r, (u, v, w) = self.rotation, self.velocity
+        inertial = np.array([r[i] * u + r[i + 1] * v + r[i + 2] * w for i in (0, 3, 6)])
+        return Kinematics(np.array(self.position), inertial)
+
+    def to_message(self) -> Message:
+        message: Message = {
+            "t": self.t,
+            "k": self.k,
+            "vehicle": self.vehicle,
+            "gamma": self.gamma,
+            "gamma_dot": self.gamma_dot,
+            "position": list(self.position),
+            "rotation": list(self.rotation),
+            "velocity": list(self.velocity),
+            "angular_velocity": list(self.angular_velocity),
+            "error": list(self.error),
+            "tau": list(self.tau),
+            "correction": self.correction,
+            "lyapunov": self.lyapunov,
+            "tx_seq": self.tx_seq,
+            "estimate_age": [[j, age] for j, age in self.estimate_age],
+        }
+        if self.rx_lateness is not None:
+            message["rx_lateness"] = list(self.rx_lateness)
+        if self.step_lateness is not None:
+            message["step_lateness"] = self.step_lateness
+        return message
+
+    @classmethod
+    def from_message(cls, message: Message, key_vehicle: int) -> StateReport:
+        """The report, checked; its vehicle must own the key it came on. ValueError for anything malformed."""
+        vehicle = get(message, "vehicle", int)
+        if vehicle != key_vehicle:
+            raise ValueError(f"vehicle {vehicle} published on vehicle {key_vehicle}'s key")
+        return cls(
+            number(message, "t"), get(message, "k", int), vehicle, _real(message, "gamma"),
+            _real(message, "gamma_dot"), vector3(message, "position"), tuple(rotation(message)),
+            velocity(message, "velocity"), vector3(message, "angular_velocity"), _reals3(message, "error"),
+            tuple(_reals(message, "tau")), _real(message, "correction"), _real(message, "lyapunov"),
+            get(message, "tx_seq", int), _ages(message),
+            None if message.get("rx_lateness") is None else tuple(_reals(message, "rx_lateness")),
+            None if message.get("step_lateness") is None else number(message, "step_lateness"),
+        )  # fmt: skip
+
+
+def _is_real(value: object) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool)
+
+
+def _real(message: Message, name: str) -> float:
+    """A number, finite or not: a diagnostic the broker does not compute with."""
+    value: float = get(message, name, (int, float))
+    return value
+
+
+def _reals(message: Message, name: str) -> list[Any]:
+    values = get(message, name, list)
+    if not all(_is_real(v) for v in values):
+        raise ValueError(f"field {name!r} is not a list of numbers")
+    return values
+
+
+def _reals3(message: Message, name: str) -> Float3:
+    values = _reals(message, name)
+    if len(values) != 3:
+        raise ValueError(f"field {name!r} has {len(values)} items, not 3")
+    return values[0], values[1], values[2]
+
+
+def _ages(message: Message) -> tuple[tuple[int, float], ...]:
+    pairs = get(message, "estimate_age", list)
+    if not all(isinstance(p, list) and len(p) == 2 and is_int(p[0]) and _is_real(p[1]) for p in pairs):
+        raise ValueError("field 'estimate_age' is not a list of [vehicle id, age] pairs")
+    return tuple((j, age) for j, age in pairs)

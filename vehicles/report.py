@@ -1,0 +1,31 @@
+"""A vehicle's state report: what it says about step k, built from its telemetry and its model.
+
+Only the vehicle knows how its state vector maps to a position, an attitude and velocities (planar vehicles are
+embedded in 3-D here), so the report is built on this side; comms only defines the record (comms.state.StateReport)
+and its wire form.
+"""
+
+from __future__ import annotations
+
+from comms.messages import Message
+from comms.state import StateReport
+from vehicles.agent import Telemetry
+from vehicles.dynamics import Model
+
+
+def state_message(
+    telemetry: Telemetry, model: Model, k: int, tx_seq: int, ages: tuple[tuple[int, float], ...] = ()
+) -> Message:
+    """A vehicle's telemetry of step k (planar vehicles embedded in 3-D); tx_seq: its transmission then, or 0;
+    ages: how old each neighbour estimate it holds is."""
+    s = model.spatial(telemetry.x)
+    error = telemetry.error.tolist() + [0.0] * (3 - len(telemetry.error))
+    return StateReport(
+        telemetry.t, k, telemetry.vehicle_id, telemetry.gamma, telemetry.gamma_dot, _three(s.position.tolist()),
+        tuple(s.rotation.reshape(9).tolist()), _three(s.velocity.tolist()), _three(s.angular_velocity.tolist()),
+        _three(error), tuple(telemetry.tau.tolist()), telemetry.correction, telemetry.lyapunov, tx_seq, ages,
+    ).to_message()  # fmt: skip
+
+
+def _three(values: list[float]) -> tuple[float, float, float]:
+    return values[0], values[1], values[2]
