@@ -393,7 +393,12 @@ def _presets(args: argparse.Namespace) -> int:
 
 
 def _interrupt(signum: int, frame: FrameType | None) -> None:
-    raise KeyboardInterrupt  # SIGTERM cleans up like Ctrl-C: children stopped, log closed
+    """SIGINT and SIGTERM: stop as Ctrl-C does (children stopped, log closed), and keep the request (a run checks it
+    every step, should the KeyboardInterrupt be swallowed on its way)."""
+    from supervisor.engine.progress import request_stop
+
+    request_stop()
+    raise KeyboardInterrupt
 
 
 COMMANDS = {
@@ -416,6 +421,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     logging.basicConfig(level=logging.WARNING, format=f"cpf {args.command}: %(message)s")
     signal.signal(signal.SIGTERM, _interrupt)
+    signal.signal(signal.SIGINT, _interrupt)
     try:
         return COMMANDS[args.command](args)
     except BrokenPipeError:  # output piped into e.g. head, which stopped reading: not an error of ours
