@@ -218,7 +218,7 @@ def _run(args: argparse.Namespace) -> int:
     else:
         timeout = START_TIMEOUT if args.start_timeout is None else args.start_timeout
         bus = BusOptions(args.listen, args.connect, args.remote, tuple(args.set), tuple(args.fault), timeout)
-        logging.getLogger("supervisor.engine.cosim").setLevel(logging.INFO)  # "waiting for ...": --quiet or not
+        logging.getLogger("cpf.engine").setLevel(logging.INFO)  # "waiting for ...": --quiet or not
         result = run_zenoh(scenario, args.scenario, text, out, seed, args.clock, speed, bus, progress)
     faults = intervals(scenario)
     rep = scenario.report

@@ -7,7 +7,7 @@ import pytest
 from supervisor.config.derived import active, intervals
 from supervisor.config.scenario import fault_table, parse_scenario
 from supervisor.errors import ScenarioError
-from supervisor.plan.faults import disturbances, events_at, network_at, process_actions
+from supervisor.plan.faults import _disturbances, _events_at, _network_at, _process_actions
 from tests.conftest import CONFIGS
 
 DT = 0.1
@@ -33,16 +33,16 @@ def test_network_faults_shape_the_network_of_each_step():
         "kind=link_degraded,sender=3,receiver=1,both=false,extra_loss=0.5,start=15,end=20",
         "kind=graph_switch,edges=[[1,2],[2,3]],start=30,end=40",
     )
-    quiet = network_at(sc, 5.0, DT)
+    quiet = _network_at(sc, 5.0, DT)
     assert quiet.neighbours(1) == [2, 3] and not quiet.down and not quiet.degraded and not quiet.blackout
-    busy = network_at(sc, 16.0, DT)
+    busy = _network_at(sc, 16.0, DT)
     assert busy.down == {(1, 2)}  # one direction only
     assert busy.impairment(1, 2).lost == "link_down" and busy.impairment(2, 1).lost is None
     assert busy.degraded[(1, 3)] == (0.5, 0.3)
     assert busy.degraded[(3, 1)] == pytest.approx((0.75, 0.3))  # two degradations compose: 1 - 0.5 * 0.5
-    switched = network_at(sc, 35.0, DT)
+    switched = _network_at(sc, 35.0, DT)
     assert switched.neighbours(1) == [2] and switched.neighbours(3) == [2]
-    assert network_at(sc, 40.0, DT).neighbours(1) == [2, 3]  # back to the scenario's graph
+    assert _network_at(sc, 40.0, DT).neighbours(1) == [2, 3]  # back to the scenario's graph
 
 
 def test_vehicle_faults_become_disturbances_of_that_vehicle_only():
@@ -51,21 +51,21 @@ def test_vehicle_faults_become_disturbances_of_that_vehicle_only():
         "kind=gamma_offset,vehicle=2,offset=1.5,start=10,end=20",
         "kind=clock_skew,vehicle=3,offset=-0.4,start=10,end=20",
     )
-    two, three, one = (disturbances(sc.faults, v, 12.0, DT) for v in (2, 3, 1))
+    two, three, one = (_disturbances(sc.faults, v, 12.0, DT) for v in (2, 3, 1))
     assert two.gamma_freeze and two.gamma_offset == 1.5 and two.clock_offset == 0.0
     assert three.clock_offset == -0.4 and not three.gamma_freeze
     assert one.gamma_dot_cap is None and not one.gamma_freeze  # the paper's cap starts at 150 s
-    assert disturbances(sc.faults, 1, 150.0, DT).gamma_dot_cap == 0.5
+    assert _disturbances(sc.faults, 1, 150.0, DT).gamma_dot_cap == 0.5
 
 
 def test_fault_events_and_process_actions_come_at_the_step_boundaries():
     sc = scenario_with("kind=vehicle_kill,vehicle=2,start=10,end=13", "kind=broker_kill,start=20")
-    assert [(e.kind, e.phase) for e in events_at(sc.faults, 10.0, DT)] == [("vehicle_kill", "start")]
-    assert [(a.action, a.target, a.vehicle) for a in process_actions(sc.faults, 10.0, DT)] == [("kill", "vehicle", 2)]
-    assert [(a.action, a.vehicle) for a in process_actions(sc.faults, 13.0, DT)] == [("restart", 2)]
-    assert [a.action for a in process_actions(sc.faults, 20.0, DT)] == ["kill"]
-    assert [a.action for a in process_actions(sc.faults, 20.1, DT)] == ["restart"]  # a broker restarts a step later
-    assert process_actions(sc.faults, 10.1, DT) == []
+    assert [(e.kind, e.phase) for e in _events_at(sc.faults, 10.0, DT)] == [("vehicle_kill", "start")]
+    assert [(a.action, a.target, a.vehicle) for a in _process_actions(sc.faults, 10.0, DT)] == [("kill", "vehicle", 2)]
+    assert [(a.action, a.vehicle) for a in _process_actions(sc.faults, 13.0, DT)] == [("restart", 2)]
+    assert [a.action for a in _process_actions(sc.faults, 20.0, DT)] == ["kill"]
+    assert [a.action for a in _process_actions(sc.faults, 20.1, DT)] == ["restart"]  # a broker restarts a step later
+    assert _process_actions(sc.faults, 10.1, DT) == []
 
 
 def test_fault_specs_on_the_command_line_keep_lists_whole():

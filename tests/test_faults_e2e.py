@@ -136,7 +136,7 @@ def test_an_unscheduled_death_is_noticed_and_survived_when_the_scenario_says_con
     finally:
         run.kill()
     assert run.returncode == 0, stderr
-    assert "cpf: warning: vehicle 3 lost at t = " in stderr
+    assert "cpf run: vehicle 3 lost at t = " in stderr
     states, links, _ = read_run(tmp_path / "r.mcap")
     assert max(k for v, k in states if v == 1) == 14999 > max(k for v, k in states if v == 3)
     assert_balanced(links)

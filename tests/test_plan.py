@@ -7,7 +7,7 @@ import pytest
 
 from comms.records import Disturbances
 from supervisor.config.scenario import parse_scenario
-from supervisor.plan.faults import disturbances, events_at, network_at, process_actions
+from supervisor.plan.faults import _disturbances, _events_at, _network_at, _process_actions
 from supervisor.plan.schedule import Schedule
 from tests.conftest import shortened
 from tests.test_faults_e2e import random_schedule
@@ -17,8 +17,8 @@ def _direct(sc, k):
     """What the engines asked for step k before the plan: each function called with t = k dt."""
     dt = sc.scenario.step
     t = k * dt
-    dist = {i: d for i in sc.vehicle_ids if (d := disturbances(sc.faults, i, t, dt)) != Disturbances()}
-    return events_at(sc.faults, t, dt), process_actions(sc.faults, t, dt), network_at(sc, t, dt), dist
+    dist = {i: d for i in sc.vehicle_ids if (d := _disturbances(sc.faults, i, t, dt)) != Disturbances()}
+    return _events_at(sc.faults, t, dt), _process_actions(sc.faults, t, dt), _network_at(sc, t, dt), dist
 
 
 @pytest.mark.parametrize("seed", range(12))
@@ -29,7 +29,7 @@ def test_plan_equals_the_schedule_asked_step_by_step(paper_text, seed):
     faults.append("kind=broker_kill,start=7.0")  # default end: one step later
     sc = parse_scenario(shortened(paper_text, 30.0), "s.toml", faults=faults)
     schedule = Schedule(sc)
-    previous = None
+    previous = _network_at(sc, -sc.scenario.step, sc.scenario.step)  # before the run: the scenario's graph
     for k in range(schedule.steps + 1):
         plan = schedule.plan(k)
         events, actions, network, dist = _direct(sc, k)
@@ -39,7 +39,7 @@ def test_plan_equals_the_schedule_asked_step_by_step(paper_text, seed):
             network,
             dist,
         ), k
-        assert plan.graph_changed == (previous is not None and network.edges != previous.edges)
+        assert plan.graph_changed == (network.edges != previous.edges)
         assert plan.final == (k == schedule.steps)
         previous = network
 
@@ -95,3 +95,10 @@ def test_scheduled_alive(paper_text):
     assert schedule.scheduled_alive(9) == [1, 2, 3]
     assert schedule.scheduled_alive(10) == [1, 3]
     assert schedule.scheduled_alive(20) == [1, 2, 3]
+
+
+def test_a_graph_switch_at_the_start_is_a_change_of_step_0(paper_text):
+    """Step 0 changes the graph if a switch is in force from the start: every engine records it at t = 0."""
+    switched = parse_scenario(shortened(paper_text, 2.0), "s.toml", faults=["kind=graph_switch,edges=[[1,2]],start=0"])
+    assert Schedule(switched).plan(0).graph_changed and Schedule(switched).plan(0).network.edges == ((1, 2),)
+    assert not Schedule(parse_scenario(shortened(paper_text, 2.0), "s.toml")).plan(0).graph_changed

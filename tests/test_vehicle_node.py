@@ -21,7 +21,6 @@ from comms.messages import (
 from supervisor.config.fleet import initial_state, radio, vehicle_config
 from supervisor.config.scenario import load_scenario
 from tests.conftest import RecordingPublishers
-from vehicles import node as node_module
 from vehicles.node import _Vehicle
 from vehicles.runtime import NodeState
 
@@ -32,7 +31,7 @@ LEAD = tick_lead(DT, 1.0)
 
 
 class FakeClock:
-    """time.time() of the vehicle process, set by the test."""
+    """The vehicle process's wall clock (its `now`), set by the test."""
 
     def __init__(self, now: float) -> None:
         self.now = now
@@ -42,18 +41,19 @@ class FakeClock:
 
 
 @pytest.fixture
-def clock(monkeypatch: pytest.MonkeyPatch) -> FakeClock:
-    fake = FakeClock(1000.0)
-    monkeypatch.setattr(node_module, "time", fake)
-    return fake
+def clock() -> FakeClock:
+    return FakeClock(1000.0)
 
 
-def vehicle() -> tuple[_Vehicle, RecordingPublishers]:
+def vehicle(clock: FakeClock | None = None) -> tuple[_Vehicle, RecordingPublishers]:
+    """The vehicle process's handler; on the test's clock if given, else on the wall clock (lockstep needs none)."""
     scenario = load_scenario(REPO / "configs" / "paper.toml")
     cfg = vehicle_config(scenario, VID)
     pubs = RecordingPublishers()
-    node = _Vehicle(cfg, radio(scenario, VID), NodeState(initial_state(scenario, cfg)), [1], DT, pubs, 0)
-    return node, pubs
+    initial = NodeState(initial_state(scenario, cfg))
+    if clock is None:
+        return _Vehicle(cfg, radio(scenario, VID), initial, [1], DT, pubs, 0), pubs
+    return _Vehicle(cfg, radio(scenario, VID), initial, [1], DT, pubs, 0, now=clock.time), pubs
 
 
 def send_tick(node: _Vehicle, k: int, wall: float | None, comms: bool = True) -> None:
@@ -83,7 +83,7 @@ def test_lockstep_steps_as_soon_as_the_tick_is_in() -> None:
 
 
 def test_realtime_steps_at_the_ticks_time_not_when_it_comes(clock: FakeClock) -> None:
-    node, pubs = vehicle()
+    node, pubs = vehicle(clock)
     send_tick(node, 0, clock.now + 0.01)  # came 10 ms ahead
     assert steps(pubs) == [] and node.due() == pytest.approx(clock.now + 0.01)
     clock.now += 0.009
@@ -95,7 +95,7 @@ def test_realtime_steps_at_the_ticks_time_not_when_it_comes(clock: FakeClock) ->
 
 
 def test_realtime_waits_no_longer_than_the_lead_when_its_clock_lags_the_supervisors(clock: FakeClock) -> None:
-    node, pubs = vehicle()
+    node, pubs = vehicle(clock)
     send_tick(node, 0, clock.now + 100.0)  # by this host's clock the tick is 100 s early: its clock lags
     assert node.due() == pytest.approx(clock.now + LEAD)
     clock.now += LEAD
@@ -104,7 +104,7 @@ def test_realtime_waits_no_longer_than_the_lead_when_its_clock_lags_the_supervis
 
 
 def test_realtime_holds_a_reception_that_came_ahead_until_the_step_its_arrival_calls_for(clock: FakeClock) -> None:
-    node, pubs = vehicle()
+    node, pubs = vehicle(clock)
     ahead = clock.now + 50.0  # the broker stamped it due 50 s from now: it came ahead
     early = rx_message(VID, 2, 0.15, [reception(0.15)], lambda t: ahead)  # arrives between t_1 and t_2
     serve_one(node, rx_key(VID), encode(early))
@@ -121,7 +121,7 @@ def test_realtime_holds_a_reception_that_came_ahead_until_the_step_its_arrival_c
 def test_realtime_takes_in_nothing_at_a_tick_the_broker_did_not_live_to(clock: FakeClock) -> None:
     """A reception held for step 1, when the broker dies at tick 1: it never reported it delivered, and lockstep
     would never hand it out."""
-    node, pubs = vehicle()
+    node, pubs = vehicle(clock)
     serve_one(node, rx_key(VID), encode(rx_message(VID, 1, 0.05, [reception(0.05)], lambda t: clock.now)))
     send_tick(node, 0, clock.now)
     send_tick(node, 1, clock.now, comms=False)
@@ -131,7 +131,7 @@ def test_realtime_takes_in_nothing_at_a_tick_the_broker_did_not_live_to(clock: F
 
 
 def test_a_realtime_batch_with_one_malformed_delivery_is_dropped_whole(clock: FakeClock) -> None:
-    node, _ = vehicle()
+    node, _ = vehicle(clock)
     message = rx_message(VID, 1, 0.05, [reception(0.04), reception(0.05)], lambda t: clock.now)
     del message["receptions"][1]["due"]
     serve_one(node, rx_key(VID), encode(message))

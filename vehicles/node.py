@@ -2,10 +2,10 @@
 
 Per sync step k it needs the supervisor's tick (time, faults acting on it) and, in lockstep, its reception batch for
 k: both come in the one batches message the broker publishes for the whole fleet at each step (the supervisor
-publishes it while the broker is down). It runs node_step, then publishes one step message: its state, the
-transmission it made (if any) and the receptions it took in. In realtime the broker sends each reception as soon
-as the channel has decided it, usually ahead of its arrival: the vehicle holds it until the step its arrival calls
-for, and reports how late each one reached it against its arrival (negative: how far ahead). comms.bus.serve runs
+publishes it while the broker is down). It runs vehicles.step.step_records, then publishes one step message: its
+state, the transmission it made (if any) and the receptions it took in. In realtime the broker sends each reception
+as soon as the channel has decided it, usually ahead of its arrival: the vehicle holds it until the step its arrival
+calls for, and reports how late each one reached it against its arrival (negative: how far ahead). comms.bus.serve runs
 its life: it stops on the stop message, or by itself when the supervisor's liveliness token disappears (no orphans).
 """
 
@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 from comms.bus import Publishers, Timed, serve
@@ -30,13 +30,12 @@ from comms.messages import (
     state_key,
     step_message,
     tick_lead,
-    tx_message,
     vehicle_alive_key,
 )
 from comms.records import Disturbances, Heard
 from vehicles.agent import VehicleConfig
-from vehicles.report import state_message
-from vehicles.runtime import NodeState, Radio, node_step
+from vehicles.runtime import NodeState, Radio
+from vehicles.step import step_records
 
 log = logging.getLogger(__name__)
 
@@ -57,7 +56,7 @@ class _Pending:
     """Ticks and receptions that arrived ahead of the step that needs them."""
 
     ticks: dict[int, Tick] = field(default_factory=dict)
-    start_at: dict[int, float] = field(default_factory=dict)  # realtime: when to begin each step (time.time())
+    start_at: dict[int, float] = field(default_factory=dict)  # realtime: when to begin each step (wall clock)
     batches: dict[int, tuple[list[Heard], Message | None]] = field(default_factory=dict)  # by step
     live: list[_Live] = field(default_factory=list)  # realtime: receptions held until their step
     malformed: int = 0
@@ -114,12 +113,14 @@ class _Vehicle:
         dt: float,
         publishers: Publishers,
         k: int,
+        now: Callable[[], float] = time.time,
     ) -> None:
+        """now: the wall clock (s since the epoch, as the supervisor stamps realtime ticks); tests drive their own."""
         self.cfg, self.radio, self.node, self.neighbours, self.dt = cfg, radio, node, neighbours, dt
-        self.publishers, self.k, self.pending = publishers, k, _Pending()
+        self.publishers, self.k, self.pending, self.now = publishers, k, _Pending(), now
 
     def __call__(self, key: str, payload: bytes) -> None:
-        _take(key, payload, self.cfg.vehicle_id, self.pending, self.dt)  # comms.bus.serve then calls on_time
+        _take(key, payload, self.cfg.vehicle_id, self.pending, self.dt, self.now)  # comms.bus.serve then: on_time
 
     def due(self) -> float | None:
         return self.pending.start_at.get(self.k)
@@ -128,18 +129,31 @@ class _Vehicle:
         """Run every step whose tick is in and whose time has come."""
         while self.pending.ready(self.k):
             start_at = self.pending.start_at.get(self.k)
-            if start_at is not None and start_at > time.time():
+            if start_at is not None and start_at > self.now():
                 return
             self.pending.start_at.pop(self.k, None)
             tick = self.pending.ticks.pop(self.k)
             receptions = self.pending.receptions(tick, self.cfg.vehicle_id)
-            self.node = _step(
-                self.cfg, self.radio, self.node, tick, receptions, self.neighbours, self.dt, self.publishers
-            )
+            self.node = self._step(tick, receptions)
             self.k += 1
 
+    def _step(self, tick: Tick, receptions: tuple[list[Heard], Message | None, list[float]]) -> NodeState:
+        """Step the tick's k on what was taken in; publish the step message (state, transmission, receptions)."""
+        vid = self.cfg.vehicle_id
+        heard, batch, lateness = receptions
+        dist = tick.disturbed.get(vid, Disturbances())
+        current = tick.network.neighbours(vid) if tick.network is not None else self.neighbours
+        started = self.now() if tick.wall is not None else 0.0
+        node, out = step_records(self.cfg, self.radio, self.node, tick.k, tick.t, self.dt, heard, current, dist)
+        state = out.state
+        if tick.wall is not None:
+            state["rx_lateness"] = lateness
+            state["step_lateness"] = started - tick.wall  # how late the vehicle began its step of t_k
+        self.publishers.put(state_key(vid), step_message(state, out.tx, batch))
+        return node
 
-def _take(key: str, payload: bytes, vid: int, pending: _Pending, dt: float) -> None:
+
+def _take(key: str, payload: bytes, vid: int, pending: _Pending, dt: float, now: Callable[[], float]) -> None:
     """File an incoming message by step; a malformed one is counted and dropped."""
     try:
         message = decode(payload)
@@ -149,42 +163,17 @@ def _take(key: str, payload: bytes, vid: int, pending: _Pending, dt: float) -> N
                 pending.ticks[tick.k] = tick
                 if tick.wall is not None:  # its time, but never more than the lead after it came: a host whose
                     # clock lags the supervisor's must not hold the whole fleet back
-                    pending.start_at[tick.k] = min(tick.wall, time.time() + tick_lead(dt, tick.speed))
+                    pending.start_at[tick.k] = min(tick.wall, now() + tick_lead(dt, tick.speed))
                 pending.batches[tick.k] = ([] if batch is None else parse_rx(batch)[1], batch)
         elif key == rx_key(vid):
-            _file_rx(message, pending, dt)
+            _file_rx(message, pending, dt, now())
     except ValueError as exc:
         pending.malformed += 1
         log.warning("vehicle %d: dropped a malformed message on %s: %s", vid, key, exc)
 
 
-def _file_rx(message: Message, pending: _Pending, dt: float) -> None:
-    """Realtime deliveries, as they come (usually ahead of their arrival), with how late each reached the vehicle."""
-    now = time.time()
+def _file_rx(message: Message, pending: _Pending, dt: float, now: float) -> None:
+    """Realtime deliveries, as they come (usually ahead of their arrival), with how late each reached the vehicle
+    (now: the wall clock as it came)."""
     _, timed = parse_timed_rx(message)
     pending.live += [_Live(intake_step(arrival, dt), h, item, now - due) for h, arrival, due, item in timed]
-
-
-def _step(
-    cfg: VehicleConfig,
-    radio: Radio,
-    node: NodeState,
-    tick: Tick,
-    receptions: tuple[list[Heard], Message | None, list[float]],
-    neighbours: Sequence[int],
-    dt: float,
-    publishers: Publishers,
-) -> NodeState:
-    vid = cfg.vehicle_id
-    heard, batch, lateness = receptions
-    dist = tick.disturbed.get(vid, Disturbances())
-    current = tick.network.neighbours(vid) if tick.network is not None else neighbours
-    started = time.time() if tick.wall is not None else 0.0
-    node, out = node_step(cfg, radio, node, tick.t, dt, heard, current, dist)
-    tx = out.transmission
-    state = state_message(out.telemetry, cfg.model, tick.k, tx.seq if tx else 0, out.estimate_ages)
-    if tick.wall is not None:
-        state["rx_lateness"] = lateness
-        state["step_lateness"] = started - tick.wall  # how late the vehicle began its step of t_k
-    publishers.put(state_key(vid), step_message(state, tx_message(tx) if tx else None, batch))
-    return node

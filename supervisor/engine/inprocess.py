@@ -1,7 +1,8 @@
 """The single-process engine: every vehicle and the channel stepped in one loop.
 
-It runs exactly the pipeline of the multi-process engine (vehicles.runtime.node_step for each vehicle,
-comms.broker_core for the channel, messages built and parsed the same way, the same fault schedule), in one process
+It runs exactly the pipeline of the multi-process engine (vehicles.step.step_records for each vehicle,
+comms.broker_core for the channel, messages built and parsed the same way, the plan of each step from the one
+supervisor.plan.schedule.Schedule), in one process
 and one thread. Process faults are emulated as the Zenoh engine performs them: a killed vehicle stops stepping (the run
 goes on: a scheduled kill is the fault, not a loss) and restarts from its last recorded state; a killed broker loses
 what it had in flight and restarts afresh. It is the reference the Zenoh engine must reproduce, and the speed floor
@@ -30,7 +31,6 @@ from comms.messages import (
     rx_message,
     state_key,
     tx_key,
-    tx_message,
 )
 from comms.network import Network
 from comms.records import Transmission
@@ -42,10 +42,11 @@ from supervisor.config.scenario_schema import Scenario
 from supervisor.engine.books import LinkBooks
 from supervisor.engine.metadata import graph_message, run_meta
 from supervisor.engine.progress import Progress
-from supervisor.plan.faults import ProcessAction, disturbances, events_at, network_at, process_actions
+from supervisor.plan.faults import ProcessAction
+from supervisor.plan.schedule import Schedule, StepPlan
 from supervisor.record.recorder import Recorder
-from vehicles.report import state_message
-from vehicles.runtime import NodeState, node_step
+from vehicles.runtime import NodeState
+from vehicles.step import step_records
 
 
 @dataclass(frozen=True, slots=True)
@@ -65,6 +66,7 @@ class _InProcessRun:
     def __init__(self, scenario: Scenario, rec: Recorder, seed: int) -> None:
         self.sc, self.rec, self.seed = scenario, rec, seed
         self.dt = scenario.scenario.step
+        self.schedule = Schedule(scenario)
         ids = scenario.vehicle_ids
         self.configs = {i: vehicle_config(scenario, i) for i in ids}
         self.nodes = {i: NodeState(initial_state(scenario, self.configs[i])) for i in ids}
@@ -79,19 +81,19 @@ class _InProcessRun:
         self.network: Network | None = None  # in force when `sent` was transmitted
 
     def step(self, k: int) -> None:
-        t = k * self.dt
-        for event in events_at(self.sc.faults, t, self.dt):
+        plan = self.schedule.plan(k)
+        t = plan.t
+        for event in plan.events:
             self.rec.write(FAULT_KEY, t, event.message())
-        for action in process_actions(self.sc.faults, t, self.dt):
+        for action in plan.actions:
             self._act(action, t)
-        network = network_at(self.sc, t, self.dt)
-        if k > 0 and self.network is not None and network.edges != self.network.edges:
-            self.rec.write(GRAPH_KEY, t, graph_message(t, network.edges))
+        if plan.graph_changed:
+            self.rec.write(GRAPH_KEY, t, graph_message(t, plan.network.edges))
         heard = self._channel(k, t)
         self.books.window(t)  # every delivery up to t is booked now
-        self.sent, self.where, self.network = [], {}, network
+        self.sent, self.where, self.network = [], {}, plan.network
         for i in self.alive:
-            self._vehicle(i, k, t, heard.get(i), network)
+            self._vehicle(i, plan, heard.get(i))
 
     def _channel(self, k: int, t: float) -> dict[int, Message]:
         """The broker's work at t: submit last step's transmissions, deliver what is due (nothing if it is down)."""
@@ -107,18 +109,16 @@ class _InProcessRun:
             self.rec.write(rx_key(i), t, out[i])
         return out
 
-    def _vehicle(self, i: int, k: int, t: float, rx: Message | None, network: Network) -> None:
+    def _vehicle(self, i: int, plan: StepPlan, rx: Message | None) -> None:
         heard = parse_rx(rx)[1] if rx is not None else []  # None: the broker is down
-        dist = disturbances(self.sc.faults, i, t, self.dt)
-        cfg = self.configs[i]
-        self.nodes[i], out = node_step(
-            cfg, self.radios[i], self.nodes[i], t, self.dt, heard, network.neighbours(i), dist
+        t, neighbours, dist = plan.t, plan.network.neighbours(i), plan.disturbance(i)
+        self.nodes[i], out = step_records(
+            self.configs[i], self.radios[i], self.nodes[i], plan.k, t, self.dt, heard, neighbours, dist
         )
-        tx = out.transmission
-        if tx is not None:
-            self.rec.write(tx_key(i), t, tx_message(tx))
-            self.sent.append(tx)
-        state = state_message(out.telemetry, cfg.model, k, tx.seq if tx else 0, out.estimate_ages)
+        if out.transmission is not None and out.tx is not None:
+            self.rec.write(tx_key(i), t, out.tx)
+            self.sent.append(out.transmission)
+        state = out.state
         self.rec.write(state_key(i), t, state)
         self.builder.add(state)
         self.last_state[i] = state

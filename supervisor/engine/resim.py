@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -29,11 +29,11 @@ from supervisor.config.scenario import apply_override, validate_data
 from supervisor.config.scenario_schema import Scenario
 from supervisor.engine.resim_settings import check_override
 from supervisor.errors import ScenarioError
-from supervisor.plan.faults import disturbances, network_at
+from supervisor.plan.schedule import Schedule
 from supervisor.record.logfile import messages
 from supervisor.record.recorder import Recorder
-from vehicles.report import state_message
-from vehicles.runtime import NodeState, node_step
+from vehicles.runtime import NodeState
+from vehicles.step import step_records
 
 
 def _check_duration(log: Path, meta: dict[str, Any], sc: Scenario, overrides: Sequence[str]) -> None:
@@ -83,37 +83,36 @@ def resimulate(log: Path, overrides: Sequence[str], out: Path) -> tuple[Scenario
     for override in overrides:
         check_override(log, override)  # before reading the log: a refusal costs nothing
     meta, heard, states = _load(log)
-    stepped = {(m["vehicle"], m["k"]) for m in states}
     sc = scenario_of(meta, overrides, str(log))
     _check_duration(log, meta, sc, overrides)
-    dt, steps, ids = sc.scenario.step, steps_of(sc), sc.vehicle_ids
-    configs = {i: vehicle_config(sc, i) for i in ids}
-    nodes = {i: NodeState(initial_state(sc, configs[i])) for i in ids}
-    radios = {i: radio(sc, i) for i in ids}
-    last_state: dict[int, Message] = {}
-    original, new = SeriesBuilder(ids, steps, dt), SeriesBuilder(ids, steps, dt)
+    original, new = (SeriesBuilder(sc.vehicle_ids, steps_of(sc), sc.scenario.step) for _ in range(2))
     for message in states:
         original.add(message)
     with Recorder(out) as rec:
         rec.write(META_KEY, 0.0, {**meta, "engine": "resim", "scenario": sc.model_dump(mode="json")})
-        for k in range(steps):
-            t = k * dt
-            network = network_at(sc, t, dt)
-            for i in ids:
-                if (i, k) not in stepped:
-                    continue
-                if k > 0 and (i, k - 1) not in stepped:  # its process was restarted, as the engines do it
-                    nodes[i] = restarted_node(configs[i], last_state[i], nodes[i].seq)
-                dist = disturbances(sc.faults, i, t, dt)
-                batch = heard.get((i, k), [])
-                nodes[i], step_out = node_step(
-                    configs[i], radios[i], nodes[i], t, dt, batch, network.neighbours(i), dist
-                )
-                tx = step_out.transmission
-                state = state_message(
-                    step_out.telemetry, configs[i].model, k, tx.seq if tx else 0, step_out.estimate_ages
-                )
-                rec.write(state_key(i), t, state)
-                new.add(state)
-                last_state[i] = state
+        for i, t, state in _restep(sc, heard, {(m["vehicle"], m["k"]) for m in states}):
+            rec.write(state_key(i), t, state)
+            new.add(state)
     return sc, original.series(), new.series()
+
+
+def _restep(
+    sc: Scenario, heard: dict[tuple[int, int], list[Heard]], stepped: set[tuple[int, int]]
+) -> Iterator[tuple[int, float, Message]]:
+    """(vehicle, t, state message) step by step, each vehicle stepped where it was in the run on what it heard."""
+    schedule, dt = Schedule(sc), sc.scenario.step
+    configs = {i: vehicle_config(sc, i) for i in sc.vehicle_ids}
+    nodes = {i: NodeState(initial_state(sc, configs[i])) for i in sc.vehicle_ids}
+    radios = {i: radio(sc, i) for i in sc.vehicle_ids}
+    last_state: dict[int, Message] = {}
+    for k in range(schedule.steps):
+        plan = schedule.plan(k)
+        for i in (i for i in sc.vehicle_ids if (i, k) in stepped):
+            if k > 0 and (i, k - 1) not in stepped:  # its process was restarted, as the engines do it
+                nodes[i] = restarted_node(configs[i], last_state[i], nodes[i].seq)
+            batch, neighbours = heard.get((i, k), []), plan.network.neighbours(i)
+            nodes[i], out = step_records(
+                configs[i], radios[i], nodes[i], k, plan.t, dt, batch, neighbours, plan.disturbance(i)
+            )
+            last_state[i] = out.state
+            yield i, plan.t, out.state

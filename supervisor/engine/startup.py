@@ -4,11 +4,14 @@ alive runs the supervisor's scenario (its hello, comms.messages.hello_message, a
 from __future__ import annotations
 
 import contextlib
+from collections.abc import Callable
+from dataclasses import dataclass
 
 import zenoh
 
-from comms.messages import Hello, decode, hello_key, parse_hello
-from supervisor.config.scenario_digest import difference
+from comms.messages import COMMS_ALIVE, Hello, decode, hello_key, parse_hello
+from supervisor.config.scenario_digest import difference, section_digests
+from supervisor.config.scenario_schema import Scenario
 from supervisor.errors import ScenarioError
 
 HELLO_TIMEOUT = 10.0  # s for a process that just declared its token to answer which scenario it runs
@@ -47,3 +50,20 @@ def check_hello(name: str, expected: dict[str, str], got: Hello | None) -> None:
     mismatch = difference(name, expected, got)
     if mismatch is not None:
         raise ScenarioError(mismatch)
+
+
+@dataclass(frozen=True, slots=True)
+class Hellos:
+    """Which scenario each process must prove it runs ("vehicle" / "comms": section digests; the broker's cover the
+    seed), and how to ask a process for its hello by its liveliness key."""
+
+    digests: dict[str, dict[str, str]]
+    ask: Callable[[str], Hello | None]
+
+    @classmethod
+    def of(cls, sc: Scenario, seed: int, ask: Callable[[str], Hello | None]) -> Hellos:
+        return cls({"vehicle": section_digests(sc), "comms": section_digests(sc, seed)}, ask)
+
+    def check(self, key: str, name: str) -> None:
+        """ScenarioError unless the process holding liveliness key `key` runs the supervisor's scenario."""
+        check_hello(name, self.digests["comms" if key == COMMS_ALIVE else "vehicle"], self.ask(key))

@@ -1,8 +1,9 @@
 """The fault schedule: what acts on each vehicle, on the network and on the processes over each sync step.
 
 Faults take effect at sync-step boundaries: a fault on [start, end) is active during every step [t, t + dt) with
-start <= t < end (to within half a step, so that times given in a scenario land on the step grid robustly). Both
-engines call these functions, so a schedule does the same in both.
+start <= t < end (to within half a step, so that times given in a scenario land on the step grid robustly).
+The per-step functions here are private to the plan package: supervisor.plan.schedule.Schedule is their one caller,
+and every engine asks the Schedule, so a new fault kind's effect is written here once and reaches them all.
 """
 
 from __future__ import annotations
@@ -42,7 +43,7 @@ class FaultEvent:
         return {"t": self.t, "kind": self.kind, "phase": self.phase, "detail": self.detail}
 
 
-def disturbances(faults: Sequence[FaultSpec], vehicle_id: int, t: float, dt: float) -> Disturbances:
+def _disturbances(faults: Sequence[FaultSpec], vehicle_id: int, t: float, dt: float) -> Disturbances:
     """What the active faults do to one vehicle over the step starting at t."""
     mine = [f for f in faults if getattr(f, "vehicle", None) == vehicle_id and active(f, t, dt)]
     caps = [f.gamma_dot_max for f in mine if isinstance(f, SpeedCapFault)]
@@ -54,7 +55,7 @@ def disturbances(faults: Sequence[FaultSpec], vehicle_id: int, t: float, dt: flo
     )
 
 
-def network_at(scenario: Scenario, t: float, dt: float) -> Network:
+def _network_at(scenario: Scenario, t: float, dt: float) -> Network:
     """The network over the step starting at t: the latest graph switch in force, and the link faults."""
     on = [f for f in scenario.faults if active(f, t, dt)]
     edges = graph_at(scenario, t, dt)
@@ -79,7 +80,7 @@ def network_at(scenario: Scenario, t: float, dt: float) -> Network:
     )
 
 
-def events_at(faults: Sequence[FaultSpec], t: float, dt: float) -> list[FaultEvent]:
+def _events_at(faults: Sequence[FaultSpec], t: float, dt: float) -> list[FaultEvent]:
     """Faults that start or end with the step starting at t."""
     events = []
     for fault in faults:
@@ -118,11 +119,11 @@ class ProcessAction:
             log.warning("%s restarted at t = %.1f s%s (scheduled %s)", self.name, t, since, self.kind)
 
 
-def process_actions(faults: Sequence[FaultSpec], t: float, dt: float) -> list[ProcessAction]:
+def _process_actions(faults: Sequence[FaultSpec], t: float, dt: float) -> list[ProcessAction]:
     """Kills and restarts due at the step starting at t (kills before restarts)."""
     out = []
     by_kind = {"vehicle_kill": "vehicle", "broker_kill": "comms"}
-    for fault, event in ((f, e) for f in faults for e in events_at([f], t, dt) if e.kind in by_kind):
+    for fault, event in ((f, e) for f in faults for e in _events_at([f], t, dt) if e.kind in by_kind):
         target = by_kind[event.kind]
         vehicle = fault.vehicle if isinstance(fault, VehicleKillFault) else None
         end = end_of(fault, dt)

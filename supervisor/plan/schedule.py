@@ -20,7 +20,14 @@ from comms.network import Network
 from comms.records import Disturbances
 from supervisor.config.derived import active, end_of, first_step, steps_of
 from supervisor.config.scenario_schema import FaultSpec, Scenario, VehicleKillFault
-from supervisor.plan.faults import FaultEvent, ProcessAction, disturbances, events_at, network_at, process_actions
+from supervisor.plan.faults import (
+    FaultEvent,
+    ProcessAction,
+    _disturbances,
+    _events_at,
+    _network_at,
+    _process_actions,
+)
 
 _NO_DISTURBANCES: MappingProxyType[int, Disturbances] = MappingProxyType({})
 
@@ -36,7 +43,7 @@ class StepPlan:
     actions: tuple[ProcessAction, ...]  # kills and restarts due now (kills first)
     network: Network
     disturbances: MappingProxyType[int, Disturbances]  # vehicles some fault acts on; the others: Disturbances()
-    graph_changed: bool  # the graph differs from the previous step's (never at k = 0)
+    graph_changed: bool  # the graph differs from the previous step's (at k = 0: from the scenario's graph)
 
     def disturbance(self, vehicle: int) -> Disturbances:
         return self.disturbances.get(vehicle, Disturbances())
@@ -57,6 +64,8 @@ class Schedule:
                     if k <= self.steps:
                         changes.add(k)
         self._changes = sorted(changes)
+        self._is_change = frozenset(changes)
+        self._initial_edges = tuple((int(i), int(j)) for i, j in scenario.graph.edges)  # as a Network holds them
         self._segments: dict[int, tuple[Network, MappingProxyType[int, Disturbances]]] = {}
 
     @property
@@ -74,11 +83,12 @@ class Schedule:
         if not 0 <= k <= self.steps:
             raise ValueError(f"step {k} is outside the run (0..{self.steps})")
         t, dt, faults = k * self.dt, self.dt, self.scenario.faults
-        at_change = k in self._changes
-        events = tuple(events_at(faults, t, dt)) if at_change else ()
-        actions = tuple(process_actions(faults, t, dt)) if at_change else ()
+        at_change = k in self._is_change
+        events = tuple(_events_at(faults, t, dt)) if at_change else ()
+        actions = tuple(_process_actions(faults, t, dt)) if at_change else ()
         network, dist = self._in_force(k, t)
-        changed = k > 0 and at_change and network.edges != self._in_force(k - 1, t - dt)[0].edges
+        before = self._in_force(k - 1, t - dt)[0].edges if k > 0 else self._initial_edges
+        changed = at_change and network.edges != before
         return StepPlan(k, t, k == self.steps, events, actions, network, dist, changed)
 
     def _in_force(self, k: int, t: float) -> tuple[Network, MappingProxyType[int, Disturbances]]:
@@ -86,8 +96,8 @@ class Schedule:
         start = self._changes[bisect.bisect_right(self._changes, k) - 1]
         if start not in self._segments:
             sc = self.scenario
-            dist = {i: d for i in sc.vehicle_ids if (d := disturbances(sc.faults, i, t, self.dt)) != Disturbances()}
-            self._segments[start] = (network_at(sc, t, self.dt), MappingProxyType(dist) if dist else _NO_DISTURBANCES)
+            dist = {i: d for i in sc.vehicle_ids if (d := _disturbances(sc.faults, i, t, self.dt)) != Disturbances()}
+            self._segments[start] = (_network_at(sc, t, self.dt), MappingProxyType(dist) if dist else _NO_DISTURBANCES)
         return self._segments[start]
 
     def scheduled_alive(self, k: int) -> list[int]:

@@ -1,0 +1,71 @@
+"""How the Zenoh supervisor starts its children: the bus options of a run and the command line of each process.
+
+Every child runs `python -m supervisor.cli comms|vehicle` on the supervisor's scenario file with the run's --set and
+--fault, so it loads the very scenario the supervisor runs (its hello proves it, supervisor.engine.startup).
+"""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+from supervisor.config.fleet import initial_state, vehicle_config
+from supervisor.config.scenario_schema import Scenario
+
+START_TIMEOUT = 60.0  # s for a process to declare its liveliness token (cpf run --start-timeout)
+
+
+class BusOptions:
+    def __init__(
+        self,
+        listen: str | None = None,
+        connect: str | None = None,
+        remote: tuple[int, ...] = (),
+        overrides: tuple[str, ...] = (),
+        faults: tuple[str, ...] = (),
+        start_timeout: float = START_TIMEOUT,
+    ) -> None:
+        self.listen = listen  # endpoint for the supervisor's router; default a free localhost port
+        self.connect = connect  # join an existing router instead of being one
+        self.remote = remote  # vehicles started by hand elsewhere: waited for, not spawned
+        self.overrides = overrides  # --set KEY=VALUE, passed on to every child
+        self.faults = faults  # --fault SPEC, passed on to every child
+        self.start_timeout = start_timeout  # s for every process to come alive
+
+
+@dataclass(frozen=True, slots=True)
+class Launch:
+    """What every child of one run is started with."""
+
+    path: Path  # the scenario file
+    connect: str  # the endpoint children connect to
+    bus: BusOptions
+    seed: int
+    resume_dir: Path  # where a restarted vehicle's last state is handed over
+
+    def argv(self, command: str, *extra: str) -> list[str]:
+        sets = [arg for override in self.bus.overrides for arg in ("--set", override)]
+        faults = [arg for fault in self.bus.faults for arg in ("--fault", fault)]
+        base = [sys.executable, "-m", "supervisor.cli", command, str(self.path), "--connect", self.connect]
+        return [*base, *sets, *faults, *extra]
+
+
+def gamma0_args(sc: Scenario, vid: int) -> list[str]:
+    """The vehicle's initial gamma, resolved here once: a child then never searches its path for the nearest
+    point (and never imports scipy for it), which makes a large fleet start much faster."""
+    index = sc.vehicle_ids.index(vid)
+    if sc.vehicles[index].gamma0 != "closest":
+        return []
+    gamma0 = initial_state(sc, vehicle_config(sc, vid)).gamma
+    return ["--gamma0", repr(gamma0)]  # not a --set: the vehicle's scenario (and digest) stays the supervisor's
+
+
+def reachable(endpoint: str) -> str:
+    """How another host names an endpoint the supervisor listens on (an unspecified address: any of this host's)."""
+    return endpoint.replace("0.0.0.0", "<this host>").replace("[::]", "<this host>")
+
+
+def local(endpoint: str) -> str:
+    """How processes on this machine reach an endpoint the supervisor listens on."""
+    return endpoint.replace("0.0.0.0", "127.0.0.1").replace("[::]", "[::1]")
