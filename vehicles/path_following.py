@@ -115,8 +115,7 @@ def control(
         Delta = [[1, 0, 0], [0, 0, -delta], [0, delta, 0]],   nu_c = (u, q, r),   nu_u = (0, v, w).
     A planar vehicle's lifted state has no heave, roll or pitch rate (w = p = q = 0) and it sees its path's horizontal
     projection, so the out-of-plane rows are exact zeros (tau_q = 0) and the in-plane ones are the planar law with
-    Delta = [[1, 0], [0, -delta]]. Each step is a helper below; together they are the same float operations, in the
-    same order, as the law written out in one piece."""
+    Delta = [[1, 0], [0, -delta]]. The helpers below are its steps, the float operations of the whole in order."""
     gains, delta = c.gains, c.gains.delta
     p_d, p_g, p_gg = model.path_seen(path.evaluate_floats(gamma))
     rot, nu = s[3:12], s[12:18]
@@ -130,14 +129,13 @@ def control(
     alpha = _alpha(gains.k1, c.inverse_delta, sigma, nu[1], nu[2], tangent, v_d)
     # Accelerations with zero input: the unactuated ones are exact, the actuated ones are what the input must add to.
     drift = model.drift(s, prm)
-    (_, dv, dw), _ = drift
     tangent_dot = _tangent_dot(tangent, nu, _body(rot, p_gg), gamma_dot)
-    alpha_dot = _alpha(gains.k1, c.inverse_delta, sigma_dot, dv, dw, tangent_dot, v_d)
+    alpha_dot = _alpha(gains.k1, c.inverse_delta, sigma_dot, drift[0][1], drift[0][2], tangent_dot, v_d)  # v_dot, w_dot
     z2 = (nu[0] - alpha[0], nu[4] - alpha[1], nu[5] - alpha[2])
     tau = _inputs(c, sigma, z2, alpha_dot, drift)
     zeta = gamma_dot - v_d
-    gamma_ddot = -gains.k_zeta * zeta + (sigma[0] * tangent[0] + sigma[1] * tangent[1] + sigma[2] * tangent[2])
-    gamma_ddot += correction
+    along = sigma[0] * tangent[0] + sigma[1] * tangent[1] + sigma[2] * tangent[2]
+    gamma_ddot = -gains.k_zeta * zeta + along + correction
     lyapunov = (rho - 1.0) + 0.5 * zeta * zeta + 0.5 * (z2[0] * z2[0] + z2[1] * z2[1] + z2[2] * z2[2])
     return Control(tau, gamma_ddot, error, z1, lyapunov, drift)
 
