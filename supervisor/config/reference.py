@@ -257,6 +257,3 @@ def _anchor(heading: str) -> str:
     kept = "".join(c for c in heading.lower() if c.isalnum() or c in " -_")
     return kept.replace(" ", "-")
 
-
-if __name__ == "__main__":
-    print(markdown(), end="")
