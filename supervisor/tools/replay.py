@@ -109,12 +109,7 @@ def replay(
             if on_ready is not None:
                 on_ready(where)
             began = time.perf_counter()
-            publishers = Publishers(session)
-            while True:
-                _pass(path, window, speed, publishers, report, progress)
-                report.passes += 1
-                if not loop:
-                    break
+            _passes(path, window, speed, loop, Publishers(session), report, progress)
     except KeyboardInterrupt:
         report.interrupted = True
     report.wall_time = time.perf_counter() - began
@@ -211,6 +206,23 @@ def _playable(topic: str) -> bool:
 
 
 # --- publishing -----------------------------------------------------------------------------------------------
+
+
+def _passes(
+    path: Path,
+    window: tuple[float | None, float | None],
+    speed: float,
+    loop: bool,
+    publishers: Publishers,
+    report: ReplayReport,
+    progress: Callable[[float], None] | None,
+) -> None:
+    """One pass over the window, or (loop) one after the other until interrupted."""
+    while True:
+        _pass(path, window, speed, publishers, report, progress)
+        report.passes += 1
+        if not loop:
+            return
 
 
 def _pass(
