@@ -106,36 +106,50 @@ def measure(n: int, steps: int, per_process: int = 1) -> float:
         procs = [subprocess.Popen([*me, role, endpoint, str(n)], stderr=subprocess.DEVNULL, start_new_session=True)
                  for role in ["broker", *_groups(n, per_process)]]  # fmt: skip
         try:
-            present: set[str] = set()
-            while len(present) < len(procs):  # readiness: every child's liveliness token
-                item = inbox.get(60.0)
-                if item is None:
-                    raise TimeoutError("children did not come up")
-                if isinstance(item, str) and item.startswith("+") and item != f"+{SUPERVISOR_ALIVE}":
-                    present.add(item)
-            started = time.perf_counter()
-            pubs.put(TICK, {"k": 0})
-            done: dict[int, int] = {}
-            for k in range(steps):
-                pubs.put(TICK, {"k": k + 1})  # one step ahead, as the lockstep clock
-                while done.get(k, 0) < n:
-                    item = inbox.get(60.0)
-                    if item is None:
-                        raise TimeoutError(f"step {k} did not complete")
-                    if isinstance(item, Received):
-                        message = decode(item.payload)  # the supervisor decodes everything it records
-                        if item.key != EVENTS:
-                            done[message["k"]] = done.get(message["k"], 0) + 1
-            return (time.perf_counter() - started) / steps
+            _wait_alive(inbox, len(procs))
+            return _steps(inbox, pubs, n, steps)
         finally:
             pubs.put(STOP_KEY, {"reason": "done"})
             token.undeclare()
-            for proc in procs:
-                try:
-                    proc.wait(timeout=5)
-                except subprocess.TimeoutExpired:
-                    proc.kill()
-                    proc.wait()
+            _stop(procs)
+
+
+def _wait_alive(inbox: Inbox, count: int) -> None:
+    """Readiness: every child's liveliness token (count of them)."""
+    present: set[str] = set()
+    while len(present) < count:
+        item = inbox.get(60.0)
+        if item is None:
+            raise TimeoutError("children did not come up")
+        if isinstance(item, str) and item.startswith("+") and item != f"+{SUPERVISOR_ALIVE}":
+            present.add(item)
+
+
+def _steps(inbox: Inbox, pubs: Publishers, n: int, steps: int) -> float:
+    """Wall time per step (s) of steps lockstep ticks, each complete when its n states are in."""
+    started = time.perf_counter()
+    pubs.put(TICK, {"k": 0})
+    done: dict[int, int] = {}
+    for k in range(steps):
+        pubs.put(TICK, {"k": k + 1})  # one step ahead, as the lockstep clock
+        while done.get(k, 0) < n:
+            item = inbox.get(60.0)
+            if item is None:
+                raise TimeoutError(f"step {k} did not complete")
+            if isinstance(item, Received):
+                message = decode(item.payload)  # the supervisor decodes everything it records
+                if item.key != EVENTS:
+                    done[message["k"]] = done.get(message["k"], 0) + 1
+    return (time.perf_counter() - started) / steps
+
+
+def _stop(procs: list[subprocess.Popen[bytes]]) -> None:
+    for proc in procs:
+        try:
+            proc.wait(timeout=5)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
 
 
 def main() -> None:

@@ -18,3 +18,16 @@ class ScenarioError(CpfError):
 
 class SimulationError(CpfError):
     """Something failed while a run was under way. Exit code 1."""
+
+
+class LogError(ScenarioError):
+    """A log that cannot be read: missing, not an MCAP, cut short or damaged (exit code 2)."""
+
+
+class RecoveryError(CpfError, ValueError):
+    """`cpf recover`: the source cannot be recovered at all: not an MCAP, or the destination would overwrite it."""
+
+
+class CorruptRecord(Exception):
+    """`cpf recover`, internal: a record that is not what its prefix announces; the scan stops before it. Not a
+    CpfError: recovery catches it, it never reaches the user."""

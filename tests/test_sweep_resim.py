@@ -50,6 +50,7 @@ def test_a_sweep_writes_every_run_and_resumes_without_redoing(tmp_path, paper_te
     args = ["sweep", str(scenario), "--param", "comms.loss=0,0.6", "--seeds", "2", "--jobs", "2", "--out", "sw"]
     first = cpf(*args, cwd=tmp_path)
     assert first.returncode == 0, first.stderr
+    assert "sweep: 100%" in first.stderr and "4/4" in first.stderr  # the command line's progress bar
     rows = read_rows(tmp_path / "sw/results.csv")
     assert [(r["comms.loss"], r["seed"]) for r in rows] == [("0", "0"), ("0", "1"), ("0.6", "0"), ("0.6", "1")]
     lossless = [r for r in rows if r["comms.loss"] == "0"]
@@ -63,6 +64,7 @@ def test_a_sweep_writes_every_run_and_resumes_without_redoing(tmp_path, paper_te
     runs[0].unlink()
     again = cpf(*args, cwd=tmp_path)
     assert again.returncode == 0, again.stderr
+    assert "3/4" in again.stderr and "4/4" in again.stderr  # resumed: three runs were done already
     assert runs[0].exists() and all(p.stat().st_mtime_ns == mtime for p, mtime in kept.items())  # only it re-ran
     assert read_rows(tmp_path / "sw/results.csv") == rows  # and it came out the same
 

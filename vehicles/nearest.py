@@ -119,6 +119,19 @@ def closest_gamma(path: Path, point: NDArray[np.float64], lo: float, hi: float, 
     best sample's neighbours, then a guarded Newton polish.  Meant for start-up (choosing initial gammas),
     not for the hot path.  With several equally near points, returns one of them.
     """
+    q = _checked(point, lo, hi, samples)
+    if hi == lo:
+        return float(lo)
+    gs = np.linspace(lo, hi, samples)
+    d2 = np.sum((path.positions(gs) - q) ** 2, axis=1)
+    i = int(np.argmin(d2))
+    bracket = (float(gs[max(i - 1, 0)]), float(gs[min(i + 1, samples - 1)]))
+    g = _refined(path, q, float(gs[i]), float(d2[i]), bracket)
+    return _polished(path, q, g, (lo, hi), bracket[1] - bracket[0])
+
+
+def _checked(point: NDArray[np.float64], lo: float, hi: float, samples: int) -> NDArray[np.float64]:
+    """The point as a float array; ValueError for a bad interval, sample count or point shape."""
     if not (math.isfinite(lo) and math.isfinite(hi)) or hi < lo:
         raise ValueError(f"need finite lo <= hi, got lo={lo!r}, hi={hi!r}")
     if samples < 2:
@@ -126,15 +139,12 @@ def closest_gamma(path: Path, point: NDArray[np.float64], lo: float, hi: float, 
     q = np.asarray(point, dtype=np.float64)
     if q.shape != (3,):
         raise ValueError(f"point must have shape (3,), got {q.shape}")
-    if hi == lo:
-        return float(lo)
+    return q
 
-    gs = np.linspace(lo, hi, samples)
-    d2 = np.sum((path.positions(gs) - q) ** 2, axis=1)
-    i = int(np.argmin(d2))
-    g_best = float(gs[i])
-    a = float(gs[max(i - 1, 0)])
-    b = float(gs[min(i + 1, samples - 1)])
+
+def _refined(path: Path, q: NDArray[np.float64], g_best: float, d2_best: float, bracket: tuple[float, float]) -> float:
+    """Brent's bounded minimisation of the squared distance between the best sample's neighbours (bracket); the
+    best sample (squared distance d2_best) if it does not do better."""
 
     def dist2(g: float) -> float:
         p = path.evaluate(g)[0]
@@ -142,6 +152,7 @@ def closest_gamma(path: Path, point: NDArray[np.float64], lo: float, hi: float, 
 
     from scipy.optimize import minimize_scalar  # here: only start-up needs it, and it costs 0.25 s to import
 
+    a, b = bracket
     # Minimise over the offset from g_best: Brent's tolerance grows with |x|, and the offset stays small.
     res = minimize_scalar(
         lambda t: dist2(g_best + t),
@@ -149,11 +160,14 @@ def closest_gamma(path: Path, point: NDArray[np.float64], lo: float, hi: float, 
         method="bounded",
         options={"xatol": 1e-12 * max(1.0, b - a)},
     )
-    g = g_best + float(res.x) if dist2(g_best + float(res.x)) <= d2[i] else g_best
+    return g_best + float(res.x) if dist2(g_best + float(res.x)) <= d2_best else g_best
 
-    # Newton on f'(g) = (p - q) . dp = 0: the distance is flat at the minimum, so its argmin is only
-    # resolved to ~sqrt(eps), while the root of f' is resolved to ~eps.  Steps are accepted only while
-    # |f'| shrinks and they stay within the bracket, so this can only polish, never wander off.
+
+def _polished(path: Path, q: NDArray[np.float64], g: float, limits: tuple[float, float], width: float) -> float:
+    """Newton on f'(g) = (p - q) . dp = 0: the distance is flat at the minimum, so its argmin is only resolved to
+    ~sqrt(eps), while the root of f' is resolved to ~eps.  Steps are accepted only while |f'| shrinks, they stay
+    within limits and are no longer than the bracket's width, so this can only polish, never wander off."""
+    lo, hi = limits
     p, dp, ddp = path.evaluate(g)
     grad = float(np.dot(p - q, dp))
     for _ in range(6):
@@ -161,7 +175,7 @@ def closest_gamma(path: Path, point: NDArray[np.float64], lo: float, hi: float, 
         if curv <= 0.0 or grad == 0.0:
             break
         step = grad / curv
-        if abs(step) > b - a:
+        if abs(step) > width:
             break
         g_new = min(max(g - step, lo), hi)
         p, dp, ddp = path.evaluate(g_new)

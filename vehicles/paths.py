@@ -292,7 +292,13 @@ class Lawnmower:
         _set(self, "legs", int(self.legs))
         _set(self, "heading", _finite("heading", self.heading))
         _set(self, "scale", _positive("scale", self.scale))
+        breaks, is_arc, params = self._segments()
+        _set(self, "_breaks", breaks)
+        _set(self, "_is_arc", is_arc)
+        _set(self, "_params", params)
 
+    def _segments(self) -> tuple[tuple[float, ...], tuple[bool, ...], tuple[tuple[float, float, float, float], ...]]:
+        """(_breaks, _is_arc, _params) of the pattern: its legs and turns, in order."""
         ux, uy = math.cos(self.heading), math.sin(self.heading)
         nx, ny = -uy, ux  # left normal of the first leg: the direction the pattern advances
         r = 0.5 * self.spacing
@@ -321,9 +327,7 @@ class Lawnmower:
                 # Turn left (+1, counter-clockwise) after even legs, right (-1) after odd legs.
                 params.append((ex + r * nx, ey + r * ny, start_angle, sign))
                 arc += math.pi * r
-        _set(self, "_breaks", tuple(breaks))
-        _set(self, "_is_arc", tuple(is_arc))
-        _set(self, "_params", tuple(params))
+        return tuple(breaks), tuple(is_arc), tuple(params)
 
     @property
     def length(self) -> float:

@@ -1,39 +1,59 @@
 """The scenario file's schema: typed, frozen pydantic models of every section.
 
-Parsing, cross-field checks and one-line error messages live in supervisor/config/scenario.py.
+Parsing, cross-field checks and one-line error messages live in supervisor/config/scenario.py; the faults' models in
+supervisor/config/fault_schema.py (re-exported here), the number types and the strict base in
+supervisor/config/schema_base.py.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, JsonValue, Strict, field_validator
+from pydantic import Field, field_validator
 
 from comms.modem import PRESETS as MODEMS
+from supervisor.config.fault_schema import (
+    LINK_FAULTS,
+    BlackoutFault,
+    BrokerKillFault,
+    ClockSkewFault,
+    FaultSpec,
+    FrozenGammaFault,
+    GammaOffsetFault,
+    GraphSwitchFault,
+    LinkDegradedFault,
+    LinkDownFault,
+    ModemSilentFault,
+    SpeedCapFault,
+    VehicleKillFault,
+)
+from supervisor.config.schema_base import Float, Int, StrictModel, Vec3, one_of
 from vehicles.coordination import Law
 from vehicles.estimates import Predictor
 from vehicles.params import PRESETS, VehicleParams
 
-# Numbers as TOML writes them: an integer is a valid float, a string ("400") or a boolean is not a number.
-Float = Annotated[float, Strict()]
-Int = Annotated[int, Strict()]
-Vec3 = tuple[Float, Float, Float]
+__all__ = [
+    "LINK_FAULTS",
+    "BlackoutFault",
+    "BrokerKillFault",
+    "ClockSkewFault",
+    "FaultSpec",
+    "Float",
+    "FrozenGammaFault",
+    "GammaOffsetFault",
+    "GraphSwitchFault",
+    "Int",
+    "LinkDegradedFault",
+    "LinkDownFault",
+    "ModemSilentFault",
+    "Scenario",
+    "SpeedCapFault",
+    "Vec3",
+    "VehicleKillFault",
+]
 
 
-def _one_of(names: Iterable[str]) -> dict[str, JsonValue]:
-    """The allowed names of a key checked by a validator, for the JSON Schema (editors complete them)."""
-    choices: list[JsonValue] = [*sorted(names)]
-    return {"enum": choices}
-
-
-class _Strict(BaseModel):
-    # Lax mode so that TOML arrays become tuples; the numbers themselves are strict (Float, Int).
-    # TOML has nan and inf literals; no field of a scenario may take them.
-    model_config = ConfigDict(extra="forbid", frozen=True, strict=False, allow_inf_nan=False)
-
-
-class RunSection(_Strict):
+class RunSection(StrictModel):
     """The run as a whole: its name, how long and in what steps it is simulated, the random seed and the model."""
 
     name: str = Field(description="names the run: the default log is runs/<name>.mcap")
@@ -53,10 +73,10 @@ class RunSection(_Strict):
     )
 
 
-class VehicleModelSection(_Strict):
+class VehicleModelSection(StrictModel):
     """The vehicle model every AUV of the fleet uses: a named preset (cpf presets lists them) and changes to it."""
 
-    preset: str = Field(default="remus100", description="vehicle preset", json_schema_extra=_one_of(PRESETS))
+    preset: str = Field(default="remus100", description="vehicle preset", json_schema_extra=one_of(PRESETS))
     # Names and shapes (number or 3-vector) are checked against the preset by _check_overrides.
     overrides: dict[str, Float | Vec3] = Field(
         default={},
@@ -72,7 +92,7 @@ class VehicleModelSection(_Strict):
         return value
 
 
-class PathFollowingSection(_Strict):
+class PathFollowingSection(StrictModel):
     """Gains of each vehicle's path-following controller (the delta-shifted backstepping design)."""
 
     delta: Float = Field(
@@ -91,7 +111,7 @@ class PathFollowingSection(_Strict):
         return value
 
 
-class CoordinationSection(_Strict):
+class CoordinationSection(StrictModel):
     """The coordination law (5) that synchronises the path parameters gamma_i over the communication graph."""
 
     law: Law = Field(
@@ -109,13 +129,13 @@ class CoordinationSection(_Strict):
     )
 
 
-class GraphSection(_Strict):
+class GraphSection(StrictModel):
     """The communication graph: who hears whom (undirected; must be connected)."""
 
     edges: tuple[tuple[Int, Int], ...] = Field(description="pairs of vehicle ids, e.g. [[1, 2], [1, 3]]")
 
 
-class HelixPath(_Strict):
+class HelixPath(StrictModel):
     """p_d(gamma) = center + [radius cos(2 pi gamma / period + phase), radius sin(2 pi gamma / period + phase),
     climb gamma]. gamma counts revolutions in units of 1/period: one turn per `period` units of gamma (with period =
     2 pi, gamma is the angle in rad); at gamma_dot = v_r a vehicle moves at v_r sqrt((2 pi radius / period)^2 +
@@ -129,7 +149,7 @@ class HelixPath(_Strict):
     center: Vec3 = Field(default=(0.0, 0.0, 0.0), description="[x, y, z] of the axis at gamma = 0, m")
 
 
-class CirclePath(_Strict):
+class CirclePath(StrictModel):
     """A horizontal circle at height center[2]: the helix with climb 0. gamma counts revolutions in units of
     1/period (with period = 2 pi, gamma is the angle in rad: vehicles on circles of different radii are abreast
     when their gammas agree, the paper's Fig. 2); at gamma_dot = v_r a vehicle moves at 2 pi radius v_r / period
@@ -142,7 +162,7 @@ class CirclePath(_Strict):
     center: Vec3 = Field(default=(0.0, 0.0, 0.0), description="[x, y, z] of the centre, m")
 
 
-class LinePath(_Strict):
+class LinePath(StrictModel):
     """p_d(gamma) = start + gamma velocity. gamma is distance along the line in units of |velocity| m (a unit
     velocity makes gamma metres, and v_r m/s)."""
 
@@ -151,7 +171,7 @@ class LinePath(_Strict):
     velocity: Vec3 = Field(description="[x, y, z] m per unit of gamma; non-zero")
 
 
-class LawnmowerPath(_Strict):
+class LawnmowerPath(StrictModel):
     """A survey pattern in the plane z = origin[2]: `legs` parallel legs joined by half-circle turns of radius
     spacing / 2, advancing to the left of the first leg. gamma = arc length / scale (scale = 1: gamma in metres of
     path, v_r in m/s); before gamma = 0 and after the last leg the path goes on straight."""
@@ -169,7 +189,7 @@ class LawnmowerPath(_Strict):
 PathSpec = Annotated[HelixPath | CirclePath | LinePath | LawnmowerPath, Field(discriminator="type")]
 
 
-class VehicleSection(_Strict):
+class VehicleSection(StrictModel):
     """One AUV: its id, where it starts and the path it follows."""
 
     id: Int = Field(ge=1, description="vehicle id, unique, at most 255 (one byte on the wire)")
@@ -185,119 +205,7 @@ class VehicleSection(_Strict):
     path: PathSpec = Field(description="the path p_d(gamma): a table with type = helix, circle, line or lawnmower")
 
 
-class _Fault(_Strict):
-    """Every fault acts on [start, end); end none: to the end of the run."""
-
-    start: Float = Field(ge=0, description="when the fault begins, s")
-    end: Float | None = Field(default=None, description="when it ends, s (after start; omitted: the end of the run)")
-
-
-class SpeedCapFault(_Fault):
-    """The paper's fault: vehicle's gamma_dot capped, its neighbours not told."""
-
-    kind: Literal["speed_cap"]
-    vehicle: Int = Field(description="vehicle id")
-    gamma_dot_max: Float = Field(description="cap on its gamma_dot, unit of gamma per s")
-
-
-class LinkDownFault(_Fault):
-    """A link fails: its packets are lost (reason link_down). both: the reverse direction too."""
-
-    kind: Literal["link_down"]
-    sender: Int = Field(description="vehicle id")
-    receiver: Int = Field(description="vehicle id")
-    both: bool = Field(default=True, description="the reverse direction too")
-
-
-class LinkDegradedFault(_Fault):
-    """A link gets worse: extra independent loss (reason degraded) and extra delay."""
-
-    kind: Literal["link_degraded"]
-    sender: Int = Field(description="vehicle id")
-    receiver: Int = Field(description="vehicle id")
-    both: bool = Field(default=True, description="the reverse direction too")
-    extra_loss: Float = Field(default=0.0, ge=0, le=1, description="probability a packet is lost, on top")
-    extra_delay: Float = Field(default=0.0, ge=0, description="added to every packet's delay, s")
-
-
-class BlackoutFault(_Fault):
-    """Every packet is lost (reason blackout)."""
-
-    kind: Literal["blackout"]
-
-
-class ModemSilentFault(_Fault):
-    """A vehicle's modem sends nothing, though the vehicle believes it does (reason modem_silent)."""
-
-    kind: Literal["modem_silent"]
-    vehicle: Int = Field(description="vehicle id")
-
-
-class GraphSwitchFault(_Fault):
-    """The communication graph becomes `edges` (possibly disconnected); vehicles use their new neighbours."""
-
-    kind: Literal["graph_switch"]
-    edges: tuple[tuple[Int, Int], ...] = Field(description="the new graph: pairs of vehicle ids (may be empty)")
-
-
-class VehicleKillFault(_Fault):
-    """The vehicle's process is killed with SIGKILL at start and, if end is given, restarted then from its last
-    recorded state. The kill is the fault, not a loss: the run goes on without the vehicle (to its restart, or to
-    the end of the run without end) whatever scenario.on_vehicle_loss says, which is for deaths nobody scheduled.
-    Both the kill and the restart are announced and recorded (cpf/run/fault, start and end)."""
-
-    kind: Literal["vehicle_kill"]
-    vehicle: Int = Field(description="vehicle id")
-
-
-class BrokerKillFault(_Fault):
-    """The comms broker is killed with SIGKILL at start (packets in flight are lost: broker_down) and restarted at
-    end (default: one step later)."""
-
-    kind: Literal["broker_kill"]
-
-
-class FrozenGammaFault(_Fault):
-    """A faulty sensor: the vehicle keeps broadcasting the gamma and gamma_dot it had at start."""
-
-    kind: Literal["frozen_gamma"]
-    vehicle: Int = Field(description="vehicle id")
-
-
-class GammaOffsetFault(_Fault):
-    """A faulty sensor: the vehicle broadcasts gamma + offset."""
-
-    kind: Literal["gamma_offset"]
-    vehicle: Int = Field(description="vehicle id")
-    offset: Float = Field(description="added to the gamma it broadcasts, unit of gamma")
-
-
-class ClockSkewFault(_Fault):
-    """The vehicle's clock runs `offset` s ahead (behind if negative): its messages carry skewed time stamps."""
-
-    kind: Literal["clock_skew"]
-    vehicle: Int = Field(description="vehicle id")
-    offset: Float = Field(description="its clock's error, s (positive: ahead)")
-
-
-FaultSpec = Annotated[
-    SpeedCapFault
-    | LinkDownFault
-    | LinkDegradedFault
-    | BlackoutFault
-    | ModemSilentFault
-    | GraphSwitchFault
-    | VehicleKillFault
-    | BrokerKillFault
-    | FrozenGammaFault
-    | GammaOffsetFault
-    | ClockSkewFault,
-    Field(discriminator="kind"),
-]
-LINK_FAULTS = (LinkDownFault, LinkDegradedFault)
-
-
-class WaterSection(_Strict):
+class WaterSection(StrictModel):
     """Sound speed from Mackenzie's equation (valid for T 2-30 C, S 25-40 ppt, D 0-8000 m)."""
 
     temperature: Float = Field(ge=2, le=30, description="deg C")
@@ -305,14 +213,14 @@ class WaterSection(_Strict):
     depth: Float = Field(default=0.0, ge=0, le=8000, description="m")
 
 
-class BurstSection(_Strict):
+class BurstSection(StrictModel):
     """Gilbert-Elliott loss given as its long-run loss rate and mean burst length (packets)."""
 
     mean_loss: Float = Field(ge=0, lt=1, description="long-run share of packets lost")
     mean_burst: Float = Field(ge=1, description="mean number of packets lost in a row")
 
 
-class LinkBudgetSection(_Strict):
+class LinkBudgetSection(StrictModel):
     """Range-dependent loss from the link budget; carrier, bandwidth and modulation come from the modem."""
 
     type: Literal["link_budget"]
@@ -323,7 +231,7 @@ class LinkBudgetSection(_Strict):
     directivity: Float = Field(default=0.0, description="directivity index added to the SNR, dB")
 
 
-class RangeTableSection(_Strict):
+class RangeTableSection(StrictModel):
     """Range-dependent loss from a table of packet success probability against range (m)."""
 
     type: Literal["table"]
@@ -334,7 +242,7 @@ class RangeTableSection(_Strict):
 RangeSpec = Annotated[LinkBudgetSection | RangeTableSection, Field(discriminator="type")]
 
 
-class LinkSection(_Strict):
+class LinkSection(StrictModel):
     """One directed link's own loss and extra delay (its loss and burst replace the fleet-wide ones)."""
 
     sender: Int = Field(description="vehicle id")
@@ -344,7 +252,7 @@ class LinkSection(_Strict):
     extra_delay: Float = Field(default=0.0, ge=0, description="added to every packet's delay, s")
 
 
-class TransmitSection(_Strict):
+class TransmitSection(StrictModel):
     """When vehicles transmit: periodically, or when their gamma leaves what their neighbours predict."""
 
     policy: Literal["periodic", "event"] = Field(
@@ -358,7 +266,7 @@ class TransmitSection(_Strict):
     heartbeat: Float | None = Field(default=None, gt=0, description="event: s between messages at most")
 
 
-class TdmaSection(_Strict):
+class TdmaSection(StrictModel):
     """A TDMA schedule: each vehicle transmits only in its own slot; a frame is one slot per vehicle."""
 
     slot: Float = Field(
@@ -369,13 +277,13 @@ class TdmaSection(_Strict):
     )
 
 
-class CommsSection(_Strict):
+class CommsSection(StrictModel):
     """The acoustic channel between vehicles (comms/channel.py). Defaults: the ideal channel."""
 
     sound_speed: Float | WaterSection = Field(default=1500.0, description="m/s, or water properties")
     modem: str = Field(
         default="ideal", description="modem preset (cpf presets): bitrate, frames, duplex, carrier",
-        json_schema_extra=_one_of(MODEMS),
+        json_schema_extra=one_of(MODEMS),
     )  # fmt: skip
     bitrate: Float | None = Field(default=None, gt=0, description="bit/s, overrides the modem's")
     preamble: Float | None = Field(default=None, ge=0, description="s, overrides the modem's")
@@ -402,7 +310,7 @@ class CommsSection(_Strict):
         return value
 
 
-class ReportSection(_Strict):
+class ReportSection(StrictModel):
     """What the run summary and cpf report measure against."""
 
     transient: Float = Field(default=50.0, ge=0, description="initial time left out of path-following stats, s")
@@ -412,7 +320,7 @@ class ReportSection(_Strict):
     )
 
 
-class Scenario(_Strict):
+class Scenario(StrictModel):
     """A cpf-cosim scenario file (TOML). Lengths in m, times in s, angles in rad unless the name says deg."""
 
     scenario: RunSection

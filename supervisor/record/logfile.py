@@ -25,17 +25,13 @@ from mcap.records import Channel, Chunk
 from mcap.stream_reader import get_chunk_data_stream
 from mcap.summary import Summary
 
-from supervisor.errors import ScenarioError
+from supervisor.errors import LogError
 
 __all__ = ["LogError", "LogMessage", "RawLog", "RawMessage", "messages", "read_messages", "read_raw", "verify"]
 
 MAGIC = b"\x89MCAP0\r\n"
 PREFIX = struct.Struct("<BQ")  # every record: opcode, length of what follows
 MESSAGE_HEAD = struct.Struct("<HIQQ")  # a message record: channel id, sequence, log time, publish time; then data
-
-
-class LogError(ScenarioError):
-    """A log that cannot be read: missing, not an MCAP, cut short or damaged (exit code 2)."""
 
 
 class LogMessage(NamedTuple):

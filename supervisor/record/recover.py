@@ -35,7 +35,7 @@ from mcap.records import (
 )
 from mcap.writer import CompressionType, Writer
 
-from supervisor.errors import CpfError
+from supervisor.errors import CorruptRecord, RecoveryError
 
 MAGIC = b"\x89MCAP0\r\n"
 PREFIX = struct.Struct("<BQ")  # every record: opcode, length of what follows
@@ -54,14 +54,6 @@ READERS: dict[int, Any] = {
 IN_CHUNK = (Schema, Channel, Message)
 DEFAULT_HEADER = Header(profile="", library="cpf recover")  # for a source cut before its header ends
 DEFINED = frozenset(int(opcode) for opcode in Opcode)
-
-
-class RecoveryError(CpfError, ValueError):
-    """The source cannot be recovered at all: not an MCAP, or the destination would overwrite it."""
-
-
-class _Corrupt(Exception):
-    """A record that is not what its prefix announces: the scan stops before it."""
 
 
 @dataclass(frozen=True)
@@ -87,24 +79,24 @@ class _Body(io.BytesIO):
     def read(self, size: int | None = -1, /) -> bytes:
         data = super().read(size)
         if size is not None and size >= 0 and len(data) < size:
-            raise _Corrupt(f"field of {size} bytes runs past the record's end")
+            raise CorruptRecord(f"field of {size} bytes runs past the record's end")
         return data
 
 
 def _parse(opcode: int, body: bytes) -> McapRecord | None:
-    """The record of this opcode, None for one that recovery skips; _Corrupt if it does not parse."""
+    """The record of this opcode, None for one that recovery skips; CorruptRecord if it does not parse."""
     if opcode == Opcode.MESSAGE:
         if len(body) < MESSAGE_FIELDS:
-            raise _Corrupt(f"message record of {len(body)} bytes")
+            raise CorruptRecord(f"message record of {len(body)} bytes")
         return Message.read(ReadDataStream(_Body(body)), len(body))
     if opcode in READERS:
         try:
             return READERS[opcode](ReadDataStream(_Body(body)))
         except (struct.error, UnicodeDecodeError) as exc:
-            raise _Corrupt(f"opcode {opcode:#04x}: {exc}") from exc
+            raise CorruptRecord(f"opcode {opcode:#04x}: {exc}") from exc
     if opcode in DEFINED or opcode >= FIRST_PRIVATE_OPCODE:
         return None
-    raise _Corrupt(f"opcode {opcode:#04x} is not an MCAP record")
+    raise CorruptRecord(f"opcode {opcode:#04x} is not an MCAP record")
 
 
 def _decompress(chunk: Chunk) -> bytes:
@@ -120,29 +112,29 @@ def _decompress(chunk: Chunk) -> bytes:
 
             return lz4.frame.decompress(chunk.data)
     except Exception as exc:  # the codecs raise several unrelated types for damaged data
-        raise _Corrupt(f"{chunk.compression} chunk does not decompress: {exc}") from exc
-    raise _Corrupt(f"chunk compression {chunk.compression!r} is not supported")
+        raise CorruptRecord(f"{chunk.compression} chunk does not decompress: {exc}") from exc
+    raise CorruptRecord(f"chunk compression {chunk.compression!r} is not supported")
 
 
 def _chunk_records(chunk: Chunk) -> list[McapRecord]:
-    """The schemas, channels and messages of a chunk, in order; _Corrupt unless it is whole and its CRC matches."""
+    """The schemas, channels and messages of a chunk, in order; CorruptRecord unless it is whole and its CRC matches."""
     data = _decompress(chunk)
     if len(data) != chunk.uncompressed_size:
-        raise _Corrupt(f"chunk holds {len(data)} bytes, announces {chunk.uncompressed_size}")
+        raise CorruptRecord(f"chunk holds {len(data)} bytes, announces {chunk.uncompressed_size}")
     if chunk.uncompressed_crc != 0 and zlib.crc32(data) != chunk.uncompressed_crc:
-        raise _Corrupt("chunk CRC mismatch")
+        raise CorruptRecord("chunk CRC mismatch")
     records: list[McapRecord] = []
     offset = 0
     while offset < len(data):
         if offset + PREFIX.size > len(data):
-            raise _Corrupt("record prefix runs past the chunk's end")
+            raise CorruptRecord("record prefix runs past the chunk's end")
         opcode, length = PREFIX.unpack_from(data, offset)
         body = data[offset + PREFIX.size : offset + PREFIX.size + length]
         if len(body) < length:
-            raise _Corrupt("record runs past the chunk's end")
+            raise CorruptRecord("record runs past the chunk's end")
         record = _parse(opcode, body)
         if record is not None and not isinstance(record, IN_CHUNK):
-            raise _Corrupt(f"{type(record).__name__} record inside a chunk")
+            raise CorruptRecord(f"{type(record).__name__} record inside a chunk")
         if record is not None:
             records.append(record)
         offset += PREFIX.size + length
@@ -179,17 +171,17 @@ class _Copy:
             self.started = True
 
     def check(self, records: list[McapRecord]) -> None:
-        """_Corrupt if a channel names an unknown schema or a message an unknown channel (before writing any)."""
+        """CorruptRecord if a channel names an unknown schema or a message an unknown channel (before writing any)."""
         schemas, channels = set(self.schemas) | {0}, set(self.channels)
         for record in records:
             if isinstance(record, Schema):
                 schemas.add(record.id)
             elif isinstance(record, Channel) and record.schema_id not in schemas:
-                raise _Corrupt(f"channel {record.id} names unknown schema {record.schema_id}")
+                raise CorruptRecord(f"channel {record.id} names unknown schema {record.schema_id}")
             elif isinstance(record, Channel):
                 channels.add(record.id)
             elif isinstance(record, Message) and record.channel_id not in channels:
-                raise _Corrupt(f"message on unknown channel {record.channel_id}")
+                raise CorruptRecord(f"message on unknown channel {record.channel_id}")
 
     def add(self, record: McapRecord) -> None:
         self.start()
@@ -216,7 +208,7 @@ class _Copy:
         self.last_log_time = message.log_time if last is None else max(last, message.log_time)
 
     def record(self, opcode: int, body: bytes) -> bool:
-        """Copy one top-level record; True at the end of the data section. _Corrupt if it does not parse."""
+        """Copy one top-level record; True at the end of the data section. CorruptRecord if it does not parse."""
         record = _parse(opcode, body)
         if isinstance(record, Header):
             self.start(record)
@@ -248,7 +240,7 @@ def _scan(stream: IO[bytes], size: int, copy: _Copy) -> tuple[int, bool]:
     for offset, opcode, body in _top_records(stream, size):
         try:
             done = copy.record(opcode, body)
-        except _Corrupt:
+        except CorruptRecord:
             return offset, False
         end = offset + PREFIX.size + len(body)
         if done:

@@ -20,13 +20,11 @@ from __future__ import annotations
 
 import contextlib
 import math
-import sys
 import time
 from collections import Counter
 from collections.abc import Callable, Generator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TextIO
 
 import zenoh
 
@@ -40,7 +38,6 @@ from supervisor.tools.replay_bus import bus_form, latched
 # (topic, log time ns, message); message None: not to be published (skipped)
 Record = tuple[str, int, Message | None]
 NS_PER_S = 1e9
-PROGRESS_INTERVAL = 1.0  # s of wall time between progress lines
 LATCHED = (
     META_KEY,
     GRAPH_KEY,
@@ -112,12 +109,7 @@ def replay(
             if on_ready is not None:
                 on_ready(where)
             began = time.perf_counter()
-            publishers = Publishers(session)
-            while True:
-                _pass(path, window, speed, publishers, report, progress)
-                report.passes += 1
-                if not loop:
-                    break
+            _passes(path, window, speed, loop, Publishers(session), report, progress)
     except KeyboardInterrupt:
         report.interrupted = True
     report.wall_time = time.perf_counter() - began
@@ -216,6 +208,23 @@ def _playable(topic: str) -> bool:
 # --- publishing -----------------------------------------------------------------------------------------------
 
 
+def _passes(
+    path: Path,
+    window: tuple[float | None, float | None],
+    speed: float,
+    loop: bool,
+    publishers: Publishers,
+    report: ReplayReport,
+    progress: Callable[[float], None] | None,
+) -> None:
+    """One pass over the window, or (loop) one after the other until interrupted."""
+    while True:
+        _pass(path, window, speed, publishers, report, progress)
+        report.passes += 1
+        if not loop:
+            return
+
+
 def _pass(
     path: Path,
     window: tuple[float | None, float | None],
@@ -231,14 +240,14 @@ def _pass(
             if origin is None:
                 origin = (stamp, time.monotonic())
             elif speed > 0:
-                _wait_until(origin[1] + (stamp - origin[0]) / NS_PER_S / speed)
+                wait_until(origin[1] + (stamp - origin[0]) / NS_PER_S / speed)
             publishers.put(topic, message)
             _count(report, topic, stamp)
             if progress is not None:
                 progress(stamp / NS_PER_S)
 
 
-def _wait_until(deadline: float) -> None:
+def wait_until(deadline: float) -> None:
     """Pacing (not synchronisation): sleep until the monotonic clock reaches deadline."""
     while (delay := deadline - time.monotonic()) > 0:
         time.sleep(delay)
@@ -250,48 +259,3 @@ def _count(report: ReplayReport, topic: str, stamp: int) -> None:
         report.first = stamp / NS_PER_S
     if report.passes == 0:
         report.last = stamp / NS_PER_S
-
-
-# --- for the command line -------------------------------------------------------------------------------------
-
-
-def wait_to_start(delay: float | None, stream: TextIO | None = None) -> Callable[[str], None]:
-    """An on_ready for the command line: print where the session is (stream, default: sys.stdout when called), then
-    wait for Enter (delay None; end of input counts as Enter) or delay seconds, so subscribers can connect before the
-    first message."""
-
-    def ready(where: str) -> None:
-        out = sys.stdout if stream is None else stream
-        print(where, file=out, flush=True)
-        if delay is None:
-            print("press Enter to start the replay", file=out, flush=True)
-            with contextlib.suppress(EOFError):
-                input()
-        elif delay > 0:
-            _wait_until(time.monotonic() + delay)
-
-    return ready
-
-
-class ProgressLine:
-    """A progress for the command line: the log time being replayed, at most once a second of wall time (one line
-    rewritten in place on a terminal; call close() before printing anything else)."""
-
-    def __init__(self, stream: TextIO | None = None) -> None:
-        self._stream = sys.stderr if stream is None else stream  # looked up now: tests and callers swap sys.stderr
-        self._tty = self._stream.isatty()
-        self._last: float | None = None
-
-    def __call__(self, t: float) -> None:
-        now = time.monotonic()
-        if self._last is not None and now - self._last < PROGRESS_INTERVAL:
-            return
-        self._last = now
-        line = f"replaying t = {t:9.1f} s"
-        self._stream.write(("\r" + line) if self._tty else (line + "\n"))
-        self._stream.flush()
-
-    def close(self) -> None:
-        if self._tty and self._last is not None:
-            self._stream.write("\n")
-            self._stream.flush()

@@ -16,14 +16,12 @@ import json
 import math
 import tempfile
 import tomllib
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from itertools import product
 from pathlib import Path
 from typing import Any
-
-from tqdm import tqdm
 
 from supervisor.analysis.metrics import STEADY_STATE_WINDOW
 from supervisor.analysis.summary import coordination_error
@@ -133,9 +131,16 @@ def _measures(result: Any, summary: Any, scenario: Any) -> dict[str, Any]:
 
 
 def sweep(
-    scenario_path: Path, params: Sequence[Param], seeds: int, jobs: int, out_dir: Path, engine: str = "inprocess"
+    scenario_path: Path,
+    params: Sequence[Param],
+    seeds: int,
+    jobs: int,
+    out_dir: Path,
+    engine: str = "inprocess",
+    progress: Callable[[int, int], None] | None = None,
 ) -> list[dict[str, Any]]:
-    """Run (or resume) the whole sweep; returns every row, in grid order."""
+    """Run (or resume) the whole sweep; returns every row, in grid order. progress, if given, is called with (runs
+    done, runs in all) before the first run and after each (the command line draws a bar with it)."""
     from supervisor.config.scenario import load_scenario
 
     for param in params:  # every value must make a valid scenario: fail before running anything
@@ -145,10 +150,10 @@ def sweep(
     runs_dir.mkdir(parents=True, exist_ok=True)
     specs = grid(params, seeds)
     todo = [s for s in specs if not (runs_dir / f"{s.run_id}.json").exists()]
-    with (
-        tqdm(total=len(specs), initial=len(specs) - len(todo), desc="sweep", unit="run") as bar,
-        ProcessPoolExecutor(max_workers=max(1, jobs)) as pool,
-    ):
+    done = len(specs) - len(todo)
+    if progress is not None:
+        progress(done, len(specs))
+    with ProcessPoolExecutor(max_workers=max(1, jobs)) as pool:
         futures = {pool.submit(run_one, str(scenario_path), s, str(runs_dir), engine): s for s in todo}
         for future in as_completed(futures):
             try:
@@ -157,7 +162,9 @@ def sweep(
                 for other in futures:
                     other.cancel()
                 raise SimulationError(f"sweep run {futures[future].run_id} failed: {exc}") from exc
-            bar.update(1)
+            done += 1
+            if progress is not None:
+                progress(done, len(specs))
     rows = [json.loads((runs_dir / f"{s.run_id}.json").read_text()) for s in specs]
     write_csv(rows, out_dir / "results.csv")
     return rows

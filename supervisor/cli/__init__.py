@@ -1,0 +1,76 @@
+"""The `cpf` command line. The only place that talks to the user: it turns errors into messages and exit codes,
+prints results, progress lines and the warnings library code logs.
+
+Exit codes: 0 success, 1 run-time failure, 2 bad input (scenario file or arguments), 130 interrupted.
+parser: the arguments; run: `cpf run` and the processes it starts; commands: the other commands; terminal: exit
+codes, progress lines and prompts.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import signal
+import sys
+from collections.abc import Callable, Sequence
+from types import FrameType
+
+from supervisor.cli import commands, run
+from supervisor.cli.parser import _parser
+from supervisor.cli.run import _option_errors
+from supervisor.cli.terminal import EXIT_INPUT, EXIT_INTERRUPTED, EXIT_RUNTIME
+from supervisor.errors import CpfError, ScenarioError
+
+__all__ = ["EXIT_INPUT", "EXIT_INTERRUPTED", "EXIT_RUNTIME", "_option_errors", "_parser", "entry", "main"]
+
+COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
+    "run": run.run,
+    "vehicle": run.vehicle,
+    "comms": run.comms,
+    "report": commands.report,
+    "info": commands.info,
+    "recover": commands.recover,
+    "sweep": commands.sweep,
+    "resim": commands.resim,
+    "replay": commands.replay,
+    "schema": commands.schema,
+    "validate": commands.validate,
+    "presets": commands.presets,
+}
+
+
+def _interrupt(signum: int, frame: FrameType | None) -> None:
+    """SIGINT and SIGTERM: stop as Ctrl-C does (children stopped, log closed), and keep the request (a run checks it
+    every step, should the KeyboardInterrupt be swallowed on its way)."""
+    from supervisor.engine.progress import request_stop
+
+    request_stop()
+    raise KeyboardInterrupt
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    logging.basicConfig(level=logging.WARNING, format=f"cpf {args.command}: %(message)s")
+    signal.signal(signal.SIGTERM, _interrupt)
+    signal.signal(signal.SIGINT, _interrupt)
+    try:
+        return COMMANDS[args.command](args)
+    except BrokenPipeError:  # output piped into e.g. head, which stopped reading: not an error of ours
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_RUNTIME
+    except ScenarioError as exc:
+        for line in exc.errors:  # every error found, one line each
+            print(f"cpf: error: {line}", file=sys.stderr)
+        return EXIT_INPUT
+    except (CpfError, ConnectionError) as exc:
+        print(f"cpf: error: {exc}", file=sys.stderr)
+        return EXIT_RUNTIME
+    except KeyboardInterrupt:
+        print("cpf: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+
+
+def entry() -> None:
+    """Console-script entry point."""
+    sys.exit(main())

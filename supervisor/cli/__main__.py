@@ -1,0 +1,5 @@
+"""`python -m supervisor.cli`: the `cpf` command."""
+
+from supervisor.cli import entry
+
+entry()

@@ -1,0 +1,166 @@
+"""The `cpf` argument parser: every command and option, with its help and default."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import TypeAlias
+
+from supervisor.engine import resim_settings  # light: the table only, for the help text
+
+START_TIMEOUT = 60.0  # s: cpf run's default --start-timeout
+Commands: TypeAlias = "argparse._SubParsersAction[argparse.ArgumentParser]"  # a string: not subscriptable at run time
+
+
+def _positive(text: str) -> float:
+    value = float(text)
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"must be > 0, got {text}")
+    return value
+
+
+def _seed(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be >= 0, got {text}")
+    return value
+
+
+def _ids(text: str) -> tuple[int, ...]:
+    try:
+        return tuple(int(part) for part in text.split(",") if part)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected comma-separated vehicle ids, got {text!r}") from None
+
+
+class _Help(argparse.ArgumentDefaultsHelpFormatter):
+    """--help shows every option's default, unless its help already says it or there is none worth showing."""
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        text = action.help or ""
+        trivial = action.default is None or action.default is False or action.default in ([], ())
+        if not action.option_strings or trivial or action.default is argparse.SUPPRESS or "default" in text:
+            return action.help
+        return f"{text} (default: %(default)s)"
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="cpf", description="Coordinated path-following co-simulator for AUV fleets.", formatter_class=_Help
+    )
+    sub = parser.add_subparsers(dest="command", required=True)
+    _add_run(sub)
+    _add_processes(sub)
+    _add_log_commands(sub)
+    _add_learning_commands(sub)
+    for command in sub.choices.values():
+        command.formatter_class = _Help
+    return parser
+
+
+def _add_run(sub: Commands) -> None:
+    run = sub.add_parser("run", help="simulate a scenario and record it to MCAP")
+    run.add_argument("scenario", type=Path, help="scenario file (TOML)")
+    run.add_argument("--engine", choices=["zenoh", "inprocess"], default="zenoh", help="default: zenoh")
+    run.add_argument("--clock", choices=["lockstep", "realtime"], default="lockstep", help="default: lockstep")
+    run.add_argument(
+        "--speed", type=_positive, default=None, help="realtime clock only: simulated s per wall s (default: 1)"
+    )
+    run.add_argument("--seed", type=_seed, default=None, help="random seed (default: the scenario's)")
+    run.add_argument("--out", type=Path, default=None, help="MCAP file to write (default: runs/<name>.mcap)")
+    run.add_argument("--metrics", type=Path, default=None, help="also write the summary as JSON here")
+    run.add_argument("--listen", default=None, help="Zenoh endpoint for the supervisor's router")
+    run.add_argument("--connect", default=None, help="join this Zenoh router instead of running one")
+    run.add_argument("--remote", type=_ids, default=(), help="vehicle ids started by hand elsewhere (not spawned)")
+    run.add_argument(
+        "--start-timeout", type=_positive, default=None, metavar="S",
+        help=f"zenoh engine: s to wait for every process to come alive (default: {START_TIMEOUT:g})",
+    )  # fmt: skip
+    run.add_argument("--quiet", action="store_true", help="no progress line")
+    _add_scenario_changes(run)
+
+
+def _add_scenario_changes(command: argparse.ArgumentParser) -> None:
+    command.add_argument(
+        "--set", action="append", default=[], metavar="KEY=VALUE", help="override a scenario value (repeatable)"
+    )
+    command.add_argument(
+        "--fault", action="append", default=[], metavar="SPEC",
+        help="add a fault, e.g. kind=link_down,sender=1,receiver=2,start=100,end=130 (repeatable)",
+    )  # fmt: skip
+
+
+def _add_processes(sub: Commands) -> None:
+    """vehicle, comms: the processes of a Zenoh run (the supervisor starts them)."""
+    vehicle = sub.add_parser("vehicle", help="run one vehicle process (the supervisor starts these)")
+    vehicle.add_argument("scenario", type=Path)
+    vehicle.add_argument("--id", type=int, required=True, help="vehicle id in the scenario")
+    vehicle.add_argument("--connect", required=True, help="Zenoh endpoint of the run's router")
+    _add_scenario_changes(vehicle)
+    vehicle.add_argument("--resume", type=Path, default=None, help="a recorded state message to restart from")
+    vehicle.add_argument("--start-step", type=int, default=0, help="the sync step to resume at")
+    vehicle.add_argument("--resume-seq", type=int, default=0, help="the last transmission's sequence number")
+    vehicle.add_argument(
+        "--gamma0", type=float, default=None, help="the initial gamma, when the supervisor resolved 'closest' for it"
+    )
+    comms = sub.add_parser("comms", help="run the acoustic-link broker (the supervisor starts it)")
+    comms.add_argument("scenario", type=Path)
+    comms.add_argument("--seed", type=_seed, default=None)
+    comms.add_argument("--connect", required=True, help="Zenoh endpoint of the run's router")
+    _add_scenario_changes(comms)
+    comms.add_argument("--start-step", type=int, default=0, help="the sync step to resume at (after a restart)")
+
+
+def _add_log_commands(sub: Commands) -> None:
+    """report, sweep, resim, info: what to do with runs and their logs."""
+    report = sub.add_parser("report", help="figures and metrics (metrics.json) of a recorded run")
+    report.add_argument("log", type=Path, help="MCAP file written by cpf run")
+    report.add_argument("--out", type=Path, default=None, help="directory for the figures (default: beside the log)")
+    sweep = sub.add_parser("sweep", help="Monte-Carlo over parameter values and seeds (resumable)")
+    sweep.add_argument("scenario", type=Path)
+    sweep.add_argument(
+        "--param", action="append", required=True, metavar="KEY=VALUES",
+        help="KEY=v1,v2,... or KEY=start:stop:step, e.g. comms.loss=0:0.8:0.1 (repeatable: a grid)",
+    )  # fmt: skip
+    sweep.add_argument("--seeds", type=int, default=10, help="runs per parameter combination, seeds 0..N-1")
+    sweep.add_argument("--jobs", type=int, default=2, help="runs at once, one process each")
+    sweep.add_argument("--engine", choices=["inprocess", "zenoh"], default="inprocess", help="identical results")
+    sweep.add_argument("--out", type=Path, required=True, help="directory: runs/, results.csv, plots")
+    resim = sub.add_parser("resim", help="re-run the vehicles against the receptions recorded in a log")
+    resim.add_argument("log", type=Path, help="MCAP file written by cpf run")
+    resim.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help=resim_settings.help_text())
+    resim.add_argument("--out", type=Path, default=None, help="MCAP file to write (default: <log>.resim.mcap)")
+    info = sub.add_parser("info", help="what a recorded run is: scenario, engine, duration, faults, topics")
+    info.add_argument("log", type=Path, help="MCAP file written by cpf run (one cut short too)")
+    _add_replay_and_recover(sub)
+
+
+def _add_replay_and_recover(sub: Commands) -> None:
+    again = sub.add_parser("replay", help="publish a recorded run on Zenoh again, with its original timing")
+    again.add_argument("log", type=Path, help="MCAP file written by cpf run")
+    again.add_argument("--speed", type=float, default=1.0, help="simulated s per wall s (0: as fast as possible)")
+    again.add_argument("--start", type=float, default=None, help="from this simulation time in s (inclusive)")
+    again.add_argument("--end", type=float, default=None, help="up to this simulation time in s (inclusive)")
+    again.add_argument("--loop", action="store_true", help="replay the window again and again until Ctrl-C")
+    where = again.add_mutually_exclusive_group()
+    where.add_argument("--listen", default=None, help="endpoint of the replayer's router (default: a free local port)")
+    where.add_argument("--connect", default=None, help="join this Zenoh router as a client instead of running one")
+    again.add_argument("--delay", type=float, default=None, metavar="S", help="start S s after opening, not on Enter")
+    again.add_argument("--quiet", action="store_true", help="no progress line")
+    repair = sub.add_parser("recover", help="rebuild the summary and index of a log whose writer was killed")
+    repair.add_argument("log", type=Path, help="MCAP file, possibly cut short (no footer, partial last chunk)")
+    repair.add_argument("--out", type=Path, default=None, help="MCAP file to write (default: <log>.recovered.mcap)")
+
+
+def _add_learning_commands(sub: Commands) -> None:
+    """schema, validate, presets: the scenario format without reading the source."""
+    schema = sub.add_parser("schema", help="the JSON Schema of a scenario file, for editors (or the reference)")
+    schema.add_argument("--markdown", action="store_true", help="the scenario reference (docs/scenario-reference.md)")
+    check = sub.add_parser("validate", help="check a scenario (every error at once) and say what it would run")
+    check.add_argument("scenario", type=Path, help="scenario file (TOML)")
+    check.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override a value (repeatable)")
+    check.add_argument("--fault", action="append", default=[], metavar="SPEC", help="add a fault (repeatable)")
+    sub.add_parser("presets", help="the vehicle and modem presets a scenario can name, with their key numbers")

@@ -1,0 +1,162 @@
+"""`cpf run`, and `cpf vehicle` / `cpf comms`: the processes a Zenoh run starts."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from supervisor.cli.parser import START_TIMEOUT
+from supervisor.errors import ScenarioError
+
+if TYPE_CHECKING:
+    from supervisor.config.scenario_schema import Scenario
+    from supervisor.engine.inprocess import RunResult
+
+log = logging.getLogger("cpf")
+
+
+def _option_errors(args: argparse.Namespace, scenario: Scenario) -> list[str]:
+    """Option combinations that cannot do what they say, '<option>: <problem>, got <value>' each. Checked before
+    anything starts, for both engines alike."""
+    from supervisor.config.scenario_schema import VehicleKillFault
+
+    errors = [
+        f"--remote: no vehicle {vid} in [[vehicles]] {scenario.vehicle_ids}, got {vid}"
+        for vid in args.remote
+        if vid not in scenario.vehicle_ids
+    ]
+    if args.engine == "inprocess":
+        given = {"--remote": args.remote or None, "--listen": args.listen, "--connect": args.connect}
+        given["--start-timeout"] = args.start_timeout
+        errors += [
+            f"{option}: only the zenoh engine has processes to place (--engine inprocess runs one), got {value}"
+            for option, value in given.items()
+            if value is not None
+        ]
+    if args.speed is not None and args.clock != "realtime":
+        errors.append(f"--speed: only the realtime clock is paced (add --clock realtime), got {args.speed:g}")
+    killed = {f.vehicle: index for index, f in enumerate(scenario.faults) if isinstance(f, VehicleKillFault)}
+    errors += [
+        f"--remote: faults[{killed[vid]}] kills vehicle {vid}, which the supervisor cannot do to a process it did "
+        f"not start, got {vid}"
+        for vid in args.remote
+        if vid in killed
+    ]
+    return errors
+
+
+def run(args: argparse.Namespace) -> int:
+    scenario = _checked_scenario(args)
+    out = args.out or Path("runs") / f"{scenario.scenario.name}.mcap"
+    result = _simulate(args, scenario, out)
+    _report_run(args, scenario, result, out)
+    return 0
+
+
+def _checked_scenario(args: argparse.Namespace) -> Scenario:
+    """The scenario with --set and --fault applied; ScenarioError for it or for options that do not fit it; its
+    warnings logged."""
+    from supervisor.config.scenario import load_scenario
+    from supervisor.config.scenario_checks import scenario_warnings
+
+    scenario = load_scenario(args.scenario, args.set, args.fault)
+    errors = [f"{args.scenario}: {line}" for line in _option_errors(args, scenario)]
+    if errors:
+        raise ScenarioError("\n".join(errors), errors)
+    for warning in scenario_warnings(scenario):
+        log.warning("%s: %s", args.scenario, warning)
+    return scenario
+
+
+def _simulate(args: argparse.Namespace, scenario: Scenario, out: Path) -> RunResult:
+    from supervisor.engine.cosim import BusOptions, run_zenoh
+    from supervisor.engine.inprocess import run_inprocess
+    from supervisor.engine.progress import Progress
+
+    seed = scenario.scenario.seed if args.seed is None else args.seed
+    text = args.scenario.read_text(encoding="utf-8")
+    progress = Progress(scenario.scenario.duration, enabled=not args.quiet)
+    speed = 1.0 if args.speed is None else args.speed
+    if args.engine == "inprocess":
+        return run_inprocess(scenario, str(args.scenario), text, out, seed, progress)
+    timeout = START_TIMEOUT if args.start_timeout is None else args.start_timeout
+    bus = BusOptions(args.listen, args.connect, args.remote, tuple(args.set), tuple(args.fault), timeout)
+    logging.getLogger("cpf.engine").setLevel(logging.INFO)  # "waiting for ...": --quiet or not
+    return run_zenoh(scenario, args.scenario, text, out, seed, args.clock, speed, bus, progress)
+
+
+def _report_run(args: argparse.Namespace, scenario: Scenario, result: RunResult, out: Path) -> None:
+    """The run's headline, summary per phase and per link (and realtime timing) on stdout; --metrics as JSON."""
+    from supervisor.analysis.comms_summary import comms_summary, format_comms
+    from supervisor.analysis.metrics import finite
+    from supervisor.analysis.summary import format_summary, summarize
+    from supervisor.config.derived import intervals, tube_radius
+    from supervisor.engine.realtime_timing import format_timing
+
+    rep, duration = scenario.report, scenario.scenario.duration
+    tube = tube_radius(scenario)
+    summary = summarize(result.series, duration, intervals(scenario), rep.transient, tube, rep.coordination_tolerance)
+    factor = duration / max(result.stepping_time, 1e-9)
+    print(
+        f"{scenario.scenario.name}: {len(scenario.vehicles)} vehicles, {args.engine} engine, "
+        f"{duration:g} s simulated in {result.wall_time:.2f} s "
+        f"(stepping {result.stepping_time:.2f} s, {factor:.0f}x real time), {result.messages} messages -> {out}"
+    )
+    comms = comms_summary(result.link_stats, result.stats_history, result.estimate_ages)
+    print(format_summary(summary))
+    print(format_comms(comms))
+    if result.realtime is not None:
+        print(format_timing(result.realtime))
+    if args.metrics:
+        args.metrics.parent.mkdir(parents=True, exist_ok=True)
+        metrics = {"coordination": summary.as_dict(), "comms": comms.as_dict(), "links": result.link_counts}
+        if result.realtime is not None:
+            metrics["realtime"] = result.realtime
+        args.metrics.write_text(json.dumps(finite(metrics), indent=2, allow_nan=False))
+
+
+def vehicle(args: argparse.Namespace) -> int:
+    from supervisor.config.fleet import initial_state, radio, restarted_node, vehicle_config
+    from supervisor.config.scenario import load_scenario
+    from supervisor.config.scenario_digest import hello
+    from vehicles.node import run_vehicle
+    from vehicles.runtime import NodeState
+
+    scenario = load_scenario(args.scenario, args.set, args.fault)
+    if args.id not in scenario.vehicle_ids:
+        raise ScenarioError(f"{args.scenario}: --id: no vehicle {args.id} in [[vehicles]] {scenario.vehicle_ids}")
+    cfg = vehicle_config(scenario, args.id)
+    if args.resume is not None:
+        initial = restarted_node(cfg, json.loads(args.resume.read_text()), args.resume_seq)
+    else:
+        initial = NodeState(initial_state(_starting_at(scenario, args.id, args.gamma0), cfg))
+    neighbours, dt = scenario.neighbours(args.id), scenario.scenario.step
+    return run_vehicle(
+        cfg, initial, radio(scenario, args.id), neighbours, dt, [args.connect], args.start_step,
+        hello(f"vehicle {args.id}", scenario),
+    )  # fmt: skip
+
+
+def _starting_at(scenario: Scenario, vid: int, gamma0: float | None) -> Scenario:
+    """The scenario with vehicle vid's gamma0 set (the supervisor resolved "closest" for it: no search here); the
+    scenario itself, and so its digest, stays the supervisor's."""
+    if gamma0 is None:
+        return scenario
+    vehicles = tuple(v.model_copy(update={"gamma0": gamma0}) if v.id == vid else v for v in scenario.vehicles)
+    return scenario.model_copy(update={"vehicles": vehicles})
+
+
+def comms(args: argparse.Namespace) -> int:
+    from comms.broker import run_broker
+    from supervisor.config.fleet import broker_core
+    from supervisor.config.scenario import load_scenario
+    from supervisor.config.scenario_digest import hello
+
+    scenario = load_scenario(args.scenario, args.set, args.fault)
+    seed = scenario.scenario.seed if args.seed is None else args.seed
+    dt, ids = scenario.scenario.step, scenario.vehicle_ids
+    greeting = hello("comms broker", scenario, seed)
+    return run_broker(broker_core(scenario, seed), ids, dt, [args.connect], args.start_step, greeting)
