@@ -11,8 +11,6 @@ import ast
 import builtins
 from pathlib import Path
 
-import pytest
-
 ROOT = Path(__file__).resolve().parent.parent
 CHECKED = ("supervisor", "comms", "vehicles", "benchmarks", "scripts")
 MAX_MODULE_LINES = 400

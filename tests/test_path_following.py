@@ -12,9 +12,10 @@ from vehicles.agent import Telemetry, VehicleConfig, VehicleState, step
 from vehicles.coordination import CoordinationGains
 from vehicles.dynamics import PLANAR, SPATIAL
 from vehicles.geometry import rotation_2d, rotation_from_rpy
+from vehicles.nearest import closest_gamma
 from vehicles.params import PRESETS
 from vehicles.path_following import PathFollowingGains
-from vehicles.paths import Circle, Helix, Lawnmower, Line, Path, closest_gamma
+from vehicles.paths import Circle, Helix, Lawnmower, Line, Path
 
 REMUS = PRESETS["remus100"]
 PAPER_HELIX = Helix(radius=20.0, climb=0.05, period=400.0, phase=-3 * math.pi / 4)

@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 from numpy.typing import NDArray
 
-from vehicles.paths import Circle, Helix, Lawnmower, Line, Path, closest_gamma
+from vehicles.nearest import closest_gamma
+from vehicles.paths import Circle, Helix, Lawnmower, Line, Path
 
 # --- cases ------------------------------------------------------------------------------------------------
 # Each smooth case: (path, gammas to test at, FD step in gamma, atol on dp, atol on d2p).

@@ -25,12 +25,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vehicles.geometry import Float3
-from vehicles.nearest import closest_gamma, nearest_gamma  # where a vehicle starts on its path
 
 Vec3: TypeAlias = NDArray[np.float64]
 """A vector of shape (3,), float64."""
 
-__all__ = ["Circle", "Helix", "Lawnmower", "Line", "Path", "Vec3", "closest_gamma", "nearest_gamma"]
+__all__ = ["Circle", "Helix", "Lawnmower", "Line", "Path", "Vec3"]
 
 
 @runtime_checkable

@@ -38,7 +38,7 @@ from numpy.typing import NDArray
 if TYPE_CHECKING:  # only for annotations: supervisor.analysis.report imports this module
     from pathlib import Path
 
-    from supervisor.analysis.report import FaultInterval, RunData, VehicleSeries
+    from supervisor.analysis.rundata import FaultInterval, RunData, VehicleSeries
 
 __all__ = [
     "DPI",

@@ -44,7 +44,7 @@ from supervisor.config.scenario_schema import ReportSection
 from supervisor.errors import ScenarioError
 
 if TYPE_CHECKING:
-    from supervisor.analysis.report import LinkLog, RunData
+    from supervisor.analysis.rundata import LinkLog, RunData
 
 __all__ = ["STEADY_STATE_WINDOW", "Settings", "packet_counts", "run_metrics", "run_series", "run_settings"]
 

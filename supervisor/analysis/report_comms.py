@@ -17,7 +17,8 @@ from matplotlib.figure import Figure
 
 from comms.graph import algebraic_connectivity, laplacian
 from comms.stats import clamp_lambda2
-from supervisor.analysis.report import AgeSeries, Array, LinkLog, RunData, colour, finish_time_axes, new_figure
+from supervisor.analysis.figures import colour, finish_time_axes, new_figure
+from supervisor.analysis.rundata import AgeSeries, Array, LinkLog, RunData
 
 __all__ = ["comms_figures"]
 

@@ -34,8 +34,9 @@ from vehicles.agent import VehicleConfig, VehicleState
 from vehicles.coordination import CoordinationGains
 from vehicles.dynamics import PLANAR, SPATIAL, Model
 from vehicles.geometry import rotation_2d, rotation_from_rpy
+from vehicles.nearest import nearest_gamma
 from vehicles.path_following import PathFollowingGains
-from vehicles.paths import Circle, Helix, Lawnmower, Line, Path, nearest_gamma
+from vehicles.paths import Circle, Helix, Lawnmower, Line, Path
 from vehicles.runtime import NodeState, Radio
 from vehicles.transmission import EventTriggeredPolicy, PeriodicPolicy, Policy, Tdma
 
