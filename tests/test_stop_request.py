@@ -1,31 +1,49 @@
-"""A stop asked for by a signal is kept: a run whose KeyboardInterrupt was swallowed still ends at its next step."""
+"""Ctrl-C and SIGTERM during a run are taken at a safe point (supervisor/engine/interrupts.py): the handler only
+records the request while an engine runs, and the engine stops at its next step or wait; outside a run it raises."""
 
 from __future__ import annotations
 
 import io
+import signal
 
 import pytest
 
-from supervisor.engine import progress
+from supervisor.engine import interrupts
+from supervisor.engine.progress import Progress
 
 
-def test_a_kept_stop_request_ends_the_next_update(monkeypatch):
-    monkeypatch.setattr(progress, "_stop_requested", False)
-    line = progress.Progress(10.0, stream=io.StringIO())
-    line.update(1.0)  # nothing asked yet
-    progress.request_stop()
+@pytest.fixture(autouse=True)
+def no_request(monkeypatch):
+    monkeypatch.setattr(interrupts, "_requested", False)
+    monkeypatch.setattr(interrupts, "_deferred", 0)
+
+
+def test_outside_a_run_the_handler_raises_at_once():
     with pytest.raises(KeyboardInterrupt):
-        line.update(2.0)
-    with pytest.raises(KeyboardInterrupt):  # and again: the request stands until the process ends
-        line.update(3.0)
-    monkeypatch.setattr(progress, "_stop_requested", False)
+        interrupts.handle(signal.SIGINT, None)
 
 
-def test_the_cli_handler_keeps_the_request(monkeypatch):
-    from supervisor.cli import _interrupt
+def test_inside_a_run_the_request_waits_for_the_next_step():
+    line = Progress(10.0, stream=io.StringIO())
+    with interrupts.deferred():
+        interrupts.handle(signal.SIGINT, None)  # e.g. while the recorder writes a record: nothing raised there
+        with pytest.raises(KeyboardInterrupt):
+            line.update(1.0)
+        line.update(2.0)  # taken once: the cleanup after it is not interrupted again
 
-    monkeypatch.setattr(progress, "_stop_requested", False)
+
+def test_an_engine_entry_point_defers(monkeypatch):
+    seen = []
+
+    @interrupts.deferring
+    def run() -> str:
+        interrupts.handle(signal.SIGTERM, None)
+        seen.append("went on")
+        interrupts.check()
+        return "never"
+
     with pytest.raises(KeyboardInterrupt):
-        _interrupt(2, None)
-    assert progress._stop_requested
-    monkeypatch.setattr(progress, "_stop_requested", False)
+        run()
+    assert seen == ["went on"]
+    with pytest.raises(KeyboardInterrupt):  # the run is over: raised at once again
+        interrupts.handle(signal.SIGINT, None)

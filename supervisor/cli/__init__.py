@@ -14,12 +14,12 @@ import os
 import signal
 import sys
 from collections.abc import Callable, Sequence
-from types import FrameType
 
 from supervisor.cli import commands, run
 from supervisor.cli.parser import _parser
 from supervisor.cli.run import _option_errors
 from supervisor.cli.terminal import EXIT_INPUT, EXIT_INTERRUPTED, EXIT_RUNTIME
+from supervisor.engine import interrupts
 from supervisor.errors import CpfError, ScenarioError
 
 __all__ = ["EXIT_INPUT", "EXIT_INTERRUPTED", "EXIT_RUNTIME", "_option_errors", "_parser", "entry", "main"]
@@ -40,20 +40,11 @@ COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
 }
 
 
-def _interrupt(signum: int, frame: FrameType | None) -> None:
-    """SIGINT and SIGTERM: stop as Ctrl-C does (children stopped, log closed), and keep the request (a run checks it
-    every step, should the KeyboardInterrupt be swallowed on its way)."""
-    from supervisor.engine.progress import request_stop
-
-    request_stop()
-    raise KeyboardInterrupt
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     logging.basicConfig(level=logging.WARNING, format=f"cpf {args.command}: %(message)s")
-    signal.signal(signal.SIGTERM, _interrupt)
-    signal.signal(signal.SIGINT, _interrupt)
+    signal.signal(signal.SIGTERM, interrupts.handle)  # SIGTERM cleans up like Ctrl-C: children stopped, log closed
+    signal.signal(signal.SIGINT, interrupts.handle)
     try:
         return COMMANDS[args.command](args)
     except BrokenPipeError:  # output piped into e.g. head, which stopped reading: not an error of ours

@@ -33,6 +33,7 @@ from comms.messages import (
 )
 from supervisor.config.scenario import load_scenario
 from supervisor.config.scenario_schema import Scenario
+from supervisor.engine import interrupts
 from supervisor.engine.clock import Clock
 from supervisor.engine.inprocess import RunResult
 from supervisor.engine.intake import Intake
@@ -50,6 +51,7 @@ STEP_TIMEOUT = 60.0  # s for one sync step before the run is declared stuck
 log = logging.getLogger("cpf.engine")
 
 
+@interrupts.deferring
 def run_zenoh(
     scenario: Scenario,
     scenario_path: Path,

@@ -39,6 +39,7 @@ from supervisor.analysis.summary import Series
 from supervisor.config.derived import steps_of
 from supervisor.config.fleet import broker_core, initial_state, link_stats, radio, restarted_node, vehicle_config
 from supervisor.config.scenario_schema import Scenario
+from supervisor.engine import interrupts
 from supervisor.engine.books import LinkBooks
 from supervisor.engine.metadata import graph_message, run_meta
 from supervisor.engine.progress import Progress
@@ -169,6 +170,7 @@ class _InProcessRun:
             self.rec.write(COMMS_EVENT_KEY, event.t, event_message(event))
 
 
+@interrupts.deferring
 def run_inprocess(
     scenario: Scenario, scenario_file: str, scenario_toml: str, out: Path, seed: int, progress: Progress
 ) -> RunResult:

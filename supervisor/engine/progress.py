@@ -1,10 +1,4 @@
-"""A one-line progress report for long runs: simulated time and real-time factor, at most once a second.
-
-It also keeps a stop asked for by a signal: the CLI's handler raises KeyboardInterrupt and records the request here,
-and every update (once per step) raises it again while it stands. Twice in the test suite, on a loaded machine, a
-SIGINT to a Zenoh run was lost (the run went on to its end): something between the handler and our code swallowed
-the KeyboardInterrupt. The request kept here cannot be swallowed that way: the next step ends the run.
-"""
+"""A one-line progress report for long runs: simulated time and real-time factor, at most once a second."""
 
 from __future__ import annotations
 
@@ -12,13 +6,7 @@ import sys
 import time
 from typing import TextIO
 
-_stop_requested = False
-
-
-def request_stop() -> None:
-    """A signal asked the run to stop (see the module docstring)."""
-    global _stop_requested
-    _stop_requested = True
+from supervisor.engine import interrupts
 
 
 class Progress:
@@ -36,8 +24,7 @@ class Progress:
         self.stepping = time.perf_counter()
 
     def update(self, t: float, force: bool = False) -> None:
-        if _stop_requested:
-            raise KeyboardInterrupt
+        interrupts.check()  # once a step: where a run stops on Ctrl-C
         now = time.perf_counter()
         if not self.enabled or (now - self._last < 1.0 and not force):
             return

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 from comms.bus import Inbox, Publishers, Received
 from comms.messages import COMMS_ALIVE, Message, vehicle_alive_key
 from supervisor.config.scenario_schema import Scenario
+from supervisor.engine import interrupts
 from supervisor.engine.clock import Clock
 from supervisor.engine.intake import Intake
 from supervisor.engine.launch import START_TIMEOUT, Launch, gamma0_args
@@ -66,6 +67,7 @@ class Supervisor:
     # --- the bus -------------------------------------------------------------------------------------------
 
     def pump(self, timeout: float) -> None:
+        interrupts.check()  # every wait on the bus goes through here: where a run stops on Ctrl-C
         item = self.inbox.get(timeout)
         if isinstance(item, str):
             self._liveliness(item)

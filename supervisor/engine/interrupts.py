@@ -1,0 +1,61 @@
+"""Ctrl-C and SIGTERM, taken where a run can stop cleanly.
+
+Python's own SIGINT handling raises KeyboardInterrupt wherever the main thread happens to be. In a run that can be
+inside the MCAP writer between a record's length and its bytes, which left a log whose tick message was garbage (seen
+in the test suite), or inside a library that swallows the exception, which left the run going on to its end (seen
+twice). So while an engine runs (`deferred()`), the CLI's handler (`handle`) only records the request, and the
+engine raises KeyboardInterrupt at its safe points (`check()`: every step, and every wait on the bus). Outside a run
+the handler raises at once, as Python's does.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import functools
+from collections.abc import Callable, Iterator
+from types import FrameType
+from typing import ParamSpec, TypeVar
+
+P = ParamSpec("P")
+R = TypeVar("R")
+
+_requested = False
+_deferred = 0
+
+
+def handle(signum: int, frame: FrameType | None) -> None:
+    """The handler the CLI installs for SIGINT and SIGTERM."""
+    global _requested
+    _requested = True
+    if not _deferred:
+        raise KeyboardInterrupt
+
+
+@contextlib.contextmanager
+def deferred() -> Iterator[None]:
+    """Inside, a signal only records the request: the run stops at its next `check()`."""
+    global _deferred
+    _deferred += 1
+    try:
+        yield
+    finally:
+        _deferred -= 1
+
+
+def deferring(run: Callable[P, R]) -> Callable[P, R]:
+    """An engine's entry point, run inside `deferred()`."""
+
+    @functools.wraps(run)
+    def wrapper(*args: P.args, **kwargs: P.kwargs) -> R:
+        with deferred():
+            return run(*args, **kwargs)
+
+    return wrapper
+
+
+def check() -> None:
+    """A safe point: KeyboardInterrupt if a stop was asked for (once: cleanup after it is not interrupted again)."""
+    global _requested
+    if _requested:
+        _requested = False
+        raise KeyboardInterrupt
