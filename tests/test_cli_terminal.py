@@ -29,4 +29,4 @@ def test_the_sweep_bar_starts_at_the_runs_already_done(capsys):
     bar(5, 5)
     bar.close()
     err = capsys.readouterr().err
-    assert err.startswith("sweep:") and "2/5" in err and "5/5" in err and "1/5" not in err
+    assert err.lstrip("\r").startswith("sweep:") and "2/5" in err and "5/5" in err and "1/5" not in err
