@@ -1,8 +1,9 @@
 """Path-following controller for an underactuated AUV: the delta-shifted backstepping design.
 
-After Aguiar & Hespanha (IEEE TAC 2007) as laid out in shared/reference/path-following.md. The error is measured
-from a point delta = (delta, 0, 0) ahead of (delta < 0: behind) the vehicle, which the surge force and the pitch and
-yaw torques can steer in every direction:
+After Aguiar & Hespanha, "Trajectory-tracking and path-following of underactuated autonomous vehicles with
+parametric modeling uncertainty" (IEEE TAC 52(8), 2007). The error is measured from a point delta = (delta, 0, 0)
+ahead of (delta < 0: behind) the vehicle, which the surge force and the pitch and yaw torques can steer in every
+direction:
 
     z1 = R'(p - p_d(gamma)) - delta,   rho = sqrt(1 + |z1|^2),   sigma = z1 / rho
     alpha = Delta^-1 (-K1 sigma - nu_u + R' p_d^gamma v_d)            virtual (u, q, r)
@@ -116,82 +117,66 @@ def control(
         Delta = [[1, 0, 0], [0, 0, -delta], [0, delta, 0]],   nu_c = (u, q, r),   nu_u = (0, v, w).
     A planar vehicle's lifted state has no heave, roll or pitch rate (w = p = q = 0) and it sees its path's horizontal
     projection, so the out-of-plane rows are exact zeros (tau_q = 0) and the in-plane ones are the planar law with
-    Delta = [[1, 0], [0, -delta]]. The helpers below are its steps, the float operations of the whole in order."""
-    gains, delta = c.gains, c.gains.delta
+    Delta = [[1, 0], [0, -delta]]. One helper, not more: this runs at every RK4 stage."""
     p_d, p_g, p_gg = model.path_seen(path.evaluate_floats(gamma))
-    rot, nu = s[3:12], s[12:18]
     error = (s[0] - p_d[0], s[1] - p_d[1], s[2] - p_d[2])
-    ex, ey, ez = _body(rot, error)
-    z1 = (ex - delta, ey, ez)  # z1 = R' error - delta
-    tangent = _body(rot, p_g)  # R' p_d^gamma
+    r11, r12, r13, r21, r22, r23, r31, r32, r33 = s[3:12]
+    # z1 = R' error - delta, tangent = R' p_d^gamma, curvature = R' p_d^gammagamma
+    z1 = (
+        r11 * error[0] + r21 * error[1] + r31 * error[2] - c.gains.delta,
+        r12 * error[0] + r22 * error[1] + r32 * error[2],
+        r13 * error[0] + r23 * error[1] + r33 * error[2],
+    )
+    tangent = (r11 * p_g[0] + r21 * p_g[1] + r31 * p_g[2], r12 * p_g[0] + r22 * p_g[1] + r32 * p_g[2],
+               r13 * p_g[0] + r23 * p_g[1] + r33 * p_g[2])  # fmt: skip
+    curvature = (r11 * p_gg[0] + r21 * p_gg[1] + r31 * p_gg[2], r12 * p_gg[0] + r22 * p_gg[1] + r32 * p_gg[2],
+                 r13 * p_gg[0] + r23 * p_gg[1] + r33 * p_gg[2])  # fmt: skip
     rho = math.sqrt(1.0 + z1[0] * z1[0] + z1[1] * z1[1] + z1[2] * z1[2])
     sigma = (z1[0] / rho, z1[1] / rho, z1[2] / rho)
-    sigma_dot = _sigma_dot(z1, sigma, rho, tangent, nu, delta, gamma_dot)
-    alpha = _alpha(gains.k1, c.inverse_delta, sigma, nu[1], nu[2], tangent, v_d)
-    # Accelerations with zero input: the unactuated ones are exact, the actuated ones are what the input must add to.
-    drift = model.drift(s, prm)
-    tangent_dot = _tangent_dot(tangent, nu, _body(rot, p_gg), gamma_dot)
-    alpha_dot = _alpha(gains.k1, c.inverse_delta, sigma_dot, drift[0][1], drift[0][2], tangent_dot, v_d)  # v_dot, w_dot
-    z2 = (nu[0] - alpha[0], nu[4] - alpha[1], nu[5] - alpha[2])
-    tau = _inputs(c, sigma, z2, alpha_dot, drift)
+    drift = model.drift(s, prm)  # with zero input: exact for the unactuated velocities, the rest is tau's to add
+    z2, tau = _backstepping(c, s, z1, sigma, rho, tangent, curvature, drift, gamma_dot, v_d)
     zeta = gamma_dot - v_d
     along = sigma[0] * tangent[0] + sigma[1] * tangent[1] + sigma[2] * tangent[2]
-    gamma_ddot = -gains.k_zeta * zeta + along + correction
+    gamma_ddot = -c.gains.k_zeta * zeta + along + correction
     lyapunov = (rho - 1.0) + 0.5 * zeta * zeta + 0.5 * (z2[0] * z2[0] + z2[1] * z2[1] + z2[2] * z2[2])
     return Control(tau, gamma_ddot, error, z1, lyapunov, drift)
 
 
-def _body(rot: Sequence[float], a: Sequence[float]) -> Float3:
-    """R' a: an inertial vector in the body frame (rot: R's nine entries, row by row)."""
-    r11, r12, r13, r21, r22, r23, r31, r32, r33 = rot
-    return (
-        r11 * a[0] + r21 * a[1] + r31 * a[2],
-        r12 * a[0] + r22 * a[1] + r32 * a[2],
-        r13 * a[0] + r23 * a[1] + r33 * a[2],
-    )
-
-
-def _sigma_dot(
-    z1: Float3, sigma: Float3, rho: float, tangent: Float3, nu: Sequence[float], delta: float, gamma_dot: float
-) -> Float3:
-    """sigma_dot = (z1_dot - sigma (sigma' z1_dot)) / rho, where z1_dot = -S(omega) z1 + Delta nu_c + nu_u - tangent
-    gamma_dot and Delta nu_c + nu_u = (u, v - delta r, w + delta q)."""
+def _backstepping(
+    c: ControllerConstants, s: Sequence[float], z1: Float3, sigma: Float3, rho: float, tangent: Float3,
+    curvature: Float3, drift: Accelerations, gamma_dot: float, v_d: float,
+) -> tuple[Float3, Float3]:  # fmt: skip
+    """(z2, saturated tau): the virtual control alpha, its derivative (v_d constant), and the inputs that give
+    nu_c_dot = alpha_dot - Delta' sigma - k2 z2 given the drift (curvature: R' p_d^gammagamma)."""
     (z1x, z1y, z1z), (sx, sy, sz), (tx, ty, tz) = z1, sigma, tangent
-    u, v, w, p, q, r = nu
+    u, v, w, p, q, r = s[12:18]
+    k1, inv_delta, delta = c.gains.k1, c.inverse_delta, c.gains.delta
+    # z1_dot = -S(omega) z1 + Delta nu_c + nu_u - tangent gamma_dot; Delta nu_c + nu_u = (u, v - delta r, w + delta q)
     dz1x = -(q * z1z - r * z1y) + u - tx * gamma_dot
     dz1y = -(r * z1x - p * z1z) + (-delta * r + v) - ty * gamma_dot
     dz1z = -(p * z1y - q * z1x) + (delta * q + w) - tz * gamma_dot
     along = sx * dz1x + sy * dz1y + sz * dz1z
-    return (dz1x - sx * along) / rho, (dz1y - sy * along) / rho, (dz1z - sz * along) / rho
-
-
-def _alpha(k1: float, inv_delta: float, sigma: Float3, v: float, w: float, tangent: Float3, v_d: float) -> Float3:
-    """alpha = Delta^-1 (-k1 sigma - nu_u + tangent v_d), with Delta^-1 (a, b, c) = (a, c / delta, -b / delta); the
-    same with sigma_dot, (v_dot, w_dot) and tangent_dot is alpha_dot (v_d is constant)."""
-    (sx, sy, sz), (tx, ty, tz) = sigma, tangent
+    dsx, dsy, dsz = (dz1x - sx * along) / rho, (dz1y - sy * along) / rho, (dz1z - sz * along) / rho  # sigma_dot
+    # alpha = Delta^-1 (-k1 sigma - nu_u + tangent v_d), with Delta^-1 (a, b, c) = (a, c / delta, -b / delta)
     ay, az = -k1 * sy - v + ty * v_d, -k1 * sz - w + tz * v_d
-    return -k1 * sx + tx * v_d, inv_delta * az, -inv_delta * ay
-
-
-def _tangent_dot(tangent: Float3, nu: Sequence[float], curvature: Float3, gamma_dot: float) -> Float3:
-    """tangent_dot = -S(omega) tangent + R' p_d^gammagamma gamma_dot (curvature: R' p_d^gammagamma)."""
-    (tx, ty, tz), (p, q, r) = tangent, nu[3:6]
-    return (
-        -(q * tz - r * ty) + curvature[0] * gamma_dot,
-        -(r * tx - p * tz) + curvature[1] * gamma_dot,
-        -(p * ty - q * tx) + curvature[2] * gamma_dot,
-    )
-
-
-def _inputs(c: ControllerConstants, sigma: Float3, z2: Float3, alpha_dot: Float3, drift: Accelerations) -> Float3:
-    """The saturated inputs that give nu_c_dot = alpha_dot - Delta' sigma - k2 z2, Delta' sigma = (sigma_x,
-    delta sigma_z, -delta sigma_y), given the drift (the accelerations with no input)."""
-    (sx, sy, sz), (z2u, z2q, z2r), (dalpha_u, dalpha_q, dalpha_r) = sigma, z2, alpha_dot
-    (du, _, _), (_, dq, dr) = drift
-    k2, delta = c.gains.k2, c.gains.delta
+    alpha_u, alpha_q, alpha_r = -k1 * sx + tx * v_d, inv_delta * az, -inv_delta * ay
+    (du, dv, dw), (_, dq, dr) = drift
+    # tangent_dot = -S(omega) tangent + R' p_d^gammagamma gamma_dot
+    dtx = -(q * tz - r * ty) + curvature[0] * gamma_dot
+    dty = -(r * tx - p * tz) + curvature[1] * gamma_dot
+    dtz = -(p * ty - q * tx) + curvature[2] * gamma_dot
+    day, daz = -k1 * dsy - dv + dty * v_d, -k1 * dsz - dw + dtz * v_d
+    dalpha_u, dalpha_q, dalpha_r = -k1 * dsx + dtx * v_d, inv_delta * daz, -inv_delta * day
+    # nu_c_dot = alpha_dot - Delta' sigma - k2 z2, Delta' sigma = (sigma_x, delta sigma_z, -delta sigma_y)
+    k2 = c.gains.k2
+    z2u, z2q, z2r = u - alpha_u, q - alpha_q, r - alpha_r
     (m_u, j_q, j_r), (lim_u, lim_q, lim_r) = c.input_inertia, c.limits
-    return (
-        min(max(m_u * (dalpha_u - sx - k2 * z2u - du), -lim_u), lim_u),
-        min(max(j_q * (dalpha_q - delta * sz - k2 * z2q - dq), -lim_q), lim_q),
-        min(max(j_r * (dalpha_r + delta * sy - k2 * z2r - dr), -lim_r), lim_r),
+    tau_u = m_u * (dalpha_u - sx - k2 * z2u - du)
+    tau_q = j_q * (dalpha_q - delta * sz - k2 * z2q - dq)
+    tau_r = j_r * (dalpha_r + delta * sy - k2 * z2r - dr)
+    # Saturated: min(max(tau, -lim), lim) to the bit, NaN included, without six builtin calls per evaluation.
+    return (z2u, z2q, z2r), (
+        lim_u if tau_u > lim_u else -lim_u if tau_u < -lim_u else tau_u,
+        lim_q if tau_q > lim_q else -lim_q if tau_q < -lim_q else tau_q,
+        lim_r if tau_r > lim_r else -lim_r if tau_r < -lim_r else tau_r,
     )
