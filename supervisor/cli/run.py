@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -78,7 +79,7 @@ def _simulate(args: argparse.Namespace, scenario: Scenario, out: Path) -> RunRes
 
     seed = scenario.scenario.seed if args.seed is None else args.seed
     text = args.scenario.read_text(encoding="utf-8")
-    progress = Progress(scenario.scenario.duration, enabled=not args.quiet)
+    progress = Progress(scenario.scenario.duration, sys.stderr, enabled=not args.quiet)
     speed = 1.0 if args.speed is None else args.speed
     if args.engine == "inprocess":
         return run_inprocess(scenario, str(args.scenario), text, out, seed, progress)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import sys
 import time
 from typing import TextIO
 
@@ -10,14 +9,16 @@ from supervisor.engine import interrupts
 
 
 class Progress:
-    def __init__(self, duration: float, stream: TextIO = sys.stderr, enabled: bool = True) -> None:
+    def __init__(self, duration: float, stream: TextIO | None = None, enabled: bool = True) -> None:
+        """stream: where the line goes, given by the command line (the only code that talks to the user); None: no
+        line, only the timing."""
         self.duration = duration
         self.stream = stream
-        self.enabled = enabled
+        self.enabled = enabled and stream is not None
         self.started = time.perf_counter()
         self.stepping = self.started  # when the first sync step began (after any process start-up)
         self._last = self.started
-        self._tty = stream.isatty()
+        self._tty = stream is not None and stream.isatty()
 
     def begin(self) -> None:
         """Stepping starts now: the real-time factor counts from here, start-up excluded."""
@@ -29,6 +30,7 @@ class Progress:
         if not self.enabled or (now - self._last < 1.0 and not force):
             return
         self._last = now
+        assert self.stream is not None  # enabled
         factor = t / max(now - self.stepping, 1e-9)
         line = f"t = {t:7.1f} / {self.duration:.0f} s   {factor:6.1f}x real time"
         self.stream.write(("\r" + line) if self._tty else (line + "\n"))
@@ -41,6 +43,6 @@ class Progress:
     def done(self, t: float) -> float:
         """Final line; returns the whole wall time, start-up included."""
         self.update(t, force=True)
-        if self.enabled and self._tty:
+        if self.enabled and self._tty and self.stream is not None:
             self.stream.write("\n")
         return time.perf_counter() - self.started
