@@ -119,3 +119,11 @@ def test_help_of_run_shows_the_speed_default(capsys):
         main(["run", "--help"])
     out = " ".join(capsys.readouterr().out.split())
     assert "simulated s per wall s (default: 1)" in out  # realtime only: None means "not given" (lockstep refuses it)
+
+
+def test_validate_says_what_cpf_run_would_warn_about(capsys, caplog):
+    """A fault that starts after the run ends never acts: cpf run warns, and so does cpf validate (it said nothing)."""
+    code, _, err = _cpf(capsys, "validate", str(CONFIGS / "paper.toml"), "--set", "scenario.duration=100")
+    assert code == 0, err
+    warned = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
+    assert any("faults[0].start: at or after the end of the run (100 s)" in line for line in warned), warned

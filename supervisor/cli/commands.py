@@ -4,10 +4,13 @@ presets. Each reads its arguments, calls the library, and prints what the user s
 from __future__ import annotations
 
 import argparse
+import logging
 import textwrap
 
 from supervisor.cli.terminal import EXIT_INTERRUPTED
 from supervisor.errors import ScenarioError
+
+log = logging.getLogger("cpf")
 
 
 def report(args: argparse.Namespace) -> int:
@@ -106,8 +109,11 @@ def schema(args: argparse.Namespace) -> int:
 def validate(args: argparse.Namespace) -> int:
     from supervisor.config.explain import what_would_run
     from supervisor.config.scenario import load_scenario
+    from supervisor.config.scenario_checks import scenario_warnings
 
     scenario = load_scenario(args.scenario, args.set, args.fault)  # ScenarioError: every error, exit 2
+    for warning in scenario_warnings(scenario):  # what cpf run would warn about, said here too
+        log.warning("%s: %s", args.scenario, warning)
     print(textwrap.fill(f"{args.scenario}: valid. {what_would_run(scenario)}", width=100, break_on_hyphens=False))
     return 0
 
