@@ -18,17 +18,19 @@ import heapq
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Literal, cast, get_args
 
 import numpy as np
 
 from comms.acoustics import time_of_flight
+from comms.fields import Message, get, nullable_number, number
 from comms.loss import LinkLoss, LossModel
 from comms.modem import ModemParams
 from comms.network import Impairment, Network
 from comms.records import FloatArray, Transmission
 
 EventKind = Literal["sent", "delivered", "dropped"]
+EVENT_KINDS: tuple[EventKind, ...] = get_args(EventKind)
 ARRIVAL_SLACK = 1e-9  # s: an arrival this close after a sync instant counts as at it (float rounding of k * dt)
 
 
@@ -87,6 +89,24 @@ class LinkEvent:
     kind: EventKind
     delay: float | None = None  # delivered: arrival - transmission time
     reason: str | None = None  # dropped: why
+
+    def to_message(self) -> Message:
+        """The wire form: a cpf/comms/event log record, an item of a cpf/comms/events batch (schema LINK_EVENT)."""
+        return {"t": self.t, "sender": self.sender, "receiver": self.receiver, "seq": self.seq, "kind": self.kind,
+                "delay": self.delay, "reason": self.reason}  # fmt: skip
+
+    @classmethod
+    def from_message(cls, message: Message) -> LinkEvent:
+        """The inverse of to_message, checked: ValueError for anything malformed."""
+        kind = get(message, "kind", str)
+        if kind not in EVENT_KINDS:
+            raise ValueError(f"unknown event kind {kind!r}")
+        delay = nullable_number(message, "delay")
+        reason = get(message, "reason", (str, type(None)))
+        return cls(
+            number(message, "t"), get(message, "sender", int), get(message, "receiver", int),
+            get(message, "seq", int), cast(EventKind, kind), delay, reason,
+        )  # fmt: skip
 
 
 @dataclass(frozen=True, slots=True)

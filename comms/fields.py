@@ -75,3 +75,10 @@ def rotation(message: Message) -> list[float]:
 
 def is_int(value: object) -> bool:
     return isinstance(value, int) and not isinstance(value, bool)
+
+
+def nullable_number(message: Message, name: str) -> float | None:
+    """A finite number or null: the field must be there (null says something; absent is a malformed message)."""
+    if name not in message:
+        raise ValueError(f"missing field {name!r}")
+    return None if message[name] is None else number(message, name)

@@ -17,11 +17,11 @@ import msgpack
 from comms.channel import LinkEvent, Reception
 from comms.fields import Message
 from comms.fields import get as _get
-from comms.fields import is_int as _is_int
-from comms.fields import number as _number
 from comms.network import Network
+from comms.receptions import Delivery, RxBatch
 from comms.records import Disturbances, Heard, Transmission
 from comms.state import StateReport
+from comms.tick import Tick
 
 ROOT = "cpf"
 META_KEY = f"{ROOT}/run/meta"
@@ -109,17 +109,9 @@ def tx_message(tx: Transmission) -> Message:
 def rx_message(
     vehicle_id: int, k: int, t: float, receptions: list[Reception], wall_of: Callable[[float], float] | None = None
 ) -> Message:
-    """Receptions for step k. Realtime deliveries also carry `due`: the wall-clock time (wall_of(arrival)) at
-    which each should reach the vehicle, so it can measure how late it did."""
-    return {"t": t, "k": k, "vehicle": vehicle_id, "receptions": [_reception(r, wall_of) for r in receptions]}
-
-
-def _reception(r: Reception, wall_of: Callable[[float], float] | None) -> Message:
-    item = {"sender": r.sender, "seq": r.seq, "stamp": r.stamp, "arrival": r.arrival, "gamma": r.gamma,
-            "gamma_dot": r.gamma_dot}  # fmt: skip
-    if wall_of is not None:
-        item["due"] = wall_of(r.arrival)
-    return item
+    """Receptions for step k (RxBatch.to_message). Realtime deliveries also carry `due`: the wall-clock time
+    (wall_of(arrival)) at which each should reach the vehicle, so it can measure how late it did."""
+    return RxBatch.of(vehicle_id, k, t, receptions, wall_of).to_message()
 
 
 def batches_message(tick: Message, batches: dict[int, list[Reception]] | None) -> Message:
@@ -127,7 +119,8 @@ def batches_message(tick: Message, batches: dict[int, list[Reception]] | None) -
     each vehicle's receptions (batches None: the broker is down, the supervisor says so itself). Each vehicle's
     receptions are packed on their own (vehicle id -> msgpack bytes), so a vehicle unpacks only its own: the whole
     message grows with the fleet, and every vehicle reads it."""
-    rx = None if batches is None else {v: encode_list([_reception(r, None) for r in batches[v]]) for v in batches}
+    packed = {v: encode_list([Delivery.of(r).to_message() for r in rs]) for v, rs in (batches or {}).items()}
+    rx = None if batches is None else packed
     return {"t": tick["t"], "k": tick["k"], "tick": tick, "rx": rx}
 
 
@@ -172,15 +165,8 @@ def split_step(message: Message) -> tuple[Message, Message | None, Message | Non
 
 
 def event_message(event: LinkEvent) -> Message:
-    return {
-        "t": event.t,
-        "sender": event.sender,
-        "receiver": event.receiver,
-        "seq": event.seq,
-        "kind": event.kind,
-        "delay": event.delay,
-        "reason": event.reason,
-    }
+    """A link event's wire form (LinkEvent.to_message)."""
+    return event.to_message()
 
 
 def events_message(t: float, k: int, events: list[LinkEvent]) -> Message:
@@ -200,48 +186,37 @@ def tick_message(
     speed: float = 1.0,
     hold: bool = False,
 ) -> Message:
-    """The supervisor's clock: step k starts at t. With it, what acts over the step: faults on vehicles (only those
-    with any), the network (graph and link faults), the vehicles alive, whether the broker is up. Realtime runs
-    also say when t is on the wall clock (time.time()) and how fast simulation time runs: wall + (t' - t) / speed.
-    hold: a process is killed or restarted at the next tick, so this step's transmissions wait for it (realtime
-    brokers otherwise send them before the next tick, which alone says who survived the step)."""
-    return {
-        "t": t,
-        "k": k,
-        "final": final,
-        "vehicles": [_disturbed(vid, d) for vid, d in sorted((disturbed or {}).items())],
-        "network": network.message() if network is not None else None,
-        "alive": alive,
-        "comms": comms,
-        "wall": wall,
-        "speed": speed,
-        "hold": hold,
-    }
-
-
-def _disturbed(vid: int, d: Disturbances) -> Message:
-    return {"vehicle": vid, "cap": d.gamma_dot_cap, "freeze": d.gamma_freeze, "offset": d.gamma_offset,
-            "skew": d.clock_offset}  # fmt: skip
-
-
-def hello_message(process: str, digest: str, sections: dict[str, str]) -> Message:
-    """A process's answer on its hello key: the sha256 (hex) of the scenario it runs, as validated (and of the
-    run's seed where it uses it), as a whole and per top-level section, so a supervisor can say what differs."""
-    return {"process": process, "digest": digest, "sections": dict(sections)}
+    """The supervisor's clock (Tick.to_message; disturbed: only the vehicles with any fault acting)."""
+    return Tick(k, t, final, disturbed or {}, network, alive, comms, wall, speed, hold).to_message()
 
 
 @dataclass(frozen=True, slots=True)
 class Hello:
+    """A process's answer on its hello key (schema comms.schemas.HELLO): the sha256 (hex) of the scenario it runs,
+    as validated (and of the run's seed where it uses it), as a whole and per top-level section, so a supervisor
+    can say what differs. It is a query's reply, never published or logged."""
+
     process: str
     digest: str
     sections: dict[str, str]
 
+    def to_message(self) -> Message:
+        return {"process": self.process, "digest": self.digest, "sections": dict(self.sections)}
+
+    @classmethod
+    def from_message(cls, message: Message) -> Hello:
+        sections = _get(message, "sections", dict)
+        if not all(isinstance(k, str) and isinstance(v, str) for k, v in sections.items()):
+            raise ValueError("field 'sections' is not a map of section name to digest")
+        return cls(_get(message, "process", str), _get(message, "digest", str), sections)
+
+
+def hello_message(process: str, digest: str, sections: dict[str, str]) -> Message:
+    return Hello(process, digest, sections).to_message()
+
 
 def parse_hello(message: Message) -> Hello:
-    sections = _get(message, "sections", dict)
-    if not all(isinstance(k, str) and isinstance(v, str) for k, v in sections.items()):
-        raise ValueError("field 'sections' is not a map of section name to digest")
-    return Hello(_get(message, "process", str), _get(message, "digest", str), sections)
+    return Hello.from_message(message)
 
 
 # --- parsing what arrives -------------------------------------------------------------------------------------
@@ -253,24 +228,9 @@ def parse_tx(message: Message, key_vehicle: int) -> Transmission:
 
 
 def parse_rx(message: Message) -> tuple[int, list[Heard]]:
-    """(k, receptions as heard) of a reception batch."""
-    k = _get(message, "k", int)
-    heard = []
-    for item in _get(message, "receptions", list):
-        if not isinstance(item, dict):
-            raise ValueError("a reception is not a map")
-        heard.append(
-            Heard(_get(item, "sender", int), _number(item, "stamp"), _number(item, "gamma"), _number(item, "gamma_dot"))
-        )
-    return k, heard
-
-
-def parse_timed_rx(message: Message) -> tuple[int, list[tuple[Heard, float, float, Message]]]:
-    """(k, (heard, arrival, due, item) of each realtime delivery) of a reception batch; all checked before any is
-    used."""
-    k, heard = parse_rx(message)
-    items = message["receptions"]
-    return k, [(h, _number(i, "arrival"), _number(i, "due"), i) for h, i in zip(heard, items, strict=True)]
+    """(k, receptions as heard) of a reception batch (RxBatch.from_message)."""
+    batch = RxBatch.from_message(message)
+    return batch.k, batch.heard
 
 
 def parse_state(message: Message, key_vehicle: int) -> StateReport:
@@ -287,82 +247,9 @@ def tick_lead(dt: float, speed: float) -> float:
     return min(MAX_TICK_LEAD, 0.25 * dt / speed)
 
 
-@dataclass(frozen=True, slots=True)
-class Tick:
-    k: int
-    t: float
-    final: bool
-    disturbed: dict[int, Disturbances]
-    network: Network | None  # None: the scenario's graph, no link faults
-    alive: list[int] | None  # None: every vehicle
-    comms: bool
-    wall: float | None = None  # realtime: the wall-clock time (time.time()) of t; None: lockstep
-    speed: float = 1.0  # realtime: simulated seconds per wall-clock second
-    hold: bool = False  # a process is killed or restarted at the next tick: this step's packets wait for it
-
-    def wall_of(self, t: float) -> float:
-        """The wall-clock time of simulation time t (realtime runs only)."""
-        assert self.wall is not None
-        return self.wall + (t - self.t) / self.speed
-
-
 def parse_tick(message: Message) -> Tick:
-    disturbed: dict[int, Disturbances] = {}
-    for item in _get(message, "vehicles", list):
-        if not isinstance(item, dict):
-            raise ValueError("a vehicle entry is not a map")
-        cap = None if item.get("cap") is None else _number(item, "cap")
-        disturbed[_get(item, "vehicle", int)] = Disturbances(
-            cap, _get(item, "freeze", bool), _number(item, "offset"), _number(item, "skew")
-        )
-    for required in ("network", "alive"):
-        if required not in message:  # null is meaningful (no faults, everyone alive); absent is not
-            raise ValueError(f"missing field {required!r}")
-    net = message.get("network")
-    alive = message.get("alive")
-    if alive is not None and not (isinstance(alive, list) and all(_is_int(v) for v in alive)):
-        raise ValueError("field 'alive' is not a list of vehicle ids")
-    return Tick(
-        _get(message, "k", int), _number(message, "t"), _get(message, "final", bool), disturbed,
-        None if net is None else _network(net), alive, _get(message, "comms", bool), *_realtime(message),
-        _get(message, "hold", bool) if "hold" in message else False,
-    )  # fmt: skip
-
-
-def _realtime(message: Message) -> tuple[float | None, float]:
-    """(wall, speed) of a tick; absent in lockstep ticks and in logs older than realtime delivery."""
-    wall = None if message.get("wall") is None else _number(message, "wall")
-    speed = _number(message, "speed") if "speed" in message else 1.0
-    if speed <= 0.0:
-        raise ValueError("field 'speed' is not positive")
-    return wall, speed
-
-
-def _pairs(items: object, width: int, name: str) -> list[list[Any]]:
-    if not isinstance(items, list) or not all(isinstance(i, list) and len(i) == width for i in items):
-        raise ValueError(f"field {name!r} is not a list of {width}-item lists")
-    return items
-
-
-def _network(net: object) -> Network:
-    if not isinstance(net, dict):
-        raise ValueError("field 'network' is not a map")
-    edges = _pairs(net.get("edges"), 2, "edges")
-    down = _pairs(net.get("down"), 2, "down")
-    degraded = _pairs(net.get("degraded"), 4, "degraded")
-    silent = net.get("silent")
-    links = [pair[:2] for pair in edges + down + degraded]
-    if not all(_is_int(v) for pair in links for v in pair):
-        raise ValueError("field 'network' has a link whose ends are not vehicle ids")
-    if not isinstance(silent, list) or not all(_is_int(v) for v in silent):
-        raise ValueError("field 'silent' is not a list of vehicle ids")
-    return Network(
-        tuple((a, b) for a, b in edges),
-        frozenset((a, b) for a, b in down),
-        {(s, r): (_number({"l": loss}, "l"), _number({"d": delay}, "d")) for s, r, loss, delay in degraded},
-        _get(net, "blackout", bool),
-        frozenset(silent),
-    )
+    """A tick, checked (Tick.from_message)."""
+    return Tick.from_message(message)
 
 
 def parse_events(message: Message) -> list[Message]:
@@ -374,14 +261,5 @@ def parse_events(message: Message) -> list[Message]:
 
 
 def parse_event(message: Message) -> LinkEvent:
-    kind = _get(message, "kind", str)
-    if kind not in ("sent", "delivered", "dropped"):
-        raise ValueError(f"unknown event kind {kind!r}")
-    delay = None if message.get("delay") is None else _number(message, "delay")
-    reason = message.get("reason")
-    if reason is not None and not isinstance(reason, str):
-        raise ValueError("field 'reason' is not a string")
-    return LinkEvent(
-        _number(message, "t"), _get(message, "sender", int), _get(message, "receiver", int),
-        _get(message, "seq", int), kind, delay, reason,
-    )  # fmt: skip
+    """A link event, checked (LinkEvent.from_message)."""
+    return LinkEvent.from_message(message)

@@ -9,6 +9,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
+from comms.fields import get, is_int, number
+
 
 @dataclass(frozen=True, slots=True)
 class Impairment:
@@ -39,7 +41,8 @@ class Network:
         loss, delay = self.degraded.get((sender, receiver), (0.0, 0.0))
         return Impairment(None, loss, delay)
 
-    def message(self) -> dict[str, Any]:
+    def to_message(self) -> dict[str, Any]:
+        """The wire form inside a tick (schema comms.schemas.TICK's network)."""
         return {
             "edges": [list(e) for e in self.edges],
             "down": [list(link) for link in sorted(self.down)],
@@ -47,3 +50,31 @@ class Network:
             "blackout": self.blackout,
             "silent": sorted(self.silent),
         }
+
+    @classmethod
+    def from_message(cls, net: object) -> Network:
+        """The inverse of to_message, checked: ValueError for anything malformed."""
+        if not isinstance(net, dict):
+            raise ValueError("field 'network' is not a map")
+        edges = _pairs(net.get("edges"), 2, "edges")
+        down = _pairs(net.get("down"), 2, "down")
+        degraded = _pairs(net.get("degraded"), 4, "degraded")
+        silent = net.get("silent")
+        links = [pair[:2] for pair in edges + down + degraded]
+        if not all(is_int(v) for pair in links for v in pair):
+            raise ValueError("field 'network' has a link whose ends are not vehicle ids")
+        if not isinstance(silent, list) or not all(is_int(v) for v in silent):
+            raise ValueError("field 'silent' is not a list of vehicle ids")
+        return cls(
+            tuple((a, b) for a, b in edges),
+            frozenset((a, b) for a, b in down),
+            {(s, r): (number({"l": loss}, "l"), number({"d": delay}, "d")) for s, r, loss, delay in degraded},
+            get(net, "blackout", bool),
+            frozenset(silent),
+        )
+
+
+def _pairs(items: object, width: int, name: str) -> list[list[Any]]:
+    if not isinstance(items, list) or not all(isinstance(i, list) and len(i) == width for i in items):
+        raise ValueError(f"field {name!r} is not a list of {width}-item lists")
+    return items

@@ -1,16 +1,24 @@
-"""The state report described once: comms.state.StateReport, its wire form, its reading and its JSON schema agree."""
+"""Each message described once: a record (frozen dataclass), its wire form, its reading and its JSON schema agree.
+
+Started with comms.state.StateReport; the other records of the bus follow the same checks (RECORDS below)."""
 
 from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
+from typing import Any
 
 import pytest
 
-from comms.messages import decode, encode, state_key, step_message
-from comms.records import Transmission
-from comms.schemas import STATE, TRANSMISSION, schema_for
+from comms.channel import LinkEvent, Reception
+from comms.messages import Hello, decode, encode, rx_message, state_key, step_message, tick_message
+from comms.network import Network
+from comms.receptions import Delivery, RxBatch
+from comms.records import Disturbances, Transmission
+from comms.schemas import HELLO, LINK_EVENT, RECEPTIONS, STATE, TICK, TRANSMISSION, schema_for
 from comms.state import StateReport
+from comms.tick import DisturbedVehicle, Tick
 from vehicles.dynamics import PLANAR, SPATIAL
 from vehicles.report import state_message
 
@@ -71,3 +79,87 @@ def test_reading_a_transmission_is_the_inverse_of_writing_it(stamp):
     message = tx.to_message()
     assert Transmission.from_message(decode(encode(message)), 3) == tx
     assert Transmission.from_message(message, 3).to_message() == message
+
+
+NETWORK = Network(((1, 2), (2, 3)), frozenset({(2, 1)}), {(1, 3): (0.25, 0.5)}, False, frozenset({3}))
+DELIVERY = Delivery(1, 4, 0.3, 0.31, 5.0, 1.0)
+# record -> (its schema, an example with every optional field set, one with none set, how to read a message)
+RECORDS: dict[str, tuple[dict[str, Any], Any, Any, Callable[[Any], Any]]] = {
+    "rx batch": (RECEPTIONS, RxBatch(0.4, 4, 2, (dataclasses.replace(DELIVERY, due=100.31),)),
+                 RxBatch(0.4, 4, 2, ()), RxBatch.from_message),
+    "reception": (RECEPTIONS["properties"]["receptions"]["items"], dataclasses.replace(DELIVERY, due=100.31),
+                  DELIVERY, Delivery.from_message),
+    "tick": (TICK, Tick(4, 0.4, True, {2: Disturbances(0.5, True, 0.1, 0.2)}, NETWORK, [1, 2], False, 99.5, 4.0,
+                        True), Tick(4, 0.4, False, {}, None, None, True), Tick.from_message),
+    "disturbed vehicle": (TICK["properties"]["vehicles"]["items"], DisturbedVehicle(2, 0.5, True, 0.1, 0.2),
+                          DisturbedVehicle(2, None, False, 0.0, 0.0), DisturbedVehicle.from_message),
+    "network": (TICK["properties"]["network"], NETWORK, Network(()), Network.from_message),
+    "link event": (LINK_EVENT, LinkEvent(1.25, 1, 2, 3, "dropped", 0.25, "collision"),
+                   LinkEvent(1.25, 1, 2, 3, "sent"), LinkEvent.from_message),
+    "hello": (HELLO, Hello("comms", "ab" * 32, {"comms": "cd" * 32}), Hello("comms", "ab" * 32, {}),
+              Hello.from_message),
+}  # fmt: skip
+
+
+def wire_names(record: type) -> set[str]:
+    renamed = getattr(record, "WIRE_NAMES", {})
+    return {renamed.get(f.name, f.name) for f in dataclasses.fields(record)}
+
+
+@pytest.mark.parametrize("name", list(RECORDS))
+def test_each_schema_describes_exactly_the_fields_of_its_record(name):
+    """Properties: the record's fields, all written when set, the required ones always; required: what the reader
+    refuses a message without (the optional ones it reads as their default)."""
+    schema, full, bare, read = RECORDS[name]
+    assert set(schema["properties"]) == wire_names(type(full))
+    assert set(full.to_message()) == set(schema["properties"])
+    assert set(bare.to_message()) >= set(schema["required"])
+    message = full.to_message()
+    for field in schema["properties"]:
+        without = {k: v for k, v in message.items() if k != field}
+        if field in schema["required"]:
+            with pytest.raises(ValueError, match=field):
+                read(without)
+        else:
+            read(without)
+
+
+@pytest.mark.parametrize("name", list(RECORDS))
+@pytest.mark.parametrize("which", ["full", "bare"])
+def test_reading_each_record_is_the_inverse_of_writing_it(name, which):
+    _, full, bare, read = RECORDS[name]
+    record = full if which == "full" else bare
+    message = record.to_message()
+    assert read(decode(encode(message))) == record
+    assert read(message).to_message() == message
+
+
+# messages as the builders the engines call write them
+RECORDED: dict[str, tuple[dict[str, Any], Callable[[Any], Any]]] = {
+    "rx": (rx_message(2, 5, 0.5, [Reception(2, 1, 5, 0.4, 0.42, 10.5, 0.99)]), RxBatch.from_message),
+    "realtime rx": (rx_message(2, 5, 0.42, [Reception(2, 1, 5, 0.4, 0.42, 10.5, 0.99)], lambda t: 100.0 + t),
+                    RxBatch.from_message),
+    "tick": (tick_message(3, 0.3, False, {1: Disturbances(0.5)}, NETWORK, [1, 2], comms=False), Tick.from_message),
+    "realtime tick": (tick_message(30, 3.0, False, wall=1_000_000.0, speed=4.0, hold=True), Tick.from_message),
+}  # fmt: skip
+
+
+@pytest.mark.parametrize("name", list(RECORDED))
+def test_a_recorded_message_reads_back_to_the_same_message(name):
+    message, read = RECORDED[name]
+    assert read(decode(encode(message))).to_message() == message
+    assert encode(read(decode(encode(message))).to_message()) == encode(message)  # the same bytes
+
+
+def test_a_tick_from_before_realtime_delivery_reads_as_lockstep():
+    old = {k: v for k, v in tick_message(3, 0.3, False).items() if k not in ("wall", "speed", "hold")}
+    assert Tick.from_message(old) == Tick(3, 0.3, False, {}, None, None, True)
+
+
+@pytest.mark.parametrize(("field", "value"), [("arrival", math.nan), ("arrival", "0.3"), ("seq", 1.5), ("due", "x")])
+def test_a_reception_is_checked_whole(field, value):
+    """Every field of a reception is checked, not only what the vehicle computes with (arrival and seq were not)."""
+    message = rx_message(2, 5, 0.42, [Reception(2, 1, 5, 0.4, 0.42, 10.5, 0.99)], lambda t: 100.0 + t)
+    message["receptions"][0][field] = value
+    with pytest.raises(ValueError, match=field):
+        RxBatch.from_message(message)

@@ -24,14 +24,13 @@ from comms.messages import (
     Tick,
     decode,
     parse_batches,
-    parse_rx,
-    parse_timed_rx,
     rx_key,
     state_key,
     step_message,
     tick_lead,
     vehicle_alive_key,
 )
+from comms.receptions import Delivery, RxBatch
 from comms.records import Disturbances, Heard
 from vehicles.agent import VehicleConfig
 from vehicles.runtime import NodeState, Radio
@@ -46,8 +45,7 @@ class _Live:
     negative: it came ahead and was held)."""
 
     step: int
-    heard: Heard
-    item: Message
+    delivery: Delivery
     late: float
 
 
@@ -73,8 +71,8 @@ class _Pending:
         self.live = [r for r in self.live if r.step > tick.k]
         if not tick.comms:  # the broker died before it could report them delivered: lockstep never hands them out
             return [], None, []
-        batch = {"t": tick.t, "k": tick.k, "vehicle": vid, "receptions": [r.item for r in live]}
-        return [r.heard for r in live], batch, [r.late for r in live]
+        taken = RxBatch(tick.t, tick.k, vid, tuple(r.delivery for r in live))
+        return taken.heard, taken.to_message(), [r.late for r in live]
 
 
 def run_vehicle(
@@ -164,7 +162,7 @@ def _take(key: str, payload: bytes, vid: int, pending: _Pending, dt: float, now:
                 if tick.wall is not None:  # its time, but never more than the lead after it came: a host whose
                     # clock lags the supervisor's must not hold the whole fleet back
                     pending.start_at[tick.k] = min(tick.wall, now() + tick_lead(dt, tick.speed))
-                pending.batches[tick.k] = ([] if batch is None else parse_rx(batch)[1], batch)
+                pending.batches[tick.k] = ([] if batch is None else RxBatch.from_message(batch).heard, batch)
         elif key == rx_key(vid):
             _file_rx(message, pending, dt, now())
     except ValueError as exc:
@@ -175,5 +173,5 @@ def _take(key: str, payload: bytes, vid: int, pending: _Pending, dt: float, now:
 def _file_rx(message: Message, pending: _Pending, dt: float, now: float) -> None:
     """Realtime deliveries, as they come (usually ahead of their arrival), with how late each reached the vehicle
     (now: the wall clock as it came)."""
-    _, timed = parse_timed_rx(message)
-    pending.live += [_Live(intake_step(arrival, dt), h, item, now - due) for h, arrival, due, item in timed]
+    timed = RxBatch.from_message(message).timed()
+    pending.live += [_Live(intake_step(d.arrival, dt), d, now - due) for d, due in timed]

@@ -23,6 +23,7 @@ from comms.messages import (
     tx_key,
     vehicle_of_key,
 )
+from comms.state import StateReport
 from supervisor.analysis.series import SeriesBuilder
 from supervisor.config.derived import steps_of
 from supervisor.config.fleet import link_stats
@@ -103,15 +104,15 @@ class Intake:
         if tx is not None:
             self.write(tx_key(vid), tx, t)
         self.write(state_key(vid), state, t)
-        if isinstance(state.get("k"), int):
-            self._state(vid, state)
+        with contextlib.suppress(ValueError):  # a malformed state is on the record, but not booked
+            self._state(StateReport.from_message(state, vid), state)
 
-    def _state(self, vid: int, message: Message) -> None:
+    def _state(self, report: StateReport, message: Message) -> None:
         self.builder.add(message)
-        self.states.setdefault(message["k"], set()).add(vid)
-        self.last_state[vid] = message
-        if message.get("tx_seq"):
-            self.last_seq[vid] = message["tx_seq"]
+        self.states.setdefault(report.k, set()).add(report.vehicle)
+        self.last_state[report.vehicle] = message
+        if report.tx_seq:
+            self.last_seq[report.vehicle] = report.tx_seq
 
     def _events(self, batch: Message, t: float) -> None:
         """A step's link events: one log record each; a malformed one is recorded but not booked."""

@@ -11,7 +11,8 @@ from typing import Any, TypeGuard
 import numpy as np
 
 from comms.channel import intake_step
-from comms.messages import Message, parse_timed_rx
+from comms.messages import Message
+from comms.receptions import RxBatch
 
 
 @dataclass
@@ -32,11 +33,12 @@ class RealtimeTiming:
         """A vehicle's reception batch: which receptions it took in later than their arrival called for (a batch
         that does not parse is left out whole)."""
         try:
-            k, timed = parse_timed_rx(rx)
+            batch = RxBatch.from_message(rx)
+            timed = batch.timed()
         except ValueError:
             return
         self.receptions += len(timed)
-        self.taken_late += sum(k > intake_step(arrival, self.dt) for _, arrival, _, _ in timed)
+        self.taken_late += sum(batch.k > intake_step(d.arrival, self.dt) for d, _ in timed)
 
     def as_dict(self) -> dict[str, Any]:
         """In ms: the delivery error max(0, reached - arrival) p50/p90/p99/max, how many came ahead, step starts."""

@@ -21,6 +21,7 @@ from typing import Any
 
 from comms.messages import META_KEY, Message, parse_rx, state_key, vehicle_of_key
 from comms.records import Heard
+from comms.state import StateReport
 from supervisor.analysis.series import SeriesBuilder
 from supervisor.analysis.summary import Series
 from supervisor.config.derived import steps_of
@@ -52,20 +53,23 @@ def _check_duration(log: Path, meta: dict[str, Any], sc: Scenario, overrides: Se
         )
 
 
-def _load(log: Path) -> tuple[dict[str, Any], dict[tuple[int, int], list[Heard]], list[Message]]:
+def _load(log: Path) -> tuple[dict[str, Any], dict[tuple[int, int], list[Heard]], list[tuple[StateReport, Message]]]:
     """The run's metadata, the receptions per (vehicle, step), and the state messages (who was stepped when)."""
     meta: dict[str, Any] | None = None
     heard: dict[tuple[int, int], list[Heard]] = {}
-    states: list[Message] = []
+    states: list[tuple[StateReport, Message]] = []
     for topic, _, message in messages(log):
         owned = vehicle_of_key(topic)
         if topic == META_KEY:
             meta = message
-        elif owned is not None and owned[1] == "rx":
-            k, batch = parse_rx(message)
-            heard[(owned[0], k)] = batch
-        elif owned is not None and owned[1] == "state":
-            states.append(message)
+        try:
+            if owned is not None and owned[1] == "rx":
+                k, batch = parse_rx(message)
+                heard[(owned[0], k)] = batch
+            elif owned is not None and owned[1] == "state":
+                states.append((StateReport.from_message(message, owned[0]), message))
+        except ValueError as exc:  # a log cpf wrote reads back; anything else is not one to re-simulate from
+            raise ScenarioError(f"{log}: {topic}: {exc}") from None
     if meta is None or "scenario" not in meta:
         raise ScenarioError(f"{log}: no run metadata with the scenario in it (written by an older cpf?)")
     return meta, heard, states
@@ -86,11 +90,11 @@ def resimulate(log: Path, overrides: Sequence[str], out: Path) -> tuple[Scenario
     sc = scenario_of(meta, overrides, str(log))
     _check_duration(log, meta, sc, overrides)
     original, new = (SeriesBuilder(sc.vehicle_ids, steps_of(sc), sc.scenario.step) for _ in range(2))
-    for message in states:
+    for _, message in states:
         original.add(message)
     with Recorder(out) as rec:
         rec.write(META_KEY, 0.0, {**meta, "engine": "resim", "scenario": sc.model_dump(mode="json")})
-        for i, t, state in _restep(sc, heard, {(m["vehicle"], m["k"]) for m in states}):
+        for i, t, state in _restep(sc, heard, {(report.vehicle, report.k) for report, _ in states}):
             rec.write(state_key(i), t, state)
             new.add(state)
     return sc, original.series(), new.series()

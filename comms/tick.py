@@ -1,0 +1,113 @@
+"""The supervisor's clock tick: the record, its wire form and its checked reading, side by side.
+
+`Tick.to_message` gives the dict on cpf/clock/tick (schema comms.schemas.TICK); `from_message` is its inverse,
+checked (ValueError for anything malformed). Ticks in logs from before realtime delivery lack wall, speed and hold:
+they read as lockstep (None, 1.0, False), and write back with those fields spelt out.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+from comms.fields import Message, get, is_int, nullable_number, number
+from comms.network import Network
+from comms.records import Disturbances
+
+
+@dataclass(frozen=True, slots=True)
+class DisturbedVehicle:
+    """One entry of a tick's `vehicles`: what faults do to one vehicle over the step (comms.records.Disturbances)."""
+
+    vehicle: int
+    cap: float | None  # gamma_dot_cap
+    freeze: bool  # gamma_freeze
+    offset: float  # gamma_offset
+    skew: float  # clock_offset, s
+
+    @classmethod
+    def of(cls, vehicle: int, d: Disturbances) -> DisturbedVehicle:
+        return cls(vehicle, d.gamma_dot_cap, d.gamma_freeze, d.gamma_offset, d.clock_offset)
+
+    @property
+    def disturbances(self) -> Disturbances:
+        return Disturbances(self.cap, self.freeze, self.offset, self.skew)
+
+    def to_message(self) -> Message:
+        return {"vehicle": self.vehicle, "cap": self.cap, "freeze": self.freeze, "offset": self.offset,
+                "skew": self.skew}  # fmt: skip
+
+    @classmethod
+    def from_message(cls, item: object) -> DisturbedVehicle:
+        if not isinstance(item, dict):
+            raise ValueError("a vehicle entry is not a map")
+        cap = nullable_number(item, "cap")
+        return cls(get(item, "vehicle", int), cap, get(item, "freeze", bool), number(item, "offset"),
+                   number(item, "skew"))  # fmt: skip
+
+
+@dataclass(frozen=True, slots=True)
+class Tick:
+    """Step k starts at t. With it, what acts over the step: faults on vehicles (only those with any), the network
+    (graph and link faults), the vehicles alive, whether the broker is up. Realtime runs also say when t is on the
+    wall clock (time.time()) and how fast simulation time runs: wall + (t' - t) / speed. hold: a process is killed
+    or restarted at the next tick, so this step's transmissions wait for it (realtime brokers otherwise send them
+    before the next tick, which alone says who survived the step)."""
+
+    WIRE_NAMES: ClassVar[dict[str, str]] = {"disturbed": "vehicles"}  # field -> its name in the message
+
+    k: int
+    t: float
+    final: bool
+    disturbed: dict[int, Disturbances]
+    network: Network | None  # None: the scenario's graph, no link faults
+    alive: list[int] | None  # None: every vehicle
+    comms: bool
+    wall: float | None = None  # realtime: the wall-clock time (time.time()) of t; None: lockstep
+    speed: float = 1.0  # realtime: simulated seconds per wall-clock second
+    hold: bool = False  # a process is killed or restarted at the next tick: this step's packets wait for it
+
+    def wall_of(self, t: float) -> float:
+        """The wall-clock time of simulation time t (realtime runs only)."""
+        assert self.wall is not None
+        return self.wall + (t - self.t) / self.speed
+
+    def to_message(self) -> Message:
+        return {
+            "t": self.t,
+            "k": self.k,
+            "final": self.final,
+            "vehicles": [DisturbedVehicle.of(vid, d).to_message() for vid, d in sorted(self.disturbed.items())],
+            "network": self.network.to_message() if self.network is not None else None,
+            "alive": self.alive,
+            "comms": self.comms,
+            "wall": self.wall,
+            "speed": self.speed,
+            "hold": self.hold,
+        }
+
+    @classmethod
+    def from_message(cls, message: Message) -> Tick:
+        entries = [DisturbedVehicle.from_message(item) for item in get(message, "vehicles", list)]
+        for required in ("network", "alive"):
+            if required not in message:  # null is meaningful (no faults, everyone alive); absent is not
+                raise ValueError(f"missing field {required!r}")
+        net = message["network"]
+        alive = message["alive"]
+        if alive is not None and not (isinstance(alive, list) and all(is_int(v) for v in alive)):
+            raise ValueError("field 'alive' is not a list of vehicle ids")
+        hold = get(message, "hold", bool) if "hold" in message else False
+        return cls(
+            get(message, "k", int), number(message, "t"), get(message, "final", bool),
+            {e.vehicle: e.disturbances for e in entries}, None if net is None else Network.from_message(net), alive,
+            get(message, "comms", bool), *_realtime(message), hold,
+        )  # fmt: skip
+
+
+def _realtime(message: Message) -> tuple[float | None, float]:
+    """(wall, speed) of a tick; absent in lockstep ticks and in logs older than realtime delivery."""
+    wall = None if message.get("wall") is None else number(message, "wall")
+    speed = number(message, "speed") if "speed" in message else 1.0
+    if speed <= 0.0:
+        raise ValueError("field 'speed' is not positive")
+    return wall, speed
