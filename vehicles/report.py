@@ -16,6 +16,13 @@ from vehicles.dynamics import Model
 def state_message(
     telemetry: Telemetry, model: Model, k: int, tx_seq: int, ages: tuple[tuple[int, float], ...] = ()
 ) -> Message:
+    """A vehicle's telemetry of step k as its state message (state_report's wire form)."""
+    return state_report(telemetry, model, k, tx_seq, ages).to_message()
+
+
+def state_report(
+    telemetry: Telemetry, model: Model, k: int, tx_seq: int, ages: tuple[tuple[int, float], ...] = ()
+) -> StateReport:
     """A vehicle's telemetry of step k (planar vehicles embedded in 3-D); tx_seq: its transmission then, or 0;
     ages: how old each neighbour estimate it holds is."""
     s = model.spatial(telemetry.x)
@@ -24,7 +31,7 @@ def state_message(
         telemetry.t, k, telemetry.vehicle_id, telemetry.gamma, telemetry.gamma_dot, _three(s.position.tolist()),
         tuple(s.rotation.reshape(9).tolist()), _three(s.velocity.tolist()), _three(s.angular_velocity.tolist()),
         _three(error), tuple(telemetry.tau.tolist()), telemetry.correction, telemetry.lyapunov, tx_seq, ages,
-    ).to_message()  # fmt: skip
+    )  # fmt: skip
 
 
 def _three(values: list[float]) -> tuple[float, float, float]:

@@ -12,8 +12,9 @@ from dataclasses import dataclass
 
 from comms.messages import Message, tx_message
 from comms.records import Disturbances, Heard, Transmission
+from comms.state import StateReport
 from vehicles.agent import VehicleConfig
-from vehicles.report import state_message
+from vehicles.report import state_report
 from vehicles.runtime import NodeState, Radio, node_step
 
 
@@ -25,6 +26,7 @@ class StepRecords:
     state: Message
     transmission: Transmission | None
     tx: Message | None
+    report: StateReport  # the state message as a record: an engine in this process needs not parse it back
 
 
 def step_records(
@@ -41,5 +43,5 @@ def step_records(
     """Step k (at t = k dt) of one vehicle: node_step, then the messages that record it."""
     node, out = node_step(cfg, radio, node, t, dt, heard, neighbours, dist)
     sent = out.transmission
-    state = state_message(out.telemetry, cfg.model, k, sent.seq if sent else 0, out.estimate_ages)
-    return node, StepRecords(state, sent, tx_message(sent) if sent else None)
+    report = state_report(out.telemetry, cfg.model, k, sent.seq if sent else 0, out.estimate_ages)
+    return node, StepRecords(report.to_message(), sent, tx_message(sent) if sent else None, report)

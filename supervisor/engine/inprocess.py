@@ -25,14 +25,12 @@ from comms.messages import (
     META_KEY,
     Message,
     event_message,
-    parse_rx,
-    parse_state,
     rx_key,
-    rx_message,
     state_key,
     tx_key,
 )
 from comms.network import Network
+from comms.receptions import RxBatch
 from comms.records import Transmission
 from supervisor.analysis.series import SeriesBuilder
 from supervisor.analysis.summary import Series
@@ -96,7 +94,7 @@ class _InProcessRun:
         for i in self.alive:
             self._vehicle(i, plan, heard.get(i))
 
-    def _channel(self, k: int, t: float) -> dict[int, Message]:
+    def _channel(self, k: int, t: float) -> dict[int, RxBatch]:
         """The broker's work at t: submit last step's transmissions, deliver what is due (nothing if it is down)."""
         if self.broker is None:
             return {}
@@ -106,12 +104,12 @@ class _InProcessRun:
         self._record_snapshot(self.broker.snapshot_due(t))
         out = {}
         for i in self.alive:
-            out[i] = rx_message(i, k, t, batches[i])
-            self.rec.write(rx_key(i), t, out[i])
+            out[i] = RxBatch.of(i, k, t, batches[i], None)
+            self.rec.write(rx_key(i), t, out[i].to_message())
         return out
 
-    def _vehicle(self, i: int, plan: StepPlan, rx: Message | None) -> None:
-        heard = parse_rx(rx)[1] if rx is not None else []  # None: the broker is down
+    def _vehicle(self, i: int, plan: StepPlan, rx: RxBatch | None) -> None:
+        heard = rx.heard if rx is not None else []  # None: the broker is down
         t, neighbours, dist = plan.t, plan.network.neighbours(i), plan.disturbance(i)
         self.nodes[i], out = step_records(
             self.configs[i], self.radios[i], self.nodes[i], plan.k, t, self.dt, heard, neighbours, dist
@@ -123,7 +121,7 @@ class _InProcessRun:
         self.rec.write(state_key(i), t, state)
         self.builder.add(state)
         self.last_state[i] = state
-        self.where[i] = parse_state(state, i).kinematics
+        self.where[i] = out.report.kinematics
 
     def _act(self, action: ProcessAction, t: float) -> None:
         """A scheduled kill or restart, as the Zenoh engine carries it out (the schedule is the fault, not a loss:
