@@ -89,6 +89,7 @@ def resimulate(log: Path, overrides: Sequence[str], out: Path) -> tuple[Scenario
     for message in states:
         original.add(message)
     with Recorder(out) as rec:
+        rec.limit(sc.scenario.duration)
         rec.write(META_KEY, 0.0, {**meta, "engine": "resim", "scenario": sc.model_dump(mode="json")})
         for i, t, state in _restep(sc, heard, {(m["vehicle"], m["k"]) for m in states}):
             rec.write(state_key(i), t, state)
