@@ -72,6 +72,7 @@ def run_zenoh(
     with Recorder(out) as rec, _supervisor(scenario, how, Intake(scenario, rec, timing), (clock, speed)) as run:
         # In the log from the start: a run that never starts (a process missing or refused) still says what it was.
         meta = run_meta(scenario, str(scenario_path), scenario_toml, seed, "zenoh", clock)
+        rec.limit(scenario.scenario.duration)  # a message stamped later (forged, broken) is refused
         rec.write(META_KEY, 0.0, meta)
         _start(run, endpoint)
         run.pubs.put(META_KEY, meta)

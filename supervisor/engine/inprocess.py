@@ -176,6 +176,7 @@ def run_inprocess(
     dt = scenario.scenario.step
     steps = steps_of(scenario)
     with Recorder(out) as rec:
+        rec.limit(scenario.scenario.duration)
         rec.write(META_KEY, 0.0, run_meta(scenario, scenario_file, scenario_toml, seed, "inprocess", "lockstep"))
         rec.write(GRAPH_KEY, 0.0, graph_message(0.0, scenario.graph.edges))
         run = _InProcessRun(scenario, rec, seed)

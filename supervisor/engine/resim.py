@@ -93,6 +93,7 @@ def resimulate(log: Path, overrides: Sequence[str], out: Path) -> tuple[Scenario
     for _, message in states:
         original.add(message)
     with Recorder(out) as rec:
+        rec.limit(sc.scenario.duration)
         rec.write(META_KEY, 0.0, {**meta, "engine": "resim", "scenario": sc.model_dump(mode="json")})
         for i, t, state in _restep(sc, heard, {(report.vehicle, report.k) for report, _ in states}):
             rec.write(state_key(i), t, state)

@@ -12,6 +12,7 @@ from __future__ import annotations
 import io
 import json
 import struct
+import zlib
 from collections import Counter
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
@@ -31,6 +32,7 @@ __all__ = ["LogError", "LogMessage", "RawLog", "RawMessage", "messages", "read_m
 
 MAGIC = b"\x89MCAP0\r\n"
 PREFIX = struct.Struct("<BQ")  # every record: opcode, length of what follows
+FOOTER = struct.Struct("<BQQQI")  # opcode, length, summary start, summary offset start, summary CRC
 MESSAGE_HEAD = struct.Struct("<HIQQ")  # a message record: channel id, sequence, log time, publish time; then data
 
 
@@ -63,7 +65,7 @@ def messages(
     with open_log(path) as stream:
         stream.seek(0)  # the reader checks the magic where the stream stands
         reader = make_reader(stream, validate_crcs=True)
-        summary = _strict_summary(path, reader)
+        summary = _strict_summary(path, reader, stream)
         topics = None
         if wanted is not None and summary is not None:  # the chunk index then skips chunks without a wanted topic
             topics = [channel.topic for channel in summary.channels.values() if wanted(channel.topic)]
@@ -87,7 +89,7 @@ def read_messages(path: Path, wanted: Callable[[str], bool] | None = None) -> li
 def verify(path: Path) -> None:
     """LogError unless the log ends with its footer and every chunk in it decompresses to its size and CRC."""
     with open_log(path) as stream:
-        _strict_summary(path, reader_of(stream))
+        _strict_summary(path, reader_of(stream), stream)
         offset = len(MAGIC)
         for offset, opcode, body in _top_records(stream):
             if opcode in (Opcode.DATA_END, Opcode.FOOTER):
@@ -114,13 +116,32 @@ def open_log(path: Path) -> IO[bytes]:
     return stream
 
 
-def _strict_summary(path: Path, reader: McapReader) -> Summary | None:
+def _strict_summary(path: Path, reader: McapReader, stream: IO[bytes]) -> Summary | None:
     """The summary (None if the writer wrote none); LogError for a log without its footer."""
     try:
-        return reader.get_summary()
+        summary = reader.get_summary()
     except Exception:  # see messages; a file too short for a footer raises OSError on the seek. mcap's own text
         # (bytes read as a record length, ...) would only puzzle a user: say what it means
         raise damaged(path, "no footer at its end, its writer did not finish it") from None
+    if not summary_whole(stream):
+        raise damaged(path, "its summary section (index, counts) fails its CRC")
+    return summary
+
+
+def summary_whole(stream: IO[bytes]) -> bool:
+    """Whether the summary section matches the CRC its footer gives (mcap does not check it): a damaged summary
+    would send a reader to the wrong chunks or give wrong counts. True without a summary or a CRC."""
+    size = stream.seek(0, io.SEEK_END)
+    if size < len(MAGIC) + FOOTER.size + len(MAGIC):
+        return False
+    stream.seek(size - len(MAGIC) - FOOTER.size)
+    _, _, start, _, crc = FOOTER.unpack(stream.read(FOOTER.size))
+    if crc == 0 or start == 0:
+        return True
+    if not len(MAGIC) <= start <= size - len(MAGIC) - FOOTER.size:
+        return False
+    stream.seek(start)
+    return zlib.crc32(stream.read(size - len(MAGIC) - 4 - start)) == crc
 
 
 def _decoded(path: Path, channel: Channel, data: bytes) -> Any:
@@ -167,9 +188,10 @@ def read_raw(path: Path, wanted: Callable[[str], bool]) -> RawLog:
 def lenient_summary(stream: IO[bytes]) -> Summary | None:
     """The log's summary section; None when it has none or it does not read (its writer was killed: no footer)."""
     try:
-        return reader_of(stream).get_summary()
+        summary = reader_of(stream).get_summary()
     except Exception:  # see messages
         return None
+    return summary if summary_whole(stream) else None
 
 
 def reader_of(stream: IO[bytes]) -> McapReader:

@@ -5,12 +5,20 @@ A SIGKILL cannot be caught, so the recorder is also crash-safe: the open chunk i
 (no fsync: the OS keeps it if only the process dies) every FLUSH_INTERVAL of wall time and whenever it grows past
 CHUNK_BYTES. A killed run loses at most its last FLUSH_INTERVAL of messages; `cpf recover` (record/recover.py)
 rebuilds the missing summary and index from the complete chunks.
+
+Nothing written can make the writer fail, then or at its finish: a message whose time is not finite or lies outside
+[0, the run's end + TIME_MARGIN] (outside an MCAP time in any case), or that is no JSON, is refused before it reaches
+the writer, counted (`refused`) and named in one warning when the recorder closes.
 """
 
 from __future__ import annotations
 
 import json
+import logging
+import math
+import numbers
 import time
+from collections import Counter
 from pathlib import Path
 from types import TracebackType
 from typing import IO, Any
@@ -24,6 +32,11 @@ from comms.schemas import schema_for
 PROFILE = ""  # no ROS profile: plain JSON channels
 FLUSH_INTERVAL = 0.5  # s of wall time: the most a SIGKILL can take (the next write after it flushes)
 CHUNK_BYTES = 512 * 1024  # uncompressed: the writer finishes a chunk this big by itself
+TIME_MARGIN = 60.0  # s after the run's end a message may still be stamped (the last step, the books closed at the end)
+LAST_NS = 2**64 - 1  # MCAP times are unsigned 64-bit ns
+SEQUENCES = 2**32  # MCAP sequence numbers are unsigned 32-bit
+
+log = logging.getLogger(__name__)
 
 
 JSON_OPTIONS = orjson.OPT_NON_STR_KEYS | orjson.OPT_SERIALIZE_NUMPY  # NaN and inf are written as null
@@ -46,6 +59,8 @@ class Recorder:
         self._sequence = 0
         self._deadline = 0.0
         self.count = 0
+        self.horizon = LAST_NS / 1e9  # s: the latest time recorded (limit() sets the run's)
+        self.refused: Counter[tuple[str, str]] = Counter()  # (key, why) of the messages not recorded
         self.flush()  # magic and header on disk: even a run killed at once leaves a recoverable (empty) MCAP
 
     def _channel(self, key: str) -> int:
@@ -59,20 +74,49 @@ class Recorder:
             self._channels[key] = self._writer.register_channel(topic=key, message_encoding="json", schema_id=schema_id)
         return self._channels[key]
 
-    def write(self, key: str, t: float, message: Message) -> None:
-        """Record a message published on key at simulation time t (s)."""
-        stamp = seconds_to_ns(t)
+    def limit(self, end: float) -> None:
+        """Refuse, from now on, any message stamped later than TIME_MARGIN after end (s), the run's end."""
+        self.horizon = min(end + TIME_MARGIN, LAST_NS / 1e9)
+
+    def write(self, key: str, t: float, message: Message) -> bool:
+        """Record a message published on key at simulation time t (s). False, and counted in `refused`, for a time
+        that is not finite or is outside [0, horizon], or a message that is not JSON: not recorded."""
+        why = self._bad_time(t)
+        data = b""
+        if why is None:
+            try:
+                data = orjson.dumps(message, option=JSON_OPTIONS)
+            except TypeError as exc:  # orjson.JSONEncodeError: a type, a key, an integer or a depth JSON cannot hold
+                why = f"not JSON ({exc})"
+        if why is not None:
+            self.refused[(key, why)] += 1
+            return False
+        stamp = seconds_to_ns(float(t))
         self._sequence += 1
         self._writer.add_message(
             channel_id=self._channel(key),
             log_time=stamp,
             publish_time=stamp,
-            data=orjson.dumps(message, option=JSON_OPTIONS),
-            sequence=self._sequence,
+            data=data,
+            sequence=self._sequence % SEQUENCES,
         )
         self.count += 1
         if time.monotonic() >= self._deadline:
             self.flush()
+        return True
+
+    def _bad_time(self, t: object) -> str | None:
+        """Why t (s) cannot be a message's time, None if it can."""
+        if isinstance(t, bool) or not isinstance(t, numbers.Real):
+            return f"time of type {type(t).__name__} is not a number"
+        try:
+            seconds = float(t)
+        except OverflowError:  # an integer beyond any float
+            return "time outside any MCAP time"
+        last = min(seconds_to_ns(self.horizon), LAST_NS)
+        if not math.isfinite(seconds) or abs(seconds) > self.horizon + 1 or not 0 <= seconds_to_ns(seconds) <= last:
+            return f"time outside 0..{self.horizon:g} s"
+        return None
 
     def flush(self) -> None:
         """Finish the open chunk and hand the file's bytes to the OS (no fsync): what a SIGKILL cannot take away.
@@ -89,6 +133,11 @@ class Recorder:
                 self._writer.finish()
             finally:
                 self._stream.close()
+            if self.refused:
+                log.warning("%s: %d message(s) not recorded: %s", self.path, self.refused.total(), self._refusals())
+
+    def _refusals(self) -> str:
+        return "; ".join(f"{count} on {key}: {why}" for (key, why), count in sorted(self.refused.items()))
 
     def __enter__(self) -> Recorder:
         return self

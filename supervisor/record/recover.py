@@ -1,197 +1,107 @@
-"""Recovery of an MCAP whose writer died (SIGKILL, power cut): no summary, no footer, maybe a partial last chunk.
+"""Recovery of an MCAP whose writer died (SIGKILL, power cut) or whose bytes were damaged: no summary, no footer,
+a partial last chunk, chunks overwritten, lengths corrupted, garbage in between.
 
-The source is read record by record from its start. Every complete record is kept (schemas, channels, messages,
-chunks whose data decompresses to the announced size and CRC, metadata, attachments); the scan stops cleanly at
-the first record that is truncated or corrupt, or at the end of the data section. What was kept is written, in the
-same order, to a new MCAP with a summary and an index: same topics, schemas, encodings, times, sequences and bytes.
+The source is read record by record from its start. Every record that checks is kept (schemas, channels, messages,
+chunks whose data decompresses to the announced size and CRC, metadata, attachments). At a record that is cut or
+damaged, the scan resynchronises: it looks for the next whole chunk (supervisor/record/records.py) from the end of
+the last record it trusted, skips what lies between, and goes on from there to the end of the data section. What
+was kept is written, in the same order, to a new MCAP with a summary and an index: same topics, schemas, encodings,
+times, sequences and bytes. A chunk lost to damage may have been the one that defined a channel; the channel is
+then taken from the source's summary when that is whole (its CRC matches), else its messages cannot be named and
+are counted as lost. The report says what was skipped and, when the source's summary counts them, how many
+messages were lost.
 The Recorder (supervisor/record/recorder.py) finishes a chunk at least every half second, so a killed run loses at most
-about its last second. The same repair with the mcap CLI: `mcap recover in.mcap -o out.mcap`.
+about its last second. A similar repair with the mcap CLI: `mcap recover in.mcap -o out.mcap`.
 """
 
 from __future__ import annotations
 
-import io
+import mmap
 import os
-import struct
-import zlib
-from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
 
-from mcap.data_stream import ReadDataStream
-from mcap.opcode import Opcode
-from mcap.records import (
-    Attachment,
-    Channel,
-    Chunk,
-    DataEnd,
-    Footer,
-    Header,
-    McapRecord,
-    Message,
-    Metadata,
-    Schema,
-)
+from mcap.records import Attachment, Channel, Chunk, DataEnd, Footer, Header, McapRecord, Message, Metadata, Schema
 from mcap.writer import CompressionType, Writer
 
 from supervisor.errors import CorruptRecord, RecoveryError
+from supervisor.record.records import (
+    MAGIC,
+    PREFIX,
+    SourceSummary,
+    chunk_records,
+    next_chunk,
+    parse,
+    record_at,
+    trusted_summary,
+)
 
-MAGIC = b"\x89MCAP0\r\n"
-PREFIX = struct.Struct("<BQ")  # every record: opcode, length of what follows
-MESSAGE_FIELDS = 22  # channel id, sequence, log time, publish time: a message is at least this long
-FIRST_PRIVATE_OPCODE = 0x80  # opcodes from here on are user-defined: skipped, not corrupt
-READERS: dict[int, Any] = {
-    Opcode.HEADER: Header.read,
-    Opcode.SCHEMA: Schema.read,
-    Opcode.CHANNEL: Channel.read,
-    Opcode.CHUNK: Chunk.read,
-    Opcode.METADATA: Metadata.read,
-    Opcode.ATTACHMENT: Attachment.read,
-    Opcode.DATA_END: DataEnd.read,
-    Opcode.FOOTER: Footer.read,
-}  # every other defined opcode is an index or a summary record: rebuilt by the writer, so skipped
-IN_CHUNK = (Schema, Channel, Message)
+__all__ = ["MAGIC", "RecoveryError", "RecoveryReport", "recover"]
+
 DEFAULT_HEADER = Header(profile="", library="cpf recover")  # for a source cut before its header ends
-DEFINED = frozenset(int(opcode) for opcode in Opcode)
 
 
 @dataclass(frozen=True)
 class RecoveryReport:
-    """What recover() kept. last_log_time: ns, None without messages; complete: the source's data section was
-    whole (it ended with its DataEnd record), so nothing was lost."""
+    """What recover() kept and what it could not.
+
+    unreadable_bytes: bytes of the source skipped (damaged regions and a cut end; the index records among them are
+    rebuilt, not lost). damaged_regions: places where the scan had to resynchronise before the end of the file.
+    unnamed: messages of whole chunks dropped because the chunk defining their channel was lost and no whole summary
+    names it. expected: the message count of the source's summary, when it has a whole one. last_log_time: ns, None
+    without messages. complete: the data section was whole (it ended with its DataEnd record, nothing skipped)."""
 
     messages: int
     chunks: int
     unreadable_bytes: int
     last_log_time: int | None
     complete: bool
+    damaged_regions: int = 0
+    unnamed: int = 0
+    expected: int | None = None
 
     def describe(self) -> str:
         last = "-" if self.last_log_time is None else f"{self.last_log_time / 1e9:.3f} s"
-        state = "complete source" if self.complete else f"{self.unreadable_bytes} unreadable bytes dropped"
-        return f"{self.messages} messages recovered from {self.chunks} chunk(s), last log time {last}; {state}"
+        kept = f"{self.messages} messages recovered from {self.chunks} chunk(s), last log time {last}"
+        if self.complete:
+            return f"{kept}; complete source"
+        lost = [f"{self.unreadable_bytes} unreadable bytes dropped"]
+        if self.damaged_regions:
+            lost[0] += f" ({self.damaged_regions} damaged region(s) skipped)"
+        if self.expected is not None:
+            missing = max(self.expected - self.messages, 0)
+            lost.append(f"{missing} of the {self.expected} messages its summary counts lost")
+        if self.unnamed:
+            lost.append(f"{self.unnamed} messages of whole chunks dropped: their channel was defined in a lost chunk")
+        return f"{kept}; " + "; ".join(lost)
 
 
-class _Body(io.BytesIO):
-    """A record's bytes: a field running past the record's end is corruption, not a short read."""
-
-    def read(self, size: int | None = -1, /) -> bytes:
-        data = super().read(size)
-        if size is not None and size >= 0 and len(data) < size:
-            raise CorruptRecord(f"field of {size} bytes runs past the record's end")
-        return data
-
-
-def _parse(opcode: int, body: bytes) -> McapRecord | None:
-    """The record of this opcode, None for one that recovery skips; CorruptRecord if it does not parse."""
-    if opcode == Opcode.MESSAGE:
-        if len(body) < MESSAGE_FIELDS:
-            raise CorruptRecord(f"message record of {len(body)} bytes")
-        return Message.read(ReadDataStream(_Body(body)), len(body))
-    if opcode in READERS:
-        try:
-            return READERS[opcode](ReadDataStream(_Body(body)))
-        except (struct.error, UnicodeDecodeError) as exc:
-            raise CorruptRecord(f"opcode {opcode:#04x}: {exc}") from exc
-    if opcode in DEFINED or opcode >= FIRST_PRIVATE_OPCODE:
-        return None
-    raise CorruptRecord(f"opcode {opcode:#04x} is not an MCAP record")
-
-
-def _decompress(chunk: Chunk) -> bytes:
-    if chunk.compression == "":
-        return chunk.data
-    try:
-        if chunk.compression == "zstd":
-            import zstandard
-
-            return zstandard.decompress(chunk.data, max_output_size=chunk.uncompressed_size)
-        if chunk.compression == "lz4":
-            import lz4.frame
-
-            return lz4.frame.decompress(chunk.data)
-    except Exception as exc:  # the codecs raise several unrelated types for damaged data
-        raise CorruptRecord(f"{chunk.compression} chunk does not decompress: {exc}") from exc
-    raise CorruptRecord(f"chunk compression {chunk.compression!r} is not supported")
-
-
-def _chunk_records(chunk: Chunk) -> list[McapRecord]:
-    """The schemas, channels and messages of a chunk, in order; CorruptRecord unless it is whole and its CRC matches."""
-    data = _decompress(chunk)
-    if len(data) != chunk.uncompressed_size:
-        raise CorruptRecord(f"chunk holds {len(data)} bytes, announces {chunk.uncompressed_size}")
-    if chunk.uncompressed_crc != 0 and zlib.crc32(data) != chunk.uncompressed_crc:
-        raise CorruptRecord("chunk CRC mismatch")
-    records: list[McapRecord] = []
-    offset = 0
-    while offset < len(data):
-        if offset + PREFIX.size > len(data):
-            raise CorruptRecord("record prefix runs past the chunk's end")
-        opcode, length = PREFIX.unpack_from(data, offset)
-        body = data[offset + PREFIX.size : offset + PREFIX.size + length]
-        if len(body) < length:
-            raise CorruptRecord("record runs past the chunk's end")
-        record = _parse(opcode, body)
-        if record is not None and not isinstance(record, IN_CHUNK):
-            raise CorruptRecord(f"{type(record).__name__} record inside a chunk")
-        if record is not None:
-            records.append(record)
-        offset += PREFIX.size + length
-    return records
-
-
-def _top_records(stream: IO[bytes], size: int) -> Iterator[tuple[int, int, bytes]]:
-    """(offset, opcode, body) of each complete record after the magic; ends at the first that the file cuts."""
-    offset = len(MAGIC)
-    stream.seek(offset)
-    while offset + PREFIX.size <= size:
-        opcode, length = PREFIX.unpack(stream.read(PREFIX.size))
-        if length > size - offset - PREFIX.size:
-            return
-        yield offset, opcode, stream.read(length)
-        offset += PREFIX.size + length
-
-
+@dataclass
 class _Copy:
     """Writes the kept records, in order, to a fresh writer, mapping schema and channel ids."""
 
-    def __init__(self, writer: Writer) -> None:
-        self.writer = writer
-        self.started = False
-        self.schemas: dict[int, int] = {}
-        self.channels: dict[int, int] = {}
-        self.messages = 0
-        self.chunks = 0
-        self.last_log_time: int | None = None
+    writer: Writer
+    summary: SourceSummary | None = None  # the source's, if whole: channels and schemas a lost chunk defined
+    started: bool = False
+    schemas: dict[int, int] = field(default_factory=dict)
+    channels: dict[int, int] = field(default_factory=dict)
+    messages: int = 0
+    chunks: int = 0
+    unnamed: int = 0
+    last_log_time: int | None = None
 
     def start(self, header: Header = DEFAULT_HEADER) -> None:
         if not self.started:
             self.writer.start(profile=header.profile, library=header.library)
             self.started = True
 
-    def check(self, records: list[McapRecord]) -> None:
-        """CorruptRecord if a channel names an unknown schema or a message an unknown channel (before writing any)."""
-        schemas, channels = set(self.schemas) | {0}, set(self.channels)
-        for record in records:
-            if isinstance(record, Schema):
-                schemas.add(record.id)
-            elif isinstance(record, Channel) and record.schema_id not in schemas:
-                raise CorruptRecord(f"channel {record.id} names unknown schema {record.schema_id}")
-            elif isinstance(record, Channel):
-                channels.add(record.id)
-            elif isinstance(record, Message) and record.channel_id not in channels:
-                raise CorruptRecord(f"message on unknown channel {record.channel_id}")
-
     def add(self, record: McapRecord) -> None:
         self.start()
-        if isinstance(record, Schema) and record.id not in self.schemas:
-            self.schemas[record.id] = self.writer.register_schema(record.name, record.encoding, record.data)
-        elif isinstance(record, Channel) and record.id not in self.channels:
-            schema = self.schemas.get(record.schema_id, 0)
-            self.channels[record.id] = self.writer.register_channel(
-                record.topic, record.message_encoding, schema, record.metadata
-            )
+        if isinstance(record, Schema):
+            self._schema(record)
+        elif isinstance(record, Channel):
+            self._channel(record)
         elif isinstance(record, Message):
             self._message(record)
         elif isinstance(record, Metadata):
@@ -199,7 +109,29 @@ class _Copy:
         elif isinstance(record, Attachment):
             self.writer.add_attachment(record.create_time, record.log_time, record.name, record.media_type, record.data)
 
+    def _schema(self, schema: Schema) -> None:
+        if schema.id not in self.schemas:
+            self.schemas[schema.id] = self.writer.register_schema(schema.name, schema.encoding, schema.data)
+
+    def _channel(self, channel: Channel) -> None:
+        if channel.id in self.channels:
+            return
+        if channel.schema_id not in self.schemas and self.summary is not None:
+            lost = self.summary.schemas.get(channel.schema_id)
+            if lost is not None:
+                self._schema(lost)
+        schema = self.schemas.get(channel.schema_id, 0)  # defined in a lost chunk, and no summary: none
+        self.channels[channel.id] = self.writer.register_channel(
+            channel.topic, channel.message_encoding, schema, channel.metadata
+        )
+
     def _message(self, message: Message) -> None:
+        if message.channel_id not in self.channels:
+            lost = None if self.summary is None else self.summary.channels.get(message.channel_id)
+            if lost is None:
+                self.unnamed += 1
+                return
+            self._channel(lost)
         self.writer.add_message(
             self.channels[message.channel_id], message.log_time, message.data, message.publish_time, message.sequence
         )
@@ -207,21 +139,73 @@ class _Copy:
         last = self.last_log_time
         self.last_log_time = message.log_time if last is None else max(last, message.log_time)
 
-    def record(self, opcode: int, body: bytes) -> bool:
-        """Copy one top-level record; True at the end of the data section. CorruptRecord if it does not parse."""
-        record = _parse(opcode, body)
+    def record(self, opcode: int, body: bytes) -> tuple[bool, bool]:
+        """Copy one top-level record: (whether it was one to trust, whether the data section ends with it).
+        CorruptRecord if it does not parse or check, before anything of it is written."""
+        record = parse(opcode, body)
         if isinstance(record, Header):
             self.start(record)
         elif isinstance(record, DataEnd | Footer):
-            return True
+            return True, True
+        elif isinstance(record, Chunk):
+            self.chunk(chunk_records(record))
         elif record is not None:
-            records = _chunk_records(record) if isinstance(record, Chunk) else [record]
-            self.check(records)
-            for item in records:
-                self.add(item)
-            if isinstance(record, Chunk):
-                self.chunks += 1
+            self.add(record)
+        return record is not None, False
+
+    def chunk(self, records: list[McapRecord]) -> None:
+        for item in records:
+            self.add(item)
+        self.chunks += 1
+
+
+@dataclass
+class _Scan:
+    """Where the scan of the source stands: trusted is the end of the last record that checked (index records,
+    which do not, are read past but a resynchronisation starts before them)."""
+
+    offset: int = len(MAGIC)
+    trusted: int = len(MAGIC)
+    skipped: int = 0
+    regions: int = 0
+    complete: bool = False
+
+
+def _resync(data: Any, scan: _Scan, copy: _Copy) -> bool:
+    """After a record that is cut or damaged: go on at the next whole chunk (copied), False if there is none."""
+    found = next_chunk(data, scan.trusted)
+    if found is None:
+        scan.skipped += len(data) - scan.trusted
         return False
+    start, records, end = found
+    scan.skipped += start - scan.trusted
+    scan.regions += 1
+    copy.chunk(records)
+    scan.offset = scan.trusted = end
+    return True
+
+
+def _scan(data: Any, copy: _Copy) -> _Scan:
+    """Copy the records of the data section, resynchronising past damage, until its end or the file's."""
+    scan = _Scan()
+    while scan.offset < len(data):
+        found = record_at(data, scan.offset)
+        try:
+            if found is None:
+                raise CorruptRecord("a record runs past the end of the file")
+            trusted, done = copy.record(*found)
+        except CorruptRecord:
+            if not _resync(data, scan, copy):
+                return scan
+            continue
+        scan.offset += PREFIX.size + len(found[1])
+        if trusted:
+            scan.trusted = scan.offset
+        if done:
+            scan.complete = scan.regions == 0
+            return scan
+    scan.skipped += scan.offset - scan.trusted
+    return scan
 
 
 def _check_source(src: Path, stream: IO[bytes], size: int) -> None:
@@ -231,35 +215,22 @@ def _check_source(src: Path, stream: IO[bytes], size: int) -> None:
         raise RecoveryError(f"{src}: not an MCAP file (no MCAP magic at its start)")
 
 
-def _scan(stream: IO[bytes], size: int, copy: _Copy) -> tuple[int, bool]:
-    """Copy top-level records until the data section ends or a record is cut or corrupt.
-
-    (Offset where reading stopped, whether the data section was whole.)
-    """
-    end = len(MAGIC)
-    for offset, opcode, body in _top_records(stream, size):
-        try:
-            done = copy.record(opcode, body)
-        except CorruptRecord:
-            return offset, False
-        end = offset + PREFIX.size + len(body)
-        if done:
-            return end, True
-    return end, False
-
-
-def _copy(src: Path, stream: IO[bytes], copy: _Copy) -> RecoveryReport:
+def _copy(src: Path, stream: IO[bytes], writer: Writer) -> RecoveryReport:
     """Copy the readable records of an opened source; the report of what was kept."""
-    size = os.fstat(stream.fileno()).st_size
-    _check_source(src, stream, size)
-    end, complete = _scan(stream, size, copy)
+    _check_source(src, stream, os.fstat(stream.fileno()).st_size)
+    with mmap.mmap(stream.fileno(), 0, access=mmap.ACCESS_READ) as data:
+        summary = trusted_summary(data)
+        copy = _Copy(writer, summary)
+        scan = _scan(data, copy)
     copy.start()  # a source cut inside its header still gives a valid (empty) MCAP
-    unreadable = 0 if complete else size - end
-    return RecoveryReport(copy.messages, copy.chunks, unreadable, copy.last_log_time, complete)
+    expected = None if summary is None else summary.message_count
+    kept = (copy.messages, copy.chunks, scan.skipped, copy.last_log_time, scan.complete)
+    return RecoveryReport(*kept, scan.regions, copy.unnamed, expected)
 
 
 def recover(src: Path, dst: Path) -> RecoveryReport:
-    """Write to dst a complete, indexed MCAP holding every readable message of src, a possibly truncated MCAP.
+    """Write to dst a complete, indexed MCAP holding every readable message of src, a possibly truncated or damaged
+    MCAP.
 
     Raises OSError if src cannot be read or dst written, RecoveryError if src is not an MCAP or dst is src.
     dst appears only once complete (written beside it, then renamed).
@@ -272,7 +243,7 @@ def recover(src: Path, dst: Path) -> RecoveryReport:
         try:
             with partial.open("wb") as out:
                 writer = Writer(out, compression=CompressionType.ZSTD)
-                report = _copy(src, source, _Copy(writer))
+                report = _copy(src, source, writer)
                 writer.finish()
             partial.replace(dst)
         finally:
