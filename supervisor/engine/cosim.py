@@ -34,6 +34,7 @@ from comms.messages import (
 from supervisor.config.scenario import load_scenario
 from supervisor.config.scenario_schema import Scenario
 from supervisor.engine import interrupts
+from supervisor.engine.bus_access import run_access
 from supervisor.engine.clock import Clock
 from supervisor.engine.inprocess import RunResult
 from supervisor.engine.intake import Intake
@@ -97,8 +98,9 @@ def _supervisor(
     path, endpoint, bus, seed = how
     mode, listen, connect = ("client", [], [bus.connect]) if bus.connect else ("router", [endpoint], [])
     with (
-        open_session(mode, listen, connect) as session,
-        ProcessGroup() as procs,
+        run_access(sc, bus, endpoint) as access,
+        open_session(mode, listen, connect, access.router) as session,
+        ProcessGroup(access.env_of) as procs,
         tempfile.TemporaryDirectory(prefix="cpf-resume-") as resume_dir,
     ):
         inbox = _inbox(session)
