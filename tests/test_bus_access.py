@@ -249,3 +249,57 @@ def test_outsiders_and_a_vehicle_posing_as_others_leave_no_trace_in_a_run(tmp_pa
     undisturbed = cpf("run", str(scenario), "--engine", "inprocess", "--out", "ref.mcap", "--quiet", cwd=tmp_path)
     assert undisturbed.returncode == 0, undisturbed.stderr
     assert digest(tmp_path / "run.mcap") == digest(tmp_path / "ref.mcap")
+
+
+# --- options ------------------------------------------------------------------------------------------------------
+
+REFUSED = {
+    "plain tcp reachable from elsewhere": (
+        ["--listen", "tcp/0.0.0.0:7447"],
+        "--listen: other hosts can reach this address, so the bus must be encrypted",
+    ),
+    "a host name": (["--listen", "tcp/host-a:7447"], "--listen: other hosts can reach this address"),
+    "remote without credentials": (["--remote", "2"], "--remote: vehicles started by hand need credentials"),
+    "credentials for nobody": (["--credentials-dir", "c"], "--credentials-dir: only vehicles started by hand"),
+    "no such site config": (["--zenoh-config", "nowhere.json5"], "--zenoh-config: cannot read it"),
+    "site config in process": (["--engine", "inprocess", "--zenoh-config", "x"], "--zenoh-config: only the zenoh"),
+}
+
+
+@pytest.mark.parametrize(("options", "expected"), list(REFUSED.values()), ids=list(REFUSED))
+def test_a_bus_option_that_would_be_unsafe_or_cannot_work_is_refused_before_anything_starts(
+    options: list[str], expected: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from supervisor.cli import main
+
+    out = tmp_path / "never.mcap"
+    scenario = CONFIGS / "paper.toml"
+    assert main(["run", str(scenario), "--out", str(out), "--quiet", *options]) == 2
+    lines = capsys.readouterr().err.splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"cpf: error: {scenario}: {expected}"), lines
+    assert not out.exists()
+
+
+def test_a_site_config_zenoh_refuses_is_refused_naming_it(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from supervisor.cli import main
+
+    site = tmp_path / "site.json5"
+    site.write_text("{ transport: { bogus: 1 } }")
+    options = ["--out", str(tmp_path / "x.mcap"), "--zenoh-config", str(site)]
+    assert main(["run", str(CONFIGS / "paper.toml"), *options]) == 2
+    line = capsys.readouterr().err.strip()
+    assert "--zenoh-config: not a Zenoh config (unknown field `bogus`" in line and line.endswith(f"got {site}"), line
+
+
+def test_a_vehicle_given_another_vehicles_credentials_is_refused(tmp_path: Path) -> None:
+    with run_access(load_scenario(CONFIGS / "paper.toml"), BusOptions(), "tcp/127.0.0.1:1") as access:
+        path = tmp_path / "vehicle-2.json"
+        path.write_text(access.files["vehicle 2"].read_text())
+    args = ["vehicle", str(CONFIGS / "paper.toml"), "--id", "3", "--connect", "tcp/127.0.0.1:1"]
+    done = cpf(*args, "--credentials", str(path), cwd=tmp_path)
+    assert done.returncode == 2
+    expected = f"cpf: error: {path}: name: these are the credentials of another process, got vehicle 2"
+    assert done.stderr.strip() == expected
+    (tmp_path / "junk.json").write_text("{}")
+    done = cpf(*args, "--credentials", "junk.json", cwd=tmp_path)
+    assert (done.returncode, done.stderr.strip().split(": ")[2:4]) == (2, ["junk.json", "no 'format'"])

@@ -207,7 +207,7 @@ def _process_extras(args: argparse.Namespace, name: str) -> Extras:
     try:
         credential = read_credential(args.credentials) if args.credentials is not None else credential_from_env()
     except ValueError as exc:
-        raise ScenarioError(f"--credentials: {exc}") from None
+        raise ScenarioError(str(exc)) from None  # '<file>: <problem>'
     if credential is not None and credential.name != name:
         raise ScenarioError(f"{where}: name: these are the credentials of another process, got {credential.name}")
     if args.zenoh_config is not None:
