@@ -15,6 +15,7 @@ from __future__ import annotations
 import json
 import queue
 import subprocess
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -22,7 +23,7 @@ from pathlib import Path
 import pytest
 import zenoh
 
-from comms.access import Credential, client_config, read_credential
+from comms.access import ENV, Credential, client_config, read_credential
 from comms.bus import Extras, free_port, open_session
 from comms.messages import (
     COMMS_ALIVE,
@@ -49,7 +50,7 @@ from supervisor.engine.bus_access import RunAccess, run_access
 from supervisor.engine.launch import BusOptions
 from supervisor.record.recorder import read_messages
 from tests.conftest import CONFIGS, shortened
-from tests.procs import CPF, cpf, start_cpf, wait_for_file
+from tests.procs import CPF, cpf, processes_with, start_cpf, wait_for_file
 from tests.run_digest import digest
 
 pytestmark = pytest.mark.integration
@@ -224,6 +225,7 @@ def test_outsiders_and_a_vehicle_posing_as_others_leave_no_trace_in_a_run(tmp_pa
             for credential in (None, Credential("vehicle 2", own.user, "guessed"), Credential("vehicle 3", "v", "x")):
                 with pytest.raises(ConnectionError, match="Unable to connect"):
                     client(endpoint, credential)
+            handed_out_privately(str(scenario))
             vehicle = subprocess.Popen(
                 [CPF, "vehicle", str(scenario), "--id", "2", "--connect", endpoint, "--credentials", str(path)],
                 cwd=tmp_path, start_new_session=True,
@@ -249,6 +251,23 @@ def test_outsiders_and_a_vehicle_posing_as_others_leave_no_trace_in_a_run(tmp_pa
     undisturbed = cpf("run", str(scenario), "--engine", "inprocess", "--out", "ref.mcap", "--quiet", cwd=tmp_path)
     assert undisturbed.returncode == 0, undisturbed.stderr
     assert digest(tmp_path / "run.mcap") == digest(tmp_path / "ref.mcap")
+
+
+def handed_out_privately(marker: str) -> None:
+    """The children cpf run started have their credential in a 0600 file named in their environment; no command
+    line of the run holds a password."""
+    end = time.monotonic() + WAIT  # spawned as the router opens: polled, nothing else tells when
+    while len(children := [pid for pid, cmd in processes_with(marker) if " --connect " in cmd]) < 3:
+        assert time.monotonic() < end, children  # the broker, vehicles 1 and 3 (vehicle 2 is started by hand)
+        time.sleep(0.05)
+    for pid in children:
+        environ = dict(
+            item.split("=", 1) for item in Path(f"/proc/{pid}/environ").read_text().split("\0") if "=" in item
+        )
+        path = Path(environ[ENV])
+        assert path.stat().st_mode & 0o777 == 0o600 and path.parent.stat().st_mode & 0o777 == 0o700
+        password = read_credential(path).password
+        assert not [cmd for _, cmd in processes_with(password)]
 
 
 # --- options ------------------------------------------------------------------------------------------------------
