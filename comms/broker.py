@@ -19,7 +19,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 from comms.broker_core import BrokerCore
-from comms.bus import Handler, Publishers, serve
+from comms.bus import Extras, Handler, Publishers, serve
 from comms.channel import ARRIVAL_SLACK, Kinematics, LinkEvent, Reception, intake_step
 from comms.messages import (
     COMMS_ALIVE,
@@ -216,9 +216,11 @@ def run_broker(
     connect: Sequence[str],
     start_step: int = 0,
     hello: Message | None = None,
+    extras: Extras | None = None,
 ) -> int:
     """Serve the channel from step start_step until the stop message or the supervisor's disappearance. hello: the
-    answer to the supervisor's question which scenario (and seed) the broker runs (comms.messages.hello_message)."""
+    answer to the supervisor's question which scenario (and seed) the broker runs (comms.messages.hello_message);
+    extras: its credentials and the site's Zenoh config (comms.bus.Extras)."""
 
     def handler(publishers: Publishers) -> Handler:
         broker = Broker(core, vehicles, publishers, dt, start_step)
@@ -230,4 +232,4 @@ def run_broker(
         return handle
 
     keys = (TICK_KEY, f"{ROOT}/vehicle/*/state")
-    return serve("comms", connect, keys, COMMS_ALIVE, handler, hello)
+    return serve("comms", connect, keys, COMMS_ALIVE, handler, hello, extras)

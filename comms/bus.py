@@ -12,8 +12,9 @@ import logging
 import queue
 import socket
 import time
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
 import zenoh
@@ -51,8 +52,33 @@ def free_port() -> int:
 CONNECT_TIMEOUT_MS = 30_000  # a process started by hand may come up before the supervisor's router does
 
 
-def config(mode: str, listen: Sequence[str] = (), connect: Sequence[str] = ()) -> zenoh.Config:
-    conf = zenoh.Config()
+@dataclass(frozen=True, slots=True)
+class Extras:
+    """What a session adds to cpf's own settings: a site's Zenoh config file (JSON5) under them, for everything a
+    site needs that cpf does not set, and entries over them: credentials, TLS, access control (comms.access)."""
+
+    site: Path | None = None
+    entries: Mapping[str, object] = field(default_factory=dict)
+    credentials: bool = False  # whether the entries authenticate this session (for a clearer error if refused)
+
+
+def site_config(path: Path) -> zenoh.Config:
+    """The site's Zenoh config file; ValueError saying why if it cannot be read or Zenoh refuses it."""
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ValueError(f"cannot read it ({getattr(exc, 'strerror', None) or exc})") from None
+    try:
+        return zenoh.Config.from_json5(text)
+    except zenoh.ZError as exc:
+        raise ValueError(f"not a Zenoh config ({_reason(exc)})") from None
+
+
+def config(
+    mode: str, listen: Sequence[str] = (), connect: Sequence[str] = (), extras: Extras | None = None
+) -> zenoh.Config:
+    extras = extras or Extras()
+    conf = site_config(extras.site) if extras.site is not None else zenoh.Config()
     conf.insert_json5("mode", json.dumps(mode))
     conf.insert_json5("scouting/multicast/enabled", "false")
     conf.insert_json5("scouting/delay", "0")  # nothing to scout with explicit endpoints: a router opened in 0.5 s
@@ -62,18 +88,30 @@ def config(mode: str, listen: Sequence[str] = (), connect: Sequence[str] = ()) -
         conf.insert_json5("listen/endpoints", json.dumps(list(listen)))
     if connect:
         conf.insert_json5("connect/endpoints", json.dumps(list(connect)))
+    for key, value in extras.entries.items():
+        conf.insert_json5(key, json.dumps(value))
     return conf
 
 
-def open_session(mode: str, listen: Sequence[str] = (), connect: Sequence[str] = ()) -> zenoh.Session:
-    """A session; ConnectionError with a one-line reason if the endpoints cannot be reached or bound."""
+def open_session(
+    mode: str, listen: Sequence[str] = (), connect: Sequence[str] = (), extras: Extras | None = None
+) -> zenoh.Session:
+    """A session; ConnectionError with a one-line reason if the endpoints cannot be reached or bound (ValueError if
+    the site's config file is not one)."""
     zenoh.try_init_log_from_env()
+    conf = config(mode, listen, connect, extras)
     try:
-        return zenoh.open(config(mode, listen, connect))
+        return zenoh.open(conf)
     except zenoh.ZError as exc:
         where = ", ".join([*listen, *connect]) or "no endpoint"
-        reason = str(exc).split(" at /")[0]  # drop the Rust source location
-        raise ConnectionError(f"Zenoh {mode} session on {where}: {reason}") from None
+        hint = ""
+        if mode == "client" and not (extras and extras.credentials):
+            hint = " (a cpf run's router admits only the processes it gave credentials: --credentials FILE)"
+        raise ConnectionError(f"Zenoh {mode} session on {where}: {_reason(exc)}{hint}") from None
+
+
+def _reason(exc: Exception) -> str:
+    return str(exc).split(" at /")[0]  # drop the Rust source location
 
 
 @dataclass(frozen=True, slots=True)
@@ -143,12 +181,13 @@ def serve(
     token: str,
     make_handler: Callable[[Publishers], Handler | Timed],
     hello: Message | None = None,
+    extras: Extras | None = None,
 ) -> int:
     """A child process's life: join the run, answer on its hello key which scenario it runs (hello, before its
     token appears), subscribe to keys, declare its liveliness token, hand every message to the handler (and, for a
     Timed one, wake up when its work is due), until the stop message or the supervisor's disappearance (so no
     child outlives its run)."""
-    with open_session("client", connect=connect) as session:
+    with open_session("client", connect=connect, extras=extras) as session:
         inbox = Inbox()
         for key in (*keys, STOP_KEY):
             inbox.subscribe(session, key)

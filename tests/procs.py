@@ -63,3 +63,11 @@ def kill_vehicle_process(marker: str, vehicle: int) -> None:
     victims = [pid for pid, cmd in processes_with(marker) if " vehicle " in cmd and f"--id {vehicle}" in cmd]
     assert len(victims) == 1, victims
     os.kill(victims[0], signal.SIGKILL)
+
+
+def wait_for_file(path: Path, timeout: float = 60.0) -> None:
+    """Poll until a file another process writes exists (cpf run's credential files: nothing else says when)."""
+    end = time.monotonic() + timeout
+    while not path.exists() and time.monotonic() < end:
+        time.sleep(0.05)
+    assert path.exists(), f"{path} was not written within {timeout:g} s"

@@ -198,14 +198,18 @@ def assert_complete_mcap(path: Path) -> None:
 def test_a_vehicle_started_by_hand_joins_the_run(tmp_path, paper_text):
     """The multi-host workflow on one machine: the supervisor listens, vehicle 3 is started separately."""
     from comms.bus import free_port
-    from tests.procs import CPF
+    from tests.procs import CPF, wait_for_file
 
     scenario = write_scenario(tmp_path, shortened(paper_text, 5.0))
     endpoint = f"tcp/127.0.0.1:{free_port()}"
-    run = start_cpf(["run", str(scenario), "--listen", endpoint, "--remote", "3", "--out", "run.mcap"], tmp_path)
+    remote = ["--remote", "3", "--credentials-dir", "creds"]
+    run = start_cpf(["run", str(scenario), "--listen", endpoint, *remote, "--out", "run.mcap"], tmp_path)
+    wait_for_file(tmp_path / "creds" / "vehicle-3.json")
+    credentials = ["--credentials", "creds/vehicle-3.json"]
     by_hand = subprocess.Popen(
-        [CPF, "vehicle", str(scenario), "--id", "3", "--connect", endpoint], cwd=tmp_path, start_new_session=True
-    )
+        [CPF, "vehicle", str(scenario), "--id", "3", "--connect", endpoint, *credentials], cwd=tmp_path,
+        start_new_session=True,
+    )  # fmt: skip
     try:
         _, err = run.communicate(timeout=60)
         assert run.returncode == 0, err

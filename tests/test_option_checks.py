@@ -42,14 +42,17 @@ def paper_file(tmp_path: Path) -> Path:
 
 
 OPTIONS = {
-    "no such vehicle": (["--remote", "2,7"], "--remote: no vehicle 7 in [[vehicles]] [1, 2, 3], got 7"),
+    "no such vehicle": (
+        ["--remote", "2,7", "--credentials-dir", "c"],
+        "--remote: no vehicle 7 in [[vehicles]] [1, 2, 3], got 7",
+    ),
     "remote in process": (["--engine", "inprocess", "--remote", "2"], "--remote: only the zenoh engine"),
     "listen in process": (["--engine", "inprocess", "--listen", "tcp/127.0.0.1:7447"], "--listen: only the zenoh"),
     "connect in process": (["--engine", "inprocess", "--connect", "tcp/127.0.0.1:7447"], "--connect: only the zenoh"),
     "timeout in process": (["--engine", "inprocess", "--start-timeout", "5"], "--start-timeout: only the zenoh"),
     "speed in lockstep": (["--speed", "2"], "--speed: only the realtime clock is paced (add --clock realtime), got 2"),
     "a remote vehicle killed": (
-        ["--remote", "2", "--fault", "kind=vehicle_kill,vehicle=2,start=1,end=2"],
+        ["--remote", "2", "--credentials-dir", "c", "--fault", "kind=vehicle_kill,vehicle=2,start=1,end=2"],
         "--remote: faults[1] kills vehicle 2, which the supervisor cannot do",
     ),
 }
@@ -81,6 +84,7 @@ def test_speed_with_the_realtime_clock_is_accepted() -> None:
 
     scenario = parse_scenario(PAPER)
     args = Namespace(remote=(2, 3), engine="zenoh", listen=None, connect=None, start_timeout=5.0, speed=2.0)
+    args.credentials_dir, args.zenoh_config = Path("creds"), None  # vehicles started by hand get credentials
     assert _option_errors(Namespace(**vars(args), clock="realtime"), scenario) == []
 
 

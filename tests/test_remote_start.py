@@ -20,7 +20,7 @@ import pytest
 
 from comms.bus import free_port
 from tests.conftest import shortened
-from tests.procs import CPF, cpf, processes_with
+from tests.procs import CPF, cpf, processes_with, wait_for_file
 
 pytestmark = pytest.mark.e2e
 WAIT = 60  # s: generous bounds on a process's end, never reached when things work
@@ -48,7 +48,17 @@ def scenario(tmp_path: Path, paper_text: str) -> Path:
 
 
 def supervisor(scenario: Path, endpoint: str, *extra: str) -> list[str]:
-    return ["run", str(scenario), "--listen", endpoint, "--out", "run.mcap", "--quiet", *extra]
+    """cpf run for vehicles started by hand: their credential files in creds/ (cpf vehicle --credentials)."""
+    return ["run", str(scenario), "--listen", endpoint, "--out", "run.mcap", "--quiet", "--credentials-dir", "creds",
+            *extra]  # fmt: skip
+
+
+def by_hand(scenario: Path, vid: int, endpoint: str, *extra: str) -> list[str]:
+    """cpf vehicle as a user starts it, once cpf run has written its credential file."""
+    credentials = scenario.parent / "creds" / f"vehicle-{vid}.json"
+    wait_for_file(credentials)
+    return ["vehicle", str(scenario), "--id", str(vid), "--connect", endpoint, "--credentials", str(credentials),
+            *extra]  # fmt: skip
 
 
 def test_missing_vehicles_are_named_while_waiting_and_the_log_is_a_valid_empty_run(scenario: Path) -> None:
@@ -70,17 +80,14 @@ def test_a_vehicle_started_with_other_settings_is_refused_naming_it_and_the_diff
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     with (
         started(supervisor(scenario, endpoint, "--remote", "2", "--start-timeout", "30"), scenario.parent) as run,
-        started(
-            ["vehicle", str(scenario), "--id", "2", "--connect", endpoint, "--set", "coordination.k=0.5"],
-            scenario.parent,
-        ) as by_hand,
+        started(by_hand(scenario, 2, endpoint, "--set", "coordination.k=0.5"), scenario.parent) as vehicle,
     ):
         _, err = run.communicate(timeout=WAIT)
-        _, vehicle_err = by_hand.communicate(timeout=WAIT)
+        _, vehicle_err = vehicle.communicate(timeout=WAIT)
     assert run.returncode == 2, err
     last = err.splitlines()[-1]
     assert last.startswith("cpf: error: vehicle 2 runs another scenario than the supervisor (differs in coordination)")
-    assert by_hand.returncode == 0
+    assert vehicle.returncode == 0
     assert "stopped by the supervisor: vehicle 2 runs another scenario" in vehicle_err, vehicle_err
     info = cpf("info", "run.mcap", cwd=scenario.parent)
     assert info.returncode == 0 and "scenario   paper (" in info.stdout, info.stdout + info.stderr
@@ -90,12 +97,11 @@ def test_a_vehicle_started_with_other_settings_is_refused_naming_it_and_the_diff
 @pytest.mark.parametrize("attempt", range(3))  # the stop message and the supervisor's leaving used to race
 def test_vehicles_started_by_hand_end_quietly_with_the_run(scenario: Path, attempt: int) -> None:
     endpoint = f"tcp/127.0.0.1:{free_port()}"
-    by_hand = [["vehicle", str(scenario), "--id", str(v), "--connect", endpoint] for v in (1, 2, 3)]
     with (
         started(supervisor(scenario, endpoint, "--remote", "1,2,3"), scenario.parent) as run,
-        started(by_hand[0], scenario.parent) as one,
-        started(by_hand[1], scenario.parent) as two,
-        started(by_hand[2], scenario.parent) as three,
+        started(by_hand(scenario, 1, endpoint), scenario.parent) as one,
+        started(by_hand(scenario, 2, endpoint), scenario.parent) as two,
+        started(by_hand(scenario, 3, endpoint), scenario.parent) as three,
     ):
         _, err = run.communicate(timeout=WAIT)
         ends = [v.communicate(timeout=WAIT) for v in (one, two, three)]

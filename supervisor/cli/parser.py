@@ -76,6 +76,11 @@ def _add_run(sub: Commands) -> None:
     run.add_argument("--connect", default=None, help="join this Zenoh router instead of running one")
     run.add_argument("--remote", type=_ids, default=(), help="vehicle ids started by hand elsewhere (not spawned)")
     run.add_argument(
+        "--credentials-dir", type=Path, default=None, metavar="DIR",
+        help="write the --remote vehicles' credential files here (vehicle-N.json), for cpf vehicle --credentials",
+    )  # fmt: skip
+    _add_zenoh_config(run)
+    run.add_argument(
         "--start-timeout", type=_positive, default=None, metavar="S",
         help=f"zenoh engine: s to wait for every process to come alive (default: {START_TIMEOUT:g})",
     )  # fmt: skip
@@ -93,12 +98,30 @@ def _add_scenario_changes(command: argparse.ArgumentParser) -> None:
     )  # fmt: skip
 
 
+def _add_zenoh_config(command: argparse.ArgumentParser) -> None:
+    command.add_argument(
+        "--zenoh-config", type=Path, default=None, metavar="FILE",
+        help="a Zenoh JSON5 config for everything else a site needs; cpf's own settings (mode, endpoints, "
+        "scouting, credentials, TLS, access control) go over it",
+    )  # fmt: skip
+
+
+def _add_credentials(command: argparse.ArgumentParser) -> None:
+    command.add_argument(
+        "--credentials", type=Path, default=None, metavar="FILE",
+        help="this process's credential file, as cpf run --credentials-dir wrote it (default: the one the "
+        "supervisor hands the processes it starts)",
+    )  # fmt: skip
+    _add_zenoh_config(command)
+
+
 def _add_processes(sub: Commands) -> None:
     """vehicle, comms: the processes of a Zenoh run (the supervisor starts them)."""
     vehicle = sub.add_parser("vehicle", help="run one vehicle process (the supervisor starts these)")
     vehicle.add_argument("scenario", type=Path)
     vehicle.add_argument("--id", type=int, required=True, help="vehicle id in the scenario")
     vehicle.add_argument("--connect", required=True, help="Zenoh endpoint of the run's router")
+    _add_credentials(vehicle)
     _add_scenario_changes(vehicle)
     vehicle.add_argument("--resume", type=Path, default=None, help="a recorded state message to restart from")
     vehicle.add_argument("--start-step", type=int, default=0, help="the sync step to resume at")
@@ -110,6 +133,7 @@ def _add_processes(sub: Commands) -> None:
     comms.add_argument("scenario", type=Path)
     comms.add_argument("--seed", type=_seed, default=None)
     comms.add_argument("--connect", required=True, help="Zenoh endpoint of the run's router")
+    _add_credentials(comms)
     _add_scenario_changes(comms)
     comms.add_argument("--start-step", type=int, default=0, help="the sync step to resume at (after a restart)")
 

@@ -13,6 +13,7 @@ from supervisor.cli.parser import START_TIMEOUT
 from supervisor.errors import ScenarioError
 
 if TYPE_CHECKING:
+    from comms.bus import Extras
     from supervisor.config.scenario_schema import Scenario
     from supervisor.engine.inprocess import RunResult
 
@@ -31,7 +32,8 @@ def _option_errors(args: argparse.Namespace, scenario: Scenario) -> list[str]:
     ]
     if args.engine == "inprocess":
         given = {"--remote": args.remote or None, "--listen": args.listen, "--connect": args.connect}
-        given["--start-timeout"] = args.start_timeout
+        given |= {"--start-timeout": args.start_timeout, "--credentials-dir": args.credentials_dir}
+        given["--zenoh-config"] = args.zenoh_config
         errors += [
             f"{option}: only the zenoh engine has processes to place (--engine inprocess runs one), got {value}"
             for option, value in given.items()
@@ -46,6 +48,36 @@ def _option_errors(args: argparse.Namespace, scenario: Scenario) -> list[str]:
         for vid in args.remote
         if vid in killed
     ]
+    return errors + (_bus_errors(args) if args.engine == "zenoh" else [])
+
+
+def _bus_errors(args: argparse.Namespace) -> list[str]:
+    """Who may reach the run's bus, and how: what --listen, --remote, --credentials-dir and --zenoh-config ask for
+    must be safe and possible (supervisor.engine.bus_access)."""
+    from comms.bus import site_config
+    from supervisor.engine.bus_access import is_loopback, is_tls
+
+    errors, router, given = [], args.connect is None, args.credentials_dir
+    if router and args.listen and not is_loopback(args.listen) and not is_tls(args.listen):
+        errors.append(
+            f"--listen: other hosts can reach this address, so the bus must be encrypted: use tls/ (for example "
+            f"tls/0.0.0.0:7447), got {args.listen}"
+        )
+    if router and args.remote and given is None:
+        ids = ",".join(str(v) for v in args.remote)
+        errors.append(f"--remote: vehicles started by hand need credentials: add --credentials-dir DIR, got {ids}")
+    if given is not None and not (router and args.remote):
+        errors.append(
+            f"--credentials-dir: only vehicles started by hand (--remote) for this supervisor's router (no --connect) "
+            f"need credential files, got {given}"
+        )
+    if given is not None and given.exists() and not given.is_dir():
+        errors.append(f"--credentials-dir: not a directory, got {given}")
+    if args.zenoh_config is not None:
+        try:
+            site_config(args.zenoh_config)
+        except ValueError as exc:
+            errors.append(f"--zenoh-config: {exc}, got {args.zenoh_config}")
     return errors
 
 
@@ -84,7 +116,8 @@ def _simulate(args: argparse.Namespace, scenario: Scenario, out: Path) -> RunRes
     if args.engine == "inprocess":
         return run_inprocess(scenario, str(args.scenario), text, out, seed, progress)
     timeout = START_TIMEOUT if args.start_timeout is None else args.start_timeout
-    bus = BusOptions(args.listen, args.connect, args.remote, tuple(args.set), tuple(args.fault), timeout)
+    changes = (tuple(args.set), tuple(args.fault))
+    bus = BusOptions(args.listen, args.connect, args.remote, *changes, timeout, args.credentials_dir, args.zenoh_config)
     logging.getLogger("cpf.engine").setLevel(logging.INFO)  # "waiting for ...": --quiet or not
     return run_zenoh(scenario, args.scenario, text, out, seed, args.clock, speed, bus, progress)
 
@@ -129,6 +162,7 @@ def vehicle(args: argparse.Namespace) -> int:
     scenario = load_scenario(args.scenario, args.set, args.fault)
     if args.id not in scenario.vehicle_ids:
         raise ScenarioError(f"{args.scenario}: --id: no vehicle {args.id} in [[vehicles]] {scenario.vehicle_ids}")
+    extras = _process_extras(args, f"vehicle {args.id}")
     cfg = vehicle_config(scenario, args.id)
     if args.resume is not None:
         initial = restarted_node(cfg, json.loads(args.resume.read_text()), args.resume_seq)
@@ -137,7 +171,7 @@ def vehicle(args: argparse.Namespace) -> int:
     neighbours, dt = scenario.neighbours(args.id), scenario.scenario.step
     return run_vehicle(
         cfg, initial, radio(scenario, args.id), neighbours, dt, [args.connect], args.start_step,
-        hello(f"vehicle {args.id}", scenario),
+        hello(f"vehicle {args.id}", scenario), extras,
     )  # fmt: skip
 
 
@@ -159,5 +193,27 @@ def comms(args: argparse.Namespace) -> int:
     scenario = load_scenario(args.scenario, args.set, args.fault)
     seed = scenario.scenario.seed if args.seed is None else args.seed
     dt, ids = scenario.scenario.step, scenario.vehicle_ids
-    greeting = hello("comms broker", scenario, seed)
-    return run_broker(broker_core(scenario, seed), ids, dt, [args.connect], args.start_step, greeting)
+    greeting, extras = hello("comms broker", scenario, seed), _process_extras(args, "comms broker")
+    return run_broker(broker_core(scenario, seed), ids, dt, [args.connect], args.start_step, greeting, extras)
+
+
+def _process_extras(args: argparse.Namespace, name: str) -> Extras:
+    """A process's credential (--credentials, else the one its supervisor handed it) and the site's Zenoh config;
+    ScenarioError for a file that is not one, or another process's credential."""
+    from comms.access import ENV, client_config, credential_from_env, read_credential
+    from comms.bus import Extras, site_config
+
+    where = str(args.credentials) if args.credentials is not None else f"${ENV}"
+    try:
+        credential = read_credential(args.credentials) if args.credentials is not None else credential_from_env()
+    except ValueError as exc:
+        raise ScenarioError(str(exc)) from None  # '<file>: <problem>'
+    if credential is not None and credential.name != name:
+        raise ScenarioError(f"{where}: name: these are the credentials of another process, got {credential.name}")
+    if args.zenoh_config is not None:
+        try:
+            site_config(args.zenoh_config)
+        except ValueError as exc:
+            raise ScenarioError(f"--zenoh-config: {exc}, got {args.zenoh_config}") from None
+    entries = client_config(credential) if credential is not None else {}
+    return Extras(args.zenoh_config, entries, credentials=credential is not None)

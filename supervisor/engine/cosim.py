@@ -5,7 +5,8 @@ process per vehicle, waits for their liveliness tokens, then drives the clock: t
 over the step), wait for every live vehicle's state of step k, tick k+1, ... Lockstep runs as fast as the machine
 allows; realtime paces the ticks to the wall clock. Everything on the bus is recorded to MCAP. Scheduled process
 faults are carried out here (SIGKILL, restart from the last recorded state); a process that disappears is noticed
-through its liveliness token and, for a vehicle, handled by scenario.on_vehicle_loss.
+through its liveliness token and, for a vehicle, handled by scenario.on_vehicle_loss. The router admits only the
+run's processes, each with credentials made for the run, and lets each do only its part (supervisor.engine.bus_access).
 """
 
 from __future__ import annotations
@@ -34,6 +35,7 @@ from comms.messages import (
 from supervisor.config.scenario import load_scenario
 from supervisor.config.scenario_schema import Scenario
 from supervisor.engine import interrupts
+from supervisor.engine.bus_access import run_access
 from supervisor.engine.clock import Clock
 from supervisor.engine.inprocess import RunResult
 from supervisor.engine.intake import Intake
@@ -98,8 +100,9 @@ def _supervisor(
     path, endpoint, bus, seed = how
     mode, listen, connect = ("client", [], [bus.connect]) if bus.connect else ("router", [endpoint], [])
     with (
-        open_session(mode, listen, connect) as session,
-        ProcessGroup() as procs,
+        run_access(sc, bus, endpoint) as access,
+        open_session(mode, listen, connect, access.router) as session,
+        ProcessGroup(access.env_of) as procs,
         tempfile.TemporaryDirectory(prefix="cpf-resume-") as resume_dir,
     ):
         inbox = _inbox(session)
@@ -141,9 +144,10 @@ def _start(run: Supervisor, endpoint: str) -> None:
     bus = run.launch.bus
     if bus.remote:
         ids = ", ".join(str(v) for v in bus.remote)
+        credentials = f" --credentials {bus.credentials_dir}/vehicle-N.json" if bus.credentials_dir else ""
         log.info(
-            "start vehicles %s by hand: cpf vehicle %s --id N --connect %s (with this run's --set and --fault)",
-            ids, run.launch.path, reachable(bus.connect or endpoint),
+            "start vehicles %s by hand: cpf vehicle %s --id N --connect %s%s (with this run's --set and --fault)",
+            ids, run.launch.path, reachable(bus.connect or endpoint), credentials,
         )  # fmt: skip
     run.await_alive()
 

@@ -25,6 +25,8 @@ class BusOptions:
         overrides: tuple[str, ...] = (),
         faults: tuple[str, ...] = (),
         start_timeout: float = START_TIMEOUT,
+        credentials_dir: Path | None = None,
+        zenoh_config: Path | None = None,
     ) -> None:
         self.listen = listen  # endpoint for the supervisor's router; default a free localhost port
         self.connect = connect  # join an existing router instead of being one
@@ -32,6 +34,8 @@ class BusOptions:
         self.overrides = overrides  # --set KEY=VALUE, passed on to every child
         self.faults = faults  # --fault SPEC, passed on to every child
         self.start_timeout = start_timeout  # s for every process to come alive
+        self.credentials_dir = credentials_dir  # where the --remote vehicles' credential files are written
+        self.zenoh_config = zenoh_config  # the site's Zenoh config file, under cpf's settings, every process's
 
 
 @dataclass(frozen=True, slots=True)
@@ -48,7 +52,8 @@ class Launch:
         sets = [arg for override in self.bus.overrides for arg in ("--set", override)]
         faults = [arg for fault in self.bus.faults for arg in ("--fault", fault)]
         base = [sys.executable, "-m", "supervisor.cli", command, str(self.path), "--connect", self.connect]
-        return [*base, *sets, *faults, *extra]
+        site = ["--zenoh-config", str(self.bus.zenoh_config)] if self.bus.zenoh_config is not None else []
+        return [*base, *sets, *faults, *site, *extra]  # credentials: in the environment (supervisor.engine.bus_access)
 
 
 def gamma0_args(sc: Scenario, vid: int) -> list[str]:

@@ -13,6 +13,7 @@ import signal
 import subprocess
 import tempfile
 import time
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
@@ -48,7 +49,10 @@ class Child:
 class ProcessGroup:
     """The children of one run; a context manager that leaves none behind."""
 
-    def __init__(self) -> None:
+    def __init__(self, env_of: Callable[[str], Mapping[str, str]] | None = None) -> None:
+        """env_of: what a child, by name, gets in its environment besides ours (its credential: never on its
+        command line, which every user of the machine can read)."""
+        self._env_of = env_of
         self.children: list[Child] = []
         self._gone: list[Child] = []  # ended and accounted for
         self._logs = tempfile.TemporaryDirectory(prefix="cpf-children-")
@@ -56,8 +60,9 @@ class ProcessGroup:
     def spawn(self, name: str, argv: list[str]) -> Child:
         log_name = name.replace(" ", "-") + ".log"
         stderr = open(Path(self._logs.name) / log_name, "w+b")  # noqa: SIM115 - closed in stop()
+        env = {**os.environ, **self._env_of(name)} if self._env_of is not None else None
         process = subprocess.Popen(
-            argv, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=stderr, start_new_session=True
+            argv, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=stderr, start_new_session=True, env=env
         )
         child = Child(name, process, stderr)
         self.children.append(child)
