@@ -234,7 +234,7 @@ def test_load_scenario_names_the_path(tmp_path: Path) -> None:
     bad.write_text(paper_with("step = 0.1", "step = -0.1"))
     with pytest.raises(ScenarioError) as info:
         load_scenario(bad)
-    assert str(info.value) == f"{bad}: scenario.step: must be greater than 0, got -0.1"
+    assert str(info.value) == f"{bad}: scenario.step: must be greater than or equal to 0.001, got -0.1"
 
 
 @pytest.mark.parametrize(
@@ -262,7 +262,7 @@ def test_a_directory_is_a_scenario_error(tmp_path: Path) -> None:
 def test_a_source_with_a_line_break_still_gives_one_line() -> None:
     with pytest.raises(ScenarioError) as info:
         parse_scenario(paper_with("step = 0.1", "step = -0.1"), "odd\nname.toml")
-    assert str(info.value) == "odd\\nname.toml: scenario.step: must be greater than 0, got -0.1"
+    assert str(info.value) == "odd\\nname.toml: scenario.step: must be greater than or equal to 0.001, got -0.1"
 
 
 def test_a_long_bad_value_is_shortened() -> None:
