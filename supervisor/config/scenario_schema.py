@@ -77,7 +77,7 @@ __all__ = [
 
 
 NAME_PATTERN = r"^[A-Za-z0-9_+-][A-Za-z0-9_.+-]*$"
-PERIOD = "units of gamma per revolution; non-zero, negative turns clockwise from above"
+PERIOD = "units of gamma per revolution; at least 1e-6 in size, negative turns clockwise from above"
 PHASE = "angle at gamma = 0, rad (from +x towards +y)"
 
 
@@ -186,6 +186,15 @@ class GraphSection(StrictModel):
     )
 
 
+MIN_PERIOD = 1e-6  # units of gamma: a shorter period makes the path's derivatives overflow
+
+
+def _period(value: float) -> float:
+    if abs(value) < MIN_PERIOD:
+        raise ValueError(f"must be non-zero and at least {MIN_PERIOD:g} in size")
+    return value
+
+
 class HelixPath(StrictModel):
     """p_d(gamma) = center + [radius cos(2 pi gamma / period + phase), radius sin(2 pi gamma / period + phase),
     climb gamma]. gamma counts revolutions in units of 1/period: one turn per `period` units of gamma (with period =
@@ -199,6 +208,8 @@ class HelixPath(StrictModel):
     phase: Float = Field(default=0.0, ge=-MAX_ANGLE, le=MAX_ANGLE, description=PHASE)
     center: Position = Field(default=(0.0, 0.0, 0.0), description="[x, y, z] of the axis at gamma = 0, m")
 
+    _period_size = field_validator("period")(_period)
+
 
 class CirclePath(StrictModel):
     """A horizontal circle at height center[2]: the helix with climb 0. gamma counts revolutions in units of
@@ -211,6 +222,8 @@ class CirclePath(StrictModel):
     period: Float = Field(ge=-MAX_GAMMA, le=MAX_GAMMA, description=PERIOD)
     phase: Float = Field(default=0.0, ge=-MAX_ANGLE, le=MAX_ANGLE, description=PHASE)
     center: Position = Field(default=(0.0, 0.0, 0.0), description="[x, y, z] of the centre, m")
+
+    _period_size = field_validator("period")(_period)
 
 
 class LinePath(StrictModel):
