@@ -4,6 +4,7 @@ the usual one-line error (exit 2) before anything starts, or runs as it should."
 from __future__ import annotations
 
 import contextlib
+import fcntl
 import io
 import tracemalloc
 
@@ -13,7 +14,7 @@ import pytest
 from supervisor.analysis.series import SeriesBuilder
 from supervisor.cli import main
 from supervisor.errors import ScenarioError
-from supervisor.record.recorder import Recorder, open_exclusively, read_messages
+from supervisor.record.recorder import Recorder, read_messages
 from tests.conftest import CONFIGS, shortened
 from tests.procs import cpf
 from tests.test_faults_e2e import records
@@ -92,7 +93,8 @@ def test_metrics_a_directory_is_refused_before_the_run_not_after(tmp_path):
 def test_a_log_in_use_is_refused_and_left_whole(tmp_path):
     """Two runs on one --out: the second is refused before it starts and does not touch the first's file."""
     out = tmp_path / "r.mcap"
-    with open_exclusively(out) as held:  # as the first run's recorder holds it
+    with out.open("wb") as held:  # locked as the first run's recorder holds it
+        fcntl.flock(held.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
         held.write(b"the first run's log")
         held.flush()
         code, lines = cli("run", str(PAPER), *SHORT, "--out", str(out))
