@@ -140,7 +140,7 @@ BAD: dict[str, tuple[str, str, str | None]] = {
     "spiral": (paper_with('type = "helix"', 'type = "spiral"'), "vehicles[0].path.type", "'spiral'"),
     "negative radius": (paper_with("radius = 15.0", "radius = -15.0"), "vehicles[1].path.radius", "-15.0"),
     "zero period": (paper_with("period = 400.0", "period = 0.0"), "vehicles[0].path.period", "0.0"),
-    "tiny period": (paper_with("period = 400.0", "period = 5e-324"), "vehicles[0].path", "period = 5e-324"),
+    "tiny period": (paper_with("period = 400.0", "period = 5e-324"), "vehicles[0].path.period", "5e-324"),
     "infinite phase": (paper_with("phase = -2.356194490192345", "phase = -inf"), "vehicles[0].path.phase", "-inf"),
     "nan climb": (paper_with("climb = 0.05", "climb = nan"), "vehicles[0].path.climb", "nan"),
     "extra path key": (paper_with("climb = 0.05", "climb = 0.05, pitch = 2.0"), "vehicles[0].path.pitch", None),
