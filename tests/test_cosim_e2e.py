@@ -142,7 +142,7 @@ def test_bad_scenario_starts_nothing(tmp_path, paper_text):
     done = cpf("run", str(scenario), "--out", "never.mcap", cwd=tmp_path)
     assert done.returncode == 2
     assert done.stderr.strip().splitlines() == [
-        f"cpf: error: {scenario}: scenario.step: must be greater than 0, got -0.1"
+        f"cpf: error: {scenario}: scenario.step: must be greater than or equal to 0.001, got -0.1"
     ]
     assert not (tmp_path / "never.mcap").exists()
     assert processes_with(str(scenario)) == []

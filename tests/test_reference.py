@@ -88,7 +88,8 @@ def test_the_reference_says_what_gamma_is_for_every_path_type_and_how_closest_is
 
 def test_the_reference_gives_bounds_defaults_and_choices():
     text = markdown()
-    assert "| `step` | number | *required* | > 0 | integration and sync step, s |" in text
+    assert "| `step` | number | *required* | >= 0.001; <= 4294967.295 | integration and sync step, s" in text
+    assert "| `velocity` | [number, number, number] | [0.0, 0.0, 0.0] | each >= -5.0; <= 5.0 |" in text
     assert "| `dimension` | integer | 3 | 2, 3 |" in text
     assert "| `loss` | number | 0.0 | >= 0; <= 1 |" in text
     assert '"whoi_micromodem_rate0"' in text  # the modem presets, as allowed values

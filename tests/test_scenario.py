@@ -140,7 +140,7 @@ BAD: dict[str, tuple[str, str, str | None]] = {
     "spiral": (paper_with('type = "helix"', 'type = "spiral"'), "vehicles[0].path.type", "'spiral'"),
     "negative radius": (paper_with("radius = 15.0", "radius = -15.0"), "vehicles[1].path.radius", "-15.0"),
     "zero period": (paper_with("period = 400.0", "period = 0.0"), "vehicles[0].path.period", "0.0"),
-    "tiny period": (paper_with("period = 400.0", "period = 5e-324"), "vehicles[0].path", "period = 5e-324"),
+    "tiny period": (paper_with("period = 400.0", "period = 5e-324"), "vehicles[0].path.period", "5e-324"),
     "infinite phase": (paper_with("phase = -2.356194490192345", "phase = -inf"), "vehicles[0].path.phase", "-inf"),
     "nan climb": (paper_with("climb = 0.05", "climb = nan"), "vehicles[0].path.climb", "nan"),
     "extra path key": (paper_with("climb = 0.05", "climb = 0.05, pitch = 2.0"), "vehicles[0].path.pitch", None),
@@ -234,7 +234,7 @@ def test_load_scenario_names_the_path(tmp_path: Path) -> None:
     bad.write_text(paper_with("step = 0.1", "step = -0.1"))
     with pytest.raises(ScenarioError) as info:
         load_scenario(bad)
-    assert str(info.value) == f"{bad}: scenario.step: must be greater than 0, got -0.1"
+    assert str(info.value) == f"{bad}: scenario.step: must be greater than or equal to 0.001, got -0.1"
 
 
 @pytest.mark.parametrize(
@@ -262,7 +262,7 @@ def test_a_directory_is_a_scenario_error(tmp_path: Path) -> None:
 def test_a_source_with_a_line_break_still_gives_one_line() -> None:
     with pytest.raises(ScenarioError) as info:
         parse_scenario(paper_with("step = 0.1", "step = -0.1"), "odd\nname.toml")
-    assert str(info.value) == "odd\\nname.toml: scenario.step: must be greater than 0, got -0.1"
+    assert str(info.value) == "odd\\nname.toml: scenario.step: must be greater than or equal to 0.001, got -0.1"
 
 
 def test_a_long_bad_value_is_shortened() -> None:

@@ -9,19 +9,35 @@ import numpy as np
 from comms.messages import Message
 from supervisor.analysis.summary import Series
 
+INITIAL_ROWS = 1024  # steps held before the first growth; the array doubles as the run goes
+
 
 class SeriesBuilder:
+    """Rows of (gamma, gamma_dot, |p - p_d|) per step and vehicle, NaN where no state came in. The array grows with
+    the steps that arrive (doubling, so amortised O(1) a state): nothing is allocated for the whole duration up
+    front, and a run that stops early never held more than it recorded."""
+
     def __init__(self, vehicle_ids: Sequence[int], steps: int, dt: float) -> None:
         self.ids = tuple(vehicle_ids)
         self._column = {vid: col for col, vid in enumerate(self.ids)}
-        self._data = np.full((steps, 3, len(self.ids)), np.nan)  # gamma, gamma_dot, |p - p_d|
+        self._steps = steps
+        self._data = np.full((min(steps, INITIAL_ROWS), 3, len(self.ids)), np.nan)  # gamma, gamma_dot, |p - p_d|
         self._dt = dt
         self.ages: dict[tuple[int, int], list[float]] = {}  # (sender, receiver) -> [sum, count, max]
+
+    def _grow(self, k: int) -> None:
+        """Room for row k (k < steps): at least double, at most the run's steps."""
+        rows = min(self._steps, max(k + 1, 2 * len(self._data)))
+        grown = np.full((rows, *self._data.shape[1:]), np.nan)
+        grown[: len(self._data)] = self._data
+        self._data = grown
 
     def add(self, state: Message) -> None:
         """Take in one state message (already validated by whoever received it)."""
         k, col = state["k"], self._column[state["vehicle"]]
-        if 0 <= k < len(self._data):
+        if 0 <= k < self._steps:
+            if k >= len(self._data):
+                self._grow(k)
             error = state["error"]
             self._data[k, :, col] = (state["gamma"], state["gamma_dot"], float(np.linalg.norm(error)))
         for sender, age in state.get("estimate_age", []):
@@ -31,6 +47,8 @@ class SeriesBuilder:
             book[2] = max(book[2], age)
 
     def series(self) -> Series:
-        times = np.arange(len(self._data), dtype=np.float64) * self._dt
-        d = self._data
+        """Every step of the run, NaN rows for steps no state reached."""
+        d = np.full((self._steps, *self._data.shape[1:]), np.nan)
+        d[: len(self._data)] = self._data
+        times = np.arange(self._steps, dtype=np.float64) * self._dt
         return Series(self.ids, times, d[:, 0].copy(), d[:, 1].copy(), d[:, 2].copy())

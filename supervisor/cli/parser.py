@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import argparse
+import math
+from collections.abc import Callable
 from pathlib import Path
 from typing import TypeAlias
 
@@ -12,21 +14,55 @@ START_TIMEOUT = 60.0  # s: cpf run's default --start-timeout
 Commands: TypeAlias = "argparse._SubParsersAction[argparse.ArgumentParser]"  # a string: not subscriptable at run time
 
 
+def _number(text: str) -> float:
+    """A finite number: inf and nan (which float() takes) are refused."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"must be finite, got {text}")
+    return value
+
+
+def _within(low: float, high: float) -> Callable[[str], float]:
+    """A number in [low, high]."""
+
+    def check(text: str) -> float:
+        value = _number(text)
+        if not low <= value <= high:
+            raise argparse.ArgumentTypeError(f"must be within [{low:g}, {high:g}], got {text}")
+        return value
+
+    return check
+
+
 def _positive(text: str) -> float:
-    value = float(text)
+    value = _number(text)
     if not value > 0:
         raise argparse.ArgumentTypeError(f"must be > 0, got {text}")
     return value
 
 
-def _seed(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"must be >= 0, got {text}")
-    return value
+def _whole(low: int, high: int) -> Callable[[str], int]:
+    """A whole number in [low, high]."""
+
+    def check(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a whole number, got {text[:60]!r}") from None
+        if not low <= value <= high:
+            raise argparse.ArgumentTypeError(f"must be within [{low}, {high}], got {text[:60]}")
+        return value
+
+    return check
+
+
+_seed = _whole(0, 2**64 - 1)  # what the scenario's seed takes (numpy's generators take any, the log's JSON 64 bits)
+_step_number = _whole(0, 2**63 - 1)
+_pace = _within(0.0, 1e6)  # replay: 0 is as fast as possible
+_speed = _within(1e-3, 1e6)  # realtime pace: simulated s per wall s (inf would never wait, a tiny one never tick)
 
 
 def _ids(text: str) -> tuple[int, ...]:
@@ -67,7 +103,7 @@ def _add_run(sub: Commands) -> None:
     run.add_argument("--engine", choices=["zenoh", "inprocess"], default="zenoh", help="default: zenoh")
     run.add_argument("--clock", choices=["lockstep", "realtime"], default="lockstep", help="default: lockstep")
     run.add_argument(
-        "--speed", type=_positive, default=None, help="realtime clock only: simulated s per wall s (default: 1)"
+        "--speed", type=_speed, default=None, help="realtime clock only: simulated s per wall s (default: 1)"
     )
     run.add_argument("--seed", type=_seed, default=None, help="random seed (default: the scenario's)")
     run.add_argument("--out", type=Path, default=None, help="MCAP file to write (default: runs/<name>.mcap)")
@@ -119,15 +155,15 @@ def _add_processes(sub: Commands) -> None:
     """vehicle, comms: the processes of a Zenoh run (the supervisor starts them)."""
     vehicle = sub.add_parser("vehicle", help="run one vehicle process (the supervisor starts these)")
     vehicle.add_argument("scenario", type=Path)
-    vehicle.add_argument("--id", type=int, required=True, help="vehicle id in the scenario")
+    vehicle.add_argument("--id", type=_whole(1, 255), required=True, help="vehicle id in the scenario")
     vehicle.add_argument("--connect", required=True, help="Zenoh endpoint of the run's router")
     _add_credentials(vehicle)
     _add_scenario_changes(vehicle)
     vehicle.add_argument("--resume", type=Path, default=None, help="a recorded state message to restart from")
-    vehicle.add_argument("--start-step", type=int, default=0, help="the sync step to resume at")
-    vehicle.add_argument("--resume-seq", type=int, default=0, help="the last transmission's sequence number")
+    vehicle.add_argument("--start-step", type=_step_number, default=0, help="the sync step to resume at")
+    vehicle.add_argument("--resume-seq", type=_step_number, default=0, help="the last transmission's sequence number")
     vehicle.add_argument(
-        "--gamma0", type=float, default=None, help="the initial gamma, when the supervisor resolved 'closest' for it"
+        "--gamma0", type=_number, default=None, help="the initial gamma, when the supervisor resolved 'closest' for it"
     )
     comms = sub.add_parser("comms", help="run the acoustic-link broker (the supervisor starts it)")
     comms.add_argument("scenario", type=Path)
@@ -135,7 +171,9 @@ def _add_processes(sub: Commands) -> None:
     comms.add_argument("--connect", required=True, help="Zenoh endpoint of the run's router")
     _add_credentials(comms)
     _add_scenario_changes(comms)
-    comms.add_argument("--start-step", type=int, default=0, help="the sync step to resume at (after a restart)")
+    comms.add_argument(
+        "--start-step", type=_step_number, default=0, help="the sync step to resume at (after a restart)"
+    )
 
 
 def _add_log_commands(sub: Commands) -> None:
@@ -149,8 +187,10 @@ def _add_log_commands(sub: Commands) -> None:
         "--param", action="append", required=True, metavar="KEY=VALUES",
         help="KEY=v1,v2,... or KEY=start:stop:step, e.g. comms.loss=0:0.8:0.1 (repeatable: a grid)",
     )  # fmt: skip
-    sweep.add_argument("--seeds", type=int, default=10, help="runs per parameter combination, seeds 0..N-1")
-    sweep.add_argument("--jobs", type=int, default=2, help="runs at once, one process each")
+    sweep.add_argument(
+        "--seeds", type=_whole(1, 10**6), default=10, help="runs per parameter combination, seeds 0..N-1"
+    )
+    sweep.add_argument("--jobs", type=_whole(1, 256), default=2, help="runs at once, one process each")
     sweep.add_argument("--engine", choices=["inprocess", "zenoh"], default="inprocess", help="identical results")
     sweep.add_argument("--out", type=Path, required=True, help="directory: runs/, results.csv, plots")
     resim = sub.add_parser("resim", help="re-run the vehicles against the receptions recorded in a log")
@@ -165,14 +205,14 @@ def _add_log_commands(sub: Commands) -> None:
 def _add_replay_and_recover(sub: Commands) -> None:
     again = sub.add_parser("replay", help="publish a recorded run on Zenoh again, with its original timing")
     again.add_argument("log", type=Path, help="MCAP file written by cpf run")
-    again.add_argument("--speed", type=float, default=1.0, help="simulated s per wall s (0: as fast as possible)")
-    again.add_argument("--start", type=float, default=None, help="from this simulation time in s (inclusive)")
-    again.add_argument("--end", type=float, default=None, help="up to this simulation time in s (inclusive)")
+    again.add_argument("--speed", type=_pace, default=1.0, help="simulated s per wall s (0: as fast as possible)")
+    again.add_argument("--start", type=_number, default=None, help="from this simulation time in s (inclusive)")
+    again.add_argument("--end", type=_number, default=None, help="up to this simulation time in s (inclusive)")
     again.add_argument("--loop", action="store_true", help="replay the window again and again until Ctrl-C")
     where = again.add_mutually_exclusive_group()
     where.add_argument("--listen", default=None, help="endpoint of the replayer's router (default: a free local port)")
     where.add_argument("--connect", default=None, help="join this Zenoh router as a client instead of running one")
-    again.add_argument("--delay", type=float, default=None, metavar="S", help="start S s after opening, not on Enter")
+    again.add_argument("--delay", type=_pace, default=None, metavar="S", help="start S s after opening, not on Enter")
     again.add_argument("--quiet", action="store_true", help="no progress line")
     repair = sub.add_parser("recover", help="rebuild the summary and index of a log whose writer was killed")
     repair.add_argument("log", type=Path, help="MCAP file, possibly cut short (no footer, partial last chunk)")

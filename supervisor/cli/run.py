@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from supervisor.cli.outputs import output_errors
 from supervisor.cli.parser import START_TIMEOUT
 from supervisor.errors import ScenarioError
 
@@ -83,7 +84,7 @@ def _bus_errors(args: argparse.Namespace) -> list[str]:
 
 def run(args: argparse.Namespace) -> int:
     scenario = _checked_scenario(args)
-    out = args.out or Path("runs") / f"{scenario.scenario.name}.mcap"
+    out = _log_path(args, scenario)
     result = _simulate(args, scenario, out)
     _report_run(args, scenario, result, out)
     return 0
@@ -96,12 +97,19 @@ def _checked_scenario(args: argparse.Namespace) -> Scenario:
     from supervisor.config.scenario_checks import scenario_warnings
 
     scenario = load_scenario(args.scenario, args.set, args.fault)
-    errors = [f"{args.scenario}: {line}" for line in _option_errors(args, scenario)]
+    outputs = {"--out": _log_path(args, scenario), "--metrics": args.metrics}
+    lines = _option_errors(args, scenario) + output_errors(args.scenario, outputs)
+    errors = [f"{args.scenario}: {line}" for line in lines]
     if errors:
         raise ScenarioError("\n".join(errors), errors)
     for warning in scenario_warnings(scenario):
         log.warning("%s: %s", args.scenario, warning)
     return scenario
+
+
+def _log_path(args: argparse.Namespace, scenario: Scenario) -> Path:
+    """--out, or runs/<name>.mcap (the name is a name, not a path: the schema holds it to one)."""
+    return Path(args.out) if args.out is not None else Path("runs") / f"{scenario.scenario.name}.mcap"
 
 
 def _simulate(args: argparse.Namespace, scenario: Scenario, out: Path) -> RunResult:

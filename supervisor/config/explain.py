@@ -7,10 +7,11 @@ from collections.abc import Iterable
 from typing import Any
 
 from comms.wire import SIZE
+from supervisor.config.comms_schema import CommsSection, TransmitSection
 from supervisor.config.derived import steps_of
 from supervisor.config.describe import describe_fault
 from supervisor.config.fleet import modem_params, sound_speed
-from supervisor.config.scenario_schema import CommsSection, Scenario, TransmitSection, VehicleSection
+from supervisor.config.scenario_schema import Scenario, VehicleSection
 
 __all__ = ["what_would_run"]
 

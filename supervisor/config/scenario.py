@@ -1,7 +1,7 @@
 """Scenario files: TOML parsed into typed, frozen objects and validated completely before anything starts.
 
 Every error names the file, the field and the bad value on one line, e.g.
-    configs/bad.toml: scenario.step: must be greater than 0, got -0.1
+    configs/bad.toml: scenario.step: must be greater than or equal to 0.001, got -0.1
 See configs/paper.toml for a documented example of every section.
 """
 
@@ -60,6 +60,8 @@ _PROBLEMS = {
     "tuple_type": "must be an array",
     "dict_type": "must be a table",
     "model_type": "must be a table",
+    "string_pattern_mismatch": "must be a name of letters, digits, '_', '-', '+' and '.' (not starting with '.'), "
+    "not a path",
 }
 
 
@@ -152,6 +154,9 @@ def _partial(data: dict[str, Any], rejected: set[str]) -> Scenario:
 def _validate(data: dict[str, Any]) -> tuple[Scenario | None, list[str]]:
     """(the scenario if valid, every error '<field>: <problem>, got <value>': pydantic's, then the cross-field
     rules' on the sections pydantic accepted)."""
+    too_deep = _too_deep(data)
+    if too_deep is not None:
+        return None, [f"{format_location(too_deep)}: nested more than {MAX_DEPTH} levels deep"]
     try:
         scenario = Scenario.model_validate(data)
     except ValidationError as exc:
@@ -193,13 +198,45 @@ def parse_scenario(
     ScenarioError('<source>: <field>: ...') otherwise."""
     try:
         data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
+    except (tomllib.TOMLDecodeError, ValueError) as exc:  # ValueError: an integer of more than 4300 digits
         raise _error(source, f"invalid TOML: {exc}") from exc
+    except RecursionError:
+        raise _error(source, f"invalid TOML: arrays or tables nested too deeply (at most {MAX_DEPTH} levels)") from None
     for override in overrides:
         apply_override(data, override)
     for fault in faults:
         data.setdefault("faults", []).append(fault_table(fault))
     return validate_data(data, source)
+
+
+MAX_DEPTH = 10  # arrays and tables in one another: a scenario needs 5 ([[faults]] edges = [[1, 2]])
+
+
+def _too_deep(data: object) -> list[int | str] | None:
+    """Where data holds arrays and tables more than MAX_DEPTH levels deep, or None. Iterative: the depth checked is
+    the one no recursive code that comes later (validation, messages) could handle."""
+    stack: list[tuple[object, list[int | str]]] = [(data, [])]
+    while stack:
+        node, loc = stack.pop()
+        items = node.items() if isinstance(node, dict) else enumerate(node) if isinstance(node, list) else ()
+        for key, child in items:
+            if isinstance(child, dict | list):
+                if len(loc) + 1 >= MAX_DEPTH:
+                    return [*loc, key]
+                stack.append((child, [*loc, key]))
+    return None
+
+
+def _toml_value(text: str, what: str) -> object:
+    """A --set or --fault value as TOML reads it; a bare word (not TOML) is a string."""
+    try:
+        return tomllib.loads(f"v = {text.strip()}")["v"]
+    except tomllib.TOMLDecodeError:
+        return text.strip()
+    except ValueError as exc:  # an integer of more than 4300 digits
+        raise ScenarioError(f"{what}: {exc}, got {_show(text)}") from None
+    except RecursionError:
+        raise ScenarioError(f"{what}: nested too deeply (at most {MAX_DEPTH} levels), got {_show(text)}") from None
 
 
 def fault_table(spec: str) -> dict[str, Any]:
@@ -209,10 +246,7 @@ def fault_table(spec: str) -> dict[str, Any]:
         key, sep, text = part.partition("=")
         if not sep or not key.strip():
             raise ScenarioError(f"--fault: expected KEY=VALUE pairs separated by commas, got {spec!r}")
-        try:
-            table[key.strip()] = tomllib.loads(f"v = {text.strip()}")["v"]
-        except tomllib.TOMLDecodeError:
-            table[key.strip()] = text.strip()
+        table[key.strip()] = _toml_value(text, f"--fault {key.strip()}")
     return table
 
 
@@ -234,10 +268,7 @@ def apply_override(data: dict[str, Any], override: str) -> None:
     key, sep, text = override.partition("=")
     if not sep or not key.strip():
         raise ScenarioError(f"--set: expected KEY=VALUE, got {override!r}")
-    try:
-        value = tomllib.loads(f"v = {text.strip()}")["v"]
-    except tomllib.TOMLDecodeError:
-        value = text.strip()
+    value = _toml_value(text, f"--set {key.strip()}")
     node: Any = data
     parts = key.strip().split(".")
     for depth, part in enumerate(parts):

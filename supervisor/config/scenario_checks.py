@@ -8,13 +8,16 @@ another's.
 
 from __future__ import annotations
 
+import itertools
+import math
 from collections.abc import Callable, Iterable, Iterator
 
 import numpy as np
 
-from supervisor.config.derived import active, first_step, graph_at, steps_of
+from supervisor.config.derived import active, end_of, first_step, graph_at, steps_of
 from supervisor.config.scenario_schema import (
     LINK_FAULTS,
+    ClockSkewFault,
     FaultSpec,
     GraphSwitchFault,
     HelixPath,
@@ -23,6 +26,7 @@ from supervisor.config.scenario_schema import (
     Scenario,
     VehicleSection,
 )
+from supervisor.config.schema_base import MAX_SPEED, MAX_STEPS, MAX_TIME
 from vehicles.params import PRESETS, VehicleParams
 from vehicles.paths import Path as PathLike
 
@@ -31,8 +35,11 @@ STEP_TOLERANCE = 1e-6  # relative: how close to a whole number of steps a durati
 
 
 def format_location(loc: Iterable[int | str]) -> str:
+    """'a.b[0]["odd key"]': a key TOML had to quote in brackets, a key longer than 40 characters shortened."""
     text = ""
     for part in loc:
+        if isinstance(part, str) and len(part) > 40:
+            part = part[:37] + "..."
         if isinstance(part, int) or not part.isidentifier():
             text += f"[{part!r}]"  # a list index, or a key TOML had to quote
         else:
@@ -59,6 +66,8 @@ def _step(sc: Scenario) -> Iterator[str]:
     ratio = duration / step
     if abs(ratio - round(ratio)) > STEP_TOLERANCE * max(1.0, ratio):
         yield f"scenario.step: must divide duration ({duration}) into whole steps ({ratio:.6g} of them), got {step}"
+    elif round(ratio) > MAX_STEPS:
+        yield f"scenario.duration: at most {MAX_STEPS} steps of {step:g} s, got {duration} ({ratio:.6g} steps)"
 
 
 def _graph(sc: Scenario) -> Iterator[str]:
@@ -134,6 +143,65 @@ def _link_in_graph(index: int, fault: FaultSpec, sc: Scenario) -> Iterator[str]:
         yield f"faults[{index}]: not a link of the graph while the fault acts, got {sender} -> {receiver}"
 
 
+# Each vehicle parameter's range (VehicleParams' units): masses and inertias positive (the model divides by them),
+# damping and forces not negative, magnitudes a vehicle can have.
+PARAMETER_RANGES: dict[str, tuple[float, float]] = {
+    "mass": (0.1, 1e6),
+    "inertia": (1e-3, 1e7),
+    "linear_damping": (0.0, 1e6),
+    "quadratic_damping": (0.0, 1e6),
+    "angular_linear_damping": (0.0, 1e6),
+    "angular_quadratic_damping": (0.0, 1e6),
+    "weight": (0.0, 1e8),
+    "buoyancy": (0.0, 1e8),
+    "center_of_buoyancy": (-10.0, 10.0),
+    "max_surge_force": (0.0, 1e6),
+    "max_torque": (0.0, 1e6),
+}
+
+
+def _clock_skew(sc: Scenario) -> Iterator[str]:
+    """A skewed clock stamps t + offset (the offsets of a vehicle's skews in force add up); the modem frame carries
+    0 .. MAX_TIME s (u32 ms). A stamp outside could not be sent, so such an offset is refused here, for both engines
+    alike, rather than dropped by one engine and fatal to the other. Checked at the first and last step of each
+    stretch over which the vehicle's offset is constant."""
+    dt, steps = sc.scenario.step, steps_of(sc)
+    for vid in sc.vehicle_ids:
+        mine = [(i, f) for i, f in enumerate(sc.faults) if isinstance(f, ClockSkewFault) and f.vehicle == vid]
+        times = [t for _, f in mine for t in (f.start, end_of(f, dt)) if math.isfinite(t)]
+        edges = sorted({0, steps} | {min(steps, first_step(t, dt)) for t in times})
+        for begin, after in itertools.pairwise(edges):
+            acting = [(i, f) for i, f in mine if active(f, begin * dt, dt)]
+            offset = sum(f.offset for _, f in acting)
+            t = begin * dt if offset < 0 else (after - 1) * dt
+            if acting and not 0.0 <= t + offset <= MAX_TIME:
+                index, fault = acting[0]
+                yield (
+                    f"faults[{index}].offset: vehicle {vid}'s clock would read {t + offset:g} s at t = {t:g} s, "
+                    f"outside the 0 .. {MAX_TIME} s the modem frame's time stamp holds, got {fault.offset}"
+                )
+                break
+
+
+def _path_speed(sc: Scenario) -> Iterator[str]:
+    """v_r asks each vehicle to move at |v_r| |dp_d/dgamma| m/s along its path: more than MAX_SPEED no vehicle can
+    do (its messages would be refused as corrupt), and far more overflows the path's arithmetic."""
+    from supervisor.config.fleet import build_path
+
+    v_r = sc.coordination.v_r
+    for index, vehicle in enumerate(sc.vehicles):
+        gamma = 0.0 if vehicle.gamma0 == "closest" else vehicle.gamma0
+        try:
+            slope = float(np.linalg.norm(build_path(vehicle.path).evaluate(gamma)[1]))
+        except (ValueError, OverflowError):
+            continue  # _paths reports it
+        if abs(v_r) * slope > MAX_SPEED:
+            yield (
+                f"coordination.v_r: asks vehicle {vehicle.id} for {abs(v_r) * slope:.6g} m/s along its path "
+                f"(vehicles[{index}].path: {slope:.6g} m per unit of gamma), more than {MAX_SPEED:g} m/s, got {v_r}"
+            )
+
+
 def _overrides(sc: Scenario) -> Iterator[str]:
     """Each override names a VehicleParams field and has its shape: a number, or an array of 3 numbers."""
     defaults = PRESETS[sc.vehicle.preset]
@@ -144,9 +212,14 @@ def _overrides(sc: Scenario) -> Iterator[str]:
             yield f"{where}: unknown vehicle parameter, expected one of {known}"
             continue
         vector = isinstance(getattr(defaults, name), tuple)
+        shown = list(value) if isinstance(value, tuple) else value
         if vector != isinstance(value, tuple):
             shape = "an array of 3 numbers" if vector else "a number"
-            yield f"{where}: must be {shape}, got {list(value) if isinstance(value, tuple) else value}"
+            yield f"{where}: must be {shape}, got {shown}"
+            continue
+        low, high = PARAMETER_RANGES[name]
+        if not all(low <= v <= high for v in (value if isinstance(value, tuple) else (value,))):
+            yield f"{where}: must be within [{low:g}, {high:g}], got {shown}"
 
 
 def _finite_at_zero(path: PathLike) -> bool:
@@ -174,12 +247,10 @@ def _paths(sc: Scenario) -> Iterator[str]:
 
 def _comms(sc: Scenario) -> Iterator[str]:
     """Links, TDMA order and packet size against the fleet and the modem; the models' own checks."""
-    from comms.wire import MAX_VEHICLE_ID, SIZE
+    from comms.wire import SIZE
     from supervisor.config.fleet import channel_params, modem_params
 
     ids = sc.vehicle_ids
-    if max(ids) > MAX_VEHICLE_ID:
-        yield f"vehicles: ids must fit the 1-byte wire field (<= {MAX_VEHICLE_ID}), got {max(ids)}"
     edges = {tuple(e) for e in sc.graph.edges} | {(j, i) for i, j in sc.graph.edges}
     for index, link in enumerate(sc.comms.links):
         if (link.sender, link.receiver) not in edges:
@@ -255,6 +326,8 @@ RULES: tuple[tuple[frozenset[str], Check], ...] = (
     (frozenset({"vehicles"}), _paths),
     (frozenset({"vehicles", "graph", "comms", "scenario"}), _comms),
     (frozenset({"vehicles", "scenario"}), _planar),
+    (frozenset({"vehicles", "faults", "scenario"}), _clock_skew),
+    (frozenset({"vehicles", "coordination"}), _path_speed),
 )
 
 

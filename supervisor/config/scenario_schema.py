@@ -11,7 +11,16 @@ from typing import Annotated, Literal
 
 from pydantic import Field, field_validator
 
-from comms.modem import PRESETS as MODEMS
+from supervisor.config.comms_schema import (
+    BurstSection,
+    CommsSection,
+    LinkBudgetSection,
+    LinkSection,
+    RangeTableSection,
+    TdmaSection,
+    TransmitSection,
+    WaterSection,
+)
 from supervisor.config.fault_schema import (
     LINK_FAULTS,
     BlackoutFault,
@@ -27,7 +36,27 @@ from supervisor.config.fault_schema import (
     SpeedCapFault,
     VehicleKillFault,
 )
-from supervisor.config.schema_base import Float, Int, StrictModel, Vec3, one_of
+from supervisor.config.schema_base import (
+    MAX_ANGLE,
+    MAX_COUNT,
+    MAX_GAIN,
+    MAX_GAMMA,
+    MAX_LENGTH,
+    MAX_RATE,
+    MAX_TIME,
+    MAX_VEHICLE_ID,
+    MIN_STEP,
+    Degrees,
+    Float,
+    Int,
+    Position,
+    Rate,
+    Speed,
+    StrictModel,
+    Vec3,
+    VehicleId,
+    one_of,
+)
 from vehicles.coordination import Law
 from vehicles.estimates import Predictor
 from vehicles.params import PRESETS, VehicleParams
@@ -36,31 +65,57 @@ __all__ = [
     "LINK_FAULTS",
     "BlackoutFault",
     "BrokerKillFault",
+    "BurstSection",
     "ClockSkewFault",
+    "CommsSection",
     "FaultSpec",
     "Float",
     "FrozenGammaFault",
     "GammaOffsetFault",
     "GraphSwitchFault",
     "Int",
+    "LinkBudgetSection",
     "LinkDegradedFault",
     "LinkDownFault",
+    "LinkSection",
     "ModemSilentFault",
+    "RangeTableSection",
     "Scenario",
     "SpeedCapFault",
+    "TdmaSection",
+    "TransmitSection",
     "Vec3",
     "VehicleKillFault",
+    "WaterSection",
 ]
+
+
+NAME_PATTERN = r"^[A-Za-z0-9_+-][A-Za-z0-9_.+-]*$"
+PERIOD = "units of gamma per revolution; at least 1e-6 in size, negative turns clockwise from above"
+PHASE = "angle at gamma = 0, rad (from +x towards +y)"
 
 
 class RunSection(StrictModel):
     """The run as a whole: its name, how long and in what steps it is simulated, the random seed and the model."""
 
-    name: str = Field(description="names the run: the default log is runs/<name>.mcap")
-    description: str = Field(default="", description="one line for people; shown by cpf info")
-    duration: Float = Field(gt=0, description="simulated time, s")
-    step: Float = Field(gt=0, description="integration and sync step, s")
-    seed: Int = Field(default=0, ge=0, description="seed of every random stream (loss, jitter); cpf run --seed wins")
+    # A name, not a path: the default log is runs/<name>.mcap, and "../x" must not write outside runs/.
+    name: str = Field(
+        pattern=NAME_PATTERN, max_length=100,
+        description="names the run: the default log is runs/<name>.mcap; letters, digits, '_', '-', '.', '+' "
+        "(a name, not a path: no '/', not starting with '.')",
+    )  # fmt: skip
+    description: str = Field(default="", max_length=1000, description="one line for people; shown by cpf info")
+    duration: Float = Field(
+        gt=0, le=MAX_TIME, description="simulated time, s (at most what the modem frame's u32 ms time stamp holds)"
+    )
+    step: Float = Field(
+        ge=MIN_STEP, le=MAX_TIME,
+        description="integration and sync step, s (at least 1 ms, the modem frame's time resolution; the run is "
+        "at most 10 000 000 steps)",
+    )  # fmt: skip
+    seed: Int = Field(
+        default=0, ge=0, le=2**64 - 1, description="seed of every random stream (loss, jitter); cpf run --seed wins"
+    )
     dimension: Literal[2, 3] = Field(
         default=3, description="3: the 6-DOF model of eqs. (1)-(2); 2: the planar variant (x, y and yaw only)"
     )
@@ -80,6 +135,7 @@ class VehicleModelSection(StrictModel):
     # Names and shapes (number or 3-vector) are checked against the preset by _check_overrides.
     overrides: dict[str, Float | Vec3] = Field(
         default={},
+        max_length=50,
         description=f"parameter = value, replacing the preset's; names: {', '.join(VehicleParams.__dataclass_fields__)}"
         " (units: kg, kg m^2, N s/m, N s^2/m^2, N m s, N m s^2, N, m; 3 numbers for the diagonal ones)",
     )
@@ -96,12 +152,13 @@ class PathFollowingSection(StrictModel):
     """Gains of each vehicle's path-following controller (the delta-shifted backstepping design)."""
 
     delta: Float = Field(
-        default=-1.0, description="offset of the controlled point along the body x axis, m (negative: behind; its "
-        "size is the tube radius); non-zero",
+        default=-1.0, ge=-100, le=100,
+        description="offset of the controlled point along the body x axis, m (negative: behind; its size is the "
+        "tube radius); non-zero",
     )  # fmt: skip
-    k1: Float = Field(default=0.5, gt=0, description="K1: gain on the position error, m/s")
-    k2: Float = Field(default=1.0, gt=0, description="K2: gain on the velocity error, 1/s")
-    k_zeta: Float = Field(default=1.0, gt=0, description="gain on the speed error gamma_dot - v_r, 1/s")
+    k1: Float = Field(default=0.5, gt=0, le=MAX_GAIN, description="K1: gain on the position error, m/s")
+    k2: Float = Field(default=1.0, gt=0, le=MAX_GAIN, description="K2: gain on the velocity error, 1/s")
+    k_zeta: Float = Field(default=1.0, gt=0, le=MAX_GAIN, description="gain on the speed error gamma_dot - v_r, 1/s")
 
     @field_validator("delta")
     @classmethod
@@ -119,9 +176,15 @@ class CoordinationSection(StrictModel):
         description="corrected: law (5) on the speed error gamma_dot - v_r (settles at v_r); literal: as printed "
         "(settles at k_zeta v_r / (k_zeta + k2))",
     )
-    k: Float = Field(default=0.2, gt=0, description="K = diag(k): gain on the disagreement with neighbours, 1/s")
-    k2: Float = Field(default=1.0, gt=0, description="K2 = diag(k2), 1/s")
-    v_r: Float = Field(default=1.0, description="reference speed of the path parameters, unit of gamma per s")
+    k: Float = Field(
+        default=0.2, gt=0, le=MAX_GAIN, description="K = diag(k): gain on the disagreement with neighbours, 1/s"
+    )
+    k2: Float = Field(default=1.0, gt=0, le=MAX_GAIN, description="K2 = diag(k2), 1/s")
+    v_r: Float = Field(
+        default=1.0, ge=-MAX_RATE, le=MAX_RATE,
+        description="reference speed of the path parameters, unit of gamma per s (the speed it asks of each vehicle "
+        "along its path must not exceed 100 m/s)",
+    )  # fmt: skip
     predictor: Predictor = Field(
         default="first_order",
         description="how a neighbour's gamma is predicted between messages: first_order (gamma + gamma_dot age), "
@@ -132,7 +195,18 @@ class CoordinationSection(StrictModel):
 class GraphSection(StrictModel):
     """The communication graph: who hears whom (undirected; must be connected)."""
 
-    edges: tuple[tuple[Int, Int], ...] = Field(description="pairs of vehicle ids, e.g. [[1, 2], [1, 3]]")
+    edges: tuple[tuple[VehicleId, VehicleId], ...] = Field(
+        max_length=MAX_COUNT, description="pairs of vehicle ids, e.g. [[1, 2], [1, 3]]"
+    )
+
+
+MIN_PERIOD = 1e-6  # units of gamma: a shorter period makes the path's derivatives overflow
+
+
+def _period(value: float) -> float:
+    if abs(value) < MIN_PERIOD:
+        raise ValueError(f"must be non-zero and at least {MIN_PERIOD:g} in size")
+    return value
 
 
 class HelixPath(StrictModel):
@@ -142,11 +216,13 @@ class HelixPath(StrictModel):
     climb^2) m/s."""
 
     type: Literal["helix"]
-    radius: Float = Field(gt=0, description="m")
-    climb: Float = Field(description="m of height per unit of gamma (z up; 0: a circle)")
-    period: Float = Field(description="units of gamma per revolution; non-zero, negative turns clockwise from above")
-    phase: Float = Field(default=0.0, description="angle at gamma = 0, rad (from +x towards +y)")
-    center: Vec3 = Field(default=(0.0, 0.0, 0.0), description="[x, y, z] of the axis at gamma = 0, m")
+    radius: Float = Field(gt=0, le=MAX_LENGTH, description="m")
+    climb: Float = Field(ge=-MAX_LENGTH, le=MAX_LENGTH, description="m of height per unit of gamma (z up; 0: a circle)")
+    period: Float = Field(ge=-MAX_GAMMA, le=MAX_GAMMA, description=PERIOD)
+    phase: Float = Field(default=0.0, ge=-MAX_ANGLE, le=MAX_ANGLE, description=PHASE)
+    center: Position = Field(default=(0.0, 0.0, 0.0), description="[x, y, z] of the axis at gamma = 0, m")
+
+    _period_size = field_validator("period")(_period)
 
 
 class CirclePath(StrictModel):
@@ -156,10 +232,12 @@ class CirclePath(StrictModel):
     m/s."""
 
     type: Literal["circle"]
-    radius: Float = Field(gt=0, description="m")
-    period: Float = Field(description="units of gamma per revolution; non-zero, negative turns clockwise from above")
-    phase: Float = Field(default=0.0, description="angle at gamma = 0, rad (from +x towards +y)")
-    center: Vec3 = Field(default=(0.0, 0.0, 0.0), description="[x, y, z] of the centre, m")
+    radius: Float = Field(gt=0, le=MAX_LENGTH, description="m")
+    period: Float = Field(ge=-MAX_GAMMA, le=MAX_GAMMA, description=PERIOD)
+    phase: Float = Field(default=0.0, ge=-MAX_ANGLE, le=MAX_ANGLE, description=PHASE)
+    center: Position = Field(default=(0.0, 0.0, 0.0), description="[x, y, z] of the centre, m")
+
+    _period_size = field_validator("period")(_period)
 
 
 class LinePath(StrictModel):
@@ -167,8 +245,8 @@ class LinePath(StrictModel):
     velocity makes gamma metres, and v_r m/s)."""
 
     type: Literal["line"]
-    start: Vec3 = Field(description="[x, y, z] at gamma = 0, m")
-    velocity: Vec3 = Field(description="[x, y, z] m per unit of gamma; non-zero")
+    start: Position = Field(description="[x, y, z] at gamma = 0, m")
+    velocity: Position = Field(description="[x, y, z] m per unit of gamma; non-zero")
 
 
 class LawnmowerPath(StrictModel):
@@ -177,13 +255,15 @@ class LawnmowerPath(StrictModel):
     path, v_r in m/s); before gamma = 0 and after the last leg the path goes on straight."""
 
     type: Literal["lawnmower"]
-    origin: Vec3 = Field(description="[x, y, z] where the first leg starts (gamma = 0), m")
-    leg_length: Float = Field(gt=0, description="m")
-    spacing: Float = Field(gt=0, description="distance between legs, m")
+    origin: Position = Field(description="[x, y, z] where the first leg starts (gamma = 0), m")
+    leg_length: Float = Field(gt=0, le=MAX_LENGTH, description="m")
+    spacing: Float = Field(gt=0, le=MAX_LENGTH, description="distance between legs, m")
     # The path is built leg by leg when the scenario is checked: hence the bound.
     legs: Int = Field(ge=1, le=10_000, description="number of legs")
-    heading: Float = Field(default=0.0, description="direction of the first leg, rad (from +x towards +y)")
-    scale: Float = Field(default=1.0, gt=0, description="m of path per unit of gamma")
+    heading: Float = Field(
+        default=0.0, ge=-MAX_ANGLE, le=MAX_ANGLE, description="direction of the first leg, rad (from +x towards +y)"
+    )
+    scale: Float = Field(default=1.0, gt=0, le=MAX_LENGTH, description="m of path per unit of gamma")
 
 
 PathSpec = Annotated[HelixPath | CirclePath | LinePath | LawnmowerPath, Field(discriminator="type")]
@@ -192,12 +272,18 @@ PathSpec = Annotated[HelixPath | CirclePath | LinePath | LawnmowerPath, Field(di
 class VehicleSection(StrictModel):
     """One AUV: its id, where it starts and the path it follows."""
 
-    id: Int = Field(ge=1, description="vehicle id, unique, at most 255 (one byte on the wire)")
-    position: Vec3 = Field(description="initial [x, y, z], m (z up)")
-    attitude_rpy_deg: Vec3 = Field(default=(0.0, 0.0, 0.0), description="initial roll, pitch, yaw, deg")
-    velocity: Vec3 = Field(default=(0.0, 0.0, 0.0), description="initial body velocity [u, v, w], m/s")
-    angular_velocity: Vec3 = Field(default=(0.0, 0.0, 0.0), description="initial body rates [p, q, r], rad/s")
-    gamma0: Float | Literal["closest"] = Field(
+    id: VehicleId = Field(description="vehicle id, unique, at most 255 (one byte on the wire)")
+    position: Position = Field(description="initial [x, y, z], m (z up)")
+    attitude_rpy_deg: tuple[Degrees, Degrees, Degrees] = Field(
+        default=(0.0, 0.0, 0.0), description="initial roll, pitch, yaw, deg"
+    )
+    velocity: tuple[Speed, Speed, Speed] = Field(
+        default=(0.0, 0.0, 0.0), description="initial body velocity [u, v, w], m/s"
+    )
+    angular_velocity: tuple[Rate, Rate, Rate] = Field(
+        default=(0.0, 0.0, 0.0), description="initial body rates [p, q, r], rad/s"
+    )
+    gamma0: Annotated[Float, Field(ge=-MAX_GAMMA, le=MAX_GAMMA)] | Literal["closest"] = Field(
         default="closest",
         description="initial path parameter (unit: the path's gamma), or closest: the nearest point searched within "
         "one period around gamma = 0 for periodic paths (circle, helix), nearest to gamma = 0 otherwise",
@@ -205,118 +291,20 @@ class VehicleSection(StrictModel):
     path: PathSpec = Field(description="the path p_d(gamma): a table with type = helix, circle, line or lawnmower")
 
 
-class WaterSection(StrictModel):
-    """Sound speed from Mackenzie's equation (valid for T 2-30 C, S 25-40 ppt, D 0-8000 m)."""
-
-    temperature: Float = Field(ge=2, le=30, description="deg C")
-    salinity: Float = Field(default=35.0, ge=25, le=40, description="ppt")
-    depth: Float = Field(default=0.0, ge=0, le=8000, description="m")
-
-
-class BurstSection(StrictModel):
-    """Gilbert-Elliott loss given as its long-run loss rate and mean burst length (packets)."""
-
-    mean_loss: Float = Field(ge=0, lt=1, description="long-run share of packets lost")
-    mean_burst: Float = Field(ge=1, description="mean number of packets lost in a row")
-
-
-class LinkBudgetSection(StrictModel):
-    """Range-dependent loss from the link budget; carrier, bandwidth and modulation come from the modem."""
-
-    type: Literal["link_budget"]
-    source_level: Float = Field(description="dB re 1 uPa at 1 m")
-    spreading: Float = Field(default=1.5, ge=1, le=2, description="spreading exponent k (1 cylindrical, 2 spherical)")
-    shipping: Float = Field(default=0.5, ge=0, le=1, description="shipping activity for the ambient noise (Coates)")
-    wind: Float = Field(default=0.0, ge=0, description="wind speed for the ambient noise, m/s")
-    directivity: Float = Field(default=0.0, description="directivity index added to the SNR, dB")
-
-
-class RangeTableSection(StrictModel):
-    """Range-dependent loss from a table of packet success probability against range (m)."""
-
-    type: Literal["table"]
-    ranges: tuple[Float, ...] = Field(min_length=1, description="ranges, m, ascending")
-    success: tuple[Float, ...] = Field(min_length=1, description="probability a packet arrives at each range")
-
-
-RangeSpec = Annotated[LinkBudgetSection | RangeTableSection, Field(discriminator="type")]
-
-
-class LinkSection(StrictModel):
-    """One directed link's own loss and extra delay (its loss and burst replace the fleet-wide ones)."""
-
-    sender: Int = Field(description="vehicle id")
-    receiver: Int = Field(description="vehicle id; sender -> receiver must be an edge of the graph")
-    loss: Float | None = Field(default=None, ge=0, le=1, description="independent loss; omitted: comms.loss")
-    burst: BurstSection | None = Field(default=None, description="bursty loss; omitted: comms.burst")
-    extra_delay: Float = Field(default=0.0, ge=0, description="added to every packet's delay, s")
-
-
-class TransmitSection(StrictModel):
-    """When vehicles transmit: periodically, or when their gamma leaves what their neighbours predict."""
-
-    policy: Literal["periodic", "event"] = Field(
-        default="periodic", description="periodic: every period; event: when gamma leaves the prediction by h(t)"
-    )
-    period: Float | None = Field(default=None, gt=0, description="periodic: s between messages; omitted: every step")
-    threshold: Float = Field(default=0.05, gt=0, description="event: c0 of h(t) = c0 + c1 exp(-alpha t)")
-    threshold_decay: Float = Field(default=0.0, ge=0, description="event: c1")
-    decay_rate: Float = Field(default=0.0, ge=0, description="event: alpha, 1/s")
-    min_interval: Float = Field(default=0.0, ge=0, description="event: s between messages at least")
-    heartbeat: Float | None = Field(default=None, gt=0, description="event: s between messages at most")
-
-
-class TdmaSection(StrictModel):
-    """A TDMA schedule: each vehicle transmits only in its own slot; a frame is one slot per vehicle."""
-
-    slot: Float = Field(
-        gt=0, description="s, a whole number of steps; must hold a packet's airtime plus the longest propagation delay"
-    )
-    order: tuple[Int, ...] | None = Field(
-        default=None, description="slot owners in order, every vehicle once; omitted: the ids as listed"
-    )
-
-
-class CommsSection(StrictModel):
-    """The acoustic channel between vehicles (comms/channel.py). Defaults: the ideal channel."""
-
-    sound_speed: Float | WaterSection = Field(default=1500.0, description="m/s, or water properties")
-    modem: str = Field(
-        default="ideal", description="modem preset (cpf presets): bitrate, frames, duplex, carrier",
-        json_schema_extra=one_of(MODEMS),
-    )  # fmt: skip
-    bitrate: Float | None = Field(default=None, gt=0, description="bit/s, overrides the modem's")
-    preamble: Float | None = Field(default=None, ge=0, description="s, overrides the modem's")
-    frame_bytes: Int | None = Field(default=None, gt=0, description="fixed frame size, B, overrides the modem's")
-    half_duplex: bool | None = Field(default=None, description="deaf while transmitting; overrides the modem's")
-    collisions: bool | None = Field(default=None, description="overlapping packets lost; overrides the modem's")
-    packet_bytes: Int | None = Field(
-        default=None, gt=0, description="B on air; omitted: the encoded message size (15 B)"
-    )
-    jitter: Float = Field(default=0.0, ge=0, description="extra delay, uniform on [0, jitter], s")
-    loss: Float = Field(default=0.0, ge=0, le=1, description="independent (Bernoulli) loss per directed link")
-    burst: BurstSection | None = Field(default=None, description="bursty (Gilbert-Elliott) loss per directed link")
-    range: RangeSpec | None = Field(default=None, description="range-dependent loss: type = link_budget or table")
-    links: tuple[LinkSection, ...] = Field(default=(), description="per directed link settings ([[comms.links]])")
-    transmit: TransmitSection = Field(default=TransmitSection(), description="when vehicles transmit")
-    tdma: TdmaSection | None = Field(default=None, description="a TDMA schedule; omitted: transmit at will")
-    stats_window: Float = Field(default=10.0, gt=0, description="s: link statistics and delivered lambda_2")
-
-    @field_validator("modem")
-    @classmethod
-    def _known_modem(cls, value: str) -> str:
-        if value not in MODEMS:
-            raise ValueError(f"unknown modem {value!r}, expected one of {sorted(MODEMS)}")
-        return value
-
-
 class ReportSection(StrictModel):
     """What the run summary and cpf report measure against."""
 
-    transient: Float = Field(default=50.0, ge=0, description="initial time left out of path-following stats, s")
-    tube_margin: Float = Field(default=0.2, ge=0, description="allowed excess over |delta| in the tube, m")
+    transient: Float = Field(
+        default=50.0, ge=0, le=MAX_TIME, description="initial time left out of path-following stats, s"
+    )
+    tube_margin: Float = Field(
+        default=0.2, ge=0, le=MAX_LENGTH, description="allowed excess over |delta| in the tube, m"
+    )
     coordination_tolerance: Float = Field(
-        default=0.01, gt=0, description="max|gamma_i - gamma_j| below which the fleet counts as coordinated"
+        default=0.01,
+        gt=0,
+        le=MAX_GAMMA,
+        description="max|gamma_i - gamma_j| below which the fleet counts as coordinated",
     )
 
 
@@ -328,9 +316,13 @@ class Scenario(StrictModel):
     path_following: PathFollowingSection = PathFollowingSection()
     coordination: CoordinationSection = CoordinationSection()
     graph: GraphSection
-    vehicles: tuple[VehicleSection, ...] = Field(min_length=2, description="the fleet: one [[vehicles]] per AUV")
+    vehicles: tuple[VehicleSection, ...] = Field(
+        min_length=2, max_length=MAX_VEHICLE_ID, description="the fleet: one [[vehicles]] per AUV"
+    )
     comms: CommsSection = CommsSection()
-    faults: tuple[FaultSpec, ...] = Field(default=(), description="the fault schedule: one [[faults]] per fault")
+    faults: tuple[FaultSpec, ...] = Field(
+        default=(), max_length=10_000, description="the fault schedule: one [[faults]] per fault"
+    )
     report: ReportSection = ReportSection()
 
     @property

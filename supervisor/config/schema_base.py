@@ -1,16 +1,49 @@
-"""What every scenario model is built of: numbers as TOML writes them and the strict, frozen base model."""
+"""What every scenario model is built of: numbers as TOML writes them, the strict, frozen base model, and the bounds
+every scenario value is held to.
+
+The bounds keep every value where the model means something and no arithmetic of a run can overflow: a run fits the
+modem frame's time stamp (u32 ms), positions fit an ocean, speeds fit an AUV. They are Field constraints, so the JSON
+Schema and the scenario reference show them.
+"""
 
 from __future__ import annotations
 
 from collections.abc import Iterable
 from typing import Annotated
 
-from pydantic import BaseModel, ConfigDict, JsonValue, Strict
+from pydantic import BaseModel, ConfigDict, Field, JsonValue, Strict
+
+from comms.fields import MAX_SPEED, MAX_TIME
+from comms.wire import MAX_VEHICLE_ID
+
+__all__ = ["MAX_SPEED", "MAX_TIME", "MAX_VEHICLE_ID"]
 
 # Numbers as TOML writes them: an integer is a valid float, a string ("400") or a boolean is not a number.
 Float = Annotated[float, Strict()]
 Int = Annotated[int, Strict()]
 Vec3 = tuple[Float, Float, Float]
+
+MAX_STEPS = 10_000_000  # sync steps of one run: hours of wall time already, and the log grows with every one
+MIN_STEP = 1e-3  # s: the modem frame stamps times in ms; a shorter step gives two steps one time stamp
+MAX_LENGTH = 1e7  # m: 10 000 km, larger than any ocean basin
+MAX_DELAY = 3600.0  # s: no acoustic packet is an hour on its way
+MAX_BODY_SPEED = 5.0  # m/s: an initial body velocity component; AUVs cruise at 1-3 m/s
+MAX_BODY_RATE = 10.0  # rad/s: an initial body rate component
+MAX_ANGLE = 1000.0  # rad: an angle beyond a few turns is a typo (degrees given for radians)
+MAX_GAIN = 1e4  # a controller or coordination gain
+MAX_GAMMA = 1e6  # units of gamma: gamma0, offsets, thresholds (float32 on the wire keeps 7 digits of it)
+MAX_RATE = 1e6  # units of gamma per s: v_r, a gamma_dot cap
+MAX_COUNT = 65_025  # items of a list that grows with the fleet (edges, links): 255 x 255
+MAX_BYTES = 1_000_000  # B: a packet or frame
+
+Length = Annotated[float, Strict(), Field(ge=-MAX_LENGTH, le=MAX_LENGTH)]
+Position = tuple[Length, Length, Length]
+Speed = Annotated[float, Strict(), Field(ge=-MAX_BODY_SPEED, le=MAX_BODY_SPEED)]
+Rate = Annotated[float, Strict(), Field(ge=-MAX_BODY_RATE, le=MAX_BODY_RATE)]
+Degrees = Annotated[float, Strict(), Field(ge=-360, le=360)]
+VehicleId = Annotated[int, Strict(), Field(ge=1, le=MAX_VEHICLE_ID)]
+Seconds = Annotated[float, Strict(), Field(ge=0, le=MAX_TIME)]
+Probability = Annotated[float, Strict(), Field(ge=0, le=1)]
 
 
 def one_of(names: Iterable[str]) -> dict[str, JsonValue]:

@@ -13,10 +13,12 @@ the writer, counted (`refused`) and named in one warning when the recorder close
 
 from __future__ import annotations
 
+import fcntl
 import json
 import logging
 import math
 import numbers
+import os
 import time
 from collections import Counter
 from pathlib import Path
@@ -28,6 +30,7 @@ from mcap.writer import CompressionType, Writer
 
 from comms.messages import Message
 from comms.schemas import schema_for
+from supervisor.errors import ScenarioError
 
 PROFILE = ""  # no ROS profile: plain JSON channels
 FLUSH_INTERVAL = 0.5  # s of wall time: the most a SIGKILL can take (the next write after it flushes)
@@ -46,13 +49,45 @@ def seconds_to_ns(t: float) -> int:
     return round(t * 1e9)
 
 
+def open_exclusively(path: Path) -> IO[bytes]:
+    """path opened for writing from its start, locked (flock, exclusive) for as long as it is open: a second run on
+    the same file is refused and leaves it untouched (it is truncated only once the lock is held). The lock goes with
+    the process, SIGKILL included. ScenarioError if the file is in use or cannot be written."""
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd = os.open(path, os.O_WRONLY | os.O_CREAT, 0o666)
+    except OSError as exc:
+        raise ScenarioError(f"{path}: cannot write the log: {exc.strerror or exc}") from None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        os.close(fd)
+        raise ScenarioError(f"{path}: in use: another run is writing this log (choose another --out)") from None
+    os.ftruncate(fd, 0)
+    return os.fdopen(fd, "wb")
+
+
+def in_use(path: Path) -> bool:
+    """Whether another process holds path's lock (a run writing it) right now."""
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:
+        return False
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        return True
+    finally:
+        os.close(fd)  # closing releases a lock taken here
+    return False
+
+
 class Recorder:
     """Writes messages to an MCAP file; use as a context manager."""
 
     def __init__(self, path: Path) -> None:
         self.path = path
-        path.parent.mkdir(parents=True, exist_ok=True)
-        self._stream: IO[bytes] = path.open("wb")
+        self._stream: IO[bytes] = open_exclusively(path)
         self._writer = Writer(self._stream, chunk_size=CHUNK_BYTES, compression=CompressionType.ZSTD)
         self._writer.start(profile=PROFILE, library="cpf-cosim")
         self._channels: dict[str, int] = {}

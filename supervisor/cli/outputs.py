@@ -1,0 +1,39 @@
+"""Output paths checked before a run starts: each a file that can be written, none a directory, none under a file,
+none in use by another run, none the same as another output or the scenario itself."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+
+def _writable_file(option: str, path: Path) -> list[str]:
+    """What keeps path from being written as a file, '<option>: <problem>, got <path>' each."""
+    if path.is_dir():
+        return [f"{option}: is a directory, not a file, got {path}"]
+    ancestor = path.parent
+    while not ancestor.exists() and ancestor != ancestor.parent:
+        ancestor = ancestor.parent
+    if not ancestor.is_dir():
+        return [f"{option}: {ancestor} is a file, not a directory, got {path}"]
+    if not os.access(ancestor, os.W_OK | os.X_OK) or (path.exists() and not os.access(path, os.W_OK)):
+        return [f"{option}: not writable, got {path}"]
+    return []
+
+
+def output_errors(scenario: Path, outputs: dict[str, Path | None]) -> list[str]:
+    """Every problem of the outputs a command will write (option -> path; None: not asked for)."""
+    from supervisor.record.recorder import in_use
+
+    given = {option: path for option, path in outputs.items() if path is not None}
+    errors = [line for option, path in given.items() for line in _writable_file(option, path)]
+    seen: dict[Path, str] = {scenario.resolve(): "the scenario file"}
+    for option, path in given.items():
+        where = path.resolve()
+        if where in seen:
+            errors.append(f"{option}: the same file as {seen[where]}, got {path}")
+        seen.setdefault(where, option)
+    log = given.get("--out")
+    if log is not None and log.is_file() and in_use(log):
+        errors.append(f"--out: in use: another run is writing this log, got {log}")
+    return errors

@@ -1,0 +1,150 @@
+"""The scenario's [comms] section: the acoustic channel between vehicles (comms/channel.py), its loss models, links,
+transmission policy and TDMA schedule. Re-exported by supervisor/config/scenario_schema.py.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+from pydantic import Field, field_validator
+
+from comms.modem import PRESETS as MODEMS
+from supervisor.config.schema_base import (
+    MAX_BYTES,
+    MAX_COUNT,
+    MAX_DELAY,
+    MAX_GAIN,
+    MAX_GAMMA,
+    MAX_LENGTH,
+    MAX_TIME,
+    MAX_VEHICLE_ID,
+    Float,
+    Int,
+    Probability,
+    StrictModel,
+    VehicleId,
+    one_of,
+)
+
+
+class WaterSection(StrictModel):
+    """Sound speed from Mackenzie's equation (valid for T 2-30 C, S 25-40 ppt, D 0-8000 m)."""
+
+    temperature: Float = Field(ge=2, le=30, description="deg C")
+    salinity: Float = Field(default=35.0, ge=25, le=40, description="ppt")
+    depth: Float = Field(default=0.0, ge=0, le=8000, description="m")
+
+
+class BurstSection(StrictModel):
+    """Gilbert-Elliott loss given as its long-run loss rate and mean burst length (packets)."""
+
+    mean_loss: Float = Field(ge=0, lt=1, description="long-run share of packets lost")
+    mean_burst: Float = Field(ge=1, le=1e6, description="mean number of packets lost in a row")
+
+
+class LinkBudgetSection(StrictModel):
+    """Range-dependent loss from the link budget; carrier, bandwidth and modulation come from the modem."""
+
+    type: Literal["link_budget"]
+    source_level: Float = Field(ge=0, le=300, description="dB re 1 uPa at 1 m")
+    spreading: Float = Field(default=1.5, ge=1, le=2, description="spreading exponent k (1 cylindrical, 2 spherical)")
+    shipping: Float = Field(default=0.5, ge=0, le=1, description="shipping activity for the ambient noise (Coates)")
+    wind: Float = Field(default=0.0, ge=0, le=100, description="wind speed for the ambient noise, m/s")
+    directivity: Float = Field(default=0.0, ge=-100, le=100, description="directivity index added to the SNR, dB")
+
+
+class RangeTableSection(StrictModel):
+    """Range-dependent loss from a table of packet success probability against range (m)."""
+
+    type: Literal["table"]
+    ranges: tuple[Annotated[Float, Field(ge=0, le=MAX_LENGTH)], ...] = Field(
+        min_length=1, max_length=10_000, description="ranges, m, ascending"
+    )
+    success: tuple[Probability, ...] = Field(
+        min_length=1, max_length=10_000, description="probability a packet arrives at each range"
+    )
+
+
+RangeSpec = Annotated[LinkBudgetSection | RangeTableSection, Field(discriminator="type")]
+
+
+class LinkSection(StrictModel):
+    """One directed link's own loss and extra delay (its loss and burst replace the fleet-wide ones)."""
+
+    sender: VehicleId = Field(description="vehicle id")
+    receiver: VehicleId = Field(description="vehicle id; sender -> receiver must be an edge of the graph")
+    loss: Float | None = Field(default=None, ge=0, le=1, description="independent loss; omitted: comms.loss")
+    burst: BurstSection | None = Field(default=None, description="bursty loss; omitted: comms.burst")
+    extra_delay: Float = Field(default=0.0, ge=0, le=MAX_DELAY, description="added to every packet's delay, s")
+
+
+class TransmitSection(StrictModel):
+    """When vehicles transmit: periodically, or when their gamma leaves what their neighbours predict."""
+
+    policy: Literal["periodic", "event"] = Field(
+        default="periodic", description="periodic: every period; event: when gamma leaves the prediction by h(t)"
+    )
+    period: Float | None = Field(
+        default=None, gt=0, le=MAX_TIME, description="periodic: s between messages; omitted: every step"
+    )
+    threshold: Float = Field(default=0.05, gt=0, le=MAX_GAMMA, description="event: c0 of h(t) = c0 + c1 exp(-alpha t)")
+    threshold_decay: Float = Field(default=0.0, ge=0, le=MAX_GAMMA, description="event: c1")
+    decay_rate: Float = Field(default=0.0, ge=0, le=MAX_GAIN, description="event: alpha, 1/s")
+    min_interval: Float = Field(default=0.0, ge=0, le=MAX_TIME, description="event: s between messages at least")
+    heartbeat: Float | None = Field(default=None, gt=0, le=MAX_TIME, description="event: s between messages at most")
+
+
+class TdmaSection(StrictModel):
+    """A TDMA schedule: each vehicle transmits only in its own slot; a frame is one slot per vehicle."""
+
+    slot: Float = Field(
+        gt=0,
+        le=MAX_TIME,
+        description="s, a whole number of steps; must hold a packet's airtime plus the longest propagation delay",
+    )
+    order: tuple[VehicleId, ...] | None = Field(
+        default=None,
+        max_length=MAX_VEHICLE_ID,
+        description="slot owners in order, every vehicle once; omitted: the ids as listed",
+    )
+
+
+class CommsSection(StrictModel):
+    """The acoustic channel between vehicles (comms/channel.py). Defaults: the ideal channel."""
+
+    sound_speed: Annotated[Float, Field(ge=1000, le=2000)] | WaterSection = Field(
+        default=1500.0, description="m/s (sea water: about 1450-1550), or water properties"
+    )
+    modem: str = Field(
+        default="ideal", description="modem preset (cpf presets): bitrate, frames, duplex, carrier",
+        json_schema_extra=one_of(MODEMS),
+    )  # fmt: skip
+    bitrate: Float | None = Field(default=None, ge=1, le=1e9, description="bit/s, overrides the modem's")
+    preamble: Float | None = Field(default=None, ge=0, le=MAX_DELAY, description="s, overrides the modem's")
+    frame_bytes: Int | None = Field(
+        default=None, gt=0, le=MAX_BYTES, description="fixed frame size, B, overrides the modem's"
+    )
+    half_duplex: bool | None = Field(default=None, description="deaf while transmitting; overrides the modem's")
+    collisions: bool | None = Field(default=None, description="overlapping packets lost; overrides the modem's")
+    packet_bytes: Int | None = Field(
+        default=None, gt=0, le=MAX_BYTES, description="B on air; omitted: the encoded message size (15 B)"
+    )
+    jitter: Float = Field(default=0.0, ge=0, le=MAX_DELAY, description="extra delay, uniform on [0, jitter], s")
+    loss: Float = Field(default=0.0, ge=0, le=1, description="independent (Bernoulli) loss per directed link")
+    burst: BurstSection | None = Field(default=None, description="bursty (Gilbert-Elliott) loss per directed link")
+    range: RangeSpec | None = Field(default=None, description="range-dependent loss: type = link_budget or table")
+    links: tuple[LinkSection, ...] = Field(
+        default=(), max_length=MAX_COUNT, description="per directed link settings ([[comms.links]])"
+    )
+    transmit: TransmitSection = Field(default=TransmitSection(), description="when vehicles transmit")
+    tdma: TdmaSection | None = Field(default=None, description="a TDMA schedule; omitted: transmit at will")
+    stats_window: Float = Field(
+        default=10.0, gt=0, le=MAX_TIME, description="s: link statistics and delivered lambda_2"
+    )
+
+    @field_validator("modem")
+    @classmethod
+    def _known_modem(cls, value: str) -> str:
+        if value not in MODEMS:
+            raise ValueError(f"unknown modem {value!r}, expected one of {sorted(MODEMS)}")
+        return value
