@@ -1,6 +1,7 @@
 """No child outlives its supervisor by more than 2 s, whenever the supervisor is killed: at ten instants of a run's
 start-up (SIGKILL, so the supervisor cleans up nothing itself), and with a child stuck joining a router that never
 comes up (its lifeline alone ends it). A vehicle started by hand is not a launched child: its stdin is not watched.
+A launched child that ends early still says why (its stderr file has no name, so a killed supervisor leaves none).
 
     cpf run --(spawn: launcher, then python -m supervisor.cli)--> broker, vehicle 1..3
         stdin of each = read end of a pipe whose write end only cpf holds (comms.lifeline)
@@ -18,6 +19,7 @@ from pathlib import Path
 import pytest
 
 from comms.bus import free_port
+from supervisor.engine.processes import ProcessGroup
 from tests.conftest import shortened
 from tests.procs import (
     CPF,
@@ -157,3 +159,13 @@ def test_a_vehicle_started_by_hand_with_stdin_at_end_of_file_serves_its_run(tmp_
     assert run.returncode == 0, err.decode()
     assert by_hand.returncode == 0, vehicle_err.decode()
     assert b"lifeline" not in vehicle_err
+
+
+def test_a_child_that_ends_early_says_why_through_the_launcher() -> None:
+    """The launcher execs the very command line, and the child's unnamed stderr file still gives its last words."""
+    script = "import sys; print('starting', file=sys.stderr); sys.exit('boom')"
+    with ProcessGroup() as group:
+        child = group.spawn("vehicle 9", [sys.executable, "-c", script])
+        child.process.wait(timeout=60)
+        assert child.how_it_ended() == "exit code 1: boom"
+        assert child.process.pid in group.pids()
