@@ -19,6 +19,7 @@ from typing import Any, Protocol, runtime_checkable
 
 import zenoh
 
+from comms.lifeline import watch
 from comms.messages import STOP_END, STOP_KEY, SUPERVISOR_ALIVE, Message, decode, encode, hello_key
 
 log = logging.getLogger(__name__)
@@ -186,7 +187,8 @@ def serve(
     """A child process's life: join the run, answer on its hello key which scenario it runs (hello, before its
     token appears), subscribe to keys, declare its liveliness token, hand every message to the handler (and, for a
     Timed one, wake up when its work is due), until the stop message or the supervisor's disappearance (so no
-    child outlives its run)."""
+    child outlives its run: a child the supervisor spawned also watches its lifeline, from before it joins)."""
+    lifeline = watch(name)
     with open_session("client", connect=connect, extras=extras) as session:
         inbox = Inbox()
         for key in (*keys, STOP_KEY):
@@ -206,6 +208,8 @@ def serve(
             elif item == f"-{SUPERVISOR_ALIVE}":
                 log.warning("%s: the supervisor is gone, stopping", name)
                 break
+            if lifeline is not None and lifeline.cut.is_set():
+                break  # the lifeline said why
             if timed is not None:
                 timed.on_time()  # it checks what is due
         alive.undeclare()

@@ -7,7 +7,7 @@ import signal
 import subprocess
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 CPF = str(Path(sys.executable).parent / "cpf")
@@ -40,6 +40,24 @@ def processes_with(marker: str) -> list[tuple[int, str]]:
     return found
 
 
+def threads(pid: int) -> int:
+    """How many threads the process has (0 once it is gone)."""
+    try:
+        return len(os.listdir(f"/proc/{pid}/task"))
+    except OSError:
+        return 0
+
+
+def wait_until(condition: Callable[[], bool], timeout: float = 60.0) -> bool:
+    """Poll until condition holds; False if it still does not at the deadline."""
+    end = time.monotonic() + timeout
+    while not condition():
+        if time.monotonic() >= end:
+            return False
+        time.sleep(0.005)
+    return True
+
+
 def wait_for_progress(process: subprocess.Popen[str], simulated: float = 0.0) -> str:
     """Read cpf's stderr until a progress line shows at least `simulated` seconds done (or cpf ends)."""
     assert process.stderr is not None
@@ -50,8 +68,9 @@ def wait_for_progress(process: subprocess.Popen[str], simulated: float = 0.0) ->
 
 
 def wait_for_no_processes(marker: str, timeout: float = 20.0) -> list[tuple[int, str]]:
-    """Poll until no process mentions marker (the children of a killed supervisor stop by themselves when its
-    liveliness token disappears; nothing else tells the test when). Returns what is left at the deadline."""
+    """Poll until no process mentions marker (the children of a killed supervisor stop by themselves, when their
+    lifeline closes or its liveliness token disappears; nothing else tells the test when). Returns what is left at
+    the deadline."""
     end = time.monotonic() + timeout
     while (left := processes_with(marker)) and time.monotonic() < end:
         time.sleep(0.1)

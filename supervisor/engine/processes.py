@@ -2,7 +2,12 @@
 
 Every child is started with start_new_session=True, so a Ctrl-C at the terminal reaches only the supervisor, which
 then stops the children itself: politely (the stop message, sent by the caller), then SIGTERM to the child's process
-group, then SIGKILL. Children's stderr goes to a temporary file whose last line explains an early exit.
+group, then SIGKILL. Children's stderr goes to a temporary file whose last line explains an early exit; the file
+has no name (unlinked at once), so a supervisor that is killed leaves none behind.
+
+No child outlives the supervisor by more than about a second, whenever and however it ends: every child is started
+through comms.lifeline's launcher, with the read end of a pipe as its stdin (the write end stays here, and the kernel
+closes it when this process ends) and, on Linux, a parent-death signal that covers the child's start-up.
 """
 
 from __future__ import annotations
@@ -12,12 +17,14 @@ import os
 import signal
 import subprocess
 import tempfile
+import threading
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from pathlib import Path
 from types import TracebackType
 from typing import IO
+
+from comms import lifeline
 
 
 @dataclass
@@ -27,8 +34,10 @@ class Child:
     stderr: IO[bytes]
 
     def last_words(self) -> str:
-        self.stderr.flush()
-        lines = Path(self.stderr.name).read_text(errors="replace").strip().splitlines()
+        fd = self.stderr.fileno()
+        size = os.fstat(fd).st_size
+        tail = os.pread(fd, min(size, 65536), max(0, size - 65536))  # pread: the child's file offset stays put
+        lines = tail.decode(errors="replace").strip().splitlines()
         return lines[-1] if lines else "no message"
 
     def kill(self) -> None:
@@ -55,14 +64,24 @@ class ProcessGroup:
         self._env_of = env_of
         self.children: list[Child] = []
         self._gone: list[Child] = []  # ended and accounted for
-        self._logs = tempfile.TemporaryDirectory(prefix="cpf-children-")
+        # The lifeline: children get the read end as stdin; the write end is only ever here (os.pipe's fds are not
+        # inherited, and Popen closes every other fd in the child), so its closing tells them this process is gone.
+        self._lifeline_read, self._lifeline_write = os.pipe()
 
     def spawn(self, name: str, argv: list[str]) -> Child:
-        log_name = name.replace(" ", "-") + ".log"
-        stderr = open(Path(self._logs.name) / log_name, "w+b")  # noqa: SIM115 - closed in stop()
+        """Start argv as a child in its own session. The parent-death signal names the forking thread as the
+        parent, so it is asked for only from the main thread (the lifeline alone covers a child spawned elsewhere
+        once it runs comms.bus.serve)."""
+        stderr = tempfile.TemporaryFile(prefix="cpf-" + name.replace(" ", "-") + "-")  # noqa: SIM115 - closed in stop()
+        from_main = threading.current_thread() is threading.main_thread()
         env = {**os.environ, **self._env_of(name)} if self._env_of is not None else None
         process = subprocess.Popen(
-            argv, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=stderr, start_new_session=True, env=env
+            lifeline.launcher(argv, parent_death_signal=from_main),
+            stdin=self._lifeline_read,
+            stdout=subprocess.DEVNULL,
+            stderr=stderr,
+            start_new_session=True,
+            env=env,
         )
         child = Child(name, process, stderr)
         self.children.append(child)
@@ -86,7 +105,9 @@ class ProcessGroup:
         return [c.process.pid for c in self.children]
 
     def stop(self, deadline: float = 3.0) -> None:
-        """Wait up to deadline for children to exit, SIGTERM their groups, wait again, then SIGKILL."""
+        """Cut the lifeline (children still serving stop by themselves), wait up to deadline for children to exit,
+        SIGTERM their groups, wait again, then SIGKILL."""
+        self._cut_lifeline()
         self._wait_all(deadline)
         for sig in (signal.SIGTERM, signal.SIGKILL):
             alive = [c for c in self.children if c.process.poll() is None]
@@ -97,7 +118,12 @@ class ProcessGroup:
             self._wait_all(deadline)
         for child in self.children + self._gone:
             child.stderr.close()
-        self._logs.cleanup()
+
+    def _cut_lifeline(self) -> None:
+        for fd in (self._lifeline_write, self._lifeline_read):
+            if fd >= 0:
+                os.close(fd)
+        self._lifeline_read = self._lifeline_write = -1  # a second stop must not close fds that reuse the numbers
 
     def _wait_all(self, deadline: float) -> None:
         end = time.monotonic() + deadline

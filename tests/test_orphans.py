@@ -1,0 +1,171 @@
+"""No child outlives its supervisor by more than 2 s, whenever the supervisor is killed: at ten instants of a run's
+start-up (SIGKILL, so the supervisor cleans up nothing itself), and with a child stuck joining a router that never
+comes up (its lifeline alone ends it). A vehicle started by hand is not a launched child: its stdin is not watched.
+A launched child that ends early still says why (its stderr file has no name, so a killed supervisor leaves none).
+
+    cpf run --(spawn: launcher, then python -m supervisor.cli)--> broker, vehicle 1..3
+        stdin of each = read end of a pipe whose write end only cpf holds (comms.lifeline)
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+
+from comms.bus import free_port
+from supervisor.engine.processes import ProcessGroup
+from tests.conftest import shortened
+from tests.procs import (
+    CPF,
+    processes_with,
+    start_cpf,
+    threads,
+    wait_for_no_processes,
+    wait_for_progress,
+    wait_until,
+)
+
+pytestmark = pytest.mark.e2e
+GONE_WITHIN = 2.0  # s after the supervisor's death (issue 14)
+CHILDREN = 4  # the paper scenario: the broker and three vehicles
+
+Children = list[tuple[int, str]]
+
+
+def _python(cmd: str) -> bool:
+    """The child's own interpreter runs (past the launcher that sets up its lifeline)."""
+    return "supervisor.cli" in cmd and "lifeline" not in cmd
+
+
+def _broker(children: Children) -> list[int]:
+    return [pid for pid, cmd in children if _python(cmd) and " comms " in cmd]
+
+
+def _sockets(pid: int) -> int:
+    """The process's open sockets (a child joining the bus has its connection to the router)."""
+    try:
+        return sum(os.readlink(f"/proc/{pid}/fd/{fd}").startswith("socket:") for fd in os.listdir(f"/proc/{pid}/fd"))
+    except OSError:
+        return 0
+
+
+# Instants of start-up, each a condition on the run's children (they only grow more true while the run starts).
+INSTANTS: dict[str, Callable[[Children], bool]] = {
+    "cpf just started": lambda children: True,
+    "the broker spawned": lambda children: len(children) >= 1,
+    "two children spawned": lambda children: len(children) >= 2,
+    "every child spawned": lambda children: len(children) >= CHILDREN,
+    "the broker's interpreter runs": lambda children: bool(_broker(children)),
+    "every child's interpreter runs": lambda children: sum(_python(c) for _, c in children) >= CHILDREN,
+    # more than one thread: the imports are under way (numpy's threads) or the child serves (the lifeline's)
+    "the broker's threads started": lambda children: any(threads(p) > 1 for p in _broker(children)),
+    "every child's threads started": lambda children: (
+        sum(_python(c) and threads(p) > 1 for p, c in children) >= CHILDREN
+    ),
+    "every child on the bus (a socket open)": lambda children: sum(_sockets(p) > 0 for p, _ in children) >= CHILDREN,
+}
+
+
+@pytest.mark.parametrize("instant", [*INSTANTS, "the first step done (a progress line)"])
+def test_sigkill_of_the_supervisor_during_start_up_leaves_no_child_after_2_s(
+    tmp_path: Path, paper_text: str, instant: str
+) -> None:
+    scenario = tmp_path / "orphans.toml"  # its path is the run's mark in every child's command line
+    scenario.write_text(shortened(paper_text, 20000.0))  # cannot end on its own, however loaded the machine
+    run = start_cpf(["run", str(scenario), "--out", "killed.mcap"], tmp_path)
+    try:
+        children = lambda: [(p, c) for p, c in processes_with(str(scenario)) if p != run.pid]  # noqa: E731
+        if instant in INSTANTS:
+            assert wait_until(lambda: INSTANTS[instant](children())), f"start-up never reached: {instant}"
+        else:
+            wait_for_progress(run)
+        alive_at_kill = children()
+        run.send_signal(signal.SIGKILL)
+        run.communicate(timeout=10)
+    finally:
+        run.kill()
+    left = wait_for_no_processes(str(scenario), timeout=GONE_WITHIN)
+    assert left == [], f"killed when {instant} ({len(alive_at_kill)} children then): {left}"
+    if instant != "cpf just started":
+        assert alive_at_kill  # the kill did come while children were starting
+    # nothing of the children either (their stderr files have no name); the supervisor's resume directory remains
+    assert [p.name for p in tmp_path.glob("cpf-*") if not p.name.startswith("cpf-resume-")] == []
+
+
+HOLDER = """
+import sys, threading
+from supervisor.engine.processes import ProcessGroup
+group = ProcessGroup()
+spawner = threading.Thread(target=group.spawn, args=("vehicle 1", sys.argv[1:]))  # not the main thread:
+spawner.start()  # no parent-death signal for this child, its lifeline alone
+spawner.join()
+print(group.pids()[0], flush=True)
+sys.stdin.read()  # until killed
+"""
+
+
+def test_a_child_stuck_joining_a_router_that_never_comes_ends_with_its_lifeline(
+    tmp_path: Path, paper_text: str
+) -> None:
+    """Its main thread waits in Zenoh's connect (30 s): only the lifeline's thread can end it."""
+    scenario = tmp_path / "stuck.toml"
+    scenario.write_text(paper_text)
+    nowhere = f"tcp/127.0.0.1:{free_port()}"
+    vehicle = [sys.executable, "-m", "supervisor.cli", "vehicle", str(scenario), "--id", "1", "--connect", nowhere]
+    holder = subprocess.Popen(
+        [sys.executable, "-c", HOLDER, *vehicle], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True
+    )
+    try:
+        assert holder.stdout is not None
+        child = int(holder.stdout.readline())
+        assert wait_until(lambda: _watching(child)), "the vehicle never watched its lifeline"
+        holder.send_signal(signal.SIGKILL)
+        holder.communicate(timeout=10)
+    finally:
+        holder.kill()
+    assert wait_for_no_processes(str(scenario), timeout=GONE_WITHIN) == []
+
+
+def _watching(pid: int) -> bool:
+    """A thread of the process waits in the kernel's pipe read (the lifeline's: nothing else of a child does)."""
+    try:
+        return any("pipe" in (task / "wchan").read_text() for task in Path(f"/proc/{pid}/task").iterdir())
+    except OSError:
+        return False
+
+
+def test_a_vehicle_started_by_hand_with_stdin_at_end_of_file_serves_its_run(tmp_path: Path, paper_text: str) -> None:
+    """Only a launched child watches its stdin: a vehicle started by hand (here under nohup-like /dev/null) must
+    not take the end of its stdin for its supervisor's death."""
+    scenario = tmp_path / "by_hand.toml"
+    scenario.write_text(shortened(paper_text, 2.0))
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    run_args = ["run", str(scenario), "--listen", endpoint, "--remote", "2", "--out", "run.mcap", "--quiet"]
+    with (
+        subprocess.Popen([CPF, *run_args], cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE) as run,
+        subprocess.Popen(
+            [CPF, "vehicle", str(scenario), "--id", "2", "--connect", endpoint],
+            cwd=tmp_path, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+        ) as by_hand,
+    ):  # fmt: skip
+        _, err = run.communicate(timeout=120)
+        _, vehicle_err = by_hand.communicate(timeout=120)
+    assert run.returncode == 0, err.decode()
+    assert by_hand.returncode == 0, vehicle_err.decode()
+    assert b"lifeline" not in vehicle_err
+
+
+def test_a_child_that_ends_early_says_why_through_the_launcher() -> None:
+    """The launcher execs the very command line, and the child's unnamed stderr file still gives its last words."""
+    script = "import sys; print('starting', file=sys.stderr); sys.exit('boom')"
+    with ProcessGroup() as group:
+        child = group.spawn("vehicle 9", [sys.executable, "-c", script])
+        child.process.wait(timeout=60)
+        assert child.how_it_ended() == "exit code 1: boom"
+        assert child.process.pid in group.pids()
