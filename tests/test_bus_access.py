@@ -13,6 +13,7 @@ the log.
 from __future__ import annotations
 
 import json
+import os
 import queue
 import subprocess
 import time
@@ -105,10 +106,12 @@ def endpoint() -> str:
 
 def test_a_session_without_credentials_or_with_wrong_ones_is_not_admitted(endpoint: str) -> None:
     with router(endpoint) as (_, access):
-        own = read_credential(access.files["vehicle 2"])
+        own = read_credential(access.credential_path("vehicle 2"))
         wrong = Credential("vehicle 2", own.user, own.password + "x")
         with run_access(load_scenario(CONFIGS / "paper.toml"), BusOptions(), endpoint) as other_run:
-            stale = read_credential(other_run.files["vehicle 2"])  # another run's: fresh credentials every run
+            stale = read_credential(
+                other_run.credential_path("vehicle 2")
+            )  # another run's: fresh credentials every run
         for credential in (None, wrong, stale):
             with pytest.raises(ConnectionError, match="Unable to connect"):
                 client(endpoint, credential)
@@ -122,7 +125,7 @@ def test_a_session_without_credentials_or_with_wrong_ones_is_not_admitted(endpoi
 def test_a_vehicle_credential_publishes_on_no_key_but_its_own_state(endpoint: str) -> None:
     with router(endpoint) as (session, access):
         got = arrivals(session)
-        with client(endpoint, read_credential(access.files["vehicle 2"])) as forger:
+        with client(endpoint, read_credential(access.credential_path("vehicle 2"))) as forger:
             for key in RUN_KEYS:
                 if key != state_key(2):
                     forger.put(key, FORGED)
@@ -135,7 +138,7 @@ def test_the_broker_credential_publishes_the_channel_keys_only(endpoint: str) ->
     channel = {COMMS_STEP_KEY, COMMS_EVENTS_KEY, COMMS_STATS_KEY, COMMS_DONE_KEY, *(rx_key(v) for v in VEHICLES)}
     with router(endpoint) as (session, access):
         got = arrivals(session)
-        with client(endpoint, read_credential(access.files["comms broker"])) as broker:
+        with client(endpoint, read_credential(access.credential_path("comms broker"))) as broker:
             for key in RUN_KEYS:
                 broker.put(key, FORGED)
             broker.put("cpf/comms/other", FORGED)  # not a key of the run: denied too
@@ -148,7 +151,7 @@ def test_a_vehicle_credential_cannot_hold_another_vehicles_token_or_answer_for_i
     tokens: queue.SimpleQueue[str] = queue.SimpleQueue()
     with router(endpoint) as (session, access):
         session.liveliness().declare_subscriber("cpf/alive/**", lambda s: tokens.put(str(s.key_expr)), history=True)
-        with client(endpoint, read_credential(access.files["vehicle 2"])) as forger:
+        with client(endpoint, read_credential(access.credential_path("vehicle 2"))) as forger:
             for alive in (vehicle_alive_key(3), COMMS_ALIVE, SUPERVISOR_ALIVE, vehicle_alive_key(2)):
                 forger.declare_queryable(hello_key(alive), lambda query: query.reply(query.key_expr, FORGED))
             for alive in (vehicle_alive_key(3), COMMS_ALIVE, vehicle_alive_key(2)):
@@ -164,7 +167,10 @@ def test_a_vehicle_credential_cannot_hold_another_vehicles_token_or_answer_for_i
 
 def test_a_vehicle_credential_hears_only_the_fleet_batches_its_deliveries_and_the_stop(endpoint: str) -> None:
     asked = ("cpf/vehicle/*/rx", state_key(3), TICK_KEY, rx_key(3), COMMS_STEP_KEY, rx_key(2), STOP_KEY)
-    with router(endpoint) as (session, access), client(endpoint, read_credential(access.files["vehicle 2"])) as ear:
+    with (
+        router(endpoint) as (session, access),
+        client(endpoint, read_credential(access.credential_path("vehicle 2"))) as ear,
+    ):
         for key in asked:
             ear.declare_subscriber(key, lambda sample: None)
         # Everything the router sends this session, in order (one subscriber: its callbacks come in arrival order).
@@ -191,10 +197,10 @@ def arrivals_of_tokens(session: zenoh.Session, key: str) -> queue.SimpleQueue[st
 def test_over_tls_only_a_client_trusting_the_runs_own_ca_is_admitted() -> None:
     endpoint = f"tls/127.0.0.1:{free_port()}"
     with router(endpoint) as (_, access):
-        own = read_credential(access.files["vehicle 2"])
+        own = read_credential(access.credential_path("vehicle 2"))
         assert own.ca is not None and own.ca.startswith("-----BEGIN CERTIFICATE-----")
         with run_access(load_scenario(CONFIGS / "paper.toml"), BusOptions(), endpoint) as other_run:
-            other_ca = read_credential(other_run.files["vehicle 2"]).ca  # another run's CA: not this router's
+            other_ca = read_credential(other_run.credential_path("vehicle 2")).ca  # another run's CA: not this router's
         for credential in (own.with_ca(None), own.with_ca(other_ca)):
             with pytest.raises(ConnectionError, match="Unable to connect"):
                 client(endpoint, credential)
@@ -254,8 +260,8 @@ def test_outsiders_and_a_vehicle_posing_as_others_leave_no_trace_in_a_run(tmp_pa
 
 
 def handed_out_privately(marker: str) -> None:
-    """The children cpf run started have their credential in a 0600 file named in their environment; no command
-    line of the run holds a password."""
+    """The children cpf run started have their credential in a memory file they inherited (Linux; elsewhere a 0600
+    file in a 0700 directory), named in their environment; no command line of the run holds a password."""
     end = time.monotonic() + WAIT  # spawned as the router opens: polled, nothing else tells when
     while len(children := [pid for pid, cmd in processes_with(marker) if " --connect " in cmd]) < 3:
         assert time.monotonic() < end, children  # the broker, vehicles 1 and 3 (vehicle 2 is started by hand)
@@ -264,8 +270,11 @@ def handed_out_privately(marker: str) -> None:
         environ = dict(
             item.split("=", 1) for item in Path(f"/proc/{pid}/environ").read_text().split("\0") if "=" in item
         )
-        path = Path(environ[ENV])
-        assert path.stat().st_mode & 0o777 == 0o600 and path.parent.stat().st_mode & 0o777 == 0o700
+        path = Path(environ[ENV].replace("/proc/self/", f"/proc/{pid}/"))
+        if hasattr(os, "memfd_create"):
+            assert os.readlink(path).startswith("/memfd:cpf-"), os.readlink(path)  # no file on any disk
+        else:
+            assert path.stat().st_mode & 0o777 == 0o600 and path.parent.stat().st_mode & 0o777 == 0o700
         password = read_credential(path).password
         assert not [cmd for _, cmd in processes_with(password)]
 
@@ -313,7 +322,7 @@ def test_a_site_config_zenoh_refuses_is_refused_naming_it(tmp_path: Path, capsys
 def test_a_vehicle_given_another_vehicles_credentials_is_refused(tmp_path: Path) -> None:
     with run_access(load_scenario(CONFIGS / "paper.toml"), BusOptions(), "tcp/127.0.0.1:1") as access:
         path = tmp_path / "vehicle-2.json"
-        path.write_text(access.files["vehicle 2"].read_text())
+        path.write_text(access.credential_path("vehicle 2").read_text())
     args = ["vehicle", str(CONFIGS / "paper.toml"), "--id", "3", "--connect", "tcp/127.0.0.1:1"]
     done = cpf(*args, "--credentials", str(path), cwd=tmp_path)
     assert done.returncode == 2

@@ -26,6 +26,7 @@ from tests.procs import (
     processes_with,
     start_cpf,
     threads,
+    wait_for_file,
     wait_for_no_processes,
     wait_for_progress,
     wait_until,
@@ -147,13 +148,15 @@ def test_a_vehicle_started_by_hand_with_stdin_at_end_of_file_serves_its_run(tmp_
     scenario.write_text(shortened(paper_text, 2.0))
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     run_args = ["run", str(scenario), "--listen", endpoint, "--remote", "2", "--out", "run.mcap", "--quiet"]
-    with (
-        subprocess.Popen([CPF, *run_args], cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE) as run,
-        subprocess.Popen(
-            [CPF, "vehicle", str(scenario), "--id", "2", "--connect", endpoint],
+    credentials = tmp_path / "creds" / "vehicle-2.json"
+    with subprocess.Popen(
+        [CPF, *run_args, "--credentials-dir", "creds"], cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE
+    ) as run:
+        wait_for_file(credentials)
+        by_hand = subprocess.Popen(
+            [CPF, "vehicle", str(scenario), "--id", "2", "--connect", endpoint, "--credentials", str(credentials)],
             cwd=tmp_path, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-        ) as by_hand,
-    ):  # fmt: skip
+        )  # fmt: skip
         _, err = run.communicate(timeout=120)
         _, vehicle_err = by_hand.communicate(timeout=120)
     assert run.returncode == 0, err.decode()

@@ -1,8 +1,11 @@
 """A run's access to its bus, the supervisor's side: fresh credentials for every process, the router's
 authentication, TLS and access-control settings (comms.access, comms.tls), and where each child finds its credential.
 
-Every credential file is written 0600 in a private temporary directory that goes with the run; a child is handed
-the path in its environment (comms.access.ENV), not on its command line. Vehicles started by hand (--remote) get
+On Linux nothing is written to disk: the router's dictionary and each child's credential are memory files
+(memfd), the child inherits its own by file descriptor and finds it at /proc/self/fd/N, named in its environment
+(comms.access.ENV), never on its command line; they vanish with the processes, however the run ends (a SIGKILLed
+supervisor left a directory of credentials behind). Elsewhere they are 0600 files in a private temporary directory
+that goes with the run. Vehicles started by hand (--remote) get
 theirs in --credentials-dir, for the user to copy to their hosts. A supervisor that joins another router (--connect)
 has nothing to hand out: that router's own settings (the site's Zenoh config) decide who may do what there.
 """
@@ -11,6 +14,7 @@ from __future__ import annotations
 
 import contextlib
 import ipaddress
+import os
 import tempfile
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
@@ -38,11 +42,22 @@ class RunAccess:
 
     router: Extras
     files: Mapping[str, Path] = field(default_factory=dict)
+    fds: Mapping[str, int] = field(default_factory=dict)  # memory files, inherited by the child at the same number
 
     def env_of(self, name: str) -> dict[str, str]:
         """The environment entries that hand a child its credential."""
+        if name in self.fds:
+            return {ENV: f"/proc/self/fd/{self.fds[name]}"}
         path = self.files.get(name)
         return {ENV: str(path)} if path is not None else {}
+
+    def credential_path(self, name: str) -> Path:
+        """Where this process reads the credential of the child called name (tests, and the user's --credentials)."""
+        return Path(f"/proc/self/fd/{self.fds[name]}") if name in self.fds else self.files[name]
+
+    def fds_of(self, name: str) -> tuple[int, ...]:
+        """The file descriptors a child inherits: its credential's memory file."""
+        return (self.fds[name],) if name in self.fds else ()
 
 
 def endpoint_host(endpoint: str) -> str:
@@ -71,23 +86,47 @@ def run_access(sc: Scenario, bus: BusOptions, endpoint: str) -> Iterator[RunAcce
     if bus.connect:
         yield RunAccess(Extras(bus.zenoh_config))
         return
+    credentials = make_credentials(sc.vehicle_ids)
+    entries: dict[str, object] = {}
+    if is_tls(endpoint):
+        tls = router_tls([endpoint_host(endpoint)])
+        credentials = {name: c.with_ca(tls.ca) for name, c in credentials.items()}
+        entries["transport/link/tls/listen_certificate_base64"] = pem_base64(tls.certificate)
+        entries["transport/link/tls/listen_private_key_base64"] = pem_base64(tls.key)
+    entries["access_control"] = access_control(credentials)
+    if bus.credentials_dir is not None:
+        hand_out(bus.credentials_dir, [credentials[vehicle_name(v)] for v in bus.remote])
+    with _private(credentials) as (users, files, fds):
+        entries["transport/auth/usrpwd/dictionary_file"] = users
+        yield RunAccess(Extras(bus.zenoh_config, entries, credentials=True), files, fds)
+
+
+@contextlib.contextmanager
+def _private(
+    credentials: Mapping[str, Credential],
+) -> Iterator[tuple[str, dict[str, Path], dict[str, int]]]:
+    """(the router's dictionary path, credential files, credential memory files) for the run's lifetime."""
+    text = dictionary(credentials.values())
+    if hasattr(os, "memfd_create"):
+        fds = {name: _memory(name, c.to_json()) for name, c in credentials.items()}
+        users = _memory("users", text)
+        try:
+            yield f"/proc/self/fd/{users}", {}, fds
+        finally:
+            for fd in (users, *fds.values()):
+                os.close(fd)
+        return
     with tempfile.TemporaryDirectory(prefix="cpf-access-") as tmp:
         private = Path(tmp)  # mkdtemp: 0700
-        credentials = make_credentials(sc.vehicle_ids)
-        entries: dict[str, object] = {}
-        if is_tls(endpoint):
-            tls = router_tls([endpoint_host(endpoint)])
-            credentials = {name: c.with_ca(tls.ca) for name, c in credentials.items()}
-            entries["transport/link/tls/listen_certificate_base64"] = pem_base64(tls.certificate)
-            entries["transport/link/tls/listen_private_key_base64"] = pem_base64(tls.key)
-        users = private / "users"
-        write_private(users, dictionary(credentials.values()))
-        entries["transport/auth/usrpwd/dictionary_file"] = str(users)
-        entries["access_control"] = access_control(credentials)
-        files = {name: _write(private, c) for name, c in credentials.items()}
-        if bus.credentials_dir is not None:
-            hand_out(bus.credentials_dir, [credentials[vehicle_name(v)] for v in bus.remote])
-        yield RunAccess(Extras(bus.zenoh_config, entries, credentials=True), files)
+        write_private(private / "users", text)
+        yield str(private / "users"), {name: _write(private, c) for name, c in credentials.items()}, {}
+
+
+def _memory(name: str, text: str) -> int:
+    """A memory file holding text (Linux): no path on disk, gone when its last descriptor closes."""
+    fd = os.memfd_create(f"cpf-{name}", os.MFD_CLOEXEC)
+    os.write(fd, text.encode())
+    return fd
 
 
 def hand_out(directory: Path, credentials: list[Credential]) -> list[Path]:
@@ -97,6 +136,9 @@ def hand_out(directory: Path, credentials: list[Credential]) -> list[Path]:
 
 
 def _write(directory: Path, credential: Credential) -> Path:
+    """Written whole under a temporary name, then renamed: whoever waits for the file never reads half of it."""
     path = directory / f"{credential.name.replace(' ', '-')}.json"
-    write_private(path, credential.to_json())
+    partial = path.with_name(f".{path.name}.partial")
+    write_private(partial, credential.to_json())
+    os.replace(partial, path)
     return path

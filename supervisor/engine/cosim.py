@@ -102,7 +102,7 @@ def _supervisor(
     with (
         run_access(sc, bus, endpoint) as access,
         open_session(mode, listen, connect, access.router) as session,
-        ProcessGroup(access.env_of) as procs,
+        ProcessGroup(access.env_of, access.fds_of) as procs,
         tempfile.TemporaryDirectory(prefix="cpf-resume-") as resume_dir,
     ):
         inbox = _inbox(session)

@@ -58,10 +58,15 @@ class Child:
 class ProcessGroup:
     """The children of one run; a context manager that leaves none behind."""
 
-    def __init__(self, env_of: Callable[[str], Mapping[str, str]] | None = None) -> None:
-        """env_of: what a child, by name, gets in its environment besides ours (its credential: never on its
-        command line, which every user of the machine can read)."""
+    def __init__(
+        self,
+        env_of: Callable[[str], Mapping[str, str]] | None = None,
+        fds_of: Callable[[str], tuple[int, ...]] | None = None,
+    ) -> None:
+        """env_of: what a child, by name, gets in its environment besides ours; fds_of: the file descriptors it
+        inherits (its credential: never on its command line, which every user of the machine can read)."""
         self._env_of = env_of
+        self._fds_of = fds_of
         self.children: list[Child] = []
         self._gone: list[Child] = []  # ended and accounted for
         # The lifeline: children get the read end as stdin; the write end is only ever here (os.pipe's fds are not
@@ -82,6 +87,7 @@ class ProcessGroup:
             stderr=stderr,
             start_new_session=True,
             env=env,
+            pass_fds=self._fds_of(name) if self._fds_of is not None else (),
         )
         child = Child(name, process, stderr)
         self.children.append(child)
