@@ -19,7 +19,7 @@ from typing import Any, Protocol, runtime_checkable
 
 import zenoh
 
-from comms.lifeline import watch
+from comms.lifeline import Lifeline, watch
 from comms.messages import STOP_END, STOP_KEY, SUPERVISOR_ALIVE, Message, decode, encode, hello_key
 
 log = logging.getLogger(__name__)
@@ -196,26 +196,31 @@ def serve(
         inbox.watch_liveliness(session, SUPERVISOR_ALIVE)
         answer = _answer(session, hello_key(token), hello) if hello is not None else None
         alive = session.liveliness().declare_token(token)
-        handle = make_handler(Publishers(session))
-        timed = handle if isinstance(handle, Timed) else None
-        while True:
-            item = inbox.get(_timeout(timed))
-            if isinstance(item, Received):
-                if item.key == STOP_KEY:
-                    _stopped(name, item.payload)
-                    break
-                handle(item.key, item.payload)
-            elif item == f"-{SUPERVISOR_ALIVE}":
-                log.warning("%s: the supervisor is gone, stopping", name)
-                break
-            if lifeline is not None and lifeline.cut.is_set():
-                break  # the lifeline said why
-            if timed is not None:
-                timed.on_time()  # it checks what is due
+        _loop(name, inbox, make_handler(Publishers(session)), lifeline)
         alive.undeclare()
         if answer is not None:
             answer.undeclare()
     return 0
+
+
+def _loop(name: str, inbox: Inbox, handle: Handler | Timed, lifeline: Lifeline | None) -> None:
+    """Every message to the handler (a Timed one also woken when its work is due) until the stop message, the
+    supervisor's disappearance or the end of the lifeline."""
+    timed = handle if isinstance(handle, Timed) else None
+    while True:
+        item = inbox.get(_timeout(timed))
+        if isinstance(item, Received):
+            if item.key == STOP_KEY:
+                _stopped(name, item.payload)
+                return
+            handle(item.key, item.payload)
+        elif item == f"-{SUPERVISOR_ALIVE}":
+            log.warning("%s: the supervisor is gone, stopping", name)
+            return
+        if lifeline is not None and lifeline.cut.is_set():
+            return  # the lifeline said why
+        if timed is not None:
+            timed.on_time()  # it checks what is due
 
 
 def _answer(session: zenoh.Session, key: str, hello: Message) -> zenoh.Queryable[None]:

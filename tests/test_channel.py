@@ -420,7 +420,7 @@ def test_a_negative_seed_is_refused_before_any_run(paper_text):
         text=True,
         timeout=60,
     )
-    assert done.returncode == 2 and "--seed: must be >= 0, got -1" in done.stderr
+    assert done.returncode == 2 and "--seed: must be within [0, 18446744073709551615], got -1" in done.stderr
 
 
 # --- the broker's per-step work ----------------------------------------------------------------------------------
