@@ -18,6 +18,7 @@ from typing import TypeVar
 
 from comms.bus import Publishers, Received
 from comms.channel import LinkEvent
+from comms.fields import get, number
 from comms.messages import (
     COMMS_DONE_KEY,
     COMMS_EVENT_KEY,
@@ -218,6 +219,9 @@ class Intake:
         """A step's link events: one log record each. The batch counts as the broker announced it (its report
         says how many it published); an event that does not read or fit is counted and dropped."""
         events = parse_events(batch)
+        self.bounds.time(number(batch, "t"), "the batch's")
+        if not 0 <= get(batch, "k", int) <= self.bounds.steps:
+            raise ValueError("the batch's step is outside the run")
         self.broker_events += len(events)
         booked: list[LinkEvent] = []
         for message in events:
