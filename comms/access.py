@@ -35,6 +35,7 @@ from comms.messages import (
     rx_key,
     state_key,
     vehicle_alive_key,
+    vehicle_done_key,
 )
 
 ENV = "CPF_CREDENTIALS"  # names the credential file of a child the supervisor starts
@@ -174,9 +175,10 @@ def _process(alive: str) -> list[Right]:
 
 
 def vehicle_rights(vid: int) -> list[Right]:
-    """A vehicle publishes its step messages; it reads the fleet's batches and its own realtime deliveries."""
+    """A vehicle publishes its step messages and its end-of-run report; it reads the fleet's batches and its own
+    realtime deliveries."""
     return [
-        *_publishes((state_key(vid),), (state_key_pattern(),)),
+        *_publishes((state_key(vid), vehicle_done_key(vid)), (state_key_pattern(), done_key_pattern())),
         *_listens((COMMS_STEP_KEY, rx_key(vid))),
         *_process(vehicle_alive_key(vid)),
     ]
@@ -195,6 +197,10 @@ def broker_rights() -> list[Right]:
 
 def state_key_pattern() -> str:
     return f"{ROOT}/vehicle/*/state"
+
+
+def done_key_pattern() -> str:
+    return f"{ROOT}/vehicle/*/done"
 
 
 def rx_key_pattern() -> str:

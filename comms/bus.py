@@ -42,6 +42,17 @@ class Timed(Protocol):
         ...
 
 
+@runtime_checkable
+class Reporting(Protocol):
+    """A handler with something to say at the end of the run (e.g. how many malformed messages it dropped)."""
+
+    def __call__(self, key: str, payload: bytes) -> None: ...
+
+    def final_report(self) -> tuple[str, Message]:
+        """(key, message) to publish when the supervisor's stop message comes."""
+        ...
+
+
 def free_port() -> int:
     """A TCP port on 127.0.0.1 that nothing listens on right now."""
     with socket.socket() as sock:
@@ -180,14 +191,13 @@ def serve(
     connect: Sequence[str],
     keys: Sequence[str],
     token: str,
-    make_handler: Callable[[Publishers], Handler | Timed],
+    make_handler: Callable[[Publishers], Handler | Timed | Reporting],
     hello: Message | None = None,
     extras: Extras | None = None,
 ) -> int:
-    """A child process's life: join the run, answer on its hello key which scenario it runs (hello, before its
-    token appears), subscribe to keys, declare its liveliness token, hand every message to the handler (and, for a
-    Timed one, wake up when its work is due), until the stop message or the supervisor's disappearance (so no
-    child outlives its run: a child the supervisor spawned also watches its lifeline, from before it joins)."""
+    """A child process's life: join the run, answer on its hello key which scenario it runs (hello, before its token
+    appears), subscribe to keys, declare its token, hand every message to the handler (a Timed one: wake it when its
+    work is due), until the stop message or the supervisor's disappearance, or its lifeline is cut (no orphans)."""
     lifeline = watch(name)
     with open_session("client", connect=connect, extras=extras) as session:
         inbox = Inbox()
@@ -196,14 +206,15 @@ def serve(
         inbox.watch_liveliness(session, SUPERVISOR_ALIVE)
         answer = _answer(session, hello_key(token), hello) if hello is not None else None
         alive = session.liveliness().declare_token(token)
-        _loop(name, inbox, make_handler(Publishers(session)), lifeline)
+        publishers = Publishers(session)
+        _loop(name, inbox, make_handler(publishers), publishers, lifeline)
         alive.undeclare()
         if answer is not None:
             answer.undeclare()
     return 0
 
 
-def _loop(name: str, inbox: Inbox, handle: Handler | Timed, lifeline: Lifeline | None) -> None:
+def _loop(name: str, inbox: Inbox, handle: Handler | Timed, publishers: Publishers, lifeline: Lifeline | None) -> None:
     """Every message to the handler (a Timed one also woken when its work is due) until the stop message, the
     supervisor's disappearance or the end of the lifeline."""
     timed = handle if isinstance(handle, Timed) else None
@@ -211,7 +222,7 @@ def _loop(name: str, inbox: Inbox, handle: Handler | Timed, lifeline: Lifeline |
         item = inbox.get(_timeout(timed))
         if isinstance(item, Received):
             if item.key == STOP_KEY:
-                _stopped(name, item.payload)
+                _stopped(name, item.payload, handle, publishers)
                 return
             handle(item.key, item.payload)
         elif item == f"-{SUPERVISOR_ALIVE}":
@@ -229,9 +240,12 @@ def _answer(session: zenoh.Session, key: str, hello: Message) -> zenoh.Queryable
     return session.declare_queryable(key, lambda query: query.reply(key, payload))
 
 
-def _stopped(name: str, payload: bytes) -> None:
-    """The supervisor's stop message: the end of the run says nothing; any other reason (e.g. this process was
-    refused) is told. Either way the process did what it was asked: exit code 0."""
+def _stopped(name: str, payload: bytes, handle: Handler | Timed | Reporting, publishers: Publishers) -> None:
+    """The supervisor's stop message: a Reporting handler's final report goes out (before the process's token
+    goes: the supervisor waits for that); the end of the run says nothing more; any other reason (e.g. this process
+    was refused) is told. Either way the process did what it was asked: exit code 0."""
+    if isinstance(handle, Reporting):
+        publishers.put(*handle.final_report())
     message = decode_or_none(payload) or {}
     reason = message.get("reason", STOP_END)
     if reason != STOP_END:

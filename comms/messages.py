@@ -56,6 +56,11 @@ def rx_key(vehicle_id: int) -> str:
     return f"{ROOT}/vehicle/{vehicle_id}/rx"
 
 
+def vehicle_done_key(vehicle_id: int) -> str:
+    """A vehicle's end-of-run report (comms.reports.VehicleDone): what it dropped as malformed."""
+    return f"{ROOT}/vehicle/{vehicle_id}/done"
+
+
 def vehicle_alive_key(vehicle_id: int) -> str:
     return f"{ALIVE_PREFIX}/vehicle/{vehicle_id}"
 

@@ -171,6 +171,10 @@ COMMS_STATS = _object(
     optional=("horizon",),
 )
 COMMS_DONE = _object("cpf.CommsDone", {"t": NUMBER, "k": INTEGER, "events": INTEGER, "malformed": INTEGER})
+VEHICLE_DONE = _object(
+    "cpf.VehicleDone",
+    {"t": NUMBER, "k": INTEGER, "vehicle": INTEGER, "malformed": {"type": "object", "additionalProperties": INTEGER}},
+)
 META = _object(
     "cpf.RunMeta",
     {
@@ -210,7 +214,7 @@ _BY_KEY = {
     COMMS_DONE_KEY: COMMS_DONE,
     COMMS_STATS_KEY: COMMS_STATS,
 }
-_BY_LEAF = {"state": STATE, "tx": TRANSMISSION, "rx": RECEPTIONS}
+_BY_LEAF = {"state": STATE, "tx": TRANSMISSION, "rx": RECEPTIONS, "done": VEHICLE_DONE}
 
 
 def schema_for(key: str) -> Schema | None:

@@ -91,12 +91,20 @@ class StateReport:
 
 
 def _is_real(value: object) -> bool:
-    return isinstance(value, int | float) and not isinstance(value, bool)
+    """A float (finite or not) or an integer a float holds (no reader has to handle one beyond)."""
+    if isinstance(value, float):
+        return True
+    return isinstance(value, int) and not isinstance(value, bool) and abs(value) <= _MAX_INT
+
+
+_MAX_INT = 2**63  # the widest integer a log's JSON keeps
 
 
 def _real(message: Message, name: str) -> float:
     """A number, finite or not: a diagnostic the broker does not compute with."""
     value: float = get(message, name, (int, float))
+    if not _is_real(value):
+        raise ValueError(f"field {name!r} is too large")
     return value
 
 

@@ -69,7 +69,8 @@ def test_what_the_supervisor_takes_from_the_bus_cannot_break_its_log(tmp_path: P
         intake = Intake(scenario, rec, None)
         for key, t in ((DONE, -1.0), (DONE, 1e11), (COMMS_STATS_KEY, math.inf), (COMMS_STATS_KEY, math.nan)):
             intake.take(Received(key, encode({"t": t, "sent": 1})), 1.0)
-        intake.take(Received(COMMS_STATS_KEY, encode({"t": 2.0, "sent": 1})), 2.0)
+        good = {"t": 2.0, "window": 10.0, "horizon": 10.0, "lambda2": 0.0, "links": []}
+        intake.take(Received(COMMS_STATS_KEY, encode(good)), 2.0)
     verify(path)
     assert [(m.topic, m.log_time) for m in messages(path)] == [(COMMS_STATS_KEY, 2_000_000_000)]
-    assert rec.refused.total() == 4
+    assert intake.malformed.total() == 4 and rec.refused.total() == 0  # the intake's records refuse them first

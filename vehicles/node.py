@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import logging
 import time
+from collections import Counter
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
@@ -29,9 +30,11 @@ from comms.messages import (
     step_message,
     tick_lead,
     vehicle_alive_key,
+    vehicle_done_key,
 )
 from comms.receptions import Delivery, RxBatch
 from comms.records import Disturbances, Heard
+from comms.reports import VehicleDone
 from vehicles.agent import VehicleConfig
 from vehicles.runtime import NodeState, Radio
 from vehicles.step import step_records
@@ -57,7 +60,7 @@ class _Pending:
     start_at: dict[int, float] = field(default_factory=dict)  # realtime: when to begin each step (wall clock)
     batches: dict[int, tuple[list[Heard], Message | None]] = field(default_factory=dict)  # by step
     live: list[_Live] = field(default_factory=list)  # realtime: receptions held until their step
-    malformed: int = 0
+    malformed: Counter[str] = field(default_factory=Counter)  # key -> messages dropped
 
     def ready(self, k: int) -> bool:
         return k in self.ticks
@@ -125,6 +128,12 @@ class _Vehicle:
     def due(self) -> float | None:
         return self.pending.start_at.get(self.k)
 
+    def final_report(self) -> tuple[str, Message]:
+        """Its end-of-run report (comms.bus.serve publishes it on the stop message): what it dropped, by key."""
+        vid = self.cfg.vehicle_id
+        report = VehicleDone(self.k * self.dt, self.k, vid, dict(sorted(self.pending.malformed.items())))
+        return vehicle_done_key(vid), report.to_message()
+
     def on_time(self) -> None:
         """Run every step whose tick is in and whose time has come."""
         while self.pending.ready(self.k):
@@ -168,7 +177,7 @@ def _take(key: str, payload: bytes, vid: int, pending: _Pending, dt: float, now:
         elif key == rx_key(vid):
             _file_rx(message, pending, dt, now())
     except ValueError as exc:
-        pending.malformed += 1
+        pending.malformed[key] += 1
         log.warning("vehicle %d: dropped a malformed message on %s: %s", vid, key, exc)
 
 

@@ -14,6 +14,8 @@ from typing import Any
 
 from comms.stats import clamp_lambda2
 
+BY_NO_KEY = "any key"  # a reader that reports one count, not by key (the broker)
+
 
 @dataclass(frozen=True, slots=True)
 class LinkRow:
@@ -99,3 +101,16 @@ def _counted(summary: CommsSummary) -> str:
 
 def _pair(a: float | None, b: float | None) -> str:
     return "-" if a is None or b is None else f"{a:.2f} / {b:.2f}"
+
+
+def format_malformed(counts: Mapping[str, Mapping[str, int]]) -> str | None:
+    """One line of the malformed messages every reader of the bus counted and dropped (reader -> key -> count), or
+    None if none did: 'bus: N malformed messages dropped (supervisor: 3 on cpf/vehicle/2/state, broker: 0, ...)'."""
+    total = sum(sum(by_key.values()) for by_key in counts.values())
+    if not total:
+        return None
+    readers = []
+    for reader, by_key in counts.items():
+        keyed = [f"{n} on {key}" for key, n in sorted(by_key.items()) if n and key != BY_NO_KEY]
+        readers.append(f"{reader}: {', '.join(keyed) if keyed else sum(by_key.values())}")
+    return f"bus: {total} malformed message{'s' if total != 1 else ''} dropped ({', '.join(readers)})"

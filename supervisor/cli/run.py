@@ -132,7 +132,7 @@ def _simulate(args: argparse.Namespace, scenario: Scenario, out: Path) -> RunRes
 
 def _report_run(args: argparse.Namespace, scenario: Scenario, result: RunResult, out: Path) -> None:
     """The run's headline, summary per phase and per link (and realtime timing) on stdout; --metrics as JSON."""
-    from supervisor.analysis.comms_summary import comms_summary, format_comms
+    from supervisor.analysis.comms_summary import comms_summary, format_comms, format_malformed
     from supervisor.analysis.metrics import finite
     from supervisor.analysis.summary import format_summary, summarize
     from supervisor.config.derived import intervals, tube_radius
@@ -152,11 +152,16 @@ def _report_run(args: argparse.Namespace, scenario: Scenario, result: RunResult,
     print(format_comms(comms))
     if result.realtime is not None:
         print(format_timing(result.realtime))
+    malformed = format_malformed(result.malformed or {})
+    if malformed is not None:
+        print(malformed)
     if args.metrics:
         args.metrics.parent.mkdir(parents=True, exist_ok=True)
         metrics = {"coordination": summary.as_dict(), "comms": comms.as_dict(), "links": result.link_counts}
         if result.realtime is not None:
             metrics["realtime"] = result.realtime
+        if result.malformed is not None:
+            metrics["malformed"] = result.malformed  # reader -> key -> messages it dropped
         args.metrics.write_text(json.dumps(finite(metrics), indent=2, allow_nan=False))
 
 

@@ -19,6 +19,7 @@ from pathlib import Path
 
 import zenoh
 
+from comms.access import done_key_pattern
 from comms.bus import Inbox, Publishers, free_port, open_session
 from comms.messages import (
     ALIVE_PREFIX,
@@ -86,7 +87,7 @@ def run_zenoh(
     books, builder = run.intake.books, run.intake.builder
     return RunResult(
         builder.series(), wall, messages, books.counts, books.stats.snapshot(run.t), books.lambda2, builder.ages,
-        stepping, timing.as_dict() if timing is not None else None,
+        stepping, timing.as_dict() if timing is not None else None, run.intake.counts(),
     )  # fmt: skip
 
 
@@ -129,6 +130,7 @@ def _inbox(session: zenoh.Session) -> Inbox:
     """What the supervisor listens to: the vehicles' steps, the broker's events and reports, every process token."""
     inbox = Inbox()
     inbox.subscribe(session, f"{ROOT}/vehicle/*/state")
+    inbox.subscribe(session, done_key_pattern())  # each vehicle's count of what it dropped, at its end
     for key in (COMMS_EVENTS_KEY, COMMS_STATS_KEY, COMMS_DONE_KEY):  # not the batches: vehicles' business
         inbox.subscribe(session, key)
     inbox.watch_liveliness(session, f"{ALIVE_PREFIX}/**")
@@ -187,5 +189,3 @@ def _finish(run: Supervisor) -> None:
         run.wait_until(run.intake.books_closed, "the broker's end-of-run report", STEP_TIMEOUT)
     run.intake.close_open(run.t, "end_of_run")
     run.intake.books.window(run.t)
-    if run.intake.malformed:
-        log.warning("%d malformed messages on the bus were dropped", run.intake.malformed)

@@ -59,6 +59,7 @@ class RunResult:
     estimate_ages: dict[tuple[int, int], list[float]]  # (sender, receiver) -> [sum, count, max] of ages
     stepping_time: float = 0.0  # s of wall time from the first sync step to the end
     realtime: dict[str, Any] | None = None  # realtime runs: how well they kept to the wall clock (realtime_timing)
+    malformed: dict[str, dict[str, int]] | None = None  # zenoh: reader -> key -> malformed messages it dropped
 
 
 class _InProcessRun:

@@ -1,36 +1,95 @@
-"""What the Zenoh supervisor takes in from the bus: every message recorded as the log keeps it, the vehicles' states
-counted by step (the clock waits on them), and the broker's link events booked in the supervisor's own books.
+"""What the Zenoh supervisor takes in from the bus: every message read through its record (comms.state, comms.records,
+comms.receptions, comms.channel, comms.reports) and checked against the run, then recorded in the record's own form;
+the vehicles' states counted by step (the clock waits on them), and the broker's link events booked in the
+supervisor's own books.
 
-A malformed message is counted and dropped, never fatal: the run reports how many there were at its end.
+A message that does not read as its record, or does not fit the run (a step or a time outside it, a time that is not
+its step's, a vehicle or a link the run does not have), is counted by its key and dropped, never recorded and never
+fatal: the run reports the counts at its end, with those the broker and the vehicles report (`reports`).
 """
 
 from __future__ import annotations
 
-import contextlib
+import logging
+from collections import Counter
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TypeVar
 
-from comms.bus import Publishers, Received, decode_or_none
+from comms.bus import Publishers, Received
+from comms.channel import LinkEvent
+from comms.fields import get, number
 from comms.messages import (
     COMMS_DONE_KEY,
     COMMS_EVENT_KEY,
     COMMS_EVENTS_KEY,
+    COMMS_STATS_KEY,
     Message,
+    decode,
     event_message,
-    parse_event,
     parse_events,
     rx_key,
     split_step,
     state_key,
     tx_key,
+    vehicle_done_key,
     vehicle_of_key,
 )
+from comms.receptions import RxBatch
+from comms.records import Transmission
+from comms.reports import CommsDone, CommsStats, VehicleDone
 from comms.state import StateReport
+from supervisor.analysis.comms_summary import BY_NO_KEY
 from supervisor.analysis.series import SeriesBuilder
 from supervisor.config.derived import steps_of
 from supervisor.config.fleet import link_stats
-from supervisor.config.scenario_schema import Scenario
+from supervisor.config.scenario_schema import GraphSwitchFault, Scenario
 from supervisor.engine.books import LinkBooks
 from supervisor.engine.realtime_timing import RealtimeTiming
-from supervisor.record.recorder import Recorder
+from supervisor.record.recorder import TIME_MARGIN, Recorder
+
+log = logging.getLogger("cpf.engine")
+T = TypeVar("T")
+SUPERVISOR = "supervisor"
+BROKER = "broker"
+
+
+@dataclass(frozen=True, slots=True)
+class RunBounds:
+    """What a message must fit: the fleet, the links any graph of the run has, the steps and their times."""
+
+    vehicles: frozenset[int]
+    links: frozenset[tuple[int, int]]
+    steps: int
+    dt: float
+    end: float  # s: the latest time a message may carry (the run's end, and the recorder's margin)
+
+    @classmethod
+    def of(cls, sc: Scenario) -> RunBounds:
+        graphs = [sc.graph.edges, *(f.edges for f in sc.faults if isinstance(f, GraphSwitchFault))]
+        links = {(int(i), int(j)) for edges in graphs for i, j in edges}
+        steps = steps_of(sc)
+        both = links | {(j, i) for i, j in links}
+        return cls(frozenset(sc.vehicle_ids), frozenset(both), steps, sc.scenario.step, steps * sc.scenario.step)
+
+    def time(self, t: float, what: str) -> None:
+        if not 0.0 <= t <= self.end + TIME_MARGIN:
+            raise ValueError(f"{what} t = {t:g} s is outside the run (0 to {self.end:g} s)")
+
+    def step(self, k: int, t: float) -> None:
+        """A vehicle's step k, at t = k dt (up to rounding): the supervisor's ticks say so."""
+        if not 0 <= k < self.steps:
+            raise ValueError(f"step {k} is outside the run (0 to {self.steps - 1})")
+        if abs(t - k * self.dt) > 1e-9 * max(1.0, k * self.dt):
+            raise ValueError(f"t = {t:g} s is not the time of step {k} ({k * self.dt:g} s)")
+
+    def vehicle(self, vid: int) -> None:
+        if vid not in self.vehicles:
+            raise ValueError(f"no vehicle {vid} in the run")
+
+    def link(self, sender: int, receiver: int) -> None:
+        if (sender, receiver) not in self.links:
+            raise ValueError(f"no link {sender}->{receiver} in any graph of the run")
 
 
 class Intake:
@@ -38,35 +97,41 @@ class Intake:
 
     def __init__(self, sc: Scenario, rec: Recorder, timing: RealtimeTiming | None) -> None:
         self.rec = rec
+        self.bounds = RunBounds.of(sc)
         self.builder = SeriesBuilder(sc.vehicle_ids, steps_of(sc), sc.scenario.step)
         self.books = LinkBooks(link_stats(sc))
         self.timing = timing  # realtime runs: how well they keep to the wall clock
         self.states: dict[int, set[int]] = {}  # k -> vehicles whose state arrived
         self.last_state: dict[int, Message] = {}  # a restarted vehicle resumes from it
         self.last_seq: dict[int, int] = {}  # ... and numbers its transmissions on from this
-        self.done: Message | None = None  # the current broker's end-of-run report
+        self.done: CommsDone | None = None  # the current broker's end-of-run report
         self.broker_events = 0  # link events published by the current broker
-        self.malformed = 0
+        self.malformed: Counter[str] = Counter()  # key -> messages the supervisor dropped
+        self.reports: dict[str, dict[str, int]] = {}  # reader -> key -> messages it dropped (broker, vehicles)
 
     def take(self, item: Received, t: float) -> None:
-        """One message from the bus; t: the supervisor's time, for a message that carries none."""
-        message = decode_or_none(item.payload)
-        if message is None:
-            self.malformed += 1
-            return
-        owned = vehicle_of_key(item.key)
-        if owned is not None and owned[1] == "state":
-            self._step(owned[0], message, t)
-        elif item.key == COMMS_EVENTS_KEY:
-            self._events(message, t)
-        else:
-            self.write(item.key, message, t)
-            if item.key == COMMS_DONE_KEY:
-                self.done = message
+        """One message from the bus (t: the supervisor's time, unused: every message recorded carries its own).
+        Anything that does not read as its record or does not fit the run is counted and dropped."""
+        try:
+            self._take(item.key, decode(item.payload))
+        except ValueError as exc:
+            self.malformed[item.key] += 1
+            log.debug("dropped a malformed message on %s: %s", item.key, exc)
 
-    def write(self, key: str, message: Message, t: float) -> None:
-        stamp = message.get("t")
-        self.rec.write(key, stamp if isinstance(stamp, int | float) else t, message)
+    def _take(self, key: str, message: Message) -> None:
+        owned = vehicle_of_key(key)
+        if owned is not None and owned[1] == "state":
+            self._step(owned[0], message)
+        elif owned is not None and owned[1] == "done":
+            self._vehicle_done(owned[0], message)
+        elif key == COMMS_EVENTS_KEY:
+            self._events(message)
+        elif key == COMMS_STATS_KEY:
+            self._stats(message)
+        elif key == COMMS_DONE_KEY:
+            self._comms_done(message)
+        else:
+            raise ValueError("not a key the supervisor reads")
 
     def publish(self, pubs: Publishers, key: str, t: float, message: Message) -> None:
         """What the supervisor says on the bus is recorded as it says it."""
@@ -83,7 +148,7 @@ class Intake:
 
     def books_closed(self) -> bool:
         """The broker's end-of-run report is in, and every event it announced with it."""
-        return self.done is not None and self.broker_events >= int(self.done.get("events", 0))
+        return self.done is not None and self.broker_events >= self.done.events
 
     def close_open(self, t: float, reason: str) -> None:
         """Close every packet still open in the books (its broker is gone, or the run ended), on the record."""
@@ -92,39 +157,108 @@ class Intake:
         for event in events:
             self.rec.write(COMMS_EVENT_KEY, event.t, event_message(event))
 
-    def _step(self, vid: int, message: Message, t: float) -> None:
-        """A vehicle's step message, recorded as the log keeps it: reception batch, transmission, state."""
-        state, tx, rx = split_step(message)
+    def counts(self) -> dict[str, dict[str, int]]:
+        """reader -> key -> malformed messages it dropped: the supervisor's own, and every report that came in."""
+        return {SUPERVISOR: dict(sorted(self.malformed.items())), **dict(sorted(self.reports.items()))}
+
+    def _step(self, vid: int, message: Message) -> None:
+        """A vehicle's step message: its state, and the transmission and reception batch it carries, each read
+        through its record and recorded as the record writes it. A bad state drops the whole message; a bad
+        transmission or batch only itself (counted), as the broker does."""
+        self.bounds.vehicle(vid)
+        raw, tx, rx = split_step(message)
+        state = StateReport.from_message(raw, vid)
+        self.bounds.step(state.k, state.t)
+        for j, _ in state.estimate_age:
+            self.bounds.vehicle(j)
+        transmission = self._part(tx_key(vid), lambda: self._tx(tx, vid)) if tx is not None else None
+        batch = self._part(rx_key(vid), lambda: self._rx(rx, vid)) if rx is not None else None
+        message = state.to_message()
         if self.timing is not None:
-            self.timing.add_state(state)
-            if rx is not None:
-                self.timing.add_rx(rx)
-        if rx is not None:
-            self.write(rx_key(vid), rx, t)
-        if tx is not None:
-            self.write(tx_key(vid), tx, t)
-        self.write(state_key(vid), state, t)
-        with contextlib.suppress(ValueError):  # a malformed state is on the record, but not booked
-            self._state(StateReport.from_message(state, vid), state)
+            self.timing.add_state(message)
+            if batch is not None:
+                self.timing.add_rx(batch.to_message())
+        if batch is not None:
+            self.rec.write(rx_key(vid), batch.t, batch.to_message())
+        if transmission is not None:
+            self.rec.write(tx_key(vid), transmission.t, transmission.to_message())
+        self._state(state, message)
+
+    def _part(self, key: str, read: Callable[[], T]) -> T | None:
+        """A step message's transmission or reception batch, read; None (counted on key) if it does not read."""
+        try:
+            return read()
+        except ValueError as exc:
+            self.malformed[key] += 1
+            log.debug("dropped a malformed part of a step message on %s: %s", key, exc)
+            return None
+
+    def _tx(self, message: Message, vid: int) -> Transmission:
+        tx = Transmission.from_message(message, vid)
+        self.bounds.time(tx.t, "the transmission's")
+        return tx
+
+    def _rx(self, message: Message, vid: int) -> RxBatch:
+        batch = RxBatch.from_message(message)
+        if batch.vehicle != vid:
+            raise ValueError(f"vehicle {batch.vehicle}'s receptions in vehicle {vid}'s step")
+        self.bounds.time(batch.t, "the batch's")
+        for d in batch.receptions:
+            self.bounds.link(d.sender, vid)
+        return batch
 
     def _state(self, report: StateReport, message: Message) -> None:
+        self.rec.write(state_key(report.vehicle), report.t, message)
         self.builder.add(message)
         self.states.setdefault(report.k, set()).add(report.vehicle)
         self.last_state[report.vehicle] = message
         if report.tx_seq:
             self.last_seq[report.vehicle] = report.tx_seq
 
-    def _events(self, batch: Message, t: float) -> None:
-        """A step's link events: one log record each; a malformed one is recorded but not booked."""
-        try:
-            events = parse_events(batch)
-        except ValueError:
-            self.malformed += 1
-            return
+    def _events(self, batch: Message) -> None:
+        """A step's link events: one log record each. The batch counts as the broker announced it (its report
+        says how many it published); an event that does not read or fit is counted and dropped."""
+        events = parse_events(batch)
+        self.bounds.time(number(batch, "t"), "the batch's")
+        if not 0 <= get(batch, "k", int) <= self.bounds.steps:
+            raise ValueError("the batch's step is outside the run")
         self.broker_events += len(events)
-        booked = []
+        booked: list[LinkEvent] = []
         for message in events:
-            self.write(COMMS_EVENT_KEY, message, t)
-            with contextlib.suppress(ValueError):
-                booked.append(parse_event(message))
+            try:
+                booked.append(self._event(message))
+            except ValueError as exc:
+                self.malformed[COMMS_EVENTS_KEY] += 1
+                log.debug("dropped a malformed link event: %s", exc)
+        for event in booked:
+            self.rec.write(COMMS_EVENT_KEY, event.t, event_message(event))
         self.books.add(booked)
+
+    def _event(self, message: Message) -> LinkEvent:
+        event = LinkEvent.from_message(message)
+        self.bounds.time(event.t, "the event's")
+        self.bounds.link(event.sender, event.receiver)
+        if event.seq < 0 or (event.delay is not None and event.delay < 0):
+            raise ValueError("a negative sequence number or delay")
+        return event
+
+    def _stats(self, message: Message) -> None:
+        stats = CommsStats.from_message(message)
+        self.bounds.time(stats.t, "the statistics'")
+        for link in stats.links:
+            self.bounds.link(link.sender, link.receiver)
+        self.rec.write(COMMS_STATS_KEY, stats.t, stats.to_message())
+
+    def _comms_done(self, message: Message) -> None:
+        done = CommsDone.from_message(message)
+        self.bounds.time(done.t, "the report's")
+        self.rec.write(COMMS_DONE_KEY, done.t, done.to_message())
+        self.done = done
+        self.reports[BROKER] = {BY_NO_KEY: done.malformed}
+
+    def _vehicle_done(self, vid: int, message: Message) -> None:
+        self.bounds.vehicle(vid)
+        done = VehicleDone.from_message(message, vid)
+        self.bounds.time(done.t, "the report's")
+        self.rec.write(vehicle_done_key(vid), done.t, done.to_message())
+        self.reports[f"vehicle {vid}"] = done.malformed
