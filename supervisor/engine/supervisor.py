@@ -149,8 +149,12 @@ class Supervisor:
         message)."""
         self.roster.expected.clear()  # leaving is what they are asked to do now, not a loss
         tokens = {COMMS_ALIVE, *(vehicle_alive_key(v) for v in self.sc.vehicle_ids)}
+        # Each vehicle still there reports what it dropped as it leaves; its token's end can overtake the report.
+        reporting = [f"vehicle {v}" for v in self.sc.vehicle_ids if vehicle_alive_key(v) in self.roster.present]
         end = time.monotonic() + deadline
-        while self.roster.present & tokens and time.monotonic() < end:
+        while time.monotonic() < end and (
+            self.roster.present & tokens or any(name not in self.intake.reports for name in reporting)
+        ):
             self.pump(0.05)
 
     def carry_out(self, action: ProcessAction, k: int) -> None:
