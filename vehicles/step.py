@@ -7,9 +7,13 @@ restarted process resumes its numbering; building it anywhere else would let the
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+import numpy as np
+
+from comms.fields import MAX_SPEED
 from comms.messages import Message, tx_message
 from comms.records import Disturbances, Heard, Transmission
 from comms.state import StateReport
@@ -41,7 +45,25 @@ def step_records(
     dist: Disturbances,
 ) -> tuple[NodeState, StepRecords]:
     """Step k (at t = k dt) of one vehicle: node_step, then the messages that record it."""
-    node, out = node_step(cfg, radio, node, t, dt, heard, neighbours, dist)
+    try:
+        node, out = node_step(cfg, radio, node, t, dt, heard, neighbours, dist)
+    except (np.linalg.LinAlgError, ArithmeticError) as exc:  # a state gone to nan/inf: the attitude's SVD fails
+        raise FloatingPointError(f"vehicle {cfg.vehicle_id} diverged at t = {t:.1f} s ({exc})") from None
     sent = out.transmission
     report = state_report(out.telemetry, cfg.model, k, sent.seq if sent else 0, out.estimate_ages)
+    _check_sane(report, t)
     return node, StepRecords(report.to_message(), sent, tx_message(sent) if sent else None, report)
+
+
+def _check_sane(report: StateReport, t: float) -> None:
+    """FloatingPointError for a vehicle whose closed loop diverged (a step too long for its dynamics, gains too
+    high): its state not finite, or faster than any vehicle (MAX_SPEED). Every engine stops it the same way, at the
+    step it happens, instead of handing the channel a state no reader accepts."""
+    values = (*report.position, *report.velocity, *report.rotation, *report.angular_velocity)
+    speed = math.hypot(*report.velocity)
+    if all(math.isfinite(v) for v in values) and speed <= MAX_SPEED:
+        return
+    what = "state is not finite" if not math.isfinite(speed) else f"speed is {speed:.3g} m/s (over {MAX_SPEED:g})"
+    raise FloatingPointError(
+        f"vehicle {report.vehicle} diverged at t = {t:.1f} s: its {what}; a shorter step or smaller gains may help"
+    )

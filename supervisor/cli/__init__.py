@@ -54,7 +54,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         for line in exc.errors:  # every error found, one line each
             print(f"cpf: error: {line}", file=sys.stderr)
         return EXIT_INPUT
-    except (CpfError, ConnectionError) as exc:
+    except (CpfError, ConnectionError, FloatingPointError) as exc:  # FloatingPointError: a vehicle diverged
         print(f"cpf: error: {exc}", file=sys.stderr)
         return EXIT_RUNTIME
     except KeyboardInterrupt:

@@ -11,6 +11,7 @@ it is measured against.
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -41,11 +42,14 @@ from supervisor.engine import interrupts
 from supervisor.engine.books import LinkBooks
 from supervisor.engine.metadata import graph_message, run_meta
 from supervisor.engine.progress import Progress
+from supervisor.errors import SimulationError
 from supervisor.plan.faults import ProcessAction
 from supervisor.plan.schedule import Schedule, StepPlan
 from supervisor.record.recorder import Recorder
 from vehicles.runtime import NodeState
 from vehicles.step import step_records
+
+log = logging.getLogger("cpf.engine")
 
 
 @dataclass(frozen=True, slots=True)
@@ -112,9 +116,13 @@ class _InProcessRun:
     def _vehicle(self, i: int, plan: StepPlan, rx: RxBatch | None) -> None:
         heard = rx.heard if rx is not None else []  # None: the broker is down
         t, neighbours, dist = plan.t, plan.network.neighbours(i), plan.disturbance(i)
-        self.nodes[i], out = step_records(
-            self.configs[i], self.radios[i], self.nodes[i], plan.k, t, self.dt, heard, neighbours, dist
-        )
+        try:
+            self.nodes[i], out = step_records(
+                self.configs[i], self.radios[i], self.nodes[i], plan.k, t, self.dt, heard, neighbours, dist
+            )
+        except FloatingPointError as exc:  # its closed loop diverged: lost, as the Zenoh engine loses its process
+            self._lose(i, t, str(exc))
+            return
         if out.transmission is not None and out.tx is not None:
             self.rec.write(tx_key(i), t, out.tx)
             self.sent.append(out.transmission)
@@ -144,6 +152,14 @@ class _InProcessRun:
             action.announce(t, float(self.last_state[vid]["t"]))
             return
         action.announce(t)
+
+    def _lose(self, vid: int, t: float, how: str) -> None:
+        """A vehicle that cannot go on (not a scheduled kill): stop the run, or go on without it if the scenario
+        says so, as the Zenoh supervisor does when a vehicle process ends."""
+        if self.sc.scenario.on_vehicle_loss == "abort":
+            raise SimulationError(f"vehicle {vid} stopped at t = {t:.1f} s ({how})")
+        log.warning("vehicle %d lost at t = %.1f s (%s); going on without it", vid, t, how)
+        self._kill_vehicle(vid)
 
     def _kill_vehicle(self, vid: int) -> None:
         self.alive = [i for i in self.alive if i != vid]

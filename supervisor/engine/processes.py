@@ -45,8 +45,11 @@ class Child:
         _signal_group(self.process.pid, signal.SIGKILL)
         self.process.wait()
 
-    def how_it_ended(self) -> str | None:
-        """None while running; otherwise a short description of its end."""
+    def how_it_ended(self, grace: float = 0.0) -> str | None:
+        """None while running (after up to grace s of waiting for it to end); otherwise a short description of its
+        end."""
+        with contextlib.suppress(subprocess.TimeoutExpired):
+            self.process.wait(timeout=grace)
         code = self.process.poll()
         if code is None:
             return None

@@ -27,6 +27,7 @@ from supervisor.plan.faults import ProcessAction
 
 STOP_DEADLINE = 3.0  # s for the processes to leave after the stop message, before the supervisor's token goes
 POLL_CHILDREN = 0.1  # s between checks of the children's exits (liveliness usually reports a death first)
+LAST_WORDS_GRACE = 1.0  # s a process whose token went is given to end, so its exit says why
 log = logging.getLogger("cpf.engine")
 
 
@@ -109,7 +110,8 @@ class Supervisor:
         self.roster.present.discard(key)
         if key in expected:
             child = self.procs.named(expected[key])
-            how = child.how_it_ended() if child is not None else None
+            # Its token goes as its session closes, a moment before the process ends: its last words say why.
+            how = child.how_it_ended(grace=LAST_WORDS_GRACE) if child is not None else None
             self._lost(expected[key], how or "its liveliness token disappeared")
 
     def _lost(self, name: str, how: str) -> None:

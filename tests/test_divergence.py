@@ -1,0 +1,35 @@
+"""A vehicle whose closed loop diverges (here the paper's vehicles with a 1 s step) stops the run with one line in
+both engines, or is lost as a dead process is under on_vehicle_loss = continue; never a traceback or a hang."""
+
+from __future__ import annotations
+
+import pytest
+
+from tests.conftest import shortened
+from tests.procs import cpf
+
+pytestmark = pytest.mark.e2e
+DIVERGES = ["--set", "scenario.step=1", "--quiet"]
+
+
+@pytest.mark.parametrize("engine", ["inprocess", "zenoh"])
+def test_a_diverging_vehicle_stops_the_run_with_one_line(tmp_path, paper_text, engine):
+    scenario = tmp_path / "s.toml"
+    scenario.write_text(shortened(paper_text, 10.0))
+    done = cpf("run", str(scenario), "--engine", engine, "--out", "r.mcap", *DIVERGES, cwd=tmp_path, timeout=120)
+    assert done.returncode == 1, done.stderr
+    assert "Traceback" not in done.stderr
+    lines = [line for line in done.stderr.splitlines() if line.startswith("cpf: error")]  # (and the warning that
+    # the shortened run ends before the paper's fault)
+    assert len(lines) == 1 and lines[0].startswith("cpf: error: vehicle 2 stopped at t = 3.0 s"), lines
+    assert "vehicle 2 diverged at t = 3.0 s: its speed is" in lines[0]
+
+
+@pytest.mark.parametrize("engine", ["inprocess", "zenoh"])
+def test_a_diverging_vehicle_is_lost_when_the_scenario_says_continue(tmp_path, paper_text, engine):
+    scenario = tmp_path / "s.toml"
+    scenario.write_text(shortened(paper_text, 10.0))
+    args = ["--set", "scenario.on_vehicle_loss=continue", "--engine", engine, "--out", "r.mcap", *DIVERGES]
+    done = cpf("run", str(scenario), *args, cwd=tmp_path, timeout=120)
+    assert "Traceback" not in done.stderr
+    assert "vehicle 2 lost at t = 3.0 s" in done.stderr and "diverged" in done.stderr, done.stderr
