@@ -69,6 +69,7 @@ class Broker:
         self.next_k = start_step  # a restarted broker resumes mid-run, with nothing of the past in flight
         self.submitted = start_step - 1  # the last step whose transmissions are in the water
         self.clock: Tick | None = None  # the latest tick handled: realtime deliveries are timed by it
+        self.latest_tick = start_step - 1  # the latest tick taken in: no vehicle can step beyond it (and the next)
         self.unpublished: list[LinkEvent] = []  # link events not yet published (one events message per tick)
 
     def take(self, key: str, payload: bytes) -> None:
@@ -79,8 +80,11 @@ class Broker:
             if key == TICK_KEY:
                 tick = parse_tick(message)
                 self.books.ticks[tick.k], self.books.raw_ticks[tick.k] = tick, message
+                self.latest_tick = max(self.latest_tick, tick.k)
             elif owned is not None and owned[1] == "state":
                 report = StateReport.from_message(message, owned[0])
+                if report.k > self.latest_tick + 1:  # a vehicle steps on a tick: kept, it would be held forever
+                    raise ValueError(f"step {report.k} is ahead of the clock (latest tick {self.latest_tick})")
                 if report.k > self.submitted:  # a late duplicate of a step already in the water is dropped
                     self.books.states.setdefault(report.k, {})[report.vehicle] = (report, self._tx(message, owned[0]))
         except ValueError as exc:

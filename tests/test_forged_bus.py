@@ -213,3 +213,17 @@ def test_a_run_attacked_on_a_vehicles_own_keys_counts_drops_and_says_so(tmp_path
     undisturbed = cpf("run", str(scenario), "--engine", "inprocess", "--out", "ref.mcap", "--quiet", cwd=tmp_path)
     assert undisturbed.returncode == 0, undisturbed.stderr
     assert digest(tmp_path / "run.mcap") == digest(tmp_path / "ref.mcap")
+
+
+def test_the_broker_keeps_no_state_from_beyond_the_clock():
+    """A vehicle's credential can publish states on its own key: one claiming a step far ahead of the clock would be
+    held by the broker for ever (memory), so it is counted and dropped like any malformed message."""
+    from comms.broker import Broker
+    from supervisor.config.fleet import broker_core
+    from tests.conftest import RecordingPublishers
+
+    broker = Broker(broker_core(SCENARIO, 0), SCENARIO.vehicle_ids, RecordingPublishers(), DT)
+    broker.take(state_key(2), step(k=10**6, t=10**6 * DT))
+    assert broker.books.malformed == 1 and not broker.books.states
+    broker.take(state_key(2), step(k=0, t=0.0))  # the first step: fine before any tick
+    assert broker.books.malformed == 1 and list(broker.books.states) == [0]
