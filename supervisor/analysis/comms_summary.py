@@ -9,23 +9,19 @@ or its heartbeat) leaves longer between its packets (supervisor.config.fleet.del
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, fields
 from typing import Any
 
+from comms.reports import LinkCounts
 from comms.stats import clamp_lambda2
 
 BY_NO_KEY = "any key"  # a reader that reports one count, not by key (the broker)
 
 
 @dataclass(frozen=True, slots=True)
-class LinkRow:
-    sender: int
-    receiver: int
-    sent: int
-    delivered: int
-    dropped: dict[str, int]
-    mean_delay: float | None
-    max_delay: float | None
+class LinkRow(LinkCounts):
+    """A link's books (the broker's record of them) and how old its receiver's estimate of the sender got."""
+
     mean_age: float | None  # of the receiver's estimate of the sender, s
     max_age: float | None
 
@@ -49,15 +45,12 @@ def comms_summary(
     """From the last cpf/comms/stats snapshot, all snapshots, and (sender, receiver) -> [sum, count, max] ages."""
     rows = []
     for link in final["links"] if final else []:
-        key = (link["sender"], link["receiver"])
-        age = ages.get(key)
+        books = LinkCounts.from_message(link)
+        age = ages.get((books.sender, books.receiver))
+        mean_age, max_age = (age[0] / age[1] if age[1] else None, age[2]) if age else (None, None)
         rows.append(
-            LinkRow(
-                link["sender"], link["receiver"], link["sent"], link["delivered"], dict(link["dropped"]),
-                link["mean_delay"], link["max_delay"],
-                age[0] / age[1] if age and age[1] else None, age[2] if age else None,
-            )
-        )  # fmt: skip
+            LinkRow(**{f.name: getattr(books, f.name) for f in fields(LinkCounts)}, mean_age=mean_age, max_age=max_age)
+        )
     # The final snapshot's window may be partial; it still counts, it is what the end of the run delivered.
     lambdas = [clamp_lambda2(float(s["lambda2"])) for s in history]  # an older log may hold -1e-17 for 0
     window = float(final["window"]) if final and "window" in final else None
