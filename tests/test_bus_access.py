@@ -19,6 +19,7 @@ import subprocess
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
@@ -211,52 +212,78 @@ def test_over_tls_only_a_client_trusting_the_runs_own_ca_is_admitted() -> None:
 # --- a run, attacked ------------------------------------------------------------------------------------------
 
 
+@dataclass
+class HandRun:
+    """A cpf run (paper, 200 s) whose vehicle 2 the test starts by hand, with vehicle 2's credential at `path`."""
+
+    tmp_path: Path
+    scenario: Path
+    endpoint: str
+    path: Path
+    run: subprocess.Popen[str]
+    vehicle: subprocess.Popen[bytes] | None = None
+    out: str = ""
+    err: str = ""
+
+    def start_vehicle(self) -> None:
+        argv = ["vehicle", str(self.scenario), "--id", "2", "--connect", self.endpoint, "--credentials", str(self.path)]
+        self.vehicle = subprocess.Popen([CPF, *argv], cwd=self.tmp_path, start_new_session=True)
+
+    def undisturbed_digest(self) -> dict[str, str]:
+        """The records of the same scenario run in-process, undisturbed (bit-identical to Zenoh's by design)."""
+        ref = cpf("run", str(self.scenario), "--engine", "inprocess", "--out", "ref.mcap", "--quiet", cwd=self.tmp_path)
+        assert ref.returncode == 0, ref.stderr
+        return digest(self.tmp_path / "ref.mcap")
+
+
+@contextmanager
+def run_with_vehicle_2_by_hand(tmp_path: Path, paper_text: str, *options: str) -> Iterator[HandRun]:
+    """Yields once vehicle 2's credential is handed out; on leaving, the run must end by itself with exit 0 (and the
+    vehicle too); whatever happens, nothing of it is left running."""
+    scenario = tmp_path / "short.toml"
+    scenario.write_text(shortened(paper_text, 200.0))
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    remote = ["--remote", "2", "--credentials-dir", "creds", "--quiet", *options]
+    run = start_cpf(["run", str(scenario), "--listen", endpoint, *remote, "--out", "run.mcap"], tmp_path)
+    hand = HandRun(tmp_path, scenario, endpoint, tmp_path / "creds" / "vehicle-2.json", run)
+    try:
+        wait_for_file(hand.path)
+        yield hand
+        hand.out, hand.err = run.communicate(timeout=120)
+        assert run.returncode == 0, hand.err
+        assert hand.vehicle is not None and hand.vehicle.wait(timeout=WAIT) == 0
+    finally:
+        run.kill()
+        if hand.vehicle is not None:
+            hand.vehicle.kill()
+
+
 @pytest.mark.e2e
 def test_outsiders_and_a_vehicle_posing_as_others_leave_no_trace_in_a_run(tmp_path: Path, paper_text: str) -> None:
     """cpf run with vehicle 2 started by hand; while it runs, sessions without or with wrong credentials are
     refused, and one with vehicle 2's credential forges every other key of the run. The log holds none of it, and
     the run's records are those of the same scenario run undisturbed (in-process: bit-identical by design)."""
-    scenario = tmp_path / "short.toml"
-    scenario.write_text(shortened(paper_text, 200.0))
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
-    remote = ["--remote", "2", "--credentials-dir", "creds", "--quiet"]
-    run = start_cpf(["run", str(scenario), "--listen", endpoint, *remote, "--out", "run.mcap"], tmp_path)
-    path = tmp_path / "creds" / "vehicle-2.json"
-    wait_for_file(path)
-    own = read_credential(path)
-    vehicle = None
-    try:
-        with client(endpoint, own) as forger:  # in: the router is up (the run waits for vehicle 2)
+    with run_with_vehicle_2_by_hand(tmp_path, paper_text) as hand:
+        own = read_credential(hand.path)
+        with client(hand.endpoint, own) as forger:  # in: the router is up (the run waits for vehicle 2)
             steps = arrivals(forger, COMMS_STEP_KEY)
             for credential in (None, Credential("vehicle 2", own.user, "guessed"), Credential("vehicle 3", "v", "x")):
                 with pytest.raises(ConnectionError, match="Unable to connect"):
-                    client(endpoint, credential)
-            handed_out_privately(str(scenario))
-            vehicle = subprocess.Popen(
-                [CPF, "vehicle", str(scenario), "--id", "2", "--connect", endpoint, "--credentials", str(path)],
-                cwd=tmp_path, start_new_session=True,
-            )  # fmt: skip
+                    client(hand.endpoint, credential)
+            handed_out_privately(str(hand.scenario))
+            hand.start_vehicle()
             steps.get(timeout=WAIT)  # the run is under way: the broker is up and the clock ticks
             for key in RUN_KEYS:
                 if key != state_key(2):
                     forger.put(key, FORGED)
             forger.liveliness().declare_token(vehicle_alive_key(3))
             list(forger.liveliness().get(SUPERVISOR_ALIVE, timeout=WAIT))  # a round trip: the forgeries are in
-            assert run.poll() is None  # ... while the run goes on: the supervisor takes in all the router gave it
-        _, err = run.communicate(timeout=120)
-        assert run.returncode == 0, err
-        assert vehicle.wait(timeout=WAIT) == 0
-    finally:
-        run.kill()
-        if vehicle is not None:
-            vehicle.kill()
-    assert "malformed" not in err, err
+            assert hand.run.poll() is None  # ... while the run goes on: the supervisor takes in all the router gave
+    assert "malformed" not in hand.err, hand.err
     records = read_messages(tmp_path / "run.mcap")
     assert not [r for r in records if "forged" in json.dumps(r[2])]
     assert [r[2]["malformed"] for r in records if r[0] == COMMS_DONE_KEY] == [0]  # the broker took in nothing forged
-    undisturbed = cpf("run", str(scenario), "--engine", "inprocess", "--out", "ref.mcap", "--quiet", cwd=tmp_path)
-    assert undisturbed.returncode == 0, undisturbed.stderr
-    assert digest(tmp_path / "run.mcap") == digest(tmp_path / "ref.mcap")
+    assert digest(tmp_path / "run.mcap") == hand.undisturbed_digest()
 
 
 def handed_out_privately(marker: str) -> None:

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import json
 import math
-import subprocess
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -18,7 +17,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from comms.bus import Received, free_port
+from comms.bus import Received
 from comms.messages import (
     COMMS_DONE_KEY,
     COMMS_EVENT_KEY,
@@ -34,10 +33,9 @@ from comms.state import StateReport
 from supervisor.config.scenario import parse_scenario
 from supervisor.engine.intake import SUPERVISOR, Intake
 from supervisor.record.recorder import Recorder, read_messages
-from tests.conftest import CONFIGS, shortened
-from tests.procs import CPF, cpf, start_cpf, wait_for_file
+from tests.conftest import CONFIGS
 from tests.run_digest import digest
-from tests.test_bus_access import WAIT, arrivals, client, read_credential, until
+from tests.test_bus_access import arrivals, client, read_credential, run_with_vehicle_2_by_hand, until
 
 SCENARIO = parse_scenario((CONFIGS / "paper.toml").read_text())
 DT = SCENARIO.scenario.step
@@ -171,33 +169,16 @@ def test_a_run_attacked_on_a_vehicles_own_keys_counts_drops_and_says_so(tmp_path
     """cpf run with vehicle 2 started by hand; a second session with vehicle 2's credential publishes malformed and
     wrong payloads on vehicle 2's state and done keys. The run ends normally, its records are those of the same
     scenario run undisturbed, and the summary names the counts."""
-    scenario = tmp_path / "short.toml"
-    scenario.write_text(shortened(paper_text, 200.0))
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
-    remote = ["--remote", "2", "--credentials-dir", "creds", "--quiet", "--metrics", "m.json"]
-    run = start_cpf(["run", str(scenario), "--listen", endpoint, *remote, "--out", "run.mcap"], tmp_path)
-    path = tmp_path / "creds" / "vehicle-2.json"
-    wait_for_file(path)
-    vehicle = None
-    try:
-        with client(endpoint, read_credential(path)) as forger:
+    with run_with_vehicle_2_by_hand(tmp_path, paper_text, "--metrics", "m.json") as hand:  # noqa: SIM117 - the
+        with client(hand.endpoint, read_credential(hand.path)) as forger:  # credential exists only inside the run
             steps = arrivals(forger, COMMS_STEP_KEY)
-            vehicle = subprocess.Popen(
-                [CPF, "vehicle", str(scenario), "--id", "2", "--connect", endpoint, "--credentials", str(path)],
-                cwd=tmp_path, start_new_session=True,
-            )  # fmt: skip
+            hand.start_vehicle()
             until(steps, COMMS_STEP_KEY, times=3)  # step 0 is in the broker's water: a forged step 0 is stale
             for payload in E2E_FORGED:
                 forger.put(state_key(2), payload)
             for payload in E2E_DONE:
                 forger.put(vehicle_done_key(2), payload)
-        out, err = run.communicate(timeout=120)
-        assert run.returncode == 0, err
-        assert vehicle.wait(timeout=WAIT) == 0
-    finally:
-        run.kill()
-        if vehicle is not None:
-            vehicle.kill()
+    out, err = hand.out, hand.err
     assert "Traceback" not in err, err
     supervisor = f"supervisor: {len(E2E_DONE)} on {vehicle_done_key(2)}, {len(E2E_FORGED)} on {state_key(2)}"
     line = next(line for line in out.splitlines() if line.startswith("bus: "))
@@ -210,9 +191,7 @@ def test_a_run_attacked_on_a_vehicles_own_keys_counts_drops_and_says_so(tmp_path
     dones = [m["vehicle"] for topic, _, m in records if topic.endswith("/done") and topic != COMMS_DONE_KEY]
     assert sorted(dones) == [1, 2, 3]  # each vehicle's own report, none forged
     assert not [r for r in records if r[0] == COMMS_EVENT_KEY and r[2]["t"] < 0]
-    undisturbed = cpf("run", str(scenario), "--engine", "inprocess", "--out", "ref.mcap", "--quiet", cwd=tmp_path)
-    assert undisturbed.returncode == 0, undisturbed.stderr
-    assert digest(tmp_path / "run.mcap") == digest(tmp_path / "ref.mcap")
+    assert digest(tmp_path / "run.mcap") == hand.undisturbed_digest()
 
 
 def test_the_broker_keeps_no_state_from_beyond_the_clock():
