@@ -229,3 +229,15 @@ def test_run_zenoh_refuses_a_scenario_its_processes_would_not_load(tmp_path):
     with pytest.raises(ValueError, match=r"bus\.overrides"):
         run_zenoh(changed, path, path.read_text(), tmp_path / "x.mcap", 0, "lockstep", 1.0, BusOptions(), quiet)
     assert not (tmp_path / "x.mcap").exists()
+
+
+@pytest.mark.parametrize("engine", ["zenoh", "inprocess"])
+def test_the_headline_counts_every_message_of_the_log(tmp_path, paper_text, engine):
+    """The summary's 'N messages -> log' is the log's count: the Zenoh headline missed the stop message and the
+    vehicles' end-of-run reports, recorded after it was taken."""
+    scenario = tmp_path / "s.toml"
+    scenario.write_text(shortened(paper_text, 2.0))
+    done = cpf("run", str(scenario), "--engine", engine, "--quiet", "--out", "r.mcap", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    said = int(re.search(r"(\d+) messages -> ", done.stdout).group(1))  # type: ignore[union-attr]
+    assert said == len(read_messages(tmp_path / "r.mcap"))

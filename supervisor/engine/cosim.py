@@ -83,10 +83,9 @@ def run_zenoh(
         _drive(run, progress)
         stepping = progress.stepping_time()
         wall = progress.done(run.t)
-        messages = rec.count
     books, builder = run.intake.books, run.intake.builder
-    return RunResult(
-        builder.series(), wall, messages, books.counts, books.stats.snapshot(run.t), books.lambda2, builder.ages,
+    return RunResult(  # rec.count once the log is closed: the stop message and the vehicles' reports come last
+        builder.series(), wall, rec.count, books.counts, books.stats.snapshot(run.t), books.lambda2, builder.ages,
         stepping, timing.as_dict() if timing is not None else None, run.intake.counts(),
     )  # fmt: skip
 
