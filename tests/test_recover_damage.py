@@ -10,7 +10,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 from mcap.reader import make_reader
 from mcap.records import Chunk, Message
@@ -126,6 +126,18 @@ def test_garbage_between_chunks_is_skipped(log: Path, tmp_path: Path) -> None:
         assert report.unreadable_bytes >= len(garbage)
 
 
+def test_a_byte_removed_from_the_header_loses_no_chunk(log: Path, tmp_path: Path) -> None:
+    """The header, which has no CRC, still parses with a byte of its library string removed: it then ends one byte
+    into the first chunk and takes that chunk's opcode. The resynchronisation must search from inside the header,
+    not from its end (found by the random-damage test below)."""
+    records, chunks = read_indexed(log), spans(log)
+    last = chunks[0][0] - 1  # the header's last byte: a character of its library string
+    src = damaged(log, tmp_path, b"", last, last + 1)
+    report, kept = recovered(src, tmp_path)
+    assert kept == records
+    assert report.chunks == len(chunks) and report.damaged_regions == 1 and not report.complete
+
+
 def test_a_lost_first_chunk_takes_its_channels_from_the_summary(log: Path, tmp_path: Path) -> None:
     """The first chunk defines the channels; without it the later chunks' messages are named by the summary, which
     is found even when inserted bytes moved it away from where the footer says."""
@@ -187,6 +199,7 @@ def is_subsequence(part: list[Record], whole: list[Record]) -> bool:
     where=st.floats(0, 1),
     garbage=st.binary(min_size=1, max_size=64),
 )
+@example(kind="delete", where=0.000275, garbage=b"\x00")  # inside the header (the test above)
 def test_random_damage_keeps_every_untouched_chunk(
     small: Path, tmp_path: Path, kind: str, where: float, garbage: bytes
 ) -> None:

@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
 
+from mcap.opcode import Opcode
 from mcap.records import Attachment, Channel, Chunk, DataEnd, Footer, Header, McapRecord, Message, Metadata, Schema
 from mcap.writer import CompressionType, Writer
 
@@ -162,10 +163,13 @@ class _Copy:
 @dataclass
 class _Scan:
     """Where the scan of the source stands: trusted is the end of the last record that checked (index records,
-    which do not, are read past but a resynchronisation starts before them)."""
+    which do not, are read past). A resynchronisation searches from resume: the end of the last whole chunk, or
+    the body of the last other record that parsed, since one without a CRC can parse with a byte removed from it
+    and so swallow the start of the next record (a header that took the next chunk's opcode)."""
 
     offset: int = len(MAGIC)
     trusted: int = len(MAGIC)
+    resume: int = len(MAGIC)
     skipped: int = 0
     regions: int = 0
     complete: bool = False
@@ -173,15 +177,15 @@ class _Scan:
 
 def _resync(data: Any, scan: _Scan, copy: _Copy) -> bool:
     """After a record that is cut or damaged: go on at the next whole chunk (copied), False if there is none."""
-    found = next_chunk(data, scan.trusted)
+    found = next_chunk(data, scan.resume)
     if found is None:
         scan.skipped += len(data) - scan.trusted
         return False
     start, records, end = found
-    scan.skipped += start - scan.trusted
+    scan.skipped += max(start - scan.trusted, 0)
     scan.regions += 1
     copy.chunk(records)
-    scan.offset = scan.trusted = end
+    scan.offset = scan.trusted = scan.resume = end
     return True
 
 
@@ -198,9 +202,10 @@ def _scan(data: Any, copy: _Copy) -> _Scan:
             if not _resync(data, scan, copy):
                 return scan
             continue
-        scan.offset += PREFIX.size + len(found[1])
+        start, scan.offset = scan.offset, scan.offset + PREFIX.size + len(found[1])
         if trusted:
             scan.trusted = scan.offset
+            scan.resume = scan.offset if found[0] == Opcode.CHUNK else start + PREFIX.size
         if done:
             scan.complete = scan.regions == 0
             return scan
