@@ -190,3 +190,18 @@ def test_a_run_shorter_than_the_transient_does_not_judge_the_tube(tmp_path, pape
     _, summary = run_text(shortened(paper_text, 5.0), tmp_path / "short.mcap")
     text = format_summary(summary)
     assert "none (the run ends within it)" in text and "nan" not in text and "OUTSIDE" not in text
+
+
+def test_a_run_without_a_log_gives_the_same_result_and_writes_nothing(paper_run, tmp_path, monkeypatch):
+    """A sweep keeps only each run's metrics (out=None): the series, counts and message count of a run that
+    records must come out the same, and no file may be written."""
+    result, _, _ = paper_run
+    text = (CONFIGS / "paper.toml").read_text()
+    scenario = parse_scenario(text, "test.toml")
+    monkeypatch.chdir(tmp_path)
+    quiet = Progress(scenario.scenario.duration, io.StringIO(), enabled=False)
+    bare = run_inprocess(scenario, "test.toml", text, None, scenario.scenario.seed, quiet)
+    assert list(tmp_path.iterdir()) == []
+    assert bare.messages == result.messages and bare.link_counts == result.link_counts
+    for name in ("t", "gamma", "gamma_dot", "path_error"):
+        assert np.array_equal(getattr(bare.series, name), getattr(result.series, name), equal_nan=True), name

@@ -45,7 +45,7 @@ from supervisor.engine.progress import Progress
 from supervisor.errors import SimulationError
 from supervisor.plan.faults import ProcessAction
 from supervisor.plan.schedule import Schedule, StepPlan
-from supervisor.record.recorder import Recorder
+from supervisor.record.recorder import Recorder, Sink, Tally
 from vehicles.runtime import NodeState
 from vehicles.step import step_records
 
@@ -67,7 +67,7 @@ class RunResult:
 
 
 class _InProcessRun:
-    def __init__(self, scenario: Scenario, rec: Recorder, seed: int) -> None:
+    def __init__(self, scenario: Scenario, rec: Sink, seed: int) -> None:
         self.sc, self.rec, self.seed = scenario, rec, seed
         self.dt = scenario.scenario.step
         self.schedule = Schedule(scenario)
@@ -187,12 +187,13 @@ class _InProcessRun:
 
 @interrupts.deferring
 def run_inprocess(
-    scenario: Scenario, scenario_file: str, scenario_toml: str, out: Path, seed: int, progress: Progress
+    scenario: Scenario, scenario_file: str, scenario_toml: str, out: Path | None, seed: int, progress: Progress
 ) -> RunResult:
-    """Run the scenario, record every message to out (MCAP), and return what the summary needs."""
+    """Run the scenario, record every message to out (MCAP; None: only counted, for a sweep), and return what the
+    summary needs."""
     dt = scenario.scenario.step
     steps = steps_of(scenario)
-    with Recorder(out) as rec:
+    with Recorder(out) if out is not None else Tally() as rec:
         rec.limit(scenario.scenario.duration)
         rec.write(META_KEY, 0.0, run_meta(scenario, scenario_file, scenario_toml, seed, "inprocess", "lockstep"))
         rec.write(GRAPH_KEY, 0.0, graph_message(0.0, scenario.graph.edges))

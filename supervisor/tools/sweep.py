@@ -109,7 +109,7 @@ def _run(engine: str, scenario: Any, path: Path, overrides: tuple[str, ...], out
         return run_zenoh(scenario, path, text, out, seed, "lockstep", 1.0, BusOptions(overrides=overrides), quiet)
     from supervisor.engine.inprocess import run_inprocess
 
-    return run_inprocess(scenario, str(path), text, out, seed, quiet)
+    return run_inprocess(scenario, str(path), text, None, seed, quiet)  # its log would be deleted unread
 
 
 def _measures(result: Any, summary: Any, scenario: Any) -> dict[str, Any]:
