@@ -7,7 +7,9 @@
    and resident memory per vehicle process;
 4. bus floor: the Zenoh engine's message pattern with no work in it, for 3 and 50 vehicles: what the
    process-per-vehicle architecture costs per step before any of our code runs (and, for 50, with 25 vehicles per
-   process: what grouping them would buy).
+   process: what grouping them would buy);
+5. targets: issue 15's cases as whole `cpf run` / `cpf sweep` commands, both engines side by side
+   (benchmarks.bench_targets; --targets picks the cases, "none" skips them).
 Each part is also a module of its own (benchmarks.bench_engines, bench_scaling, bench_realtime, bench_bus_floor).
 Results go to benchmarks/results/*.json; the targets are printed next to the numbers. Speed is checked here, never
 in tests.
@@ -19,7 +21,7 @@ import argparse
 import json
 from pathlib import Path
 
-from benchmarks import bench_bus_floor, bench_engines, bench_realtime, bench_scaling
+from benchmarks import bench_bus_floor, bench_engines, bench_realtime, bench_scaling, bench_targets
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "benchmarks" / "results"
@@ -31,6 +33,8 @@ def main() -> None:
     parser.add_argument("--sizes", default="3,10,30,50", help="fleet sizes for the scaling runs")
     parser.add_argument("--scaling-duration", type=float, default=20.0, help="simulated s per scaling run")
     parser.add_argument("--realtime-duration", type=float, default=60.0, help="simulated s on the realtime clock")
+    every = ",".join([c.name for c in bench_targets.CASES] + ["sweep"])
+    parser.add_argument("--targets", default=every, help="issue 15's cases to run (comma-separated), or none")
     args = parser.parse_args()
     paper = ROOT / "configs" / "paper.toml"
 
@@ -49,8 +53,10 @@ def main() -> None:
     for row in floor:
         print(bench_bus_floor.summary(row), flush=True)
 
+    targets = [] if args.targets == "none" else bench_targets.run(args.targets.split(","), args.repeat, 100)
+
     RESULTS.mkdir(parents=True, exist_ok=True)
-    everything = {"engines": engines, "scaling": scaling, "realtime": realtime, "bus_floor": floor}
+    everything = {"engines": engines, "scaling": scaling, "realtime": realtime, "bus_floor": floor, "targets": targets}
     (RESULTS / "all.json").write_text(json.dumps(everything, indent=2))
     print(f"written: {RESULTS / 'all.json'}")
 
