@@ -25,7 +25,8 @@ from typing import Any
 import msgpack
 
 from comms.bus import Handler, Inbox, Publishers, Received, free_port, open_session, serve
-from comms.messages import ALIVE_PREFIX, STOP_KEY, SUPERVISOR_ALIVE, decode
+from comms.messages import ALIVE_PREFIX, STOP_END, STOP_KEY, SUPERVISOR_ALIVE, decode
+from comms.run import Stop
 
 RESULTS = Path(__file__).resolve().parent / "results"
 ROOT_KEY = "floor"
@@ -109,7 +110,7 @@ def measure(n: int, steps: int, per_process: int = 1) -> float:
             _wait_alive(inbox, len(procs))
             return _steps(inbox, pubs, n, steps)
         finally:
-            pubs.put(STOP_KEY, {"reason": "done"})
+            pubs.put(STOP_KEY, Stop(0.0, STOP_END).to_message())
             token.undeclare()
             _stop(procs)
 

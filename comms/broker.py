@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 from comms.broker_core import BrokerCore
 from comms.bus import Extras, Handler, Publishers, serve
 from comms.channel import ARRIVAL_SLACK, Kinematics, LinkEvent, Reception, intake_step
+from comms.events import LinkEvents
 from comms.messages import (
     COMMS_ALIVE,
     COMMS_DONE_KEY,
@@ -33,7 +34,6 @@ from comms.messages import (
     Tick,
     batches_message,
     decode,
-    events_message,
     parse_tick,
     parse_tx,
     rx_key,
@@ -208,7 +208,7 @@ class Broker:
 
     def _publish_events(self, tick: Tick) -> None:
         if self.unpublished:
-            self.publishers.put(COMMS_EVENTS_KEY, events_message(tick.t, tick.k, self.unpublished))
+            self.publishers.put(COMMS_EVENTS_KEY, LinkEvents(tick.t, tick.k, tuple(self.unpublished)).to_message())
             self.books.published += len(self.unpublished)
             self.unpublished = []
 
@@ -223,7 +223,7 @@ def run_broker(
     extras: Extras | None = None,
 ) -> int:
     """Serve the channel from step start_step until the stop message or the supervisor's disappearance. hello: the
-    answer to the supervisor's question which scenario (and seed) the broker runs (comms.messages.hello_message);
+    answer to the supervisor's question which scenario (and seed) the broker runs (comms.messages.Hello);
     extras: its credentials and the site's Zenoh config (comms.bus.Extras)."""
 
     def handler(publishers: Publishers) -> Handler:

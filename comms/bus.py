@@ -21,6 +21,7 @@ import zenoh
 
 from comms.lifeline import Lifeline, watch
 from comms.messages import STOP_END, STOP_KEY, SUPERVISOR_ALIVE, Message, decode, encode, hello_key
+from comms.run import Stop
 
 log = logging.getLogger(__name__)
 POLL = 0.5  # s between checks while nothing arrives
@@ -246,8 +247,10 @@ def _stopped(name: str, payload: bytes, handle: Handler | Timed | Reporting, pub
     was refused) is told. Either way the process did what it was asked: exit code 0."""
     if isinstance(handle, Reporting):
         publishers.put(*handle.final_report())
-    message = decode_or_none(payload) or {}
-    reason = message.get("reason", STOP_END)
+    try:
+        reason = Stop.from_message(decode(payload)).reason
+    except ValueError as exc:  # a stop all the same: the process stops, and says what it could not read
+        reason = f"a stop message that does not read ({exc})"
     if reason != STOP_END:
         log.warning("%s: stopped by the supervisor: %s", name, reason)
 

@@ -30,15 +30,15 @@ GRAPH_KEY = f"{ROOT}/run/graph"
 STOP_KEY = f"{ROOT}/run/stop"
 TICK_KEY = f"{ROOT}/clock/tick"
 COMMS_EVENT_KEY = f"{ROOT}/comms/event"  # the log: one record per link event
-COMMS_EVENTS_KEY = f"{ROOT}/comms/events"  # the bus: the link events of one step, in one message
+COMMS_EVENTS_KEY = f"{ROOT}/comms/events"  # the bus: the link events of one step (comms.events.LinkEvents)
 COMMS_STEP_KEY = f"{ROOT}/comms/step"  # the bus: tick k and every vehicle's reception batch, in one message
 COMMS_DONE_KEY = f"{ROOT}/comms/done"
 COMMS_STATS_KEY = f"{ROOT}/comms/stats"
 ALIVE_PREFIX = f"{ROOT}/alive"
 SUPERVISOR_ALIVE = f"{ALIVE_PREFIX}/supervisor"
 COMMS_ALIVE = f"{ALIVE_PREFIX}/comms"
-HELLO_PREFIX = f"{ROOT}/hello"  # queryables: each process says which scenario it runs (hello_message)
-STOP_END = "end of run"  # the stop message's reason when the run finished
+HELLO_PREFIX = f"{ROOT}/hello"  # queryables: each process says which scenario it runs (Hello)
+STOP_END = "end of run"  # the stop message's reason (comms.run.Stop) when the run finished
 
 
 def state_key(vehicle_id: int) -> str:
@@ -174,11 +174,6 @@ def event_message(event: LinkEvent) -> Message:
     return event.to_message()
 
 
-def events_message(t: float, k: int, events: list[LinkEvent]) -> Message:
-    """The bus form of one step's link events (the log keeps one cpf/comms/event record per event)."""
-    return {"t": t, "k": k, "events": [event_message(event) for event in events]}
-
-
 def tick_message(
     k: int,
     t: float,
@@ -216,14 +211,6 @@ class Hello:
         return cls(_get(message, "process", str), _get(message, "digest", str), sections)
 
 
-def hello_message(process: str, digest: str, sections: dict[str, str]) -> Message:
-    return Hello(process, digest, sections).to_message()
-
-
-def parse_hello(message: Message) -> Hello:
-    return Hello.from_message(message)
-
-
 # --- parsing what arrives -------------------------------------------------------------------------------------
 
 
@@ -255,14 +242,6 @@ def tick_lead(dt: float, speed: float) -> float:
 def parse_tick(message: Message) -> Tick:
     """A tick, checked (Tick.from_message)."""
     return Tick.from_message(message)
-
-
-def parse_events(message: Message) -> list[Message]:
-    """The event messages of a cpf/comms/events batch (each still to be checked with parse_event)."""
-    events = _get(message, "events", list)
-    if not all(isinstance(event, dict) for event in events):
-        raise ValueError("an event is not a map")
-    return events
 
 
 def parse_event(message: Message) -> LinkEvent:

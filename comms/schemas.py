@@ -1,6 +1,7 @@
 """JSON-Schemas of the messages on each key expression, for the MCAP channels (Foxglove reads them).
 
-They describe what comms/messages.py builds; tests/test_messages.py checks every built message against its schema.
+Each describes one record's to_message (comms.*, supervisor.record.meta.RunMeta); tests/test_state_report.py checks
+every record's fields against its schema, tests/test_messages.py every built message.
 """
 
 from __future__ import annotations
@@ -10,6 +11,7 @@ from typing import Any
 from comms.messages import (
     COMMS_DONE_KEY,
     COMMS_EVENT_KEY,
+    COMMS_EVENTS_KEY,
     COMMS_STATS_KEY,
     FAULT_KEY,
     GRAPH_KEY,
@@ -113,6 +115,9 @@ LINK_EVENT = _object(
         "reason": {"type": ["string", "null"]},
     },
 )
+LINK_EVENTS = _object(  # the bus's form of a step's link events (the log keeps one LINK_EVENT record each)
+    "cpf.LinkEvents", {"t": NUMBER, "k": INTEGER, "events": {"type": "array", "items": LINK_EVENT}}
+)
 _DISTURBED = _object(
     "cpf.DisturbedVehicle",
     {"vehicle": INTEGER, "cap": {"type": ["number", "null"]}, "freeze": BOOLEAN, "offset": NUMBER, "skew": NUMBER},
@@ -197,7 +202,7 @@ META = _object(
 FAULT = _object(
     "cpf.FaultEvent", {"t": NUMBER, "kind": STRING, "phase": {"enum": ["start", "end"]}, "detail": {"type": "object"}}
 )
-GRAPH = _object("cpf.Graph", {"t": NUMBER, "edges": {"type": "array", "items": _vector(2)}})
+GRAPH = _object("cpf.Graph", {"t": NUMBER, "edges": {"type": "array", "items": _integers(2)}})
 STOP = _object("cpf.Stop", {"t": NUMBER, "reason": STRING})  # "end of run", or why the run stopped early
 HELLO = _object(
     "cpf.Hello",  # a query's reply, not published: which scenario a process runs (sha256 hex, whole and per section)
@@ -211,6 +216,7 @@ _BY_KEY = {
     STOP_KEY: STOP,
     TICK_KEY: TICK,
     COMMS_EVENT_KEY: LINK_EVENT,
+    COMMS_EVENTS_KEY: LINK_EVENTS,
     COMMS_DONE_KEY: COMMS_DONE,
     COMMS_STATS_KEY: COMMS_STATS,
 }

@@ -11,6 +11,7 @@ import tracemalloc
 import numpy as np
 import pytest
 
+from comms.state import StateReport
 from supervisor.analysis.series import SeriesBuilder
 from supervisor.cli import main
 from supervisor.errors import ScenarioError
@@ -108,20 +109,27 @@ def test_a_log_in_use_is_refused_and_left_whole(tmp_path):
     assert read_messages(out)
 
 
+def report(k: int) -> StateReport:
+    """Vehicle 2's state at step k, |p - p_d| = 5."""
+    identity = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
+    zero = (0.0, 0.0, 0.0)
+    return StateReport(k * 0.1, k, 2, float(k), 1.0, zero, identity, zero, zero, (3.0, 4.0, 0.0), (), 0.0, 0.0, 0, ())
+
+
 def test_the_series_grows_with_the_run_instead_of_allocating_every_step_up_front():
     steps = 2_000_000  # 144 MB of float64 for 3 vehicles if allocated up front
     tracemalloc.start()
     try:
         builder = SeriesBuilder((1, 2, 3), steps, 0.1)
         for k in (0, 1, 5, 1500):
-            builder.add({"k": k, "vehicle": 2, "gamma": float(k), "gamma_dot": 1.0, "error": [3.0, 4.0, 0.0]})
+            builder.add(report(k))
         peak = tracemalloc.get_traced_memory()[1]
     finally:
         tracemalloc.stop()
     assert peak < 10_000_000
     small = SeriesBuilder((1, 2, 3), 4000, 0.1)
     for k in (0, 1, 5, 1500, 3999):
-        small.add({"k": k, "vehicle": 2, "gamma": float(k), "gamma_dot": 1.0, "error": [3.0, 4.0, 0.0]})
+        small.add(report(k))
     series = small.series()
     assert series.t.shape == (4000,) and series.gamma.shape == (4000, 3)
     filled = ~np.isnan(series.gamma)

@@ -17,6 +17,7 @@ from hypothesis import strategies as st
 
 from comms.broker_core import BrokerCore
 from comms.channel import Channel, ChannelParams, Kinematics, LinkEvent, Reception
+from comms.events import LinkEvents
 from comms.fields import MAX_TIME
 from comms.loss import Bernoulli
 from comms.messages import (
@@ -34,10 +35,8 @@ from comms.messages import (
     decode,
     encode,
     event_message,
-    events_message,
     parse_batches,
     parse_event,
-    parse_events,
     parse_rx,
     parse_state,
     parse_tick,
@@ -443,11 +442,12 @@ def test_a_step_message_splits_back_into_the_records_the_log_keeps():
 
 def test_a_step_s_link_events_travel_as_one_message():
     events = [LinkEvent(0.1, 1, 2, 3, "sent"), LinkEvent(0.11, 1, 2, 3, "delivered", delay=0.01)]
-    batch = wire(events_message(0.2, 2, events))
-    assert [parse_event(m) for m in parse_events(batch)] == events
-    for bad in ({"t": 0.2}, {"events": [1]}, {"events": "x"}):
-        with pytest.raises(ValueError):
-            parse_events(bad)
+    batch = wire(LinkEvents(0.2, 2, tuple(events)).to_message())
+    assert LinkEvents.from_message(batch) == LinkEvents(0.2, 2, tuple(events))
+    for bad, field in (({"t": 0.2, "k": 2}, "events"), ({"t": 0.2, "k": 2, "events": [1]}, "events"),
+                       ({"t": 0.2, "k": 2, "events": "x"}, "events"), ({"k": 2, "events": []}, "t")):  # fmt: skip
+        with pytest.raises(ValueError, match=field):
+            LinkEvents.from_message(bad)
 
 
 def test_a_parsed_network_acts_as_the_one_sent():

@@ -57,6 +57,7 @@ def state(vehicle: int, t: float) -> dict[str, Any]:
     pd = desired(vehicle, gamma)
     return {
         "t": t,
+        "k": round(t / STEP),
         "vehicle": vehicle,
         "gamma": gamma,
         "gamma_dot": 1.0 - GAMMA0[vehicle] / 20.0 * math.exp(-t / 20.0),

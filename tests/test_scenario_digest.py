@@ -11,10 +11,10 @@ from comms.messages import (
     COMMS_ALIVE,
     STOP_KEY,
     SUPERVISOR_ALIVE,
+    Hello,
     decode,
     encode,
     hello_key,
-    parse_hello,
     vehicle_alive_key,
 )
 from supervisor.config.scenario import parse_scenario
@@ -37,30 +37,30 @@ def test_the_digest_is_of_the_validated_scenario_not_of_its_text() -> None:
 
 def test_a_different_setting_is_named_by_its_section() -> None:
     ours = section_digests(parse_scenario(PAPER))
-    theirs = parse_hello(hello("vehicle 2", parse_scenario(PAPER, overrides=("coordination.k=0.5",))))
+    theirs = Hello.from_message(hello("vehicle 2", parse_scenario(PAPER, overrides=("coordination.k=0.5",))))
     message = difference("vehicle 2", ours, theirs)
     assert message is not None
     assert message.startswith("vehicle 2 runs another scenario than the supervisor (differs in coordination): ")
     assert theirs.digest[:12] in message and "\n" not in message
-    assert difference("vehicle 2", ours, parse_hello(hello("vehicle 2", parse_scenario(PAPER)))) is None
+    assert difference("vehicle 2", ours, Hello.from_message(hello("vehicle 2", parse_scenario(PAPER)))) is None
 
 
 def test_the_brokers_digest_covers_the_seed() -> None:
     scenario = parse_scenario(PAPER)
-    message = difference("comms broker", section_digests(scenario, 0), parse_hello(hello("comms", scenario, 7)))
+    message = difference("comms broker", section_digests(scenario, 0), Hello.from_message(hello("comms", scenario, 7)))
     assert message is not None and "(differs in seed)" in message
-    several = parse_hello(hello("comms", parse_scenario(PAPER, overrides=("comms.loss=0.1", "faults=[]")), 0))
+    several = Hello.from_message(hello("comms", parse_scenario(PAPER, overrides=("comms.loss=0.1", "faults=[]")), 0))
     assert "(differs in comms, faults)" in str(difference("comms broker", section_digests(scenario, 0), several))
 
 
 def test_the_hello_message_has_its_schema_and_survives_the_wire() -> None:
     message = hello("vehicle 3", parse_scenario(PAPER))
     assert_valid(message, hello_key(vehicle_alive_key(3)))
-    assert parse_hello(decode(encode(message))) == parse_hello(message)
+    assert Hello.from_message(decode(encode(message))) == Hello.from_message(message)
     assert hello_key(COMMS_ALIVE) == "cpf/hello/comms"
     for bad in ({"process": "x", "digest": "y"}, {"process": "x", "digest": "y", "sections": {"a": 1}}):
         with pytest.raises(ValueError):
-            parse_hello(bad)
+            Hello.from_message(bad)
 
 
 def test_no_answer_is_refused_too() -> None:
@@ -98,7 +98,7 @@ def test_a_served_process_answers_its_hello_before_its_token_appears() -> None:
         child.start()
         try:
             assert appeared.wait(timeout=30)
-            assert ask_hello(session, vehicle_alive_key(2), timeout=5.0) == parse_hello(greeting)
+            assert ask_hello(session, vehicle_alive_key(2), timeout=5.0) == Hello.from_message(greeting)
         finally:
             session.put(STOP_KEY, encode({"t": 0.0, "reason": "end of run"}))
             child.join(10)

@@ -12,13 +12,29 @@ from typing import Any
 import pytest
 
 from comms.channel import LinkEvent, Reception
+from comms.events import LinkEvents
 from comms.messages import Hello, decode, encode, rx_message, state_key, step_message, tick_message
 from comms.network import Network
 from comms.receptions import Delivery, RxBatch
 from comms.records import Disturbances, Transmission
-from comms.schemas import HELLO, LINK_EVENT, RECEPTIONS, STATE, TICK, TRANSMISSION, schema_for
+from comms.run import FaultEvent, Graph, Stop
+from comms.schemas import (
+    FAULT,
+    GRAPH,
+    HELLO,
+    LINK_EVENT,
+    LINK_EVENTS,
+    META,
+    RECEPTIONS,
+    STATE,
+    STOP,
+    TICK,
+    TRANSMISSION,
+    schema_for,
+)
 from comms.state import StateReport
 from comms.tick import DisturbedVehicle, Tick
+from supervisor.record.meta import RunMeta
 from vehicles.dynamics import PLANAR, SPATIAL
 from vehicles.report import state_message
 
@@ -81,6 +97,9 @@ def test_reading_a_transmission_is_the_inverse_of_writing_it(stamp):
     assert Transmission.from_message(message, 3).to_message() == message
 
 
+RUN_META = RunMeta("paper", "configs/paper.toml", "[scenario]\n", {"scenario": {"name": "paper"}}, 7, "zenoh",
+                   "lockstep", 0.1, 400.0, (1, 2, 3), ((1, 2), (2, 1)), ({"kind": "speed_cap", "vehicle": 2},), 1.2,
+                   {"cpf-cosim": "0.1"})  # fmt: skip
 NETWORK = Network(((1, 2), (2, 3)), frozenset({(2, 1)}), {(1, 3): (0.25, 0.5)}, False, frozenset({3}))
 DELIVERY = Delivery(1, 4, 0.3, 0.31, 5.0, 1.0)
 # record -> (its schema, an example with every optional field set, one with none set, how to read a message)
@@ -98,6 +117,14 @@ RECORDS: dict[str, tuple[dict[str, Any], Any, Any, Callable[[Any], Any]]] = {
                    LinkEvent(1.25, 1, 2, 3, "sent"), LinkEvent.from_message),
     "hello": (HELLO, Hello("comms", "ab" * 32, {"comms": "cd" * 32}), Hello("comms", "ab" * 32, {}),
               Hello.from_message),
+    "graph": (GRAPH, Graph(150.0, ((1, 2), (2, 1))), Graph(0.0, ()), Graph.from_message),
+    "fault event": (FAULT, FaultEvent(150.0, "speed_cap", "start", {"vehicle": 2, "start": 150.0, "end": None}),
+                    FaultEvent(250.0, "blackout", "end", {}), FaultEvent.from_message),
+    "stop": (STOP, Stop(12.5, "end of run"), Stop(0.0, ""), Stop.from_message),
+    "link events": (LINK_EVENTS, LinkEvents(0.2, 2, (LinkEvent(0.1, 1, 2, 3, "sent"),)), LinkEvents(0.2, 2, ()),
+                    LinkEvents.from_message),
+    "run meta": (META, RUN_META, dataclasses.replace(RUN_META, vehicles=(), edges=(), faults=(), versions={}),
+                 RunMeta.from_message),
 }  # fmt: skip
 
 

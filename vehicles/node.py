@@ -91,7 +91,7 @@ def run_vehicle(
 ) -> int:
     """Serve one vehicle from step start_step (a restarted process resumes mid-run) until told to stop or the
     supervisor disappears; returns the exit code. neighbours: the scenario's, until a tick says otherwise.
-    hello: the answer to the supervisor's question which scenario the vehicle runs (comms.messages.hello_message);
+    hello: the answer to the supervisor's question which scenario the vehicle runs (comms.messages.Hello);
     extras: its credentials and the site's Zenoh config (comms.bus.Extras)."""
     vid = cfg.vehicle_id
 

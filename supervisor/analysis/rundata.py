@@ -15,7 +15,11 @@ from typing import Any, NamedTuple, TypeAlias
 import numpy as np
 from numpy.typing import NDArray
 
+from comms.channel import LinkEvent
 from comms.messages import COMMS_EVENT_KEY, COMMS_STATS_KEY, FAULT_KEY, GRAPH_KEY, META_KEY, vehicle_of_key
+from comms.run import FaultEvent, Graph
+from comms.state import StateReport
+from supervisor.errors import ScenarioError
 from supervisor.record import logfile
 
 Array: TypeAlias = NDArray[np.float64]
@@ -98,7 +102,7 @@ class LinkLog:
 class RunData:
     """Everything the figures and metrics need from one run."""
 
-    meta: dict[str, Any]
+    meta: dict[str, Any]  # the cpf/run/meta message (supervisor.record.meta.RunMeta; {} if the log has none)
     vehicles: dict[int, VehicleSeries]  # by vehicle id, ascending
     faults: list[FaultInterval]
     edges: list[Edge]  # communication graph at the start of the run (from meta)
@@ -136,34 +140,42 @@ def _wanted(topic: str) -> bool:
 
 @dataclass
 class _Collected:
+    """The records of a log, each read through its record type (ValueError naming the field if one does not)."""
+
     meta: dict[str, Any] = field(default_factory=dict)
-    states: dict[int, list[dict[str, Any]]] = field(default_factory=dict)
-    fault_events: list[dict[str, Any]] = field(default_factory=list)
+    states: dict[int, list[StateReport]] = field(default_factory=dict)
+    fault_events: list[FaultEvent] = field(default_factory=list)
     graph_changes: list[tuple[float, list[Edge]]] = field(default_factory=list)
-    link_events: dict[Edge, list[dict[str, Any]]] = field(default_factory=dict)
+    link_events: dict[Edge, list[LinkEvent]] = field(default_factory=dict)
     stats: list[dict[str, Any]] = field(default_factory=list)
 
     def add(self, topic: str, message: dict[str, Any]) -> None:
         owned = vehicle_of_key(topic)
         if owned is not None:
-            self.states.setdefault(owned[0], []).append(message)
+            self.states.setdefault(owned[0], []).append(StateReport.from_message(message, owned[0]))
         elif topic == COMMS_EVENT_KEY:
-            self.link_events.setdefault((int(message["sender"]), int(message["receiver"])), []).append(message)
+            event = LinkEvent.from_message(message)
+            self.link_events.setdefault((event.sender, event.receiver), []).append(event)
         elif topic == META_KEY:
             self.meta = message
         elif topic == FAULT_KEY:
-            self.fault_events.append(message)
+            self.fault_events.append(FaultEvent.from_message(message))
         elif topic == GRAPH_KEY:
-            self.graph_changes.append((float(message["t"]), _edges(message.get("edges", []))))
+            graph = Graph.from_message(message)
+            self.graph_changes.append((graph.t, list(graph.edges)))
         elif topic == COMMS_STATS_KEY:
             self.stats.append(message)
 
 
 def load_run(path: Path) -> RunData:
-    """Read a run's MCAP into arrays; LogError (pointing to `cpf recover`) for a log cut short or damaged."""
+    """Read a run's MCAP into arrays; LogError (pointing to `cpf recover`) for a log cut short or damaged,
+    ScenarioError naming the topic and the field for a record that does not read."""
     got = _Collected()
     for topic, _, message in logfile.messages(path, _wanted):
-        got.add(topic, message)
+        try:
+            got.add(topic, message)
+        except ValueError as exc:
+            raise ScenarioError(f"{path}: {topic}: {exc}") from None
     vehicles = {v: _series(v, got.states[v]) for v in sorted(got.states)}
     start, end = _time_range(vehicles, got.meta)
     events = got.fault_events
@@ -175,25 +187,25 @@ def load_run(path: Path) -> RunData:
     )  # fmt: skip
 
 
-def _link_log(link: Edge, events: list[dict[str, Any]]) -> LinkLog:
-    delays = [np.nan if e.get("delay") is None else e["delay"] for e in events]
+def _link_log(link: Edge, events: list[LinkEvent]) -> LinkLog:
+    delays = [np.nan if e.delay is None else e.delay for e in events]
     return LinkLog(
         link[0], link[1],
-        np.array([e["t"] for e in events], dtype=float),
-        np.array([e["kind"] for e in events], dtype=str),
+        np.array([e.t for e in events], dtype=float),
+        np.array([e.kind for e in events], dtype=str),
         np.array(delays, dtype=float),
-        np.array([e.get("reason") or "" for e in events], dtype=str),
+        np.array([e.reason or "" for e in events], dtype=str),
     )  # fmt: skip
 
 
-def _estimate_ages(states: dict[int, list[dict[str, Any]]]) -> dict[Edge, AgeSeries]:
-    """(neighbour, holder) -> ages, from the estimate_age field of every state message."""
+def _estimate_ages(states: dict[int, list[StateReport]]) -> dict[Edge, AgeSeries]:
+    """(neighbour, holder) -> ages, from the estimate_age field of every state report."""
     rows: dict[Edge, tuple[list[float], list[float]]] = {}
-    for holder, messages in states.items():
-        for m in messages:
-            for neighbour, age in m.get("estimate_age", ()):
-                t, ages = rows.setdefault((int(neighbour), holder), ([], []))
-                t.append(m["t"])
+    for holder, reports in states.items():
+        for m in reports:
+            for neighbour, age in m.estimate_age:
+                t, ages = rows.setdefault((neighbour, holder), ([], []))
+                t.append(m.t)
                 ages.append(age)
     return {key: AgeSeries(np.array(t, dtype=float), np.array(a, dtype=float)) for key, (t, a) in sorted(rows.items())}
 
@@ -202,25 +214,25 @@ def _edges(pairs: Iterable[Sequence[Any]]) -> list[Edge]:
     return [(int(i), int(j)) for i, j in pairs]
 
 
-def _series(vehicle: int, messages: list[dict[str, Any]]) -> VehicleSeries:
+def _series(vehicle: int, messages: list[StateReport]) -> VehicleSeries:
     def column(name: str) -> Array:
-        return np.array([m[name] for m in messages], dtype=float)
+        return np.array([getattr(m, name) for m in messages], dtype=float)
 
     return VehicleSeries(
         vehicle=vehicle,
         t=column("t"),
         gamma=column("gamma"),
         gamma_dot=column("gamma_dot"),
-        position=_matrix([m["position"] for m in messages], 3),
-        velocity=_matrix([m["velocity"] for m in messages], 3),
-        error=_matrix([m["error"] for m in messages], 3),
-        tau=_matrix([m["tau"] for m in messages]),
+        position=_matrix([m.position for m in messages], 3),
+        velocity=_matrix([m.velocity for m in messages], 3),
+        error=_matrix([m.error for m in messages], 3),
+        tau=_matrix([m.tau for m in messages]),
         correction=column("correction"),
         lyapunov=column("lyapunov"),
     )
 
 
-def _matrix(rows: list[list[float]], width: int | None = None) -> Array:
+def _matrix(rows: Sequence[Sequence[float]], width: int | None = None) -> Array:
     """Rows as an (n, width) array; ragged rows (e.g. tau changing length) are NaN-padded, not rejected."""
     width = width if width is not None else max((len(r) for r in rows), default=0)
     if all(len(r) == width for r in rows):
@@ -235,7 +247,7 @@ def _fault_label(kind: str, target: str | None) -> str:
     return kind if target is None else f"{kind} ({target})"
 
 
-def _fault_target(fields: dict[str, Any]) -> str | None:
+def _fault_target(fields: dict[str, object]) -> str | None:
     """What a fault acts on: 'AUV 2', 'link 1->2' ('1<->2' both ways); None if fleet- or network-wide."""
     if fields.get("vehicle") is not None:
         return f"AUV {fields['vehicle']}"
@@ -244,13 +256,13 @@ def _fault_target(fields: dict[str, Any]) -> str | None:
     return None
 
 
-def _intervals_from_events(events: list[dict[str, Any]], run_start: float, run_end: float) -> list[FaultInterval]:
+def _intervals_from_events(events: list[FaultEvent], run_start: float, run_end: float) -> list[FaultInterval]:
     """Pair start/end events per (kind, target); an open start runs to the end, an orphan end from t0."""
     open_faults: list[tuple[str, str | None, float]] = []
     intervals: list[FaultInterval] = []
     for event in events:
-        kind, target, t = str(event["kind"]), _event_target(event), float(event["t"])
-        if event["phase"] == "start":
+        kind, target, t = event.kind, _fault_target(event.detail), event.t
+        if event.phase == "start":
             open_faults.append((kind, target, t))
             continue
         match = _find_open(open_faults, kind, target)
@@ -260,11 +272,6 @@ def _intervals_from_events(events: list[dict[str, Any]], run_start: float, run_e
         intervals.append(FaultInterval(kind, start, t, _fault_label(kind, target)))
     intervals += [FaultInterval(k, t, max(run_end, t), _fault_label(k, v)) for k, v, t in open_faults]
     return sorted(intervals, key=lambda f: (f.start, f.end))
-
-
-def _event_target(event: dict[str, Any]) -> str | None:
-    """The target of a fault event (detail per the schema, top level tolerated); None if fleet-wide."""
-    return _fault_target({**(event.get("detail") or {}), **event})
 
 
 def _find_open(open_faults: list[tuple[str, str | None, float]], kind: str, target: str | None) -> int | None:

@@ -1,4 +1,4 @@
-"""Collects the state messages of a run into the arrays the summary needs, whichever engine produced them."""
+"""Collects the state reports of a run into the arrays the summary needs, whichever engine produced them."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from comms.messages import Message
+from comms.state import StateReport
 from supervisor.analysis.summary import Series
 
 INITIAL_ROWS = 1024  # steps held before the first growth; the array doubles as the run goes
@@ -32,16 +32,15 @@ class SeriesBuilder:
         grown[: len(self._data)] = self._data
         self._data = grown
 
-    def add(self, state: Message) -> None:
-        """Take in one state message (already validated by whoever received it)."""
-        k, col = state["k"], self._column[state["vehicle"]]
+    def add(self, state: StateReport) -> None:
+        """Take in one state report of a vehicle of the fleet."""
+        k, col = state.k, self._column[state.vehicle]
         if 0 <= k < self._steps:
             if k >= len(self._data):
                 self._grow(k)
-            error = state["error"]
-            self._data[k, :, col] = (state["gamma"], state["gamma_dot"], float(np.linalg.norm(error)))
-        for sender, age in state.get("estimate_age", []):
-            book = self.ages.setdefault((sender, state["vehicle"]), [0.0, 0.0, 0.0])
+            self._data[k, :, col] = (state.gamma, state.gamma_dot, float(np.linalg.norm(state.error)))
+        for sender, age in state.estimate_age:
+            book = self.ages.setdefault((sender, state.vehicle), [0.0, 0.0, 0.0])
             book[0] += age
             book[1] += 1
             book[2] = max(book[2], age)

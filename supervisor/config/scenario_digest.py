@@ -12,7 +12,7 @@ from __future__ import annotations
 import hashlib
 import json
 
-from comms.messages import Hello, Message, hello_message
+from comms.messages import Hello, Message
 from supervisor.config.scenario_schema import Scenario
 
 
@@ -38,7 +38,7 @@ def digest(sections: dict[str, str]) -> str:
 def hello(process: str, scenario: Scenario, seed: int | None = None) -> Message:
     """What a process answers when asked which scenario it runs."""
     sections = section_digests(scenario, seed)
-    return hello_message(process, digest(sections), sections)
+    return Hello(process, digest(sections), sections).to_message()
 
 
 def difference(name: str, expected: dict[str, str], got: Hello) -> str | None:

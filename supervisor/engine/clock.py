@@ -23,8 +23,8 @@ from comms.messages import (
     tick_message,
 )
 from comms.network import Network
+from comms.run import Graph
 from supervisor.config.scenario_schema import Scenario
-from supervisor.engine.metadata import graph_message
 from supervisor.plan.faults import ProcessAction
 from supervisor.plan.schedule import Schedule, StepPlan
 
@@ -78,11 +78,11 @@ class Clock:
             _pace(run, self.wall_start + plan.t / self.speed - self.lead)
         if not plan.final:
             for event in plan.events:
-                run.publish(FAULT_KEY, plan.t, event.message())
+                run.publish(FAULT_KEY, plan.t, event.to_message())
             for action in plan.actions:
                 run.carry_out(action, k)
             if plan.graph_changed:
-                run.publish(GRAPH_KEY, plan.t, graph_message(plan.t, plan.network.edges))
+                run.publish(GRAPH_KEY, plan.t, Graph.of(plan.t, plan.network.edges).to_message())
         self._publish(run, plan)
 
     def reissue(self, run: Driven) -> None:

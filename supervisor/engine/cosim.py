@@ -33,6 +33,7 @@ from comms.messages import (
     STOP_KEY,
     SUPERVISOR_ALIVE,
 )
+from comms.run import Graph, Stop
 from supervisor.config.scenario import load_scenario
 from supervisor.config.scenario_schema import Scenario
 from supervisor.engine import interrupts
@@ -41,12 +42,12 @@ from supervisor.engine.clock import Clock
 from supervisor.engine.inprocess import RunResult
 from supervisor.engine.intake import Intake
 from supervisor.engine.launch import START_TIMEOUT, BusOptions, Launch, local, reachable
-from supervisor.engine.metadata import graph_message, run_meta
 from supervisor.engine.processes import ProcessGroup
 from supervisor.engine.progress import Progress
 from supervisor.engine.realtime_timing import RealtimeTiming
 from supervisor.engine.startup import Hellos, ask_hello
 from supervisor.engine.supervisor import Supervisor
+from supervisor.record.meta import RunMeta
 from supervisor.record.recorder import Recorder
 
 __all__ = ["START_TIMEOUT", "BusOptions", "run_zenoh"]
@@ -74,12 +75,12 @@ def run_zenoh(
     how = (scenario_path, endpoint, bus, seed)
     with Recorder(out) as rec, _supervisor(scenario, how, Intake(scenario, rec, timing), (clock, speed)) as run:
         # In the log from the start: a run that never starts (a process missing or refused) still says what it was.
-        meta = run_meta(scenario, str(scenario_path), scenario_toml, seed, "zenoh", clock)
+        meta = RunMeta.of(scenario, str(scenario_path), scenario_toml, seed, "zenoh", clock).to_message()
         rec.limit(scenario.scenario.duration)  # a message stamped later (forged, broken) is refused
         rec.write(META_KEY, 0.0, meta)
         _start(run, endpoint)
         run.pubs.put(META_KEY, meta)
-        run.publish(GRAPH_KEY, 0.0, graph_message(0.0, scenario.graph.edges))
+        run.publish(GRAPH_KEY, 0.0, Graph.of(0.0, scenario.graph.edges).to_message())
         _drive(run, progress)
         stepping = progress.stepping_time()
         wall = progress.done(run.t)
@@ -120,7 +121,7 @@ def _supervisor(
             raise
         finally:
             with contextlib.suppress(Exception):  # already failing: the process group still stops the children
-                run.publish(STOP_KEY, run.t, {"t": run.t, "reason": reason})
+                run.publish(STOP_KEY, run.t, Stop(run.t, reason).to_message())
                 run.wind_down()
             token.undeclare()
 

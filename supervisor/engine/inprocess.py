@@ -33,6 +33,7 @@ from comms.messages import (
 from comms.network import Network
 from comms.receptions import RxBatch
 from comms.records import Transmission
+from comms.run import Graph
 from supervisor.analysis.series import SeriesBuilder
 from supervisor.analysis.summary import Series
 from supervisor.config.derived import steps_of
@@ -40,11 +41,11 @@ from supervisor.config.fleet import broker_core, initial_state, link_stats, radi
 from supervisor.config.scenario_schema import Scenario
 from supervisor.engine import interrupts
 from supervisor.engine.books import LinkBooks
-from supervisor.engine.metadata import graph_message, run_meta
 from supervisor.engine.progress import Progress
 from supervisor.errors import SimulationError
 from supervisor.plan.faults import ProcessAction
 from supervisor.plan.schedule import Schedule, StepPlan
+from supervisor.record.meta import RunMeta
 from supervisor.record.recorder import Recorder, Sink, Tally
 from vehicles.runtime import NodeState
 from vehicles.step import step_records
@@ -88,11 +89,11 @@ class _InProcessRun:
         plan = self.schedule.plan(k)
         t = plan.t
         for event in plan.events:
-            self.rec.write(FAULT_KEY, t, event.message())
+            self.rec.write(FAULT_KEY, t, event.to_message())
         for action in plan.actions:
             self._act(action, t)
         if plan.graph_changed:
-            self.rec.write(GRAPH_KEY, t, graph_message(t, plan.network.edges))
+            self.rec.write(GRAPH_KEY, t, Graph.of(t, plan.network.edges).to_message())
         heard = self._channel(k, t)
         self.books.window(t)  # every delivery up to t is booked now
         self.sent, self.where, self.network = [], {}, plan.network
@@ -128,7 +129,7 @@ class _InProcessRun:
             self.sent.append(out.transmission)
         state = out.state
         self.rec.write(state_key(i), t, state)
-        self.builder.add(state)
+        self.builder.add(out.report)
         self.last_state[i] = state
         self.where[i] = out.report.kinematics
 
@@ -195,8 +196,9 @@ def run_inprocess(
     steps = steps_of(scenario)
     with Recorder(out) if out is not None else Tally() as rec:
         rec.limit(scenario.scenario.duration)
-        rec.write(META_KEY, 0.0, run_meta(scenario, scenario_file, scenario_toml, seed, "inprocess", "lockstep"))
-        rec.write(GRAPH_KEY, 0.0, graph_message(0.0, scenario.graph.edges))
+        meta = RunMeta.of(scenario, scenario_file, scenario_toml, seed, "inprocess", "lockstep")
+        rec.write(META_KEY, 0.0, meta.to_message())
+        rec.write(GRAPH_KEY, 0.0, Graph.of(0.0, scenario.graph.edges).to_message())
         run = _InProcessRun(scenario, rec, seed)
         progress.begin()
         for k in range(steps):

@@ -18,7 +18,7 @@ from typing import TypeVar
 
 from comms.bus import Publishers, Received
 from comms.channel import LinkEvent
-from comms.fields import get, number
+from comms.events import LinkEvents
 from comms.messages import (
     COMMS_DONE_KEY,
     COMMS_EVENT_KEY,
@@ -27,7 +27,6 @@ from comms.messages import (
     Message,
     decode,
     event_message,
-    parse_events,
     rx_key,
     split_step,
     state_key,
@@ -209,7 +208,7 @@ class Intake:
 
     def _state(self, report: StateReport, message: Message) -> None:
         self.rec.write(state_key(report.vehicle), report.t, message)
-        self.builder.add(message)
+        self.builder.add(report)
         self.states.setdefault(report.k, set()).add(report.vehicle)
         self.last_state[report.vehicle] = message
         if report.tx_seq:
@@ -218,15 +217,19 @@ class Intake:
     def _events(self, batch: Message) -> None:
         """A step's link events: one log record each. The batch counts as the broker announced it (its report
         says how many it published); an event that does not read or fit is counted and dropped."""
-        events = parse_events(batch)
-        self.bounds.time(number(batch, "t"), "the batch's")
-        if not 0 <= get(batch, "k", int) <= self.bounds.steps:
+        unread: list[ValueError] = []
+        events = LinkEvents.from_message(batch, unread)
+        self.bounds.time(events.t, "the batch's")
+        if not 0 <= events.k <= self.bounds.steps:
             raise ValueError("the batch's step is outside the run")
-        self.broker_events += len(events)
+        self.broker_events += len(events.events) + len(unread)
+        self.malformed[COMMS_EVENTS_KEY] += len(unread)
+        if unread:
+            log.debug("dropped %d link events that do not read: %s", len(unread), unread)
         booked: list[LinkEvent] = []
-        for message in events:
+        for event in events.events:
             try:
-                booked.append(self._event(message))
+                booked.append(self._event(event))
             except ValueError as exc:
                 self.malformed[COMMS_EVENTS_KEY] += 1
                 log.debug("dropped a malformed link event: %s", exc)
@@ -234,8 +237,7 @@ class Intake:
             self.rec.write(COMMS_EVENT_KEY, event.t, event_message(event))
         self.books.add(booked)
 
-    def _event(self, message: Message) -> LinkEvent:
-        event = LinkEvent.from_message(message)
+    def _event(self, event: LinkEvent) -> LinkEvent:
         self.bounds.time(event.t, "the event's")
         self.bounds.link(event.sender, event.receiver)
         if event.seq < 0 or (event.delay is not None and event.delay < 0):

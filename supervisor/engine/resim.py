@@ -13,11 +13,11 @@ nothing was recorded after it.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from collections.abc import Iterator, Sequence
 from pathlib import Path
-from typing import Any
 
 from comms.messages import META_KEY, Message, parse_rx, state_key, vehicle_of_key
 from comms.records import Heard
@@ -32,13 +32,14 @@ from supervisor.engine.resim_settings import check_override
 from supervisor.errors import ScenarioError
 from supervisor.plan.schedule import Schedule
 from supervisor.record.logfile import messages
+from supervisor.record.meta import RunMeta
 from supervisor.record.recorder import Recorder
 from vehicles.runtime import NodeState
 from vehicles.step import step_records
 
 
-def _check_duration(log: Path, meta: dict[str, Any], sc: Scenario, overrides: Sequence[str]) -> None:
-    recorded = float(meta["scenario"]["scenario"]["duration"])
+def _check_duration(log: Path, meta: RunMeta, sc: Scenario, overrides: Sequence[str]) -> None:
+    recorded = meta.duration
     if sc.scenario.duration > recorded * (1 + 1e-12):
         given = next((o for o in overrides if o.partition("=")[0].strip() == "scenario.duration"), "")
         raise ScenarioError(
@@ -53,30 +54,30 @@ def _check_duration(log: Path, meta: dict[str, Any], sc: Scenario, overrides: Se
         )
 
 
-def _load(log: Path) -> tuple[dict[str, Any], dict[tuple[int, int], list[Heard]], list[tuple[StateReport, Message]]]:
+def _load(log: Path) -> tuple[RunMeta, dict[tuple[int, int], list[Heard]], list[tuple[StateReport, Message]]]:
     """The run's metadata, the receptions per (vehicle, step), and the state messages (who was stepped when)."""
-    meta: dict[str, Any] | None = None
+    meta: RunMeta | None = None
     heard: dict[tuple[int, int], list[Heard]] = {}
     states: list[tuple[StateReport, Message]] = []
     for topic, _, message in messages(log):
         owned = vehicle_of_key(topic)
-        if topic == META_KEY:
-            meta = message
         try:
-            if owned is not None and owned[1] == "rx":
+            if topic == META_KEY:
+                meta = RunMeta.from_message(message)
+            elif owned is not None and owned[1] == "rx":
                 k, batch = parse_rx(message)
                 heard[(owned[0], k)] = batch
             elif owned is not None and owned[1] == "state":
                 states.append((StateReport.from_message(message, owned[0]), message))
         except ValueError as exc:  # a log cpf wrote reads back; anything else is not one to re-simulate from
             raise ScenarioError(f"{log}: {topic}: {exc}") from None
-    if meta is None or "scenario" not in meta:
+    if meta is None:
         raise ScenarioError(f"{log}: no run metadata with the scenario in it (written by an older cpf?)")
     return meta, heard, states
 
 
-def scenario_of(meta: dict[str, Any], overrides: Sequence[str], source: str) -> Scenario:
-    data = json.loads(json.dumps(meta["scenario"]))  # a deep copy to override
+def scenario_of(meta: RunMeta, overrides: Sequence[str], source: str) -> Scenario:
+    data = json.loads(json.dumps(meta.scenario))  # a deep copy to override
     for override in overrides:
         apply_override(data, override)
     return validate_data(data, f"{source} (--set)")
@@ -90,21 +91,23 @@ def resimulate(log: Path, overrides: Sequence[str], out: Path) -> tuple[Scenario
     sc = scenario_of(meta, overrides, str(log))
     _check_duration(log, meta, sc, overrides)
     original, new = (SeriesBuilder(sc.vehicle_ids, steps_of(sc), sc.scenario.step) for _ in range(2))
-    for _, message in states:
-        original.add(message)
+    for report, _ in states:
+        original.add(report)
     with Recorder(out) as rec:
         rec.limit(sc.scenario.duration)
-        rec.write(META_KEY, 0.0, {**meta, "engine": "resim", "scenario": sc.model_dump(mode="json")})
-        for i, t, state in _restep(sc, heard, {(report.vehicle, report.k) for report, _ in states}):
+        meta = dataclasses.replace(meta, engine="resim", scenario=sc.model_dump(mode="json"))
+        rec.write(META_KEY, 0.0, meta.to_message())
+        for i, t, state, report in _restep(sc, heard, {(report.vehicle, report.k) for report, _ in states}):
             rec.write(state_key(i), t, state)
-            new.add(state)
+            new.add(report)
     return sc, original.series(), new.series()
 
 
 def _restep(
     sc: Scenario, heard: dict[tuple[int, int], list[Heard]], stepped: set[tuple[int, int]]
-) -> Iterator[tuple[int, float, Message]]:
-    """(vehicle, t, state message) step by step, each vehicle stepped where it was in the run on what it heard."""
+) -> Iterator[tuple[int, float, Message, StateReport]]:
+    """(vehicle, t, state message, its report) step by step, each vehicle stepped where it was in the run on what
+    it heard."""
     schedule, dt = Schedule(sc), sc.scenario.step
     configs = {i: vehicle_config(sc, i) for i in sc.vehicle_ids}
     nodes = {i: NodeState(initial_state(sc, configs[i])) for i in sc.vehicle_ids}
@@ -120,4 +123,4 @@ def _restep(
                 configs[i], radios[i], nodes[i], k, plan.t, dt, batch, neighbours, plan.disturbance(i)
             )
             last_state[i] = out.state
-            yield i, plan.t, out.state
+            yield i, plan.t, out.state, out.report

@@ -1,5 +1,5 @@
 """The start of a distributed run, the supervisor's side: who is still missing, and whether each process that came
-alive runs the supervisor's scenario (its hello, comms.messages.hello_message, against the expected digests)."""
+alive runs the supervisor's scenario (its hello, comms.messages.Hello, against the expected digests)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import zenoh
 
-from comms.messages import COMMS_ALIVE, Hello, decode, hello_key, parse_hello
+from comms.messages import COMMS_ALIVE, Hello, decode, hello_key
 from supervisor.config.scenario_digest import difference, section_digests
 from supervisor.config.scenario_schema import Scenario
 from supervisor.errors import ScenarioError
@@ -36,7 +36,7 @@ def ask_hello(session: zenoh.Session, alive_key: str, timeout: float = HELLO_TIM
     for reply in session.get(hello_key(alive_key), timeout=timeout):
         if reply.ok is not None:
             with contextlib.suppress(ValueError):
-                return parse_hello(decode(reply.ok.payload.to_bytes()))
+                return Hello.from_message(decode(reply.ok.payload.to_bytes()))
     return None
 
 

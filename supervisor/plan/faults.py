@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 from comms.network import Network
 from comms.records import Disturbances
+from comms.run import FaultEvent  # a fault starting or ending: the plan's record, as the log keeps it
 from supervisor.config.derived import active, end_of, graph_at
 from supervisor.config.scenario_schema import (
     BlackoutFault,
@@ -30,17 +31,6 @@ from supervisor.config.scenario_schema import (
 )
 
 log = logging.getLogger(__name__)
-
-
-@dataclass(frozen=True, slots=True)
-class FaultEvent:
-    t: float
-    kind: str
-    phase: str  # "start" | "end"
-    detail: dict[str, object]
-
-    def message(self) -> dict[str, object]:
-        return {"t": self.t, "kind": self.kind, "phase": self.phase, "detail": self.detail}
 
 
 def _disturbances(faults: Sequence[FaultSpec], vehicle_id: int, t: float, dt: float) -> Disturbances:

@@ -1,0 +1,86 @@
+"""The supervisor's announcements about the run on cpf/run/*: the communication graph in force (cpf/run/graph), a
+fault starting or ending (cpf/run/fault) and the stop (cpf/run/stop), each a record with its wire form and its
+checked reading side by side (schemas comms.schemas.GRAPH, FAULT, STOP).
+
+`from_message` raises ValueError naming the field for anything malformed. The run's metadata (cpf/run/meta) is the
+supervisor's own record (supervisor.record.meta.RunMeta): it carries the scenario, which comms knows nothing of.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass
+from typing import Literal, cast
+
+from comms.fields import Message, get, is_int, number
+
+Edge = tuple[int, int]
+PHASES = ("start", "end")
+Phase = Literal["start", "end"]
+
+
+def edges_of(message: Message, name: str) -> tuple[Edge, ...]:
+    """A list of directed [sender, receiver] vehicle-id pairs."""
+    pairs = get(message, name, list)
+    if not all(isinstance(p, list) and len(p) == 2 and is_int(p[0]) and is_int(p[1]) for p in pairs):
+        raise ValueError(f"field {name!r} is not a list of [sender, receiver] vehicle ids")
+    return tuple((i, j) for i, j in pairs)
+
+
+@dataclass(frozen=True, slots=True)
+class Graph:
+    """The communication graph in force from time t: its directed edges."""
+
+    t: float
+    edges: tuple[Edge, ...]
+
+    @classmethod
+    def of(cls, t: float, edges: Iterable[Edge]) -> Graph:
+        return cls(t, tuple((i, j) for i, j in edges))
+
+    def to_message(self) -> Message:
+        return {"t": self.t, "edges": [list(e) for e in self.edges]}
+
+    @classmethod
+    def from_message(cls, message: Message) -> Graph:
+        return cls(number(message, "t"), edges_of(message, "edges"))
+
+
+@dataclass(frozen=True, slots=True)
+class FaultEvent:
+    """A fault starting or ending with the step at t: its kind and its scenario fields but the kind (detail: the
+    vehicle or link it acts on, its numbers, its start and end)."""
+
+    t: float
+    kind: str
+    phase: Phase
+    detail: dict[str, object]
+
+    def to_message(self) -> Message:
+        return {"t": self.t, "kind": self.kind, "phase": self.phase, "detail": self.detail}
+
+    @classmethod
+    def from_message(cls, message: Message) -> FaultEvent:
+        phase = get(message, "phase", str)
+        if phase not in PHASES:
+            raise ValueError(f"field 'phase' is {phase!r}, not one of {', '.join(PHASES)}")
+        detail = get(message, "detail", dict)
+        if not all(isinstance(name, str) for name in detail):
+            raise ValueError("field 'detail' has a key that is not a string")
+        return cls(number(message, "t"), get(message, "kind", str), cast(Phase, phase), detail)
+
+
+@dataclass(frozen=True, slots=True)
+class Stop:
+    """The supervisor's stop at time t: the reason is comms.messages.STOP_END when the run finished, else why it
+    stopped early (e.g. a process refused)."""
+
+    t: float
+    reason: str
+
+    def to_message(self) -> Message:
+        return {"t": self.t, "reason": self.reason}
+
+    @classmethod
+    def from_message(cls, message: Message) -> Stop:
+        return cls(number(message, "t"), get(message, "reason", str))
