@@ -7,8 +7,10 @@
    and resident memory per vehicle process;
 4. bus floor: the Zenoh engine's message pattern with no work in it, for 3 and 50 vehicles: what the
    process-per-vehicle architecture costs per step before any of our code runs (and, for 50, with 25 vehicles per
-   process: what grouping them would buy).
-Each part is also a module of its own (benchmarks.bench_engines, bench_scaling, bench_realtime, bench_bus_floor).
+   process: what grouping them would buy);
+5. parse: the CPU cost of reading one bus message through its record (state, transmission, reception batch).
+Each part is also a module of its own (benchmarks.bench_engines, bench_scaling, bench_realtime, bench_bus_floor,
+bench_parse); benchmarks.bench_side_by_side compares this tree with another checkout.
 Results go to benchmarks/results/*.json; the targets are printed next to the numbers. Speed is checked here, never
 in tests.
 """
@@ -19,7 +21,7 @@ import argparse
 import json
 from pathlib import Path
 
-from benchmarks import bench_bus_floor, bench_engines, bench_realtime, bench_scaling
+from benchmarks import bench_bus_floor, bench_engines, bench_parse, bench_realtime, bench_scaling
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "benchmarks" / "results"
@@ -49,8 +51,11 @@ def main() -> None:
     for row in floor:
         print(bench_bus_floor.summary(row), flush=True)
 
+    parse = bench_parse.measure(paper)
+    print(bench_parse.summary(parse), flush=True)
+
     RESULTS.mkdir(parents=True, exist_ok=True)
-    everything = {"engines": engines, "scaling": scaling, "realtime": realtime, "bus_floor": floor}
+    everything = {"engines": engines, "scaling": scaling, "realtime": realtime, "bus_floor": floor, "parse": parse}
     (RESULTS / "all.json").write_text(json.dumps(everything, indent=2))
     print(f"written: {RESULTS / 'all.json'}")
 
