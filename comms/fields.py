@@ -29,10 +29,10 @@ Real3 = tuple[Real, Real, Real]
 def converted(message: object, kind: type[T]) -> T | None:
     """The record `kind` of a message, read and checked by msgspec in C (with what its types cannot say, 2-3x faster
     than the checks below: benchmarks/bench_parse.py; it runs on every message of a run), or None where msgspec
-    refuses it: the caller then reads it with the checks below, which
-    say what is wrong (or, in the few cases msgspec is stricter, accept it). So msgspec must never accept what the
-    checks refuse (tests/test_fast_reading.py): its types are those checks, the rest is checked after it. One
-    difference no message can show: msgspec takes a tuple where the checks want a list, and no decoder gives one."""
+    refuses it: the caller then reads it with the checks below, which say what is wrong (or, in the few cases msgspec
+    is stricter, accept it). So msgspec must never accept what the checks refuse (tests/test_fast_reading.py): its
+    types are those checks, the rest is checked after it. One difference no message can show: msgspec takes a tuple
+    where the checks want a list, and no decoder gives one."""
     try:
         return msgspec.convert(message, kind)
     except msgspec.ValidationError:
