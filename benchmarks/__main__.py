@@ -8,9 +8,11 @@
 4. bus floor: the Zenoh engine's message pattern with no work in it, for 3 and 50 vehicles: what the
    process-per-vehicle architecture costs per step before any of our code runs (and, for 50, with 25 vehicles per
    process: what grouping them would buy);
-5. targets: issue 15's cases as whole `cpf run` / `cpf sweep` commands, both engines side by side
+5. parse: the CPU cost of reading one bus message through its record (state, transmission, reception batch);
+6. targets: issue 15's cases as whole `cpf run` / `cpf sweep` commands, both engines side by side
    (benchmarks.bench_targets; --targets picks the cases, "none" skips them).
-Each part is also a module of its own (benchmarks.bench_engines, bench_scaling, bench_realtime, bench_bus_floor).
+Each part is also a module of its own (benchmarks.bench_engines, bench_scaling, bench_realtime, bench_bus_floor,
+bench_parse, bench_targets); benchmarks.bench_side_by_side compares this tree with another checkout.
 Results go to benchmarks/results/*.json; the targets are printed next to the numbers. Speed is checked here, never
 in tests.
 """
@@ -21,7 +23,7 @@ import argparse
 import json
 from pathlib import Path
 
-from benchmarks import bench_bus_floor, bench_engines, bench_realtime, bench_scaling, bench_targets
+from benchmarks import bench_bus_floor, bench_engines, bench_parse, bench_realtime, bench_scaling, bench_targets
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "benchmarks" / "results"
@@ -53,10 +55,13 @@ def main() -> None:
     for row in floor:
         print(bench_bus_floor.summary(row), flush=True)
 
+    parse = bench_parse.measure(paper)
+    print(bench_parse.summary(parse), flush=True)
     targets = [] if args.targets == "none" else bench_targets.run(args.targets.split(","), args.repeat, 100)
 
     RESULTS.mkdir(parents=True, exist_ok=True)
-    everything = {"engines": engines, "scaling": scaling, "realtime": realtime, "bus_floor": floor, "targets": targets}
+    everything = {"engines": engines, "scaling": scaling, "realtime": realtime, "bus_floor": floor, "parse": parse}
+    everything["targets"] = targets
     (RESULTS / "all.json").write_text(json.dumps(everything, indent=2))
     print(f"written: {RESULTS / 'all.json'}")
 

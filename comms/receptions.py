@@ -11,7 +11,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 from comms.channel import Reception
-from comms.fields import Message, get, number
+from comms.fields import Finite, Message, converted, get, number
 from comms.records import Heard
 
 
@@ -22,11 +22,11 @@ class Delivery:
 
     sender: int
     seq: int
-    stamp: float  # the time of the data, as the packet carries it
-    arrival: float  # simulation time
-    gamma: float
-    gamma_dot: float
-    due: float | None = None
+    stamp: Finite  # the time of the data, as the packet carries it
+    arrival: Finite  # simulation time
+    gamma: Finite
+    gamma_dot: Finite
+    due: Finite | None = None
 
     @classmethod
     def of(cls, r: Reception, wall_of: Callable[[float], float] | None = None) -> Delivery:
@@ -47,6 +47,11 @@ class Delivery:
 
     @classmethod
     def from_message(cls, item: object) -> Delivery:
+        """The reception, checked (ValueError for anything malformed); msgspec's reading, else the checks'."""
+        return converted(item, cls) or cls.checked(item)
+
+    @classmethod
+    def checked(cls, item: object) -> Delivery:
         if not isinstance(item, dict):
             raise ValueError("a reception is not a map")
         return cls(
@@ -59,7 +64,7 @@ class Delivery:
 class RxBatch:
     """What vehicle `vehicle` takes in at step k (t: the step's time, or a realtime delivery's arrival)."""
 
-    t: float
+    t: Finite
     k: int
     vehicle: int
     receptions: tuple[Delivery, ...]
@@ -87,5 +92,10 @@ class RxBatch:
 
     @classmethod
     def from_message(cls, message: Message) -> RxBatch:
-        receptions = tuple(Delivery.from_message(item) for item in get(message, "receptions", list))
+        """The batch, checked (ValueError for anything malformed); msgspec's reading, else the checks'."""
+        return converted(message, cls) or cls.checked(message)
+
+    @classmethod
+    def checked(cls, message: Message) -> RxBatch:
+        receptions = tuple(Delivery.checked(item) for item in get(message, "receptions", list))
         return cls(number(message, "t"), get(message, "k", int), get(message, "vehicle", int), receptions)

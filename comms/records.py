@@ -8,11 +8,24 @@ comms.messages otherwise). Nothing here knows how a vehicle works, so comms depe
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Annotated
 
+import msgspec
 import numpy as np
 from numpy.typing import NDArray
 
-from comms.fields import MAX_FLOAT32, MAX_TIME, Message, carried, get, vector3, velocity
+from comms.fields import (
+    MAX_FLOAT32,
+    MAX_TIME,
+    Finite3,
+    Message,
+    carried,
+    converted,
+    get,
+    slow_enough,
+    vector3,
+    velocity,
+)
 
 FloatArray = NDArray[np.float64]
 
@@ -51,6 +64,18 @@ class Transmission:
     def from_message(cls, message: Message, key_vehicle: int) -> Transmission:
         """The inverse of to_message, checked: the sender must own the key it came on, and the modem frame must be
         able to carry it. ValueError for anything malformed."""
+        wire = converted(message, _TransmissionWire)
+        if wire is None:
+            return cls.checked(message, key_vehicle)
+        if wire.sender != key_vehicle:
+            raise ValueError(f"sender {wire.sender} published on vehicle {key_vehicle}'s key")
+        stamp = None if isinstance(wire.stamp, msgspec.UnsetType) or wire.stamp == wire.t else wire.stamp
+        velocity = slow_enough("velocity", wire.velocity)
+        return cls(wire.sender, wire.seq, wire.t, wire.gamma, wire.gamma_dot, wire.position, velocity, stamp)
+
+    @classmethod
+    def checked(cls, message: Message, key_vehicle: int) -> Transmission:
+        """from_message by hand-written checks, field by field: what says why a message is malformed."""
         sender = get(message, "sender", int)
         if sender != key_vehicle:
             raise ValueError(f"sender {sender} published on vehicle {key_vehicle}'s key")
@@ -64,6 +89,24 @@ class Transmission:
             carried(message, "gamma_dot", -MAX_FLOAT32, MAX_FLOAT32), vector3(message, "position"),
             velocity(message, "velocity"), None if stamp == t else stamp,
         )  # fmt: skip
+
+
+Time = Annotated[float, msgspec.Meta(ge=0.0, le=MAX_TIME)]  # what the modem frame carries (comms.wire)
+Float32 = Annotated[float, msgspec.Meta(ge=-MAX_FLOAT32, le=MAX_FLOAT32)]
+
+
+class _TransmissionWire(msgspec.Struct, frozen=True):
+    """A transmission as its message has it (stamp always written, but old messages may lack it; null is refused),
+    with the checks of Transmission.checked as msgspec types (comms.fields.converted)."""
+
+    sender: int
+    seq: Annotated[int, msgspec.Meta(ge=0)]
+    t: Time
+    gamma: Float32
+    gamma_dot: Float32
+    position: Finite3
+    velocity: Finite3
+    stamp: Time | msgspec.UnsetType = msgspec.UNSET
 
 
 @dataclass(frozen=True, slots=True)

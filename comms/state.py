@@ -9,14 +9,31 @@ value) need only be numbers. Keys a step message adds around the state (tx, rx) 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Annotated, Any
 
+import msgspec
 import numpy as np
 
 from comms.channel import Kinematics
-from comms.fields import Message, get, is_int, number, rotation, vector3, velocity
+from comms.fields import (
+    Finite,
+    Finite3,
+    Message,
+    Real,
+    Real3,
+    converted,
+    get,
+    is_int,
+    number,
+    orthonormal,
+    rotation,
+    slow_enough,
+    vector3,
+    velocity,
+)
 
 Float3 = tuple[float, float, float]
+Rotation = Annotated[tuple[Finite, ...], msgspec.Meta(min_length=9, max_length=9)]  # R row-major
 
 
 @dataclass(frozen=True, slots=True)
@@ -24,23 +41,24 @@ class StateReport:
     """What a vehicle says about itself at step k. position, rotation (R row-major, body to inertial) and velocity
     (body frame) place it in 3-D (a planar vehicle is embedded); tx_seq: its transmission of step k, or 0."""
 
-    t: float
+    # The annotations are the checks msgspec does (comms.fields.converted); the rest are in from_message.
+    t: Finite
     k: int
     vehicle: int
-    gamma: float
-    gamma_dot: float
-    position: Float3  # inertial, m
-    rotation: tuple[float, ...]  # 9 numbers
-    velocity: Float3  # body frame, m/s
-    angular_velocity: Float3  # body frame, rad/s
-    error: Float3  # p - p_d(gamma), m (zero-padded for planar vehicles)
-    tau: tuple[float, ...]  # the inputs the controller asked for
-    correction: float  # v_tilde
-    lyapunov: float
+    gamma: Real
+    gamma_dot: Real
+    position: Finite3  # inertial, m
+    rotation: Rotation  # 9 numbers
+    velocity: Finite3  # body frame, m/s
+    angular_velocity: Finite3  # body frame, rad/s
+    error: Real3  # p - p_d(gamma), m (zero-padded for planar vehicles)
+    tau: tuple[Real, ...]  # the inputs the controller asked for
+    correction: Real  # v_tilde
+    lyapunov: Real
     tx_seq: int
-    estimate_age: tuple[tuple[int, float], ...]  # (neighbour, how old the estimate held of it is, s)
-    rx_lateness: tuple[float, ...] | None = None  # realtime: s from each reception's arrival to its coming
-    step_lateness: float | None = None  # realtime: s from t_k to the vehicle's starting its step
+    estimate_age: tuple[tuple[int, Real], ...]  # (neighbour, how old the estimate held of it is, s)
+    rx_lateness: tuple[Real, ...] | None = None  # realtime: s from each reception's arrival to its coming
+    step_lateness: Finite | None = None  # realtime: s from t_k to the vehicle's starting its step
 
     @property
     def kinematics(self) -> Kinematics:
@@ -76,6 +94,18 @@ class StateReport:
     @classmethod
     def from_message(cls, message: Message, key_vehicle: int) -> StateReport:
         """The report, checked; its vehicle must own the key it came on. ValueError for anything malformed."""
+        report = converted(message, cls)
+        if report is None:
+            return cls.checked(message, key_vehicle)
+        if report.vehicle != key_vehicle:
+            raise ValueError(f"vehicle {report.vehicle} published on vehicle {key_vehicle}'s key")
+        orthonormal(report.rotation)
+        slow_enough("velocity", report.velocity)
+        return report
+
+    @classmethod
+    def checked(cls, message: Message, key_vehicle: int) -> StateReport:
+        """from_message by hand-written checks, field by field: what says why a message is malformed."""
         vehicle = get(message, "vehicle", int)
         if vehicle != key_vehicle:
             raise ValueError(f"vehicle {vehicle} published on vehicle {key_vehicle}'s key")

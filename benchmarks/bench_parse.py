@@ -1,0 +1,90 @@
+"""CPU cost of reading one bus message through its record: `.venv/bin/python -m benchmarks.bench_parse`.
+
+The messages are those of a run of the scenario (in-process engine, recorded to a temporary log): each vehicle's
+state, transmission and reception batch of every step, read as the broker and the Zenoh supervisor read them on
+every step. Prints, per kind, the best of 5 rounds in us per message of the reading the engines use (msgspec,
+comms.fields.converted, then what its types cannot say) and of the hand-written checks it falls back to, and writes
+them to benchmarks/results/parse.json. Issue 13 put these readings on every message of the Zenoh engine (the
+hand-written checks alone cost ~10 us per state message, ~11 % of a paper run).
+"""
+
+from __future__ import annotations
+
+import argparse
+import io
+import json
+import tempfile
+import timeit
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from comms.messages import vehicle_of_key
+from comms.receptions import RxBatch
+from comms.records import Transmission
+from comms.state import StateReport
+from supervisor.config.scenario import load_scenario
+from supervisor.engine.inprocess import run_inprocess
+from supervisor.engine.progress import Progress
+from supervisor.record.logfile import read_messages
+
+ROOT = Path(__file__).resolve().parent.parent
+RESULTS = ROOT / "benchmarks" / "results"
+Reading = Callable[[dict[str, Any], int], object]
+KINDS: dict[str, tuple[str, Reading, Reading]] = {  # kind -> (topic leaf, reading, hand-written checks)
+    "state": ("state", StateReport.from_message, StateReport.checked),
+    "transmission": ("tx", Transmission.from_message, Transmission.checked),
+    "reception batch": ("rx", lambda m, _: RxBatch.from_message(m), lambda m, _: RxBatch.checked(m)),
+}
+
+
+def logged(path: Path) -> dict[str, list[tuple[dict[str, Any], int]]]:
+    """leaf -> (message, its vehicle) of every state, transmission and reception batch of a run's log."""
+    scenario = load_scenario(path)
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "run.mcap"
+        run_inprocess(scenario, str(path), path.read_text(), out, 0, Progress(1.0, io.StringIO(), enabled=False))
+        found: dict[str, list[tuple[dict[str, Any], int]]] = {}
+        for topic, _, message in read_messages(out):
+            owned = vehicle_of_key(topic)
+            if owned is not None:
+                found.setdefault(owned[1], []).append((message, owned[0]))
+    return found
+
+
+def per_message(read: Reading, messages: list[tuple[dict[str, Any], int]]) -> float:
+    """Best of 5 rounds over every message, in us per message."""
+    rounds = timeit.repeat(lambda: [read(m, v) for m, v in messages], number=1, repeat=5)
+    return min(rounds) / len(messages) * 1e6
+
+
+def measure(path: Path) -> dict[str, Any]:
+    found = logged(path)
+    results: dict[str, Any] = {"scenario": str(path)}
+    for kind, (leaf, read, checked) in KINDS.items():
+        messages = found[leaf]
+        results[kind] = {"messages": len(messages), "read_us": per_message(read, messages)}
+        results[kind]["checked_us"] = per_message(checked, messages)
+    return results
+
+
+def summary(results: dict[str, Any]) -> str:
+    lines = [f"{'message':<16} {'count':>6} {'read [us]':>10} {'hand-written checks [us]':>25}"]
+    for kind in KINDS:
+        r = results[kind]
+        lines.append(f"{kind:<16} {r['messages']:>6} {r['read_us']:>10.2f} {r['checked_us']:>25.2f}")
+    return "\n".join(lines)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--scenario", type=Path, default=ROOT / "configs" / "paper.toml")
+    args = parser.parse_args()
+    results = measure(args.scenario)
+    print(summary(results))
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    (RESULTS / "parse.json").write_text(json.dumps(results, indent=2))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,100 @@
+"""msgspec reads the records of the bus first (comms.fields.converted), the hand-written checks only what it refuses:
+so msgspec must never accept a message the checks refuse, nor read one to another record. Each message here is a
+valid one with a field replaced (by any value a decoder could give: null, bools, integers of any size, floats with
+NaN and infinities, strings, lists, maps), a list item replaced or a field removed; both readings must agree."""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from collections.abc import Callable
+from typing import Any
+
+from hypothesis import example, given, settings
+from hypothesis import strategies as st
+
+from comms.fields import MAX_FLOAT32, MAX_TIME
+from comms.messages import step_message
+from comms.receptions import Delivery, RxBatch
+from comms.records import Transmission
+from comms.state import StateReport
+
+from .test_state_report import REPORT
+
+BOUNDARIES = [0.0, -0.0, 1, -1, 2**63, -(2**63), 2**63 - 1, 2**64, 10**400, MAX_TIME, MAX_TIME * 1.0001, MAX_FLOAT32,
+              MAX_FLOAT32 * 1.0001, sys.float_info.max, math.inf, -math.inf, math.nan, 1e-300, 150.0]  # fmt: skip
+SCALARS = st.none() | st.booleans() | st.integers() | st.floats() | st.text(max_size=2) | st.sampled_from(BOUNDARIES)
+NUMBERS = st.floats() | st.integers(-(2**70), 2**70) | st.sampled_from(BOUNDARIES)
+VALUES = st.recursive(
+    SCALARS | st.lists(NUMBERS, min_size=2, max_size=10),
+    lambda inner: st.lists(inner, max_size=10) | st.dictionaries(st.text(max_size=8), inner, max_size=4),
+    max_leaves=12,
+)
+TX = Transmission(3, 9, 12.5, 4.25, 0.98, (1.0, -2.0, 3.0), (1.2, 0.1, 0.0), 12.75).to_message()
+RX = RxBatch(0.4, 4, 2, (Delivery(1, 4, 0.3, 0.31, 5.0, 1.0, 100.31), Delivery(3, 2, 0.2, 0.3, 4.0, 0.9))).to_message()
+REALTIME = {**REPORT.to_message(), "rx_lateness": [-0.004, 0.002], "step_lateness": 0.0005}
+
+
+def outcome(read: Callable[[Any], Any], message: Any) -> str:
+    """What a reading gives, comparable: the record's type and the JSON it writes (1 and 1.0 differ), or refusal."""
+    try:
+        record = read(message)
+    except ValueError:
+        return "refused"
+    return f"{type(record).__name__} {json.dumps(record.to_message())}"
+
+
+@st.composite
+def altered(draw: st.DrawFn, message: dict[str, Any]) -> dict[str, Any]:
+    """message with one field replaced or removed, or an item of one of its lists (or of a map in it) replaced."""
+    out = json.loads(json.dumps(message))
+    name = draw(st.sampled_from([*out, "tx", "extra"]))
+    how = draw(st.sampled_from(["replace", "remove", "item"]))
+    if how == "remove":
+        out.pop(name, None)
+    elif how == "item" and isinstance(out.get(name), list) and out[name]:
+        items = out[name]
+        i = draw(st.integers(0, len(items) - 1))
+        if isinstance(items[i], dict | list) and draw(st.booleans()):
+            j = draw(st.sampled_from(list(items[i]) if isinstance(items[i], dict) else list(range(len(items[i])))))
+            items[i][j] = draw(VALUES)
+        else:
+            items[i] = draw(VALUES)
+    else:
+        out[name] = draw(VALUES)
+    return out
+
+
+@settings(max_examples=400, deadline=None)
+@given(altered(REPORT.to_message()) | altered(REALTIME) | altered(step_message(REPORT.to_message(), TX, RX)))
+@example({**REPORT.to_message(), "gamma": 2**63})  # beyond int64: msgspec refuses, the checks accept
+@example({**REPORT.to_message(), "rotation": [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, -1.1]})
+@example({**REPORT.to_message(), "velocity": [150.0, 0.0, 0.0]})
+@example({**REPORT.to_message(), "vehicle": 4})
+def test_a_state_reads_the_same_by_msgspec_and_by_the_checks(message):
+    assert outcome(lambda m: StateReport.from_message(m, 3), message) == outcome(
+        lambda m: StateReport.checked(m, 3), message
+    )
+
+
+@settings(max_examples=300, deadline=None)
+@given(altered(TX) | altered({k: v for k, v in TX.items() if k != "stamp"}))
+@example({**TX, "stamp": None})  # null is not a missing stamp
+@example({**TX, "stamp": TX["t"]})  # a stamp equal to t reads as none
+@example({**TX, "seq": -1})
+@example({**TX, "t": MAX_TIME * 1.0001})
+def test_a_transmission_reads_the_same_by_msgspec_and_by_the_checks(message):
+    assert outcome(lambda m: Transmission.from_message(m, 3), message) == outcome(
+        lambda m: Transmission.checked(m, 3), message
+    )
+
+
+@settings(max_examples=300, deadline=None)
+@given(altered(RX) | altered(RX["receptions"][0]) | altered(RX["receptions"][1]))
+@example({**RX, "receptions": [{**RX["receptions"][0], "due": None}]})
+def test_a_reception_batch_reads_the_same_by_msgspec_and_by_the_checks(message):
+    read, checked = (
+        (Delivery.from_message, Delivery.checked) if "sender" in message else (RxBatch.from_message, RxBatch.checked)
+    )
+    assert outcome(read, message) == outcome(checked, message)
