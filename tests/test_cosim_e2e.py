@@ -241,3 +241,15 @@ def test_the_headline_counts_every_message_of_the_log(tmp_path, paper_text, engi
     assert done.returncode == 0, done.stderr
     said = int(re.search(r"(\d+) messages -> ", done.stdout).group(1))  # type: ignore[union-attr]
     assert said == len(read_messages(tmp_path / "r.mcap"))
+
+
+def test_processes_run_the_supervisors_code_whatever_the_working_directory_holds(tmp_path, paper_text):
+    """Children started as `python -m supervisor.cli` put the working directory first on their path: a user's
+    folder holding a package named like ours (here a broken `vehicles`) would have run instead of our code."""
+    shadow = tmp_path / "vehicles"
+    shadow.mkdir()
+    (shadow / "__init__.py").write_text("raise ImportError('the working directory was imported')\n")
+    scenario = write_scenario(tmp_path, shortened(paper_text, 2.0))
+    done = cpf("run", str(scenario), "--out", "run.mcap", "--quiet", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert len(states(tmp_path / "run.mcap")) == 3 * 20

@@ -51,7 +51,9 @@ class Launch:
     def argv(self, command: str, *extra: str) -> list[str]:
         sets = [arg for override in self.bus.overrides for arg in ("--set", override)]
         faults = [arg for fault in self.bus.faults for arg in ("--fault", fault)]
-        base = [sys.executable, "-m", "supervisor.cli", command, str(self.path), "--connect", self.connect]
+        # -P: the working directory is not put on the child's path, so it runs the supervisor's code, not a package
+        # of the same name that the user's directory happens to hold
+        base = [sys.executable, "-P", "-m", "supervisor.cli", command, str(self.path), "--connect", self.connect]
         site = ["--zenoh-config", str(self.bus.zenoh_config)] if self.bus.zenoh_config is not None else []
         return [*base, *sets, *faults, *site, *extra]  # credentials: in the environment (supervisor.engine.bus_access)
 
