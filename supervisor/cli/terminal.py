@@ -9,11 +9,10 @@ import contextlib
 import sys
 import time
 from collections.abc import Callable
-from typing import TextIO
+from typing import TYPE_CHECKING, TextIO
 
-from tqdm import tqdm
-
-from supervisor.tools.replay import wait_until
+if TYPE_CHECKING:
+    from tqdm import tqdm
 
 EXIT_RUNTIME, EXIT_INPUT, EXIT_INTERRUPTED = 1, 2, 130
 PROGRESS_INTERVAL = 1.0  # s of wall time between replay progress lines
@@ -32,6 +31,8 @@ def wait_to_start(delay: float | None, stream: TextIO | None = None) -> Callable
             with contextlib.suppress(EOFError):
                 input()
         elif delay > 0:
+            from supervisor.tools.replay import wait_until  # here: every vehicle process imports this module
+
             wait_until(time.monotonic() + delay)
 
     return ready
@@ -69,6 +70,8 @@ class SweepBar:
 
     def __call__(self, done: int, total: int) -> None:
         if self._bar is None:
+            from tqdm import tqdm  # here: every vehicle process imports this module
+
             self._bar = tqdm(total=total, initial=done, desc="sweep", unit="run")
         else:
             self._bar.update(done - self._bar.n)
