@@ -203,6 +203,15 @@ def step_message(
     return message
 
 
+def window_message(steps: list[Message], next_tx: int) -> Message:
+    """A vehicle's step messages of one time window (in order) as one message: the last, with next_tx and the
+    earlier ones (step_message)."""
+    last = {**steps[-1], "next_tx": next_tx}
+    if len(steps) > 1:
+        last["earlier"] = steps[:-1]
+    return last
+
+
 def split_step(message: Message) -> tuple[Message, Message | None, Message | None]:
     """(state, tx, rx) records of a vehicle's step message, as the log keeps them (the window's earlier steps and
     next_tx are not records: split_window reads them)."""
