@@ -44,7 +44,9 @@ CASES: dict[str, tuple[str, float, list[str], list[str]]] = {  # name -> (scenar
 }  # fmt: skip
 
 
-def run(tmp: Path, name: str, engine: str, longest: int | None, monkeypatch: pytest.MonkeyPatch) -> tuple[Path, RunResult, list[int]]:  # fmt: skip
+def run(
+    tmp: Path, name: str, engine: str, longest: int | None, monkeypatch: pytest.MonkeyPatch
+) -> tuple[Path, RunResult, list[int]]:
     """One run of CASES[name]; the window lengths the clock granted (one per tick on the bus, zenoh only)."""
     file, duration, overrides, faults = CASES[name]
     text = shortened((CONFIGS / file).read_text(), duration)
