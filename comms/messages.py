@@ -206,7 +206,8 @@ def step_message(
 def window_message(steps: list[Message], next_tx: int) -> Message:
     """A vehicle's step messages of one time window (in order) as one message: the last, with next_tx and the
     earlier ones (step_message)."""
-    last = {**steps[-1], "next_tx": next_tx}
+    last = steps[-1]  # the vehicle's own fresh dict: no copy on the path of every step
+    last["next_tx"] = next_tx
     if len(steps) > 1:
         last["earlier"] = steps[:-1]
     return last
