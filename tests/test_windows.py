@@ -5,10 +5,12 @@ from __future__ import annotations
 
 import pytest
 
+from comms.messages import TICK_KEY
 from supervisor.config.scenario import load_scenario
+from supervisor.engine.clock import Clock
 from supervisor.engine.windows import window_end, worth_waiting
 from supervisor.plan.schedule import Schedule
-from tests.conftest import CONFIGS
+from tests.conftest import CONFIGS, RecordingPublishers
 
 FLEET = [1, 2, 3]
 
@@ -70,3 +72,68 @@ def test_inside_a_stretch_between_changes_only_k_and_t_change(file):
             assert plan.network == first.network and plan.disturbances == first.disturbances
         k = change
     assert schedule.next_change(schedule.steps) == schedule.steps
+
+
+# --- the clock's grants (supervisor.engine.clock.Clock), with a stand-in for the supervisor ------------------------
+
+
+class Run:
+    """What the clock drives (supervisor.engine.clock.Driven): who is alive, what they reported, what it said."""
+
+    def __init__(self, reports: dict[int, tuple[int, int]]) -> None:
+        self.alive, self.comms_up, self._reports = list(FLEET), True, reports
+        self.recorded: list[tuple[str, float, dict]] = []
+
+    @property
+    def reports(self) -> dict[int, tuple[int, int]]:
+        return self._reports
+
+    def record(self, key: str, t: float, message: dict) -> None:
+        self.recorded.append((key, t, message))
+
+    def publish(self, key: str, t: float, message: dict) -> None:
+        self.recorded.append((key, t, message))
+
+    def pump(self, timeout: float) -> None:
+        pass
+
+    def carry_out(self, action: object, k: int) -> None:
+        pass
+
+
+def clock(mode: str = "lockstep", longest: int | None = None) -> tuple[Clock, RecordingPublishers]:
+    pubs = RecordingPublishers()
+    return Clock(load_scenario(CONFIGS / "paper.toml"), pubs, mode, 1e6, longest), pubs  # speed cap at 150-250 s
+
+
+def test_the_clock_grants_a_window_and_logs_one_tick_per_step_of_it():
+    ticks, pubs = clock()
+    run = Run({v: (9, 20) for v in FLEET})
+    assert ticks.issue(run, 10) == 21
+    [(key, tick)] = pubs.messages
+    assert key == TICK_KEY and tick["k"] == 10 and tick["until"] == 21
+    stepwise, _ = clock(longest=1)
+    one_by_one = Run({v: (9, 20) for v in FLEET})
+    assert [stepwise.issue(one_by_one, k) for k in range(10, 21)] == list(range(11, 22))
+    assert run.recorded == one_by_one.recorded  # the log cannot tell
+    assert all("until" not in message for _, _, message in run.recorded)
+
+
+def test_the_clock_stops_a_window_before_a_fault_and_at_the_end():
+    ticks, _ = clock()
+    far = Run({v: (1490, 4000) for v in FLEET})
+    assert ticks.issue(far, 1495) == 1500  # the speed cap starts at step 1500
+    assert ticks.issue(far, 1500) == 2500  # and ends at 2500
+    assert ticks.issue(Run({v: (3990, 5000) for v in FLEET}), 3995) == 4000  # the run ends at step 4000
+    assert ticks.issue(far, 4000) == 4001  # the final tick
+    assert ticks.issue(Run({1: (9, 20), 2: (9, 20)}), 10) == 11  # vehicle 3 has not reported: it may transmit
+
+
+def test_realtime_keeps_one_step_per_tick():
+    ticks, pubs = clock("realtime")
+    ticks.begin()
+    run = Run({v: (9, 20) for v in FLEET})
+    assert ticks.issue(run, 10) == 11
+    [(key, _, tick)] = run.recorded  # on the bus and in the log, as it always was
+    assert key == TICK_KEY and "until" not in tick and tick["wall"] is not None and pubs.messages == []
+    assert ticks.can_run_ahead(Run({}), 11) is False
