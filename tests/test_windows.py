@@ -7,7 +7,7 @@ import pytest
 
 from comms.messages import TICK_KEY
 from supervisor.config.scenario import load_scenario
-from supervisor.engine.clock import Clock
+from supervisor.engine.clock import LONGEST_WINDOW, Clock
 from supervisor.engine.windows import window_end, worth_waiting
 from supervisor.plan.schedule import Schedule
 from tests.conftest import CONFIGS, RecordingPublishers
@@ -123,7 +123,8 @@ def test_the_clock_stops_a_window_before_a_fault_and_at_the_end():
     ticks, _ = clock()
     far = Run({v: (1490, 4000) for v in FLEET})
     assert ticks.issue(far, 1495) == 1500  # the speed cap starts at step 1500
-    assert ticks.issue(far, 1500) == 2500  # and ends at 2500
+    assert ticks.issue(far, 1500) == 1500 + LONGEST_WINDOW  # the cap ends it before the fault's end at 2500
+    assert clock(longest=2000)[0].issue(far, 1500) == 2500
     assert ticks.issue(Run({v: (3990, 5000) for v in FLEET}), 3995) == 4000  # the run ends at step 4000
     assert ticks.issue(far, 4000) == 4001  # the final tick
     assert ticks.issue(Run({1: (9, 20), 2: (9, 20)}), 10) == 11  # vehicle 3 has not reported: it may transmit

@@ -108,7 +108,7 @@ def _add_run(sub: Commands) -> None:
     run.add_argument(
         "--max-window", type=_whole(1, 2**63 - 1), default=None, metavar="STEPS",
         help="zenoh engine, lockstep: at most this many steps per time window without the bus (1: a bus round trip "
-        "per step, as before windows; default: as long as no vehicle can transmit and nothing changes)",
+        "per step, as before windows; default: 100, or fewer while a vehicle may transmit or something changes)",
     )  # fmt: skip
     run.add_argument("--seed", type=_seed, default=None, help="random seed (default: the scenario's)")
     run.add_argument("--out", type=Path, default=None, help="MCAP file to write (default: runs/<name>.mcap)")

@@ -33,6 +33,11 @@ from supervisor.engine.windows import Reports, window_end, worth_waiting
 from supervisor.plan.faults import ProcessAction
 from supervisor.plan.schedule import Schedule, StepPlan
 
+# Lockstep windows end after this many steps even when nothing could cross the bus for longer: the supervisor hears
+# from the fleet (progress, a stuck run's timeout per step) at least this often, and a round trip per 100 steps
+# costs next to nothing.
+LONGEST_WINDOW = 100
+
 
 class Driven(Protocol):
     """What the clock needs of the supervisor it drives."""
@@ -56,10 +61,10 @@ class Clock:
     """Issues the ticks of one run: lockstep (as fast as the states come) or realtime (paced to the wall clock)."""
 
     def __init__(self, sc: Scenario, pubs: Publishers, mode: str, speed: float, longest: int | None = None) -> None:
-        """longest: lockstep windows of at most this many steps (1: step by step; None: as long as they can be)."""
+        """longest: lockstep windows of at most this many steps (1: step by step; None: LONGEST_WINDOW)."""
         self.schedule = Schedule(sc)  # the run's one plan
         self.pubs, self.mode, self.speed = pubs, mode, speed
-        self.longest = 1 if mode == "realtime" else longest  # realtime keeps its pacing: a tick per step
+        self.longest = 1 if mode == "realtime" else longest or LONGEST_WINDOW  # realtime paces a tick per step
         self.fleet = len(sc.vehicle_ids)
         self.usual = Network(tuple((a, b) for a, b in sc.graph.edges))  # the scenario's graph, no link faults
         self.lead = tick_lead(sc.scenario.step, speed)
