@@ -80,7 +80,7 @@ class Broker:
             if key == TICK_KEY:
                 tick = parse_tick(message)
                 self.books.ticks[tick.k], self.books.raw_ticks[tick.k] = tick, message
-                self.latest_tick = max(self.latest_tick, tick.k)
+                self.latest_tick = max(self.latest_tick, tick.end - 1)  # a window's last step
             elif owned is not None and owned[1] == "state":
                 report = StateReport.from_message(message, owned[0])
                 if report.k > self.latest_tick + 1:  # a vehicle steps on a tick: kept, it would be held forever
@@ -116,7 +116,7 @@ class Broker:
                 self._handle(tick)  # still filed while it runs: it says who is alive at the end of step k-1
                 del self.books.ticks[self.next_k]
                 del self.books.raw_ticks[self.next_k]
-                self.next_k += 1
+                self.next_k = tick.end
                 if tick.final:
                     return True
             else:
@@ -126,7 +126,9 @@ class Broker:
         return self.clock is not None and self.clock.wall is not None
 
     def _tick_of(self, k: int) -> Tick | None:
-        return self.clock if self.clock is not None and self.clock.k == k else self.books.ticks.get(k)
+        """The tick step k runs on: the latest handled one if k is in its window, else one filed for k."""
+        clock = self.clock
+        return clock if clock is not None and clock.k <= k < clock.end else self.books.ticks.get(k)
 
     def _expected(self, k: int) -> list[int]:
         """Vehicles whose step message of step k counts: alive then and still alive at the next tick (if it is
@@ -159,9 +161,16 @@ class Broker:
         self.submitted = k
 
     def _handle(self, tick: Tick) -> None:
+        """A tick (lockstep: of a time window, inside which no vehicle transmits but at its last step): the last
+        step's transmissions into the water, then every reception arriving by each step of the window, step by step
+        (nothing can be submitted between them, so this is what stepping one step at a time would hand out)."""
         if tick.k - 1 > self.submitted:
             self._submit(tick.k - 1)
+        self.states_before(tick.k)
         self.clock = tick
+        if tick.end - tick.k > 1:
+            self._handle_window(tick)
+            return
         batches = self._deliver(tick.t)
         if tick.final:
             self.unpublished += self.core.finish(tick.t)
@@ -176,6 +185,21 @@ class Broker:
             self._publish_live(tick, batches)
             batches = {}  # a vehicle named nowhere has nothing: realtime vehicles take in their own deliveries
         self.publishers.put(COMMS_STEP_KEY, batches_message(self.books.raw_ticks[tick.k], batches))
+
+    def _handle_window(self, tick: Tick) -> None:
+        """A lockstep tick of several steps: one batch per step, the statistics snapshotted at each step's time."""
+        batches = []
+        for k in range(tick.k, tick.end):
+            t = tick.t if k == tick.k else k * self.dt
+            batches.append(self._deliver(t))
+            self._publish_stats(t)
+        self._publish_events(tick)
+        self.publishers.put(COMMS_STEP_KEY, batches_message(self.books.raw_ticks[tick.k], batches))
+
+    def states_before(self, k: int) -> None:
+        """Forget the states of steps before k: those of a window's earlier steps are never submitted."""
+        for old in [j for j in self.books.states if j < k]:
+            del self.books.states[old]
 
     # --- realtime deliveries ---------------------------------------------------------------------------------
 

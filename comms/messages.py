@@ -8,14 +8,14 @@ index. Parsers (`parse_*`) raise ValueError for anything malformed: receivers co
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import msgpack
 
 from comms.channel import LinkEvent, Reception
-from comms.fields import Message
+from comms.fields import Message, is_int
 from comms.fields import get as _get
 from comms.network import Network
 from comms.receptions import Delivery, RxBatch
@@ -119,19 +119,37 @@ def rx_message(
     return RxBatch.of(vehicle_id, k, t, receptions, wall_of).to_message()
 
 
-def batches_message(tick: Message, batches: dict[int, list[Reception]] | None) -> Message:
+def batches_message(
+    tick: Message, batches: dict[int, list[Reception]] | Sequence[dict[int, list[Reception]]] | None
+) -> Message:
     """What every vehicle needs to run step k, in one message the broker publishes for the whole fleet: the tick and
     each vehicle's receptions (batches None: the broker is down, the supervisor says so itself). Each vehicle's
     receptions are packed on their own (vehicle id -> msgpack bytes), so a vehicle unpacks only its own: the whole
-    message grows with the fleet, and every vehicle reads it."""
-    packed = {v: encode_list([Delivery.of(r).to_message() for r in rs]) for v, rs in (batches or {}).items()}
-    rx = None if batches is None else packed
-    return {"t": tick["t"], "k": tick["k"], "tick": tick, "rx": rx}
+    message grows with the fleet, and every vehicle reads it. A tick that grants a time window of several steps
+    (its `until`) comes with one batch per step of it (a sequence): each vehicle's are packed as one list per step."""
+    if batches is None:
+        return {"t": tick["t"], "k": tick["k"], "tick": tick, "rx": None}
+    if isinstance(batches, dict):
+        packed = {v: encode_list([Delivery.of(r).to_message() for r in rs]) for v, rs in batches.items()}
+        return {"t": tick["t"], "k": tick["k"], "tick": tick, "rx": packed}
+    if len(batches) != tick.get("until", tick["k"] + 1) - tick["k"]:
+        raise ValueError(f"{len(batches)} batches for a window of steps {tick['k']} to {tick.get('until')}")
+    vehicles = sorted({v for step in batches for v in step})
+    per_step = {v: [[Delivery.of(r).to_message() for r in step.get(v, [])] for step in batches] for v in vehicles}
+    return {"t": tick["t"], "k": tick["k"], "tick": tick, "rx": {v: encode_list(b) for v, b in per_step.items()}}
 
 
 def parse_batches(message: Message, vid: int) -> tuple[Tick, Message | None]:
     """(tick, vid's reception batch as an rx message) of a batches message; the batch is None if the broker is
-    down, empty if the broker has nothing for vid."""
+    down, empty if the broker has nothing for vid. A tick of several steps: the batch of its first step
+    (parse_window gives them all)."""
+    tick, batches = parse_window(message, vid, 0.0)
+    return tick, None if batches is None else batches[0]
+
+
+def parse_window(message: Message, vid: int, dt: float) -> tuple[Tick, list[Message] | None]:
+    """(tick, vid's reception batch of each step of the tick's window, as rx messages: step j's at t = j dt) of a
+    batches message; None if the broker is down, empty batches if the broker has nothing for vid."""
     tick = parse_tick(_get(message, "tick", dict))
     batches = message.get("rx")
     if batches is None:
@@ -142,7 +160,16 @@ def parse_batches(message: Message, vid: int) -> tuple[Tick, Message | None]:
     if packed is not None and not isinstance(packed, bytes):
         raise ValueError(f"the receptions of vehicle {vid} are not packed bytes")
     mine = decode_list(packed) if packed is not None else []
-    return tick, {"t": tick.t, "k": tick.k, "vehicle": vid, "receptions": mine}
+    steps = tick.end - tick.k
+    if steps == 1:
+        return tick, [{"t": tick.t, "k": tick.k, "vehicle": vid, "receptions": mine}]
+    if packed is None:
+        mine = [[] for _ in range(steps)]
+    if len(mine) != steps or not all(isinstance(step, list) for step in mine):
+        raise ValueError(f"the receptions of vehicle {vid} are not one list per step of the window ({steps})")
+    times = [tick.t, *(j * dt for j in range(tick.k + 1, tick.end))]  # the window's first step: the tick's own t
+    steps_of = zip(range(tick.k, tick.end), times, mine, strict=True)
+    return tick, [{"t": t, "k": j, "vehicle": vid, "receptions": rs} for j, t, rs in steps_of]
 
 
 encode_list = encode  # a vehicle's receptions, packed on their own inside the batches message
@@ -156,17 +183,56 @@ def decode_list(data: bytes) -> list[Any]:
     return items
 
 
-def step_message(state: Message, tx: Message | None, rx: Message | None) -> Message:
+def step_message(
+    state: Message,
+    tx: Message | None,
+    rx: Message | None,
+    next_tx: int | None = None,
+    earlier: list[Message] | None = None,
+) -> Message:
     """What a vehicle publishes once per step on its state key: its state, with the transmission it made and the
-    reception batch it took in (one bus message instead of three; the log splits it back with split_step)."""
-    return {**state, "tx": tx, "rx": rx}
+    reception batch it took in (one bus message instead of three; the log splits it back with split_step).
+    Lockstep vehicles also say the first step at which they may transmit next (next_tx), and at the end of a time
+    window of several steps carry the step messages of its earlier steps (earlier, in order): the message's own
+    state is the window's last, what the broker needs."""
+    message = {**state, "tx": tx, "rx": rx}
+    if next_tx is not None:
+        message["next_tx"] = next_tx
+    if earlier:
+        message["earlier"] = earlier
+    return message
+
+
+def window_message(steps: list[Message], next_tx: int) -> Message:
+    """A vehicle's step messages of one time window (in order) as one message: the last, with next_tx and the
+    earlier ones (step_message)."""
+    last = steps[-1]  # the vehicle's own fresh dict: no copy on the path of every step
+    last["next_tx"] = next_tx
+    if len(steps) > 1:
+        last["earlier"] = steps[:-1]
+    return last
 
 
 def split_step(message: Message) -> tuple[Message, Message | None, Message | None]:
-    """(state, tx, rx) records of a vehicle's step message, as the log keeps them."""
+    """(state, tx, rx) records of a vehicle's step message, as the log keeps them (the window's earlier steps and
+    next_tx are not records: split_window reads them)."""
     state = dict(message)
     tx, rx = state.pop("tx", None), state.pop("rx", None)
+    state.pop("next_tx", None)
+    state.pop("earlier", None)
     return state, tx if isinstance(tx, dict) else None, rx if isinstance(rx, dict) else None
+
+
+def split_window(message: Message) -> tuple[list[Message], int | None]:
+    """(the step messages of a vehicle's window, in order, the last one being message itself; the first step at
+    which it may transmit next, None if it does not say) of a vehicle's step message."""
+    earlier = message.get("earlier")
+    if earlier is not None and not (isinstance(earlier, list) and all(isinstance(m, dict) for m in earlier)):
+        raise ValueError("field 'earlier' is not a list of step messages")
+    next_tx = message.get("next_tx")
+    if next_tx is not None and not is_int(next_tx):
+        raise ValueError(f"field 'next_tx' is not a step, got {next_tx!r}")
+    return [*(earlier or []), message], next_tx
 
 
 def event_message(event: LinkEvent) -> Message:
@@ -185,9 +251,10 @@ def tick_message(
     wall: float | None = None,
     speed: float = 1.0,
     hold: bool = False,
+    until: int | None = None,
 ) -> Message:
     """The supervisor's clock (Tick.to_message; disturbed: only the vehicles with any fault acting)."""
-    return Tick(k, t, final, disturbed or {}, network, alive, comms, wall, speed, hold).to_message()
+    return Tick(k, t, final, disturbed or {}, network, alive, comms, wall, speed, hold, until).to_message()
 
 
 @dataclass(frozen=True, slots=True)

@@ -149,8 +149,9 @@ TICK = _object(
         "wall": {"type": ["number", "null"]},  # realtime: t on the wall clock (time.time()); null: lockstep
         "speed": NUMBER,  # realtime: simulated s per wall-clock s
         "hold": BOOLEAN,  # a process is killed or restarted at the next tick
+        "until": INTEGER,  # on the bus only: a lockstep time window of steps k .. until-1 (the log: one per step)
     },
-    optional=("wall", "speed", "hold"),  # logs from before realtime delivery
+    optional=("wall", "speed", "hold", "until"),  # logs from before realtime delivery; until: windows only
 )
 _LINK_BOOK = _object(
     "cpf.LinkBook",

@@ -52,7 +52,8 @@ class Tick:
     (graph and link faults), the vehicles alive, whether the broker is up. Realtime runs also say when t is on the
     wall clock (time.time()) and how fast simulation time runs: wall + (t' - t) / speed. hold: a process is killed
     or restarted at the next tick, so this step's transmissions wait for it (realtime brokers otherwise send them
-    before the next tick, which alone says who survived the step)."""
+    before the next tick, which alone says who survived the step). until (lockstep): the tick grants the time
+    window k .. until-1, over which all of this holds and nothing crosses the bus (supervisor.engine.windows)."""
 
     WIRE_NAMES: ClassVar[dict[str, str]] = {"disturbed": "vehicles"}  # field -> its name in the message
 
@@ -66,6 +67,12 @@ class Tick:
     wall: float | None = None  # realtime: the wall-clock time (time.time()) of t; None: lockstep
     speed: float = 1.0  # realtime: simulated seconds per wall-clock second
     hold: bool = False  # a process is killed or restarted at the next tick: this step's packets wait for it
+    until: int | None = None  # lockstep time window: steps k .. until-1 run on this tick; None: step k alone
+
+    @property
+    def end(self) -> int:
+        """The first step after the window this tick grants (k + 1 for a tick of one step)."""
+        return self.k + 1 if self.until is None else self.until
 
     def wall_of(self, t: float) -> float:
         """The wall-clock time of simulation time t (realtime runs only)."""
@@ -84,6 +91,7 @@ class Tick:
             "wall": self.wall,
             "speed": self.speed,
             "hold": self.hold,
+            **({} if self.until is None else {"until": self.until}),  # the log keeps one tick per step, without it
         }
 
     @classmethod
@@ -97,10 +105,14 @@ class Tick:
         if alive is not None and not (isinstance(alive, list) and all(is_int(v) for v in alive)):
             raise ValueError("field 'alive' is not a list of vehicle ids")
         hold = get(message, "hold", bool) if "hold" in message else False
+        k = get(message, "k", int)
+        until = get(message, "until", int) if message.get("until") is not None else None
+        if until is not None and until <= k:
+            raise ValueError(f"field 'until' is not after step {k}, got {until}")
         return cls(
-            get(message, "k", int), number(message, "t"), get(message, "final", bool),
+            k, number(message, "t"), get(message, "final", bool),
             {e.vehicle: e.disturbances for e in entries}, None if net is None else Network.from_message(net), alive,
-            get(message, "comms", bool), *_realtime(message), hold,
+            get(message, "comms", bool), *_realtime(message), hold, until,
         )  # fmt: skip
 
 

@@ -50,6 +50,11 @@ OPTIONS = {
     "listen in process": (["--engine", "inprocess", "--listen", "tcp/127.0.0.1:7447"], "--listen: only the zenoh"),
     "connect in process": (["--engine", "inprocess", "--connect", "tcp/127.0.0.1:7447"], "--connect: only the zenoh"),
     "timeout in process": (["--engine", "inprocess", "--start-timeout", "5"], "--start-timeout: only the zenoh"),
+    "max window in process": (["--engine", "inprocess", "--max-window", "2"], "--max-window: only the zenoh engine's"),
+    "max window in realtime": (
+        ["--clock", "realtime", "--max-window", "1"],
+        "--max-window: only the zenoh engine's lockstep clock has time windows, got 1",
+    ),
     "speed in lockstep": (["--speed", "2"], "--speed: only the realtime clock is paced (add --clock realtime), got 2"),
     "a remote vehicle killed": (
         ["--remote", "2", "--credentials-dir", "c", "--fault", "kind=vehicle_kill,vehicle=2,start=1,end=2"],
@@ -83,7 +88,9 @@ def test_speed_with_the_realtime_clock_is_accepted() -> None:
     from supervisor.cli import _option_errors
 
     scenario = parse_scenario(PAPER)
-    args = Namespace(remote=(2, 3), engine="zenoh", listen=None, connect=None, start_timeout=5.0, speed=2.0)
+    args = Namespace(
+        remote=(2, 3), engine="zenoh", listen=None, connect=None, start_timeout=5.0, speed=2.0, max_window=None
+    )
     args.credentials_dir, args.zenoh_config = Path("creds"), None  # vehicles started by hand get credentials
     assert _option_errors(Namespace(**vars(args), clock="realtime"), scenario) == []
 

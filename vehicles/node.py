@@ -24,13 +24,14 @@ from comms.messages import (
     Message,
     Tick,
     decode,
-    parse_batches,
+    parse_window,
     rx_key,
     state_key,
     step_message,
     tick_lead,
     vehicle_alive_key,
     vehicle_done_key,
+    window_message,
 )
 from comms.receptions import Delivery, RxBatch
 from comms.records import Disturbances, Heard
@@ -38,6 +39,7 @@ from comms.reports import VehicleDone
 from vehicles.agent import VehicleConfig
 from vehicles.runtime import NodeState, Radio
 from vehicles.step import step_records
+from vehicles.transmission import earliest_transmission
 
 log = logging.getLogger(__name__)
 
@@ -65,9 +67,10 @@ class _Pending:
     def ready(self, k: int) -> bool:
         return k in self.ticks
 
-    def receptions(self, tick: Tick, vid: int) -> tuple[list[Heard], Message | None, list[float]]:
-        """What the vehicle takes in at this tick, the batch to report (None: the broker is down), lateness (s)."""
-        heard, batch = self.batches.pop(tick.k)
+    def receptions(self, tick: Tick, vid: int, k: int) -> tuple[list[Heard], Message | None, list[float]]:
+        """What the vehicle takes in at step k of this tick's window, the batch to report (None: the broker is
+        down), lateness (s)."""
+        heard, batch = self.batches.pop(k)
         if tick.wall is None:
             return heard, batch, []
         live = [r for r in self.live if r.step <= tick.k]  # realtime: what has arrived by this step's instant
@@ -135,31 +138,37 @@ class _Vehicle:
         return vehicle_done_key(vid), report.to_message()
 
     def on_time(self) -> None:
-        """Run every step whose tick is in and whose time has come."""
+        """Run every step whose tick is in and whose time has come: a lockstep tick's whole time window at once."""
         while self.pending.ready(self.k):
             start_at = self.pending.start_at.get(self.k)
             if start_at is not None and start_at > self.now():
                 return
             self.pending.start_at.pop(self.k, None)
             tick = self.pending.ticks.pop(self.k)
-            receptions = self.pending.receptions(tick, self.cfg.vehicle_id)
-            self.node = self._step(tick, receptions)
-            self.k += 1
+            steps = [self._step(tick, k) for k in range(tick.k, tick.end)]
+            self.k = tick.end
+            node = self.node
+            last = None if node.last_sent is None else node.last_sent.stamp
+            next_tx = earliest_transmission(self.radio.policy, self.radio.tdma, self.cfg.vehicle_id, self.k - 1,
+                                            self.dt, last, node.pending)  # fmt: skip
+            self.publishers.put(state_key(self.cfg.vehicle_id), window_message(steps, next_tx))
 
-    def _step(self, tick: Tick, receptions: tuple[list[Heard], Message | None, list[float]]) -> NodeState:
-        """Step the tick's k on what was taken in; publish the step message (state, transmission, receptions)."""
+    def _step(self, tick: Tick, k: int) -> Message:
+        """Step k of the tick's window on what was taken in; its step message (state, transmission, receptions)."""
         vid = self.cfg.vehicle_id
-        heard, batch, lateness = receptions
+        heard, batch, lateness = self.pending.receptions(tick, vid, k)
         dist = tick.disturbed.get(vid, Disturbances())
         current = tick.network.neighbours(vid) if tick.network is not None else self.neighbours
         started = self.now() if tick.wall is not None else 0.0
-        node, out = step_records(self.cfg, self.radio, self.node, tick.k, tick.t, self.dt, heard, current, dist)
+        t = tick.t if k == tick.k else k * self.dt
+        self.node, out = step_records(self.cfg, self.radio, self.node, k, t, self.dt, heard, current, dist)
+        if out.tx is not None and k < tick.end - 1:  # the clock's window promised no transmission but at its end
+            raise RuntimeError(f"vehicle {vid} transmitted at step {k}, inside the time window up to {tick.end - 1}")
         state = out.state
         if tick.wall is not None:
             state["rx_lateness"] = lateness
             state["step_lateness"] = started - tick.wall  # how late the vehicle began its step of t_k
-        self.publishers.put(state_key(vid), step_message(state, out.tx, batch))
-        return node
+        return step_message(state, out.tx, batch)
 
 
 def _take(key: str, payload: bytes, vid: int, pending: _Pending, dt: float, now: Callable[[], float]) -> None:
@@ -167,13 +176,15 @@ def _take(key: str, payload: bytes, vid: int, pending: _Pending, dt: float, now:
     try:
         message = decode(payload)
         if key == COMMS_STEP_KEY:
-            tick, batch = parse_batches(message, vid)
+            tick, batches = parse_window(message, vid, dt)
             if not tick.final:
                 pending.ticks[tick.k] = tick
                 if tick.wall is not None:  # its time, but never more than the lead after it came: a host whose
                     # clock lags the supervisor's must not hold the whole fleet back
                     pending.start_at[tick.k] = min(tick.wall, now() + tick_lead(dt, tick.speed))
-                pending.batches[tick.k] = ([] if batch is None else RxBatch.from_message(batch).heard, batch)
+                for k in range(tick.k, tick.end):
+                    batch = None if batches is None else batches[k - tick.k]
+                    pending.batches[k] = ([] if batch is None else RxBatch.from_message(batch).heard, batch)
         elif key == rx_key(vid):
             _file_rx(message, pending, dt, now())
     except ValueError as exc:

@@ -12,6 +12,7 @@ MAC: free (any time) or TDMA (only at the start of the vehicle's own slot; a wis
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 from vehicles.estimates import NeighbourEstimate, Predictor, predict
@@ -68,3 +69,55 @@ class Tdma:
         start = self.order.index(vehicle_id) * self.slot
         into_slot = (t - start) % frame
         return into_slot < dt / 2 or frame - into_slot < dt / 2
+
+    def first_slot(self, vehicle_id: int, lo: int, dt: float) -> int:
+        """The first step >= lo at which may_transmit holds: the steps around the first slot start not before
+        step lo's time (a step's window is half a step either side), checked; a full frame's scan if none holds."""
+        frame = self.slot * len(self.order)
+        start = self.order.index(vehicle_id) * self.slot
+        slot_start = start + frame * math.ceil((lo * dt - dt / 2 - start) / frame)
+        near = round(slot_start / dt)
+        for j in range(max(lo, near - 1), near + 2):
+            if self.may_transmit(vehicle_id, j * dt, dt):
+                while j > lo and self.may_transmit(vehicle_id, (j - 1) * dt, dt):
+                    j -= 1
+                return j
+        for j in range(lo, lo + math.ceil(frame / dt) + 2):  # rounding at a window's edge: look at every step
+            if self.may_transmit(vehicle_id, j * dt, dt):
+                return j
+        raise ValueError(f"vehicle {vehicle_id}: no TDMA slot on the step grid (slot {self.slot:g} s, step {dt:g} s)")
+
+
+# --- the earliest next transmission (time windows) --------------------------------------------------------------
+
+
+def earliest_transmission(
+    policy: Policy, tdma: Tdma | None, vehicle_id: int, k: int, dt: float, last: float | None, pending: bool
+) -> int:
+    """The first step after k at which the vehicle may transmit, after its step k: last is the stamp of what it last
+    sent (None: nothing yet), pending whether a wish waits for its TDMA slot. No step before the one returned can
+    be due by the policy and allowed by the MAC (the supervisor lets the fleet run without the bus until then), so
+    every bound below mirrors the float arithmetic of due() and may_transmit() step by step (t = j dt)."""
+    first = k + 1 if pending or last is None else _policy_earliest(policy, k + 1, dt, last)
+    return first if tdma is None else tdma.first_slot(vehicle_id, first, dt)
+
+
+def _policy_earliest(policy: Policy, lo: int, dt: float, last: float) -> int:
+    """The first step >= lo at which the policy can be due (the predictor may still say no: a lower bound)."""
+    if isinstance(policy, PeriodicPolicy):
+        if policy.period is None:
+            return lo
+        period = policy.period
+        return _first(lambda j: j * dt - last >= period - dt / 2, lo, (last + period) / dt)
+    interval = policy.min_interval  # the heartbeat only forces a transmission the interval already allows
+    return _first(lambda j: not j * dt - last < interval - dt / 2, lo, (last + interval) / dt)
+
+
+def _first(holds: Callable[[int], bool], lo: int, guess: float) -> int:
+    """The first j >= lo for which holds(j), holds monotone in j (false, then true for good); guess: near it."""
+    j = max(lo, math.floor(guess))
+    while j > lo and holds(j - 1):
+        j -= 1
+    while not holds(j):
+        j += 1
+    return j

@@ -105,6 +105,11 @@ def _add_run(sub: Commands) -> None:
     run.add_argument(
         "--speed", type=_speed, default=None, help="realtime clock only: simulated s per wall s (default: 1)"
     )
+    run.add_argument(
+        "--max-window", type=_whole(1, 2**63 - 1), default=None, metavar="STEPS",
+        help="zenoh engine, lockstep: at most this many steps per time window without the bus (1: a bus round trip "
+        "per step, as before windows; default: 100, or fewer while a vehicle may transmit or something changes)",
+    )  # fmt: skip
     run.add_argument("--seed", type=_seed, default=None, help="random seed (default: the scenario's)")
     run.add_argument("--out", type=Path, default=None, help="MCAP file to write (default: runs/<name>.mcap)")
     run.add_argument("--metrics", type=Path, default=None, help="also write the summary as JSON here")

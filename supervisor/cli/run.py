@@ -40,6 +40,8 @@ def _option_errors(args: argparse.Namespace, scenario: Scenario) -> list[str]:
             for option, value in given.items()
             if value is not None
         ]
+    if args.max_window is not None and (args.engine != "zenoh" or args.clock != "lockstep"):
+        errors.append(f"--max-window: only the zenoh engine's lockstep clock has time windows, got {args.max_window}")
     if args.speed is not None and args.clock != "realtime":
         errors.append(f"--speed: only the realtime clock is paced (add --clock realtime), got {args.speed:g}")
     killed = {f.vehicle: index for index, f in enumerate(scenario.faults) if isinstance(f, VehicleKillFault)}
@@ -127,7 +129,7 @@ def _simulate(args: argparse.Namespace, scenario: Scenario, out: Path) -> RunRes
     changes = (tuple(args.set), tuple(args.fault))
     bus = BusOptions(args.listen, args.connect, args.remote, *changes, timeout, args.credentials_dir, args.zenoh_config)
     logging.getLogger("cpf.engine").setLevel(logging.INFO)  # "waiting for ...": --quiet or not
-    return run_zenoh(scenario, args.scenario, text, out, seed, args.clock, speed, bus, progress)
+    return run_zenoh(scenario, args.scenario, text, out, seed, args.clock, speed, bus, progress, args.max_window)
 
 
 def _report_run(args: argparse.Namespace, scenario: Scenario, result: RunResult, out: Path) -> None:

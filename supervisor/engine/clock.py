@@ -2,8 +2,12 @@
 over step k, after publishing the faults that start or end with it and carrying out the kills and restarts due.
 
 The plan is asked, never recomputed here: the in-process engine and re-simulation ask the same Schedule, so the
-three engines cannot drift. In lockstep a tick may go out a step ahead (the broker then starts step k+1 the moment
-the states of step k arrive); a tick with a kill or restart due, and every realtime tick, waits for the step before.
+three engines cannot drift. In lockstep a tick grants a time window of steps inside which nothing can cross the bus
+(supervisor.engine.windows: up to the next step at which a vehicle may transmit or anything external changes); the
+log keeps one tick record per step of it, as stepping one step at a time writes them. A tick may go out a window
+ahead (the broker then starts the next window the moment the states of this one arrive) unless the vehicles' fresh
+reports could lengthen it; a tick with a kill or restart due, and every realtime tick (a window of one step), waits
+for the step before.
 """
 
 from __future__ import annotations
@@ -25,8 +29,14 @@ from comms.messages import (
 from comms.network import Network
 from comms.run import Graph
 from supervisor.config.scenario_schema import Scenario
+from supervisor.engine.windows import Reports, window_end, worth_waiting
 from supervisor.plan.faults import ProcessAction
 from supervisor.plan.schedule import Schedule, StepPlan
+
+# Lockstep windows end after this many steps even when nothing could cross the bus for longer: the supervisor hears
+# from the fleet (progress, a stuck run's timeout per step) at least this often, and a round trip per 100 steps
+# costs next to nothing.
+LONGEST_WINDOW = 100
 
 
 class Driven(Protocol):
@@ -34,6 +44,11 @@ class Driven(Protocol):
 
     alive: list[int]
     comms_up: bool
+
+    @property
+    def reports(self) -> Reports: ...
+
+    def record(self, key: str, t: float, message: Message) -> None: ...
 
     def pump(self, timeout: float) -> None: ...
 
@@ -45,15 +60,18 @@ class Driven(Protocol):
 class Clock:
     """Issues the ticks of one run: lockstep (as fast as the states come) or realtime (paced to the wall clock)."""
 
-    def __init__(self, sc: Scenario, pubs: Publishers, mode: str, speed: float) -> None:
+    def __init__(self, sc: Scenario, pubs: Publishers, mode: str, speed: float, longest: int | None = None) -> None:
+        """longest: lockstep windows of at most this many steps (1: step by step; None: LONGEST_WINDOW)."""
         self.schedule = Schedule(sc)  # the run's one plan
         self.pubs, self.mode, self.speed = pubs, mode, speed
+        self.longest = 1 if mode == "realtime" else longest or LONGEST_WINDOW  # realtime paces a tick per step
         self.fleet = len(sc.vehicle_ids)
         self.usual = Network(tuple((a, b) for a, b in sc.graph.edges))  # the scenario's graph, no link faults
         self.lead = tick_lead(sc.scenario.step, speed)
         self.wall_start, self.epoch_start = time.monotonic(), time.time()  # pacing; the wall clock processes share
         self.begun = False
         self.issued: Message | None = None
+        self.issued_end = 0  # the first step after the latest tick's window
         self.ahead = False  # the latest tick went out before every state of the step before it was in
         self._plans: dict[int, StepPlan] = {}  # the steps asked for lately: each is asked at k-1 (hold), ahead, at k
 
@@ -67,12 +85,19 @@ class Clock:
             self._plans[k] = self.schedule.plan(k)
         return self._plans[k]
 
-    def can_run_ahead(self, k: int) -> bool:
-        """Tick k may go out before the states of step k-1 are in: lockstep, and no kill or restart due at k."""
-        return self.mode == "lockstep" and not self.plan(k).actions
+    def can_run_ahead(self, run: Driven, k: int) -> bool:
+        """Tick k may go out before the states of step k-1 are in: lockstep, no kill or restart due at k, and the
+        window it would grant could not be longer once they are in."""
+        if self.mode != "lockstep" or self.plan(k).actions:
+            return False
+        return k >= self.schedule.steps or self.longest == 1 or not worth_waiting(k, *self._window_facts(run, k))
 
-    def issue(self, run: Driven, k: int, ahead: bool = False) -> None:
-        """Tick k, after the faults starting or ending with it and the kills and restarts due (none at the end)."""
+    def _window_facts(self, run: Driven, k: int) -> tuple[int, list[int], Reports]:
+        return self.schedule.next_change(k), run.alive, run.reports
+
+    def issue(self, run: Driven, k: int, ahead: bool = False) -> int:
+        """Tick k, after the faults starting or ending with it and the kills and restarts due (none at the end);
+        returns the first step after the window it grants."""
         plan, self.ahead = self.plan(k), ahead
         if self.mode == "realtime":
             _pace(run, self.wall_start + plan.t / self.speed - self.lead)
@@ -83,25 +108,37 @@ class Clock:
                 run.carry_out(action, k)
             if plan.graph_changed:
                 run.publish(GRAPH_KEY, plan.t, Graph.of(plan.t, plan.network.edges).to_message())
-        self._publish(run, plan)
+        end = k + 1 if plan.final else window_end(k, *self._window_facts(run, k), self.longest)
+        self._publish(run, plan, end)
+        return end
 
     def reissue(self, run: Driven) -> None:
         """A vehicle was lost after the latest tick went out ahead counting it alive: say it again without it, or
         the broker would wait for that vehicle's state forever."""
         if self.issued is not None and self.ahead:
-            self._publish(run, self.plan(int(self.issued["k"])))
+            self._publish(run, self.plan(int(self.issued["k"])), self.issued_end)
 
-    def _publish(self, run: Driven, plan: StepPlan) -> None:
+    def _publish(self, run: Driven, plan: StepPlan, end: int) -> None:
+        """The tick of the window plan.k .. end-1 on the bus; in the log, one tick per step (as one step at a time)."""
         disturbed = {i: plan.disturbances[i] for i in run.alive if i in plan.disturbances}
         wall = self.epoch_start + plan.t / self.speed if self.mode == "realtime" else None
         # The common case in its short form (null: the scenario's graph without link faults, every vehicle alive):
         # every process parses every tick, and with a large fleet the long form costs more than the step itself.
         spelt = None if plan.network == self.usual else plan.network
         alive = None if len(run.alive) == self.fleet else list(run.alive)  # alive: a subset of the ids
-        hold = not plan.final and bool(self.plan(plan.k + 1).actions)
-        final, comms = plan.final, run.comms_up
-        self.issued = tick_message(plan.k, plan.t, final, disturbed, spelt, alive, comms, wall, self.speed, hold)
-        run.publish(TICK_KEY, plan.t, self.issued)
+        hold = not plan.final and bool(self.plan(end).actions)
+        final, comms, until = plan.final, run.comms_up, end if end > plan.k + 1 else None
+        self.issued = tick_message(plan.k, plan.t, final, disturbed, spelt, alive, comms, wall, self.speed, hold, until)
+        self.issued_end = end
+        if until is None:
+            run.publish(TICK_KEY, plan.t, self.issued)
+        else:
+            self.pubs.put(TICK_KEY, self.issued)
+            for j in range(plan.k, end):  # nothing changes inside the window: only k, t and the last one's hold
+                t = plan.t if j == plan.k else j * self.schedule.dt
+                held = hold and j == end - 1
+                step = tick_message(j, t, False, disturbed, spelt, alive, comms, wall, self.speed, held)
+                run.record(TICK_KEY, t, step)
         if not comms and not final:  # no broker to hand the vehicles their tick: no receptions either
             self.pubs.put(COMMS_STEP_KEY, batches_message(self.issued, None))
 

@@ -66,14 +66,20 @@ def run_zenoh(
     speed: float,
     bus: BusOptions,
     progress: Progress,
+    longest: int | None = None,
 ) -> RunResult:
-    """Run the scenario over Zenoh with one process per vehicle and a broker; record everything to out."""
+    """Run the scenario over Zenoh with one process per vehicle and a broker; record everything to out. longest:
+    lockstep time windows of at most this many steps (1: one bus round trip per step; None: as long as nothing can
+    cross the bus)."""
     if load_scenario(scenario_path, bus.overrides, bus.faults) != scenario:  # what every child process will load
         raise ValueError(f"run_zenoh: the scenario is not {scenario_path} with bus.overrides and bus.faults")
     endpoint = bus.listen or f"tcp/127.0.0.1:{free_port()}"
     timing = RealtimeTiming(scenario.scenario.step) if clock == "realtime" else None
     how = (scenario_path, endpoint, bus, seed)
-    with Recorder(out) as rec, _supervisor(scenario, how, Intake(scenario, rec, timing), (clock, speed)) as run:
+    with (
+        Recorder(out) as rec,
+        _supervisor(scenario, how, Intake(scenario, rec, timing), (clock, speed, longest)) as run,
+    ):
         # In the log from the start: a run that never starts (a process missing or refused) still says what it was.
         meta = RunMeta.of(scenario, str(scenario_path), scenario_toml, seed, "zenoh", clock).to_message()
         rec.limit(scenario.scenario.duration)  # a message stamped later (forged, broken) is refused
@@ -93,7 +99,7 @@ def run_zenoh(
 
 @contextlib.contextmanager
 def _supervisor(
-    sc: Scenario, how: tuple[Path, str, BusOptions, int], intake: Intake, pacing: tuple[str, float]
+    sc: Scenario, how: tuple[Path, str, BusOptions, int], intake: Intake, pacing: tuple[str, float, int | None]
 ) -> Iterator[Supervisor]:
     """The supervisor on its Zenoh session (how: scenario file, endpoint, bus options, seed), with its process
     group; on the way out (whatever happened) the stop message, the children given time to leave, then the process
@@ -155,26 +161,25 @@ def _start(run: Supervisor, endpoint: str) -> None:
 
 
 def _drive(run: Supervisor, progress: Progress) -> None:
-    """The run's steps. In lockstep, tick k+1 goes out as soon as the states of step k-1 are in (one step ahead, so
-    the broker starts step k+1 the moment the states of step k arrive, without a round trip through the supervisor);
-    a tick that kills or restarts a process, and every realtime tick, waits for the states of the step before."""
+    """The run's steps, a time window per tick (supervisor.engine.windows; realtime: one step). In lockstep the next
+    window's tick goes out as soon as this one's is out (ahead, so the broker starts it the moment the states of this
+    window arrive, without a round trip through the supervisor), unless the vehicles' fresh reports could lengthen
+    it; a tick that kills or restarts a process, and every realtime tick, waits for the states of the step before."""
     ticks, intake = run.clock, run.intake
     steps, dt = ticks.schedule.steps, ticks.schedule.dt
     ticks.begin()
     progress.begin()
-    ticks.issue(run, 0)
-    for k in range(steps):
-        run.t = k * dt
-        ahead = ticks.can_run_ahead(k + 1)
-        if ahead:
-            ticks.issue(run, k + 1, ahead=True)
-        run.wait_until(_all_stepped(run, k), f"every vehicle's state of step {k}", STEP_TIMEOUT)
-        intake.states.pop(k, None)  # none if no vehicle is left to report
-        intake.books.window(k * dt)  # the broker's events of tick k came before the batches the vehicles stepped on
-        progress.update((k + 1) * dt)
-        if not ahead:
-            run.t = (k + 1) * dt
-            ticks.issue(run, k + 1)
+    a, b = 0, ticks.issue(run, 0)
+    while a < steps:
+        following = ticks.issue(run, b, ahead=True) if ticks.can_run_ahead(run, b) else None
+        for k in range(a, b):
+            run.t = k * dt
+            run.wait_until(_all_stepped(run, k), f"every vehicle's state of step {k}", STEP_TIMEOUT)
+            intake.states.pop(k, None)  # none if no vehicle is left to report
+            intake.books.window(k * dt)  # the broker's events of the window came before the batches stepped on
+            progress.update((k + 1) * dt)
+        run.t = b * dt
+        a, b = b, following if following is not None else ticks.issue(run, b)
     run.t = steps * dt
     _finish(run)
 

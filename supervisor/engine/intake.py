@@ -29,6 +29,7 @@ from comms.messages import (
     event_message,
     rx_key,
     split_step,
+    split_window,
     state_key,
     tx_key,
     vehicle_done_key,
@@ -103,6 +104,7 @@ class Intake:
         self.states: dict[int, set[int]] = {}  # k -> vehicles whose state arrived
         self.last_state: dict[int, Message] = {}  # a restarted vehicle resumes from it
         self.last_seq: dict[int, int] = {}  # ... and numbers its transmissions on from this
+        self.next_tx: dict[int, tuple[int, int]] = {}  # vehicle -> (latest step, first step it may transmit at)
         self.done: CommsDone | None = None  # the current broker's end-of-run report
         self.broker_events = 0  # link events published by the current broker
         self.malformed: Counter[str] = Counter()  # key -> messages the supervisor dropped
@@ -120,7 +122,7 @@ class Intake:
     def _take(self, key: str, message: Message) -> None:
         owned = vehicle_of_key(key)
         if owned is not None and owned[1] == "state":
-            self._step(owned[0], message)
+            self._window(owned[0], message)
         elif owned is not None and owned[1] == "done":
             self._vehicle_done(owned[0], message)
         elif key == COMMS_EVENTS_KEY:
@@ -159,6 +161,16 @@ class Intake:
     def counts(self) -> dict[str, dict[str, int]]:
         """reader -> key -> malformed messages it dropped: the supervisor's own, and every report that came in."""
         return {SUPERVISOR: dict(sorted(self.malformed.items())), **dict(sorted(self.reports.items()))}
+
+    def _window(self, vid: int, message: Message) -> None:
+        """A vehicle's step message, of one step or of a lockstep time window: each step's records, in order, as
+        one step at a time writes them; and the first step at which it may transmit next (the clock's windows)."""
+        steps, next_tx = split_window(message)
+        for step in steps:
+            self._step(vid, step)
+        last = int(steps[-1]["k"])
+        if vid not in self.next_tx or self.next_tx[vid][0] < last:  # one that says nothing may transmit at once
+            self.next_tx[vid] = (last, next_tx if next_tx is not None and next_tx > last else last + 1)
 
     def _step(self, vid: int, message: Message) -> None:
         """A vehicle's step message: its state, and the transmission and reception batch it carries, each read

@@ -22,6 +22,7 @@ from supervisor.engine.intake import Intake
 from supervisor.engine.launch import START_TIMEOUT, Launch, gamma0_args
 from supervisor.engine.processes import ProcessGroup
 from supervisor.engine.startup import REPORT_EVERY, Hellos, missing_names
+from supervisor.engine.windows import Reports
 from supervisor.errors import SimulationError
 from supervisor.plan.faults import ProcessAction
 
@@ -77,6 +78,15 @@ class Supervisor:
 
     def publish(self, key: str, t: float, message: Message) -> None:
         self.intake.publish(self.pubs, key, t, message)
+
+    def record(self, key: str, t: float, message: Message) -> None:
+        """On the record only: what the log keeps of a message that went on the bus in another form."""
+        self.intake.rec.write(key, t, message)
+
+    @property
+    def reports(self) -> Reports:
+        """Each vehicle's latest step reported and the first step at which it may transmit next."""
+        return self.intake.next_tx
 
     def wait_until(
         self, ready: Callable[[], bool], what: str | Callable[[], str], timeout: float, report: bool = False
@@ -197,6 +207,7 @@ class Supervisor:
         state_file = self.launch.resume_dir / f"vehicle-{vid}.json"
         state_file.write_text(json.dumps(self.intake.last_state[vid]))
         seq = self.intake.last_seq.get(vid, 0)
+        self.intake.next_tx.pop(vid, None)  # the restarted process may transmit at once (it forgot what it sent)
         self.spawn_vehicle(vid, ["--resume", str(state_file), "--start-step", str(k), "--resume-seq", str(seq)])
         self.await_alive()
         self.alive = sorted([*self.alive, vid])

@@ -130,8 +130,9 @@ class _BusForm:
                 self.rx[vehicle] = message
                 if self.realtime:  # the broker's deliveries, on the vehicle's rx key
                     yield rx_key(vehicle), stamp, message
-            elif leaf == "state":
-                yield topic, stamp, step_message(message, self.tx.pop(vehicle, None), self.rx.pop(vehicle, None))
+            elif leaf == "state":  # one step at a time; next_tx as a live vehicle's, conservative: the next step
+                tx, rx, k = self.tx.pop(vehicle, None), self.rx.pop(vehicle, None), message.get("k")
+                yield topic, stamp, step_message(message, tx, rx, k + 1 if isinstance(k, int) else None)
 
     def flush_events(self, stamp: int | None) -> Iterator[Record]:
         """The events waiting, as one batch of the step at stamp (None: the end of the log, at their last time)."""

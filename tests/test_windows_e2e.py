@@ -1,0 +1,88 @@
+"""Lockstep time windows give the run one step at a time gives, record for record: the Zenoh engine with windows,
+the Zenoh engine forced to one step per window (a bus round trip per step, as before windows) and the in-process
+engine, on every transmission policy (periodic slower than the step, event-triggered with a minimum interval and a
+heartbeat, every step held for its TDMA slot), an acoustic channel whose packets take several steps, and faults of
+every kind with a vehicle killed and restarted and the broker killed and restarted. The windows are really taken:
+the clock's ticks on the bus are counted (a spy on Clock._publish)."""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+
+import pytest
+
+from supervisor.config.scenario import parse_scenario
+from supervisor.engine.clock import Clock
+from supervisor.engine.cosim import BusOptions, run_zenoh
+from supervisor.engine.inprocess import RunResult, run_inprocess
+from supervisor.engine.progress import Progress
+from supervisor.plan.schedule import StepPlan
+from tests.conftest import CONFIGS, shortened
+from tests.procs import processes_with
+from tests.test_faults_e2e import EVERY_KIND, assert_balanced, read_run, records
+
+pytestmark = pytest.mark.e2e
+
+PERIODIC = ["comms.transmit.period=1.0"]
+CASES: dict[str, tuple[str, float, list[str], list[str]]] = {  # name -> (scenario, duration, --set, --fault)
+    "periodic, every fault kind": (
+        "paper.toml", 60.0, [*PERIODIC, "scenario.on_vehicle_loss=continue", "faults.0.start=3", "faults.0.end=9"],
+        EVERY_KIND,
+    ),
+    "event-triggered": (
+        "paper.toml", 40.0,
+        ["comms.transmit.policy=event", "comms.transmit.min_interval=0.7", "comms.transmit.heartbeat=3.0",
+         "faults.0.start=10", "faults.0.end=20"],
+        [],
+    ),
+    "tdma": ("paper.toml", 30.0, ["comms.tdma.slot=0.4", "faults.0.start=10", "faults.0.end=20"], []),
+    "acoustic, killed vehicle": (
+        "paper_acoustic.toml", 40.0, ["comms.transmit.period=2.0", "scenario.on_vehicle_loss=continue"],
+        ["kind=vehicle_kill,vehicle=2,start=13.3,end=17.1", "kind=broker_kill,start=25,end=26.5"],
+    ),
+}  # fmt: skip
+
+
+def run(
+    tmp: Path, name: str, engine: str, longest: int | None, monkeypatch: pytest.MonkeyPatch
+) -> tuple[Path, RunResult, list[int]]:
+    """One run of CASES[name]; the window lengths the clock granted (one per tick on the bus, zenoh only)."""
+    file, duration, overrides, faults = CASES[name]
+    text = shortened((CONFIGS / file).read_text(), duration)
+    path = tmp / "s.toml"
+    path.write_text(text)
+    scenario = parse_scenario(text, str(path), overrides, faults)
+    out = tmp / f"{engine}-{longest}.mcap"
+    quiet = Progress(duration, io.StringIO(), enabled=False)
+    if engine == "inprocess":
+        return out, run_inprocess(scenario, str(path), text, out, 0, quiet), []
+    windows: list[int] = []
+    publish = Clock._publish
+
+    def counted(self: Clock, driven: object, plan: StepPlan, end: int) -> None:
+        windows.append(end - plan.k)
+        publish(self, driven, plan, end)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(Clock, "_publish", counted)
+    bus = BusOptions(overrides=tuple(overrides), faults=tuple(faults))
+    result = run_zenoh(scenario, path, text, out, 0, "lockstep", 1.0, bus, quiet, longest)
+    monkeypatch.undo()
+    assert processes_with(str(path)) == []
+    return out, result, windows
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_windows_record_what_one_step_at_a_time_records(tmp_path, monkeypatch, name):
+    windowed, windowed_result, windows = run(tmp_path, name, "zenoh", None, monkeypatch)
+    stepwise, stepwise_result, steps = run(tmp_path, name, "zenoh", 1, monkeypatch)
+    inprocess, inprocess_result, _ = run(tmp_path, name, "inprocess", None, monkeypatch)
+    expected = records(inprocess)
+    assert records(windowed) == expected
+    assert records(stepwise) == expected
+    assert windowed_result.stats_history == stepwise_result.stats_history == inprocess_result.stats_history
+    assert windowed_result.link_counts == inprocess_result.link_counts
+    assert_balanced(read_run(windowed)[1])
+    n = round(CASES[name][1] / 0.1)
+    assert set(steps) == {1} and len(steps) >= n + 1  # every step and the final tick (a lost vehicle: again)
+    assert sum(windows) >= n + 1 and len(windows) < 0.9 * len(steps)  # many steps ran without the bus
