@@ -6,7 +6,9 @@ from __future__ import annotations
 import contextlib
 import fcntl
 import io
+import math
 import tracemalloc
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -162,3 +164,13 @@ def test_a_clock_skewed_before_zero_is_refused_alike_by_both_engines_and_a_later
     sent = [m for topic, _, m in read_messages(tmp_path / "ok_zenoh.mcap") if topic == "cpf/vehicle/1/tx"]
     assert len(sent) == 30  # every transmission went out, none dropped
     assert all(m["stamp"] == pytest.approx(m["t"] - (0.5 if m["t"] > 0.95 else 0.0)) for m in sent)
+
+
+def test_a_huge_path_error_in_a_state_is_a_finite_series_value_without_a_warning():
+    """A state's error is a diagnostic that needs only be a number: |(1e300, 1e300, 0)| overflowed in the norm's
+    squares (a RuntimeWarning, inf), found by the forged-bus property test."""
+    builder = SeriesBuilder((1, 2, 3), 10, 0.1)
+    builder.add(replace(report(1), error=(1e300, 1e300, 0.0)))
+    builder.add(replace(report(2), error=(-1e308, 1e308, 1e308)))
+    assert builder.series().path_error[1, 1] == pytest.approx(math.sqrt(2) * 1e300)
+    assert builder.series().path_error[2, 1] == pytest.approx(math.sqrt(3) * 1e308)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -38,7 +39,7 @@ class SeriesBuilder:
         if 0 <= k < self._steps:
             if k >= len(self._data):
                 self._grow(k)
-            self._data[k, :, col] = (state.gamma, state.gamma_dot, float(np.linalg.norm(state.error)))
+            self._data[k, :, col] = (state.gamma, state.gamma_dot, _magnitude(state.error))
         for sender, age in state.estimate_age:
             book = self.ages.setdefault((sender, state.vehicle), [0.0, 0.0, 0.0])
             book[0] += age
@@ -51,3 +52,12 @@ class SeriesBuilder:
         d[: len(self._data)] = self._data
         times = np.arange(self._steps, dtype=np.float64) * self._dt
         return Series(self.ids, times, d[:, 0].copy(), d[:, 1].copy(), d[:, 2].copy())
+
+
+def _magnitude(error: tuple[float, float, float]) -> float:
+    """|error|: the norm the series always took, or math.hypot where its squares would overflow (a state's error is
+    a diagnostic that need only be a number; 1e300 made a RuntimeWarning and inf)."""
+    x, y, z = error
+    if max(abs(x), abs(y), abs(z)) < 1e150:
+        return float(np.linalg.norm(error))
+    return math.hypot(x, y, z)

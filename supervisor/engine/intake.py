@@ -235,7 +235,8 @@ class Intake:
         if not 0 <= events.k <= self.bounds.steps:
             raise ValueError("the batch's step is outside the run")
         self.broker_events += len(events.events) + len(unread)
-        self.malformed[COMMS_EVENTS_KEY] += len(unread)
+        if unread:  # a key gets an entry only for what was dropped on it
+            self.malformed[COMMS_EVENTS_KEY] += len(unread)
         if unread:
             log.debug("dropped %d link events that do not read: %s", len(unread), unread)
         booked: list[LinkEvent] = []
