@@ -138,3 +138,18 @@ def test_not_a_log(tmp_path: Path) -> None:
         describe(text_file)
     with pytest.raises(LogError, match=r"missing\.mcap: no such log file"):
         describe(tmp_path / "missing.mcap")
+
+
+def test_a_meta_message_that_does_not_read_is_said_and_the_rest_described(tmp_path: Path) -> None:
+    """The meta is read through its record (supervisor.record.meta.RunMeta): a malformed one is named, not shown
+    as if it were the run's (a step of "fast" was printed as "step fast s")."""
+    path = tmp_path / "odd.mcap"
+    with path.open("wb") as stream:
+        writer = Writer(stream)
+        writer.start()
+        channel = writer.register_channel("cpf/run/meta", "json", 0)
+        writer.add_message(channel, 0, b'{"scenario_name": "x", "step": "fast"}', 0)
+        writer.finish()
+    text = describe(path)
+    assert "cpf/run/meta does not read (missing field 'scenario_file')" in text
+    assert "step fast" not in text and topic_counts(text) == {"cpf/run/meta": 1}

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import IO, Any
+from typing import IO
 
 from mcap.records import Statistics
 from mcap.summary import Summary
@@ -29,6 +29,7 @@ from supervisor.record.logfile import (
     scan,
     verify,
 )
+from supervisor.record.meta import RunMeta
 
 __all__ = ["LogError", "describe", "overview"]
 
@@ -94,33 +95,30 @@ def _from_summary(stream: IO[bytes], summary: Summary, stats: Statistics) -> Raw
     return log
 
 
-def _meta(log: RawLog) -> dict[str, Any]:
+def _meta(log: RawLog) -> RunMeta | str:
+    """The run's metadata, read through its record, or why there is none to describe."""
     for message in log.messages:
         if message.topic == META_KEY:
             try:
-                meta = json.loads(message.data)
-            except ValueError:
-                return {}
-            return meta if isinstance(meta, dict) else {}
-    return {}
+                return RunMeta.from_message(json.loads(message.data))
+            except ValueError as exc:  # JSON, or the record's own check (json.JSONDecodeError is a ValueError)
+                return f"run        cpf/run/meta does not read ({exc})"
+    return "run        no cpf/run/meta message: not a cpf run, or cut before it"
 
 
-def _run_lines(meta: dict[str, Any], log: RawLog) -> list[str]:
-    if not meta:
-        return ["run        no cpf/run/meta message: not a cpf run, or cut before it"]
-    vehicles = ", ".join(str(v) for v in meta.get("vehicles", [])) or "-"
-    edges = ", ".join(f"{i}-{j}" for i, j in meta.get("edges", [])) or "-"
-    faults = [describe_fault(f) for f in meta.get("faults", [])] or ["none"]
-    description = (meta.get("scenario") or {}).get("scenario", {}).get("description")
+def _run_lines(meta: RunMeta | str, log: RawLog) -> list[str]:
+    if isinstance(meta, str):
+        return [meta]
+    faults = [describe_fault(f) for f in meta.faults] or ["none"]
+    description = meta.scenario.get("scenario", {}).get("description")
     return [
-        f"scenario   {meta.get('scenario_name', '?')} ({meta.get('scenario_file', '?')})",
+        f"scenario   {meta.scenario_name} ({meta.scenario_file})",
         *([f"           {description}"] if description else []),
-        f"engine     {meta.get('engine', '?')}, clock {meta.get('clock', '?')}, seed {meta.get('seed', '?')}, "
-        f"step {meta.get('step', '?')} s",
-        f"duration   {seconds(meta.get('duration'))} s simulated (scenario); messages from t = "
+        f"engine     {meta.engine}, clock {meta.clock}, seed {meta.seed}, step {meta.step} s",
+        f"duration   {seconds(meta.duration)} s simulated (scenario); messages from t = "
         f"{seconds(_ns(log.first_time))} to {seconds(_ns(log.last_time))} s",
-        f"vehicles   {vehicles}",
-        f"graph      {edges}",
+        f"vehicles   {', '.join(str(v) for v in meta.vehicles) or '-'}",
+        f"graph      {', '.join(f'{i}-{j}' for i, j in meta.edges) or '-'}",
         f"faults     {faults[0]}",
         *(f"           {line}" for line in faults[1:]),
     ]
