@@ -258,3 +258,17 @@ def test_a_cut_log_is_an_error_that_points_to_recover(tmp_path, log):
 def test_bad_arguments_and_empty_windows_are_scenario_errors(log, kwargs, reason):
     with pytest.raises(ScenarioError, match=re.escape(f"run.mcap: {reason}")):
         replay(log, **({"connect": "tcp/127.0.0.1:9"} | kwargs))
+
+
+def test_records_that_do_not_read_are_replayed_as_they_are_and_never_acted_on(raw: Logged) -> None:
+    """bus_form and latched read ticks, faults and receptions through their records: a tick that does not read
+    gets no cpf/comms/step of its own (it was handed out with its k a string), a fault that does not read is not
+    latched and cannot end one that is."""
+    meta = next(m for t, _, m in raw if t == META_KEY)
+    odd_tick = {"t": 0.0, "k": "zero", "final": False}
+    out = list(bus_form([("cpf/clock/tick", 0, odd_tick)], meta))
+    assert out == [("cpf/clock/tick", 0, odd_tick)]
+    start = {"t": 1.0, "kind": "blackout", "phase": "start", "detail": {"start": 1.0, "end": 2.0}}
+    garbage = {**start, "phase": "half-way"}  # same kind and detail, a phase no fault has
+    records = [("cpf/run/fault", 10, start), ("cpf/run/fault", 20, garbage)]
+    assert [m for _, _, m in latched(records)] == [start]

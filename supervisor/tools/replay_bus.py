@@ -38,19 +38,24 @@ from comms.messages import (
     step_message,
     vehicle_of_key,
 )
+from comms.receptions import RxBatch
+from comms.run import FaultEvent
+from comms.tick import Tick
+from supervisor.record.meta import RunMeta
 
 Record = tuple[str, int, Any]  # (topic, log time ns, message)
 NS_PER_S = 1e9
 
 
 def bus_form(records: Iterable[Record], meta: Message) -> Iterator[Record]:
-    """The live bus's messages for records in log-time order (meta: the run's, for its step and clock). A log that
-    is no cpf run (no step in meta) is passed through as it is."""
-    step = meta.get("step")
-    if not isinstance(step, int | float) or step <= 0:
+    """The live bus's messages for records in log-time order (meta: the run's, read through its record for its
+    step and clock). A log that is no cpf run (no meta that reads) is passed through as it is."""
+    try:
+        run = RunMeta.from_message(meta)
+    except ValueError:
         yield from records
         return
-    form = _BusForm(float(step), meta.get("clock") == "realtime")
+    form = _BusForm(run.step, run.clock == "realtime")
     for stamp, group in itertools.groupby(records, key=lambda record: record[1]):
         yield from form.instant(stamp, list(group))
     yield from form.flush_events(None)
@@ -68,13 +73,21 @@ def latched(before: Iterable[Record]) -> list[Record]:
             meta = record
         elif topic == GRAPH_KEY:
             graph = record
-        elif topic == FAULT_KEY and isinstance(message, dict):
-            which = json.dumps([message.get("kind"), message.get("detail")], sort_keys=True)
-            if message.get("phase") == "start":
+        elif topic == FAULT_KEY and (event := _fault(message)) is not None:
+            which = json.dumps([event.kind, event.detail], sort_keys=True)
+            if event.phase == "start":
                 faults[which] = record
             else:
                 faults.pop(which, None)
     return [record for record in (meta, graph, *faults.values()) if record is not None]
+
+
+def _fault(message: Any) -> FaultEvent | None:
+    """The fault event a record holds, None if it does not read (it is replayed as it is, never latched)."""
+    try:
+        return FaultEvent.from_message(message) if isinstance(message, dict) else None
+    except ValueError:
+        return None
 
 
 class _BusForm:
@@ -108,15 +121,19 @@ class _BusForm:
 
     def _broker(self, stamp: int, k: int, tick: Any, group: list[Record]) -> Iterator[Record]:
         yield from self.flush_events(stamp)
-        if not isinstance(tick, dict) or tick.get("final"):
+        try:
+            read = Tick.from_message(tick) if isinstance(tick, dict) else None
+        except ValueError:
+            read = None
+        if read is None or read.final:  # a tick that does not read gets no batches: no live broker would send them
             return
         batches: dict[int, bytes] = {}
         for topic, _, message in group:
             owned = vehicle_of_key(topic)
-            if owned is not None and owned[1] == "rx" and isinstance(message, dict) and message.get("k") == k:
-                batches[owned[0]] = encode_list(message.get("receptions", []))
-        rx = {} if self.realtime else (batches if tick.get("comms", True) else None)
-        yield COMMS_STEP_KEY, stamp, {"t": tick.get("t"), "k": tick.get("k"), "tick": tick, "rx": rx}
+            if owned is not None and owned[1] == "rx" and (batch := _batch(message)) is not None and batch.k == k:
+                batches[owned[0]] = encode_list(message["receptions"])  # as logged, once it reads
+        rx = {} if self.realtime else (batches if read.comms else None)
+        yield COMMS_STEP_KEY, stamp, {"t": read.t, "k": read.k, "tick": tick, "rx": rx}
 
     def _vehicles(self, stamp: int, group: list[Record]) -> Iterator[Record]:
         for topic, _, message in group:
@@ -148,3 +165,11 @@ class _BusForm:
         """The step whose instant stamp is, if it is one."""
         k = round(stamp / NS_PER_S / self.step)
         return k if math.isclose(k * self.step, stamp / NS_PER_S, abs_tol=1e-9) else None
+
+
+def _batch(message: Any) -> RxBatch | None:
+    """The reception batch an rx record holds, None if it does not read (it is then not handed out again)."""
+    try:
+        return RxBatch.from_message(message) if isinstance(message, dict) else None
+    except ValueError:
+        return None
