@@ -2,15 +2,18 @@
 
 from __future__ import annotations
 
+import math
 import os
 import re
 from pathlib import Path
+from typing import Any
 
 import pytest
 from hypothesis import settings
 
 from comms.bus import Publishers
 from comms.messages import Message
+from supervisor.record.meta import RunMeta
 
 # Property tests draw the same examples on every run (derandomize): a clean clone's `make test` fails because of a
 # change, not because a random draw found an old bug that day. To search further, run with
@@ -41,3 +44,14 @@ class RecordingPublishers(Publishers):
 
     def put(self, key: str, message: Message) -> None:
         self.messages.append((key, message))
+
+
+def run_meta(**fields: Any) -> RunMeta:
+    """A run's metadata record for synthetic runs: these fields, neutral values for the rest (no scenario: readers
+    fall back to the meta's own fields)."""
+    base: dict[str, Any] = {
+        "scenario_name": "synthetic", "scenario_file": "synthetic.toml", "scenario_toml": "", "scenario": {},
+        "seed": 0, "engine": "inprocess", "clock": "lockstep", "step": 1.0, "duration": 100.0, "vehicles": (),
+        "edges": (), "faults": (), "tube_radius": math.nan, "versions": {},
+    }  # fmt: skip
+    return RunMeta(**(base | fields))

@@ -15,6 +15,7 @@ from supervisor.analysis.figures import aligned
 from supervisor.analysis.metrics import run_metrics
 from supervisor.analysis.report import RunData, VehicleSeries
 from supervisor.analysis.summary import Series, coordination_error, format_summary, summarize
+from tests.conftest import run_meta
 
 DURATION, TRANSIENT, TUBE = 100.0, 10.0, 1.2
 FAULTS = [("vehicle_kill", 40.0, 60.0)]
@@ -91,8 +92,8 @@ def report_run() -> RunData:
     for col, vid in enumerate(series.vehicle_ids):
         alive = ~np.isnan(series.gamma[:, col])
         vehicles[vid] = vehicle_series(vid, T[alive], series.gamma[alive, col], float(series.path_error[0, col]))
-    meta = {"step": 1.0, "duration": DURATION, "tube_radius": TUBE, "faults": [{"kind": "vehicle_kill", "start": 40.0,
-            "end": 60.0}]}  # fmt: skip
+    meta = run_meta(step=1.0, duration=DURATION, tube_radius=TUBE, faults=({"kind": "vehicle_kill", "start": 40.0,
+                    "end": 60.0},))  # fmt: skip
     return RunData(meta, vehicles, [], [(1, 2), (1, 3)])
 
 

@@ -25,7 +25,7 @@ from supervisor.engine.inprocess import run_inprocess
 from supervisor.engine.progress import Progress
 from supervisor.tools.sweep import Param
 from supervisor.tools.sweep_plot import plot_sweep
-from tests.conftest import shortened
+from tests.conftest import run_meta, shortened
 
 STEP, DURATION, PERIOD = 0.5, 200.0, 300.0
 
@@ -50,8 +50,8 @@ def fleet(
     n: int, z_span: float = 0.2, dimension: int = 3, down: dict[int, tuple[float, float]] | None = None
 ) -> RunData:
     down = down or {}
-    meta = {"scenario_name": f"fleet{n}", "duration": DURATION, "tube_radius": 1.2}
-    meta["scenario"] = {"scenario": {"dimension": dimension}}
+    meta = run_meta(scenario_name=f"fleet{n}", duration=DURATION, tube_radius=1.2,
+                    scenario={"scenario": {"dimension": dimension}})  # fmt: skip
     vehicles = {v: series(v, z_span, down.get(v)) for v in range(1, n + 1)}
     return RunData(meta, vehicles, [], [(v, v + 1) for v in range(1, n)])
 

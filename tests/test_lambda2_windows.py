@@ -28,6 +28,7 @@ from supervisor.config.scenario import parse_scenario
 from supervisor.config.scenario_schema import Scenario
 from supervisor.engine.inprocess import run_inprocess
 from supervisor.engine.progress import Progress
+from tests.conftest import run_meta
 
 PATH_GRAPH_6 = 2 * (1 - math.cos(math.pi / 6))  # lambda_2 of the path graph on six vertices
 
@@ -111,7 +112,7 @@ def test_an_older_logs_rounding_errors_print_as_zero() -> None:
         "delivered-graph lambda_2 over 3 windows of 10 s (pairs that delivered in the window): min 0.000, mean 0.333 "
         "(0 = disconnected)"
     )
-    run = RunData({"vehicles": [1, 2]}, {}, [], [(1, 2)], stats=[{**final, **h} for h in history])
+    run = RunData(run_meta(vehicles=(1, 2)), {}, [], [(1, 2)], stats=[{**final, **h} for h in history])
     lam = run_metrics(run)["lambda2"]
     assert (lam["min"], lam["disconnected_windows"], lam["horizon"]) == (0.0, 2, 10.0)
     title = fig_lambda2(run).axes[0].get_title()
@@ -120,7 +121,7 @@ def test_an_older_logs_rounding_errors_print_as_zero() -> None:
 
 def test_the_lambda2_figure_says_over_what_the_graph_is_taken() -> None:
     stats = [{"t": 10.0 * k, "window": 10.0, "horizon": 36.0, "lambda2": 0.268, "links": []} for k in range(1, 4)]
-    run = RunData({"vehicles": [1, 2, 3]}, {}, [], [(1, 2), (2, 3)], stats=stats)
+    run = RunData(run_meta(vehicles=(1, 2, 3)), {}, [], [(1, 2), (2, 3)], stats=stats)
     title = fig_lambda2(run).axes[0].get_title()
     assert "per 10 s window (pairs that delivered in the last 36 s)" in title
     assert np.isclose(run_metrics(run)["lambda2"]["horizon"], 36.0)

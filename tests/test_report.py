@@ -21,6 +21,7 @@ from supervisor.analysis.summary import summarize
 from supervisor.config.scenario import parse_scenario
 from supervisor.engine.inprocess import RunResult, run_inprocess
 from supervisor.engine.progress import Progress
+from supervisor.errors import ScenarioError
 from supervisor.record.recorder import Recorder, read_messages
 from supervisor.record.recover import recover
 from supervisor.tools.info import LogError
@@ -128,7 +129,9 @@ def meta(faults: list[dict[str, Any]]) -> dict[str, Any]:
         "scenario_file": "synthetic.toml",
         "scenario_toml": "",
         "seed": 7,
+        "scenario": {},
         "engine": "inprocess",
+        "clock": "lockstep",
         "step": STEP,
         "duration": STEP * (STEPS - 1),
         "vehicles": list(VEHICLES),
@@ -178,8 +181,8 @@ def run(run_path: Path) -> RunData:
 
 
 def test_load_run_meta_and_graph(run: RunData) -> None:
-    assert run.meta["scenario_name"] == "synthetic"
-    assert run.meta["tube_radius"] == TUBE_RADIUS
+    assert run.meta is not None and run.meta.scenario_name == "synthetic"
+    assert run.meta.tube_radius == TUBE_RADIUS
     assert run.edges == [(1, 2), (1, 3)]
     assert run.graph_changes == [(50.0, [(1, 2), (2, 3)])]
     assert run.t_range == (0.0, STEP * (STEPS - 1))
@@ -327,7 +330,8 @@ def test_write_figures_without_faults_or_tube(tmp_path: Path) -> None:
     channel figures say there is nothing to show, and there is no lambda_2 figure without stats."""
     run = load_run(write_run(tmp_path / "run.mcap", [], [], comms=False))
     assert not run.links and not run.stats
-    bare = RunData({k: v for k, v in run.meta.items() if k != "tube_radius"}, run.vehicles, [], run.edges)
+    assert run.meta is not None
+    bare = RunData(replace(run.meta, tube_radius=math.nan), run.vehicles, [], run.edges)
     check_pngs(write_figures(bare, tmp_path), tmp_path, [*PAPER_FIGURES, *COMMS_FIGURES])
 
 
@@ -466,9 +470,10 @@ def test_real_convergence_with_a_tighter_tolerance(
     real: RealRun, logged: list[tuple[str, int, dict[str, Any]]]
 ) -> None:
     """Tolerance 1: never within the first phase, reached again well after the fault."""
-    scenario = json.loads(json.dumps(real.run.meta["scenario"]))
+    assert real.run.meta is not None
+    scenario = json.loads(json.dumps(real.run.meta.scenario))
     scenario["report"]["coordination_tolerance"] = 1.0
-    coord = run_metrics(replace(real.run, meta={**real.run.meta, "scenario": scenario}))["coordination"]
+    coord = run_metrics(replace(real.run, meta=replace(real.run.meta, scenario=scenario)))["coordination"]
     t, error = coordination_series(logged)
     assert coord["convergence_time"] is None
     assert coord["reconvergence_time"] is not None and coord["reconvergence_time"] > LAST_FAULT_END + 1.0
@@ -526,3 +531,16 @@ def test_truncated_log_is_refused_and_its_recovery_loads_what_it_holds(real: Rea
     for vehicle, series in recovered.vehicles.items():
         assert 0 < series.t.size < real.run.vehicles[vehicle].t.size
         np.testing.assert_array_equal(series.gamma, real.run.vehicles[vehicle].gamma[: series.t.size])
+
+
+def test_a_meta_that_does_not_read_is_one_line_naming_its_field(tmp_path: Path) -> None:
+    """The meta is read through its record (RunMeta): a step of "fast" was taken in raw and ended the report in a
+    ValueError traceback from float("fast")."""
+    path = tmp_path / "run.mcap"
+    with Recorder(path) as recorder:
+        recorder.write(META_KEY, 0.0, {**meta([]), "step": "fast"})
+        for vehicle in VEHICLES:
+            recorder.write(state_key(vehicle), 0.0, state(vehicle, 0.0))
+    with pytest.raises(ScenarioError, match=r"run\.mcap: cpf/run/meta: .*'step'") as caught:
+        run_metrics(load_run(path))
+    assert len(str(caught.value).splitlines()) == 1

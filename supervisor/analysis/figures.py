@@ -146,9 +146,14 @@ def _vehicle_colours(run: RunData) -> dict[int, Any]:
 # --- Fig. 3: trajectories --------------------------------------------------------------------------------------
 
 
+def _planar(run: RunData) -> bool:
+    """Whether the run's scenario (as its meta records it) is planar."""
+    return run.meta is not None and run.meta.scenario.get("scenario", {}).get("dimension") == 2
+
+
 def is_flat(run: RunData) -> bool:
     """Whether the run is best seen from above: planar, or its depth span at most FLAT_RATIO of the horizontal."""
-    if run.meta.get("scenario", {}).get("scenario", {}).get("dimension") == 2:
+    if _planar(run):
         return True
     points = _all_points(run)
     if not len(points):
@@ -213,7 +218,7 @@ def _draw_top_down(ax: Axes, run: RunData, colours: dict[int, Any], note: str) -
 def _depth_note(run: RunData) -> str:
     """What the top-down view leaves out: the depth range, unless the run is planar."""
     points = _all_points(run)
-    if not len(points) or run.meta.get("scenario", {}).get("scenario", {}).get("dimension") == 2:
+    if not len(points) or _planar(run):
         return ""
     return f"; z from {points[:, 2].min():.2f} to {points[:, 2].max():.2f} m, not drawn"
 
@@ -250,8 +255,8 @@ def fig_path_following_errors(run: RunData) -> Figure:
     fig = new_figure()
     ax = fig.add_subplot()
     _per_vehicle(ax, run, lambda s: s.error_norm)
-    radius = run.meta.get("tube_radius")
-    if radius is not None:
+    radius = None if run.meta is None else run.meta.tube_radius
+    if radius is not None and math.isfinite(radius):
         ax.axhline(float(radius), color="k", ls="--", lw=1.0, label=f"tube radius {float(radius):g} m")
     ax.set_ylim(bottom=0.0)
     finish_time_axes(ax, run, r"$|p_i - p_{d_i}|$ [m]", f"Path-following errors: {run.name}")

@@ -87,13 +87,15 @@ def run_metrics(run: RunData) -> dict[str, Any]:
 def run_settings(run: RunData) -> Settings:
     """Duration, faults and [report] settings: from the validated scenario in the meta, else from its fields."""
     meta = run.meta
-    duration = float(meta.get("duration", run.t_range[1]))
-    tube = float(meta.get("tube_radius", math.nan))
-    try:
-        scenario = validate_data(meta["scenario"], "meta")
-    except (KeyError, TypeError, ScenarioError):  # an older log, or a synthetic one: the meta's own fields
+    if meta is None:  # a log cut before its meta: what its states say
         rep = ReportSection()
-        faults = [(str(f["kind"]), float(f["start"]), _end(f.get("end"), duration)) for f in meta.get("faults", [])]
+        return Settings(run.t_range[1], [], rep.transient, math.nan, rep.coordination_tolerance)
+    duration, tube = meta.duration, meta.tube_radius
+    try:
+        scenario = validate_data(meta.scenario, "meta")
+    except ScenarioError:  # an older log, or a synthetic one: the meta's own fields
+        rep = ReportSection()
+        faults = [(str(f["kind"]), float(f["start"]), _end(f.get("end"), duration)) for f in meta.faults]
         return Settings(duration, faults, rep.transient, tube, rep.coordination_tolerance)
     rep = scenario.report
     return Settings(duration, intervals(scenario), rep.transient, tube, rep.coordination_tolerance)
@@ -108,7 +110,7 @@ def run_series(run: RunData) -> Series:
     ids = tuple(run.vehicles)
     if not ids:
         return Series((), np.empty(0), np.empty((0, 0)), np.empty((0, 0)), np.empty((0, 0)))
-    step = float(run.meta.get("step") or 0.0)
+    step = 0.0 if run.meta is None else run.meta.step
     keys = {v: _step_index(s.t, step) for v, s in run.vehicles.items()}
     grid = np.unique(np.concatenate(list(keys.values())))
     columns = [np.full((grid.size, len(ids)), np.nan) for _ in range(3)]
@@ -213,7 +215,8 @@ def _run_info(run: RunData) -> dict[str, Any]:
     meta = run.meta
     start, end = run.t_range
     keys = ("scenario_name", "scenario_file", "engine", "clock", "seed", "step", "duration")
-    return {**{k: meta.get(k) for k in keys}, "vehicles": list(run.vehicles), "t_first": start, "t_last": end}
+    known = {k: None if meta is None else getattr(meta, k) for k in keys}
+    return {**known, "vehicles": list(run.vehicles), "t_first": start, "t_last": end}
 
 
 def finite(value: Any) -> Any:

@@ -227,7 +227,7 @@ def fig_lambda2(run: RunData) -> Figure:
 
 def _nominal_lambda2(run: RunData) -> float:
     """lambda_2 of the scenario's communication graph (as the meta records it)."""
-    ids = [int(v) for v in run.meta.get("vehicles", [])] or sorted(run.vehicles)
+    ids = (list(run.meta.vehicles) if run.meta is not None else []) or sorted(run.vehicles)
     index = {v: i for i, v in enumerate(ids)}
     edges = [(index[i], index[j]) for i, j in run.edges if i in index and j in index]
     return clamp_lambda2(algebraic_connectivity(laplacian(len(ids), edges)))

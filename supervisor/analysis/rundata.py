@@ -7,7 +7,7 @@ and the report build on it; it builds on none of them.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, NamedTuple, TypeAlias
@@ -21,6 +21,7 @@ from comms.run import FaultEvent, Graph
 from comms.state import StateReport
 from supervisor.errors import ScenarioError
 from supervisor.record import logfile
+from supervisor.record.meta import RunMeta
 
 Array: TypeAlias = NDArray[np.float64]
 Edge: TypeAlias = tuple[int, int]
@@ -102,7 +103,7 @@ class LinkLog:
 class RunData:
     """Everything the figures and metrics need from one run."""
 
-    meta: dict[str, Any]  # the cpf/run/meta message (supervisor.record.meta.RunMeta; {} if the log has none)
+    meta: RunMeta | None  # the cpf/run/meta record; None if the log has none
     vehicles: dict[int, VehicleSeries]  # by vehicle id, ascending
     faults: list[FaultInterval]
     edges: list[Edge]  # communication graph at the start of the run (from meta)
@@ -114,18 +115,18 @@ class RunData:
 
     @property
     def name(self) -> str:
-        return str(self.meta.get("scenario_name", "run"))
+        return "run" if self.meta is None else self.meta.scenario_name
 
     @property
     def t_range(self) -> tuple[float, float]:
         return _time_range(self.vehicles, self.meta)
 
 
-def _time_range(vehicles: dict[int, VehicleSeries], meta: dict[str, Any]) -> tuple[float, float]:
+def _time_range(vehicles: dict[int, VehicleSeries], meta: RunMeta | None) -> tuple[float, float]:
     """First and last recorded state time; [0, meta duration] when there are no states."""
     series = [s for s in vehicles.values() if s.t.size]
     if not series:
-        return 0.0, float(meta.get("duration", 0.0))
+        return 0.0, 0.0 if meta is None else meta.duration
     return min(float(s.t[0]) for s in series), max(float(s.t[-1]) for s in series)
 
 
@@ -142,7 +143,7 @@ def _wanted(topic: str) -> bool:
 class _Collected:
     """The records of a log, each read through its record type (ValueError naming the field if one does not)."""
 
-    meta: dict[str, Any] = field(default_factory=dict)
+    meta: RunMeta | None = None
     states: dict[int, list[StateReport]] = field(default_factory=dict)
     fault_events: list[FaultEvent] = field(default_factory=list)
     graph_changes: list[tuple[float, list[Edge]]] = field(default_factory=list)
@@ -157,7 +158,7 @@ class _Collected:
             event = LinkEvent.from_message(message)
             self.link_events.setdefault((event.sender, event.receiver), []).append(event)
         elif topic == META_KEY:
-            self.meta = message
+            self.meta = RunMeta.from_message(message)
         elif topic == FAULT_KEY:
             self.fault_events.append(FaultEvent.from_message(message))
         elif topic == GRAPH_KEY:
@@ -180,8 +181,9 @@ def load_run(path: Path) -> RunData:
     start, end = _time_range(vehicles, got.meta)
     events = got.fault_events
     faults = _intervals_from_events(events, start, end) if events else _intervals_from_meta(got.meta, end)
+    edges = [] if got.meta is None else list(got.meta.edges)
     return RunData(
-        got.meta, vehicles, faults, _edges(got.meta.get("edges", [])), got.graph_changes,
+        got.meta, vehicles, faults, edges, got.graph_changes,
         {link: _link_log(link, got.link_events[link]) for link in sorted(got.link_events)},
         got.stats, _estimate_ages(got.states),
     )  # fmt: skip
@@ -208,10 +210,6 @@ def _estimate_ages(states: dict[int, list[StateReport]]) -> dict[Edge, AgeSeries
                 t.append(m.t)
                 ages.append(age)
     return {key: AgeSeries(np.array(t, dtype=float), np.array(a, dtype=float)) for key, (t, a) in sorted(rows.items())}
-
-
-def _edges(pairs: Iterable[Sequence[Any]]) -> list[Edge]:
-    return [(int(i), int(j)) for i, j in pairs]
 
 
 def _series(vehicle: int, messages: list[StateReport]) -> VehicleSeries:
@@ -282,10 +280,10 @@ def _find_open(open_faults: list[tuple[str, str | None, float]], kind: str, targ
     return None
 
 
-def _intervals_from_meta(meta: dict[str, Any], run_end: float) -> list[FaultInterval]:
+def _intervals_from_meta(meta: RunMeta | None, run_end: float) -> list[FaultInterval]:
     """The scenario's planned faults, for runs that recorded no fault events."""
     intervals = []
-    for fault in meta.get("faults", []):
+    for fault in () if meta is None else meta.faults:
         kind, end = str(fault["kind"]), fault.get("end")
         end = run_end if end is None else float(end)
         intervals.append(FaultInterval(kind, float(fault["start"]), end, _fault_label(kind, _fault_target(fault))))
