@@ -26,11 +26,12 @@ from types import TracebackType
 from typing import IO, Any
 
 import orjson
-from mcap.writer import CompressionType, Writer
+from mcap.writer import CompressionType
 
 from comms.messages import Message
 from comms.schemas import schema_for
 from supervisor.errors import ScenarioError
+from supervisor.record.fast_mcap import FastWriter
 
 PROFILE = ""  # no ROS profile: plain JSON channels
 FLUSH_INTERVAL = 0.5  # s of wall time: the most a SIGKILL can take (the next write after it flushes)
@@ -89,7 +90,7 @@ class Recorder:
     def __init__(self, path: Path) -> None:
         self.path = path
         self._stream: IO[bytes] = open_exclusively(path)
-        self._writer = Writer(self._stream, chunk_size=CHUNK_BYTES, compression=CompressionType.ZSTD)
+        self._writer = FastWriter(self._stream, CHUNK_BYTES, CompressionType.ZSTD)
         self._writer.start(profile=PROFILE, library="cpf-cosim")
         self._channels: dict[str, int] = {}
         self._sequence = 0
@@ -117,7 +118,8 @@ class Recorder:
     def write(self, key: str, t: float, message: Message) -> bool:
         """Record a message published on key at simulation time t (s). False, and counted in `refused`, for a time
         that is not finite or is outside [0, horizon], or a message that is not JSON: not recorded."""
-        why = self._bad_time(t)
+        # Every message of a run passes here (~72000 in the paper scenario): its cheap checks first, inline.
+        why = None if type(t) is float and 0.0 <= t <= self.horizon and t < FAST_MAX else self._bad_time(t)
         data = b""
         if why is None:
             try:
@@ -127,14 +129,13 @@ class Recorder:
         if why is not None:
             self.refused[(key, why)] += 1
             return False
-        stamp = seconds_to_ns(float(t))
+        channel = self._channels.get(key)
         self._sequence += 1
-        self._writer.add_message(
-            channel_id=self._channel(key),
-            log_time=stamp,
-            publish_time=stamp,
-            data=data,
-            sequence=self._sequence % SEQUENCES,
+        self._writer.add(
+            channel if channel is not None else self._channel(key),
+            seconds_to_ns(float(t)),
+            data,
+            self._sequence % SEQUENCES,
         )
         self.count += 1
         if time.monotonic() >= self._deadline:

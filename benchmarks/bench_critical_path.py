@@ -1,0 +1,128 @@
+"""Where a Zenoh step's time goes: `.venv/bin/python -m benchmarks.bench_critical_path [--tree DIR] [--repeat N]`.
+
+Runs `cpf run configs/paper.toml` (Zenoh engine, lockstep) from DIR (default: this tree; another checkout with its
+own .venv to compare) and samples, every 50 ms from /proc, the CPU time of every process of the run: the supervisor
+(with the Zenoh router in it), the broker and each vehicle. Then the lean bus pattern with the same fleet
+(benchmarks.bench_bus_floor --lean: the broker's batch -> the vehicles' step messages -> the next batch, nothing
+else) for the floor a step could reach. Prints, best of --repeat by wall time, the run's stepping time per step
+against the floor and the CPU seconds per process, and writes benchmarks/results/critical_path.json.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import subprocess
+import tempfile
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+from benchmarks.bench_bus_floor import measure_row
+
+ROOT = Path(__file__).resolve().parent.parent
+RESULTS = ROOT / "benchmarks" / "results"
+TICKS = os.sysconf("SC_CLK_TCK")
+STEPPING = re.compile(r"stepping ([0-9.]+) s")
+
+
+def _children() -> dict[int, list[int]]:
+    """ppid -> pids of every process on the machine."""
+    tree: dict[int, list[int]] = {}
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                ppid = int((entry / "stat").read_text().rsplit(")", 1)[1].split()[1])
+            except (OSError, IndexError, ValueError):
+                continue
+            tree.setdefault(ppid, []).append(int(entry.name))
+    return tree
+
+
+def _name(pid: int, root: int) -> str | None:
+    if pid == root:
+        return "supervisor"
+    try:
+        argv = (Path(f"/proc/{pid}") / "cmdline").read_bytes().split(b"\0")
+    except OSError:
+        return None
+    words = [a.decode(errors="replace") for a in argv]
+    if "comms" in words:
+        return "broker"
+    if "vehicle" in words and "--id" in words:
+        return f"vehicle {words[words.index('--id') + 1]}"
+    return None
+
+
+def sample(root: int, expected: int, cpu: dict[str, float], stop: threading.Event) -> None:
+    """CPU s of the run's processes by name (the last sample of each: a process's CPU only grows); expected: how
+    many processes the run has (the supervisor, the broker, the vehicles)."""
+    names: dict[int, str] = {}
+    while not stop.wait(0.05):
+        if len(names) < expected:  # until every child is there: /proc scans cost
+            for pid in _children().get(root, []):
+                name = _name(pid, root)
+                if name is not None:
+                    names[pid] = name
+            names[root] = "supervisor"
+        for pid, name in names.items():
+            try:
+                stat = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            cpu[name] = (int(stat[11]) + int(stat[12])) / TICKS
+
+
+def run_once(tree: Path, scenario: str, vehicles: int) -> dict[str, Any]:
+    cpu: dict[str, float] = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        argv = [str(tree / ".venv" / "bin" / "cpf"), "run", scenario, "--out", f"{tmp}/run.mcap", "--quiet"]
+        start = time.perf_counter()
+        proc = subprocess.Popen(argv, cwd=tree, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        stop = threading.Event()
+        sampler = threading.Thread(target=sample, args=(proc.pid, vehicles + 2, cpu, stop), daemon=True)
+        sampler.start()
+        out, err = proc.communicate()
+        wall = time.perf_counter() - start
+        stop.set()
+        sampler.join()
+    if proc.returncode != 0:
+        raise SystemExit(f"{' '.join(argv)} failed ({proc.returncode}):\n{err[-2000:]}")
+    stepping = STEPPING.search(out)
+    return {"wall_s": wall, "stepping_s": float(stepping.group(1)) if stepping else float("nan"), "cpu_s": cpu}
+
+
+def measure(tree: Path, repeat: int, scenario: str, steps: int, vehicles: int) -> dict[str, Any]:
+    runs = [run_once(tree, scenario, vehicles) for _ in range(repeat)]
+    best = min(runs, key=lambda r: r["wall_s"])
+    floor = measure_row(vehicles, 2000, lean=True)
+    return {"tree": str(tree), "scenario": scenario, "steps": steps, "best": best, "runs": runs,
+            "ms_per_step": best["stepping_s"] / steps * 1e3, "floor_ms_per_step": floor["ms_per_step"]}  # fmt: skip
+
+
+def summary(row: dict[str, Any]) -> str:
+    best = row["best"]
+    cpu = "  ".join(f"{name} {s:.2f}" for name, s in sorted(best["cpu_s"].items()))
+    return (
+        f"{row['tree']}: wall {best['wall_s']:.2f} s, stepping {best['stepping_s']:.2f} s = "
+        f"{row['ms_per_step']:.2f} ms per step (lean bus floor {row['floor_ms_per_step']:.2f} ms)\n"
+        f"  CPU s per process: {cpu}  (total {sum(best['cpu_s'].values()):.2f})"
+    )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--tree", type=Path, default=ROOT, help="the checkout to run (with its .venv)")
+    parser.add_argument("--repeat", type=int, default=3)
+    args = parser.parse_args()
+    row = measure(args.tree.resolve(), args.repeat, "configs/paper.toml", 4000, 3)
+    print(summary(row))
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    (RESULTS / "critical_path.json").write_text(json.dumps(row, indent=2))
+
+
+if __name__ == "__main__":
+    main()
