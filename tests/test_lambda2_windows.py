@@ -18,6 +18,7 @@ import pytest
 
 from comms.channel import LinkEvent
 from comms.graph import algebraic_connectivity, laplacian
+from comms.reports import CommsStats
 from comms.stats import LinkStats, clamp_lambda2
 from supervisor.analysis.comms_summary import comms_summary, format_comms
 from supervisor.analysis.metrics import run_metrics
@@ -112,7 +113,9 @@ def test_an_older_logs_rounding_errors_print_as_zero() -> None:
         "delivered-graph lambda_2 over 3 windows of 10 s (pairs that delivered in the window): min 0.000, mean 0.333 "
         "(0 = disconnected)"
     )
-    run = RunData(run_meta(vehicles=(1, 2)), {}, [], [(1, 2)], stats=[{**final, **h} for h in history])
+    run = RunData(
+        run_meta(vehicles=(1, 2)), {}, [], [(1, 2)], stats=[CommsStats.from_message({**final, **h}) for h in history]
+    )
     lam = run_metrics(run)["lambda2"]
     assert (lam["min"], lam["disconnected_windows"], lam["horizon"]) == (0.0, 2, 10.0)
     title = fig_lambda2(run).axes[0].get_title()
@@ -121,7 +124,9 @@ def test_an_older_logs_rounding_errors_print_as_zero() -> None:
 
 def test_the_lambda2_figure_says_over_what_the_graph_is_taken() -> None:
     stats = [{"t": 10.0 * k, "window": 10.0, "horizon": 36.0, "lambda2": 0.268, "links": []} for k in range(1, 4)]
-    run = RunData(run_meta(vehicles=(1, 2, 3)), {}, [], [(1, 2), (2, 3)], stats=stats)
+    run = RunData(
+        run_meta(vehicles=(1, 2, 3)), {}, [], [(1, 2), (2, 3)], stats=[CommsStats.from_message(s) for s in stats]
+    )
     title = fig_lambda2(run).axes[0].get_title()
     assert "per 10 s window (pairs that delivered in the last 36 s)" in title
     assert np.isclose(run_metrics(run)["lambda2"]["horizon"], 36.0)

@@ -263,7 +263,7 @@ def test_load_run_link_events(run: RunData) -> None:
 
 
 def test_load_run_stats_and_estimate_ages(run: RunData) -> None:
-    assert [s["t"] for s in run.stats] == [STATS_WINDOW * k for k in range(1, 10)]
+    assert [s.t for s in run.stats] == [STATS_WINDOW * k for k in range(1, 10)]
     assert list(run.estimate_ages) == [(1, 2), (1, 3), (2, 1), (3, 1)]  # (neighbour, holder)
     for (neighbour, holder), ages in run.estimate_ages.items():
         assert neighbour in NEIGHBOURS[holder]
@@ -542,5 +542,19 @@ def test_a_meta_that_does_not_read_is_one_line_naming_its_field(tmp_path: Path) 
         for vehicle in VEHICLES:
             recorder.write(state_key(vehicle), 0.0, state(vehicle, 0.0))
     with pytest.raises(ScenarioError, match=r"run\.mcap: cpf/run/meta: .*'step'") as caught:
+        run_metrics(load_run(path))
+    assert len(str(caught.value).splitlines()) == 1
+
+
+def test_a_stats_snapshot_that_does_not_read_is_one_line_naming_its_field(tmp_path: Path) -> None:
+    """Snapshots are read through their record (CommsStats): one without its window ended the report in a
+    KeyError traceback from the lambda_2 metrics."""
+    path = tmp_path / "run.mcap"
+    with Recorder(path) as recorder:
+        recorder.write(META_KEY, 0.0, meta([]))
+        for vehicle in VEHICLES:
+            recorder.write(state_key(vehicle), 0.0, state(vehicle, 0.0))
+        recorder.write(COMMS_STATS_KEY, 10.0, {"t": 10.0, "lambda2": 1.0, "links": []})
+    with pytest.raises(ScenarioError, match=r"run\.mcap: cpf/comms/stats: .*'window'") as caught:
         run_metrics(load_run(path))
     assert len(str(caught.value).splitlines()) == 1

@@ -36,6 +36,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
+from comms.reports import CommsStats
 from comms.stats import clamp_lambda2
 from supervisor.analysis.summary import PhaseStats, Series, Summary, coordination_error, nan_max, summarize
 from supervisor.config.derived import intervals
@@ -198,7 +199,7 @@ def _ages(run: RunData) -> dict[str, Any]:
 
 
 def _lambda2(run: RunData) -> dict[str, Any]:
-    values = np.array([clamp_lambda2(float(s["lambda2"])) for s in run.stats])  # an older log: -1e-17 for 0
+    values = np.array([clamp_lambda2(s.lambda2) for s in run.stats])  # an older log: -1e-17 for 0
     if not values.size:
         return {"windows": 0, "min": None, "mean": None, "max": None, "disconnected_windows": 0, "horizon": None}
     return {
@@ -207,8 +208,13 @@ def _lambda2(run: RunData) -> dict[str, Any]:
         "mean": float(values.mean()),
         "max": float(values.max()),
         "disconnected_windows": int((values <= 0.0).sum()),
-        "horizon": float(run.stats[-1].get("horizon", run.stats[-1]["window"])),
+        "horizon": _horizon(run.stats[-1]),
     }
+
+
+def _horizon(snapshot: CommsStats) -> float:
+    """Over how long the snapshot's delivered graph is taken: its window, unless it says (an older log does not)."""
+    return snapshot.window if snapshot.horizon is None else snapshot.horizon
 
 
 def _run_info(run: RunData) -> dict[str, Any]:

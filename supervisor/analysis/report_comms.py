@@ -197,22 +197,22 @@ def fig_lambda2(run: RunData) -> Figure:
     ax = fig.add_subplot()
     previous = -math.inf
     for k, snap in enumerate(run.stats):
-        t, window, value = float(snap["t"]), float(snap["window"]), clamp_lambda2(float(snap["lambda2"]))
+        t, window, value = snap.t, snap.window, clamp_lambda2(snap.lambda2)
         start = max(t - window, previous)  # a final, partial window starts where the last one ended
         ax.hlines(
             value, start, t, color="tab:blue", lw=2.0, label="delivered graph, per window" if k == 0 else "_nolegend_"
         )
         previous = t
-    values = np.array([clamp_lambda2(float(s["lambda2"])) for s in run.stats])  # an older log: -1e-17 for 0
-    ends = np.array([float(s["t"]) for s in run.stats])
+    values = np.array([clamp_lambda2(s.lambda2) for s in run.stats])  # an older log: -1e-17 for 0
+    ends = np.array([s.t for s in run.stats])
     ax.plot(ends, values, "o", color="tab:blue", ms=3.5)
     nominal = _nominal_lambda2(run)
     ax.axhline(nominal, color="k", ls="--", lw=1.0, label=rf"scenario graph: $\lambda_2$ = {nominal:.3g}")
     ax.axhline(0.0, color="0.5", lw=0.6)
     ax.set_ylim(-0.05 * max(nominal, 1.0), HEADROOM * max(nominal, float(values.max()), 1e-3))
     disconnected = int((values <= 0.0).sum())
-    window = float(run.stats[0]["window"])
-    horizon = float(run.stats[0].get("horizon", window))
+    window = run.stats[0].window
+    horizon = window if run.stats[0].horizon is None else run.stats[0].horizon
     counted = "in the window" if horizon <= window else f"in the last {horizon:g} s"
     title = (
         rf"Delivered-graph connectivity $\lambda_2$: {run.name}"
@@ -221,7 +221,7 @@ def fig_lambda2(run: RunData) -> Figure:
     )
     finish_time_axes(ax, run, r"$\lambda_2$ of the delivered graph", title)
     start, end = run.t_range
-    ax.set_xlim(min(start, float(ends.min()) - float(run.stats[0]["window"])), max(end, float(ends.max())))
+    ax.set_xlim(min(start, float(ends.min()) - window), max(end, float(ends.max())))
     return fig
 
 

@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 
 from comms.channel import LinkEvent
 from comms.messages import COMMS_EVENT_KEY, COMMS_STATS_KEY, FAULT_KEY, GRAPH_KEY, META_KEY, vehicle_of_key
+from comms.reports import CommsStats
 from comms.run import FaultEvent, Graph
 from comms.state import StateReport
 from supervisor.errors import ScenarioError
@@ -109,7 +110,7 @@ class RunData:
     edges: list[Edge]  # communication graph at the start of the run (from meta)
     graph_changes: list[tuple[float, list[Edge]]] = field(default_factory=list)  # (t, edges) from cpf/run/graph
     links: dict[Edge, LinkLog] = field(default_factory=dict)  # (sender, receiver) -> events, ascending
-    stats: list[dict[str, Any]] = field(default_factory=list)  # cpf/comms/stats snapshots, in time order
+    stats: list[CommsStats] = field(default_factory=list)  # cpf/comms/stats snapshots, in time order
     estimate_ages: dict[Edge, AgeSeries] = field(default_factory=dict)  # (neighbour, holder): the age of what the
     # holder knows of the neighbour, i.e. keyed like the link the information travels on
 
@@ -148,7 +149,7 @@ class _Collected:
     fault_events: list[FaultEvent] = field(default_factory=list)
     graph_changes: list[tuple[float, list[Edge]]] = field(default_factory=list)
     link_events: dict[Edge, list[LinkEvent]] = field(default_factory=dict)
-    stats: list[dict[str, Any]] = field(default_factory=list)
+    stats: list[CommsStats] = field(default_factory=list)
 
     def add(self, topic: str, message: dict[str, Any]) -> None:
         owned = vehicle_of_key(topic)
@@ -165,7 +166,7 @@ class _Collected:
             graph = Graph.from_message(message)
             self.graph_changes.append((graph.t, list(graph.edges)))
         elif topic == COMMS_STATS_KEY:
-            self.stats.append(message)
+            self.stats.append(CommsStats.from_message(message))
 
 
 def load_run(path: Path) -> RunData:
