@@ -55,3 +55,12 @@ def hosted_ids(name: str) -> tuple[int, ...] | None:
     if not name.startswith(HOST_PREFIX):
         return None
     return tuple(int(part) for part in name.removeprefix(HOST_PREFIX).split(","))
+
+
+def hosts_chosen(fleet: int, cores: int, per_process: int) -> str:
+    """What the default chose, said once on stderr: '50 vehicles on 2 cores: 2 vehicle hosts of up to 25 each ...'."""
+    hosts = len(groups(range(fleet), per_process))
+    return (
+        f"{fleet} vehicles on {cores} core{'s' if cores != 1 else ''}: {hosts} vehicle host{'s' if hosts != 1 else ''} "
+        f"of up to {per_process} vehicles each (--vehicles-per-process 1: one process per vehicle)"
+    )

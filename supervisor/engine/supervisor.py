@@ -18,7 +18,7 @@ from comms.messages import COMMS_ALIVE, Message, vehicle_alive_key
 from supervisor.config.scenario_schema import Scenario
 from supervisor.engine import interrupts
 from supervisor.engine.clock import Clock
-from supervisor.engine.hosting import cores, default_per_process, groups, host_name, hosted_ids
+from supervisor.engine.hosting import cores, default_per_process, groups, host_name, hosted_ids, hosts_chosen
 from supervisor.engine.intake import Intake
 from supervisor.engine.launch import START_TIMEOUT, Launch, gamma0_args
 from supervisor.engine.processes import Child, ProcessGroup
@@ -166,11 +166,7 @@ class Supervisor:
         if per_process is None:
             per_process = default_per_process(len(local), cores())
             if per_process > 1:
-                log.info(
-                    "%d vehicles on %d cores: %d vehicle processes of up to %d vehicles each "
-                    "(--vehicles-per-process 1: one process per vehicle)",
-                    len(local), cores(), len(groups(local, per_process)), per_process,
-                )  # fmt: skip
+                log.info("%s", hosts_chosen(len(local), cores(), per_process))
         for vid in self.launch.bus.remote:
             self.spawn_vehicle(vid)
         for group in groups(local, per_process):
