@@ -35,8 +35,9 @@ class Child:
     control: int = -1  # the write end of its control pipe (a vehicle host's), -1 if none
 
     def tell(self, order: str) -> None:
-        """A line on its control pipe (vehicles.host reads it)."""
-        os.write(self.control, f"{order}\n".encode())
+        """A line on its control pipe (vehicles.host reads it); none if it has ended (its vehicles' tokens say so)."""
+        with contextlib.suppress(BrokenPipeError):
+            os.write(self.control, f"{order}\n".encode())
 
     def close_control(self) -> None:
         if self.control >= 0:
@@ -109,6 +110,10 @@ class ProcessGroup:
                 env=env,
                 pass_fds=fds,
             )
+        except BaseException:
+            if write >= 0:
+                os.close(write)
+            raise
         finally:
             if read >= 0:
                 os.close(read)  # the child's now; here only the write end stays
