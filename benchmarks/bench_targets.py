@@ -9,12 +9,16 @@ Cases (the issue's numbers):
 - ring100-1hz: 100 AUVs at 1 Hz, 120 s: >= 2x;
 - ring10-1hz: 10 AUVs at 1 Hz, 300 s: Zenoh within 1.3x of in-process;
 - sweep: `cpf sweep` of the paper scenario, --jobs 2, --runs runs, extrapolated to 1000 runs: <= 10 minutes.
+The fleets of FORCED are also run with one process per AUV forced (`--vehicles-per-process 1`, a row of its own,
+`<case>/1pp`, beside the default, which hosts them: supervisor.engine.hosting), alternating with the others. Every
+Zenoh run's peak resident memory per vehicle process (bench_scaling.ProcessSampler) ends its row.
 Results go to benchmarks/results/targets.json. `--cases` picks some (comma-separated names).
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import subprocess
 import sys
@@ -24,11 +28,14 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from benchmarks.bench_scaling import ring_scenario
+from benchmarks.bench_scaling import ProcessSampler, ring_scenario
+from supervisor.engine.hosting import cores, default_per_process, groups
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "benchmarks" / "results"
 CPF = [sys.executable, "-m", "supervisor.cli"]
+FORCED = ("ring50-1hz", "ring50-10hz", "ring100-1hz")  # also run with one process per AUV forced
+ONE_PER_AUV = ["--vehicles-per-process", "1"]
 
 
 @dataclass(frozen=True)
@@ -57,28 +64,56 @@ def scenario_text(case: Case) -> str:
     return text + f'\n[comms.transmit]\npolicy = "periodic"\n{period}'
 
 
-def timed(argv: list[str]) -> float:
-    """Wall time of one command, as a user waits for it; its failure stops the benchmark with its output."""
+def timed(argv: list[str], sampled: tuple[str, int, list[float]] | None = None) -> float:
+    """Wall time of one command, as a user waits for it; its failure stops the benchmark with its output. sampled:
+    (marker, how many vehicle processes, peaks): add the peak resident memory of its largest vehicle process (MB)."""
     start = time.perf_counter()
-    done = subprocess.run(argv, cwd=ROOT, capture_output=True, text=True)
+    with contextlib.ExitStack() as stack:
+        sampler = stack.enter_context(ProcessSampler(*sampled[:2])) if sampled is not None else None
+        done = subprocess.run(argv, cwd=ROOT, capture_output=True, text=True)
     wall = time.perf_counter() - start
+    if sampled is not None and sampler is not None and sampler.rss:
+        sampled[2].append(max(sampler.rss.values()) / 1e6)
     if done.returncode != 0:
         raise SystemExit(f"{' '.join(argv)} failed ({done.returncode}):\n{done.stderr[-2000:]}")
     return wall
 
 
-def measure(case: Case, repeat: int, tmp: Path) -> dict[str, Any]:
+def measure(case: Case, repeat: int, tmp: Path) -> list[dict[str, Any]]:
+    """The case's row (and its /1pp row, for the fleets of FORCED), every variant run repeat times, alternating."""
     path = tmp / f"{case.name}.toml"
     path.write_text(scenario_text(case))
-    walls: dict[str, list[float]] = {"inprocess": [], "zenoh": []}
-    for _ in range(repeat):  # alternating: a burst of load on the machine hits both engines alike
-        for engine in walls:
-            walls[engine].append(timed([*CPF, "run", str(path), "--engine", engine, "--out", str(tmp / "run.mcap")]))
-    row: dict[str, Any] = {"case": case.name, "duration_s": case.duration, "target": case.target}
-    for engine, values in walls.items():
+    runs: dict[str, list[str]] = {"inprocess": [], "zenoh": []}
+    if case.name in FORCED:
+        runs["zenoh/1pp"] = ONE_PER_AUV
+    walls: dict[str, list[float]] = {variant: [] for variant in runs}
+    rss: dict[str, list[float]] = {variant: [] for variant in runs}
+    for _ in range(repeat):  # alternating: a burst of load on the machine hits every variant alike
+        for variant, extra in runs.items():
+            engine = variant.split("/")[0]
+            argv = [*CPF, "run", str(path), "--engine", engine, "--out", str(tmp / "run.mcap"), *extra]
+            sampled = (str(path), _vehicle_processes(case, extra), rss[variant]) if engine == "zenoh" else None
+            walls[variant].append(timed(argv, sampled))
+    rows = [_row(case, case.name, walls["inprocess"], walls["zenoh"], rss["zenoh"])]
+    if "zenoh/1pp" in runs:
+        rows.append(_row(case, f"{case.name}/1pp", walls["inprocess"], walls["zenoh/1pp"], rss["zenoh/1pp"]))
+    return rows
+
+
+def _vehicle_processes(case: Case, extra: list[str]) -> int:
+    """How many vehicle processes the run starts (the sampler scans /proc until it has found them all)."""
+    fleet = case.vehicles or 3
+    per_process = 1 if extra == ONE_PER_AUV else default_per_process(fleet, cores())
+    return len(groups(list(range(fleet)), per_process))
+
+
+def _row(case: Case, name: str, inprocess: list[float], zenoh: list[float], rss: list[float]) -> dict[str, Any]:
+    row: dict[str, Any] = {"case": name, "duration_s": case.duration, "target": case.target}
+    for engine, values in (("inprocess", inprocess), ("zenoh", zenoh)):
         row[engine] = {"best_s": min(values), "spread_s": max(values) - min(values), "all_s": values}
         row[engine]["real_time_factor"] = case.duration / min(values)
     row["ratio_zenoh_to_inprocess"] = row["zenoh"]["best_s"] / row["inprocess"]["best_s"]
+    row["zenoh"]["peak_rss_mb_per_vehicle_process"] = max(rss) if rss else None
     return row
 
 
@@ -108,10 +143,12 @@ def summary(row: dict[str, Any]) -> str:
             f"{row['extrapolated_1000_runs_min']:.1f} min   [target: {row['target']}]"
         )
     inp, zen = row["inprocess"], row["zenoh"]
+    rss = zen.get("peak_rss_mb_per_vehicle_process")
     return (
         f"{row['case']:12s} in-process {inp['best_s']:6.2f} s ({inp['real_time_factor']:5.1f}x, spread "
         f"{inp['spread_s']:.2f})  zenoh {zen['best_s']:6.2f} s ({zen['real_time_factor']:5.1f}x, spread "
         f"{zen['spread_s']:.2f})  ratio {row['ratio_zenoh_to_inprocess']:.2f}   [target: {row['target']}]"
+        + (f"  peak RSS per vehicle process {rss:.0f} MB" if rss is not None else "")
     )
 
 
@@ -120,8 +157,9 @@ def run(names: list[str], repeat: int, sweep_runs: int) -> list[dict[str, Any]]:
     with tempfile.TemporaryDirectory(prefix="cpf-targets-") as tmp:
         for case in CASES:
             if case.name in names:
-                rows.append(measure(case, repeat, Path(tmp)))
-                print(summary(rows[-1]), flush=True)
+                for row in measure(case, repeat, Path(tmp)):
+                    rows.append(row)
+                    print(summary(row), flush=True)
         if "sweep" in names:
             rows.append(measure_sweep(sweep_runs, repeat, Path(tmp)))
             print(summary(rows[-1]), flush=True)

@@ -11,6 +11,7 @@ import json
 import logging
 import queue
 import socket
+import threading
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -19,7 +20,7 @@ from typing import Any, Protocol, runtime_checkable
 
 import zenoh
 
-from comms.lifeline import Lifeline, watch
+from comms.lifeline import watch
 from comms.messages import STOP_END, STOP_KEY, SUPERVISOR_ALIVE, Message, decode, encode, hello_key
 from comms.run import Stop
 
@@ -155,6 +156,10 @@ class Inbox:
 
         self._keep.append(session.liveliness().declare_subscriber(key, on_token, history=True))
 
+    def nudge(self) -> None:
+        """Wake the consumer (an empty change it ignores), e.g. to have it check whether it was ended."""
+        self._queue.put("")
+
     def get(self, timeout: float) -> Received | str | None:
         try:
             return self._queue.get(timeout=timeout)
@@ -187,6 +192,25 @@ def decode_or_none(payload: bytes) -> Message | None:
         return None
 
 
+class Ending:
+    """Ends one serve() from another thread, as a cut lifeline does (no final report, token undeclared, session
+    closed): a vehicle host's way to stop serving one of its vehicles (killed, or the host's lifeline cut)."""
+
+    def __init__(self) -> None:
+        self.cut = threading.Event()
+        self._inbox: Inbox | None = None
+
+    def attach(self, inbox: Inbox) -> None:
+        self._inbox = inbox
+        if self.cut.is_set():
+            inbox.nudge()
+
+    def set(self) -> None:
+        self.cut.set()
+        if self._inbox is not None:
+            self._inbox.nudge()  # at once, not at the loop's next poll
+
+
 def serve(
     name: str,
     connect: Sequence[str],
@@ -195,29 +219,36 @@ def serve(
     make_handler: Callable[[Publishers], Handler | Timed | Reporting],
     hello: Message | None = None,
     extras: Extras | None = None,
+    ending: Ending | None = None,
 ) -> int:
     """A child process's life: join the run, answer on its hello key which scenario it runs (hello, before its token
     appears), subscribe to keys, declare its token, hand every message to the handler (a Timed one: wake it when its
-    work is due), until the stop message or the supervisor's disappearance, or its lifeline is cut (no orphans)."""
-    lifeline = watch(name)
+    work is due), until the stop message or the supervisor's disappearance, or its lifeline is cut (no orphans).
+    ending: given by a process serving several (a vehicle host, which watches the lifeline itself)."""
+    lifeline = watch(name) if ending is None else None
+    cut = ending.cut if ending is not None else lifeline.cut if lifeline is not None else None
     with open_session("client", connect=connect, extras=extras) as session:
         inbox = Inbox()
+        if ending is not None:
+            ending.attach(inbox)
         for key in (*keys, STOP_KEY):
             inbox.subscribe(session, key)
         inbox.watch_liveliness(session, SUPERVISOR_ALIVE)
         answer = _answer(session, hello_key(token), hello) if hello is not None else None
         alive = session.liveliness().declare_token(token)
         publishers = Publishers(session)
-        _loop(name, inbox, make_handler(publishers), publishers, lifeline)
+        _loop(name, inbox, make_handler(publishers), publishers, cut)
         alive.undeclare()
         if answer is not None:
             answer.undeclare()
     return 0
 
 
-def _loop(name: str, inbox: Inbox, handle: Handler | Timed, publishers: Publishers, lifeline: Lifeline | None) -> None:
+def _loop(
+    name: str, inbox: Inbox, handle: Handler | Timed, publishers: Publishers, cut: threading.Event | None
+) -> None:
     """Every message to the handler (a Timed one also woken when its work is due) until the stop message, the
-    supervisor's disappearance or the end of the lifeline."""
+    supervisor's disappearance or the end of the lifeline (cut)."""
     timed = handle if isinstance(handle, Timed) else None
     while True:
         item = inbox.get(_timeout(timed))
@@ -229,8 +260,8 @@ def _loop(name: str, inbox: Inbox, handle: Handler | Timed, publishers: Publishe
         elif item == f"-{SUPERVISOR_ALIVE}":
             log.warning("%s: the supervisor is gone, stopping", name)
             return
-        if lifeline is not None and lifeline.cut.is_set():
-            return  # the lifeline said why
+        if cut is not None and cut.is_set():
+            return  # the lifeline (or the host) said why
         if timed is not None:
             timed.on_time()  # it checks what is due
 

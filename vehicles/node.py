@@ -17,7 +17,7 @@ from collections import Counter
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
-from comms.bus import Extras, Publishers, Timed, serve
+from comms.bus import Ending, Extras, Publishers, Timed, serve
 from comms.channel import intake_step
 from comms.messages import (
     COMMS_STEP_KEY,
@@ -91,18 +91,20 @@ def run_vehicle(
     start_step: int = 0,
     hello: Message | None = None,
     extras: Extras | None = None,
+    ending: Ending | None = None,
 ) -> int:
     """Serve one vehicle from step start_step (a restarted process resumes mid-run) until told to stop or the
     supervisor disappears; returns the exit code. neighbours: the scenario's, until a tick says otherwise.
     hello: the answer to the supervisor's question which scenario the vehicle runs (comms.messages.Hello);
-    extras: its credentials and the site's Zenoh config (comms.bus.Extras)."""
+    extras: its credentials and the site's Zenoh config (comms.bus.Extras); ending: a vehicle host's hold on it
+    (vehicles.host)."""
     vid = cfg.vehicle_id
 
     def handler(publishers: Publishers) -> Timed:
         return _Vehicle(cfg, radio, initial, neighbours, dt, publishers, start_step)
 
     keys = (COMMS_STEP_KEY, rx_key(vid))
-    return serve(f"vehicle {vid}", connect, keys, vehicle_alive_key(vid), handler, hello, extras)
+    return serve(f"vehicle {vid}", connect, keys, vehicle_alive_key(vid), handler, hello, extras, ending)
 
 
 class _Vehicle:

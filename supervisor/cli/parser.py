@@ -72,6 +72,25 @@ def _ids(text: str) -> tuple[int, ...]:
         raise argparse.ArgumentTypeError(f"expected comma-separated vehicle ids, got {text!r}") from None
 
 
+def _gamma0(text: str) -> tuple[int | None, float]:
+    """ID=GAMMA, or GAMMA alone (the process's one vehicle)."""
+    vid, _, value = text.rpartition("=")
+    if not vid:
+        return None, _number(value)
+    return _whole(1, 255)(vid), _number(value)
+
+
+def _per_process(text: str) -> int:
+    """--vehicles-per-process: a whole number >= 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number of vehicles, got {text[:60]!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1 (1: one process per vehicle), got {text[:60]}")
+    return value
+
+
 class _Help(argparse.ArgumentDefaultsHelpFormatter):
     """--help shows every option's default, unless its help already says it or there is none worth showing."""
 
@@ -109,6 +128,11 @@ def _add_run(sub: Commands) -> None:
         "--max-window", type=_whole(1, 2**63 - 1), default=None, metavar="STEPS",
         help="zenoh engine, lockstep: at most this many steps per time window without the bus (1: a bus round trip "
         "per step, as before windows; default: 100, or fewer while a vehicle may transmit or something changes)",
+    )  # fmt: skip
+    run.add_argument(
+        "--vehicles-per-process", type=_per_process, default=None, metavar="M",
+        help="zenoh engine: vehicles served by each vehicle process (1: one process per vehicle; default: 1 while "
+        "the fleet is at most twice the cores, else one host per core)",
     )  # fmt: skip
     run.add_argument("--seed", type=_seed, default=None, help="random seed (default: the scenario's)")
     run.add_argument("--out", type=Path, default=None, help="MCAP file to write (default: runs/<name>.mcap)")
@@ -158,18 +182,29 @@ def _add_credentials(command: argparse.ArgumentParser) -> None:
 
 def _add_processes(sub: Commands) -> None:
     """vehicle, comms: the processes of a Zenoh run (the supervisor starts them)."""
-    vehicle = sub.add_parser("vehicle", help="run one vehicle process (the supervisor starts these)")
+    vehicle = sub.add_parser(
+        "vehicle", help="run a vehicle process, or a host of several (the supervisor starts these)"
+    )
     vehicle.add_argument("scenario", type=Path)
-    vehicle.add_argument("--id", type=_whole(1, 255), required=True, help="vehicle id in the scenario")
+    vehicle.add_argument(
+        "--id", type=_whole(1, 255), action="append", required=True,
+        help="vehicle id in the scenario (repeatable: one process serves them all, each on its own Zenoh session)",
+    )  # fmt: skip
     vehicle.add_argument("--connect", required=True, help="Zenoh endpoint of the run's router")
-    _add_credentials(vehicle)
+    vehicle.add_argument(
+        "--credentials", type=Path, action="append", default=[], metavar="FILE",
+        help="a vehicle's credential file, as cpf run --credentials-dir wrote it (repeatable: one per --id; default: "
+        "those the supervisor hands the processes it starts)",
+    )  # fmt: skip
+    _add_zenoh_config(vehicle)
     _add_scenario_changes(vehicle)
     vehicle.add_argument("--resume", type=Path, default=None, help="a recorded state message to restart from")
     vehicle.add_argument("--start-step", type=_step_number, default=0, help="the sync step to resume at")
     vehicle.add_argument("--resume-seq", type=_step_number, default=0, help="the last transmission's sequence number")
     vehicle.add_argument(
-        "--gamma0", type=_number, default=None, help="the initial gamma, when the supervisor resolved 'closest' for it"
-    )
+        "--gamma0", type=_gamma0, action="append", default=[], metavar="[ID=]GAMMA",
+        help="the initial gamma of vehicle ID (of the one --id without ID=), when the supervisor resolved 'closest'",
+    )  # fmt: skip
     comms = sub.add_parser("comms", help="run the acoustic-link broker (the supervisor starts it)")
     comms.add_argument("scenario", type=Path)
     comms.add_argument("--seed", type=_seed, default=None)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import os
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -14,7 +15,10 @@ from supervisor.cli.parser import START_TIMEOUT
 from supervisor.errors import ScenarioError
 
 if TYPE_CHECKING:
-    from comms.bus import Extras
+    from collections.abc import Callable
+
+    from comms.access import Credential
+    from comms.bus import Ending, Extras
     from supervisor.config.scenario_schema import Scenario
     from supervisor.engine.inprocess import RunResult
 
@@ -34,7 +38,7 @@ def _option_errors(args: argparse.Namespace, scenario: Scenario) -> list[str]:
     if args.engine == "inprocess":
         given = {"--remote": args.remote or None, "--listen": args.listen, "--connect": args.connect}
         given |= {"--start-timeout": args.start_timeout, "--credentials-dir": args.credentials_dir}
-        given["--zenoh-config"] = args.zenoh_config
+        given |= {"--zenoh-config": args.zenoh_config, "--vehicles-per-process": args.vehicles_per_process}
         errors += [
             f"{option}: only the zenoh engine has processes to place (--engine inprocess runs one), got {value}"
             for option, value in given.items()
@@ -128,6 +132,7 @@ def _simulate(args: argparse.Namespace, scenario: Scenario, out: Path) -> RunRes
     timeout = START_TIMEOUT if args.start_timeout is None else args.start_timeout
     changes = (tuple(args.set), tuple(args.fault))
     bus = BusOptions(args.listen, args.connect, args.remote, *changes, timeout, args.credentials_dir, args.zenoh_config)
+    bus.per_process = args.vehicles_per_process
     logging.getLogger("cpf.engine").setLevel(logging.INFO)  # "waiting for ...": --quiet or not
     return run_zenoh(scenario, args.scenario, text, out, seed, args.clock, speed, bus, progress, args.max_window)
 
@@ -168,26 +173,58 @@ def _report_run(args: argparse.Namespace, scenario: Scenario, result: RunResult,
 
 
 def vehicle(args: argparse.Namespace) -> int:
-    from supervisor.config.fleet import initial_state, radio, restarted_node, vehicle_config
+    """One vehicle process, or a host of several (vehicles.host): each vehicle on its own session, credential and
+    keys, as if alone."""
     from supervisor.config.scenario import load_scenario
+
+    scenario = load_scenario(args.scenario, args.set, args.fault)
+    ids: list[int] = list(dict.fromkeys(args.id))
+    unknown = [vid for vid in ids if vid not in scenario.vehicle_ids]
+    if unknown:
+        raise ScenarioError(f"{args.scenario}: --id: no vehicle {unknown[0]} in [[vehicles]] {scenario.vehicle_ids}")
+    if args.resume is not None and len(ids) > 1:
+        raise ScenarioError(f"--resume: restarts one vehicle, got --id {', '.join(map(str, ids))}")
+    extras = _vehicle_extras(args, ids)
+    gamma0 = _gamma0_of(args.gamma0, ids)
+    if len(ids) == 1:
+        return _serve_vehicle(args, scenario, ids[0], extras[ids[0]], gamma0.get(ids[0]))(None)
+    from vehicles.host import run_host
+
+    name = "vehicles " + ",".join(map(str, ids))
+    return run_host(name, {vid: _serve_vehicle(args, scenario, vid, extras[vid], gamma0.get(vid)) for vid in ids})
+
+
+def _serve_vehicle(
+    args: argparse.Namespace, scenario: Scenario, vid: int, extras: Extras, gamma0: float | None
+) -> Callable[[Ending | None], int]:
+    """What serves vehicle vid until it ends (its initial state made here, before any serving starts)."""
+    from supervisor.config.fleet import initial_state, radio, restarted_node, vehicle_config
     from supervisor.config.scenario_digest import hello
     from vehicles.node import run_vehicle
     from vehicles.runtime import NodeState
 
-    scenario = load_scenario(args.scenario, args.set, args.fault)
-    if args.id not in scenario.vehicle_ids:
-        raise ScenarioError(f"{args.scenario}: --id: no vehicle {args.id} in [[vehicles]] {scenario.vehicle_ids}")
-    extras = _process_extras(args, f"vehicle {args.id}")
-    cfg = vehicle_config(scenario, args.id)
+    cfg = vehicle_config(scenario, vid)
     if args.resume is not None:
         initial = restarted_node(cfg, json.loads(args.resume.read_text()), args.resume_seq)
     else:
-        initial = NodeState(initial_state(_starting_at(scenario, args.id, args.gamma0), cfg))
-    neighbours, dt = scenario.neighbours(args.id), scenario.scenario.step
-    return run_vehicle(
-        cfg, initial, radio(scenario, args.id), neighbours, dt, [args.connect], args.start_step,
-        hello(f"vehicle {args.id}", scenario), extras,
-    )  # fmt: skip
+        initial = NodeState(initial_state(_starting_at(scenario, vid, gamma0), cfg))
+    neighbours, dt, greeting = scenario.neighbours(vid), scenario.scenario.step, hello(f"vehicle {vid}", scenario)
+    return lambda ending: run_vehicle(
+        cfg, initial, radio(scenario, vid), neighbours, dt, [args.connect], args.start_step, greeting, extras, ending
+    )
+
+
+def _gamma0_of(given: list[tuple[int | None, float]], ids: list[int]) -> dict[int, float]:
+    """--gamma0 [ID=]GAMMA by vehicle; ScenarioError for one without ID in a host, or of a vehicle not served."""
+    out = {}
+    for vid, value in given:
+        if vid is None and len(ids) > 1:
+            raise ScenarioError(f"--gamma0: name the vehicle (ID=GAMMA) when serving several, got {value!r}")
+        vid = ids[0] if vid is None else vid
+        if vid not in ids:
+            raise ScenarioError(f"--gamma0: vehicle {vid} is not one this process serves (--id), got {vid}={value!r}")
+        out[vid] = value
+    return out
 
 
 def _starting_at(scenario: Scenario, vid: int, gamma0: float | None) -> Scenario:
@@ -212,11 +249,32 @@ def comms(args: argparse.Namespace) -> int:
     return run_broker(broker_core(scenario, seed), ids, dt, [args.connect], args.start_step, greeting, extras)
 
 
+def _vehicle_extras(args: argparse.Namespace, ids: list[int]) -> dict[int, Extras]:
+    """Each vehicle's extras: its credential from the --credentials files (or those its supervisor handed it, by
+    name), one for every --id or none at all; ScenarioError if one is missing or another process's."""
+    from comms.access import ENV, read_credential
+
+    where = ", ".join(str(p) for p in args.credentials) if args.credentials else f"${ENV}"
+    handed = [Path(p) for p in os.environ.get(ENV, "").split(os.pathsep) if p]  # a host's: one per vehicle
+    try:
+        given = [read_credential(p) for p in args.credentials or handed]
+    except ValueError as exc:
+        raise ScenarioError(str(exc)) from None  # '<file>: <problem>'
+    names = {f"vehicle {vid}": vid for vid in ids}
+    stranger = next((c.name for c in given if c.name not in names), None)
+    if stranger is not None:
+        raise ScenarioError(f"{where}: name: these are the credentials of another process, got {stranger}")
+    mine = {names[c.name]: c for c in given}
+    if mine and len(mine) < len(ids):
+        missing = next(vid for vid in ids if vid not in mine)
+        raise ScenarioError(f"{where}: name: no credentials of vehicle {missing} among them, got {sorted(names)}")
+    return {vid: _extras(args, mine.get(vid)) for vid in ids}
+
+
 def _process_extras(args: argparse.Namespace, name: str) -> Extras:
-    """A process's credential (--credentials, else the one its supervisor handed it) and the site's Zenoh config;
+    """The broker's credential (--credentials, else the one its supervisor handed it) and the site's Zenoh config;
     ScenarioError for a file that is not one, or another process's credential."""
-    from comms.access import ENV, client_config, credential_from_env, read_credential
-    from comms.bus import Extras, site_config
+    from comms.access import ENV, credential_from_env, read_credential
 
     where = str(args.credentials) if args.credentials is not None else f"${ENV}"
     try:
@@ -225,6 +283,14 @@ def _process_extras(args: argparse.Namespace, name: str) -> Extras:
         raise ScenarioError(str(exc)) from None  # '<file>: <problem>'
     if credential is not None and credential.name != name:
         raise ScenarioError(f"{where}: name: these are the credentials of another process, got {credential.name}")
+    return _extras(args, credential)
+
+
+def _extras(args: argparse.Namespace, credential: Credential | None) -> Extras:
+    """A session's extras: the credential's settings over the site's Zenoh config (ScenarioError if that is not one)."""
+    from comms.access import client_config
+    from comms.bus import Extras, site_config
+
     if args.zenoh_config is not None:
         try:
             site_config(args.zenoh_config)

@@ -33,6 +33,7 @@ from comms.access import (
 from comms.bus import Extras
 from comms.tls import router_tls
 from supervisor.config.scenario_schema import Scenario
+from supervisor.engine.hosting import hosted_ids
 from supervisor.engine.launch import BusOptions
 
 
@@ -45,19 +46,25 @@ class RunAccess:
     fds: Mapping[str, int] = field(default_factory=dict)  # memory files, inherited by the child at the same number
 
     def env_of(self, name: str) -> dict[str, str]:
-        """The environment entries that hand a child its credential."""
-        if name in self.fds:
-            return {ENV: f"/proc/self/fd/{self.fds[name]}"}
-        path = self.files.get(name)
-        return {ENV: str(path)} if path is not None else {}
+        """The environment entries that hand a child its credential (a vehicle host: each of its vehicles')."""
+        paths = [
+            str(self.credential_path(member)) for member in _members(name) if member in self.fds or member in self.files
+        ]
+        return {ENV: os.pathsep.join(paths)} if paths else {}
 
     def credential_path(self, name: str) -> Path:
         """Where this process reads the credential of the child called name (tests, and the user's --credentials)."""
         return Path(f"/proc/self/fd/{self.fds[name]}") if name in self.fds else self.files[name]
 
     def fds_of(self, name: str) -> tuple[int, ...]:
-        """The file descriptors a child inherits: its credential's memory file."""
-        return (self.fds[name],) if name in self.fds else ()
+        """The file descriptors a child inherits: its credential's memory file (a vehicle host: its vehicles')."""
+        return tuple(self.fds[member] for member in _members(name) if member in self.fds)
+
+
+def _members(name: str) -> list[str]:
+    """The processes a child of that name stands for: a vehicle host's vehicles, else itself."""
+    ids = hosted_ids(name)
+    return [name] if ids is None else [vehicle_name(v) for v in ids]
 
 
 def endpoint_host(endpoint: str) -> str:

@@ -147,8 +147,7 @@ def _start(run: Supervisor, endpoint: str) -> None:
     """Start the broker and the vehicles (those started by hand: say how), and wait for every one to come alive
     running the supervisor's scenario."""
     run.spawn_comms()
-    for vid in run.sc.vehicle_ids:
-        run.spawn_vehicle(vid)
+    run.spawn_vehicles()
     bus = run.launch.bus
     if bus.remote:
         ids = ", ".join(str(v) for v in bus.remote)

@@ -36,6 +36,7 @@ class BusOptions:
         self.start_timeout = start_timeout  # s for every process to come alive
         self.credentials_dir = credentials_dir  # where the --remote vehicles' credential files are written
         self.zenoh_config = zenoh_config  # the site's Zenoh config file, under cpf's settings, every process's
+        self.per_process: int | None = None  # vehicles per vehicle process (None: supervisor.engine.hosting's default)
 
 
 @dataclass(frozen=True, slots=True)

@@ -32,6 +32,17 @@ class Child:
     name: str
     process: subprocess.Popen[bytes]
     stderr: IO[bytes]
+    control: int = -1  # the write end of its control pipe (a vehicle host's), -1 if none
+
+    def tell(self, order: str) -> None:
+        """A line on its control pipe (vehicles.host reads it); none if it has ended (its vehicles' tokens say so)."""
+        with contextlib.suppress(BrokenPipeError):
+            os.write(self.control, f"{order}\n".encode())
+
+    def close_control(self) -> None:
+        if self.control >= 0:
+            os.close(self.control)
+            self.control = -1
 
     def last_words(self) -> str:
         fd = self.stderr.fileno()
@@ -76,23 +87,37 @@ class ProcessGroup:
         # inherited, and Popen closes every other fd in the child), so its closing tells them this process is gone.
         self._lifeline_read, self._lifeline_write = os.pipe()
 
-    def spawn(self, name: str, argv: list[str]) -> Child:
+    def spawn(self, name: str, argv: list[str], control_env: str | None = None) -> Child:
         """Start argv as a child in its own session. The parent-death signal names the forking thread as the
         parent, so it is asked for only from the main thread (the lifeline alone covers a child spawned elsewhere
-        once it runs comms.bus.serve)."""
-        stderr = tempfile.TemporaryFile(prefix="cpf-" + name.replace(" ", "-") + "-")  # noqa: SIM115 - closed in stop()
+        once it runs comms.bus.serve). control_env: give it a control pipe (Child.tell), its read end's descriptor
+        in that environment variable."""
+        stderr = tempfile.TemporaryFile(prefix="cpf-" + name.replace(",", "-").replace(" ", "-") + "-")  # noqa: SIM115 - closed in stop()
         from_main = threading.current_thread() is threading.main_thread()
         env = {**os.environ, **self._env_of(name)} if self._env_of is not None else None
-        process = subprocess.Popen(
-            lifeline.launcher(argv, parent_death_signal=from_main),
-            stdin=self._lifeline_read,
-            stdout=subprocess.DEVNULL,
-            stderr=stderr,
-            start_new_session=True,
-            env=env,
-            pass_fds=self._fds_of(name) if self._fds_of is not None else (),
-        )
-        child = Child(name, process, stderr)
+        fds = self._fds_of(name) if self._fds_of is not None else ()
+        read, write = os.pipe() if control_env is not None else (-1, -1)
+        if control_env is not None:
+            env = {**(env or os.environ), control_env: str(read)}
+            fds = (*fds, read)
+        try:
+            process = subprocess.Popen(
+                lifeline.launcher(argv, parent_death_signal=from_main),
+                stdin=self._lifeline_read,
+                stdout=subprocess.DEVNULL,
+                stderr=stderr,
+                start_new_session=True,
+                env=env,
+                pass_fds=fds,
+            )
+        except BaseException:
+            if write >= 0:
+                os.close(write)
+            raise
+        finally:
+            if read >= 0:
+                os.close(read)  # the child's now; here only the write end stays
+        child = Child(name, process, stderr, write)
         self.children.append(child)
         return child
 
@@ -127,6 +152,7 @@ class ProcessGroup:
             self._wait_all(deadline)
         for child in self.children + self._gone:
             child.stderr.close()
+            child.close_control()
 
     def _cut_lifeline(self) -> None:
         for fd in (self._lifeline_write, self._lifeline_read):

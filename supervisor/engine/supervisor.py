@@ -18,13 +18,15 @@ from comms.messages import COMMS_ALIVE, Message, vehicle_alive_key
 from supervisor.config.scenario_schema import Scenario
 from supervisor.engine import interrupts
 from supervisor.engine.clock import Clock
+from supervisor.engine.hosting import cores, default_per_process, groups, host_name, hosted_ids, hosts_chosen
 from supervisor.engine.intake import Intake
 from supervisor.engine.launch import START_TIMEOUT, Launch, gamma0_args
-from supervisor.engine.processes import ProcessGroup
+from supervisor.engine.processes import Child, ProcessGroup
 from supervisor.engine.startup import REPORT_EVERY, Hellos, missing_names
 from supervisor.engine.windows import Reports
 from supervisor.errors import SimulationError
 from supervisor.plan.faults import ProcessAction
+from vehicles.host import CONTROL_ENV
 
 STOP_DEADLINE = 3.0  # s for the processes to leave after the stop message, before the supervisor's token goes
 POLL_CHILDREN = 0.1  # s between checks of the children's exits (liveliness usually reports a death first)
@@ -61,6 +63,7 @@ class Supervisor:
         self.sc, (self.inbox, self.pubs), self.procs, self.launch, self.hellos = sc, bus, procs, launch, hellos
         self.intake, self.clock = intake, clock
         self.roster = Roster()
+        self.hosted: dict[int, str] = {}  # vehicle -> the name of the host process serving it (vehicles.host)
         self.alive: list[int] = list(sc.vehicle_ids)
         self.comms_up = True
         self.t = 0.0
@@ -119,13 +122,21 @@ class Supervisor:
             return
         self.roster.present.discard(key)
         if key in expected:
-            child = self.procs.named(expected[key])
+            child = self._process_of(expected[key])
             # Its token goes as its session closes, a moment before the process ends: its last words say why.
             how = child.how_it_ended(grace=LAST_WORDS_GRACE) if child is not None else None
             self._lost(expected[key], how or "its liveliness token disappeared")
 
     def _lost(self, name: str, how: str) -> None:
-        """A process the run needs is gone: go on without a vehicle if the scenario says so, else stop."""
+        """A process the run needs is gone: go on without a vehicle if the scenario says so, else stop. A host's
+        death loses each vehicle it still served, and the scenario decides for each."""
+        members = hosted_ids(name)
+        if members is not None:
+            self.procs.forget(name)
+            for member in members:
+                if self.hosted.get(member) == name:
+                    self._lost(f"vehicle {member}", how)
+            return
         vid = int(name.split()[1]) if name.startswith("vehicle ") else None
         if vid is None or self.sc.scenario.on_vehicle_loss == "abort":
             when = f"at t = {self.t:.1f} s" if self.clock.begun else "before the start"
@@ -133,7 +144,10 @@ class Supervisor:
         log.warning("%s lost at t = %.1f s (%s); going on without it", name, self.t, how)
         self.alive = [i for i in self.alive if i != vid]
         self.roster.expected.pop(vehicle_alive_key(vid), None)
-        self.procs.forget(name)
+        if vid in self.hosted:
+            self._unhost(vid)
+        else:
+            self.procs.forget(name)
         self.clock.reissue(self)
 
     # --- processes ---------------------------------------------------------------------------------------
@@ -143,6 +157,35 @@ class Supervisor:
         extra = ["--seed", str(self.launch.seed), "--start-step", str(start_step)]
         self.procs.spawn("comms broker", self.launch.argv("comms", *extra))
         self.intake.broker_started()
+
+    def spawn_vehicles(self) -> None:
+        """Every vehicle of the scenario: those started by hand awaited, the others in processes of
+        --vehicles-per-process (by default, supervisor.engine.hosting: one each unless the fleet is large)."""
+        local = [v for v in self.sc.vehicle_ids if v not in self.launch.bus.remote]
+        per_process = self.launch.bus.per_process
+        if per_process is None:
+            per_process = default_per_process(len(local), cores())
+            if per_process > 1:
+                log.info("%s", hosts_chosen(len(local), cores(), per_process))
+        for vid in self.launch.bus.remote:
+            self.spawn_vehicle(vid)
+        for group in groups(local, per_process):
+            if len(group) == 1:
+                self.spawn_vehicle(group[0])
+            else:
+                self.spawn_host(group)
+
+    def spawn_host(self, vids: tuple[int, ...]) -> None:
+        """One process serving vehicles vids (vehicles.host), each on its own session, as if alone."""
+        name = host_name(vids)
+        for vid in vids:
+            self.roster.expected[vehicle_alive_key(vid)] = f"vehicle {vid}"
+            self.hosted[vid] = name
+        ids = [arg for vid in vids for arg in ("--id", str(vid))]
+        gammas = [f"{vid}={arg}" for vid in vids for arg in gamma0_args(self.sc, vid)[1:]]
+        self.procs.spawn(
+            name, self.launch.argv("vehicle", *ids, *(a for g in gammas for a in ("--gamma0", g))), CONTROL_ENV
+        )
 
     def spawn_vehicle(self, vid: int, resume: list[str] | None = None) -> None:
         self.roster.expected[vehicle_alive_key(vid)] = f"vehicle {vid}"
@@ -186,15 +229,19 @@ class Supervisor:
 
     def _kill(self, name: str) -> bool:
         """SIGKILL to a process this supervisor started, its going awaited; False if there is none to kill."""
-        child = self.procs.named(name)
+        child = self._process_of(name)
         if child is None:
             log.warning("cannot kill %s: not started by this supervisor", name)
             return False
         vid = None if name == "comms broker" else int(name.split()[1])
         key = COMMS_ALIVE if vid is None else vehicle_alive_key(vid)
         self.roster.expected.pop(key, None)  # its going is the fault itself, not a failure of the run
-        child.kill()
-        self.procs.forget(name)
+        if vid is not None and vid in self.hosted:
+            child.tell(f"kill {vid}")  # its host stops serving it alone (vehicles.host), as its own SIGKILL would
+            self._unhost(vid)
+        else:
+            child.kill()
+            self.procs.forget(name)
         self.wait_until(lambda: key not in self.roster.present, f"{name} to be noticed gone", START_TIMEOUT)
         if vid is None:
             self.comms_up = False
@@ -202,6 +249,18 @@ class Supervisor:
         else:
             self.alive = [i for i in self.alive if i != vid]
         return True
+
+    def _process_of(self, name: str) -> Child | None:
+        """The child process that runs the process the run calls name (a hosted vehicle: its host)."""
+        vid = int(name.split()[1]) if name.startswith("vehicle ") else None
+        return self.procs.named(self.hosted.get(vid, name) if vid is not None else name)
+
+    def _unhost(self, vid: int) -> None:
+        """Vehicle vid is no longer served by its host; a host left serving none is no longer watched (its end is
+        no loss)."""
+        host = self.hosted.pop(vid)
+        if host not in self.hosted.values():
+            self.procs.forget(host)
 
     def _restart_vehicle(self, vid: int, k: int) -> None:
         state_file = self.launch.resume_dir / f"vehicle-{vid}.json"
