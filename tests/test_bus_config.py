@@ -21,5 +21,5 @@ def test_sessions_map_no_shared_memory_pool() -> None:
 
 def test_a_site_config_keeps_its_own_shared_memory_setting(tmp_path: Path) -> None:
     site = tmp_path / "zenoh.json5"
-    site.write_text('{ transport: { shared_memory: { enabled: true } } }')
+    site.write_text("{ transport: { shared_memory: { enabled: true } } }")
     assert shared_memory(config("client", extras=Extras(site=site)))
