@@ -9,10 +9,11 @@
    process-per-vehicle architecture costs per step before any of our code runs (and, for 50, with 25 vehicles per
    process: what grouping them would buy);
 5. parse: the CPU cost of reading one bus message through its record (state, transmission, reception batch);
-6. targets: issue 15's cases as whole `cpf run` / `cpf sweep` commands, both engines side by side
+6. ready: how soon a vehicle process is ready (its liveliness token at the router) after its spawn;
+7. targets: issue 15's cases as whole `cpf run` / `cpf sweep` commands, both engines side by side
    (benchmarks.bench_targets; --targets picks the cases, "none" skips them).
 Each part is also a module of its own (benchmarks.bench_engines, bench_scaling, bench_realtime, bench_bus_floor,
-bench_parse, bench_targets); benchmarks.bench_side_by_side compares this tree with another checkout.
+bench_parse, bench_ready, bench_targets); benchmarks.bench_side_by_side compares this tree with another checkout.
 Results go to benchmarks/results/*.json; the targets are printed next to the numbers. Speed is checked here, never
 in tests.
 """
@@ -23,7 +24,15 @@ import argparse
 import json
 from pathlib import Path
 
-from benchmarks import bench_bus_floor, bench_engines, bench_parse, bench_realtime, bench_scaling, bench_targets
+from benchmarks import (
+    bench_bus_floor,
+    bench_engines,
+    bench_parse,
+    bench_ready,
+    bench_realtime,
+    bench_scaling,
+    bench_targets,
+)
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "benchmarks" / "results"
@@ -57,10 +66,13 @@ def main() -> None:
 
     parse = bench_parse.measure(paper)
     print(bench_parse.summary(parse), flush=True)
+    ready = bench_ready.measure(5)
+    print(bench_ready.summary(ready), flush=True)
     targets = [] if args.targets == "none" else bench_targets.run(args.targets.split(","), args.repeat, 100)
 
     RESULTS.mkdir(parents=True, exist_ok=True)
     everything = {"engines": engines, "scaling": scaling, "realtime": realtime, "bus_floor": floor, "parse": parse}
+    everything["ready"] = ready
     everything["targets"] = targets
     (RESULTS / "all.json").write_text(json.dumps(everything, indent=2))
     print(f"written: {RESULTS / 'all.json'}")
