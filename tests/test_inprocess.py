@@ -209,8 +209,8 @@ def test_a_run_without_a_log_gives_the_same_result_and_writes_nothing(paper_run,
 
 def test_a_run_without_a_log_counts_every_message_under_every_fault_kind(tmp_path):
     """Without a log (a sweep's run) the engine counts the messages it does not build: the rx batches and link
-    events, the drops of the packets a killed broker and the end of the run leave in flight included. The count, the link books and the
-    series must be those of the same run recorded."""
+    events, the drops of the packets a killed broker and the end of the run leave in flight included. The count,
+    the link books and the series must be those of the same run recorded."""
     faults = [
         "kind=link_down,sender=1,receiver=2,start=10,end=15",
         "kind=link_degraded,sender=1,receiver=3,extra_loss=0.5,extra_delay=0.3,start=5,end=25",
