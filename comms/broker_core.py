@@ -9,7 +9,7 @@ statistics are kept all along and snapshotted every stats window.
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 from comms.channel import Channel, Kinematics, LinkEvent, Reception
 from comms.messages import Message
@@ -38,7 +38,9 @@ class BrokerCore:
         for tx in sorted(transmissions, key=lambda tx: tx.sender):
             wire = encode_coordination(tx)
             carried = decode_coordination(wire)  # what receivers will read: float32 values
-            as_sent = replace(tx, gamma=carried.gamma, gamma_dot=carried.gamma_dot)
+            as_sent = Transmission(  # not dataclasses.replace: the same record, a fraction of the cost
+                tx.sender, tx.seq, tx.t, carried.gamma, carried.gamma_dot, tx.position, tx.velocity, tx.stamp
+            )
             heard_by = network.neighbours(tx.sender) if network else self.neighbours.get(tx.sender, [])
             receivers = set(heard_by) & set(kinematics)
             if network is not None and tx.sender in network.silent:

@@ -7,6 +7,7 @@ every clock tick, so the broker only ever enforces what the supervisor says.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import lru_cache
 from typing import Any
 
 from comms.fields import get, is_int, number
@@ -30,8 +31,7 @@ class Network:
     silent: frozenset[int] = frozenset()
 
     def neighbours(self, vehicle: int) -> list[int]:
-        out = {j for i, j in self.edges if i == vehicle} | {i for i, j in self.edges if j == vehicle}
-        return sorted(out)
+        return list(_adjacency(self.edges).get(vehicle, ()))
 
     def impairment(self, sender: int, receiver: int) -> Impairment:
         if self.blackout:
@@ -72,6 +72,17 @@ class Network:
             get(net, "blackout", bool),
             frozenset(silent),
         )
+
+
+@lru_cache(maxsize=256)
+def _adjacency(edges: tuple[tuple[int, int], ...]) -> dict[int, tuple[int, ...]]:
+    """Every vehicle's neighbours in a graph, sorted: asked of every vehicle at every step (by the vehicle and the
+    broker) of a graph that changes only with a fault, so worked out once per graph."""
+    out: dict[int, set[int]] = {}
+    for i, j in edges:
+        out.setdefault(i, set()).add(j)
+        out.setdefault(j, set()).add(i)
+    return {v: tuple(sorted(js)) for v, js in out.items()}
 
 
 def _pairs(items: object, width: int, name: str) -> list[list[Any]]:

@@ -64,8 +64,12 @@ class LinkStats:
         self._recent: deque[tuple[float, int, int]] = deque()  # (arrival, sender, receiver) of deliveries
 
     def add(self, events: Iterable[LinkEvent]) -> None:
+        books = self.books
         for event in events:
-            self.books.setdefault((event.sender, event.receiver), LinkBook()).add(event)
+            book = books.get((event.sender, event.receiver))
+            if book is None:  # not setdefault: that built a LinkBook (and its Counter) for every event
+                book = books[(event.sender, event.receiver)] = LinkBook()
+            book.add(event)
             if event.kind == "delivered":
                 self._recent.append((event.t, event.sender, event.receiver))
 

@@ -205,3 +205,32 @@ def test_a_run_without_a_log_gives_the_same_result_and_writes_nothing(paper_run,
     assert bare.messages == result.messages and bare.link_counts == result.link_counts
     for name in ("t", "gamma", "gamma_dot", "path_error"):
         assert np.array_equal(getattr(bare.series, name), getattr(result.series, name), equal_nan=True), name
+
+
+def test_a_run_without_a_log_counts_every_message_under_every_fault_kind(tmp_path):
+    """Without a log (a sweep's run) the engine counts the messages it does not build: the rx batches and link
+    events, the drops of the packets a killed broker and the end of the run leave in flight included. The count,
+    the link books and the series must be those of the same run recorded."""
+    faults = [
+        "kind=link_down,sender=1,receiver=2,start=10,end=15",
+        "kind=link_degraded,sender=1,receiver=3,extra_loss=0.5,extra_delay=0.3,start=5,end=25",
+        "kind=blackout,start=20,end=22",
+        "kind=modem_silent,vehicle=3,start=30,end=33",
+        "kind=vehicle_kill,vehicle=2,start=41,end=44",
+        "kind=link_degraded,sender=1,receiver=3,extra_delay=0.55,start=45",  # packets in flight at the kill, the end
+        "kind=broker_kill,start=46,end=48",
+    ]
+    text = shortened((CONFIGS / "paper.toml").read_text(), 60.0)
+    scenario = parse_scenario(text, "test.toml", [], faults)
+    quiet = Progress(scenario.scenario.duration, io.StringIO(), enabled=False)
+    out = tmp_path / "run.mcap"
+    recorded = run_inprocess(scenario, "test.toml", text, out, 7, quiet)
+    bare = run_inprocess(scenario, "test.toml", text, None, 7, quiet)
+    messages = read_messages(out)
+    topics = Counter(topic for topic, _, _ in messages)
+    reasons = Counter(m["reason"] for topic, _, m in messages if topic == "cpf/comms/event")
+    assert reasons["broker_down"] > 0 and reasons["end_of_run"] > 0 and topics["cpf/vehicle/1/rx"] > 0
+    assert bare.messages == recorded.messages == sum(topics.values())
+    assert bare.link_counts == recorded.link_counts and bare.link_stats == recorded.link_stats
+    for name in ("gamma", "gamma_dot", "path_error"):
+        assert np.array_equal(getattr(bare.series, name), getattr(recorded.series, name), equal_nan=True), name

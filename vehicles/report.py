@@ -25,11 +25,13 @@ def state_report(
 ) -> StateReport:
     """A vehicle's telemetry of step k (planar vehicles embedded in 3-D); tx_seq: its transmission then, or 0;
     ages: how old each neighbour estimate it holds is."""
-    s = model.spatial(telemetry.x)
+    # The lifted state is the spatial layout [p, R (row-major), v, omega] in floats, for both models: the same
+    # numbers as model.spatial's arrays, without an array per quantity.
+    s = model.lift(telemetry.x)
     error = telemetry.error.tolist() + [0.0] * (3 - len(telemetry.error))
     return StateReport(
-        telemetry.t, k, telemetry.vehicle_id, telemetry.gamma, telemetry.gamma_dot, _three(s.position.tolist()),
-        tuple(s.rotation.reshape(9).tolist()), _three(s.velocity.tolist()), _three(s.angular_velocity.tolist()),
+        telemetry.t, k, telemetry.vehicle_id, telemetry.gamma, telemetry.gamma_dot, (s[0], s[1], s[2]),
+        tuple(s[3:12]), (s[12], s[13], s[14]), (s[15], s[16], s[17]),
         _three(error), tuple(telemetry.tau.tolist()), telemetry.correction, telemetry.lyapunov, tx_seq, ages,
     )  # fmt: skip
 

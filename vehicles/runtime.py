@@ -9,7 +9,7 @@ after t_k that is not earlier than its arrival.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 from comms.records import Disturbances, Heard, Transmission
 from vehicles.agent import Telemetry, VehicleConfig, VehicleState, own_estimate, receive, step
@@ -78,7 +78,8 @@ def node_step(
     dist: Disturbances,
 ) -> tuple[NodeState, StepOutput]:
     """One sync step at time t: receive, maybe transmit, integrate."""
-    state = replace(node.vehicle, t=t)  # the clock's t, so that every engine steps on the same grid
+    v = node.vehicle  # at the clock's t, so that every engine steps on the same grid
+    state = VehicleState(t, v.x, v.gamma, v.gamma_dot, v.estimates)
     for h in heard:
         state = receive(state, h.sender, NeighbourEstimate(h.gamma, h.gamma_dot, h.stamp))
     ages = tuple((j, t - state.estimates[j].stamp) for j in neighbours if j in state.estimates)

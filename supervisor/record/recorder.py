@@ -202,6 +202,10 @@ class Tally:
         self.count += 1
         return True
 
+    def skip(self, messages: int) -> None:
+        """Count messages a run would write without building them: nothing reads them here."""
+        self.count += messages
+
     def __enter__(self) -> Tally:
         return self
 
