@@ -41,6 +41,7 @@ from comms.messages import (
     vehicle_of_key,
 )
 from comms.records import Transmission
+from comms.reports import CommsDone
 from comms.state import StateReport
 
 log = logging.getLogger(__name__)
@@ -176,8 +177,8 @@ class Broker:
             self.unpublished += self.core.finish(tick.t)
             self._publish_events(tick)
             self._publish_stats(tick.t, final=True)
-            done = {"t": tick.t, "k": tick.k, "events": self.books.published, "malformed": self.books.malformed}
-            self.publishers.put(COMMS_DONE_KEY, done)
+            done = CommsDone(tick.t, tick.k, self.books.published, self.books.malformed)
+            self.publishers.put(COMMS_DONE_KEY, done.to_message())
             return
         self._publish_events(tick)
         self._publish_stats(tick.t)

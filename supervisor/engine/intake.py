@@ -185,12 +185,13 @@ class Intake:
         transmission = self._part(tx_key(vid), lambda: self._tx(tx, vid)) if tx is not None else None
         batch = self._part(rx_key(vid), lambda: self._rx(rx, vid)) if rx is not None else None
         message = state.to_message()
+        rx_message = batch.to_message() if batch is not None else None
         if self.timing is not None:
             self.timing.add_state(message)
-            if batch is not None:
-                self.timing.add_rx(batch.to_message())
-        if batch is not None:
-            self.rec.write(rx_key(vid), batch.t, batch.to_message())
+            if rx_message is not None:
+                self.timing.add_rx(rx_message)
+        if batch is not None and rx_message is not None:
+            self.rec.write(rx_key(vid), batch.t, rx_message)
         if transmission is not None:
             self.rec.write(tx_key(vid), transmission.t, transmission.to_message())
         self._state(state, message)
@@ -237,7 +238,6 @@ class Intake:
         self.broker_events += len(events.events) + len(unread)
         if unread:  # a key gets an entry only for what was dropped on it
             self.malformed[COMMS_EVENTS_KEY] += len(unread)
-        if unread:
             log.debug("dropped %d link events that do not read: %s", len(unread), unread)
         booked: list[LinkEvent] = []
         for event in events.events:
