@@ -12,11 +12,13 @@ from dataclasses import dataclass, field
 
 from comms.records import Disturbances, FloatArray
 from vehicles.coordination import CoordinationGains, correction
+from vehicles.current import Current, feedforward
 from vehicles.dynamics import LIFTED_SIZE, Model, kinematics, reorthonormalize, with_inputs
 from vehicles.estimates import NeighbourEstimate, Predictor, newer, predict
 from vehicles.params import VehicleParams
 from vehicles.path_following import Control, ControllerConstants, PathFollowingGains, control
 from vehicles.paths import Path
+from vehicles.plant import plant_rates
 
 # Where gamma and gamma_dot sit in the integrated vector z = [lifted x, gamma, gamma_dot].
 _GAMMA, _GAMMA_DOT = LIFTED_SIZE, LIFTED_SIZE + 1
@@ -33,10 +35,18 @@ class VehicleConfig:
     coordination: CoordinationGains
     predictor: Predictor = "first_order"
     constants: ControllerConstants = field(init=False)
+    # The plant where it is not the controller's model (vehicles.plant): params are then the controller's nominal
+    # ones, plant the true ones (None: the same); the ocean current (None: still water) and whether the controller
+    # knows it.
+    plant: VehicleParams | None = None
+    current: Current | None = None
+    current_known: bool = False
+    ideal: bool = field(init=False)  # neither: the closed loop as it always was, to the bit
 
     def __post_init__(self) -> None:
         # Computed once per vehicle: the controller uses them at every RK4 stage.
         object.__setattr__(self, "constants", ControllerConstants.of(self.params, self.path_following))
+        object.__setattr__(self, "ideal", self.plant is None and self.current is None)
 
 
 @dataclass(frozen=True, slots=True)
@@ -85,19 +95,27 @@ def _closed_loop(
     z: Sequence[float],
     heard: list[tuple[float, float]],
     dist: Disturbances,
+    t: float,
 ) -> tuple[list[float], Control, float]:
-    """Derivative of z = [lifted x, gamma, gamma_dot], with the controller outputs and v_tilde that produced it;
-    heard: the neighbours' predicted (gamma_j, gamma_dot_j) at the stage's time (_neighbour_values)."""
+    """Derivative of z = [lifted x, gamma, gamma_dot] at the stage's time t, with the controller outputs and v_tilde
+    that produced it; heard: the neighbours' predicted (gamma_j, gamma_dot_j) then (_neighbour_values)."""
     gamma, gamma_dot = z[_GAMMA], z[_GAMMA_DOT]
     cap = dist.gamma_dot_cap
     if cap is not None:
         gamma_dot = min(gamma_dot, cap)
     v_tilde = correction(gamma, gamma_dot, heard, cfg.coordination)
-    out = control(cfg.model, cfg.params, cfg.constants, cfg.path, z, gamma, gamma_dot, cfg.coordination.v_r, v_tilde)
+    known = feedforward(cfg.current, t, z) if cfg.current_known and cfg.current is not None else None
+    out = control(
+        cfg.model, cfg.params, cfg.constants, cfg.path, z, gamma, gamma_dot, cfg.coordination.v_r, v_tilde, known
+    )
     gamma_ddot = out.gamma_ddot
     if cap is not None and gamma_dot >= cap:
         gamma_ddot = min(gamma_ddot, 0.0)  # held at the cap: no wind-up
-    xdot = kinematics(z, with_inputs(out.drift, out.tau, cfg.params))
+    if cfg.ideal:
+        xdot = kinematics(z, with_inputs(out.drift, out.tau, cfg.params))
+    else:
+        plant = cfg.plant or cfg.params
+        xdot = plant_rates(cfg.model, plant, cfg.current, t, z, None if cfg.plant else out.drift, out.tau)
     return [*xdot, gamma_dot, gamma_ddot], out, v_tilde
 
 
@@ -121,10 +139,10 @@ def step(
     z = [*model.lift(state.x), float(state.gamma), float(state.gamma_dot)]
     # The estimates do not change within a step: the two midpoint stages predict the neighbours at the same time.
     mid = _neighbour_values(cfg, state, t + dt / 2, neighbours)
-    k1, out, v_tilde = _closed_loop(cfg, z, _neighbour_values(cfg, state, t, neighbours), dist)
-    k2 = _closed_loop(cfg, _advance(z, dt / 2, k1), mid, dist)[0]
-    k3 = _closed_loop(cfg, _advance(z, dt / 2, k2), mid, dist)[0]
-    k4 = _closed_loop(cfg, _advance(z, dt, k3), _neighbour_values(cfg, state, t + dt, neighbours), dist)[0]
+    k1, out, v_tilde = _closed_loop(cfg, z, _neighbour_values(cfg, state, t, neighbours), dist, t)
+    k2 = _closed_loop(cfg, _advance(z, dt / 2, k1), mid, dist, t + dt / 2)[0]
+    k3 = _closed_loop(cfg, _advance(z, dt / 2, k2), mid, dist, t + dt / 2)[0]
+    k4 = _closed_loop(cfg, _advance(z, dt, k3), _neighbour_values(cfg, state, t + dt, neighbours), dist, t + dt)[0]
     h = dt / 6
     z_next = [a + h * (b1 + 2 * b2 + 2 * b3 + b4) for a, b1, b2, b3, b4 in zip(z, k1, k2, k3, k4, strict=True)]
     gamma_dot_next = z_next[_GAMMA_DOT]

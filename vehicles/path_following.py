@@ -110,6 +110,7 @@ def control(
     gamma_dot: float,
     v_d: float,
     correction: float,
+    current: tuple[Float3, Float3] | None = None,
 ) -> Control:
     """The law of the module docstring for a lifted state s (vehicles.dynamics), in floats.
 
@@ -117,7 +118,15 @@ def control(
         Delta = [[1, 0, 0], [0, 0, -delta], [0, delta, 0]],   nu_c = (u, q, r),   nu_u = (0, v, w).
     A planar vehicle's lifted state has no heave, roll or pitch rate (w = p = q = 0) and it sees its path's horizontal
     projection, so the out-of-plane rows are exact zeros (tau_q = 0) and the in-plane ones are the planar law with
-    Delta = [[1, 0], [0, -delta]]. One helper, not more: this runs at every RK4 stage."""
+    Delta = [[1, 0], [0, -delta]]. One helper, not more: this runs at every RK4 stage.
+
+    current: (c, c_dot), the ocean current in body axes and its derivative (vehicles.current.feedforward), for a
+    controller that knows it; None for one that does not. The state's velocity is relative to the water, so
+    z1_dot = -S(omega) z1 + Delta nu_c + nu_u + c - tangent gamma_dot: the term c is cancelled by the virtual control
+    alpha = Delta^-1 (-K1 sigma - nu_u - c + tangent v_d), whose derivative then carries -c_dot. That is the law
+    above evaluated on the velocity over ground, nu + c, with the acceleration over ground, nu_dot + c_dot; V_dot is
+    as without a current. A controller that does not know c leaves + sigma' c in V_dot: the tube grows (see
+    vehicles.current)."""
     p_d, p_g, p_gg = model.path_seen(path.evaluate_floats(gamma))
     error = (s[0] - p_d[0], s[1] - p_d[1], s[2] - p_d[2])
     r11, r12, r13, r21, r22, r23, r31, r32, r33 = s[3:12]
@@ -134,12 +143,27 @@ def control(
     rho = math.sqrt(1.0 + z1[0] * z1[0] + z1[1] * z1[1] + z1[2] * z1[2])
     sigma = (z1[0] / rho, z1[1] / rho, z1[2] / rho)
     drift = model.drift(s, prm)  # with zero input: exact for the unactuated velocities, the rest is tau's to add
-    z2, tau = _backstepping(c, s, z1, sigma, rho, tangent, curvature, drift, gamma_dot, v_d)
+    if current is None:
+        z2, tau = _backstepping(c, s, z1, sigma, rho, tangent, curvature, drift, gamma_dot, v_d)
+    else:
+        ground, ground_drift = _over_ground(s, drift, current)
+        z2, tau = _backstepping(c, ground, z1, sigma, rho, tangent, curvature, ground_drift, gamma_dot, v_d)
     zeta = gamma_dot - v_d
     along = sigma[0] * tangent[0] + sigma[1] * tangent[1] + sigma[2] * tangent[2]
     gamma_ddot = -c.gains.k_zeta * zeta + along + correction
     lyapunov = (rho - 1.0) + 0.5 * zeta * zeta + 0.5 * (z2[0] * z2[0] + z2[1] * z2[1] + z2[2] * z2[2])
     return Control(tau, gamma_ddot, error, z1, lyapunov, drift)
+
+
+def _over_ground(
+    s: Sequence[float], drift: Accelerations, current: tuple[Float3, Float3]
+) -> tuple[list[float], Accelerations]:
+    """The lifted state with its body velocity over ground (v + c) and the drift with c_dot added: what the law
+    works on when it knows the current (the angular velocity and its drift are the same in both)."""
+    (cx, cy, cz), (dcx, dcy, dcz) = current
+    (du, dv, dw), angular = drift
+    ground = [*s[0:12], s[12] + cx, s[13] + cy, s[14] + cz, *s[15:18]]
+    return ground, ((du + dcx, dv + dcy, dw + dcz), angular)
 
 
 def _backstepping(

@@ -17,6 +17,7 @@ from comms.messages import Message
 from comms.modem import ModemParams, modem
 from comms.state import StateReport
 from comms.stats import LinkStats
+from supervisor.config.plant import current_of, plant_of
 from supervisor.config.scenario_schema import (
     BurstSection,
     CirclePath,
@@ -67,6 +68,9 @@ def vehicle_config(scenario: Scenario, vehicle_id: int) -> VehicleConfig:
         path_following=PathFollowingGains(pf.delta, pf.k1, pf.k2, pf.k_zeta),
         coordination=CoordinationGains(co.k, co.k2, co.v_r, co.law),
         predictor=co.predictor,
+        plant=plant_of(scenario, vehicle_id),
+        current=current_of(scenario),
+        current_known=scenario.environment.current_known,
     )
 
 

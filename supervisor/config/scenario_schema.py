@@ -36,6 +36,7 @@ from supervisor.config.fault_schema import (
     SpeedCapFault,
     VehicleKillFault,
 )
+from supervisor.config.plant_schema import UNCERTAINTY_DESCRIPTION, EnvironmentSection, Spread, UncertaintyTable
 from supervisor.config.schema_base import (
     MAX_ANGLE,
     MAX_COUNT,
@@ -139,6 +140,8 @@ class VehicleModelSection(StrictModel):
         description=f"parameter = value, replacing the preset's; names: {', '.join(VehicleParams.__dataclass_fields__)}"
         " (units: kg, kg m^2, N s/m, N s^2/m^2, N m s, N m s^2, N, m; 3 numbers for the diagonal ones)",
     )
+
+    uncertainty: Spread | UncertaintyTable = Field(default=0.0, description=UNCERTAINTY_DESCRIPTION)
 
     @field_validator("preset")
     @classmethod
@@ -324,6 +327,7 @@ class Scenario(StrictModel):
         default=(), max_length=10_000, description="the fault schedule: one [[faults]] per fault"
     )
     report: ReportSection = ReportSection()
+    environment: EnvironmentSection = EnvironmentSection()
 
     @property
     def vehicle_ids(self) -> list[int]:
