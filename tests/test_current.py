@@ -16,9 +16,9 @@ import pytest
 from supervisor.config.fleet import initial_state, vehicle_config
 from supervisor.config.scenario import parse_scenario
 from tests.conftest import CONFIGS
-from vehicles.agent import VehicleConfig, VehicleState, step
+from vehicles.agent import step
 from vehicles.current import Current, body, feedforward
-from vehicles.dynamics import LIFTED_SIZE, PLANAR, SPATIAL, Model, reorthonormalize
+from vehicles.dynamics import PLANAR, SPATIAL, Model, reorthonormalize
 from vehicles.geometry import rotation_from_rpy
 from vehicles.params import PRESETS
 from vehicles.plant import plant_rates

@@ -6,6 +6,8 @@ same plant wherever and whenever it runs (vehicles.uncertainty seeds its draw by
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+
 from supervisor.config.plant_schema import UncertaintyTable
 from supervisor.config.scenario_schema import Scenario
 from vehicles.current import Current
@@ -37,3 +39,17 @@ def plant_of(scenario: Scenario, vehicle_id: int) -> VehicleParams | None:
     if not spread:
         return None
     return perturbed(scenario.vehicle_params(), spread, scenario.scenario.seed, vehicle_id)
+
+
+def planar_current_errors(sc: Scenario) -> Iterator[str]:
+    """A planar run (dimension 2) has no vertical axis: a vertical current or a shear in depth could not act."""
+    if sc.scenario.dimension != 2:
+        return
+    env = sc.environment
+    if env.current[2] != 0:
+        yield f"environment.current: a planar scenario (scenario.dimension = 2) has no vz, got {list(env.current)}"
+    if env.tide is not None and env.tide.amplitude[2] != 0:
+        yield f"environment.tide.amplitude: a planar scenario has no vertical tide, got {list(env.tide.amplitude)}"
+    if any(env.shear):
+        shear = list(env.shear)
+        yield f"environment.shear: a planar scenario (scenario.dimension = 2) has no depth to shear over, got {shear}"

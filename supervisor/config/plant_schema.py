@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from typing import Annotated
 
-from pydantic import Field, Strict
+from pydantic import Discriminator, Field, Strict, Tag
 
 from supervisor.config.schema_base import MAX_ANGLE, MAX_TIME, Float, Length, StrictModel
 
@@ -42,7 +42,7 @@ class EnvironmentSection(StrictModel):
         "positive value is a current growing towards the surface)",
     )
     shear_origin: Length = Field(default=0.0, description="z where the shear adds nothing, m")
-    current_known: bool = Field(
+    current_known: Annotated[bool, Strict()] = Field(
         default=False,
         description="true: each controller knows the current where its vehicle is and feeds it forward; false: it "
         "steers as in still water",
@@ -68,6 +68,15 @@ class UncertaintyTable(StrictModel):
     net_weight: Spread = Field(default=0.0, description="W - B (of the net weight, not of W)")
     center_of_buoyancy: Spread = Field(default=0.0, description="each component of r_B")
 
+
+def _number_or_table(value: object) -> str:
+    """Which form of uncertainty a value is meant as, so that a bad table is not also reported as a bad number."""
+    return "table" if isinstance(value, dict | UncertaintyTable) else "number"
+
+
+Uncertainty = Annotated[
+    Annotated[Spread, Tag("number")] | Annotated[UncertaintyTable, Tag("table")], Discriminator(_number_or_table)
+]
 
 UNCERTAINTY_DESCRIPTION = (
     "model mismatch: the plant's coefficients drawn uniformly within +-uncertainty of the preset's (which the "
