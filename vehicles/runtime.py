@@ -49,6 +49,9 @@ def transmission(
     p, v = s.position, s.rotation @ s.velocity
     position = (float(p[0]), float(p[1]), float(p[2]))
     velocity = (float(v[0]), float(v[1]), float(v[2]))
+    if cfg.current is not None:  # the state's v is relative to the water (vehicles.current): over ground add v_c
+        c = cfg.current.velocity(state.t, position[2])
+        velocity = (velocity[0] + c[0], velocity[1] + c[1], velocity[2] + c[2])
     stamp = state.t + dist.clock_offset if dist.clock_offset else None
     gamma = told.gamma + dist.gamma_offset
     return Transmission(cfg.vehicle_id, seq, state.t, gamma, told.gamma_dot, position, velocity, stamp)
