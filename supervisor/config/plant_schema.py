@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from typing import Annotated
 
-from pydantic import Discriminator, Field, Strict, Tag
+from pydantic import Discriminator, Field, JsonValue, Strict, Tag
 
 from supervisor.config.schema_base import MAX_ANGLE, MAX_TIME, Float, Length, StrictModel
 
@@ -77,6 +77,13 @@ def _number_or_table(value: object) -> str:
 Uncertainty = Annotated[
     Annotated[Spread, Tag("number")] | Annotated[UncertaintyTable, Tag("table")], Discriminator(_number_or_table)
 ]
+
+
+def as_any_of(schema: dict[str, JsonValue]) -> None:
+    """The JSON Schema of the number-or-table union as anyOf, as for every other such union (pydantic writes oneOf
+    for a union told apart by a function, which the reference generator reads as a table with a type key)."""
+    schema["anyOf"] = schema.pop("oneOf")
+
 
 UNCERTAINTY_DESCRIPTION = (
     "model mismatch: the plant's coefficients drawn uniformly within +-uncertainty of the preset's (which the "

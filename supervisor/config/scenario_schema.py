@@ -36,7 +36,7 @@ from supervisor.config.fault_schema import (
     SpeedCapFault,
     VehicleKillFault,
 )
-from supervisor.config.plant_schema import UNCERTAINTY_DESCRIPTION, EnvironmentSection, Uncertainty
+from supervisor.config.plant_schema import UNCERTAINTY_DESCRIPTION, EnvironmentSection, Uncertainty, as_any_of
 from supervisor.config.schema_base import (
     MAX_ANGLE,
     MAX_COUNT,
@@ -141,7 +141,7 @@ class VehicleModelSection(StrictModel):
         " (units: kg, kg m^2, N s/m, N s^2/m^2, N m s, N m s^2, N, m; 3 numbers for the diagonal ones)",
     )
 
-    uncertainty: Uncertainty = Field(default=0.0, description=UNCERTAINTY_DESCRIPTION)
+    uncertainty: Uncertainty = Field(default=0.0, description=UNCERTAINTY_DESCRIPTION, json_schema_extra=as_any_of)
 
     @field_validator("preset")
     @classmethod
