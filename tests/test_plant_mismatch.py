@@ -123,3 +123,17 @@ def test_bad_environment_and_uncertainty_values_give_one_line_errors(setting, me
         text = next(line for line in text.splitlines() if "environment" in line)
     assert message in text, text
     assert "\n" not in text
+
+
+def test_cpf_info_lines_name_the_current_and_each_vehicles_drawn_plant():
+    from supervisor.config.plant import describe_plant
+
+    assert describe_plant(scenario()) == []
+    sc = scenario("vehicle.uncertainty={mass = 0.2}", "environment.current=[0.1, 0.0, 0.0]")
+    lines = describe_plant(sc)
+    assert lines[0] == "current    [0.1, 0.0, 0.0] m/s; unknown to the controllers"
+    plant = plant_of(sc, 2)
+    assert plant is not None
+    shown = "/".join(f"{100 * (a / b - 1):+.1f}" for a, b in zip(plant.mass, REMUS.mass, strict=True))
+    assert lines[2] == f"plant 2    mass {shown} %"
+    assert len(lines) == 4

@@ -53,3 +53,32 @@ def planar_current_errors(sc: Scenario) -> Iterator[str]:
     if any(env.shear):
         shear = list(env.shear)
         yield f"environment.shear: a planar scenario (scenario.dimension = 2) has no depth to shear over, got {shear}"
+
+
+def describe_plant(sc: Scenario) -> list[str]:
+    """Lines for cpf info: the current, and each vehicle's drawn plant as % off the nominal coefficients (what
+    the run's analysis needs besides the log: the current at a vehicle is current_of(sc).velocity(t, z))."""
+    env, lines = sc.environment, []
+    if not env.still:
+        tide = env.tide
+        tidal = f" + tide {list(tide.amplitude)} m/s, period {tide.period:g} s" if tide is not None else ""
+        shear = f" + shear {list(env.shear)} 1/s from z = {env.shear_origin:g} m" if any(env.shear) else ""
+        known = "known to" if env.current_known else "unknown to"
+        lines.append(f"current    {list(env.current)} m/s{tidal}{shear}; {known} the controllers")
+    nominal = sc.vehicle_params()
+    for vid in sc.vehicle_ids:
+        plant = plant_of(sc, vid)
+        if plant is not None:
+            lines.append(f"plant {vid:<4} " + ", ".join(_off(g, plant, nominal) for g in spreads(sc)))
+    return lines
+
+
+def _off(group: str, plant: VehicleParams, nominal: VehicleParams) -> str:
+    """'mass +3.1/-8.0/+12.0 %': a group's coefficients as % off nominal."""
+    if group == "net_weight":
+        pairs = [(plant.weight - plant.buoyancy, nominal.weight - nominal.buoyancy)]
+    elif group == "buoyancy":
+        pairs = [(plant.buoyancy, nominal.buoyancy)]
+    else:
+        pairs = list(zip(getattr(plant, group), getattr(nominal, group), strict=True))
+    return f"{group} " + "/".join(f"{100 * (a / b - 1):+.1f}" if b else "0" for a, b in pairs) + " %"

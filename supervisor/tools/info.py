@@ -121,7 +121,21 @@ def _run_lines(meta: RunMeta | str, log: RawLog) -> list[str]:
         f"graph      {', '.join(f'{i}-{j}' for i, j in meta.edges) or '-'}",
         f"faults     {faults[0]}",
         *(f"           {line}" for line in faults[1:]),
+        *_plant_lines(meta),
     ]
+
+
+def _plant_lines(meta: RunMeta) -> list[str]:
+    """The current and each vehicle's drawn plant (supervisor.config.plant), from the scenario the log holds."""
+    from pydantic import ValidationError
+
+    from supervisor.config.plant import describe_plant
+    from supervisor.config.scenario_schema import Scenario
+
+    try:
+        return describe_plant(Scenario.model_validate(meta.scenario))
+    except ValidationError:  # a log of another version: its scenario is described above, its plant not
+        return []
 
 
 def _ns(value: int | None) -> float | None:
