@@ -104,7 +104,9 @@ def test_the_feedforward_is_the_body_current_and_its_derivative_along_the_motion
 def follow(current: str, known: bool, seconds: float = 300.0) -> list[tuple[float, float]]:
     """(t, |p - p_d|) of AUV 1 of the paper scenario alone (no neighbours) in the given current."""
     text = (CONFIGS / "paper.toml").read_text()
-    sc = parse_scenario(text, overrides=[f"environment.current={current}", f"environment.current_known={known}"])
+    sc = parse_scenario(
+        text, overrides=[f"environment.current={current}", f"environment.current_known={str(known).lower()}"]
+    )
     cfg = vehicle_config(sc, 1)
     state = initial_state(sc, cfg)
     out = []
