@@ -14,6 +14,7 @@ from comms.records import Disturbances, FloatArray
 from vehicles.coordination import CoordinationGains, correction
 from vehicles.dynamics import LIFTED_SIZE, Model, kinematics, reorthonormalize, with_inputs
 from vehicles.estimates import NeighbourEstimate, Predictor, newer, predict
+from vehicles.navigation import HeldError, NavParams, seen
 from vehicles.params import VehicleParams
 from vehicles.path_following import Control, ControllerConstants, PathFollowingGains, control
 from vehicles.paths import Path
@@ -33,6 +34,7 @@ class VehicleConfig:
     coordination: CoordinationGains
     predictor: Predictor = "first_order"
     constants: ControllerConstants = field(init=False)
+    navigation: NavParams | None = None  # None: the controller sees the true state
 
     def __post_init__(self) -> None:
         # Computed once per vehicle: the controller uses them at every RK4 stage.
@@ -85,19 +87,24 @@ def _closed_loop(
     z: Sequence[float],
     heard: list[tuple[float, float]],
     dist: Disturbances,
+    held: HeldError | None = None,
 ) -> tuple[list[float], Control, float]:
     """Derivative of z = [lifted x, gamma, gamma_dot], with the controller outputs and v_tilde that produced it;
-    heard: the neighbours' predicted (gamma_j, gamma_dot_j) at the stage's time (_neighbour_values)."""
+    heard: the neighbours' predicted (gamma_j, gamma_dot_j) at the stage's time (_neighbour_values); held: the
+    navigation error the controller sees the stage state with (None: it sees the truth)."""
     gamma, gamma_dot = z[_GAMMA], z[_GAMMA_DOT]
     cap = dist.gamma_dot_cap
     if cap is not None:
         gamma_dot = min(gamma_dot, cap)
     v_tilde = correction(gamma, gamma_dot, heard, cfg.coordination)
-    out = control(cfg.model, cfg.params, cfg.constants, cfg.path, z, gamma, gamma_dot, cfg.coordination.v_r, v_tilde)
+    view = z if held is None else seen(z, held)
+    out = control(cfg.model, cfg.params, cfg.constants, cfg.path, view, gamma, gamma_dot, cfg.coordination.v_r, v_tilde)
     gamma_ddot = out.gamma_ddot
     if cap is not None and gamma_dot >= cap:
         gamma_ddot = min(gamma_ddot, 0.0)  # held at the cap: no wind-up
-    xdot = kinematics(z, with_inputs(out.drift, out.tau, cfg.params))
+    # The controller's drift is of the state it sees; the plant moves by its own.
+    drift = out.drift if held is None else cfg.model.drift(z, cfg.params)
+    xdot = kinematics(z, with_inputs(drift, out.tau, cfg.params))
     return [*xdot, gamma_dot, gamma_ddot], out, v_tilde
 
 
@@ -112,31 +119,40 @@ def step(
     dt: float,
     neighbours: Sequence[int],
     dist: Disturbances = UNDISTURBED,
+    held: HeldError | None = None,
 ) -> tuple[VehicleState, Telemetry]:
     """Advance one RK4 step of dt; the telemetry describes the state at the start of the step.
 
-    Integrated in floats on the lifted state (vehicles.dynamics): arrays only at the boundary."""
+    Integrated in floats on the lifted state (vehicles.dynamics): arrays only at the boundary. held: the navigation
+    error the controller sees every stage with (vehicles.navigation); the telemetry's error is the true one."""
     model = cfg.model
     t = state.t
     z = [*model.lift(state.x), float(state.gamma), float(state.gamma_dot)]
     # The estimates do not change within a step: the two midpoint stages predict the neighbours at the same time.
     mid = _neighbour_values(cfg, state, t + dt / 2, neighbours)
-    k1, out, v_tilde = _closed_loop(cfg, z, _neighbour_values(cfg, state, t, neighbours), dist)
-    k2 = _closed_loop(cfg, _advance(z, dt / 2, k1), mid, dist)[0]
-    k3 = _closed_loop(cfg, _advance(z, dt / 2, k2), mid, dist)[0]
-    k4 = _closed_loop(cfg, _advance(z, dt, k3), _neighbour_values(cfg, state, t + dt, neighbours), dist)[0]
+    k1, out, v_tilde = _closed_loop(cfg, z, _neighbour_values(cfg, state, t, neighbours), dist, held)
+    k2 = _closed_loop(cfg, _advance(z, dt / 2, k1), mid, dist, held)[0]
+    k3 = _closed_loop(cfg, _advance(z, dt / 2, k2), mid, dist, held)[0]
+    k4 = _closed_loop(cfg, _advance(z, dt, k3), _neighbour_values(cfg, state, t + dt, neighbours), dist, held)[0]
     h = dt / 6
     z_next = [a + h * (b1 + 2 * b2 + 2 * b3 + b4) for a, b1, b2, b3, b4 in zip(z, k1, k2, k3, k4, strict=True)]
     gamma_dot_next = z_next[_GAMMA_DOT]
     if dist.gamma_dot_cap is not None:
         gamma_dot_next = min(gamma_dot_next, dist.gamma_dot_cap)
+    error = out.error if held is None else _true_error(out.error, held)
     telemetry = Telemetry(
-        cfg.vehicle_id, t, state.gamma, z[_GAMMA_DOT], state.x, model.vector(out.error), model.inputs(out.tau),
+        cfg.vehicle_id, t, state.gamma, z[_GAMMA_DOT], state.x, model.vector(error), model.inputs(out.tau),
         v_tilde, out.lyapunov,
     )  # fmt: skip
     x_next = model.lower(reorthonormalize(z_next[:LIFTED_SIZE]))
     next_state = VehicleState(t + dt, x_next, z_next[_GAMMA], gamma_dot_next, state.estimates)
     return next_state, telemetry
+
+
+def _true_error(error: Sequence[float], held: HeldError) -> tuple[float, float, float]:
+    """p - p_d from the error the controller saw, p_hat - p_d: path following is judged against the truth."""
+    ex, ey, ez = held.position
+    return error[0] - ex, error[1] - ey, error[2] - ez
 
 
 def own_estimate(state: VehicleState) -> NeighbourEstimate:

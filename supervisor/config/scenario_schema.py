@@ -36,6 +36,7 @@ from supervisor.config.fault_schema import (
     SpeedCapFault,
     VehicleKillFault,
 )
+from supervisor.config.navigation_schema import NavigationSection
 from supervisor.config.schema_base import (
     MAX_ANGLE,
     MAX_COUNT,
@@ -324,6 +325,9 @@ class Scenario(StrictModel):
         default=(), max_length=10_000, description="the fault schedule: one [[faults]] per fault"
     )
     report: ReportSection = ReportSection()
+    navigation: NavigationSection | None = Field(
+        default=None, description="navigation sensors and filter (absent: every controller sees the true state)"
+    )
 
     @property
     def vehicle_ids(self) -> list[int]:
