@@ -196,3 +196,21 @@ def test_both_engines_give_identical_records_with_navigation_on(tmp_path, paper_
         assert cfg.navigation is not None and node.nav is not None
         resumed = navigate(cfg.navigation, node.nav, cfg.model.lift(node.vehicle.x), 100, 0.1)
         assert list(resumed.posterior.flat()) == after["nav_estimate"]
+
+
+def test_the_report_draws_the_navigation_figure_only_for_a_run_with_navigation(tmp_path, paper_text):
+    from supervisor.analysis.figures_nav import has_navigation
+    from supervisor.analysis.rundata import load_run
+
+    for name, text in (("nav", shortened(paper_text, 12.0) + NAV), ("plain", shortened(paper_text, 12.0))):
+        scenario = _scenario(tmp_path, text)
+        done = cpf("run", str(scenario), "--engine", "inprocess", "--out", f"{name}.mcap", "--quiet", cwd=tmp_path)
+        assert done.returncode == 0, done.stderr
+        report = cpf("report", f"{name}.mcap", "--out", name, cwd=tmp_path)
+        assert report.returncode == 0, report.stderr
+        assert (tmp_path / name / "navigation_errors.png").exists() == (name == "nav")
+        run = load_run(tmp_path / f"{name}.mcap")
+        assert has_navigation(run) == (name == "nav")
+    series = load_run(tmp_path / "nav.mcap").vehicles[1]
+    assert series.nav_error is not None and series.nav_fix is not None
+    assert 0.0 < float(series.nav_error.max()) < 10.0 and set(series.nav_fix.tolist()) >= {0, 1}
