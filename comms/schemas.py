@@ -70,8 +70,10 @@ STATE = _object(
         "estimate_age": {"type": "array", "items": _vector(2)},
         "rx_lateness": _vector(),  # realtime: s (wall clock) from each reception's arrival to its coming (< 0: ahead)
         "step_lateness": NUMBER,  # realtime: s (wall clock) from t_k to the vehicle's starting its step
+        "nav_estimate": _vector(27),  # navigation on: the filter's [p_hat, bias, covariance upper triangle]
+        "nav_fix": INTEGER,  # navigation on: 0 no fix due, 1 fix fused, 2 fix lost
     },
-    optional=("rx_lateness", "step_lateness"),
+    optional=("rx_lateness", "step_lateness", "nav_estimate", "nav_fix"),
 )
 TRANSMISSION = _object(
     "cpf.Transmission",

@@ -59,6 +59,23 @@ class StateReport:
     estimate_age: tuple[tuple[int, Real], ...]  # (neighbour, how old the estimate held of it is, s)
     rx_lateness: tuple[Real, ...] | None = None  # realtime: s from each reception's arrival to its coming
     step_lateness: Finite | None = None  # realtime: s from t_k to the vehicle's starting its step
+    # With navigation on ([navigation]), the navigation filter at t_k after its measurements: estimate [p_hat (3),
+    # DVL bias (3)], then its covariance's upper triangle by rows (21); absent without navigation.
+    nav_estimate: tuple[Real, ...] | None = None
+    nav_fix: int | None = None  # 0: no position fix due, 1: a fix fused, 2: a fix due but lost
+
+    @property
+    def estimated_position(self) -> Float3 | None:
+        """The position the controller believed, inertial, m (None: it knew the truth)."""
+        e = self.nav_estimate
+        return None if e is None else (e[0], e[1], e[2])
+
+    @property
+    def position_sigma(self) -> Float3 | None:
+        """The filter's standard deviation of each position component, m (None without navigation)."""
+        e = self.nav_estimate
+        # The diagonal's first three entries in the upper triangle by rows of a 6 x 6 matrix: 0, 6, 11 after x.
+        return None if e is None else (e[6] ** 0.5, e[12] ** 0.5, e[17] ** 0.5)
 
     @property
     def kinematics(self) -> Kinematics:
@@ -89,6 +106,9 @@ class StateReport:
             message["rx_lateness"] = list(self.rx_lateness)
         if self.step_lateness is not None:
             message["step_lateness"] = self.step_lateness
+        if self.nav_estimate is not None:
+            message["nav_estimate"] = list(self.nav_estimate)
+            message["nav_fix"] = self.nav_fix
         return message
 
     @classmethod
@@ -117,6 +137,8 @@ class StateReport:
             get(message, "tx_seq", int), _ages(message),
             None if message.get("rx_lateness") is None else tuple(_reals(message, "rx_lateness")),
             None if message.get("step_lateness") is None else number(message, "step_lateness"),
+            None if message.get("nav_estimate") is None else tuple(_reals(message, "nav_estimate")),
+            None if message.get("nav_fix") is None else get(message, "nav_fix", int),
         )  # fmt: skip
 
 

@@ -15,6 +15,7 @@ from vehicles.coordination import CoordinationGains, correction
 from vehicles.current import Current, feedforward
 from vehicles.dynamics import LIFTED_SIZE, Model, kinematics, reorthonormalize, with_inputs
 from vehicles.estimates import NeighbourEstimate, Predictor, newer, predict
+from vehicles.navigation import HeldError, NavParams, seen
 from vehicles.params import VehicleParams
 from vehicles.path_following import Control, ControllerConstants, PathFollowingGains, control
 from vehicles.paths import Path
@@ -41,7 +42,8 @@ class VehicleConfig:
     plant: VehicleParams | None = None
     current: Current | None = None
     current_known: bool = False
-    ideal: bool = field(init=False)  # neither: the closed loop as it always was, to the bit
+    navigation: NavParams | None = None  # None: the controller sees the true state
+    ideal: bool = field(init=False)  # neither plant nor current: the closed loop as it always was, to the bit
 
     def __post_init__(self) -> None:
         # Computed once per vehicle: the controller uses them at every RK4 stage.
@@ -96,26 +98,30 @@ def _closed_loop(
     heard: list[tuple[float, float]],
     dist: Disturbances,
     t: float,
+    held: HeldError | None = None,
 ) -> tuple[list[float], Control, float]:
     """Derivative of z = [lifted x, gamma, gamma_dot] at the stage's time t, with the controller outputs and v_tilde
-    that produced it; heard: the neighbours' predicted (gamma_j, gamma_dot_j) then (_neighbour_values)."""
+    that produced it; heard: the neighbours' predicted (gamma_j, gamma_dot_j) then (_neighbour_values); held: the
+    navigation error the controller sees the stage state with (None: it sees the truth)."""
     gamma, gamma_dot = z[_GAMMA], z[_GAMMA_DOT]
     cap = dist.gamma_dot_cap
     if cap is not None:
         gamma_dot = min(gamma_dot, cap)
     v_tilde = correction(gamma, gamma_dot, heard, cfg.coordination)
-    known = feedforward(cfg.current, t, z) if cfg.current_known and cfg.current is not None else None
+    view = z if held is None else seen(z, held)
+    known = feedforward(cfg.current, t, view) if cfg.current_known and cfg.current is not None else None
     out = control(
-        cfg.model, cfg.params, cfg.constants, cfg.path, z, gamma, gamma_dot, cfg.coordination.v_r, v_tilde, known
+        cfg.model, cfg.params, cfg.constants, cfg.path, view, gamma, gamma_dot, cfg.coordination.v_r, v_tilde, known
     )
     gamma_ddot = out.gamma_ddot
     if cap is not None and gamma_dot >= cap:
         gamma_ddot = min(gamma_ddot, 0.0)  # held at the cap: no wind-up
-    if cfg.ideal:
+    if cfg.ideal and held is None:
         xdot = kinematics(z, with_inputs(out.drift, out.tau, cfg.params))
     else:
-        plant = cfg.plant or cfg.params
-        xdot = plant_rates(cfg.model, plant, cfg.current, t, z, None if cfg.plant else out.drift, out.tau)
+        # The controller's drift is of the state it sees, with its nominal parameters; the plant moves by its own.
+        own = out.drift if cfg.plant is None and held is None else None
+        xdot = plant_rates(cfg.model, cfg.plant or cfg.params, cfg.current, t, z, own, out.tau)
     return [*xdot, gamma_dot, gamma_ddot], out, v_tilde
 
 
@@ -130,31 +136,41 @@ def step(
     dt: float,
     neighbours: Sequence[int],
     dist: Disturbances = UNDISTURBED,
+    held: HeldError | None = None,
 ) -> tuple[VehicleState, Telemetry]:
     """Advance one RK4 step of dt; the telemetry describes the state at the start of the step.
 
-    Integrated in floats on the lifted state (vehicles.dynamics): arrays only at the boundary."""
+    Integrated in floats on the lifted state (vehicles.dynamics): arrays only at the boundary. held: the navigation
+    error the controller sees every stage with (vehicles.navigation); the telemetry's error is the true one."""
     model = cfg.model
     t = state.t
     z = [*model.lift(state.x), float(state.gamma), float(state.gamma_dot)]
     # The estimates do not change within a step: the two midpoint stages predict the neighbours at the same time.
     mid = _neighbour_values(cfg, state, t + dt / 2, neighbours)
-    k1, out, v_tilde = _closed_loop(cfg, z, _neighbour_values(cfg, state, t, neighbours), dist, t)
-    k2 = _closed_loop(cfg, _advance(z, dt / 2, k1), mid, dist, t + dt / 2)[0]
-    k3 = _closed_loop(cfg, _advance(z, dt / 2, k2), mid, dist, t + dt / 2)[0]
-    k4 = _closed_loop(cfg, _advance(z, dt, k3), _neighbour_values(cfg, state, t + dt, neighbours), dist, t + dt)[0]
+    k1, out, v_tilde = _closed_loop(cfg, z, _neighbour_values(cfg, state, t, neighbours), dist, t, held)
+    k2 = _closed_loop(cfg, _advance(z, dt / 2, k1), mid, dist, t + dt / 2, held)[0]
+    k3 = _closed_loop(cfg, _advance(z, dt / 2, k2), mid, dist, t + dt / 2, held)[0]
+    end = _neighbour_values(cfg, state, t + dt, neighbours)
+    k4 = _closed_loop(cfg, _advance(z, dt, k3), end, dist, t + dt, held)[0]
     h = dt / 6
     z_next = [a + h * (b1 + 2 * b2 + 2 * b3 + b4) for a, b1, b2, b3, b4 in zip(z, k1, k2, k3, k4, strict=True)]
     gamma_dot_next = z_next[_GAMMA_DOT]
     if dist.gamma_dot_cap is not None:
         gamma_dot_next = min(gamma_dot_next, dist.gamma_dot_cap)
+    error = out.error if held is None else _true_error(out.error, held)
     telemetry = Telemetry(
-        cfg.vehicle_id, t, state.gamma, z[_GAMMA_DOT], state.x, model.vector(out.error), model.inputs(out.tau),
+        cfg.vehicle_id, t, state.gamma, z[_GAMMA_DOT], state.x, model.vector(error), model.inputs(out.tau),
         v_tilde, out.lyapunov,
     )  # fmt: skip
     x_next = model.lower(reorthonormalize(z_next[:LIFTED_SIZE]))
     next_state = VehicleState(t + dt, x_next, z_next[_GAMMA], gamma_dot_next, state.estimates)
     return next_state, telemetry
+
+
+def _true_error(error: Sequence[float], held: HeldError) -> tuple[float, float, float]:
+    """p - p_d from the error the controller saw, p_hat - p_d: path following is judged against the truth."""
+    ex, ey, ez = held.position
+    return error[0] - ex, error[1] - ey, error[2] - ez
 
 
 def own_estimate(state: VehicleState) -> NeighbourEstimate:

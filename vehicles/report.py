@@ -11,6 +11,7 @@ from comms.messages import Message
 from comms.state import StateReport
 from vehicles.agent import Telemetry
 from vehicles.dynamics import Model
+from vehicles.navigation import NavOutput
 
 
 def state_message(
@@ -21,10 +22,15 @@ def state_message(
 
 
 def state_report(
-    telemetry: Telemetry, model: Model, k: int, tx_seq: int, ages: tuple[tuple[int, float], ...] = ()
+    telemetry: Telemetry,
+    model: Model,
+    k: int,
+    tx_seq: int,
+    ages: tuple[tuple[int, float], ...] = (),
+    nav: NavOutput | None = None,
 ) -> StateReport:
     """A vehicle's telemetry of step k (planar vehicles embedded in 3-D); tx_seq: its transmission then, or 0;
-    ages: how old each neighbour estimate it holds is."""
+    ages: how old each neighbour estimate it holds is; nav: its navigation computer's step, if it has one."""
     # The lifted state is the spatial layout [p, R (row-major), v, omega] in floats, for both models: the same
     # numbers as model.spatial's arrays, without an array per quantity.
     s = model.lift(telemetry.x)
@@ -33,6 +39,7 @@ def state_report(
         telemetry.t, k, telemetry.vehicle_id, telemetry.gamma, telemetry.gamma_dot, (s[0], s[1], s[2]),
         tuple(s[3:12]), (s[12], s[13], s[14]), (s[15], s[16], s[17]),
         _three(error), tuple(telemetry.tau.tolist()), telemetry.correction, telemetry.lyapunov, tx_seq, ages,
+        nav_estimate=None if nav is None else nav.posterior.flat(), nav_fix=None if nav is None else nav.fix,
     )  # fmt: skip
 
 

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from comms.records import Disturbances, Heard, Transmission
 from vehicles.agent import Telemetry, VehicleConfig, VehicleState, own_estimate, receive, step
 from vehicles.estimates import NeighbourEstimate
+from vehicles.navigation import NavOutput, NavState, initial, navigate
 from vehicles.transmission import PeriodicPolicy, Policy, Tdma
 
 
@@ -32,6 +33,7 @@ class NodeState:
     last_sent: NeighbourEstimate | None = None  # what the neighbours were last told (if it reached them)
     pending: bool = False  # the policy wanted to transmit, the TDMA slot has not come yet
     frozen: NeighbourEstimate | None = None  # a stuck gamma sensor's value, while it is stuck
+    nav: NavState | None = None  # the navigation filter's prior for the next step (None: not begun, or no navigation)
 
 
 @dataclass(frozen=True, slots=True)
@@ -39,6 +41,7 @@ class StepOutput:
     telemetry: Telemetry
     transmission: Transmission | None
     estimate_ages: tuple[tuple[int, float], ...]  # (neighbour, t - stamp of the estimate held of it)
+    navigation: NavOutput | None = None  # the navigation computer's step (None: the controller sees the truth)
 
 
 def transmission(
@@ -94,5 +97,16 @@ def node_step(
     if wants and may:
         seq, last = seq + 1, now
         sent = transmission(cfg, state, seq, frozen or now, dist)
-    state, telemetry = step(cfg, state, dt, neighbours, dist)
-    return NodeState(state, seq, last, wants and not may, frozen), StepOutput(telemetry, sent, ages)
+    nav = _navigate(cfg, node, state, t, dt)
+    state, telemetry = step(cfg, state, dt, neighbours, dist, None if nav is None else nav.held)
+    after = NodeState(state, seq, last, wants and not may, frozen, None if nav is None else nav.prior)
+    return after, StepOutput(telemetry, sent, ages, nav)
+
+
+def _navigate(cfg: VehicleConfig, node: NodeState, state: VehicleState, t: float, dt: float) -> NavOutput | None:
+    """The navigation computer's step at t on the true state (None without navigation); its first step starts it."""
+    params = cfg.navigation
+    if params is None:
+        return None
+    s = cfg.model.lift(state.x)
+    return navigate(params, node.nav or initial(params, s), s, round(t / dt), dt)

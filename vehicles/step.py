@@ -50,7 +50,7 @@ def step_records(
     except (np.linalg.LinAlgError, ArithmeticError) as exc:  # a state gone to nan/inf: the attitude's SVD fails
         raise FloatingPointError(f"vehicle {cfg.vehicle_id} diverged at t = {t:.1f} s ({exc})") from None
     sent = out.transmission
-    report = state_report(out.telemetry, cfg.model, k, sent.seq if sent else 0, out.estimate_ages)
+    report = state_report(out.telemetry, cfg.model, k, sent.seq if sent else 0, out.estimate_ages, out.navigation)
     _check_sane(report, t)
     return node, StepRecords(report.to_message(), sent, tx_message(sent) if sent else None, report)
 

@@ -63,6 +63,7 @@ def write_figures(run: RunData, out_dir: Path) -> list[Path]:
 
     The paper's analogues (fig3-fig6, gamma_dot: analysis.figures, which says how each adapts to the fleet and
     the run), then the channel's (comms_*: supervisor.analysis.report_comms)."""
+    from supervisor.analysis.figures_nav import fig_navigation_errors, has_navigation
     from supervisor.analysis.report_comms import comms_figures  # it builds on this module's data and helpers
 
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -73,6 +74,8 @@ def write_figures(run: RunData, out_dir: Path) -> list[Path]:
     ]
     figures += [(f"fig6_velocities_auv{v}.png", _velocities_figure(v)) for v in run.vehicles]
     figures.append(("gamma_dot.png", fig_gamma_dot))
+    if has_navigation(run):
+        figures.append(("navigation_errors.png", fig_navigation_errors))
     figures += comms_figures(run)
     return [save(build(run), out_dir / name) for name, build in figures]
 

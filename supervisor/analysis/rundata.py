@@ -7,6 +7,7 @@ and the report build on it; it builds on none of them.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -54,6 +55,10 @@ class VehicleSeries:
     tau: Array  # (n, k) control inputs
     correction: Array
     lyapunov: Array
+    # With navigation on: |p_hat - p|, the filter's position 1-sigma (root of its covariance's trace), nav_fix codes
+    nav_error: Array | None = None
+    nav_sigma: Array | None = None
+    nav_fix: Array | None = None
 
     @property
     def desired(self) -> Array:
@@ -228,7 +233,22 @@ def _series(vehicle: int, messages: list[StateReport]) -> VehicleSeries:
         tau=_matrix([m.tau for m in messages]),
         correction=column("correction"),
         lyapunov=column("lyapunov"),
+        **_navigation(messages),
     )
+
+
+def _navigation(messages: list[StateReport]) -> dict[str, Array]:
+    """The navigation columns, if every message has an estimate (NaN-free), else none."""
+    if not messages or any(m.nav_estimate is None for m in messages):
+        return {}
+    estimate = _matrix([m.estimated_position or (math.nan,) * 3 for m in messages], 3)
+    sigma = _matrix([m.position_sigma or (math.nan,) * 3 for m in messages], 3)
+    truth = _matrix([m.position for m in messages], 3)
+    return {
+        "nav_error": np.linalg.norm(estimate - truth, axis=1),
+        "nav_sigma": np.linalg.norm(sigma, axis=1),
+        "nav_fix": np.array([m.nav_fix or 0 for m in messages], dtype=int),
+    }
 
 
 def _matrix(rows: Sequence[Sequence[float]], width: int | None = None) -> Array:

@@ -198,6 +198,7 @@ def _add_processes(sub: Commands) -> None:
     )  # fmt: skip
     _add_zenoh_config(vehicle)
     _add_scenario_changes(vehicle)
+    vehicle.add_argument("--seed", type=_seed, default=None, help="the run's seed (default: the scenario's)")
     vehicle.add_argument("--resume", type=Path, default=None, help="a recorded state message to restart from")
     vehicle.add_argument("--start-step", type=_step_number, default=0, help="the sync step to resume at")
     vehicle.add_argument("--resume-seq", type=_step_number, default=0, help="the last transmission's sequence number")

@@ -199,16 +199,21 @@ def _serve_vehicle(
 ) -> Callable[[Ending | None], int]:
     """What serves vehicle vid until it ends (its initial state made here, before any serving starts)."""
     from supervisor.config.fleet import initial_state, radio, restarted_node, vehicle_config
-    from supervisor.config.scenario_digest import hello
+    from supervisor.config.scenario_digest import hello, vehicle_seed
     from vehicles.node import run_vehicle
     from vehicles.runtime import NodeState
 
-    cfg = vehicle_config(scenario, vid)
+    seed = scenario.scenario.seed if args.seed is None else args.seed
+    cfg = vehicle_config(scenario, vid, seed)
     if args.resume is not None:
         initial = restarted_node(cfg, json.loads(args.resume.read_text()), args.resume_seq)
     else:
         initial = NodeState(initial_state(_starting_at(scenario, vid, gamma0), cfg))
-    neighbours, dt, greeting = scenario.neighbours(vid), scenario.scenario.step, hello(f"vehicle {vid}", scenario)
+    neighbours, dt, greeting = (
+        scenario.neighbours(vid),
+        scenario.scenario.step,
+        hello(f"vehicle {vid}", scenario, vehicle_seed(scenario, seed)),
+    )
     return lambda ending: run_vehicle(
         cfg, initial, radio(scenario, vid), neighbours, dt, [args.connect], args.start_step, greeting, extras, ending
     )

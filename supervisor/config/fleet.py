@@ -35,6 +35,7 @@ from vehicles.agent import VehicleConfig, VehicleState
 from vehicles.coordination import CoordinationGains
 from vehicles.dynamics import PLANAR, SPATIAL, Model
 from vehicles.geometry import rotation_2d, rotation_from_rpy
+from vehicles.navigation import NavParams, NavState
 from vehicles.nearest import nearest_gamma
 from vehicles.path_following import PathFollowingGains
 from vehicles.paths import Circle, Helix, Lawnmower, Line, Path
@@ -57,9 +58,11 @@ def model_of(scenario: Scenario) -> Model:
     return SPATIAL if scenario.scenario.dimension == 3 else PLANAR
 
 
-def vehicle_config(scenario: Scenario, vehicle_id: int) -> VehicleConfig:
+def vehicle_config(scenario: Scenario, vehicle_id: int, seed: int | None = None) -> VehicleConfig:
+    """seed: the run's (cpf run --seed); None: the scenario's."""
     section = _section(scenario, vehicle_id)
     pf, co = scenario.path_following, scenario.coordination
+    run_seed = scenario.scenario.seed if seed is None else seed
     return VehicleConfig(
         vehicle_id=vehicle_id,
         model=model_of(scenario),
@@ -68,10 +71,22 @@ def vehicle_config(scenario: Scenario, vehicle_id: int) -> VehicleConfig:
         path_following=PathFollowingGains(pf.delta, pf.k1, pf.k2, pf.k_zeta),
         coordination=CoordinationGains(co.k, co.k2, co.v_r, co.law),
         predictor=co.predictor,
-        plant=plant_of(scenario, vehicle_id),
+        plant=plant_of(scenario, vehicle_id, run_seed),
         current=current_of(scenario),
         current_known=scenario.environment.current_known,
+        navigation=nav_params(scenario, vehicle_id, run_seed),
     )
+
+
+def nav_params(scenario: Scenario, vehicle_id: int, seed: int) -> NavParams | None:
+    """The vehicle's navigation sensors, None if the scenario has none (the controller sees the truth)."""
+    nav = scenario.navigation
+    if nav is None:
+        return None
+    return NavParams(
+        seed, vehicle_id, nav.dvl_noise, nav.dvl_bias, math.radians(nav.heading_noise_deg), nav.depth_noise,
+        nav.fix_period, nav.fix_noise, nav.fix_dropout, nav.initial_error, planar=scenario.scenario.dimension == 2,
+    )  # fmt: skip
 
 
 def initial_state(scenario: Scenario, config: VehicleConfig) -> VehicleState:
@@ -239,6 +254,9 @@ def restore_state(config: VehicleConfig, message: Message) -> VehicleState:
 
 
 def restarted_node(config: VehicleConfig, last_state: Message, seq: int) -> NodeState:
-    """A restarted vehicle process: its last recorded state, its transmission count, and nothing else (no
-    neighbour estimates, no transmission-policy memory). Every engine and `cpf resim` restart a vehicle this way."""
-    return NodeState(restore_state(config, last_state), seq)
+    """A restarted vehicle process: its last recorded state (its navigation filter's too, which then starts from
+    its estimate of that state), its transmission count, and nothing else (no neighbour estimates, no
+    transmission-policy memory). Every engine and `cpf resim` restart a vehicle this way."""
+    nav = StateReport.from_message(last_state, config.vehicle_id).nav_estimate
+    filtered = None if nav is None or config.navigation is None else NavState.from_flat(nav)
+    return NodeState(restore_state(config, last_state), seq, nav=filtered)

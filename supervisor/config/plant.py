@@ -33,12 +33,13 @@ def spreads(scenario: Scenario) -> dict[str, float]:
     return {group: spread for group, spread in table.items() if spread > 0}
 
 
-def plant_of(scenario: Scenario, vehicle_id: int) -> VehicleParams | None:
-    """The plant's parameters of vehicle_id, drawn around the scenario's; None when there is no mismatch."""
+def plant_of(scenario: Scenario, vehicle_id: int, seed: int | None = None) -> VehicleParams | None:
+    """The plant's parameters of vehicle_id, drawn around the scenario's with the run's seed (None: the
+    scenario's); None when there is no mismatch."""
     spread = spreads(scenario)
     if not spread:
         return None
-    return perturbed(scenario.vehicle_params(), spread, scenario.scenario.seed, vehicle_id)
+    return perturbed(scenario.vehicle_params(), spread, scenario.scenario.seed if seed is None else seed, vehicle_id)
 
 
 def planar_current_errors(sc: Scenario) -> Iterator[str]:
@@ -55,9 +56,10 @@ def planar_current_errors(sc: Scenario) -> Iterator[str]:
         yield f"environment.shear: a planar scenario (scenario.dimension = 2) has no depth to shear over, got {shear}"
 
 
-def describe_plant(sc: Scenario) -> list[str]:
+def describe_plant(sc: Scenario, seed: int | None = None) -> list[str]:
     """Lines for cpf info: the current, and each vehicle's drawn plant as % off the nominal coefficients (what
-    the run's analysis needs besides the log: the current at a vehicle is current_of(sc).velocity(t, z))."""
+    the run's analysis needs besides the log: the current at a vehicle is current_of(sc).velocity(t, z)); seed: the
+    run's (None: the scenario's)."""
     env, lines = sc.environment, []
     if not env.still:
         tide = env.tide
@@ -67,7 +69,7 @@ def describe_plant(sc: Scenario) -> list[str]:
         lines.append(f"current    {list(env.current)} m/s{tidal}{shear}; {known} the controllers")
     nominal = sc.vehicle_params()
     for vid in sc.vehicle_ids:
-        plant = plant_of(sc, vid)
+        plant = plant_of(sc, vid, seed)
         if plant is not None:
             lines.append(f"plant {vid:<4} " + ", ".join(_off(g, plant, nominal) for g in spreads(sc)))
     return lines

@@ -4,7 +4,7 @@ The digest is the sha256 of a canonical JSON (sorted keys, no spaces, floats as 
 every host) of the validated Scenario, --set and --fault applied, so two files that differ only in comments, key
 order or spelling of numbers (1 vs 1.0) give the same digest. Each top-level section has its own digest too, so a
 mismatch can be named ("coordination differs"). The broker draws the channel's randomness from the run's seed: its
-digest covers the seed as well (section "seed"); vehicles use none.
+digest covers the seed as well (section "seed"), and so does a vehicle's with navigation on (its sensor noise).
 """
 
 from __future__ import annotations
@@ -13,6 +13,7 @@ import hashlib
 import json
 
 from comms.messages import Hello, Message
+from supervisor.config.plant import spreads
 from supervisor.config.scenario_schema import Scenario
 
 
@@ -33,6 +34,12 @@ def section_digests(scenario: Scenario, seed: int | None = None) -> dict[str, st
 def digest(sections: dict[str, str]) -> str:
     """The digest of the whole: of the section digests (so it follows from them)."""
     return _sha(sections)
+
+
+def vehicle_seed(scenario: Scenario, seed: int) -> int | None:
+    """The seed a vehicle's digest covers: the run's if it draws from it (navigation noise, its plant's
+    parameters), else none."""
+    return seed if scenario.navigation is not None or spreads(scenario) else None
 
 
 def hello(process: str, scenario: Scenario, seed: int | None = None) -> Message:

@@ -36,6 +36,7 @@ from supervisor.config.fault_schema import (
     SpeedCapFault,
     VehicleKillFault,
 )
+from supervisor.config.navigation_schema import NavigationSection
 from supervisor.config.plant_schema import UNCERTAINTY_DESCRIPTION, EnvironmentSection, Uncertainty, as_any_of
 from supervisor.config.schema_base import (
     MAX_ANGLE,
@@ -328,6 +329,9 @@ class Scenario(StrictModel):
     )
     report: ReportSection = ReportSection()
     environment: EnvironmentSection = EnvironmentSection()
+    navigation: NavigationSection | None = Field(
+        default=None, description="navigation sensors and filter (absent: every controller sees the true state)"
+    )
 
     @property
     def vehicle_ids(self) -> list[int]:

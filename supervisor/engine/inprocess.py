@@ -75,7 +75,7 @@ class _InProcessRun:
         self.dt = scenario.scenario.step
         self.schedule = Schedule(scenario)
         ids = scenario.vehicle_ids
-        self.configs = {i: vehicle_config(scenario, i) for i in ids}
+        self.configs = {i: vehicle_config(scenario, i, seed) for i in ids}
         self.nodes = {i: NodeState(initial_state(scenario, self.configs[i])) for i in ids}
         self.radios = {i: radio(scenario, i) for i in ids}
         self.alive = list(ids)

@@ -56,7 +56,15 @@ class Launch:
         # of the same name that the user's directory happens to hold
         base = [sys.executable, "-P", "-m", "supervisor.cli", command, str(self.path), "--connect", self.connect]
         site = ["--zenoh-config", str(self.bus.zenoh_config)] if self.bus.zenoh_config is not None else []
-        return [*base, *sets, *faults, *site, *extra]  # credentials: in the environment (supervisor.engine.bus_access)
+        seed = ["--seed", str(self.seed)] if command == "vehicle" else []  # the comms broker's comes in extra
+        return [
+            *base,
+            *sets,
+            *faults,
+            *site,
+            *seed,
+            *extra,
+        ]  # credentials: in the environment (supervisor.engine.bus_access)
 
 
 def gamma0_args(sc: Scenario, vid: int) -> list[str]:

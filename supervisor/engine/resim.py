@@ -97,19 +97,19 @@ def resimulate(log: Path, overrides: Sequence[str], out: Path) -> tuple[Scenario
         rec.limit(sc.scenario.duration)
         meta = dataclasses.replace(meta, engine="resim", scenario=sc.model_dump(mode="json"))
         rec.write(META_KEY, 0.0, meta.to_message())
-        for i, t, state, report in _restep(sc, heard, {(report.vehicle, report.k) for report, _ in states}):
+        for i, t, state, report in _restep(sc, heard, {(r.vehicle, r.k) for r, _ in states}, meta.seed):
             rec.write(state_key(i), t, state)
             new.add(report)
     return sc, original.series(), new.series()
 
 
 def _restep(
-    sc: Scenario, heard: dict[tuple[int, int], list[Heard]], stepped: set[tuple[int, int]]
+    sc: Scenario, heard: dict[tuple[int, int], list[Heard]], stepped: set[tuple[int, int]], seed: int
 ) -> Iterator[tuple[int, float, Message, StateReport]]:
     """(vehicle, t, state message, its report) step by step, each vehicle stepped where it was in the run on what
-    it heard."""
+    it heard (seed: the run's, for the vehicles' navigation noise)."""
     schedule, dt = Schedule(sc), sc.scenario.step
-    configs = {i: vehicle_config(sc, i) for i in sc.vehicle_ids}
+    configs = {i: vehicle_config(sc, i, seed) for i in sc.vehicle_ids}
     nodes = {i: NodeState(initial_state(sc, configs[i])) for i in sc.vehicle_ids}
     radios = {i: radio(sc, i) for i in sc.vehicle_ids}
     last_state: dict[int, Message] = {}

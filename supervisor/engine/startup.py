@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import zenoh
 
 from comms.messages import COMMS_ALIVE, Hello, decode, hello_key
-from supervisor.config.scenario_digest import difference, section_digests
+from supervisor.config.scenario_digest import difference, section_digests, vehicle_seed
 from supervisor.config.scenario_schema import Scenario
 from supervisor.errors import ScenarioError
 
@@ -62,7 +62,7 @@ class Hellos:
 
     @classmethod
     def of(cls, sc: Scenario, seed: int, ask: Callable[[str], Hello | None]) -> Hellos:
-        return cls({"vehicle": section_digests(sc), "comms": section_digests(sc, seed)}, ask)
+        return cls({"vehicle": section_digests(sc, vehicle_seed(sc, seed)), "comms": section_digests(sc, seed)}, ask)
 
     def check(self, key: str, name: str) -> None:
         """ScenarioError unless the process holding liveliness key `key` runs the supervisor's scenario."""

@@ -133,7 +133,7 @@ def _plant_lines(meta: RunMeta) -> list[str]:
     from supervisor.config.scenario_schema import Scenario
 
     try:
-        return describe_plant(Scenario.model_validate(meta.scenario))
+        return describe_plant(Scenario.model_validate(meta.scenario), meta.seed)
     except ValidationError:  # a log of another version: its scenario is described above, its plant not
         return []
 
