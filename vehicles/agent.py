@@ -17,6 +17,7 @@ from vehicles.estimates import NeighbourEstimate, Predictor, newer, predict
 from vehicles.params import VehicleParams
 from vehicles.path_following import Control, ControllerConstants, PathFollowingGains, control
 from vehicles.paths import Path
+from vehicles.saturation import bounded_correction, clamp, hold, rate_bound
 
 # Where gamma and gamma_dot sit in the integrated vector z = [lifted x, gamma, gamma_dot].
 _GAMMA, _GAMMA_DOT = LIFTED_SIZE, LIFTED_SIZE + 1
@@ -33,6 +34,8 @@ class VehicleConfig:
     coordination: CoordinationGains
     predictor: Predictor = "first_order"
     constants: ControllerConstants = field(init=False)
+    top_speed: float | None = None  # m/s along the path: bounds |gamma_dot| (vehicles.saturation); None: unbounded
+    correction_limit: float | None = None  # v_tilde -> c tanh(v_tilde / c) (vehicles.saturation); None: as law (5)
 
     def __post_init__(self) -> None:
         # Computed once per vehicle: the controller uses them at every RK4 stage.
@@ -92,11 +95,18 @@ def _closed_loop(
     cap = dist.gamma_dot_cap
     if cap is not None:
         gamma_dot = min(gamma_dot, cap)
+    bound = None if cfg.top_speed is None else rate_bound(cfg.model, cfg.path, gamma, cfg.top_speed)
+    if bound is not None:
+        gamma_dot = clamp(gamma_dot, -bound, bound)
     v_tilde = correction(gamma, gamma_dot, heard, cfg.coordination)
+    if cfg.correction_limit is not None:
+        v_tilde = bounded_correction(v_tilde, cfg.correction_limit)
     out = control(cfg.model, cfg.params, cfg.constants, cfg.path, z, gamma, gamma_dot, cfg.coordination.v_r, v_tilde)
     gamma_ddot = out.gamma_ddot
     if cap is not None and gamma_dot >= cap:
         gamma_ddot = min(gamma_ddot, 0.0)  # held at the cap: no wind-up
+    if bound is not None:
+        gamma_ddot = hold(gamma_ddot, gamma_dot, -bound, bound)
     xdot = kinematics(z, with_inputs(out.drift, out.tau, cfg.params))
     return [*xdot, gamma_dot, gamma_ddot], out, v_tilde
 
@@ -130,6 +140,9 @@ def step(
     gamma_dot_next = z_next[_GAMMA_DOT]
     if dist.gamma_dot_cap is not None:
         gamma_dot_next = min(gamma_dot_next, dist.gamma_dot_cap)
+    if cfg.top_speed is not None:
+        bound = rate_bound(model, cfg.path, z_next[_GAMMA], cfg.top_speed)
+        gamma_dot_next = clamp(gamma_dot_next, -bound, bound)
     telemetry = Telemetry(
         cfg.vehicle_id, t, state.gamma, z[_GAMMA_DOT], state.x, model.vector(out.error), model.inputs(out.tau),
         v_tilde, out.lyapunov,
