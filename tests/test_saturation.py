@@ -63,7 +63,7 @@ def test_a_vehicle_pulled_hard_by_its_neighbours_stays_at_its_top_speed_along_th
 def test_the_summary_lists_the_spans_at_the_limit():
     sc = parse_scenario(_saturated(PAPER, "top_speed = 0.5"), "sat.toml")
     cfg = vehicle_config(sc, 1)
-    t = np.arange(10) * 0.1
+    t = np.arange(10, dtype=np.float64) * np.float64(0.1)
     gamma = np.full((10, 3), np.nan)
     gamma[:, 0] = 1.0
     bound = rate_bound(cfg.model, cfg.path, 1.0, 0.5)
