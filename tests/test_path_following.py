@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import replace
 
@@ -56,9 +57,12 @@ def shifted_error(log: list[Telemetry], delta: float = GAINS.delta) -> np.ndarra
 
 def test_lyapunov_function_never_increases_on_a_nominal_run():
     # A start 3 m off the helix, pointing along it: inputs stay inside their limits, so the design holds exactly.
-    log = run_alone(PAPER_HELIX, spatial_start((-12.0, -16.0, 1.0), (0, 0, -45)), 120.0, dt=0.02)
+    # (The REMUS's own thrust limit, set for its 2.5 m/s top speed, is reached in this start's first seconds: the
+    # claim is the unsaturated design's, so the limit is raised to the 60 N the preset had before issue 16.)
+    vehicle = dataclasses.replace(REMUS, max_surge_force=60.0)
+    log = run_alone(PAPER_HELIX, spatial_start((-12.0, -16.0, 1.0), (0, 0, -45)), 120.0, dt=0.02, params=vehicle)
     tau = np.array([t.tau for t in log])
-    assert np.all(np.abs(tau[:, 0]) < REMUS.max_surge_force) and np.all(np.abs(tau[:, 1:]) < REMUS.max_torque)
+    assert np.all(np.abs(tau[:, 0]) < vehicle.max_surge_force) and np.all(np.abs(tau[:, 1:]) < vehicle.max_torque)
     v = np.array([t.lyapunov for t in log])
     assert v[0] > 0.5  # a real transient, not a start on the path
     assert np.max(np.diff(v)) <= 1e-6 * v[0]

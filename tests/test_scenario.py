@@ -171,33 +171,35 @@ BAD: dict[str, tuple[str, str, str | None]] = {
     "typo": (paper_with("duration = 400.0", "durration = 400.0"), "scenario.durration", None),
     "unknown section": (PAPER + "\n[simulation]\nfoo = 1\n", "simulation", None),
     "key with a line break": (paper_with("duration = 400.0", '"dur\\nation" = 400.0'), "scenario['dur\\nation']", None),
-    "unknown preset": (paper_with('preset = "remus100"', 'preset = "sirene"'), "vehicle.preset", "'sirene'"),
+    "unknown preset": (paper_with('preset = "remus100_neutral"', 'preset = "sirene"'), "vehicle.preset", "'sirene'"),
     "unknown law": (paper_with('law = "corrected"', 'law = "eq5"'), "coordination.law", "'eq5'"),
     "delta zero": (paper_with("delta = -1.0", "delta = 0.0"), "path_following.delta", "0.0"),
     "negative gain": (paper_with("k1 = 0.5", "k1 = -0.5"), "path_following.k1", "-0.5"),
     # vehicle overrides
     "unknown override": (
-        paper_with('preset = "remus100"', 'preset = "remus100"\noverrides = { masss = 40.0 }'),
+        paper_with('preset = "remus100_neutral"', 'preset = "remus100_neutral"\noverrides = { masss = 40.0 }'),
         "vehicle.overrides.masss",
         None,
     ),
     "override a number for a vector": (
-        paper_with('preset = "remus100"', 'preset = "remus100"\noverrides = { mass = 40.0 }'),
+        paper_with('preset = "remus100_neutral"', 'preset = "remus100_neutral"\noverrides = { mass = 40.0 }'),
         "vehicle.overrides.mass",
         "40.0",
     ),
     "override a vector for a number": (
-        paper_with('preset = "remus100"', 'preset = "remus100"\noverrides = { weight = [1.0, 2.0, 3.0] }'),
+        paper_with(
+            'preset = "remus100_neutral"', 'preset = "remus100_neutral"\noverrides = { weight = [1.0, 2.0, 3.0] }'
+        ),
         "vehicle.overrides.weight",
         "[1.0, 2.0, 3.0]",
     ),
     "override a string": (
-        paper_with('preset = "remus100"', 'preset = "remus100"\noverrides = { max_torque = "20" }'),
+        paper_with('preset = "remus100_neutral"', 'preset = "remus100_neutral"\noverrides = { max_torque = "20" }'),
         "vehicle.overrides.max_torque",
         "'20'",
     ),
     "overrides not a table": (
-        paper_with('preset = "remus100"', 'preset = "remus100"\noverrides = [1.0]'),
+        paper_with('preset = "remus100_neutral"', 'preset = "remus100_neutral"\noverrides = [1.0]'),
         "vehicle.overrides",
         "[1.0]",
     ),

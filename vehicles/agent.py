@@ -20,6 +20,7 @@ from vehicles.params import VehicleParams
 from vehicles.path_following import Control, ControllerConstants, PathFollowingGains, control
 from vehicles.paths import Path
 from vehicles.plant import plant_rates
+from vehicles.saturation import bounded_correction, clamp, hold, rate_bound
 
 # Where gamma and gamma_dot sit in the integrated vector z = [lifted x, gamma, gamma_dot].
 _GAMMA, _GAMMA_DOT = LIFTED_SIZE, LIFTED_SIZE + 1
@@ -43,6 +44,8 @@ class VehicleConfig:
     current: Current | None = None
     current_known: bool = False
     navigation: NavParams | None = None  # None: the controller sees the true state
+    top_speed: float | None = None  # m/s along the path: bounds |gamma_dot| (vehicles.saturation); None: unbounded
+    correction_limit: float | None = None  # v_tilde -> c tanh(v_tilde / c) (vehicles.saturation); None: as law (5)
     ideal: bool = field(init=False)  # neither plant nor current: the closed loop as it always was, to the bit
 
     def __post_init__(self) -> None:
@@ -107,7 +110,12 @@ def _closed_loop(
     cap = dist.gamma_dot_cap
     if cap is not None:
         gamma_dot = min(gamma_dot, cap)
+    bound = None if cfg.top_speed is None else rate_bound(cfg.model, cfg.path, gamma, cfg.top_speed)
+    if bound is not None:
+        gamma_dot = clamp(gamma_dot, -bound, bound)
     v_tilde = correction(gamma, gamma_dot, heard, cfg.coordination)
+    if cfg.correction_limit is not None:
+        v_tilde = bounded_correction(v_tilde, cfg.correction_limit)
     view = z if held is None else seen(z, held)
     known = feedforward(cfg.current, t, view) if cfg.current_known and cfg.current is not None else None
     out = control(
@@ -116,6 +124,8 @@ def _closed_loop(
     gamma_ddot = out.gamma_ddot
     if cap is not None and gamma_dot >= cap:
         gamma_ddot = min(gamma_ddot, 0.0)  # held at the cap: no wind-up
+    if bound is not None:
+        gamma_ddot = hold(gamma_ddot, gamma_dot, -bound, bound)
     if cfg.ideal and held is None:
         xdot = kinematics(z, with_inputs(out.drift, out.tau, cfg.params))
     else:
@@ -157,6 +167,9 @@ def step(
     gamma_dot_next = z_next[_GAMMA_DOT]
     if dist.gamma_dot_cap is not None:
         gamma_dot_next = min(gamma_dot_next, dist.gamma_dot_cap)
+    if cfg.top_speed is not None:
+        bound = rate_bound(model, cfg.path, z_next[_GAMMA], cfg.top_speed)
+        gamma_dot_next = clamp(gamma_dot_next, -bound, bound)
     error = out.error if held is None else _true_error(out.error, held)
     telemetry = Telemetry(
         cfg.vehicle_id, t, state.gamma, z[_GAMMA_DOT], state.x, model.vector(error), model.inputs(out.tau),

@@ -28,27 +28,79 @@ class VehicleParams:
     max_torque: float  # |tau_q|, |tau_r| limit, N m
 
 
-def _remus100() -> VehicleParams:
-    """REMUS 100: masses, added masses and drag as in Fossen's PythonVehicleSimulator (remus100.py), drag
-    coefficients of Prestero (2001); roll damping chosen for a damping ratio of about 0.3 (not published)."""
-    rigid_mass = 31.03
-    weight = rigid_mass * GRAVITY
+# REMUS 100 numbers and where they come from. Sources: T. Prestero, "Verification of a six-degree of freedom
+# simulation model for the REMUS autonomous underwater vehicle", MIT/WHOI MS thesis, 2001 (its coefficient tables as
+# transcribed in public code: X_u|u| = -1.62 kg/m, Z_w|w| = -131 kg/m, M_q|q| = -188 kg m^2, N_r|r| = -94 kg m^2,
+# z_g = 0.0196 m); T. I. Fossen, PythonVehicleSimulator, vehicles/remus100.py (rigid-body mass and inertia, added
+# mass, linear damping at rest, top speed 2.5 m/s); B = W + 0.75 lbf (3.3 N) in the REMUS trim model of R. Hall and
+# S. Anstee (DSTO, 2011, coefficients by D. Sgarioto).
+_RIGID_MASS = 31.03  # kg (Fossen)
+_ADDED_MASS = (0.839, 29.44, 29.44)  # kg (Fossen)
+_INERTIA = (0.112 + 0.0336, 4.028 + 3.426, 4.028 + 3.426)  # rigid body + added, kg m^2 (Fossen)
+_LINEAR_DAMPING = (31.87 / 20.0, 60.47 / 20.0, 60.47 / 20.0)  # M_ii / 20 (Fossen, at rest)
+_ANGULAR_LINEAR_DAMPING = (0.56, 7.454 / 5.0, 7.454 / 5.0)  # roll: chosen (damping ratio ~0.3); J_ii / 5 (Fossen)
+_TOP_SPEED = 2.5  # m/s (Fossen, remus100.py: 2.5 m/s at 1525 rpm)
+_BUOYANT = 3.3  # N, B - W (Hall and Anstee: B = W + 0.75 lbf)
+_CB_ABOVE_CG = 0.0196  # m (Prestero's z_g)
+
+
+def _remus100(buoyancy_excess: float = _BUOYANT) -> VehicleParams:
+    """REMUS 100 with its drag to Prestero (2001): surge X_u|u| = 1.62 kg/m, sway and heave 131 kg/m (Prestero's
+    Z_w|w|; his table gives Y_v|v| = 1310 for the same hull, taken as a misprint), pitch M_q|q| = 188 kg m^2, yaw
+    N_r|r| = 94 kg m^2; masses, inertias, added masses and linear damping of Fossen's consistent set (the numbers in
+    the comment above). Not sourced, chosen: roll damping (0.56 N m s, no quadratic term); the thrust limit, set so
+    that full thrust holds the published 2.5 m/s top speed against this surge damping (about 14.1 N); the torque
+    limit 20 N m. buoyancy_excess: B - W in N (3.3 N as published: slightly buoyant)."""
+    weight = _RIGID_MASS * GRAVITY
+    lin, quad = _LINEAR_DAMPING[0], 1.62
     return VehicleParams(
-        mass=(rigid_mass + 0.839, rigid_mass + 29.44, rigid_mass + 29.44),
+        mass=(_RIGID_MASS + _ADDED_MASS[0], _RIGID_MASS + _ADDED_MASS[1], _RIGID_MASS + _ADDED_MASS[2]),
+        inertia=_INERTIA,
+        linear_damping=_LINEAR_DAMPING,
+        quadratic_damping=(quad, 131.0, 131.0),
+        angular_linear_damping=_ANGULAR_LINEAR_DAMPING,
+        angular_quadratic_damping=(0.0, 188.0, 94.0),
+        weight=weight,
+        buoyancy=weight + buoyancy_excess,
+        center_of_buoyancy=(0.0, 0.0, _CB_ABOVE_CG),  # CG below CB: roll and pitch statically stable
+        max_surge_force=lin * _TOP_SPEED + quad * _TOP_SPEED**2,
+        max_torque=20.0,
+    )
+
+
+def _remus100_neutral() -> VehicleParams:
+    """REMUS 100 (as `remus100`) trimmed neutrally buoyant, B = W. Sourced: everything `remus100` sources. Chosen:
+    the trim (a REMUS is ballasted at sea to a small excess buoyancy, 3.3 N in Hall and Anstee; zero is our choice,
+    so that it flies a climbing helix at a small angle of attack). The stand-in for the paper's Sirene, whose
+    coefficients are not public."""
+    return _remus100(buoyancy_excess=0.0)
+
+
+def _remus100_legacy() -> VehicleParams:
+    """The remus100 preset before its drag was corrected (cpf-cosim issue 16), kept so that runs made with it can be
+    reproduced (tests/test_bit_identical.py runs its reference scenarios on it). Its surge (6.11 kg/m, Fossen's
+    axial drag), pitch and yaw (9.4 kg m^2) drag are not Prestero's; thrust limit 60 N chosen."""
+    weight = _RIGID_MASS * GRAVITY
+    return VehicleParams(
+        mass=(_RIGID_MASS + 0.839, _RIGID_MASS + 29.44, _RIGID_MASS + 29.44),
         inertia=(0.112 + 0.0336, 4.028 + 3.426, 4.028 + 3.426),
         linear_damping=(31.87 / 20.0, 60.47 / 20.0, 60.47 / 20.0),
         quadratic_damping=(6.11, 131.0, 131.0),
         angular_linear_damping=(0.56, 7.454 / 5.0, 7.454 / 5.0),
         angular_quadratic_damping=(0.0, 9.4, 9.4),
         weight=weight,
-        buoyancy=weight + 3.3,  # slightly buoyant: W - B = -3.3 N (Prestero)
-        center_of_buoyancy=(0.0, 0.0, 0.0196),  # CG 1.96 cm below CB: roll and pitch statically stable
+        buoyancy=weight + 3.3,
+        center_of_buoyancy=(0.0, 0.0, 0.0196),
         max_surge_force=60.0,
         max_torque=20.0,
     )
 
 
-PRESETS: dict[str, VehicleParams] = {"remus100": _remus100()}
+PRESETS: dict[str, VehicleParams] = {
+    "remus100": _remus100(),
+    "remus100_neutral": _remus100_neutral(),
+    "remus100_legacy": _remus100_legacy(),
+}
 
 
 def preset(name: str, **overrides: object) -> VehicleParams:

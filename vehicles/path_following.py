@@ -1,9 +1,10 @@
 """Path-following controller for an underactuated AUV: the delta-shifted backstepping design.
 
 After Aguiar & Hespanha, "Trajectory-tracking and path-following of underactuated autonomous vehicles with
-parametric modeling uncertainty" (IEEE TAC 52(8), 2007). The error is measured from a point delta = (delta, 0, 0)
-ahead of (delta < 0: behind) the vehicle, which the surge force and the pitch and yaw torques can steer in every
-direction:
+parametric modeling uncertainty" (IEEE TAC 52(8), 2007). z1 = 0 puts the path point p_d at p - R delta: the
+controlled point is -delta along the body x axis, ahead of the vehicle for delta < 0 (delta = -1: 1 m ahead, so
+the vehicle trails its path point by |delta|), and the surge force and the pitch and yaw torques can steer it in
+every direction:
 
     z1 = R'(p - p_d(gamma)) - delta,   rho = sqrt(1 + |z1|^2),   sigma = z1 / rho
     alpha = Delta^-1 (-K1 sigma - nu_u + R' p_d^gamma v_d)            virtual (u, q, r)

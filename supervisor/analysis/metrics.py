@@ -82,7 +82,19 @@ def run_metrics(run: RunData) -> dict[str, Any]:
             series, settings.duration, settings.faults, settings.transient, settings.tube_radius, settings.tolerance
         )
         metrics |= _coordination(series, summary)
+        metrics |= _speed_limits(run, series)
     return finite(metrics)
+
+
+def _speed_limits(run: RunData, series: Series) -> dict[str, Any]:
+    """Time each vehicle sat at its [saturation] top_speed (analysis.saturation_summary); {} without one."""
+    from supervisor.analysis.saturation_summary import at_limit, limits_metrics
+
+    try:
+        scenario = validate_data(run.meta.scenario, "meta") if run.meta is not None else None
+    except ScenarioError:  # an older log: it had no saturation
+        return {}
+    return {} if scenario is None else limits_metrics(at_limit(scenario, series))
 
 
 def run_settings(run: RunData) -> Settings:

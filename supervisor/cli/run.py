@@ -141,6 +141,7 @@ def _report_run(args: argparse.Namespace, scenario: Scenario, result: RunResult,
     """The run's headline, summary per phase and per link (and realtime timing) on stdout; --metrics as JSON."""
     from supervisor.analysis.comms_summary import comms_summary, format_comms, format_malformed
     from supervisor.analysis.metrics import finite
+    from supervisor.analysis.saturation_summary import at_limit, format_limits
     from supervisor.analysis.summary import format_summary, summarize
     from supervisor.config.derived import intervals, tube_radius
     from supervisor.engine.realtime_timing import format_timing
@@ -156,6 +157,9 @@ def _report_run(args: argparse.Namespace, scenario: Scenario, result: RunResult,
     )
     comms = comms_summary(result.link_stats, result.stats_history, result.estimate_ages)
     print(format_summary(summary))
+    limits = format_limits(at_limit(scenario, result.series), duration)
+    if limits is not None:
+        print(limits)
     print(format_comms(comms))
     if result.realtime is not None:
         print(format_timing(result.realtime))

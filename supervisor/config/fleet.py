@@ -31,6 +31,7 @@ from supervisor.config.scenario_schema import (
     VehicleSection,
     WaterSection,
 )
+from supervisor.config.vehicle_models import params_of, top_speed_of
 from vehicles.agent import VehicleConfig, VehicleState
 from vehicles.coordination import CoordinationGains
 from vehicles.dynamics import PLANAR, SPATIAL, Model
@@ -66,7 +67,7 @@ def vehicle_config(scenario: Scenario, vehicle_id: int, seed: int | None = None)
     return VehicleConfig(
         vehicle_id=vehicle_id,
         model=model_of(scenario),
-        params=scenario.vehicle_params(),
+        params=params_of(scenario, vehicle_id),
         path=build_path(section.path),
         path_following=PathFollowingGains(pf.delta, pf.k1, pf.k2, pf.k_zeta),
         coordination=CoordinationGains(co.k, co.k2, co.v_r, co.law),
@@ -75,6 +76,8 @@ def vehicle_config(scenario: Scenario, vehicle_id: int, seed: int | None = None)
         current=current_of(scenario),
         current_known=scenario.environment.current_known,
         navigation=nav_params(scenario, vehicle_id, run_seed),
+        top_speed=top_speed_of(scenario, vehicle_id),
+        correction_limit=scenario.saturation.correction,
     )
 
 

@@ -10,6 +10,7 @@ from collections.abc import Iterator
 
 from supervisor.config.plant_schema import UncertaintyTable
 from supervisor.config.scenario_schema import Scenario
+from supervisor.config.vehicle_models import params_of
 from vehicles.current import Current
 from vehicles.params import VehicleParams
 from vehicles.uncertainty import GROUPS, perturbed
@@ -39,7 +40,8 @@ def plant_of(scenario: Scenario, vehicle_id: int, seed: int | None = None) -> Ve
     spread = spreads(scenario)
     if not spread:
         return None
-    return perturbed(scenario.vehicle_params(), spread, scenario.scenario.seed if seed is None else seed, vehicle_id)
+    run_seed = scenario.scenario.seed if seed is None else seed
+    return perturbed(params_of(scenario, vehicle_id), spread, run_seed, vehicle_id)
 
 
 def planar_current_errors(sc: Scenario) -> Iterator[str]:
@@ -67,10 +69,10 @@ def describe_plant(sc: Scenario, seed: int | None = None) -> list[str]:
         shear = f" + shear {list(env.shear)} 1/s from z = {env.shear_origin:g} m" if any(env.shear) else ""
         known = "known to" if env.current_known else "unknown to"
         lines.append(f"current    {list(env.current)} m/s{tidal}{shear}; {known} the controllers")
-    nominal = sc.vehicle_params()
     for vid in sc.vehicle_ids:
         plant = plant_of(sc, vid, seed)
         if plant is not None:
+            nominal = params_of(sc, vid)  # its own preset's, in a mixed fleet
             lines.append(f"plant {vid:<4} " + ", ".join(_off(g, plant, nominal) for g in spreads(sc)))
     return lines
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Mapping
 
 import numpy as np
 
@@ -27,7 +27,7 @@ from supervisor.config.scenario_schema import (
     Scenario,
     VehicleSection,
 )
-from supervisor.config.schema_base import MAX_SPEED, MAX_STEPS, MAX_TIME
+from supervisor.config.schema_base import MAX_SPEED, MAX_STEPS, MAX_TIME, Vec3
 from vehicles.params import PRESETS, VehicleParams
 from vehicles.paths import Path as PathLike
 
@@ -204,11 +204,19 @@ def _path_speed(sc: Scenario) -> Iterator[str]:
 
 
 def _overrides(sc: Scenario) -> Iterator[str]:
-    """Each override names a VehicleParams field and has its shape: a number, or an array of 3 numbers."""
-    defaults = PRESETS[sc.vehicle.preset]
+    """Each override ([vehicle] and each [[vehicles]] entry's) names a VehicleParams field and has the shape of its
+    preset's value: a number, or an array of 3 numbers."""
+    yield from _override_errors(sc.vehicle.preset, sc.vehicle.overrides, ["vehicle", "overrides"])
+    for index, vehicle in enumerate(sc.vehicles):
+        preset = vehicle.preset or sc.vehicle.preset
+        yield from _override_errors(preset, vehicle.overrides, ["vehicles", index, "overrides"])
+
+
+def _override_errors(preset: str, overrides: Mapping[str, float | Vec3], at: list[int | str]) -> Iterator[str]:
+    defaults = PRESETS[preset]
     known = list(VehicleParams.__dataclass_fields__)
-    for name, value in sc.vehicle.overrides.items():
-        where = format_location(["vehicle", "overrides", name])
+    for name, value in overrides.items():
+        where = format_location([*at, name])
         if name not in known:
             yield f"{where}: unknown vehicle parameter, expected one of {known}"
             continue
@@ -323,7 +331,7 @@ RULES: tuple[tuple[frozenset[str], Check], ...] = (
     (frozenset({"scenario"}), _step),
     (frozenset({"vehicles", "graph"}), _graph),
     (frozenset({"vehicles", "graph", "faults", "scenario"}), _faults),
-    (frozenset({"vehicle"}), _overrides),
+    (frozenset({"vehicle", "vehicles"}), _overrides),
     (frozenset({"vehicles"}), _paths),
     (frozenset({"vehicles", "graph", "comms", "scenario"}), _comms),
     (frozenset({"vehicles", "scenario"}), _planar),

@@ -38,6 +38,7 @@ from supervisor.config.fault_schema import (
 )
 from supervisor.config.navigation_schema import NavigationSection
 from supervisor.config.plant_schema import UNCERTAINTY_DESCRIPTION, EnvironmentSection, Uncertainty, as_any_of
+from supervisor.config.saturation_schema import SaturationSection
 from supervisor.config.schema_base import (
     MAX_ANGLE,
     MAX_COUNT,
@@ -82,6 +83,7 @@ __all__ = [
     "LinkSection",
     "ModemSilentFault",
     "RangeTableSection",
+    "SaturationSection",
     "Scenario",
     "SpeedCapFault",
     "TdmaSection",
@@ -130,6 +132,12 @@ class RunSection(StrictModel):
     )
 
 
+def _known(value: str | None) -> str | None:
+    if value is not None and value not in PRESETS:
+        raise ValueError(f"unknown preset, expected one of {sorted(PRESETS)}")
+    return value
+
+
 class VehicleModelSection(StrictModel):
     """The vehicle model every AUV of the fleet uses: a named preset (cpf presets lists them) and changes to it."""
 
@@ -144,12 +152,7 @@ class VehicleModelSection(StrictModel):
 
     uncertainty: Uncertainty = Field(default=0.0, description=UNCERTAINTY_DESCRIPTION, json_schema_extra=as_any_of)
 
-    @field_validator("preset")
-    @classmethod
-    def _known_preset(cls, value: str) -> str:
-        if value not in PRESETS:
-            raise ValueError(f"unknown preset, expected one of {sorted(PRESETS)}")
-        return value
+    _known_preset = field_validator("preset")(lambda value: _known(value))
 
 
 class PathFollowingSection(StrictModel):
@@ -157,8 +160,8 @@ class PathFollowingSection(StrictModel):
 
     delta: Float = Field(
         default=-1.0, ge=-100, le=100,
-        description="offset of the controlled point along the body x axis, m (negative: behind; its size is the "
-        "tube radius); non-zero",
+        description="the controller steers the point at -delta along the body x axis onto the path, m (negative: "
+        "the point |delta| ahead of the vehicle, which trails its path point; its size is the tube radius); non-zero",
     )  # fmt: skip
     k1: Float = Field(default=0.5, gt=0, le=MAX_GAIN, description="K1: gain on the position error, m/s")
     k2: Float = Field(default=1.0, gt=0, le=MAX_GAIN, description="K2: gain on the velocity error, 1/s")
@@ -293,6 +296,17 @@ class VehicleSection(StrictModel):
         "one period around gamma = 0 for periodic paths (circle, helix), nearest to gamma = 0 otherwise",
     )
     path: PathSpec = Field(description="the path p_d(gamma): a table with type = helix, circle, line or lawnmower")
+    preset: str | None = Field(
+        default=None, description="this vehicle's preset (a mixed fleet); absent: [vehicle] preset",
+        json_schema_extra=one_of(PRESETS),
+    )  # fmt: skip
+    # Names and shapes are checked against this vehicle's preset by scenario_checks._overrides.
+    overrides: dict[str, Float | Vec3] = Field(
+        default={}, max_length=50,
+        description="parameter = value for this vehicle, applied after [vehicle] overrides (same names and units)",
+    )  # fmt: skip
+
+    _known_preset = field_validator("preset")(lambda value: _known(value))
 
 
 class ReportSection(StrictModel):
@@ -332,6 +346,7 @@ class Scenario(StrictModel):
     navigation: NavigationSection | None = Field(
         default=None, description="navigation sensors and filter (absent: every controller sees the true state)"
     )
+    saturation: SaturationSection = SaturationSection()
 
     @property
     def vehicle_ids(self) -> list[int]:
