@@ -54,7 +54,8 @@ class BurstSection(StrictModel):
     @model_validator(mode="after")
     def _one_burst_length(self) -> BurstSection:
         if (self.mean_burst is None) == (self.mean_duration is None):
-            raise ValueError("give exactly one of mean_burst (packets) and mean_duration (s)")
+            given = "neither" if self.mean_burst is None else "both"
+            raise ValueError(f"give exactly one of mean_burst (packets) and mean_duration (s), {given} given")
         return self
 
 
