@@ -98,7 +98,11 @@ def test_the_gain_distribution_integrates_known_closed_forms() -> None:
     assert mean_over_gain(linear, 0.0, 0.0) == pytest.approx(1.0, rel=1e-3)
     assert mean_over_gain(linear, 0.0, 3.0) == pytest.approx(1.0, rel=1e-3)  # Rician keeps the mean power
     for a in (0.1, 1.0, 10.0):
-        assert mean_over_gain(lambda g, a=a: np.exp(-a * linear(g)), 0.0, 0.0) == pytest.approx(1 / (1 + a), rel=1e-3)
+
+        def laplace(gains: np.ndarray, a: float = a) -> np.ndarray:
+            return np.exp(-a * linear(gains))
+
+        assert mean_over_gain(laplace, 0.0, 0.0) == pytest.approx(1 / (1 + a), rel=1e-3)
     offsets, masses = gain_distribution(4.0, None)
     assert np.dot(masses, offsets) == pytest.approx(0.0, abs=1e-9)
     assert np.dot(masses, offsets**2) == pytest.approx(16.0, rel=1e-3)
