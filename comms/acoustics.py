@@ -10,9 +10,9 @@ Sources: shared/reference/acoustics.md.
 - Transmission loss (dB re 1 m): k 10 log10(l) + l alpha, l in m, practical spreading k = 1.5.
 - Ambient noise (dB re 1 uPa^2/Hz, f in kHz): Coates, "Underwater Acoustic Systems", 1989, via Stojanovic 2006:
   turbulence, shipping (activity s in [0, 1]), wind (w in m/s) and thermal noise, summed in power.
-- SNR (dB) = SL - TL - NL - 10 log10(B) + DI; bit error: coherent BPSK 0.5 erfc(sqrt(snr)), non-coherent binary FSK
-  0.5 exp(-snr / 2) (Proakis, Digital Communications), snr = Eb/N0 taken as the in-band SNR (one bit per symbol
-  per hertz); packet error 1 - (1 - Pb)^bits.
+- SNR (dB) = SL - TL - NL - 10 log10(B) + DI; bit error: coherent BPSK 0.5 erfc(sqrt(ebn0)), non-coherent binary
+  FSK 0.5 exp(-ebn0 / 2) (Proakis, Digital Communications), with Eb/N0 = SNR B / R (the energy of one bit over the
+  noise in one hertz: SNR in the band B, R bits per second); packet error 1 - (1 - Pb)^bits.
 """
 
 from __future__ import annotations
@@ -135,8 +135,15 @@ def snr_db(
     return source_level_db - loss - noise + directivity_db
 
 
+def ebn0_db(snr_db: float, bandwidth_hz: float, bitrate: float) -> float:
+    """Eb/N0 in dB from the in-band SNR: Eb/N0 = SNR B / R (+17 dB for 80 bit/s in 4 kHz)."""
+    _require(bandwidth_hz > 0.0, "bandwidth_hz", bandwidth_hz, "> 0")
+    _require(bitrate > 0.0, "bitrate", bitrate, "> 0")
+    return snr_db + 10.0 * math.log10(bandwidth_hz / bitrate)
+
+
 def bit_error_rate(snr_db: float, modulation: Modulation) -> float:
-    """Bit error probability at snr_db (dB) for coherent BPSK or non-coherent binary FSK."""
+    """Bit error probability at Eb/N0 = snr_db (dB) for coherent BPSK or non-coherent binary FSK."""
     snr = 10.0 ** (snr_db / 10.0)
     if modulation == "bpsk":
         return 0.5 * math.erfc(math.sqrt(snr))  # math.erfc keeps relative precision in the tail

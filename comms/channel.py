@@ -5,7 +5,8 @@ link: a `sent` event at transmission, then exactly one of
 - `dropped` at transmission: a fault (`blackout`, `link_down`, `modem_silent`, set by the broker), the loss
   models (`loss`, `burst`, `range`), or a degraded link's extra loss (`degraded`);
 - `dropped` at arrival: `half_duplex` (the receiver's modem was transmitting during the packet) or `collision`
-  (another packet overlapped it at the receiver: every other vehicle's transmissions count, neighbour or not);
+  (another packet overlapped it at the receiver: every other vehicle's transmissions count, neighbour or not; with
+  SINR capture only if its SINR, the overlapping packets counted as noise, falls below the capture threshold);
 - `delivered` at arrival = t + time of flight + jitter + extra link delay + airtime (the end of the packet);
 - `dropped` as `end_of_run` when the run ends first.
 So per link: sent = delivered + dropped, always. Every directed link draws from its own random stream derived from
@@ -24,6 +25,7 @@ import numpy as np
 
 from comms.acoustics import time_of_flight
 from comms.fields import Message, get, nullable_number, number
+from comms.link_budget import LinkBudgetRange
 from comms.loss import LinkLoss, LossModel
 from comms.modem import ModemParams
 from comms.network import Impairment, Network
@@ -59,6 +61,23 @@ class ChannelParams:
     jitter: float = 0.0  # s, uniform on [0, jitter]
     loss: LossModel | None = None  # every directed link, unless it has its own
     links: Mapping[tuple[int, int], LinkParams] = field(default_factory=dict)
+    capture: Capture | None = None  # None: any overlap at a receiver loses both packets (with collisions on)
+
+
+@dataclass(frozen=True, slots=True)
+class Capture:
+    """SINR reception: a packet overlapped by others at its receiver survives when its received level over the noise
+    plus every overlapping packet's level (interference counted as noise, powers summed) is at least threshold_db.
+    Levels are the link budget's mean received levels (SL - TL + DI at each packet's distance), without shadowing
+    or fading; "any overlap loses both" is the pessimistic bound this relaxes."""
+
+    budget: LinkBudgetRange
+    threshold_db: float
+
+    def survives(self, level_db: float, interferers_db: list[float]) -> bool:
+        noise = [self.budget.noise_level_db(), *interferers_db]
+        total = 10.0 * math.log10(sum(10.0 ** (x / 10.0) for x in noise))
+        return level_db - total >= self.threshold_db
 
 
 @dataclass(frozen=True, slots=True)
@@ -117,6 +136,7 @@ class _Airtime:
     end: float
     sender: int
     seq: int
+    level_db: float = 0.0  # received level there, dB re 1 uPa (only with SINR capture)
 
 
 @dataclass(slots=True)
@@ -168,9 +188,12 @@ class Channel:
                 continue  # without collisions a non-neighbour's position does not matter: skip its time of flight
             flight = time_of_flight(sender_at, everyone[j].position, everyone[j].velocity, self.params.sound_speed)
             start = tx.t + flight
+            capture = self.params.capture
+            level = capture.budget.received_level_db(flight * self.params.sound_speed) if capture else 0.0
             if j in receivers:
-                start = self._offer(tx, j, start, flight, size, on_air, intact.impairment(tx.sender, j), events)
-            self._record_heard(j, _Airtime(start, start + on_air, tx.sender, tx.seq))
+                impaired = intact.impairment(tx.sender, j)
+                start = self._offer(tx, j, start, (flight, level), size, on_air, impaired, events)
+            self._record_heard(j, _Airtime(start, start + on_air, tx.sender, tx.seq, level))
         return events
 
     def _offer(
@@ -178,17 +201,20 @@ class Channel:
         tx: Transmission,
         j: int,
         start: float,
-        flight: float,
+        flight_level: tuple[float, float],
         size: int,
         on_air: float,
         impaired: Impairment,
         events: list[LinkEvent],
     ) -> float:
         """One directed link: draws (jitter, loss models, fault loss), the sent event, the packet's fate so far;
-        returns when the packet starts arriving (a lost packet still fills the water and can spoil others)."""
+        returns when the packet starts arriving (a lost packet still fills the water and can spoil others).
+        flight_level: the time of flight (s) and the received level (dB, for SINR capture)."""
         link = self._link(tx.sender, j)
+        flight, level = flight_level
         start += float(link.rng.random()) * self.params.jitter + link.extra_delay + impaired.extra_delay
-        reason = link.loss.decide(link.rng, flight * self.params.sound_speed, size) if link.loss else None
+        distance = flight * self.params.sound_speed
+        reason = link.loss.decide(link.rng, distance, size, tx.t) if link.loss else None
         degraded = float(link.rng.random()) < impaired.extra_loss  # drawn always: streams stay aligned
         reason = impaired.lost or reason or ("degraded" if degraded else None)
         events.append(LinkEvent(tx.t, tx.sender, j, tx.seq, "sent"))
@@ -196,7 +222,7 @@ class Channel:
             events.append(LinkEvent(tx.t, tx.sender, j, tx.seq, "dropped", reason=reason))
             return start
         arrival = start + on_air
-        there = _Airtime(start, arrival, tx.sender, tx.seq)
+        there = _Airtime(start, arrival, tx.sender, tx.seq, level)
         reception = Reception(j, tx.sender, tx.seq, tx.data_time, arrival, tx.gamma, tx.gamma_dot)
         heapq.heappush(self._in_flight, (arrival, tx.sender, tx.seq, j, there, reception, tx.t))
         return start
@@ -224,9 +250,13 @@ class Channel:
         """Why a packet could not be received at j, if it could not."""
         if any(_overlap(own, there) for own in self._sending.get(j, [])):
             return "half_duplex"
-        if any(_overlap(other, there) for other in self._heard.get(j, []) if not _same(other, there)):
-            return "collision"
-        return None
+        overlapping = [o for o in self._heard.get(j, []) if _overlap(o, there) and not _same(o, there)]
+        if not overlapping:
+            return None
+        capture = self.params.capture
+        if capture is not None and capture.survives(there.level_db, [o.level_db for o in overlapping]):
+            return None
+        return "collision"
 
     def _forget(self, before: float) -> None:
         for table in (self._heard, self._sending):

@@ -4,7 +4,10 @@ Sources: shared/reference/acoustics.md ("Loss models").
 - Bernoulli: independent loss, as MOOS-IvP's uFldNodeComms (uniform drop percentage).
 - Gilbert-Elliott: two-state Markov chain, p = P(good -> bad), r = P(bad -> good); long-run share of bad packets
   p / (p + r), mean bad run 1 / r packets (tc netem's "loss gemodel p r 1-h 1-k").
-- Link budget: packet error rate from comms.acoustics (Thorp absorption, Coates noise, BPSK/FSK bit errors).
+- Time-based Gilbert-Elliott: the same two states as a continuous-time Markov chain with mean bad (burst) duration
+  in seconds, stepped by the time since the link's last packet: bursts last seconds whatever the packet rate.
+- Link budget: packet error rate from comms.acoustics (Thorp absorption, Coates noise, BPSK/FSK bit errors), with
+  shadowing and fading (comms.link_budget, comms.fading).
 - Range table: success probability vs range, as GobySoft/netsim's range_to_packet_success.
 Distances in m, sizes in bytes, probabilities in [0, 1].
 
@@ -22,7 +25,9 @@ from typing import Protocol
 
 import numpy as np
 
-from comms.acoustics import MODULATIONS, Modulation, bit_error_rate, packet_error_rate, snr_db
+from comms.link_budget import LinkBudgetRange
+
+__all__ = ["Bernoulli", "Composite", "GilbertElliott", "GilbertElliottTime", "LinkBudgetRange", "RangeTable"]
 
 
 class LinkLoss(Protocol):
@@ -31,9 +36,10 @@ class LinkLoss(Protocol):
         """Random numbers consumed per decision."""
         ...
 
-    def decide(self, rng: np.random.Generator, distance_m: float, size_bytes: int) -> str | None:
-        """The reason this packet is lost on this link (None: not lost). Always consumes exactly self.draws
-        random numbers from rng whatever the outcome, so streams stay aligned."""
+    def decide(self, rng: np.random.Generator, distance_m: float, size_bytes: int, t: float = 0.0) -> str | None:
+        """The reason this packet is lost on this link (None: not lost); t: its transmission time in s (the links'
+        packets come in time order). Always consumes exactly self.draws random numbers from rng whatever the
+        outcome, so streams stay aligned."""
         ...
 
 
@@ -73,7 +79,7 @@ class Bernoulli:
     def link(self) -> Bernoulli:
         return self
 
-    def decide(self, rng: np.random.Generator, distance_m: float, size_bytes: int) -> str | None:
+    def decide(self, rng: np.random.Generator, distance_m: float, size_bytes: int, t: float = 0.0) -> str | None:
         return "loss" if rng.random() < self.p else None
 
 
@@ -137,7 +143,7 @@ class GilbertElliottLink:
     def draws(self) -> int:
         return 2
 
-    def decide(self, rng: np.random.Generator, distance_m: float, size_bytes: int) -> str | None:
+    def decide(self, rng: np.random.Generator, distance_m: float, size_bytes: int, t: float = 0.0) -> str | None:
         step, lose = rng.random(2)
         m = self.model
         if self.bad is None:
@@ -150,56 +156,62 @@ class GilbertElliottLink:
 
 
 @dataclass(frozen=True, slots=True)
-class LinkBudgetRange:
-    """Loss from the acoustic link budget: lost with probability PER(8 size_bytes bits) at the link's distance.
+class GilbertElliottTime:
+    """Bursty loss in time: the good/bad chain in continuous time, with a mean bad (burst) duration in seconds.
 
-    Units as in comms.acoustics.snr_db: source level dB re 1 uPa at 1 m, kHz, Hz, wind m/s, directivity dB.
+    Rates per second: bad -> good mu = 1 / mean_duration, good -> bad lambda = mean_loss mu / (1 - mean_loss), so the
+    long-run share of time in the bad state is lambda / (lambda + mu) = mean_loss and a bad spell lasts mean_duration
+    s on average. Between two packets dt apart the chain moves with P(bad | bad) = L + (1 - L) e^{-(lambda + mu) dt},
+    P(bad | good) = L (1 - e^{-(lambda + mu) dt}) (the two-state chain's transition function), so a burst lasts
+    seconds whether packets come every 0.1 s or every minute. good_loss, bad_loss as in GilbertElliott.
     """
 
-    source_level_db: float
-    frequency_khz: float
-    bandwidth_hz: float
-    modulation: Modulation
-    spreading: float = 1.5
-    shipping: float = 0.5
-    wind_m_s: float = 0.0
-    directivity_db: float = 0.0
+    mean_loss: float
+    mean_duration: float
+    good_loss: float = 0.0
+    bad_loss: float = 1.0
 
     def __post_init__(self) -> None:
-        _check(math.isfinite(self.source_level_db), "source_level_db", self.source_level_db, "finite")
-        _check(0.0 < self.frequency_khz < math.inf, "frequency_khz", self.frequency_khz, "> 0 and finite")
-        _check(0.0 < self.bandwidth_hz < math.inf, "bandwidth_hz", self.bandwidth_hz, "> 0 and finite")
-        _check(self.modulation in MODULATIONS, "modulation", self.modulation, f"one of {MODULATIONS}")
-        # 1: cylindrical, 2: spherical spreading; anything else is not a physical spreading law.
-        _check(1.0 <= self.spreading <= 2.0, "spreading", self.spreading, "in [1, 2]")
-        _check(_is_probability(self.shipping), "shipping", self.shipping, "in [0, 1]")
-        _check(0.0 <= self.wind_m_s < math.inf, "wind_m_s", self.wind_m_s, ">= 0 and finite")
-        _check(math.isfinite(self.directivity_db), "directivity_db", self.directivity_db, "finite")
+        _check(0.0 <= self.mean_loss < 1.0, "mean_loss", self.mean_loss, "in [0, 1)")
+        _check(0.0 < self.mean_duration < math.inf, "mean_duration", self.mean_duration, "> 0 and finite")
+        _check(_is_probability(self.good_loss), "good_loss", self.good_loss, "in [0, 1]")
+        _check(_is_probability(self.bad_loss), "bad_loss", self.bad_loss, "in [0, 1]")
 
-    def success_probability(self, distance_m: float, size_bytes: int) -> float:
-        """1 - PER for a packet of size_bytes over distance_m."""
-        snr = snr_db(
-            self.source_level_db,
-            distance_m,
-            self.frequency_khz,
-            self.bandwidth_hz,
-            self.spreading,
-            self.shipping,
-            self.wind_m_s,
-            self.directivity_db,
-        )
-        return 1.0 - packet_error_rate(bit_error_rate(snr, self.modulation), 8 * size_bytes)
+    @property
+    def rate(self) -> float:
+        """lambda + mu, 1/s: how fast the chain forgets its state."""
+        return 1.0 / (self.mean_duration * (1.0 - self.mean_loss))
 
     @property
     def draws(self) -> int:
-        return 1
+        return 2
 
-    def link(self) -> LinkBudgetRange:
-        return self
+    def link(self) -> GilbertElliottTimeLink:
+        return GilbertElliottTimeLink(self)
 
-    def decide(self, rng: np.random.Generator, distance_m: float, size_bytes: int) -> str | None:
-        u = rng.random()  # drawn first: consumed whatever the outcome
-        return "range" if u >= self.success_probability(distance_m, size_bytes) else None
+
+@dataclass(slots=True)
+class GilbertElliottTimeLink:
+    """The chain's state on one directed link at its last packet (None until the first)."""
+
+    model: GilbertElliottTime
+    bad: bool | None = field(default=None)
+    last_t: float = 0.0
+
+    @property
+    def draws(self) -> int:
+        return 2
+
+    def decide(self, rng: np.random.Generator, distance_m: float, size_bytes: int, t: float = 0.0) -> str | None:
+        step, lose = rng.random(2)
+        m = self.model
+        if self.bad is None:
+            p_bad = m.mean_loss  # stationary start
+        else:
+            memory = math.exp(-m.rate * max(t - self.last_t, 0.0))
+            p_bad = m.mean_loss + (1.0 - m.mean_loss) * memory if self.bad else m.mean_loss * (1.0 - memory)
+        self.bad, self.last_t = bool(step < p_bad), t
+        return "burst" if lose < (m.bad_loss if self.bad else m.good_loss) else None
 
 
 @dataclass(frozen=True, slots=True)
@@ -227,7 +239,7 @@ class RangeTable:
     def link(self) -> RangeTable:
         return self
 
-    def decide(self, rng: np.random.Generator, distance_m: float, size_bytes: int) -> str | None:
+    def decide(self, rng: np.random.Generator, distance_m: float, size_bytes: int, t: float = 0.0) -> str | None:
         u = rng.random()
         return "range" if u >= self.success_probability(distance_m) else None
 
@@ -263,6 +275,6 @@ class CompositeLink:
     def draws(self) -> int:
         return sum(k.draws for k in self.links)
 
-    def decide(self, rng: np.random.Generator, distance_m: float, size_bytes: int) -> str | None:
-        reasons = [k.decide(rng, distance_m, size_bytes) for k in self.links]  # all of them: no short-circuit
+    def decide(self, rng: np.random.Generator, distance_m: float, size_bytes: int, t: float = 0.0) -> str | None:
+        reasons = [k.decide(rng, distance_m, size_bytes, t) for k in self.links]  # all of them: no short-circuit
         return next((r for r in reasons if r is not None), None)

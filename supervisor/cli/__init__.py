@@ -37,6 +37,7 @@ COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
     "schema": commands.schema,
     "validate": commands.validate,
     "presets": commands.presets,
+    "per": commands.per,
 }
 
 

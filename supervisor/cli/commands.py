@@ -1,5 +1,5 @@
 """The `cpf` commands on logs and scenario files: report, info, recover, sweep, resim, replay, schema, validate,
-presets. Each reads its arguments, calls the library, and prints what the user sees."""
+presets, per. Each reads its arguments, calls the library, and prints what the user sees."""
 
 from __future__ import annotations
 
@@ -122,4 +122,16 @@ def presets(args: argparse.Namespace) -> int:
     from supervisor.config.presets_table import presets_text
 
     print(presets_text())
+    return 0
+
+
+def per(args: argparse.Namespace) -> int:
+    from supervisor.tools.per_plot import Channel, modem_names, plot_per
+
+    try:
+        names = modem_names(args.modem)
+    except ValueError as exc:
+        raise ScenarioError(str(exc)) from None
+    channel = Channel(args.source_level, args.bytes, args.shadowing, args.rician_k, args.spreading, args.draws)
+    print(plot_per(names, channel, args.out))
     return 0

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import Field, field_validator
+from pydantic import Field, field_validator, model_validator
 
 from comms.modem import PRESETS as MODEMS
 from supervisor.config.schema_base import (
@@ -36,10 +36,27 @@ class WaterSection(StrictModel):
 
 
 class BurstSection(StrictModel):
-    """Gilbert-Elliott loss given as its long-run loss rate and mean burst length (packets)."""
+    """Gilbert-Elliott loss given as its long-run loss rate and either its mean burst length in packets (the chain
+    steps once per packet) or its mean burst duration in seconds (the chain runs in time: bursts last seconds
+    whatever the packet rate)."""
 
     mean_loss: Float = Field(ge=0, lt=1, description="long-run share of packets lost")
-    mean_burst: Float = Field(ge=1, le=1e6, description="mean number of packets lost in a row")
+    mean_burst: Float | None = Field(
+        default=None, ge=1, le=1e6, description="mean number of packets lost in a row (per-packet chain)"
+    )
+    mean_duration: Float | None = Field(
+        default=None,
+        gt=0,
+        le=MAX_TIME,
+        description="s, mean duration of a burst (time-based chain), instead of mean_burst",
+    )
+
+    @model_validator(mode="after")
+    def _one_burst_length(self) -> BurstSection:
+        if (self.mean_burst is None) == (self.mean_duration is None):
+            given = "neither" if self.mean_burst is None else "both"
+            raise ValueError(f"give exactly one of mean_burst (packets) and mean_duration (s), {given} given")
+        return self
 
 
 class LinkBudgetSection(StrictModel):
@@ -51,6 +68,28 @@ class LinkBudgetSection(StrictModel):
     shipping: Float = Field(default=0.5, ge=0, le=1, description="shipping activity for the ambient noise (Coates)")
     wind: Float = Field(default=0.0, ge=0, le=100, description="wind speed for the ambient noise, m/s")
     directivity: Float = Field(default=0.0, ge=-100, le=100, description="directivity index added to the SNR, dB")
+    shadowing: Float = Field(
+        default=0.0, ge=0, le=30, description="log-normal shadowing: standard deviation in dB on the SNR; 0: none"
+    )
+    shadowing_time: Float = Field(
+        default=0.0, ge=0, le=MAX_TIME,
+        description="s, correlation time of a link's shadowing (Gauss-Markov); 0: a fresh draw per packet",
+    )  # fmt: skip
+    rician_k: Float | None = Field(
+        default=None, ge=0, le=1000,
+        description="fast fading per packet: Rician K factor (line-of-sight over scattered power), 0 for Rayleigh; "
+        "omitted: no fast fading",
+    )  # fmt: skip
+    bits: Literal["frame", "message"] = Field(
+        default="frame",
+        description="bits the packet error counts: frame (every bit sent, padded to the modem's frames) or message "
+        "(the packet's bytes alone, as before issue 16)",
+    )
+    ebn0: Literal["bitrate", "snr"] = Field(
+        default="bitrate",
+        description="Eb/N0 for the bit error: bitrate (SNR x bandwidth / bitrate, needs the modem's bitrate) or snr "
+        "(Eb/N0 taken as the in-band SNR, as before issue 16)",
+    )
 
 
 class RangeTableSection(StrictModel):
@@ -138,6 +177,15 @@ class CommsSection(StrictModel):
     )
     transmit: TransmitSection = Field(default=TransmitSection(), description="when vehicles transmit")
     tdma: TdmaSection | None = Field(default=None, description="a TDMA schedule; omitted: transmit at will")
+    reception: Literal["overlap", "sinr"] = Field(
+        default="overlap",
+        description="with collisions: overlap (any overlap at a receiver loses both) or sinr (capture: a packet "
+        "survives when its SINR, overlapping packets counted as noise, reaches capture_threshold; needs range "
+        "type = link_budget)",
+    )
+    capture_threshold: Float = Field(
+        default=10.0, ge=-30, le=100, description="dB, the SINR a packet needs to survive overlaps (reception = sinr)"
+    )
     stats_window: Float = Field(
         default=10.0, gt=0, le=MAX_TIME, description="s: link statistics and delivered lambda_2"
     )

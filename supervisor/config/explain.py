@@ -54,9 +54,13 @@ def _comms(sc: Scenario) -> str:
     if c.loss:
         parts.append(f"loss {_num(c.loss)}")
     if c.burst is not None:
-        parts.append(f"bursts (mean loss {_num(c.burst.mean_loss)}, mean burst {_num(c.burst.mean_burst)} packets)")
+        b = c.burst
+        length = f"{_num(b.mean_burst)} packets" if b.mean_burst is not None else f"{_num(b.mean_duration)} s"
+        parts.append(f"bursts (mean loss {_num(b.mean_loss)}, mean burst {length})")
     if c.range is not None:
         parts.append(f"range-dependent loss ({c.range.type})")
+    if c.reception == "sinr":
+        parts.append(f"SINR capture at {_num(c.capture_threshold)} dB")
     if c.jitter:
         parts.append(f"jitter up to {_num(c.jitter)} s")
     if c.links:

@@ -11,8 +11,16 @@ import numpy as np
 
 from comms.acoustics import mackenzie_sound_speed
 from comms.broker_core import BrokerCore
-from comms.channel import Channel, ChannelParams, LinkParams
-from comms.loss import Bernoulli, Composite, GilbertElliott, LinkBudgetRange, LossModel, RangeTable
+from comms.channel import Capture, Channel, ChannelParams, LinkParams
+from comms.loss import (
+    Bernoulli,
+    Composite,
+    GilbertElliott,
+    GilbertElliottTime,
+    LinkBudgetRange,
+    LossModel,
+    RangeTable,
+)
 from comms.messages import Message
 from comms.modem import ModemParams, modem
 from comms.state import StateReport
@@ -159,6 +167,9 @@ def _range_model(scenario: Scenario, radio_modem: ModemParams) -> LossModel | No
         return LinkBudgetRange(
             spec.source_level, radio_modem.frequency_khz, radio_modem.bandwidth_hz, radio_modem.modulation,
             spec.spreading, spec.shipping, spec.wind, spec.directivity,
+            radio_modem.bitrate if spec.ebn0 == "bitrate" else None,
+            radio_modem.frame_bytes if spec.bits == "frame" else None,
+            spec.shadowing, spec.shadowing_time, spec.rician_k,
         )  # fmt: skip
     if isinstance(spec, RangeTableSection):
         return RangeTable(spec.ranges, spec.success)
@@ -171,7 +182,10 @@ def _loss_model(range_model: LossModel | None, loss: float, burst: BurstSection 
     if loss > 0:
         models.append(Bernoulli(loss))
     if burst is not None and burst.mean_loss > 0:
-        models.append(GilbertElliott(burst.mean_loss, burst.mean_burst))
+        if burst.mean_duration is not None:
+            models.append(GilbertElliottTime(burst.mean_loss, burst.mean_duration))
+        else:
+            models.append(GilbertElliott(burst.mean_loss, burst.mean_burst or 1.0))
     return Composite(tuple(models)) if models else None
 
 
@@ -186,9 +200,13 @@ def channel_params(scenario: Scenario) -> ChannelParams:
         )
         for link in c.links
     }
-    return ChannelParams(
-        sound_speed(scenario), radio_modem, c.packet_bytes, c.jitter, _loss_model(ranged, c.loss, c.burst), links
+    capture = (
+        Capture(ranged, c.capture_threshold) if c.reception == "sinr" and isinstance(ranged, LinkBudgetRange) else None
     )
+    return ChannelParams(
+        sound_speed(scenario), radio_modem, c.packet_bytes, c.jitter, _loss_model(ranged, c.loss, c.burst), links,
+        capture,
+    )  # fmt: skip
 
 
 def radio(scenario: Scenario, vehicle_id: int) -> Radio:

@@ -274,10 +274,20 @@ def _comms(sc: Scenario) -> Iterator[str]:
     size = sc.comms.packet_bytes or SIZE
     if radio.max_bytes is not None and size > radio.max_bytes:
         yield f"comms.packet_bytes: the {sc.comms.modem} modem takes {radio.max_bytes} B, got {size}"
+    yield from _reception(sc, radio.collisions)
     try:
         channel_params(sc)
     except ValueError as exc:
         yield f"comms: {exc}"
+
+
+def _reception(sc: Scenario, collisions: bool) -> Iterator[str]:
+    """SINR capture weighs received levels: it needs the link budget's, and collisions for overlaps to matter."""
+    c = sc.comms
+    if c.reception == "sinr" and (c.range is None or c.range.type != "link_budget"):
+        yield f"comms.reception: sinr needs range type = link_budget (received levels), got {c.reception!r}"
+    elif c.reception == "sinr" and not collisions:
+        yield f"comms.reception: sinr needs collisions on (by the modem or comms.collisions), got {c.reception!r}"
 
 
 def _out_of_plane(spec: PathSpec) -> tuple[str, float] | None:
