@@ -21,8 +21,8 @@ def test_a_diverging_vehicle_stops_the_run_with_one_line(tmp_path, paper_text, e
     assert "Traceback" not in done.stderr
     lines = [line for line in done.stderr.splitlines() if line.startswith("cpf: error")]  # (and the warning that
     # the shortened run ends before the paper's fault)
-    assert len(lines) == 1 and lines[0].startswith("cpf: error: vehicle 2 stopped at t = 3.0 s"), lines
-    assert "vehicle 2 diverged at t = 3.0 s: its speed is" in lines[0]
+    assert len(lines) == 1 and lines[0].startswith("cpf: error: vehicle 1 stopped at t = 1.0 s"), lines
+    assert "vehicle 1 diverged at t = 1.0 s: its speed is" in lines[0]
 
 
 @pytest.mark.parametrize("engine", ["inprocess", "zenoh"])
@@ -32,4 +32,4 @@ def test_a_diverging_vehicle_is_lost_when_the_scenario_says_continue(tmp_path, p
     args = ["--set", "scenario.on_vehicle_loss=continue", "--engine", engine, "--out", "r.mcap", *DIVERGES]
     done = cpf("run", str(scenario), *args, cwd=tmp_path, timeout=120)
     assert "Traceback" not in done.stderr
-    assert "vehicle 2 lost at t = 3.0 s" in done.stderr and "diverged" in done.stderr, done.stderr
+    assert "vehicle 1 lost at t = 1.0 s" in done.stderr and "diverged" in done.stderr, done.stderr

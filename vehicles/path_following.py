@@ -121,26 +121,9 @@ def control(
     projection, so the out-of-plane rows are exact zeros (tau_q = 0) and the in-plane ones are the planar law with
     Delta = [[1, 0], [0, -delta]]. One helper, not more: this runs at every RK4 stage.
 
-    current: (c, c_dot), the ocean current in body axes and its derivative (vehicles.current.feedforward), for a
-    controller that knows it; None for one that does not. The state's velocity is relative to the water, so
-    z1_dot = -S(omega) z1 + Delta nu_c + nu_u + c - tangent gamma_dot: the term c is cancelled by the virtual control
-    alpha = Delta^-1 (-K1 sigma - nu_u - c + tangent v_d), whose derivative then carries -c_dot. That is the law
-    above evaluated on the velocity over ground, nu + c, with the acceleration over ground, nu_dot + c_dot; V_dot is
-    as without a current. A controller that does not know c leaves + sigma' c in V_dot: the tube grows (see
-    vehicles.current)."""
-    p_d, p_g, p_gg = model.path_seen(path.evaluate_floats(gamma))
-    error = (s[0] - p_d[0], s[1] - p_d[1], s[2] - p_d[2])
-    r11, r12, r13, r21, r22, r23, r31, r32, r33 = s[3:12]
-    # z1 = R' error - delta, tangent = R' p_d^gamma, curvature = R' p_d^gammagamma
-    z1 = (
-        r11 * error[0] + r21 * error[1] + r31 * error[2] - c.gains.delta,
-        r12 * error[0] + r22 * error[1] + r32 * error[2],
-        r13 * error[0] + r23 * error[1] + r33 * error[2],
-    )
-    tangent = (r11 * p_g[0] + r21 * p_g[1] + r31 * p_g[2], r12 * p_g[0] + r22 * p_g[1] + r32 * p_g[2],
-               r13 * p_g[0] + r23 * p_g[1] + r33 * p_g[2])  # fmt: skip
-    curvature = (r11 * p_gg[0] + r21 * p_gg[1] + r31 * p_gg[2], r12 * p_gg[0] + r22 * p_gg[1] + r32 * p_gg[2],
-                 r13 * p_gg[0] + r23 * p_gg[1] + r33 * p_gg[2])  # fmt: skip
+    current: (c, c_dot), the ocean current in body axes and its derivative, for a controller that knows it (the
+    law on the velocity over ground: _over_ground); None for one that does not."""
+    error, z1, tangent, curvature = _path_in_body(model, path, s, gamma, c.gains.delta)
     rho = math.sqrt(1.0 + z1[0] * z1[0] + z1[1] * z1[1] + z1[2] * z1[2])
     sigma = (z1[0] / rho, z1[1] / rho, z1[2] / rho)
     drift = model.drift(s, prm)  # with zero input: exact for the unactuated velocities, the rest is tau's to add
@@ -156,11 +139,36 @@ def control(
     return Control(tau, gamma_ddot, error, z1, lyapunov, drift)
 
 
+def _path_in_body(
+    model: Model, path: Path, s: Sequence[float], gamma: float, delta: float
+) -> tuple[Float3, Float3, Float3, Float3]:
+    """error = p - p_d(gamma), z1 = R' error - delta, tangent = R' p_d^gamma, curvature = R' p_d^gammagamma."""
+    p_d, p_g, p_gg = model.path_seen(path.evaluate_floats(gamma))
+    error = (s[0] - p_d[0], s[1] - p_d[1], s[2] - p_d[2])
+    r11, r12, r13, r21, r22, r23, r31, r32, r33 = s[3:12]
+    z1 = (
+        r11 * error[0] + r21 * error[1] + r31 * error[2] - delta,
+        r12 * error[0] + r22 * error[1] + r32 * error[2],
+        r13 * error[0] + r23 * error[1] + r33 * error[2],
+    )
+    tangent = (r11 * p_g[0] + r21 * p_g[1] + r31 * p_g[2], r12 * p_g[0] + r22 * p_g[1] + r32 * p_g[2],
+               r13 * p_g[0] + r23 * p_g[1] + r33 * p_g[2])  # fmt: skip
+    curvature = (r11 * p_gg[0] + r21 * p_gg[1] + r31 * p_gg[2], r12 * p_gg[0] + r22 * p_gg[1] + r32 * p_gg[2],
+                 r13 * p_gg[0] + r23 * p_gg[1] + r33 * p_gg[2])  # fmt: skip
+    return error, z1, tangent, curvature
+
+
 def _over_ground(
     s: Sequence[float], drift: Accelerations, current: tuple[Float3, Float3]
 ) -> tuple[list[float], Accelerations]:
     """The lifted state with its body velocity over ground (v + c) and the drift with c_dot added: what the law
-    works on when it knows the current (the angular velocity and its drift are the same in both)."""
+    works on when it knows the current (the angular velocity and its drift are the same in both).
+
+    Why: the state's velocity is relative to the water, so z1_dot = -S(omega) z1 + Delta nu_c + nu_u + c - tangent
+    gamma_dot; the term c is cancelled by the virtual control alpha = Delta^-1 (-K1 sigma - nu_u - c + tangent v_d),
+    whose derivative then carries -c_dot. That is the law evaluated on the velocity over ground, nu + c, with the
+    acceleration over ground, nu_dot + c_dot; V_dot is as without a current. A controller that does not know c leaves
+    + sigma' c in V_dot: the tube grows (see vehicles.current)."""
     (cx, cy, cz), (dcx, dcy, dcz) = current
     (du, dv, dw), angular = drift
     ground = [*s[0:12], s[12] + cx, s[13] + cy, s[14] + cz, *s[15:18]]

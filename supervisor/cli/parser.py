@@ -275,44 +275,18 @@ def _add_learning_commands(sub: Commands) -> None:
 def _add_per(sub: Commands) -> None:
     per = sub.add_parser("per", help="plot packet error against range for the modem presets (link budget, fading)")
     per.add_argument(
-        "--modem",
-        action="append",
-        default=[],
-        metavar="NAME",
+        "--modem", action="append", default=[], metavar="NAME",
         help="modem preset (repeatable; default: every preset with a bitrate)",
-    )
-    per.add_argument(
-        "--source-level", type=_within(0.0, 300.0), default=185.0, metavar="DB", help="source level, dB re 1 uPa at 1 m"
-    )
-    per.add_argument(
-        "--bytes",
-        type=_whole(1, 65536),
-        default=15,
-        metavar="B",
-        help="packet size before padding to the modem's frames",
-    )
-    per.add_argument(
-        "--shadowing",
-        type=_within(0.0, 30.0),
-        default=4.0,
-        metavar="DB",
-        help="log-normal shadowing, standard deviation in dB (0: none)",
-    )
-    per.add_argument(
-        "--rician-k",
-        type=_k_factor,
-        default=1.0,
-        metavar="K",
-        help="fast fading: Rician K factor, 0 for Rayleigh, 'none' for no fast fading",
-    )
-    per.add_argument("--spreading", type=_within(1.0, 2.0), default=1.5, metavar="K", help="spreading exponent")
-    per.add_argument(
-        "--draws",
-        type=_whole(10, 1_000_000),
-        default=2000,
-        metavar="N",
-        help="packets drawn per marked range (the dots)",
-    )
+    )  # fmt: skip
+    for flag, kind, default, metavar, text in (
+        ("--source-level", _within(0.0, 300.0), 185.0, "DB", "source level, dB re 1 uPa at 1 m"),
+        ("--bytes", _whole(1, 65536), 15, "B", "packet size before padding to the modem's frames"),
+        ("--shadowing", _within(0.0, 30.0), 4.0, "DB", "log-normal shadowing, standard deviation in dB (0: none)"),
+        ("--rician-k", _k_factor, 1.0, "K", "fast fading: Rician K factor, 0 for Rayleigh, 'none' for no fast fading"),
+        ("--spreading", _within(1.0, 2.0), 1.5, "K", "spreading exponent"),
+        ("--draws", _whole(10, 1_000_000), 2000, "N", "packets drawn per marked range (the dots)"),
+    ):
+        per.add_argument(flag, type=kind, default=default, metavar=metavar, help=text)
     per.add_argument("--out", type=Path, default=Path("per.png"), help="PNG file to write")
 
 

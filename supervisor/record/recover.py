@@ -145,6 +145,8 @@ class _Copy:
         CorruptRecord if it does not parse or check, before anything of it is written."""
         record = parse(opcode, body)
         if isinstance(record, Header):
+            if self.started:  # a file has one header, first: another is damage that happens to parse
+                raise CorruptRecord("a second header")
             self.start(record)
         elif isinstance(record, DataEnd | Footer):
             return True, True
@@ -204,8 +206,15 @@ def _scan(data: Any, copy: _Copy) -> _Scan:
             continue
         start, scan.offset = scan.offset, scan.offset + PREFIX.size + len(found[1])
         if trusted:
+            # A resynchronisation searches from the first record without a CRC since the last whole chunk: a run of
+            # them may be damage that parses (each one swallowing the start of the next), so a later one proves
+            # nothing about where the next chunk starts.
+            after_chunk = scan.resume == scan.trusted
             scan.trusted = scan.offset
-            scan.resume = scan.offset if found[0] == Opcode.CHUNK else start + PREFIX.size
+            if found[0] == Opcode.CHUNK:
+                scan.resume = scan.offset
+            elif after_chunk:
+                scan.resume = start + PREFIX.size
         if done:
             scan.complete = scan.regions == 0
             return scan
