@@ -42,6 +42,7 @@ from comms.messages import (
 )
 from comms.records import Transmission
 from comms.reports import CommsDone
+from comms.span import Grants
 from comms.state import StateReport
 
 log = logging.getLogger(__name__)
@@ -72,6 +73,7 @@ class Broker:
         self.clock: Tick | None = None  # the latest tick handled: realtime deliveries are timed by it
         self.latest_tick = start_step - 1  # the latest tick taken in: no vehicle can step beyond it (and the next)
         self.unpublished: list[LinkEvent] = []  # link events not yet published (one events message per tick)
+        self.grants = Grants(dt)  # lockstep spans: the ticks the broker issues itself (comms.span)
 
     def take(self, key: str, payload: bytes) -> None:
         """File one incoming message; count and drop it if malformed or on a key its sender does not own."""
@@ -80,14 +82,18 @@ class Broker:
             message = decode(payload)
             if key == TICK_KEY:
                 tick = parse_tick(message)
-                self.books.ticks[tick.k], self.books.raw_ticks[tick.k] = tick, message
-                self.latest_tick = max(self.latest_tick, tick.end - 1)  # a window's last step
+                if tick.span is not None:
+                    self.grants.add(tick)
+                else:
+                    self.books.ticks[tick.k], self.books.raw_ticks[tick.k] = tick, message
+                self.latest_tick = max(self.latest_tick, tick.reach - 1)  # a window's (a span's) last step
             elif owned is not None and owned[1] == "state":
                 report = StateReport.from_message(message, owned[0])
                 if report.k > self.latest_tick + 1:  # a vehicle steps on a tick: kept, it would be held forever
                     raise ValueError(f"step {report.k} is ahead of the clock (latest tick {self.latest_tick})")
                 if report.k > self.submitted:  # a late duplicate of a step already in the water is dropped
                     self.books.states.setdefault(report.k, {})[report.vehicle] = (report, self._tx(message, owned[0]))
+                    self.grants.report(report.vehicle, report.k, _next_tx(message))
         except ValueError as exc:
             self.books.malformed += 1
             log.warning("comms: dropped a malformed message on %s: %s", key, exc)
@@ -112,16 +118,31 @@ class Broker:
             if self._realtime() and self._can_submit(self.submitted + 1):
                 self._submit(self.submitted + 1)
                 self._release()
-            elif self.next_k in self.books.ticks and self._can_submit(self.next_k - 1):
-                tick = self.books.ticks[self.next_k]
-                self._handle(tick)  # still filed while it runs: it says who is alive at the end of step k-1
-                del self.books.ticks[self.next_k]
-                del self.books.raw_ticks[self.next_k]
+            elif self._tick_of(self.next_k) is not None and self._can_submit(self.next_k - 1):
+                tick, raw = self._next_tick()
+                self._handle(tick, raw)  # still filed while it runs: it says who is alive at the end of step k-1
+                self.books.ticks.pop(self.next_k, None)
+                self.books.raw_ticks.pop(self.next_k, None)
+                self.grants.forget_before(self.next_k - 1)
                 self.next_k = tick.end
                 if tick.final:
                     return True
             else:
                 return False
+
+    def _next_tick(self) -> tuple[Tick, dict[str, object]]:
+        """The tick of step next_k and its wire form: the supervisor's own, or one the broker issues in a span."""
+        k = self.next_k
+        tick = self.books.ticks.get(k)
+        if tick is not None:
+            return tick, self.books.raw_ticks[k]
+        tick = self.grants.tick(k, self._alive_at(k))
+        assert tick is not None  # advance asked _tick_of first
+        return tick, tick.to_message()
+
+    def _alive_at(self, k: int) -> list[int]:
+        tick = self._tick_of(k)
+        return tick.alive if tick is not None and tick.alive is not None else self.vehicles
 
     def _realtime(self) -> bool:
         return self.clock is not None and self.clock.wall is not None
@@ -129,7 +150,9 @@ class Broker:
     def _tick_of(self, k: int) -> Tick | None:
         """The tick step k runs on: the latest handled one if k is in its window, else one filed for k."""
         clock = self.clock
-        return clock if clock is not None and clock.k <= k < clock.end else self.books.ticks.get(k)
+        if clock is not None and clock.k <= k < clock.end:
+            return clock
+        return self.books.ticks.get(k) or self.grants.governing(k)
 
     def _expected(self, k: int) -> list[int]:
         """Vehicles whose step message of step k counts: alive then and still alive at the next tick (if it is
@@ -161,7 +184,7 @@ class Broker:
         self.unpublished += self.core.submit(sent, where, tick.network if tick else None)
         self.submitted = k
 
-    def _handle(self, tick: Tick) -> None:
+    def _handle(self, tick: Tick, raw: dict[str, object]) -> None:
         """A tick (lockstep: of a time window, inside which no vehicle transmits but at its last step): the last
         step's transmissions into the water, then every reception arriving by each step of the window, step by step
         (nothing can be submitted between them, so this is what stepping one step at a time would hand out)."""
@@ -170,7 +193,7 @@ class Broker:
         self.states_before(tick.k)
         self.clock = tick
         if tick.end - tick.k > 1:
-            self._handle_window(tick)
+            self._handle_window(tick, raw)
             return
         batches = self._deliver(tick.t)
         if tick.final:
@@ -185,9 +208,9 @@ class Broker:
         if tick.wall is not None:  # realtime: late deliveries go out as such; the batches message is the tick
             self._publish_live(tick, batches)
             batches = {}  # a vehicle named nowhere has nothing: realtime vehicles take in their own deliveries
-        self.publishers.put(COMMS_STEP_KEY, batches_message(self.books.raw_ticks[tick.k], batches))
+        self.publishers.put(COMMS_STEP_KEY, batches_message(raw, batches))
 
-    def _handle_window(self, tick: Tick) -> None:
+    def _handle_window(self, tick: Tick, raw: dict[str, object]) -> None:
         """A lockstep tick of several steps: one batch per step, the statistics snapshotted at each step's time."""
         batches = []
         for k in range(tick.k, tick.end):
@@ -195,7 +218,7 @@ class Broker:
             batches.append(self._deliver(t))
             self._publish_stats(t)
         self._publish_events(tick)
-        self.publishers.put(COMMS_STEP_KEY, batches_message(self.books.raw_ticks[tick.k], batches))
+        self.publishers.put(COMMS_STEP_KEY, batches_message(raw, batches))
 
     def states_before(self, k: int) -> None:
         """Forget the states of steps before k: those of a window's earlier steps are never submitted."""
@@ -236,6 +259,12 @@ class Broker:
             self.publishers.put(COMMS_EVENTS_KEY, LinkEvents(tick.t, tick.k, tuple(self.unpublished)).to_message())
             self.books.published += len(self.unpublished)
             self.unpublished = []
+
+
+def _next_tx(message: dict[str, object]) -> int | None:
+    """The first step at which a vehicle may transmit next, as its step message says (None: it does not say)."""
+    next_tx = message.get("next_tx")
+    return next_tx if isinstance(next_tx, int) and not isinstance(next_tx, bool) else None
 
 
 def run_broker(

@@ -252,9 +252,12 @@ def tick_message(
     speed: float = 1.0,
     hold: bool = False,
     until: int | None = None,
+    span: int | None = None,
+    longest: int | None = None,
 ) -> Message:
     """The supervisor's clock (Tick.to_message; disturbed: only the vehicles with any fault acting)."""
-    return Tick(k, t, final, disturbed or {}, network, alive, comms, wall, speed, hold, until).to_message()
+    tick = Tick(k, t, final, disturbed or {}, network, alive, comms, wall, speed, hold, until, span, longest)
+    return tick.to_message()
 
 
 @dataclass(frozen=True, slots=True)

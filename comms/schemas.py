@@ -152,8 +152,10 @@ TICK = _object(
         "speed": NUMBER,  # realtime: simulated s per wall-clock s
         "hold": BOOLEAN,  # a process is killed or restarted at the next tick
         "until": INTEGER,  # on the bus only: a lockstep time window of steps k .. until-1 (the log: one per step)
+        "span": INTEGER,  # on the bus only: the broker issues the ticks of steps k .. span-1 itself
+        "longest": {"type": ["integer", "null"]},  # with span: the broker's windows of at most this many steps
     },
-    optional=("wall", "speed", "hold", "until"),  # logs from before realtime delivery; until: windows only
+    optional=("wall", "speed", "hold", "until", "span", "longest"),  # old logs lack realtime; the rest: the bus only
 )
 _LINK_BOOK = _object(
     "cpf.LinkBook",

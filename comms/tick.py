@@ -53,7 +53,10 @@ class Tick:
     wall clock (time.time()) and how fast simulation time runs: wall + (t' - t) / speed. hold: a process is killed
     or restarted at the next tick, so this step's transmissions wait for it (realtime brokers otherwise send them
     before the next tick, which alone says who survived the step). until (lockstep): the tick grants the time
-    window k .. until-1, over which all of this holds and nothing crosses the bus (supervisor.engine.windows)."""
+    window k .. until-1, over which all of this holds and nothing crosses the bus (supervisor.engine.windows).
+    span (lockstep, on the bus only): the tick grants the broker steps k .. span-1, over which all of this holds
+    (nothing external changes): the broker issues their ticks itself, in time windows it works out from the
+    vehicles' reports (comms.span), and hold then says the span's last step holds its packets."""
 
     WIRE_NAMES: ClassVar[dict[str, str]] = {"disturbed": "vehicles"}  # field -> its name in the message
 
@@ -68,11 +71,18 @@ class Tick:
     speed: float = 1.0  # realtime: simulated seconds per wall-clock second
     hold: bool = False  # a process is killed or restarted at the next tick: this step's packets wait for it
     until: int | None = None  # lockstep time window: steps k .. until-1 run on this tick; None: step k alone
+    span: int | None = None  # lockstep: the broker issues the ticks of steps k .. span-1 itself (comms.span)
+    longest: int | None = None  # with span: the broker's time windows of at most this many steps
 
     @property
     def end(self) -> int:
         """The first step after the window this tick grants (k + 1 for a tick of one step)."""
         return self.k + 1 if self.until is None else self.until
+
+    @property
+    def reach(self) -> int:
+        """The first step after every step this tick covers: its span's end, else its window's."""
+        return self.end if self.span is None else self.span
 
     def wall_of(self, t: float) -> float:
         """The wall-clock time of simulation time t (realtime runs only)."""
@@ -92,6 +102,7 @@ class Tick:
             "speed": self.speed,
             "hold": self.hold,
             **({} if self.until is None else {"until": self.until}),  # the log keeps one tick per step, without it
+            **({} if self.span is None else {"span": self.span, "longest": self.longest}),  # on the bus only
         }
 
     @classmethod
@@ -109,10 +120,16 @@ class Tick:
         until = get(message, "until", int) if message.get("until") is not None else None
         if until is not None and until <= k:
             raise ValueError(f"field 'until' is not after step {k}, got {until}")
+        span = get(message, "span", int) if message.get("span") is not None else None
+        if span is not None and span <= k:
+            raise ValueError(f"field 'span' is not after step {k}, got {span}")
+        longest = get(message, "longest", int) if message.get("longest") is not None else None
+        if longest is not None and longest < 1:
+            raise ValueError(f"field 'longest' is not a positive number of steps, got {longest}")
         return cls(
             k, number(message, "t"), get(message, "final", bool),
             {e.vehicle: e.disturbances for e in entries}, None if net is None else Network.from_message(net), alive,
-            get(message, "comms", bool), *_realtime(message), hold, until,
+            get(message, "comms", bool), *_realtime(message), hold, until, span, longest,
         )  # fmt: skip
 
 

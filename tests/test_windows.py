@@ -80,8 +80,9 @@ def test_inside_a_stretch_between_changes_only_k_and_t_change(file):
 class Run:
     """What the clock drives (supervisor.engine.clock.Driven): who is alive, what they reported, what it said."""
 
-    def __init__(self, reports: dict[int, tuple[int, int]]) -> None:
-        self.alive, self.comms_up, self._reports = list(FLEET), True, reports
+    def __init__(self, reports: dict[int, tuple[int, int]], comms_up: bool = False) -> None:
+        """comms_up: with a broker, lockstep ticks grant it spans (comms.span); without, the supervisor's windows."""
+        self.alive, self.comms_up, self._reports = list(FLEET), comms_up, reports
         self.recorded: list[tuple[str, float, dict]] = []
 
     @property
@@ -107,11 +108,12 @@ def clock(mode: str = "lockstep", longest: int | None = None) -> tuple[Clock, Re
 
 
 def test_the_clock_grants_a_window_and_logs_one_tick_per_step_of_it():
+    """Without a broker (it is down: the supervisor hands the vehicles their ticks) the supervisor's own windows."""
     ticks, pubs = clock()
     run = Run({v: (9, 20) for v in FLEET})
     assert ticks.issue(run, 10) == 21
-    [(key, tick)] = pubs.messages
-    assert key == TICK_KEY and tick["k"] == 10 and tick["until"] == 21
+    [tick] = [message for key, message in pubs.messages if key == TICK_KEY]
+    assert tick["k"] == 10 and tick["until"] == 21
     stepwise, _ = clock(longest=1)
     one_by_one = Run({v: (9, 20) for v in FLEET})
     assert [stepwise.issue(one_by_one, k) for k in range(10, 21)] == list(range(11, 22))
@@ -130,10 +132,43 @@ def test_the_clock_stops_a_window_before_a_fault_and_at_the_end():
     assert ticks.issue(Run({1: (9, 20), 2: (9, 20)}), 10) == 11  # vehicle 3 has not reported: it may transmit
 
 
+def test_with_a_broker_the_clock_grants_it_the_span_up_to_the_next_change_and_logs_one_tick_per_step():
+    """Lockstep with a broker: one grant for the whole stretch to the next change (comms.span), nothing per step on
+    the bus; the log gets, step by step as the supervisor reaches them, the ticks stepping one at a time gives."""
+    ticks, pubs = clock()
+    run = Run({v: (9, 10) for v in FLEET}, comms_up=True)
+    assert ticks.issue(run, 10) == 1500  # the speed cap starts at step 1500
+    [(key, grant)] = pubs.messages
+    assert key == TICK_KEY and grant["k"] == 10 and grant["span"] == 1500 and grant["longest"] == LONGEST_WINDOW
+    assert "until" not in grant and run.recorded == []  # the broker works out the windows, the log waits
+    for k in range(10, 1500):
+        ticks.record(run, k)
+    stepwise, _ = clock(longest=1)
+    one_by_one = Run({v: (9, 10) for v in FLEET}, comms_up=True)
+    assert [stepwise.issue(one_by_one, k) for k in range(10, 1500)] == list(range(11, 1501))
+    assert run.recorded == one_by_one.recorded and len(run.recorded) == 1490
+    assert ticks.can_run_ahead(run, 1500)  # a fault starts there, no process is killed: the grant may go ahead
+    assert ticks.issue(run, 1500) == 2500 and pubs.messages[-1][1]["vehicles"][0]["cap"] == 0.5
+
+
+def test_a_vehicle_lost_inside_a_span_is_granted_away_from_the_next_step_on():
+    ticks, pubs = clock()
+    run = Run({}, comms_up=True)
+    ticks.issue(run, 0)
+    ticks.issue(run, 1500, ahead=True)
+    ticks.record(run, 1200)
+    run.alive = [1, 3]
+    ticks.reissue(run)
+    regrants = pubs.messages[2:]
+    assert [(m["k"], m["span"], m["alive"]) for _, m in regrants] == [(1201, 1500, [1, 3]), (1500, 2500, [1, 3])]
+    ticks.record(run, 1201)
+    assert run.recorded[-1][2]["alive"] == [1, 3] and run.recorded[-1][2]["k"] == 1201
+
+
 def test_realtime_keeps_one_step_per_tick():
     ticks, pubs = clock("realtime")
     ticks.begin()
-    run = Run({v: (9, 20) for v in FLEET})
+    run = Run({v: (9, 20) for v in FLEET}, comms_up=True)
     assert ticks.issue(run, 10) == 11
     [(key, _, tick)] = run.recorded  # on the bus and in the log, as it always was
     assert key == TICK_KEY and "until" not in tick and tick["wall"] is not None and pubs.messages == []

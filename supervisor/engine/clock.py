@@ -73,6 +73,8 @@ class Clock:
         self.issued: Message | None = None
         self.issued_end = 0  # the first step after the latest tick's window
         self.ahead = False  # the latest tick went out before every state of the step before it was in
+        self.spans: list[tuple[int, int, Message]] = []  # lockstep spans granted: (first step, reach, the grant)
+        self.waiting = 0  # the step whose states the supervisor waits for
         self._plans: dict[int, StepPlan] = {}  # the steps asked for lately: each is asked at k-1 (hold), ahead, at k
 
     def begin(self) -> None:
@@ -90,7 +92,9 @@ class Clock:
         window it would grant could not be longer once they are in."""
         if self.mode != "lockstep" or self.plan(k).actions:
             return False
-        return k >= self.schedule.steps or self.longest == 1 or not worth_waiting(k, *self._window_facts(run, k))
+        if k >= self.schedule.steps or self._spanning(run, k) or self.longest == 1:
+            return True
+        return not worth_waiting(k, *self._window_facts(run, k))
 
     def _window_facts(self, run: Driven, k: int) -> tuple[int, list[int], Reports]:
         return self.schedule.next_change(k), run.alive, run.reports
@@ -108,15 +112,64 @@ class Clock:
                 run.carry_out(action, k)
             if plan.graph_changed:
                 run.publish(GRAPH_KEY, plan.t, Graph.of(plan.t, plan.network.edges).to_message())
+        if self._spanning(run, k):
+            return self._grant(run, plan)
         end = k + 1 if plan.final else window_end(k, *self._window_facts(run, k), self.longest)
         self._publish(run, plan, end)
         return end
+
+    def _spanning(self, run: Driven, k: int) -> bool:
+        """Whether step k starts a span the broker runs itself (comms.span): lockstep with windows, a broker up."""
+        return self.mode == "lockstep" and self.longest > 1 and run.comms_up and k < self.schedule.steps
+
+    def _grant(self, run: Driven, plan: StepPlan) -> int:
+        """The broker is granted steps plan.k up to the next change (comms.span); returns that step. Their ticks go
+        on the record one by one as the supervisor reaches them (record)."""
+        reach = self.schedule.next_change(plan.k)
+        self.spans = [span for span in self.spans if span[1] > self.waiting] + [(plan.k, reach, {})]
+        self.issued = None  # nothing of the supervisor's own ticks to say again: the grant says it (reissue)
+        self._publish_grant(run, plan, reach)
+        return reach
+
+    def _publish_grant(self, run: Driven, plan: StepPlan, reach: int, start: int | None = None) -> None:
+        """The grant of steps start (default plan.k) .. reach-1 on the bus; the template of their ticks kept."""
+        k = plan.k if start is None else start
+        disturbed = {i: plan.disturbances[i] for i in run.alive if i in plan.disturbances}
+        spelt = None if plan.network == self.usual else plan.network
+        alive = None if len(run.alive) == self.fleet else list(run.alive)
+        hold = bool(self.plan(reach).actions) if reach < self.schedule.steps else False
+        template = tick_message(k, k * self.schedule.dt, False, disturbed, spelt, alive, run.comms_up, None,
+                                self.speed, hold, None, reach, self.longest)  # fmt: skip
+        self.spans = [(a, b, m) if (a, b) != (plan.k, reach) else (a, b, template) for a, b, m in self.spans]
+        self.pubs.put(TICK_KEY, template)
+
+    def record(self, run: Driven, k: int) -> None:
+        """The supervisor reaches step k: its tick on the record if a span the broker runs holds it (a tick the
+        supervisor published itself is on it already)."""
+        self.waiting = k
+        for _, reach, grant in self.spans:
+            if int(grant["k"]) <= k < reach:
+                t = float(grant["t"]) if int(grant["k"]) == k else k * self.schedule.dt
+                tick = {**grant, "k": k, "t": t, "hold": bool(grant["hold"]) and k == reach - 1}
+                del tick["span"], tick["longest"]  # the log keeps one tick per step, as stepping writes them
+                run.record(TICK_KEY, t, tick)
+                return
+
+    def ahead_at(self, a: int, b: int) -> int:
+        """At which step of the stretch a .. b-1 just issued the next tick may go out ahead: at once after a window
+        (the broker starts the next the moment this one's states arrive), near the end of a span (its grant
+        carries the faults that start with it: said on the bus no earlier than needed)."""
+        return b - 1 if any(first == a and reach == b for first, reach, _ in self.spans) else a
 
     def reissue(self, run: Driven) -> None:
         """A vehicle was lost after the latest tick went out ahead counting it alive: say it again without it, or
         the broker would wait for that vehicle's state forever."""
         if self.issued is not None and self.ahead:
             self._publish(run, self.plan(int(self.issued["k"])), self.issued_end)
+        for first, reach, _ in list(self.spans):  # the spans granted with it, from the next step on
+            start = max(first, self.waiting + 1)
+            if start < reach:
+                self._publish_grant(run, self.plan(first), reach, start)
 
     def _publish(self, run: Driven, plan: StepPlan, end: int) -> None:
         """The tick of the window plan.k .. end-1 on the bus; in the log, one tick per step (as one step at a time)."""

@@ -170,9 +170,12 @@ def _drive(run: Supervisor, progress: Progress) -> None:
     progress.begin()
     a, b = 0, ticks.issue(run, 0)
     while a < steps:
-        following = ticks.issue(run, b, ahead=True) if ticks.can_run_ahead(run, b) else None
+        following, ahead_at = None, ticks.ahead_at(a, b)
         for k in range(a, b):
+            if k == ahead_at and ticks.can_run_ahead(run, b):
+                following = ticks.issue(run, b, ahead=True)
             run.t = k * dt
+            ticks.record(run, k)
             run.wait_until(_all_stepped(run, k), f"every vehicle's state of step {k}", STEP_TIMEOUT)
             intake.states.pop(k, None)  # none if no vehicle is left to report
             intake.books.window(k * dt)  # the broker's events of the window came before the batches stepped on
