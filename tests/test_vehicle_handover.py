@@ -48,7 +48,7 @@ def _spawned(per_process: int, endpoint: str, tmp_path: Path, monkeypatch: Any) 
     run.launch = Launch(PAPER, endpoint, bus, 0, tmp_path)
     run.procs, run.roster, run.hosted = _Procs(), Roster(), {}  # type: ignore[assignment]
     run.spawn_vehicles()
-    return run.procs.spawned  # type: ignore[attr-defined, no-any-return]
+    return run.procs.spawned  # type: ignore[attr-defined]
 
 
 def _maps(pid: int) -> str:
