@@ -15,7 +15,6 @@ from __future__ import annotations
 import base64
 import json
 import os
-import secrets
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -82,6 +81,8 @@ class Credential:
 def make_credentials(vehicle_ids: Iterable[int]) -> dict[str, Credential]:
     """Fresh random credentials for the broker and every vehicle of a run, by process name. The user name says whose
     it is (for a human reading the router's log), its random tail makes it unguessable like the password."""
+    import secrets  # here, the supervisor's: its hashlib maps libcrypto (3.4 MB) into every process that reads one
+
     names = [COMMS, *(vehicle_name(v) for v in vehicle_ids)]
     return {name: Credential(name, f"{name.replace(' ', '-')}-{secrets.token_hex(8)}", secrets.token_urlsafe(24))
             for name in names}  # fmt: skip

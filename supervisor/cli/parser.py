@@ -206,6 +206,11 @@ def _add_processes(sub: Commands) -> None:
         "--gamma0", type=_gamma0, action="append", default=[], metavar="[ID=]GAMMA",
         help="the initial gamma of vehicle ID (of the one --id without ID=), when the supervisor resolved 'closest'",
     )  # fmt: skip
+    vehicle.add_argument(
+        "--plan", type=Path, default=None, metavar="FILE",
+        help="what to serve each --id with, as the supervisor hands the processes it starts (a private file of its "
+        "run): the scenario file, --set, --fault, --gamma0, --resume and --start-step are then not read",
+    )  # fmt: skip
     comms = sub.add_parser("comms", help="run the acoustic-link broker (the supervisor starts it)")
     comms.add_argument("scenario", type=Path)
     comms.add_argument("--seed", type=_seed, default=None)

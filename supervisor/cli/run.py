@@ -15,12 +15,13 @@ from supervisor.cli.parser import START_TIMEOUT
 from supervisor.errors import ScenarioError
 
 if TYPE_CHECKING:
-    from collections.abc import Callable
+    from collections.abc import Callable, Sequence
 
     from comms.access import Credential
     from comms.bus import Ending, Extras
     from supervisor.config.scenario_schema import Scenario
     from supervisor.engine.inprocess import RunResult
+    from vehicles.start import VehicleStart
 
 log = logging.getLogger("cpf")
 
@@ -178,48 +179,59 @@ def _report_run(args: argparse.Namespace, scenario: Scenario, result: RunResult,
 
 def vehicle(args: argparse.Namespace) -> int:
     """One vehicle process, or a host of several (vehicles.host): each vehicle on its own session, credential and
-    keys, as if alone."""
+    keys, as if alone. Started by the supervisor (--plan), it serves what the supervisor handed it; started by hand,
+    what it builds from the scenario file."""
+    ids: list[int] = list(dict.fromkeys(args.id))
+    starts = _planned(args.plan, ids) if args.plan is not None else _from_scenario(args, ids)
+    extras = _vehicle_extras(args, ids)
+    if len(ids) == 1:
+        return _serve_vehicle(args, starts[0], extras[ids[0]])(None)
+    from vehicles.host import run_host
+
+    name = "vehicles " + ",".join(map(str, ids))
+    return run_host(name, {s.cfg.vehicle_id: _serve_vehicle(args, s, extras[s.cfg.vehicle_id]) for s in starts})
+
+
+def _planned(plan: Path, ids: list[int]) -> Sequence[VehicleStart]:
+    """The starts the supervisor handed over (vehicles.start: no scenario loaded, no pydantic imported); ScenarioError
+    for a file that is not one, or not of the vehicles of --id."""
+    from vehicles.start import read_starts
+
+    try:
+        starts = read_starts(plan)
+    except ValueError as exc:
+        raise ScenarioError(str(exc)) from None  # '<file>: <problem>'
+    planned = [s.cfg.vehicle_id for s in starts]
+    if planned != ids:
+        raise ScenarioError(f"{plan}: the vehicles of --id {ids} are not those it starts, got {planned}")
+    return starts
+
+
+def _from_scenario(args: argparse.Namespace, ids: list[int]) -> Sequence[VehicleStart]:
+    """The starts of a vehicle started by hand, from the scenario file with --set and --fault (and --gamma0,
+    --resume); ScenarioError for a bad scenario or options that do not fit it."""
     from supervisor.config.scenario import load_scenario
+    from supervisor.config.vehicle_start import vehicle_starts
 
     scenario = load_scenario(args.scenario, args.set, args.fault)
-    ids: list[int] = list(dict.fromkeys(args.id))
     unknown = [vid for vid in ids if vid not in scenario.vehicle_ids]
     if unknown:
         raise ScenarioError(f"{args.scenario}: --id: no vehicle {unknown[0]} in [[vehicles]] {scenario.vehicle_ids}")
     if args.resume is not None and len(ids) > 1:
         raise ScenarioError(f"--resume: restarts one vehicle, got --id {', '.join(map(str, ids))}")
-    extras = _vehicle_extras(args, ids)
     gamma0 = _gamma0_of(args.gamma0, ids)
-    if len(ids) == 1:
-        return _serve_vehicle(args, scenario, ids[0], extras[ids[0]], gamma0.get(ids[0]))(None)
-    from vehicles.host import run_host
-
-    name = "vehicles " + ",".join(map(str, ids))
-    return run_host(name, {vid: _serve_vehicle(args, scenario, vid, extras[vid], gamma0.get(vid)) for vid in ids})
-
-
-def _serve_vehicle(
-    args: argparse.Namespace, scenario: Scenario, vid: int, extras: Extras, gamma0: float | None
-) -> Callable[[Ending | None], int]:
-    """What serves vehicle vid until it ends (its initial state made here, before any serving starts)."""
-    from supervisor.config.fleet import initial_state, radio, restarted_node, vehicle_config
-    from supervisor.config.scenario_digest import hello, vehicle_seed
-    from vehicles.node import run_vehicle
-    from vehicles.runtime import NodeState
-
+    resume = (json.loads(args.resume.read_text()), args.resume_seq) if args.resume is not None else None
     seed = scenario.scenario.seed if args.seed is None else args.seed
-    cfg = vehicle_config(scenario, vid, seed)
-    if args.resume is not None:
-        initial = restarted_node(cfg, json.loads(args.resume.read_text()), args.resume_seq)
-    else:
-        initial = NodeState(initial_state(_starting_at(scenario, vid, gamma0), cfg))
-    neighbours, dt, greeting = (
-        scenario.neighbours(vid),
-        scenario.scenario.step,
-        hello(f"vehicle {vid}", scenario, vehicle_seed(scenario, seed)),
-    )
+    return vehicle_starts(scenario, ids, gamma0, resume, args.start_step, seed)
+
+
+def _serve_vehicle(args: argparse.Namespace, start: VehicleStart, extras: Extras) -> Callable[[Ending | None], int]:
+    """What serves one vehicle until it ends."""
+    from vehicles.node import run_vehicle
+
+    cfg, initial, dt, connect = start.cfg, start.initial, start.dt, [args.connect]
     return lambda ending: run_vehicle(
-        cfg, initial, radio(scenario, vid), neighbours, dt, [args.connect], args.start_step, greeting, extras, ending
+        cfg, initial, start.radio, start.neighbours, dt, connect, start.start_step, start.hello, extras, ending
     )
 
 
@@ -234,15 +246,6 @@ def _gamma0_of(given: list[tuple[int | None, float]], ids: list[int]) -> dict[in
             raise ScenarioError(f"--gamma0: vehicle {vid} is not one this process serves (--id), got {vid}={value!r}")
         out[vid] = value
     return out
-
-
-def _starting_at(scenario: Scenario, vid: int, gamma0: float | None) -> Scenario:
-    """The scenario with vehicle vid's gamma0 set (the supervisor resolved "closest" for it: no search here); the
-    scenario itself, and so its digest, stays the supervisor's."""
-    if gamma0 is None:
-        return scenario
-    vehicles = tuple(v.model_copy(update={"gamma0": gamma0}) if v.id == vid else v for v in scenario.vehicles)
-    return scenario.model_copy(update={"vehicles": vehicles})
 
 
 def comms(args: argparse.Namespace) -> int:

@@ -110,13 +110,13 @@ def _supervisor(
         run_access(sc, bus, endpoint) as access,
         open_session(mode, listen, connect, access.router) as session,
         ProcessGroup(access.env_of, access.fds_of) as procs,
-        tempfile.TemporaryDirectory(prefix="cpf-resume-") as resume_dir,
+        tempfile.TemporaryDirectory(prefix="cpf-run-") as private_dir,
     ):
         inbox = _inbox(session)
         token = session.liveliness().declare_token(SUPERVISOR_ALIVE)
         pubs = Publishers(session)
         hellos = Hellos.of(sc, seed, lambda key: ask_hello(session, key))
-        launch = Launch(path, bus.connect or local(endpoint), bus, seed, Path(resume_dir))
+        launch = Launch(path, bus.connect or local(endpoint), bus, seed, Path(private_dir))
         clock = Clock(sc, pubs, *pacing)
         run = Supervisor(sc, bus=(inbox, pubs), procs=procs, launch=launch, hellos=hellos, intake=intake, clock=clock)
         reason = STOP_END

@@ -7,7 +7,6 @@ handled by scenario.on_vehicle_loss. Scheduled kills and restarts (supervisor.pl
 
 from __future__ import annotations
 
-import json
 import logging
 import time
 from collections.abc import Callable
@@ -16,11 +15,12 @@ from dataclasses import dataclass, field
 from comms.bus import Inbox, Publishers, Received
 from comms.messages import COMMS_ALIVE, Message, vehicle_alive_key
 from supervisor.config.scenario_schema import Scenario
+from supervisor.config.vehicle_start import Resume, vehicle_starts
 from supervisor.engine import interrupts
 from supervisor.engine.clock import Clock
 from supervisor.engine.hosting import cores, default_per_process, groups, host_name, hosted_ids, hosts_chosen
 from supervisor.engine.intake import Intake
-from supervisor.engine.launch import START_TIMEOUT, Launch, gamma0_args
+from supervisor.engine.launch import START_TIMEOUT, Launch
 from supervisor.engine.processes import Child, ProcessGroup
 from supervisor.engine.startup import REPORT_EVERY, Hellos, missing_names
 from supervisor.engine.windows import Reports
@@ -182,16 +182,18 @@ class Supervisor:
             self.roster.expected[vehicle_alive_key(vid)] = f"vehicle {vid}"
             self.hosted[vid] = name
         ids = [arg for vid in vids for arg in ("--id", str(vid))]
-        gammas = [f"{vid}={arg}" for vid in vids for arg in gamma0_args(self.sc, vid)[1:]]
-        self.procs.spawn(
-            name, self.launch.argv("vehicle", *ids, *(a for g in gammas for a in ("--gamma0", g))), CONTROL_ENV
-        )
+        handed = self.launch.handover(name, vehicle_starts(self.sc, vids, seed=self.launch.seed))
+        self.procs.spawn(name, self.launch.argv("vehicle", *ids, *handed), CONTROL_ENV)
 
-    def spawn_vehicle(self, vid: int, resume: list[str] | None = None) -> None:
+    def spawn_vehicle(self, vid: int, resume: Resume | None = None, k: int = 0) -> None:
+        """Vehicle vid in a process of its own (resume: restarted at step k), or awaited if started by hand."""
         self.roster.expected[vehicle_alive_key(vid)] = f"vehicle {vid}"
         if vid not in self.launch.bus.remote:
-            start = resume or gamma0_args(self.sc, vid)
-            self.procs.spawn(f"vehicle {vid}", self.launch.argv("vehicle", "--id", str(vid), *start))
+            name = f"vehicle {vid}"
+            handed = self.launch.handover(
+                name, vehicle_starts(self.sc, [vid], resume=resume, start_step=k, seed=self.launch.seed)
+            )
+            self.procs.spawn(name, self.launch.argv("vehicle", "--id", str(vid), *handed))
 
     def await_alive(self) -> None:
         """Wait for every process the run needs, naming the missing ones every few seconds."""
@@ -263,11 +265,9 @@ class Supervisor:
             self.procs.forget(host)
 
     def _restart_vehicle(self, vid: int, k: int) -> None:
-        state_file = self.launch.resume_dir / f"vehicle-{vid}.json"
-        state_file.write_text(json.dumps(self.intake.last_state[vid]))
         seq = self.intake.last_seq.get(vid, 0)
         self.intake.next_tx.pop(vid, None)  # the restarted process may transmit at once (it forgot what it sent)
-        self.spawn_vehicle(vid, ["--resume", str(state_file), "--start-step", str(k), "--resume-seq", str(seq)])
+        self.spawn_vehicle(vid, (self.intake.last_state[vid], seq), k)
         self.await_alive()
         self.alive = sorted([*self.alive, vid])
 
