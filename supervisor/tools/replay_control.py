@@ -23,12 +23,12 @@ import math
 import threading
 import time
 from collections.abc import Callable
-from typing import Any
+from typing import Any, cast
 
 import zenoh
 
 from comms.messages import ROOT
-from supervisor.tools.replay_player import MAX_SPEED, Command, Done, Player, PlayerState, Publish, Wait
+from supervisor.tools.replay_player import MAX_SPEED, Command, Done, Player, PlayerState, Publish, Verb, Wait
 
 log = logging.getLogger(__name__)
 CONTROL_KEY = f"{ROOT}/replay/control"
@@ -44,9 +44,7 @@ def parse_command(text: str) -> Command:
     if not text:
         return Command("state")
     fields = _json_fields(text) if text.startswith("{") else _text_fields(text)
-    verb = fields.pop("command", None)
-    if verb not in ARGUMENTS:
-        raise ValueError(f"unknown command {verb!r}: expected one of {', '.join(ARGUMENTS)}")
+    verb = _verb(fields.pop("command", None))
     allowed = ARGUMENTS[verb]
     if set(fields) - set(allowed) or (allowed and len(fields) != 1):
         wanted = " or ".join(f"{name}=NUMBER" for name in allowed) or "no argument"
@@ -54,8 +52,13 @@ def parse_command(text: str) -> Command:
     if not allowed:
         return Command(verb)
     ((name, raw),) = fields.items()
-    value = _value(name, raw)
-    return Command("skip" if name == "dt" else verb, value)
+    return Command("skip" if name == "dt" else verb, _value(name, raw))
+
+
+def _verb(verb: Any) -> Verb:
+    if verb not in ARGUMENTS:
+        raise ValueError(f"unknown command {str(verb)[:40]!r}: expected one of {', '.join(ARGUMENTS)}")
+    return cast(Verb, verb)
 
 
 def _json_fields(text: str) -> dict[str, Any]:
@@ -70,7 +73,7 @@ def _json_fields(text: str) -> dict[str, Any]:
 
 def _text_fields(text: str) -> dict[str, Any]:
     verb, *rest = text.split()
-    fields: dict[str, Any] = {"command": verb}
+    fields: dict[str, Any] = {"command": _verb(verb)}
     for item in rest:
         name, equals, value = item.partition("=")
         if not equals or name in fields:

@@ -29,6 +29,7 @@ from comms.messages import ROOT
 NS_PER_S = 1e9
 SEEK_KEY = f"{ROOT}/replay/seek"  # {"from": s, "to": s, "seek": n}: what follows starts at log time `to`
 MAX_SPEED = 1e6  # as `cpf replay --speed`
+ROUNDING = 1e-6  # s: a record this close to its time is due (wall times in float s do not add up exactly)
 MIN_SPEED = 1e-3  # '-' stops halving here: a slower replay would look stopped without saying so
 Record = tuple[str, int, Any]  # (topic, log time ns, message)
 Source = Callable[[float | None], Iterator[Record]]
@@ -121,7 +122,7 @@ class Player:
         if self._anchor is None:  # a pass's first record sets the clock: it goes out at once
             self._anchor = (now, float(record[1]))
         wait = self._due_in(record[1], now)
-        if wait > 0:
+        if wait > ROUNDING:
             return Wait(wait)
         self._next = None
         self._position = record[1]
