@@ -126,6 +126,19 @@ def replay(
                     _bounds(path, window), loop)  # fmt: skip
     control = Control(player)
     session, report.endpoint = _open(connect, listen, zenoh_config)
+    _serve(session, control, report, on_ready, progress, steer)
+    return report
+
+
+def _serve(
+    session: zenoh.Session,
+    control: Control,
+    report: ReplayReport,
+    on_ready: Callable[[str], None] | None,
+    progress: Callable[[float], None] | None,
+    steer: Steer | None,
+) -> None:
+    """The replay on its session, steerable, until it ends; the session is closed however it ends."""
     began = time.perf_counter()
     try:
         with session, contextlib.ExitStack() as steering:
@@ -140,9 +153,8 @@ def replay(
     except KeyboardInterrupt:
         report.interrupted = True
     finally:
-        report.passes, report.rejected = player.passes, control.rejected
+        report.passes, report.rejected = control.passes, control.rejected
     report.wall_time = time.perf_counter() - began
-    return report
 
 
 def _check(
