@@ -81,9 +81,10 @@ class ReplayReport:
         rate = self.messages / max(self.wall_time, 1e-9)
         window = "nothing" if self.first is None else f"t = {self.first:g}-{self.last:g} s"
         passes = f", {self.passes} complete passes" if self.passes != 1 else ""
-        seeks = f", {self.seeks} seeks" if self.seeks else ""
+        seeks = f", {self.seeks} seek{'s' if self.seeks > 1 else ''}" if self.seeks else ""
         stopped = " (interrupted)" if self.interrupted else " (stopped)" if self.stopped else ""
-        rejected = f"; {self.rejected} control commands rejected" if self.rejected else ""
+        plural = "s" if self.rejected > 1 else ""
+        rejected = f"; {self.rejected} control command{plural} rejected" if self.rejected else ""
         return (
             f"replayed {self.messages} messages on {len(self.published)} topics ({window}{passes}{seeks}) "
             f"in {self.wall_time:.2f} s, {rate:.0f} messages/s{stopped}{rejected}"
