@@ -94,6 +94,8 @@ class Collector:
             self._expected = expected
             if len(self._arrived) >= expected:
                 self._reached.set()
+            else:  # an earlier wait_for's count was reached: wait for this one's
+                self._reached.clear()
         if not self._reached.wait(timeout):
             pytest.fail(f"{self.count()} of {expected} messages arrived within {timeout} s")
         with self._lock:

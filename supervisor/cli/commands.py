@@ -69,6 +69,7 @@ def resim(args: argparse.Namespace) -> int:
 
 
 def replay(args: argparse.Namespace) -> int:
+    from supervisor.cli.replay_keys import keyboard
     from supervisor.cli.terminal import ProgressLine, wait_to_start
     from supervisor.tools.replay import replay
 
@@ -76,7 +77,7 @@ def replay(args: argparse.Namespace) -> int:
     try:
         report = replay(
             args.log, args.speed, args.start, args.end, args.loop, args.connect, args.listen,
-            wait_to_start(args.delay), None if args.quiet else progress,
+            wait_to_start(args.delay), None if args.quiet else progress, keyboard, args.zenoh_config,
         )  # fmt: skip
     finally:
         progress.close()

@@ -249,7 +249,13 @@ def _add_log_commands(sub: Commands) -> None:
 
 
 def _add_replay_and_recover(sub: Commands) -> None:
-    again = sub.add_parser("replay", help="publish a recorded run on Zenoh again, with its original timing")
+    again = sub.add_parser(
+        "replay",
+        help="publish a recorded run on Zenoh again, with its original timing",
+        description="Publish a recorded run on Zenoh again. While it plays, queries on cpf/replay/control steer it "
+        "(pause, resume, seek t=T, seek dt=S, speed x=X, state) and so, in a terminal, do the keys: space "
+        "pause/resume, + faster, - slower, left/right seek 10 s, q quit.",
+    )
     again.add_argument("log", type=Path, help="MCAP file written by cpf run")
     again.add_argument("--speed", type=_pace, default=1.0, help="simulated s per wall s (0: as fast as possible)")
     again.add_argument("--start", type=_number, default=None, help="from this simulation time in s (inclusive)")
@@ -260,6 +266,7 @@ def _add_replay_and_recover(sub: Commands) -> None:
     where.add_argument("--connect", default=None, help="join this Zenoh router as a client instead of running one")
     again.add_argument("--delay", type=_pace, default=None, metavar="S", help="start S s after opening, not on Enter")
     again.add_argument("--quiet", action="store_true", help="no progress line")
+    _add_zenoh_config(again)
     repair = sub.add_parser("recover", help="rebuild the summary and index of a log whose writer was killed")
     repair.add_argument("log", type=Path, help="MCAP file, possibly cut short (no footer, partial last chunk)")
     repair.add_argument("--out", type=Path, default=None, help="MCAP file to write (default: <log>.recovered.mcap)")

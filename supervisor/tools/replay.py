@@ -14,6 +14,11 @@ Without `connect` the replayer runs its own Zenoh router (on `listen`, default a
 subscribers to connect to; with `connect` it joins that router as a client. `on_ready` is called with one line
 saying where ("Zenoh router listening on tcp/127.0.0.1:7447") once the session is open and before the first message:
 the command line prints it and waits for Enter or --delay seconds, so subscribers have time to connect.
+
+While it plays it can be steered: paused, resumed, sought to a log time and sped up or slowed down, by queries on
+cpf/replay/control (supervisor.tools.replay_control) and, in a terminal, the keyboard (supervisor.cli.replay_keys).
+The player (supervisor.tools.replay_player) decides what goes out when; a seek publishes a mark on cpf/replay/seek
+and replays from its target, beginning, as a late window does, with the meta, graph and faults in force there.
 """
 
 from __future__ import annotations
@@ -28,12 +33,14 @@ from pathlib import Path
 
 import zenoh
 
-from comms.bus import Publishers, free_port, open_session
+from comms.bus import Extras, Publishers, free_port, open_session, site_config
 from comms.messages import ALIVE_PREFIX, FAULT_KEY, GRAPH_KEY, META_KEY, Message
 from supervisor.errors import ScenarioError
-from supervisor.record.logfile import messages, verify
+from supervisor.record.logfile import messages, open_log, reader_of, verify
 from supervisor.record.recorder import seconds_to_ns
 from supervisor.tools.replay_bus import bus_form, latched
+from supervisor.tools.replay_control import Control, declare_control
+from supervisor.tools.replay_player import Player, Publish
 
 # (topic, log time ns, message); message None: not to be published (skipped)
 Record = tuple[str, int, Message | None]
@@ -56,7 +63,10 @@ class ReplayReport:
     first: float | None = None  # log time (s) of the first message published
     last: float | None = None  # log time (s) of the last message published in the first pass
     wall_time: float = 0.0  # s from the first message published to the end
-    interrupted: bool = False
+    interrupted: bool = False  # Ctrl-C
+    stopped: bool = False  # the user quit (the keyboard's q)
+    seeks: int = 0  # seek marks published (cpf/replay/seek)
+    rejected: int = 0  # control commands that did not parse
 
     @property
     def messages(self) -> int:
@@ -71,11 +81,17 @@ class ReplayReport:
         rate = self.messages / max(self.wall_time, 1e-9)
         window = "nothing" if self.first is None else f"t = {self.first:g}-{self.last:g} s"
         passes = f", {self.passes} complete passes" if self.passes != 1 else ""
-        stopped = " (interrupted)" if self.interrupted else ""
+        seeks = f", {self.seeks} seek{'s' if self.seeks > 1 else ''}" if self.seeks else ""
+        stopped = " (interrupted)" if self.interrupted else " (stopped)" if self.stopped else ""
+        plural = "s" if self.rejected > 1 else ""
+        rejected = f"; {self.rejected} control command{plural} rejected" if self.rejected else ""
         return (
-            f"replayed {self.messages} messages on {len(self.published)} topics ({window}{passes}) "
-            f"in {self.wall_time:.2f} s, {rate:.0f} messages/s{stopped}"
+            f"replayed {self.messages} messages on {len(self.published)} topics ({window}{passes}{seeks}) "
+            f"in {self.wall_time:.2f} s, {rate:.0f} messages/s{stopped}{rejected}"
         )
+
+
+Steer = Callable[[Control], contextlib.AbstractContextManager[object]]  # e.g. the keyboard, while the replay plays
 
 
 def replay(
@@ -88,36 +104,68 @@ def replay(
     listen: str | None = None,
     on_ready: Callable[[str], None] | None = None,
     progress: Callable[[float], None] | None = None,
+    steer: Steer | None = None,
+    zenoh_config: Path | None = None,
 ) -> ReplayReport:
     """Publish the log's messages with start <= t <= end (s) on Zenoh, paced at speed (0: as fast as possible).
 
     ScenarioError (nothing opened yet) for a file that is missing, no MCAP, cut short or damaged (LogError), a window
     that selects nothing, or bad arguments; ConnectionError if the session cannot be opened. Ctrl-C
     (KeyboardInterrupt) ends the replay cleanly: the session is closed and the report, marked interrupted, returned.
-    progress, if given, is called with the log time (s) of every message published.
+    progress, if given, is called with the log time (s) of every message published. While it plays, the replay
+    answers commands on cpf/replay/control (supervisor.tools.replay_control) and steer(control), if given, is
+    entered (after on_ready) to steer it too. zenoh_config: a site's Zenoh config under cpf's settings (its
+    credentials to join a router, or its own router's authentication and access control).
     """
-    _check(path, speed, start, end, connect, listen)
+    _check(path, speed, start, end, connect, listen, zenoh_config)
     verify(path)  # a log cut short or damaged is refused before anything is published
     window = (start, end)
     if _first(path, window) is None:
         raise ScenarioError(f"{path}: no message to replay in {_describe_window(window)}")
-    session, where = _open(connect, listen)
-    report = ReplayReport(where)
-    began = time.perf_counter()
-    try:
-        with session:
-            if on_ready is not None:
-                on_ready(where)
-            began = time.perf_counter()
-            _passes(path, window, speed, loop, Publishers(session), report, progress)
-    except KeyboardInterrupt:
-        report.interrupted = True
-    report.wall_time = time.perf_counter() - began
+    report = ReplayReport("")
+    player = Player(lambda t: _bus_records(path, (start if t is None else t, end), report), speed,
+                    _bounds(path, window), loop)  # fmt: skip
+    control = Control(player)
+    session, report.endpoint = _open(connect, listen, zenoh_config)
+    _serve(session, control, report, on_ready, progress, steer)
     return report
 
 
+def _serve(
+    session: zenoh.Session,
+    control: Control,
+    report: ReplayReport,
+    on_ready: Callable[[str], None] | None,
+    progress: Callable[[float], None] | None,
+    steer: Steer | None,
+) -> None:
+    """The replay on its session, steerable, until it ends; the session is closed however it ends."""
+    began = time.perf_counter()
+    try:
+        with session, contextlib.ExitStack() as steering:
+            queryable = declare_control(session, control)
+            if on_ready is not None:
+                on_ready(report.endpoint)
+            began = time.perf_counter()
+            if steer is not None:
+                steering.enter_context(steer(control))
+            _play(control, Publishers(session), report, progress)
+            queryable.undeclare()
+    except KeyboardInterrupt:
+        report.interrupted = True
+    finally:
+        report.passes, report.rejected = control.passes, control.rejected
+    report.wall_time = time.perf_counter() - began
+
+
 def _check(
-    path: Path, speed: float, start: float | None, end: float | None, connect: str | None, listen: str | None
+    path: Path,
+    speed: float,
+    start: float | None,
+    end: float | None,
+    connect: str | None,
+    listen: str | None,
+    zenoh_config: Path | None,
 ) -> None:
     if math.isnan(speed) or speed < 0:
         raise ScenarioError(f"{path}: --speed: must be >= 0 (0: as fast as possible), got {speed:g}")
@@ -128,6 +176,11 @@ def _check(
         raise ScenarioError(f"{path}: --start ({start:g} s) is after --end ({end:g} s)")
     if connect is not None and listen is not None:
         raise ScenarioError(f"{path}: --listen and --connect exclude each other")
+    if zenoh_config is not None:
+        try:
+            site_config(zenoh_config)
+        except ValueError as exc:
+            raise ScenarioError(f"--zenoh-config: {exc}, got {zenoh_config}") from None
 
 
 def _describe_window(window: tuple[float | None, float | None]) -> str:
@@ -137,11 +190,23 @@ def _describe_window(window: tuple[float | None, float | None]) -> str:
     return f"t = {'the start' if start is None else f'{start:g} s'} to {'the end' if end is None else f'{end:g} s'}"
 
 
-def _open(connect: str | None, listen: str | None) -> tuple[zenoh.Session, str]:
+def _open(connect: str | None, listen: str | None, zenoh_config: Path | None) -> tuple[zenoh.Session, str]:
+    extras = Extras(zenoh_config)
     if connect is not None:
-        return open_session("client", connect=[connect]), f"Zenoh client connected to {connect}"
+        return open_session("client", connect=[connect], extras=extras), f"Zenoh client connected to {connect}"
     endpoint = listen or f"tcp/127.0.0.1:{free_port()}"
-    return open_session("router", listen=[endpoint]), f"Zenoh router listening on {endpoint}"
+    return open_session("router", listen=[endpoint], extras=extras), f"Zenoh router listening on {endpoint}"
+
+
+def _bounds(path: Path, window: tuple[float | None, float | None]) -> tuple[float, float | None]:
+    """The log times (s) a seek is held within: the window, closed by the log's last message where it is open."""
+    start, end = window
+    if end is None:
+        with open_log(path) as stream:
+            summary = reader_of(stream).get_summary()
+        statistics = None if summary is None else summary.statistics
+        end = None if statistics is None else statistics.message_end_time / NS_PER_S
+    return (start or 0.0), end
 
 
 # --- reading the log ------------------------------------------------------------------------------------------
@@ -208,43 +273,19 @@ def _playable(topic: str) -> bool:
 # --- publishing -----------------------------------------------------------------------------------------------
 
 
-def _passes(
-    path: Path,
-    window: tuple[float | None, float | None],
-    speed: float,
-    loop: bool,
-    publishers: Publishers,
-    report: ReplayReport,
-    progress: Callable[[float], None] | None,
+def _play(
+    control: Control, publishers: Publishers, report: ReplayReport, progress: Callable[[float], None] | None
 ) -> None:
-    """One pass over the window, or (loop) one after the other until interrupted."""
-    while True:
-        _pass(path, window, speed, publishers, report, progress)
-        report.passes += 1
-        if not loop:
-            return
-
-
-def _pass(
-    path: Path,
-    window: tuple[float | None, float | None],
-    speed: float,
-    publishers: Publishers,
-    report: ReplayReport,
-    progress: Callable[[float], None] | None,
-) -> None:
-    """One pass over the window: each message put at t0 + (t - t_first) / speed of wall time."""
-    origin: tuple[int, float] | None = None  # (log time ns, wall time) of the pass's first message
-    with contextlib.closing(_bus_records(path, window, report)) as records:
-        for topic, stamp, message in records:
-            if origin is None:
-                origin = (stamp, time.monotonic())
-            elif speed > 0:
-                wait_until(origin[1] + (stamp - origin[0]) / NS_PER_S / speed)
-            publishers.put(topic, message)
-            _count(report, topic, stamp)
-            if progress is not None:
-                progress(stamp / NS_PER_S)
+    """Publish what the player gives, when it is due, until the window is over (not looping) or the user quits."""
+    while isinstance(action := control.next_action(), Publish):
+        publishers.put(action.topic, action.message)
+        if action.mark:
+            report.seeks += 1
+            continue
+        _count(report, action.topic, action.stamp, control.passes)
+        if progress is not None:
+            progress(action.stamp / NS_PER_S)
+    report.stopped = action.quit
 
 
 def wait_until(deadline: float) -> None:
@@ -253,9 +294,9 @@ def wait_until(deadline: float) -> None:
         time.sleep(delay)
 
 
-def _count(report: ReplayReport, topic: str, stamp: int) -> None:
+def _count(report: ReplayReport, topic: str, stamp: int, passes: int) -> None:
     report.published[topic] += 1
     if report.first is None:
         report.first = stamp / NS_PER_S
-    if report.passes == 0:
+    if passes == 0:
         report.last = stamp / NS_PER_S
