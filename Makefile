@@ -6,7 +6,7 @@ STAMP := $(VENV)/.installed
 SCENARIO ?= configs/paper.toml
 OUT ?= runs/paper
 
-.PHONY: run test bench lint typecheck unit clean docs readme
+.PHONY: run test bench lint typecheck unit clean docs readme study
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -28,6 +28,12 @@ docs: $(STAMP)
 # The README's example outputs, rerun with the current code (tests/test_readme.py checks the paper block).
 readme: $(STAMP)
 	$(BIN)/python scripts/readme_numbers.py
+
+# The robustness study (README, "Robustness study"): each effect alone, fix-period and current sweeps; ~4 min of
+# CPU on 2 cores with 4 seeds. Output in runs/study/ (results.csv, table.md, study_*.png).
+SEEDS ?= 4
+study: $(STAMP)
+	$(BIN)/python scripts/robustness_study.py --seeds $(SEEDS) --jobs 2 --out runs/study
 
 bench: $(STAMP)
 	$(BIN)/python -m benchmarks

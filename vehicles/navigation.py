@@ -148,9 +148,11 @@ def _update(x: FloatArray, cov: FloatArray, h: FloatArray, z: FloatArray, noise:
     return x, 0.5 * (cov + cov.T)
 
 
-def navigate(params: NavParams, prior: NavState, s: Sequence[float], k: int, dt: float) -> NavOutput:
+def navigate(
+    params: NavParams, prior: NavState, s: Sequence[float], k: int, dt: float, drift: Float3 = (0.0, 0.0, 0.0)
+) -> NavOutput:
     """One sync step of the navigation computer at t_k = k dt, on the true lifted state s: measure, fuse, dead
-    reckon to t_k + dt."""
+    reckon to t_k + dt. drift: the current in body axes, R' v_c (s's v is relative to the water)."""
     draws = params.rng(_STEP, k)
     n = draws.standard_normal(7)  # always 7 normals, then 1 uniform: no draw depends on another
     lost = draws.random() < params.fix_dropout
@@ -166,7 +168,11 @@ def navigate(params: NavParams, prior: NavState, s: Sequence[float], k: int, dt:
     posterior = NavState(x, cov)
     v_c = v_m - x[3:6]
     held = _held(params, x[0:3] - p, heading_error, v_c - v)
-    return NavOutput(posterior, held, _predict(params, posterior, _heading_rotation(s, heading_error), v_c, dt), fix)
+    # A bottom-locked DVL measures the velocity over ground, v + R' v_c: dead reckoning on v alone would leave the
+    # current out of the estimate, which then drifts away at v_c between fixes. The controller's velocity error
+    # (held) stays the sensor's own error; whether the controller knows the current is [environment]'s business.
+    ground = v_c + np.array(drift)
+    return NavOutput(posterior, held, _predict(params, posterior, _heading_rotation(s, heading_error), ground, dt), fix)
 
 
 def _predict(params: NavParams, post: NavState, r_hat: FloatArray, v_c: FloatArray, dt: float) -> NavState:

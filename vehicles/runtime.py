@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 
 from comms.records import Disturbances, Heard, Transmission
 from vehicles.agent import Telemetry, VehicleConfig, VehicleState, own_estimate, receive, step
+from vehicles.current import body
 from vehicles.estimates import NeighbourEstimate
 from vehicles.navigation import NavOutput, NavState, initial, navigate
 from vehicles.transmission import PeriodicPolicy, Policy, Tdma
@@ -109,4 +110,5 @@ def _navigate(cfg: VehicleConfig, node: NodeState, state: VehicleState, t: float
     if params is None:
         return None
     s = cfg.model.lift(state.x)
-    return navigate(params, node.nav or initial(params, s), s, round(t / dt), dt)
+    drift = (0.0, 0.0, 0.0) if cfg.current is None else body(s[3:12], cfg.current.velocity(t, s[2]))
+    return navigate(params, node.nav or initial(params, s), s, round(t / dt), dt, drift)
