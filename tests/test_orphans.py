@@ -95,8 +95,9 @@ def test_sigkill_of_the_supervisor_during_start_up_leaves_no_child_after_2_s(
     assert left == [], f"killed when {instant} ({len(alive_at_kill)} children then): {left}"
     if instant != "cpf just started":
         assert alive_at_kill  # the kill did come while children were starting
-    # nothing of the children either (their stderr files have no name); the supervisor's resume directory remains
-    assert [p.name for p in tmp_path.glob("cpf-*") if not p.name.startswith("cpf-resume-")] == []
+    # nothing of the children either (their stderr files have no name); the supervisor's private directory (its
+    # hand-over files) remains
+    assert [p.name for p in tmp_path.glob("cpf-*") if not p.name.startswith("cpf-run-")] == []
 
 
 HOLDER = """

@@ -109,7 +109,7 @@ RECORDS: dict[str, tuple[dict[str, Any], Any, Any, Callable[[Any], Any]]] = {
     "reception": (RECEPTIONS["properties"]["receptions"]["items"], dataclasses.replace(DELIVERY, due=100.31),
                   DELIVERY, Delivery.from_message),
     "tick": (TICK, Tick(4, 0.4, True, {2: Disturbances(0.5, True, 0.1, 0.2)}, NETWORK, [1, 2], False, 99.5, 4.0,
-                        True, 9), Tick(4, 0.4, False, {}, None, None, True), Tick.from_message),
+                        True, 9, 20, 100), Tick(4, 0.4, False, {}, None, None, True), Tick.from_message),
     "disturbed vehicle": (TICK["properties"]["vehicles"]["items"], DisturbedVehicle(2, 0.5, True, 0.1, 0.2),
                           DisturbedVehicle(2, None, False, 0.0, 0.0), DisturbedVehicle.from_message),
     "network": (TICK["properties"]["network"], NETWORK, Network(()), Network.from_message),
