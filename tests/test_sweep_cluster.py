@@ -12,6 +12,7 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import IO, Any
 
+import dask
 import pytest
 from distributed import LocalCluster
 from distributed.diagnostics.plugin import SchedulerPlugin
@@ -179,6 +180,17 @@ def test_a_run_whose_worker_dies_runs_again(tmp_path, scenario, local_rows):
     assert killer.killed is not None
     assert done.returncode == 0, done.stderr
     assert read_rows(tmp_path / "dask/results.csv") == local_rows
+
+
+def test_a_run_whose_workers_keep_dying_is_reported(tmp_path, scenario):
+    with dask.config.set({"distributed.scheduler.allowed-failures": 0}), local_cluster(processes=True) as cluster:
+        killer = KillFirstWorker(cluster.scheduler)
+        cluster.scheduler.add_plugin(killer)
+        done = cpf("sweep", str(scenario), *GRID, "--cluster", cluster.scheduler_address, "--out", "dask", cwd=tmp_path)
+    assert killer.killed is not None
+    assert done.returncode == 1
+    last = done.stderr.strip().splitlines()[-1]
+    assert last.startswith("cpf: error: sweep run ") and "failed" in last and "died" in last, done.stderr
 
 
 def test_jobs_are_for_local_sweeps(tmp_path, scenario):

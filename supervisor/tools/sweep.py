@@ -1,7 +1,8 @@
 """Monte-Carlo robustness sweeps: one scenario over a grid of parameter values and seeds.
 
 `cpf sweep SCENARIO --param comms.loss=0,0.1,0.2 [--param ...] --seeds 20 --jobs N --out DIR` runs every
-combination (each with its own seed), one process per job. Every finished run leaves DIR/runs/<id>.json, so an
+combination (each with its own seed), one process per job, or on a Dask cluster with --cluster ADDRESS
+(supervisor.tools.sweep_cluster). Every finished run's row comes back here and is left in DIR/runs/<id>.json, so an
 interrupted sweep resumes where it stopped. Results: DIR/results.csv (one row per run) and, per swept parameter, a
 plot of the steady-state coordination error and the packets sent and delivered against it, with the spread across
 seeds. Steady state: the largest max|gamma_i - gamma_j| over the final STEADY_STATE_WINDOW seconds of a run.
