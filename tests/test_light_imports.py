@@ -8,7 +8,7 @@ import json
 import subprocess
 import sys
 
-HEAVY = ("matplotlib", "scipy", "mcap", "tqdm", "zstandard", "cryptography", "jsonschema")
+HEAVY = ("matplotlib", "scipy", "mcap", "tqdm", "zstandard", "cryptography", "jsonschema", "dask", "distributed")
 
 
 def imported_by(code: str) -> set[str]:

@@ -33,15 +33,16 @@ def info(args: argparse.Namespace) -> int:
 
 def sweep(args: argparse.Namespace) -> int:
     from supervisor.cli.terminal import SweepBar
-    from supervisor.tools.sweep import parse_param, sweep
+    from supervisor.tools.sweep import Cluster, parse_param, sweep
     from supervisor.tools.sweep_plot import plot_sweep
 
-    if args.seeds < 1 or args.jobs < 1:
-        raise ScenarioError(f"--seeds and --jobs must be >= 1, got {args.seeds} and {args.jobs}")
+    if args.cluster is not None and args.jobs is not None:  # the workers' threads say how many runs go at once
+        raise ScenarioError(f"--jobs: local processes, not for a sweep on a --cluster, got {args.jobs}")
     params = [parse_param(text) for text in args.param]
+    cluster = None if args.cluster is None else Cluster(args.cluster, args.cluster_timeout)
     bar = SweepBar()
     try:
-        rows = sweep(args.scenario, params, args.seeds, args.jobs, args.out, args.engine, bar)
+        rows = sweep(args.scenario, params, args.seeds, args.jobs or 2, args.out, args.engine, bar, cluster)
     finally:
         bar.close()
     print(f"{len(rows)} runs -> {args.out / 'results.csv'}")

@@ -236,7 +236,17 @@ def _add_log_commands(sub: Commands) -> None:
     sweep.add_argument(
         "--seeds", type=_whole(1, 10**6), default=10, help="runs per parameter combination, seeds 0..N-1"
     )
-    sweep.add_argument("--jobs", type=_whole(1, 256), default=2, help="runs at once, one process each")
+    sweep.add_argument(
+        "--jobs", type=_whole(1, 256), default=None, help="runs at once, one local process each (default 2)"
+    )
+    sweep.add_argument(
+        "--cluster", default=None, metavar="ADDRESS",
+        help="send the runs to this Dask scheduler (tcp://host:8786) instead; its workers need cpf-cosim installed",
+    )  # fmt: skip
+    sweep.add_argument(
+        "--cluster-timeout", type=_within(0.1, 1e6), default=30.0, metavar="S",
+        help="s to wait for the scheduler to answer, and for a worker while the cluster has none (default 30)",
+    )  # fmt: skip
     sweep.add_argument("--engine", choices=["inprocess", "zenoh"], default="inprocess", help="identical results")
     sweep.add_argument("--out", type=Path, required=True, help="directory: runs/, results.csv, plots")
     resim = sub.add_parser("resim", help="re-run the vehicles against the receptions recorded in a log")

@@ -1,7 +1,8 @@
 """Monte-Carlo robustness sweeps: one scenario over a grid of parameter values and seeds.
 
 `cpf sweep SCENARIO --param comms.loss=0,0.1,0.2 [--param ...] --seeds 20 --jobs N --out DIR` runs every
-combination (each with its own seed), one process per job. Every finished run leaves DIR/runs/<id>.json, so an
+combination (each with its own seed), one process per job, or on a Dask cluster with --cluster ADDRESS
+(supervisor.tools.sweep_cluster). Every finished run's row comes back here and is left in DIR/runs/<id>.json, so an
 interrupted sweep resumes where it stopped. Results: DIR/results.csv (one row per run) and, per swept parameter, a
 plot of the steady-state coordination error and the packets sent and delivered against it, with the spread across
 seeds. Steady state: the largest max|gamma_i - gamma_j| over the final STEADY_STATE_WINDOW seconds of a run.
@@ -9,6 +10,7 @@ seeds. Steady state: the largest max|gamma_i - gamma_j| over the final STEADY_ST
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import hashlib
 import io
@@ -16,8 +18,8 @@ import json
 import math
 import tempfile
 import tomllib
-from collections.abc import Callable, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from concurrent.futures import FIRST_COMPLETED, CancelledError, Executor, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass
 from itertools import product
 from pathlib import Path
@@ -27,6 +29,17 @@ from supervisor.analysis.metrics import STEADY_STATE_WINDOW
 from supervisor.analysis.summary import coordination_error
 from supervisor.config.scenario import split_outside_brackets
 from supervisor.errors import ScenarioError, SimulationError
+
+WATCH_INTERVAL = 1.0  # s between looks at a cluster's workers while no run finishes
+
+
+@dataclass(frozen=True, slots=True)
+class Cluster:
+    """Where a cluster sweep sends its runs: a Dask scheduler's address, and how long to wait for it to answer or,
+    when it has no worker, for one to join."""
+
+    address: str
+    timeout: float
 
 
 @dataclass(frozen=True, slots=True)
@@ -78,26 +91,30 @@ def _override(key: str, value: Any) -> str:
     return f"{key}={json.dumps(value)}"
 
 
-def run_one(scenario_path: str, spec: RunSpec, runs_dir: str, engine: str) -> dict[str, Any]:
-    """One run of the sweep (in a worker process): its metrics row, also written to runs_dir/<id>.json."""
+def run_one(scenario_name: str, scenario_bytes: bytes, spec: RunSpec, engine: str) -> dict[str, Any]:
+    """One run of the sweep, wherever it runs (a local worker process, a Dask worker): its metrics row. The scenario
+    comes as the file's bytes and is written into the run's temporary directory under its own name (the Zenoh
+    engine's processes load it from there), so a cluster's workers need no filesystem shared with the client."""
     from supervisor.analysis.summary import summarize
     from supervisor.config.derived import intervals, tube_radius
     from supervisor.config.scenario import load_scenario
     from supervisor.engine.progress import Progress
 
     overrides = tuple(_override(k, v) for k, v in spec.settings)
-    scenario = load_scenario(Path(scenario_path), overrides)
-    quiet = Progress(scenario.scenario.duration, io.StringIO(), enabled=False)
     with tempfile.TemporaryDirectory(prefix="cpf-sweep-") as tmp:
-        result = _run(engine, scenario, Path(scenario_path), overrides, Path(tmp) / "run.mcap", spec.seed, quiet)
+        path = Path(tmp, "scenario")
+        path.mkdir()
+        path = path / scenario_name
+        path.write_bytes(scenario_bytes)
+        scenario = load_scenario(path, overrides)
+        quiet = Progress(scenario.scenario.duration, io.StringIO(), enabled=False)
+        result = _run(engine, scenario, path, overrides, Path(tmp) / "run.mcap", spec.seed, quiet)
     rep = scenario.report
     tube = tube_radius(scenario)
     summary = summarize(
         result.series, scenario.scenario.duration, intervals(scenario), rep.transient, tube, rep.coordination_tolerance
     )
-    row = {**dict(spec.settings), "seed": spec.seed, **_measures(result, summary, scenario)}
-    Path(runs_dir, f"{spec.run_id}.json").write_text(json.dumps(row))
-    return row
+    return {**dict(spec.settings), "seed": spec.seed, **_measures(result, summary, scenario)}
 
 
 def _run(engine: str, scenario: Any, path: Path, overrides: tuple[str, ...], out: Path, seed: int, quiet: Any) -> Any:
@@ -138,36 +155,76 @@ def sweep(
     out_dir: Path,
     engine: str = "inprocess",
     progress: Callable[[int, int], None] | None = None,
+    cluster: Cluster | None = None,
 ) -> list[dict[str, Any]]:
     """Run (or resume) the whole sweep; returns every row, in grid order. progress, if given, is called with (runs
-    done, runs in all) before the first run and after each (the command line draws a bar with it)."""
+    done, runs in all) before the first run and after each (the command line draws a bar with it). cluster: the
+    runs go to a Dask scheduler (supervisor.tools.sweep_cluster; jobs is then the cluster's business), else to jobs
+    local processes. Either way the rows come back here and are written here, so resuming works alike."""
     from supervisor.config.scenario import load_scenario
 
     for param in params:  # every value must make a valid scenario: fail before running anything
         for value in param.values:
             load_scenario(scenario_path, [_override(param.key, value)])
-    runs_dir = out_dir / "runs"
-    runs_dir.mkdir(parents=True, exist_ok=True)
+    scenario_bytes = scenario_path.read_bytes()
     specs = grid(params, seeds)
-    todo = [s for s in specs if not (runs_dir / f"{s.run_id}.json").exists()]
-    done = len(specs) - len(todo)
-    if progress is not None:
-        progress(done, len(specs))
-    with ProcessPoolExecutor(max_workers=max(1, jobs)) as pool:
-        futures = {pool.submit(run_one, str(scenario_path), s, str(runs_dir), engine): s for s in todo}
-        for future in as_completed(futures):
-            try:
-                future.result()
-            except Exception as exc:  # one failed run stops the sweep with its name; finished runs are kept
-                for other in futures:
-                    other.cancel()
-                raise SimulationError(f"sweep run {futures[future].run_id} failed: {exc}") from exc
-            done += 1
-            if progress is not None:
-                progress(done, len(specs))
+    runs_dir = out_dir / "runs"
+    with _executor(jobs, cluster) as (pool, watch):  # a cluster that cannot be reached: nothing written yet
+        runs_dir.mkdir(parents=True, exist_ok=True)
+        todo = [s for s in specs if not (runs_dir / f"{s.run_id}.json").exists()]
+        done = len(specs) - len(todo)
+        if progress is not None:
+            progress(done, len(specs))
+        futures = {pool.submit(run_one, scenario_path.name, scenario_bytes, s, engine): s for s in todo}
+        try:
+            for future in _completed(futures, watch):
+                _keep(runs_dir, futures[future], future)
+                done += 1
+                if progress is not None:
+                    progress(done, len(specs))
+        finally:  # a failed run, Ctrl-C: the runs not started are not (a Dask client would wait for them on exit)
+            for future in futures:
+                future.cancel()
     rows = [json.loads((runs_dir / f"{s.run_id}.json").read_text()) for s in specs]
     write_csv(rows, out_dir / "results.csv")
     return rows
+
+
+@contextlib.contextmanager
+def _executor(jobs: int, cluster: Cluster | None) -> Iterator[tuple[Executor, Callable[[], None] | None]]:
+    """Where the runs go, and what to check while waiting for them (None: nothing)."""
+    if cluster is None:
+        with ProcessPoolExecutor(max_workers=max(1, jobs)) as pool:
+            yield pool, None
+        return
+    from supervisor.tools.sweep_cluster import cluster_executor
+
+    with cluster_executor(cluster.address, cluster.timeout) as (pool, watch):
+        yield pool, watch.watch
+
+
+def _completed(futures: Iterable[Future[dict[str, Any]]], watch: Callable[[], None] | None) -> Iterator[Any]:
+    """The futures as they finish; watch() every WATCH_INTERVAL s while none does."""
+    pending = set(futures)
+    while pending:
+        finished, pending = wait(pending, None if watch is None else WATCH_INTERVAL, FIRST_COMPLETED)
+        if not finished and watch is not None:
+            watch()
+        yield from finished
+
+
+def _keep(runs_dir: Path, spec: RunSpec, future: Future[dict[str, Any]]) -> None:
+    """A finished run's row to runs_dir/<id>.json (whole or not at all: a resumed sweep trusts every file there);
+    SimulationError naming the run if it failed (the runs done are kept)."""
+    try:
+        row = future.result()
+    except CancelledError:  # not by us: a Dask client cancels its futures when it loses the scheduler
+        raise SimulationError(f"sweep run {spec.run_id} was cancelled (Dask scheduler lost?)") from None
+    except Exception as exc:
+        raise SimulationError(f"sweep run {spec.run_id} failed: {exc}") from exc
+    part = runs_dir / f"{spec.run_id}.json.part"
+    part.write_text(json.dumps(row))
+    part.replace(runs_dir / f"{spec.run_id}.json")
 
 
 def write_csv(rows: list[dict[str, Any]], path: Path) -> None:
