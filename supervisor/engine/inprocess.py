@@ -214,7 +214,7 @@ def run_inprocess(
         run.finish(steps * dt)
         stepping = progress.stepping_time()
         wall = progress.done(steps * dt)
-        messages = rec.count
+    messages = rec.count  # once the log is closed: its Foxglove scene is written as it closes
     books = run.books
     return RunResult(
         run.builder.series(), wall, messages, books.counts, books.stats.snapshot(steps * dt), books.lambda2,
