@@ -106,7 +106,8 @@ def _run(engine: str, scenario: Any, path: Path, overrides: tuple[str, ...], out
     if engine == "zenoh":
         from supervisor.engine.cosim import BusOptions, run_zenoh
 
-        return run_zenoh(scenario, path, text, out, seed, "lockstep", 1.0, BusOptions(overrides=overrides), quiet)
+        bus = BusOptions(overrides=overrides)  # its log is deleted once its metrics are taken: no scene to build
+        return run_zenoh(scenario, path, text, out, seed, "lockstep", 1.0, bus, quiet, scene=False)
     from supervisor.engine.inprocess import run_inprocess
 
     return run_inprocess(scenario, str(path), text, None, seed, quiet)  # its log would be deleted unread

@@ -1,13 +1,15 @@
 """Foxglove messages as plain dicts, in the JSON form of Foxglove's schemas (foxglove_schemas): each function
 builds one message or one part of one, with every field the schema requires.
 
-Numbers are rounded (positions to 0.1 mm, quaternion components to 1e-6): a view needs no more, and the log keeps
-the exact values on its cpf channels; the rounding is what keeps the scene small, and it is deterministic.
+Numbers go in as given: callers round them first, many at once (`rounded`: positions to 0.1 mm, quaternion
+components to 1e-6). A view needs no more, the log keeps the exact values on its cpf channels, and the rounding is
+what keeps the scene small (it is deterministic: numpy's, on the same numbers).
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from functools import cache, lru_cache
 from typing import Any
 
 import numpy as np
@@ -23,6 +25,13 @@ IDENTITY: Point = (0.0, 0.0, 0.0, 1.0)
 LINE_STRIP, LINE_LIST = 0, 2  # foxglove.LineType
 
 
+def rounded(values: Sequence[Point] | NDArray[np.float64], digits: int = POSITION_DIGITS) -> list[list[float]]:
+    """Rows of numbers rounded to `digits` decimals, as Python floats (one numpy call for many points)."""
+    out: list[list[float]] = np.round(np.asarray(values, dtype=np.float64), digits).tolist()
+    return out
+
+
+@lru_cache(maxsize=4)  # every entity of an instant has its time: one dict for them all
 def timestamp(t: float) -> Dict:
     """Simulation time t (s) as foxglove's time: the log time of the message, in whole ns as the recorder rounds it."""
     ns = round(t * 1e9)
@@ -30,20 +39,25 @@ def timestamp(t: float) -> Dict:
 
 
 def vector(p: Point) -> Dict:
-    return {"x": round(float(p[0]), POSITION_DIGITS), "y": round(float(p[1]), POSITION_DIGITS),
-            "z": round(float(p[2]), POSITION_DIGITS)}  # fmt: skip
+    """Python floats in (`rounded` gives them): the hot path of the scene, ~30000 points a paper run."""
+    return {"x": p[0], "y": p[1], "z": p[2]}
 
 
 def quaternion(q: Point) -> Dict:
-    x, y, z, w = (round(float(c), QUATERNION_DIGITS) for c in q)
-    return {"x": x, "y": y, "z": z, "w": w}
+    return {"x": q[0], "y": q[1], "z": q[2], "w": q[3]}
 
 
-def pose(position: Point, orientation: Point = IDENTITY) -> Dict:
-    return {"position": vector(position), "orientation": quaternion(orientation)}
+UNROTATED = quaternion(IDENTITY)  # shared by every message that uses it: JSON writes it out each time
+ORIGIN = {"position": vector((0.0, 0.0, 0.0)), "orientation": UNROTATED}
 
 
+def pose(position: Point, orientation: Point | None = None) -> Dict:
+    return {"position": vector(position), "orientation": UNROTATED if orientation is None else quaternion(orientation)}
+
+
+@cache
 def colour(c: Colour) -> Dict:
+    """A colour's dict, one per colour (a scene has a few dozen): never to be changed by its users."""
     return {"r": c[0], "g": c[1], "b": c[2], "a": c[3]}
 
 
@@ -92,7 +106,7 @@ def arrow(position: Point, orientation: Point, length: float, c: Colour) -> Dict
 
 
 def sphere(position: Point, diameter: float, c: Colour) -> Dict:
-    return {"pose": pose(position), "size": vector((diameter, diameter, diameter)), "color": colour(c)}
+    return {"pose": pose(position), "size": {"x": diameter, "y": diameter, "z": diameter}, "color": colour(c)}
 
 
 def text(position: Point, words: str, c: Colour, size: float = 14.0) -> Dict:
@@ -110,6 +124,6 @@ def line(
 ) -> Dict:
     """A line strip or list through points (world frame); colours: one per point (then c is unused), or none.
     thickness in pixels (scale invariant)."""
-    return {"type": kind, "pose": pose((0.0, 0.0, 0.0)), "thickness": thickness, "scale_invariant": True,
+    return {"type": kind, "pose": ORIGIN, "thickness": thickness, "scale_invariant": True,
             "points": [vector(p) for p in points], "color": colour(c), "colors": [colour(x) for x in colours],
             "indices": []}  # fmt: skip

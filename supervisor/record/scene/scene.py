@@ -24,21 +24,22 @@ from __future__ import annotations
 import json
 import logging
 from collections import Counter
+from collections.abc import Iterator
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from supervisor.record.scene import primitives as fx
 from supervisor.record.scene.foxglove_schemas import PATHS_TOPIC, SCENE_TOPIC, TRANSFORMS_TOPIC, trail_topic
 from supervisor.record.scene.geometry import quaternions
-from supervisor.record.scene.history import FleetHistory, Link, Outcome, Snapshot
+from supervisor.record.scene.history import FleetHistory, Link, Outcome
 from supervisor.record.scene.paths import desired_paths
 
 log = logging.getLogger(__name__)
 
 SceneMessage = tuple[str, float, dict[str, Any]]  # (topic, simulation time s, message)
-TRAIL_SECONDS = 60.0
+TRAIL_SECONDS = 30.0
 TRAIL_SPACING = 2.0  # s between a trail's poses
 VEHICLE_LENGTH = 2.0  # m: the arrow (a REMUS 100 is 1.6 m long)
 TARGET_DIAMETER = 0.6  # m
@@ -76,29 +77,39 @@ class FleetScene:
     def take(self, topic: str, message: Any) -> None:
         self.history.take(topic, message)
 
-    def messages(self) -> list[SceneMessage]:
+    def messages(self) -> Iterator[SceneMessage]:
         return scene_messages(self.history)
 
 
-def scene_messages(h: FleetHistory) -> list[SceneMessage]:
-    """Every Foxglove message of the history, in (time, topic) order; none without the run's meta or states."""
+def scene_messages(h: FleetHistory) -> Iterator[SceneMessage]:
+    """Every Foxglove message of the history, in (time, topic) order; none without the run's meta or states.
+    Made as they are asked for: a long run's scene is never all in memory (nor in the garbage collector's way)."""
     if h.meta is None or not h.states:
-        return []
-    out: list[SceneMessage] = []
+        return
     paths = desired_paths(h)
     if paths:
-        entities = [fx.entity(0.0, f"path_{vid}", lines=[fx.line(fx.LINE_STRIP, points, 2.0, _colour(h, vid, 0.6))])
+        entities = [fx.entity(0.0, f"path_{vid}", lines=[fx.line(fx.LINE_STRIP, fx.rounded(points), 2.0,
+                                                                  _colour(h, vid, 0.6))])
                     for vid, points in sorted(paths.items())]  # fmt: skip
-        out.append((PATHS_TOPIC, 0.0, fx.scene_update(entities)))
+        yield PATHS_TOPIC, 0.0, fx.scene_update(entities)
     state = _Sweep(h)
     for k in sorted(h.states):
-        out += state.instant(k)
-    return out
+        yield from state.instant(k)
 
 
 def _colour(h: FleetHistory, vid: int, alpha: float = 1.0) -> fx.Colour:
     ids = h.meta.vehicles if h.meta is not None else ()
     return vehicle_colour(ids.index(vid) if vid in ids else vid, alpha)
+
+
+class _Placed(NamedTuple):
+    """A vehicle as last published: gamma, and its position, virtual target and attitude rounded for the view."""
+
+    gamma: float
+    position: list[float]
+    target: list[float]
+    orientation: list[float]  # x, y, z, w
+    pose: dict[str, Any]  # position and orientation as foxglove.Pose
 
 
 class _Sweep:
@@ -115,7 +126,8 @@ class _Sweep:
         self.edges: tuple[Link, ...] = h.meta.edges if h.meta is not None else ()
         self.acting: Counter[tuple[str, str]] = Counter()  # (kind, detail as JSON) of the faults acting
         self.last: dict[Link, Outcome] = {}
-        self.known: dict[int, tuple[Snapshot, tuple[float, ...]]] = {}  # vehicle -> last snapshot, quaternion
+        self.known: dict[int, _Placed] = {}  # vehicle -> as last published
+        self.placed = _placements(h)
         self.trails: dict[int, list[tuple[int, dict[str, Any]]]] = {}  # vehicle -> (k, pose) samples
 
     def instant(self, k: int) -> list[SceneMessage]:
@@ -125,10 +137,10 @@ class _Sweep:
         self._advance(k)
         present = self.h.states[k]
         ids = sorted(present)
-        qs = quaternions(np.array([present[v].rotation for v in ids]))
-        for vid, q in zip(ids, qs, strict=True):
-            self.known[vid] = (present[vid], tuple(float(c) for c in q))
-        transforms = [fx.frame_transform(t, frame_of(v), present[v].position, self.known[v][1]) for v in ids]
+        self.known.update({v: self.placed[(k, v)] for v in ids})
+        transforms = [
+            fx.frame_transform(t, frame_of(v), self.known[v].position, self.known[v].orientation) for v in ids
+        ]
         out: list[SceneMessage] = [(TRANSFORMS_TOPIC, t, fx.frame_transforms(transforms))]
         out.append((SCENE_TOPIC, t, fx.scene_update(self._entities(t, set(present)))))
         out += [(trail_topic(v), t, self._trail(t, k, v)) for v in ids]
@@ -160,40 +172,41 @@ class _Sweep:
         return entities
 
     def _vehicle(self, t: float, vid: int, present: bool, acting: list[tuple[str, dict[str, Any]]]) -> dict[str, Any]:
-        snap, q = self.known[vid]
+        v = self.known[vid]
         faults = [kind for kind, detail in acting if detail.get("vehicle") == vid]
-        label = f"AUV {vid}\nγ = {snap.gamma:.2f}" + "".join(f"\n{kind}" for kind in faults)
-        if not present:
-            label = f"AUV {vid}: no state" + "".join(f"\n{kind}" for kind in faults)
-        above = (snap.position[0], snap.position[1], snap.position[2] + LABEL_HEIGHT)
-        colour = _colour(self.h, vid) if present else GREY
+        label = f"AUV {vid}\nγ = {v.gamma:.2f}" if present else f"AUV {vid}: no state"
+        label += "".join(f"\n{kind}" for kind in faults)
+        above = [v.position[0], v.position[1], round(v.position[2] + LABEL_HEIGHT, fx.POSITION_DIGITS)]
+        colour, faded = (_colour(self.h, vid) if present else GREY), _colour(self.h, vid, 0.6)
         return fx.entity(
             t, frame_of(vid),
-            arrows=[fx.arrow(snap.position, q, VEHICLE_LENGTH, colour)],
-            spheres=[fx.sphere(snap.target, TARGET_DIAMETER, _colour(self.h, vid, 0.6))],
-            lines=[fx.line(fx.LINE_STRIP, [snap.position, snap.target], 1.0, _colour(self.h, vid, 0.6))],
+            arrows=[fx.arrow(v.position, v.orientation, VEHICLE_LENGTH, colour)],
+            spheres=[fx.sphere(v.target, TARGET_DIAMETER, faded)],
+            lines=[fx.line(fx.LINE_STRIP, [v.position, v.target], 1.0, faded)],
             texts=[fx.text(above, label, RED if faults else WHITE)],
-            metadata=fx.metadata({"gamma": f"{snap.gamma:.6g}", "faults": ", ".join(faults) or "none"}),
+            metadata=fx.metadata({"gamma": f"{v.gamma:.6g}", "faults": ", ".join(faults) or "none"}),
         )  # fmt: skip
 
     def _links(self, t: float, acting: list[tuple[str, dict[str, Any]]]) -> dict[str, Any]:
         """Each directed link of the graph in force, between two vehicles placed: the sender's half of the segment
         between them, coloured by its last packet's fate; a link fault's kind written at the middle of that half."""
-        points, colours, labels, fates = [], [], [], {}
+        ends, colours, where, kinds_at, fates = [], [], [], [], {}
         for s, r in sorted({(i, j) for i, j in self.edges} | {(j, i) for i, j in self.edges}):
             if s not in self.known or r not in self.known:
                 continue
-            a, b = np.array(self.known[s][0].position), np.array(self.known[r][0].position)
+            a, b = np.array(self.known[s].position), np.array(self.known[r].position)
             fate = self.last.get((s, r))
             word = "none yet" if fate is None else fate[3] or fate[2]
             colour = UNHEARD if fate is None else LINK_COLOURS.get(word, UNHEARD)
-            points += [a, (a + b) / 2]
+            ends += [a, (a + b) / 2]
             colours += [colour, colour]
             fates[f"{s}->{r}"] = word
             kinds = [kind for kind, detail in acting if _on_link(detail, s, r)]
             if kinds:
-                labels.append(fx.text(0.75 * a + 0.25 * b, " ".join(kinds), RED))
-        lines = [fx.line(fx.LINE_LIST, points, 3.0, UNHEARD, colours)] if points else []
+                where.append(0.75 * a + 0.25 * b)
+                kinds_at.append(" ".join(kinds))
+        labels = [fx.text(p, words, RED) for p, words in zip(fx.rounded(where), kinds_at, strict=True)] if where else []
+        lines = [fx.line(fx.LINE_LIST, fx.rounded(ends), 3.0, UNHEARD, colours)] if ends else []
         return fx.entity(t, "links", lines=lines, texts=labels, metadata=fx.metadata(fates))
 
     def _fleet(self, t: float, acting: list[tuple[str, dict[str, Any]]]) -> dict[str, Any]:
@@ -201,16 +214,15 @@ class _Sweep:
         kinds = [kind for kind, detail in acting if not {"vehicle", "sender"} & set(detail)]
         if not kinds or not self.known:
             return fx.entity(t, "fleet")
-        centre = np.mean([snap.position for snap, _ in self.known.values()], axis=0)
-        above = centre + np.array([0.0, 0.0, 3 * LABEL_HEIGHT])
+        centre = np.mean([v.position for v in self.known.values()], axis=0)
+        above = fx.rounded([centre + np.array([0.0, 0.0, 3 * LABEL_HEIGHT])])[0]
         return fx.entity(t, "fleet", texts=[fx.text(above, "\n".join(kinds), RED)])
 
     def _trail(self, t: float, k: int, vid: int) -> dict[str, Any]:
         """The vehicle's poses of the last TRAIL_SECONDS, one every TRAIL_SPACING s (steps counted from 0, so a
         trail's poses stay where they are as it moves on), then its current pose."""
         assert self.h.meta is not None
-        snap, q = self.known[vid]
-        here = fx.pose(snap.position, q)
+        here = self.known[vid].pose
         stride = max(1, round(TRAIL_SPACING / (self.h.every * self.h.meta.step)))  # in published instants
         trail = self.trails.setdefault(vid, [])
         while trail and (k - trail[0][0]) * self.h.meta.step > TRAIL_SECONDS:
@@ -219,6 +231,19 @@ class _Sweep:
         if (k // self.h.every) % stride == 0:
             trail.append((k, here))
         return fx.poses_in_frame(t, [*poses, here])
+
+
+def _placements(h: FleetHistory) -> dict[tuple[int, int], _Placed]:
+    """(k, vehicle) -> the vehicle placed at published step k: every number rounded, in a few numpy calls for the
+    whole run (per instant, numpy's overhead was most of the scene's time)."""
+    keys = [(k, v) for k in sorted(h.states) for v in sorted(h.states[k])]
+    snaps = [h.states[k][v] for k, v in keys]
+    positions = np.array([s.position for s in snaps])
+    targets = np.array([s.target for s in snaps])
+    targets = np.where(np.isfinite(targets), targets, positions)  # a diverged error: no target to show
+    qs = fx.rounded(quaternions(np.array([s.rotation for s in snaps])), fx.QUATERNION_DIGITS)
+    rows = zip(keys, snaps, fx.rounded(positions), fx.rounded(targets), qs, strict=True)
+    return {key: _Placed(snap.gamma, p, target, q, fx.pose(p, q)) for key, snap, p, target, q in rows}
 
 
 def _key(detail: dict[str, Any]) -> str:
