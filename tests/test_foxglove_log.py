@@ -19,7 +19,7 @@ from supervisor.record import logfile
 from supervisor.record.recorder import Recorder
 from supervisor.record.scene.foxglove_schemas import is_scene_topic, schema, schema_name
 from supervisor.record.scene_log import add_scene, scene_of_log
-from tests.conftest import CONFIGS, shortened
+from tests.conftest import CONFIGS, ROOT, shortened
 from tests.procs import cpf
 from tests.test_faults_e2e import EVERY_KIND, fault_args
 
@@ -149,3 +149,23 @@ def test_readers_of_cpf_records_still_read_the_log(logs, tmp_path):
     report = cpf("report", str(logs["inprocess"]), "--out", "figs", cwd=tmp_path)
     assert report.returncode == 0, report.stderr
     assert (tmp_path / "figs" / "metrics.json").exists()
+
+
+def test_the_shipped_layout_names_only_topics_and_fields_the_log_has(logs):
+    """docs/foxglove/cpf-layout.json (Foxglove's layout format, as in foxglove-sdk's examples): its 3-D panel's
+    topics and its plots' message paths (topic.field) are in a log of the paper fleet."""
+    layout = json.loads((ROOT / "docs" / "foxglove" / "cpf-layout.json").read_text())
+    panels = layout["configById"]
+    assert {layout["layout"]["first"], *json.dumps(layout["layout"]).split('"')} >= set(panels)
+    with logs["inprocess"].open("rb") as stream:
+        summary = make_reader(stream).get_summary()
+    assert summary is not None
+    topics = {ch.topic for ch in summary.channels.values()}
+    last = {m.topic: m.message for m in logfile.messages(logs["inprocess"])}
+    three_d = next(config for name, config in panels.items() if name.startswith("3D!"))
+    assert three_d["followTf"] == "world" and set(three_d["topics"]) <= topics
+    plotted = [p["value"] for name, config in panels.items() if name.startswith("Plot!") for p in config["paths"]]
+    assert len(plotted) >= 6
+    for path in plotted:
+        topic, field = path.split(".")
+        assert topic in topics and isinstance(last[topic][field], float), path
