@@ -22,6 +22,7 @@ from supervisor.engine.inprocess import run_inprocess
 from supervisor.engine.progress import Progress
 from supervisor.errors import ScenarioError
 from supervisor.record.recorder import read_messages, seconds_to_ns
+from supervisor.record.scene.foxglove_schemas import is_scene_topic
 from supervisor.tools.replay import ReplayReport, replay
 from supervisor.tools.replay_bus import bus_form, latched
 
@@ -48,7 +49,8 @@ def log(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 @pytest.fixture(scope="module")
 def raw(log: Path) -> Logged:
-    return read_messages(log)
+    """The log's cpf records (its Foxglove scene is not replayed: no run publishes it on the bus)."""
+    return [record for record in read_messages(log) if not is_scene_topic(record[0])]
 
 
 @pytest.fixture(scope="module")

@@ -177,6 +177,7 @@ class _Collected:
 def load_run(path: Path) -> RunData:
     """Read a run's MCAP into arrays; LogError (pointing to `cpf recover`) for a log cut short or damaged,
     ScenarioError naming the topic and the field for a record that does not read."""
+    logfile.verify(path)  # damage anywhere refuses the log, also in chunks the report skips (its Foxglove scene)
     got = _Collected()
     for topic, _, message in logfile.messages(path, _wanted):
         try:

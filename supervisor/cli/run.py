@@ -129,13 +129,14 @@ def _simulate(args: argparse.Namespace, scenario: Scenario, out: Path) -> RunRes
     progress = Progress(scenario.scenario.duration, sys.stderr, enabled=not args.quiet)
     speed = 1.0 if args.speed is None else args.speed
     if args.engine == "inprocess":
-        return run_inprocess(scenario, str(args.scenario), text, out, seed, progress)
+        return run_inprocess(scenario, str(args.scenario), text, out, seed, progress, scene=args.foxglove)
     timeout = START_TIMEOUT if args.start_timeout is None else args.start_timeout
     changes = (tuple(args.set), tuple(args.fault))
     bus = BusOptions(args.listen, args.connect, args.remote, *changes, timeout, args.credentials_dir, args.zenoh_config)
     bus.per_process = args.vehicles_per_process
     logging.getLogger("cpf.engine").setLevel(logging.INFO)  # "waiting for ...": --quiet or not
-    return run_zenoh(scenario, args.scenario, text, out, seed, args.clock, speed, bus, progress, args.max_window)
+    how = (args.clock, speed, bus, progress, args.max_window)
+    return run_zenoh(scenario, args.scenario, text, out, seed, *how, scene=args.foxglove)
 
 
 def _report_run(args: argparse.Namespace, scenario: Scenario, result: RunResult, out: Path) -> None:

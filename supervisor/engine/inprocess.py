@@ -195,13 +195,19 @@ class _InProcessRun:
 
 @interrupts.deferring
 def run_inprocess(
-    scenario: Scenario, scenario_file: str, scenario_toml: str, out: Path | None, seed: int, progress: Progress
+    scenario: Scenario,
+    scenario_file: str,
+    scenario_toml: str,
+    out: Path | None,
+    seed: int,
+    progress: Progress,
+    scene: bool = True,
 ) -> RunResult:
     """Run the scenario, record every message to out (MCAP; None: only counted, for a sweep), and return what the
-    summary needs."""
+    summary needs. scene: the log gets the run's Foxglove channels (record.scene)."""
     dt = scenario.scenario.step
     steps = steps_of(scenario)
-    with Recorder(out) if out is not None else Tally() as rec:
+    with Recorder(out, scene) if out is not None else Tally() as rec:
         rec.limit(scenario.scenario.duration)
         meta = RunMeta.of(scenario, scenario_file, scenario_toml, seed, "inprocess", "lockstep")
         rec.write(META_KEY, 0.0, meta.to_message())
@@ -214,7 +220,7 @@ def run_inprocess(
         run.finish(steps * dt)
         stepping = progress.stepping_time()
         wall = progress.done(steps * dt)
-        messages = rec.count
+    messages = rec.count  # once the log is closed: its Foxglove scene is written as it closes
     books = run.books
     return RunResult(
         run.builder.series(), wall, messages, books.counts, books.stats.snapshot(steps * dt), books.lambda2,

@@ -32,6 +32,8 @@ from comms.messages import Message
 from comms.schemas import schema_for
 from supervisor.errors import ScenarioError
 from supervisor.record.fast_mcap import FastWriter
+from supervisor.record.scene.foxglove_schemas import MESSAGE_ENCODING, SCHEMA_ENCODING, schema_data, schema_name
+from supervisor.record.scene.scene import FleetScene
 
 PROFILE = ""  # no ROS profile: plain JSON channels
 FLUSH_INTERVAL = 0.5  # s of wall time: the most a SIGKILL can take (the next write after it flushes)
@@ -85,10 +87,15 @@ def in_use(path: Path) -> bool:
 
 
 class Recorder:
-    """Writes messages to an MCAP file; use as a context manager."""
+    """Writes messages to an MCAP file; use as a context manager.
 
-    def __init__(self, path: Path) -> None:
+    With `scene` (the default) every record written also feeds the run's Foxglove scene (record.scene), whose
+    messages go into the log, on their own channels, when it closes: built from the whole run, they depend on which
+    records were written, never on the order they came in, so both engines write the same scene."""
+
+    def __init__(self, path: Path, scene: bool = True) -> None:
         self.path = path
+        self.scene: FleetScene | None = FleetScene() if scene else None
         self._stream: IO[bytes] = open_exclusively(path)
         self._writer = FastWriter(self._stream, CHUNK_BYTES, CompressionType.ZSTD)
         self._writer.start(profile=PROFILE, library="cpf-cosim")
@@ -102,6 +109,13 @@ class Recorder:
 
     def _channel(self, key: str) -> int:
         if key not in self._channels:
+            foxglove = schema_name(key)
+            if foxglove is not None:  # Foxglove's own schema, as Foxglove ships it
+                schema_id = self._writer.register_schema(
+                    name=foxglove, encoding=SCHEMA_ENCODING, data=schema_data(foxglove)
+                )
+                self._channels[key] = self._writer.register_channel(key, MESSAGE_ENCODING, schema_id)
+                return self._channels[key]
             schema = schema_for(key)
             schema_id = 0  # no schema: a key we do not know still gets recorded
             if schema is not None:
@@ -138,6 +152,8 @@ class Recorder:
             self._sequence % SEQUENCES,
         )
         self.count += 1
+        if self.scene is not None:
+            self.scene.take(key, message)
         if time.monotonic() >= self._deadline:
             self.flush()
         return True
@@ -169,11 +185,21 @@ class Recorder:
     def close(self) -> None:
         if not self._stream.closed:
             try:
-                self._writer.finish()
+                self._write_scene()
             finally:
-                self._stream.close()
+                try:
+                    self._writer.finish()
+                finally:
+                    self._stream.close()
             if self.refused:
                 log.warning("%s: %d message(s) not recorded: %s", self.path, self.refused.total(), self._refusals())
+
+    def _write_scene(self) -> None:
+        """The run's Foxglove scene, built from every record written, after them (MCAP readers order by log time)."""
+        scene, self.scene = self.scene, None
+        if scene is not None:
+            for topic, t, message in scene.messages():
+                self.write(topic, t, message)
 
     def _refusals(self) -> str:
         return "; ".join(f"{count} on {key}: {why}" for (key, why), count in sorted(self.refused.items()))

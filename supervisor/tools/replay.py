@@ -38,6 +38,7 @@ from comms.messages import ALIVE_PREFIX, FAULT_KEY, GRAPH_KEY, META_KEY, Message
 from supervisor.errors import ScenarioError
 from supervisor.record.logfile import messages, open_log, reader_of, verify
 from supervisor.record.recorder import seconds_to_ns
+from supervisor.record.scene.foxglove_schemas import is_scene_topic
 from supervisor.tools.replay_bus import bus_form, latched
 from supervisor.tools.replay_control import Control, declare_control
 from supervisor.tools.replay_player import Player, Publish
@@ -223,9 +224,9 @@ def _records(path: Path, window: tuple[float | None, float | None]) -> Generator
     log that is missing, not an MCAP, cut short or damaged."""
     start, end = window
     playable: dict[str, bool] = {}
-    for topic, stamp, message in messages(
-        path, None, None if start is None else seconds_to_ns(start), None if end is None else seconds_to_ns(end)
-    ):
+    begin, until = None if start is None else seconds_to_ns(start), None if end is None else seconds_to_ns(end)
+    # The log's Foxglove scene (record.scene) is its view of the run: no run publishes it on the bus.
+    for topic, stamp, message in messages(path, lambda topic: not is_scene_topic(topic), begin, until):
         if topic not in playable:
             playable[topic] = _playable(topic)
         yield topic, stamp, message if playable[topic] and isinstance(message, dict) else None

@@ -123,7 +123,8 @@ def _run(engine: str, scenario: Any, path: Path, overrides: tuple[str, ...], out
     if engine == "zenoh":
         from supervisor.engine.cosim import BusOptions, run_zenoh
 
-        return run_zenoh(scenario, path, text, out, seed, "lockstep", 1.0, BusOptions(overrides=overrides), quiet)
+        bus = BusOptions(overrides=overrides)  # its log is deleted once its metrics are taken: no scene to build
+        return run_zenoh(scenario, path, text, out, seed, "lockstep", 1.0, bus, quiet, scene=False)
     from supervisor.engine.inprocess import run_inprocess
 
     return run_inprocess(scenario, str(path), text, None, seed, quiet)  # its log would be deleted unread
@@ -161,11 +162,7 @@ def sweep(
     done, runs in all) before the first run and after each (the command line draws a bar with it). cluster: the
     runs go to a Dask scheduler (supervisor.tools.sweep_cluster; jobs is then the cluster's business), else to jobs
     local processes. Either way the rows come back here and are written here, so resuming works alike."""
-    from supervisor.config.scenario import load_scenario
-
-    for param in params:  # every value must make a valid scenario: fail before running anything
-        for value in param.values:
-            load_scenario(scenario_path, [_override(param.key, value)])
+    _check_values(scenario_path, params)
     scenario_bytes = scenario_path.read_bytes()
     specs = grid(params, seeds)
     runs_dir = out_dir / "runs"
@@ -188,6 +185,15 @@ def sweep(
     rows = [json.loads((runs_dir / f"{s.run_id}.json").read_text()) for s in specs]
     write_csv(rows, out_dir / "results.csv")
     return rows
+
+
+def _check_values(scenario_path: Path, params: Sequence[Param]) -> None:
+    """Every value must make a valid scenario: ScenarioError before anything runs."""
+    from supervisor.config.scenario import load_scenario
+
+    for param in params:
+        for value in param.values:
+            load_scenario(scenario_path, [_override(param.key, value)])
 
 
 @contextlib.contextmanager
