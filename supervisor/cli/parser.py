@@ -11,6 +11,7 @@ from typing import TypeAlias
 from supervisor.engine import resim_settings  # light: the table only, for the help text
 
 START_TIMEOUT = 60.0  # s: cpf run's default --start-timeout
+LIVE_PORT = 8765  # --live without a port: Foxglove's default for a WebSocket connection (record.live.DEFAULT_PORT)
 Commands: TypeAlias = "argparse._SubParsersAction[argparse.ArgumentParser]"  # a string: not subscriptable at run time
 
 
@@ -153,6 +154,7 @@ def _add_run(sub: Commands) -> None:
         "--start-timeout", type=_positive, default=None, metavar="S",
         help=f"zenoh engine: s to wait for every process to come alive (default: {START_TIMEOUT:g})",
     )  # fmt: skip
+    _add_live(run, "watch the run in Foxglove as it runs")
     run.add_argument("--quiet", action="store_true", help="no progress line")
     _add_scenario_changes(run)
 
@@ -226,6 +228,14 @@ def _add_processes(sub: Commands) -> None:
     )
 
 
+def _add_live(command: argparse.ArgumentParser, what: str) -> None:
+    command.add_argument(
+        "--live", type=_whole(0, 65535), nargs="?", const=LIVE_PORT, default=None, metavar="PORT",
+        help=f"{what}: serve Foxglove's WebSocket protocol on 127.0.0.1:PORT (default {LIVE_PORT}; 0: a free port, "
+        "printed); in Foxglove: Open connection -> Foxglove WebSocket",
+    )  # fmt: skip
+
+
 def _add_log_commands(sub: Commands) -> None:
     """report, sweep, resim, info: what to do with runs and their logs."""
     report = sub.add_parser("report", help="figures and metrics (metrics.json) of a recorded run")
@@ -279,6 +289,7 @@ def _add_replay_and_recover(sub: Commands) -> None:
     where.add_argument("--listen", default=None, help="endpoint of the replayer's router (default: a free local port)")
     where.add_argument("--connect", default=None, help="join this Zenoh router as a client instead of running one")
     again.add_argument("--delay", type=_pace, default=None, metavar="S", help="start S s after opening, not on Enter")
+    _add_live(again, "watch the replay in Foxglove (the log's scene, or one built from its records)")
     again.add_argument("--quiet", action="store_true", help="no progress line")
     _add_zenoh_config(again)
     repair = sub.add_parser("recover", help="rebuild the summary and index of a log whose writer was killed")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import logging
 import os
@@ -15,12 +16,13 @@ from supervisor.cli.parser import START_TIMEOUT
 from supervisor.errors import ScenarioError
 
 if TYPE_CHECKING:
-    from collections.abc import Callable, Sequence
+    from collections.abc import Callable, Iterator, Sequence
 
     from comms.access import Credential
     from comms.bus import Ending, Extras
     from supervisor.config.scenario_schema import Scenario
     from supervisor.engine.inprocess import RunResult
+    from supervisor.record.live import LiveView
     from vehicles.start import VehicleStart
 
 log = logging.getLogger("cpf")
@@ -92,9 +94,24 @@ def _bus_errors(args: argparse.Namespace) -> list[str]:
 def run(args: argparse.Namespace) -> int:
     scenario = _checked_scenario(args)
     out = _log_path(args, scenario)
-    result = _simulate(args, scenario, out)
+    with _live_view(args.live, "cpf run") as live:
+        result = _simulate(args, scenario, out, live)
     _report_run(args, scenario, result, out)
     return 0
+
+
+@contextlib.contextmanager
+def _live_view(port: int | None, command: str) -> Iterator[LiveView | None]:
+    """With --live: a Foxglove WebSocket server, its address on stderr, stopped on the way out whatever happens
+    (the end, an error, Ctrl-C); ScenarioError if the port cannot be had. Without: None, and foxglove not imported."""
+    if port is None:
+        yield None
+        return
+    from supervisor.record.live import LiveView
+
+    with LiveView(port) as live:
+        print(f"{command}: live view on {live.url} (Foxglove: Open connection -> Foxglove WebSocket)", file=sys.stderr)
+        yield live
 
 
 def _checked_scenario(args: argparse.Namespace) -> Scenario:
@@ -119,7 +136,7 @@ def _log_path(args: argparse.Namespace, scenario: Scenario) -> Path:
     return Path(args.out) if args.out is not None else Path("runs") / f"{scenario.scenario.name}.mcap"
 
 
-def _simulate(args: argparse.Namespace, scenario: Scenario, out: Path) -> RunResult:
+def _simulate(args: argparse.Namespace, scenario: Scenario, out: Path, live: LiveView | None) -> RunResult:
     from supervisor.engine.cosim import BusOptions, run_zenoh
     from supervisor.engine.inprocess import run_inprocess
     from supervisor.engine.progress import Progress
@@ -129,14 +146,14 @@ def _simulate(args: argparse.Namespace, scenario: Scenario, out: Path) -> RunRes
     progress = Progress(scenario.scenario.duration, sys.stderr, enabled=not args.quiet)
     speed = 1.0 if args.speed is None else args.speed
     if args.engine == "inprocess":
-        return run_inprocess(scenario, str(args.scenario), text, out, seed, progress, scene=args.foxglove)
+        return run_inprocess(scenario, str(args.scenario), text, out, seed, progress, args.foxglove, live)
     timeout = START_TIMEOUT if args.start_timeout is None else args.start_timeout
     changes = (tuple(args.set), tuple(args.fault))
     bus = BusOptions(args.listen, args.connect, args.remote, *changes, timeout, args.credentials_dir, args.zenoh_config)
     bus.per_process = args.vehicles_per_process
     logging.getLogger("cpf.engine").setLevel(logging.INFO)  # "waiting for ...": --quiet or not
     how = (args.clock, speed, bus, progress, args.max_window)
-    return run_zenoh(scenario, args.scenario, text, out, seed, *how, scene=args.foxglove)
+    return run_zenoh(scenario, args.scenario, text, out, seed, *how, scene=args.foxglove, live=live)
 
 
 def _report_run(args: argparse.Namespace, scenario: Scenario, result: RunResult, out: Path) -> None:

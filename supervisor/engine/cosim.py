@@ -48,7 +48,7 @@ from supervisor.engine.realtime_timing import RealtimeTiming
 from supervisor.engine.startup import Hellos, ask_hello
 from supervisor.engine.supervisor import Supervisor
 from supervisor.record.meta import RunMeta
-from supervisor.record.recorder import Recorder
+from supervisor.record.recorder import LiveSink, Recorder
 
 __all__ = ["START_TIMEOUT", "BusOptions", "run_zenoh"]
 STEP_TIMEOUT = 60.0  # s for one sync step before the run is declared stuck
@@ -68,17 +68,18 @@ def run_zenoh(
     progress: Progress,
     longest: int | None = None,
     scene: bool = True,
+    live: LiveSink | None = None,
 ) -> RunResult:
     """Run the scenario over Zenoh with one process per vehicle and a broker; record everything to out. longest:
     lockstep time windows of at most this many steps (1: one bus round trip per step; None: as long as nothing can
-    cross the bus). scene: the log gets the run's Foxglove channels (record.scene)."""
+    cross the bus). scene: the log gets the run's Foxglove channels (record.scene); live: sees every record too."""
     if load_scenario(scenario_path, bus.overrides, bus.faults) != scenario:  # what every child process will load
         raise ValueError(f"run_zenoh: the scenario is not {scenario_path} with bus.overrides and bus.faults")
     endpoint = bus.listen or f"tcp/127.0.0.1:{free_port()}"
     timing = RealtimeTiming(scenario.scenario.step) if clock == "realtime" else None
     how = (scenario_path, endpoint, bus, seed)
     with (
-        Recorder(out, scene) as rec,
+        Recorder(out, scene, live) as rec,
         _supervisor(scenario, how, Intake(scenario, rec, timing), (clock, speed, longest)) as run,
     ):
         # In the log from the start: a run that never starts (a process missing or refused) still says what it was.

@@ -46,7 +46,7 @@ from supervisor.errors import SimulationError
 from supervisor.plan.faults import ProcessAction
 from supervisor.plan.schedule import Schedule, StepPlan
 from supervisor.record.meta import RunMeta
-from supervisor.record.recorder import Recorder, Sink, Tally
+from supervisor.record.recorder import LiveSink, Recorder, Sink, Tally
 from vehicles.runtime import NodeState
 from vehicles.step import step_records
 
@@ -202,12 +202,13 @@ def run_inprocess(
     seed: int,
     progress: Progress,
     scene: bool = True,
+    live: LiveSink | None = None,
 ) -> RunResult:
     """Run the scenario, record every message to out (MCAP; None: only counted, for a sweep), and return what the
-    summary needs. scene: the log gets the run's Foxglove channels (record.scene)."""
+    summary needs. scene: the log gets the run's Foxglove channels (record.scene); live: sees every record too."""
     dt = scenario.scenario.step
     steps = steps_of(scenario)
-    with Recorder(out, scene) if out is not None else Tally() as rec:
+    with Recorder(out, scene, live) if out is not None else Tally() as rec:
         rec.limit(scenario.scenario.duration)
         meta = RunMeta.of(scenario, scenario_file, scenario_toml, seed, "inprocess", "lockstep")
         rec.write(META_KEY, 0.0, meta.to_message())

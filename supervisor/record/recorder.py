@@ -23,7 +23,7 @@ import time
 from collections import Counter
 from pathlib import Path
 from types import TracebackType
-from typing import IO, Any
+from typing import IO, Any, Protocol
 
 import orjson
 from mcap.writer import CompressionType
@@ -86,16 +86,26 @@ def in_use(path: Path) -> bool:
     return False
 
 
+class LiveSink(Protocol):
+    """Who sees the records as they are written (record.live.LiveView: `cpf run --live`)."""
+
+    def take(self, topic: str, t: float, message: Any) -> None: ...
+
+    def finish(self) -> None: ...
+
+
 class Recorder:
     """Writes messages to an MCAP file; use as a context manager.
 
     With `scene` (the default) every record written also feeds the run's Foxglove scene (record.scene), whose
     messages go into the log, on their own channels, when it closes: built from the whole run, they depend on which
-    records were written, never on the order they came in, so both engines write the same scene."""
+    records were written, never on the order they came in, so both engines write the same scene. With `live`, every
+    record written is handed to it too, and it is told when the run is over (as the log closes)."""
 
-    def __init__(self, path: Path, scene: bool = True) -> None:
+    def __init__(self, path: Path, scene: bool = True, live: LiveSink | None = None) -> None:
         self.path = path
         self.scene: FleetScene | None = FleetScene() if scene else None
+        self.live = live
         self._stream: IO[bytes] = open_exclusively(path)
         self._writer = FastWriter(self._stream, CHUNK_BYTES, CompressionType.ZSTD)
         self._writer.start(profile=PROFILE, library="cpf-cosim")
@@ -154,6 +164,8 @@ class Recorder:
         self.count += 1
         if self.scene is not None:
             self.scene.take(key, message)
+        if self.live is not None:
+            self.live.take(key, t, message)
         if time.monotonic() >= self._deadline:
             self.flush()
         return True
@@ -184,6 +196,7 @@ class Recorder:
 
     def close(self) -> None:
         if not self._stream.closed:
+            live, self.live = self.live, None  # the log's scene is the log's: the live view has its own
             try:
                 self._write_scene()
             finally:
@@ -191,6 +204,8 @@ class Recorder:
                     self._writer.finish()
                 finally:
                     self._stream.close()
+            if live is not None:  # the run is over: the live view's last instants
+                live.finish()
             if self.refused:
                 log.warning("%s: %d message(s) not recorded: %s", self.path, self.refused.total(), self._refusals())
 

@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
 import numpy as np
+from numpy.typing import NDArray
 
 from supervisor.record.scene import primitives as fx
 from supervisor.record.scene.foxglove_schemas import PATHS_TOPIC, SCENE_TOPIC, TRANSFORMS_TOPIC, trail_topic
@@ -88,13 +89,18 @@ def scene_messages(h: FleetHistory) -> Iterator[SceneMessage]:
         return
     paths = desired_paths(h)
     if paths:
-        entities = [fx.entity(0.0, f"path_{vid}", lines=[fx.line(fx.LINE_STRIP, fx.rounded(points), 2.0,
-                                                                  _colour(h, vid, 0.6))])
-                    for vid, points in sorted(paths.items())]  # fmt: skip
-        yield PATHS_TOPIC, 0.0, fx.scene_update(entities)
+        yield PATHS_TOPIC, 0.0, paths_update(h, 0.0, paths)
     state = _Sweep(h)
     for k in sorted(h.states):
         yield from state.instant(k)
+
+
+def paths_update(h: FleetHistory, t: float, paths: dict[int, NDArray[np.float64]]) -> dict[str, Any]:
+    """The foxglove/paths message at time t: each vehicle's path (its points) as a line strip in its colour."""
+    entities = [fx.entity(t, f"path_{vid}", lines=[fx.line(fx.LINE_STRIP, fx.rounded(points), 2.0,
+                                                        _colour(h, vid, 0.6))])
+                for vid, points in sorted(paths.items())]  # fmt: skip
+    return fx.scene_update(entities)
 
 
 def _colour(h: FleetHistory, vid: int, alpha: float = 1.0) -> fx.Colour:

@@ -1,0 +1,129 @@
+"""The live view: a run's (or a replay's) Foxglove scene and cpf records served over Foxglove's WebSocket protocol
+(`cpf run --live`, `cpf replay --live`), by the foxglove-sdk's server (Rust, on its own threads).
+
+What it serves: the foxglove/* channels with Foxglove's schemas (record.scene.foxglove_schemas), built by the log's
+own builder as the records come in (record.scene.live.LiveScene), or taken from a log that has them (a replay); and
+every cpf record on its topic with its cpf JSON schema, in the log's form, so a layout made for a log works live.
+Times are simulation times (ns, as the log's), and the server announces the simulation time (Foxglove's Time
+capability, as foxglove_bridge does with a simulated clock), so Foxglove's clock follows the run, not the wall.
+
+While nobody is connected, a record costs a dictionary look-up and the server's check that no client subscribes to
+its channel: nothing is encoded. The scene's instants are built whatever happens (a client that connects late gets
+the trails and link colours of the run so far). The foxglove package is imported here only: `cpf` without --live and
+the vehicle processes never load it.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+from types import TracebackType
+from typing import TYPE_CHECKING, Any
+
+import orjson
+
+from comms.schemas import schema_for
+from supervisor.errors import ScenarioError
+from supervisor.record.scene.foxglove_schemas import MESSAGE_ENCODING, SCHEMA_ENCODING, is_scene_topic, schema_data
+from supervisor.record.scene.foxglove_schemas import schema_name as foxglove_schema
+from supervisor.record.scene.live import LiveScene
+
+if TYPE_CHECKING:
+    import foxglove
+
+log = logging.getLogger(__name__)
+HOST = "127.0.0.1"  # localhost only: the protocol has no authentication
+DEFAULT_PORT = 8765  # Foxglove's default for a WebSocket connection
+CLOCK_PERIOD = 0.1  # s of simulated time between the server's time announcements
+JSON_OPTIONS = orjson.OPT_NON_STR_KEYS | orjson.OPT_SERIALIZE_NUMPY  # as the recorder: NaN and inf as null
+
+
+class LiveView:
+    """A Foxglove WebSocket server on HOST:port (0: a free port; `port` is the one it got) for one run or replay.
+    `take` each record as it is made; `finish` when the run is over; `stop` (or leave the `with`) in every case.
+    build_scene: build the foxglove/* channels from the records (False: they come from a log, through `take`).
+    ScenarioError if the port cannot be had."""
+
+    def __init__(self, port: int, build_scene: bool = True) -> None:
+        import foxglove
+
+        self._foxglove = foxglove
+        self._context = foxglove.Context()  # its own channels and server: nothing shared with another view
+        try:
+            self._server = foxglove.start_server(
+                name="cpf", host=HOST, port=port, context=self._context, capabilities=[foxglove.Capability.Time]
+            )
+        except RuntimeError as exc:  # FoxgloveError: the port is taken, or not ours to bind
+            raise ScenarioError(f"--live: cannot serve on {HOST}:{port} ({exc}), got {port}") from None
+        self.port: int = self._server.port
+        self.scene: LiveScene | None = LiveScene() if build_scene else None
+        self._build = build_scene
+        self._channels: dict[str, foxglove.Channel] = {}
+        self._clock = -1.0  # s: the simulation time last announced
+        self.served = 0  # messages handed to the server with a client subscribed
+
+    @property
+    def url(self) -> str:
+        return f"ws://{HOST}:{self.port}"
+
+    def take(self, topic: str, t: float, message: Any) -> None:
+        """A record at simulation time t (s): served on its topic, and into the scene (a foxglove/* message of a
+        log is served as it is)."""
+        self.publish(topic, t, message)
+        if self.scene is not None and not is_scene_topic(topic):
+            for scene_topic, at, scene_message in self.scene.take(topic, message):
+                self.publish(scene_topic, at, scene_message)
+
+    def publish(self, topic: str, t: float, message: Any) -> None:
+        """One message on its channel at simulation time t (s), encoded only if a client subscribes to it."""
+        channel = self._channels.get(topic)
+        if channel is None:
+            channel = self._channels[topic] = self._channel(topic)
+        if channel.has_sinks():
+            channel.log(orjson.dumps(message, option=JSON_OPTIONS), log_time=round(t * 1e9))
+            self.served += 1
+        if t >= self._clock + CLOCK_PERIOD:
+            self._clock = t
+            self._server.broadcast_time(round(t * 1e9))
+
+    def finish(self) -> None:
+        """The run is over: the scene's last instants out."""
+        if self.scene is not None:
+            for topic, t, message in self.scene.finish():
+                self.publish(topic, t, message)
+
+    def restart(self) -> None:
+        """What follows starts again at another time (a replay's seek): a new scene, the clock free to go back."""
+        self.scene = LiveScene() if self._build else None
+        self._clock = -1.0
+
+    def stop(self) -> None:
+        """The server stopped (clients disconnected) and the channels closed; again: nothing."""
+        try:
+            self._server.stop()
+        finally:
+            for channel in self._channels.values():
+                channel.close()
+            self._channels.clear()
+
+    def _channel(self, topic: str) -> foxglove.Channel:
+        """A topic's channel: Foxglove's schema for a foxglove/* topic, the cpf schema of a cpf key (none for a key
+        cpf does not know: any JSON)."""
+        fox = self._foxglove
+        name = foxglove_schema(topic)
+        if name is not None:
+            schema = fox.Schema(name=name, encoding=SCHEMA_ENCODING, data=schema_data(name))
+            return fox.Channel(topic, schema=schema, message_encoding=MESSAGE_ENCODING, context=self._context)
+        cpf = schema_for(topic)
+        if cpf is None:
+            return fox.Channel(topic, message_encoding=MESSAGE_ENCODING, context=self._context)
+        schema = fox.Schema(name=str(cpf["title"]), encoding=SCHEMA_ENCODING, data=json.dumps(cpf).encode())
+        return fox.Channel(topic, schema=schema, message_encoding=MESSAGE_ENCODING, context=self._context)
+
+    def __enter__(self) -> LiveView:
+        return self
+
+    def __exit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        self.stop()
