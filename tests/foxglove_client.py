@@ -1,22 +1,25 @@
 """A Foxglove WebSocket client for the tests (the `websockets` package, synchronous), speaking Foxglove's WebSocket
 protocol (github.com/foxglove/ws-protocol, v1) as Foxglove does. Its subprotocol was `foxglove.websocket.v1`; the
 foxglove-sdk server (0.30) answers only to its new name, `foxglove.sdk.v1` (rust/foxglove/src/websocket/handshake.rs),
-so the client offers both, as Foxglove does. The protocol: the server sends serverInfo and advertise (JSON text), the client
-subscribes to channel ids, the server sends binary messageData frames (opcode 1: subscription id u32, log time u64
-ns, then the message, here JSON) and time frames (opcode 2: u64 ns)."""
+so the client offers both, as Foxglove does. The protocol: the server sends serverInfo and advertise (JSON text), the
+client subscribes to channel ids, the server sends binary messageData frames (opcode 1: subscription id u32, log time
+u64 ns, then the message, here JSON) and time frames (opcode 2: u64 ns)."""
 
 from __future__ import annotations
 
+import contextlib
 import json
 import struct
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
 from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import ClientConnection, connect
+from websockets.typing import Subprotocol
 
-SUBPROTOCOLS = ["foxglove.sdk.v1", "foxglove.websocket.v1"]
+SUBPROTOCOLS = [Subprotocol("foxglove.sdk.v1"), Subprotocol("foxglove.websocket.v1")]
 MESSAGE_DATA, TIME = 1, 2
 WAIT = 20.0  # s: a frame not here by then is a failure (a hung server), not a timing assertion
 
@@ -38,14 +41,16 @@ class FoxgloveClient:
     times: list[int] = field(default_factory=list)  # the server's time frames (ns)
 
     @classmethod
-    def open(cls, port: int, wanted: set[str] = frozenset()) -> FoxgloveClient:  # type: ignore[assignment]
-        """Connected, serverInfo read, and advertisements read until every wanted topic is advertised."""
-        ws = connect(f"ws://127.0.0.1:{port}", subprotocols=SUBPROTOCOLS, open_timeout=WAIT, proxy=None)  # type: ignore[list-item]
-        client = cls(ws)
-        assert ws.subprotocol in SUBPROTOCOLS
-        while not client.server_info or not wanted <= set(client.channels):
-            client._take(ws.recv(timeout=WAIT))
-        return client
+    @contextlib.contextmanager
+    def open(cls, port: int, wanted: set[str]) -> Iterator[FoxgloveClient]:
+        """Connected, serverInfo read, and advertisements read until every wanted topic is advertised; closed on
+        the way out."""
+        with connect(f"ws://127.0.0.1:{port}", subprotocols=SUBPROTOCOLS, open_timeout=WAIT, proxy=None) as ws:
+            client = cls(ws)
+            assert ws.subprotocol in SUBPROTOCOLS
+            while not client.server_info or not wanted <= set(client.channels):
+                client._take(ws.recv(timeout=WAIT))
+            yield client
 
     def subscribe(self, topics: list[str]) -> None:
         subscriptions = []

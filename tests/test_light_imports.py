@@ -8,7 +8,8 @@ import json
 import subprocess
 import sys
 
-HEAVY = ("matplotlib", "scipy", "mcap", "tqdm", "zstandard", "cryptography", "jsonschema", "dask", "distributed")
+HEAVY = ("matplotlib", "scipy", "mcap", "tqdm", "zstandard", "cryptography", "jsonschema", "dask", "distributed",
+         "foxglove", "websockets")  # fmt: skip
 
 
 def imported_by(code: str) -> set[str]:

@@ -71,15 +71,17 @@ def resim(args: argparse.Namespace) -> int:
 
 def replay(args: argparse.Namespace) -> int:
     from supervisor.cli.replay_keys import keyboard
+    from supervisor.cli.run import live_view
     from supervisor.cli.terminal import ProgressLine, wait_to_start
     from supervisor.tools.replay import replay
 
     progress = ProgressLine()
     try:
-        report = replay(
-            args.log, args.speed, args.start, args.end, args.loop, args.connect, args.listen,
-            wait_to_start(args.delay), None if args.quiet else progress, keyboard, args.zenoh_config,
-        )  # fmt: skip
+        with live_view(args.live, "cpf replay") as live:
+            report = replay(
+                args.log, args.speed, args.start, args.end, args.loop, args.connect, args.listen,
+                wait_to_start(args.delay), None if args.quiet else progress, keyboard, args.zenoh_config, live,
+            )  # fmt: skip
     finally:
         progress.close()
     print(report.describe())

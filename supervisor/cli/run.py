@@ -94,14 +94,14 @@ def _bus_errors(args: argparse.Namespace) -> list[str]:
 def run(args: argparse.Namespace) -> int:
     scenario = _checked_scenario(args)
     out = _log_path(args, scenario)
-    with _live_view(args.live, "cpf run") as live:
+    with live_view(args.live, "cpf run") as live:
         result = _simulate(args, scenario, out, live)
     _report_run(args, scenario, result, out)
     return 0
 
 
 @contextlib.contextmanager
-def _live_view(port: int | None, command: str) -> Iterator[LiveView | None]:
+def live_view(port: int | None, command: str) -> Iterator[LiveView | None]:
     """With --live: a Foxglove WebSocket server, its address on stderr, stopped on the way out whatever happens
     (the end, an error, Ctrl-C); ScenarioError if the port cannot be had. Without: None, and foxglove not imported."""
     if port is None:

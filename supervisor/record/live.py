@@ -24,7 +24,15 @@ import orjson
 
 from comms.schemas import schema_for
 from supervisor.errors import ScenarioError
-from supervisor.record.scene.foxglove_schemas import MESSAGE_ENCODING, SCHEMA_ENCODING, is_scene_topic, schema_data
+from supervisor.record.scene.foxglove_schemas import (
+    MESSAGE_ENCODING,
+    PATHS_TOPIC,
+    SCENE_TOPIC,
+    SCHEMA_ENCODING,
+    TRANSFORMS_TOPIC,
+    is_scene_topic,
+    schema_data,
+)
 from supervisor.record.scene.foxglove_schemas import schema_name as foxglove_schema
 from supervisor.record.scene.live import LiveScene
 
@@ -58,7 +66,10 @@ class LiveView:
         self.port: int = self._server.port
         self.scene: LiveScene | None = LiveScene() if build_scene else None
         self._build = build_scene
-        self._channels: dict[str, foxglove.Channel] = {}
+        # The scene's fixed channels advertised at once: a client can subscribe before the first message (a trail's
+        # channel, per vehicle, comes with its first message, as a cpf record's).
+        self._channels: dict[str, foxglove.Channel] = {t: self._channel(t) for t in (TRANSFORMS_TOPIC, SCENE_TOPIC,
+                                                                                     PATHS_TOPIC)}  # fmt: skip
         self._clock = -1.0  # s: the simulation time last announced
         self.served = 0  # messages handed to the server with a client subscribed
 
@@ -91,6 +102,11 @@ class LiveView:
         if self.scene is not None:
             for topic, t, message in self.scene.finish():
                 self.publish(topic, t, message)
+
+    def use_log_scene(self) -> None:
+        """The foxglove/* messages come from a log (through `take`, a replay's): none is built."""
+        self._build = False
+        self.scene = None
 
     def restart(self) -> None:
         """What follows starts again at another time (a replay's seek): a new scene, the clock free to go back."""

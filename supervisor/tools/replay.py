@@ -19,6 +19,10 @@ While it plays it can be steered: paused, resumed, sought to a log time and sped
 cpf/replay/control (supervisor.tools.replay_control) and, in a terminal, the keyboard (supervisor.cli.replay_keys).
 The player (supervisor.tools.replay_player) decides what goes out when; a seek publishes a mark on cpf/replay/seek
 and replays from its target, beginning, as a late window does, with the meta, graph and faults in force there.
+
+With a live view (`cpf replay --live`, record.live.LiveView), the records also go to Foxglove, in the log's form, each
+as its bus form goes out: the log's own Foxglove scene (never put on the bus), or, for a log without one, a scene built
+from the records as they are replayed (started again at a seek).
 """
 
 from __future__ import annotations
@@ -26,22 +30,26 @@ from __future__ import annotations
 import contextlib
 import math
 import time
-from collections import Counter
-from collections.abc import Callable, Generator
+from collections import Counter, deque
+from collections.abc import Callable, Generator, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import zenoh
 
 from comms.bus import Extras, Publishers, free_port, open_session, site_config
 from comms.messages import ALIVE_PREFIX, FAULT_KEY, GRAPH_KEY, META_KEY, Message
 from supervisor.errors import ScenarioError
-from supervisor.record.logfile import messages, open_log, reader_of, verify
+from supervisor.record.logfile import LogMessage, messages, open_log, reader_of, verify
 from supervisor.record.recorder import seconds_to_ns
-from supervisor.record.scene.foxglove_schemas import is_scene_topic
+from supervisor.record.scene.foxglove_schemas import PATHS_TOPIC, is_scene_topic
 from supervisor.tools.replay_bus import bus_form, latched
 from supervisor.tools.replay_control import Control, declare_control
 from supervisor.tools.replay_player import Player, Publish
+
+if TYPE_CHECKING:
+    from supervisor.record.live import LiveView
 
 # (topic, log time ns, message); message None: not to be published (skipped)
 Record = tuple[str, int, Message | None]
@@ -107,6 +115,7 @@ def replay(
     progress: Callable[[float], None] | None = None,
     steer: Steer | None = None,
     zenoh_config: Path | None = None,
+    live: LiveView | None = None,
 ) -> ReplayReport:
     """Publish the log's messages with start <= t <= end (s) on Zenoh, paced at speed (0: as fast as possible).
 
@@ -116,7 +125,8 @@ def replay(
     progress, if given, is called with the log time (s) of every message published. While it plays, the replay
     answers commands on cpf/replay/control (supervisor.tools.replay_control) and steer(control), if given, is
     entered (after on_ready) to steer it too. zenoh_config: a site's Zenoh config under cpf's settings (its
-    credentials to join a router, or its own router's authentication and access control).
+    credentials to join a router, or its own router's authentication and access control). live: where the records
+    and the Foxglove scene go too, paced as the bus messages.
     """
     _check(path, speed, start, end, connect, listen, zenoh_config)
     verify(path)  # a log cut short or damaged is refused before anything is published
@@ -124,23 +134,56 @@ def replay(
     if _first(path, window) is None:
         raise ScenarioError(f"{path}: no message to replay in {_describe_window(window)}")
     report = ReplayReport("")
-    player = Player(lambda t: _bus_records(path, (start if t is None else t, end), report), speed,
+    feed = _LiveFeed(live, path) if live is not None else None
+    player = Player(lambda t: _bus_records(path, (start if t is None else t, end), report, feed), speed,
                     _bounds(path, window), loop)  # fmt: skip
     control = Control(player)
     session, report.endpoint = _open(connect, listen, zenoh_config)
-    _serve(session, control, report, on_ready, progress, steer)
+    _serve(session, control, report, (on_ready, progress, steer), feed)
     return report
+
+
+class _LiveFeed:
+    """The records (log form) on their way to a live view, held until the bus message of their time goes out: the
+    player reads a little ahead of what it publishes."""
+
+    def __init__(self, live: LiveView, path: Path) -> None:
+        self.live = live
+        self.scene = _has_scene(path)  # the log's own scene is served; else the view builds one
+        if self.scene:
+            live.use_log_scene()
+        self.held: deque[tuple[str, int, Message]] = deque()
+        self.last = -1  # log time (ns) of the last record released
+
+    def hold(self, record: tuple[str, int, Message]) -> None:
+        self.held.append(record)
+
+    def release(self, stamp: int | None) -> None:
+        """Every record held up to log time stamp (ns; None: all) to the view."""
+        while self.held and (stamp is None or self.held[0][1] <= stamp):
+            topic, at, message = self.held.popleft()
+            if at < self.last:  # a looping replay's next pass: the view starts again
+                self.live.restart()
+            self.last = at
+            self.live.take(topic, at / NS_PER_S, message)
+
+    def restart(self) -> None:
+        """A seek: what was read ahead is not published, and the view starts again."""
+        self.held.clear()
+        self.last = -1
+        self.live.restart()
 
 
 def _serve(
     session: zenoh.Session,
     control: Control,
     report: ReplayReport,
-    on_ready: Callable[[str], None] | None,
-    progress: Callable[[float], None] | None,
-    steer: Steer | None,
+    hooks: tuple[Callable[[str], None] | None, Callable[[float], None] | None, Steer | None],
+    feed: _LiveFeed | None,
 ) -> None:
-    """The replay on its session, steerable, until it ends; the session is closed however it ends."""
+    """The replay on its session, steerable, until it ends; the session is closed however it ends. hooks: on_ready,
+    progress, steer."""
+    on_ready, progress, steer = hooks
     began = time.perf_counter()
     try:
         with session, contextlib.ExitStack() as steering:
@@ -150,7 +193,7 @@ def _serve(
             began = time.perf_counter()
             if steer is not None:
                 steering.enter_context(steer(control))
-            _play(control, Publishers(session), report, progress)
+            _play(control, Publishers(session), report, progress, feed)
             queryable.undeclare()
     except KeyboardInterrupt:
         report.interrupted = True
@@ -219,43 +262,66 @@ def _first(path: Path, window: tuple[float | None, float | None]) -> Record | No
         return next((record for record in records if record[2] is not None), None)
 
 
-def _records(path: Path, window: tuple[float | None, float | None]) -> Generator[Record, None, None]:
-    """The log's records of the window in log-time order, read chunk by chunk; LogError (record.logfile) for a
-    log that is missing, not an MCAP, cut short or damaged."""
+def _records(
+    path: Path, window: tuple[float | None, float | None], scene: bool = False
+) -> Generator[Record, None, None]:
+    """The log's records of the window in log-time order, read chunk by chunk (scene: its Foxglove scene too);
+    LogError (record.logfile) for a log that is missing, not an MCAP, cut short or damaged."""
     start, end = window
     playable: dict[str, bool] = {}
     begin, until = None if start is None else seconds_to_ns(start), None if end is None else seconds_to_ns(end)
     # The log's Foxglove scene (record.scene) is its view of the run: no run publishes it on the bus.
-    for topic, stamp, message in messages(path, lambda topic: not is_scene_topic(topic), begin, until):
+    for topic, stamp, message in messages(path, lambda topic: scene or not is_scene_topic(topic), begin, until):
         if topic not in playable:
             playable[topic] = _playable(topic)
         yield topic, stamp, message if playable[topic] and isinstance(message, dict) else None
 
 
 def _bus_records(
-    path: Path, window: tuple[float | None, float | None], report: ReplayReport
+    path: Path, window: tuple[float | None, float | None], report: ReplayReport, feed: _LiveFeed | None = None
 ) -> Generator[tuple[str, int, Message], None, None]:
     """The window's records in the form a live run publishes them (supervisor.tools.replay_bus), after what a subscriber
     needs first when the window starts late (latest meta and graph, faults in force), stamped at its start. Records
-    not to be published are counted as skipped."""
+    not to be published are counted as skipped. feed: where each record goes, in its log form (and the log's scene)."""
     meta = next((m for _, _, m in messages(path, lambda topic: topic == META_KEY)), None)
     start = window[0]
     if start is not None and start > 0:
         begin = seconds_to_ns(start)
-        before = messages(path, lambda topic: topic in LATCHED, None, begin - 1)
-        for topic, _, message in latched(before):
-            yield topic, begin, message
+        before = messages(path, lambda topic: topic in LATCHED or topic == PATHS_TOPIC, None, begin - 1)
+        for topic, _, message in _latched(before, feed):
+            if feed is not None:
+                feed.hold((topic, begin, message))
+            if not is_scene_topic(topic):
+                yield topic, begin, message
 
     def playable() -> Generator[Record, None, None]:
-        with contextlib.closing(_records(path, window)) as records:
-            for record in records:
-                if record[2] is None:
+        with contextlib.closing(_records(path, window, feed is not None and feed.scene)) as records:
+            for topic, stamp, message in records:
+                if message is None:
                     report.skipped += 1
-                else:
-                    yield record
+                    continue
+                if feed is not None:
+                    feed.hold((topic, stamp, message))
+                if not is_scene_topic(topic):  # the log's scene goes to the live view only
+                    yield topic, stamp, message
 
     with contextlib.closing(playable()) as records:
         yield from bus_form(records, meta if isinstance(meta, dict) else {})
+
+
+def _latched(before: Iterator[LogMessage], feed: _LiveFeed | None) -> list[tuple[str, int, Message]]:
+    """What a subscriber joining late needs first (replay_bus.latched), and the log's last desired paths before then
+    for a live view of its scene (it publishes them once, at t = 0)."""
+    records = [(m.topic, m.log_time, m.message) for m in before]
+    paths = [r for r in records if r[0] == PATHS_TOPIC] if feed is not None and feed.scene else []
+    return latched(r for r in records if r[0] != PATHS_TOPIC) + paths[-1:]
+
+
+def _has_scene(path: Path) -> bool:
+    """Whether the log has its Foxglove scene (record.scene) among its channels."""
+    with open_log(path) as stream:
+        summary = reader_of(stream).get_summary()
+    return summary is not None and any(is_scene_topic(c.topic) for c in summary.channels.values())
 
 
 def _playable(topic: str) -> bool:
@@ -275,17 +341,28 @@ def _playable(topic: str) -> bool:
 
 
 def _play(
-    control: Control, publishers: Publishers, report: ReplayReport, progress: Callable[[float], None] | None
+    control: Control,
+    publishers: Publishers,
+    report: ReplayReport,
+    progress: Callable[[float], None] | None,
+    feed: _LiveFeed | None,
 ) -> None:
     """Publish what the player gives, when it is due, until the window is over (not looping) or the user quits."""
     while isinstance(action := control.next_action(), Publish):
         publishers.put(action.topic, action.message)
         if action.mark:
             report.seeks += 1
+            if feed is not None:
+                feed.restart()
             continue
+        if feed is not None:
+            feed.release(action.stamp)
         _count(report, action.topic, action.stamp, control.passes)
         if progress is not None:
             progress(action.stamp / NS_PER_S)
+    if feed is not None and not action.quit:
+        feed.release(None)
+        feed.live.finish()
     report.stopped = action.quit
 
 

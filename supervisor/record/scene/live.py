@@ -4,14 +4,15 @@ record, giving each published instant's messages as soon as the instant is compl
 The log's scene is built once the run is over, from every record; a live view cannot wait. An instant (a published
 step k) is complete when every vehicle of the run has reported its state at k, or, for a vehicle that does not (its
 process is down, or its records come late), once a state LAG_INSTANTS published instants later has come in: the
-vehicle is then shown as the log shows it, "no state". Instants go out in order, each once; a record about an
-instant already out (a late link outcome, a late state) is left out of the live view (the log has it).
+vehicle is then shown as the log shows it, "no state". Complete means a state of a later step has come in too: what
+the engines record at t_k besides the states (a fault starting, a graph switching, link events) comes before it.
+Instants go out in order, each once; a record about an instant already out (a late link outcome, a late state) is
+left out of the live view (the log has it).
 
 What differs from the log's scene, and why: the desired paths (foxglove/paths) go out with the first instant over
 the gammas the run is planned to cover (gamma at the start + v_r x duration), and again, drawn further, whenever a
 vehicle leaves them (the log draws them once, over the gammas the run went through, which a live view cannot know).
-Memory stays bounded: the states of an instant and the link outcomes are dropped once it is out.
-"""
+Memory stays bounded: the states of an instant and the link outcomes are dropped once it is out."""
 
 from __future__ import annotations
 
@@ -42,7 +43,7 @@ class LiveScene:
     def __init__(self) -> None:
         self.history = FleetHistory()
         self.emitted = -1  # the last published step whose messages went out
-        self.top = -1  # the latest published step any state has reached
+        self.top = -1  # the latest step any state has reached
         self._sweep: _LiveSweep | None = None
         self._paths: _LivePaths | None = None
         self._is_state: dict[str, bool] = {}
@@ -57,10 +58,10 @@ class LiveScene:
         if not self._is_state[topic] or h.meta is None or not isinstance(message, dict):
             return []
         k = message.get("k")
-        if type(k) is not int or k % h.every or k <= self.emitted:
+        if type(k) is not int or k <= self.top:
             return []
-        self.top = max(self.top, k)
-        return self._ready(final=False)
+        self.top = k
+        return self._ready(final=False) if h.states else []
 
     def finish(self) -> list[SceneMessage]:
         """The messages of every instant not yet out (the run is over: nothing more will complete them)."""
@@ -78,7 +79,8 @@ class LiveScene:
             if not h.states:
                 return out
             k = min(h.states)
-            if not final and len(h.states[k]) < fleet and k + LAG_INSTANTS * h.every > self.top:
+            complete = len(h.states[k]) == fleet and self.top > k
+            if not (final or complete or k + LAG_INSTANTS * h.every <= self.top):
                 return out
             out += self._instant(k)
 

@@ -1,0 +1,192 @@
+"""The live view (`cpf run --live`, `cpf replay --live`; supervisor/record/live.py, record/scene/live.py): a client
+speaking Foxglove's WebSocket protocol (tests/foxglove_client.py) connects, subscribes and gets the scene while the
+run goes on; the run ends cleanly whether the client stays or leaves; a replay serves the log's scene."""
+
+from __future__ import annotations
+
+import contextlib
+import re
+import signal
+import socket
+import subprocess
+from collections.abc import Iterator
+from pathlib import Path
+
+import jsonschema
+import pytest
+
+from supervisor.record import logfile
+from supervisor.record.scene.foxglove_schemas import (
+    PATHS_TOPIC,
+    SCENE_TOPIC,
+    TRANSFORMS_TOPIC,
+    is_scene_topic,
+    schema,
+    schema_name,
+)
+from supervisor.record.scene.live import LiveScene
+from tests.conftest import CONFIGS, shortened
+from tests.foxglove_client import FoxgloveClient, Received
+from tests.procs import CPF, cpf
+
+pytestmark = pytest.mark.e2e
+LIVE_LINE = re.compile(r"live view on ws://127\.0\.0\.1:(\d+) \(Foxglove: Open connection -> Foxglove WebSocket\)")
+LINK_FAULT = "kind=link_down,sender=1,receiver=2,start=4,end=8"
+
+
+def scenario(tmp_path: Path, duration: float) -> Path:
+    path = tmp_path / "short.toml"
+    text = shortened((CONFIGS / "paper.toml").read_text(), duration)
+    path.write_text(re.sub(r"(?ms)^\[\[faults\]\].*?(?=^\[|\Z)", "", text))  # the paper's fault is after the end
+    return path
+
+
+@contextlib.contextmanager
+def running(args: list[str], tmp_path: Path, stdin: bool = False) -> Iterator[subprocess.Popen[str]]:
+    """cpf in the background; killed on the way out if a failed test left it running."""
+    proc = subprocess.Popen([CPF, *args], cwd=tmp_path, stdin=subprocess.PIPE if stdin else subprocess.DEVNULL,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)  # fmt: skip
+    try:
+        yield proc
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        if proc.stdin is not None and not proc.stdin.closed:
+            proc.stdin.close()
+        proc.stdin = None  # closed: communicate only drains stdout and stderr
+        proc.communicate()
+
+
+def live_port(proc: subprocess.Popen[str]) -> int:
+    """The port cpf printed on stderr (the lines before it, warnings, are skipped)."""
+    assert proc.stderr is not None
+    while line := proc.stderr.readline():
+        if found := LIVE_LINE.search(line):
+            return int(found.group(1))
+    raise AssertionError(f"cpf ended without a live line (exit {proc.wait()})")
+
+
+def log_scene(path: Path) -> list[tuple[str, int, object]]:
+    return [(m.topic, m.log_time, m.message) for m in logfile.messages(path, is_scene_topic)]
+
+
+def valid(received: list[Received]) -> None:
+    for r in received:
+        name = schema_name(r.topic)
+        assert name is not None
+        jsonschema.validate(r.message, schema(name))
+
+
+def test_the_live_scene_is_the_logs_scene_instant_by_instant(tmp_path: Path) -> None:
+    """Fed the records of a log in the order they were written, the live builder gives every transform, scene and
+    trail message of the log's scene, each as soon as its instant is complete (none left for the end)."""
+    out = tmp_path / "run.mcap"
+    done = cpf("run", str(scenario(tmp_path, 30)), "--engine", "inprocess", "--fault", LINK_FAULT,
+               "--out", str(out), "--quiet", cwd=tmp_path)  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    live, made = LiveScene(), []
+    for m in logfile.messages(out, lambda topic: not is_scene_topic(topic)):
+        made += [(topic, round(t * 1e9), message) for topic, t, message in live.take(m.topic, m.message)]
+    assert live.finish() == []
+    expected = [record for record in log_scene(out) if record[0] != PATHS_TOPIC]
+    assert len(expected) == 60 * 5  # 60 instants: transforms, scene, 3 trails
+    assert [record for record in made if record[0] != PATHS_TOPIC] == expected
+    paths = [(t, m) for topic, t, m in made if topic == PATHS_TOPIC]  # drawn at once, further when a vehicle leaves it
+    assert paths[0][0] == 0 and len(paths) <= 5
+    assert all(len(m["entities"]) == 3 for _, m in paths)
+
+
+def test_a_client_watches_a_run_live_and_the_run_ends_cleanly_with_it_connected(tmp_path: Path) -> None:
+    out = tmp_path / "run.mcap"
+    args = ["run", str(scenario(tmp_path, 20)), "--clock", "realtime", "--speed", "10", "--fault", LINK_FAULT,
+            "--live", "0", "--out", str(out), "--quiet"]  # fmt: skip
+    with running(args, tmp_path) as proc, FoxgloveClient.open(live_port(proc), {SCENE_TOPIC, TRANSFORMS_TOPIC}) as c:
+        assert c.channels[SCENE_TOPIC]["schemaName"] == "foxglove.SceneUpdate"
+        assert c.channels[TRANSFORMS_TOPIC]["schemaName"] == "foxglove.FrameTransforms"
+        assert {c.channels[t]["encoding"] for t in (SCENE_TOPIC, TRANSFORMS_TOPIC)} == {"json"}
+        c.subscribe([SCENE_TOPIC, TRANSFORMS_TOPIC])
+        first = c.receive()
+        assert first is not None and proc.poll() is None  # the run still going
+        received = [first]
+        while (r := c.receive()) is not None:  # None: the server closed the connection as the run ended
+            received.append(r)
+        assert proc.wait(timeout=60) == 0
+    valid(received)
+    times = [r.log_time for r in received if r.topic == TRANSFORMS_TOPIC]
+    assert times == sorted(times) and len(set(times)) >= 20 and times[-1] == 19_500_000_000  # to the last instant
+    assert c.times and c.times == sorted(c.times)  # the simulation time announced
+    # What the client got is the log's scene, message for message (the live builder is the log's).
+    logged = {(topic, t): m for topic, t, m in log_scene(out)}
+    assert all(logged[(r.topic, r.log_time)] == r.message for r in received)
+    faulted = [r for r in received if r.topic == SCENE_TOPIC and "link_down" in str(r.message)]
+    assert faulted and all(4e9 <= r.log_time <= 8e9 for r in faulted)
+
+
+def test_a_client_leaving_mid_run_leaves_the_run_unharmed(tmp_path: Path) -> None:
+    out = tmp_path / "run.mcap"
+    args = ["run", str(scenario(tmp_path, 20)), "--clock", "realtime", "--speed", "10", "--live", "0",
+            "--out", str(out), "--quiet"]  # fmt: skip
+    with running(args, tmp_path) as proc:
+        with FoxgloveClient.open(live_port(proc), {TRANSFORMS_TOPIC}) as client:
+            client.subscribe([TRANSFORMS_TOPIC])
+            got = [client.receive() for _ in range(3)]
+            assert all(r is not None for r in got) and proc.poll() is None
+        assert proc.wait(timeout=60) == 0  # the client gone mid-run
+    assert len([r for r in log_scene(out) if r[0] == TRANSFORMS_TOPIC]) == 40  # the log whole
+
+
+def test_ctrl_c_stops_the_server_with_a_client_connected(tmp_path: Path) -> None:
+    args = ["run", str(scenario(tmp_path, 200)), "--clock", "realtime", "--live", "0",
+            "--out", str(tmp_path / "run.mcap"), "--quiet"]  # fmt: skip
+    with running(args, tmp_path) as proc:
+        port = live_port(proc)
+        with FoxgloveClient.open(port, {TRANSFORMS_TOPIC}) as client:
+            client.subscribe([TRANSFORMS_TOPIC])
+            assert client.receive() is not None
+            proc.send_signal(signal.SIGINT)
+            while client.receive() is not None:  # until the server closes the connection
+                pass
+        assert proc.wait(timeout=60) != 0
+    with socket.socket() as probe:
+        assert probe.connect_ex(("127.0.0.1", port)) != 0  # nobody listens there any more
+
+
+def test_a_port_in_use_is_a_one_line_error_and_nothing_is_written(tmp_path: Path) -> None:
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        out = tmp_path / "run.mcap"
+        done = cpf("run", str(scenario(tmp_path, 5)), "--engine", "inprocess", "--live", str(port),
+                   "--out", str(out), cwd=tmp_path)  # fmt: skip
+    assert done.returncode == 2
+    errors = [line for line in done.stderr.splitlines() if line.startswith("cpf: error:")]
+    assert len(errors) == 1 and f"--live: cannot serve on 127.0.0.1:{port}" in errors[0]
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("scene", [True, False], ids=["log-scene", "built"])
+def test_a_replay_serves_the_logs_scene(tmp_path: Path, scene: bool) -> None:
+    """The log's own scene, or (a log without one) the scene built from its records as they are replayed: the same
+    messages either way, paced with the replay."""
+    out = tmp_path / "run.mcap"
+    flags = [] if scene else ["--no-foxglove"]
+    done = cpf("run", str(scenario(tmp_path, 20)), "--engine", "inprocess", "--fault", LINK_FAULT, *flags,
+               "--out", str(out), "--quiet", cwd=tmp_path)  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    reference = tmp_path / "reference.mcap"
+    assert cpf("run", str(scenario(tmp_path, 20)), "--engine", "inprocess", "--fault", LINK_FAULT,
+               "--out", str(reference), "--quiet", cwd=tmp_path).returncode == 0  # fmt: skip
+    args = ["replay", str(out), "--speed", "20", "--live", "0", "--quiet"]
+    wanted = [TRANSFORMS_TOPIC, SCENE_TOPIC]
+    with running(args, tmp_path, stdin=True) as proc, FoxgloveClient.open(live_port(proc), set(wanted)) as client:
+        client.subscribe(wanted)
+        assert proc.poll() is None and proc.stdin is not None  # waiting for Enter: nothing replayed yet
+        proc.stdin.write("\n")
+        proc.stdin.close()
+        received = []
+        while (r := client.receive()) is not None:
+            received.append(r)
+        assert proc.wait(timeout=60) == 0
+    expected = [(t, ns, m) for t, ns, m in log_scene(reference) if t in wanted]
+    assert [(r.topic, r.log_time, r.message) for r in received] == expected
