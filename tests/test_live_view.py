@@ -16,6 +16,7 @@ import jsonschema
 import pytest
 
 from supervisor.record import logfile
+from supervisor.record.live import LiveView
 from supervisor.record.scene.foxglove_schemas import (
     PATHS_TOPIC,
     SCENE_TOPIC,
@@ -190,3 +191,20 @@ def test_a_replay_serves_the_logs_scene(tmp_path: Path, scene: bool) -> None:
         assert proc.wait(timeout=60) == 0
     expected = [(t, ns, m) for t, ns, m in log_scene(reference) if t in wanted]
     assert [(r.topic, r.log_time, r.message) for r in received] == expected
+
+
+def test_nobody_watching_no_scene_is_built_and_nothing_served(tmp_path: Path) -> None:
+    """The cost of --live with nobody connected: the records pass by, the scene keeps only the run's meta, graphs
+    and faults (what a client coming later needs), no instant is built, nothing is encoded."""
+    out = tmp_path / "run.mcap"
+    done = cpf("run", str(scenario(tmp_path, 10)), "--engine", "inprocess", "--fault", LINK_FAULT,
+               "--out", str(out), "--quiet", cwd=tmp_path)  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    with LiveView(0) as view:
+        for m in logfile.messages(out, lambda topic: not is_scene_topic(topic)):
+            view.take(m.topic, m.log_time / 1e9, m.message)
+        view.finish()
+        assert view.scene is not None
+        history = view.scene.history
+        assert view.scene.emitted == -1 and not history.states and not history.outcomes
+        assert history.meta is not None and len(history.faults) == 2 and view.served == 0
