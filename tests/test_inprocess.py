@@ -66,7 +66,8 @@ def test_paper_log_holds_every_step_of_every_vehicle_and_the_fault(paper_run):
     faults = [m for topic, _, m in messages if topic == "cpf/run/fault"]
     assert [(f["phase"], f["t"]) for f in faults] == [("start", 150.0), ("end", 250.0)]
     assert faults[0]["detail"]["vehicle"] == 1
-    assert result.messages == len(messages)
+    scene = sum(topic.startswith("foxglove/") for topic in topics)
+    assert result.messages == len(messages) - scene and result.scene_messages == scene > 0
 
 
 def test_same_scenario_twice_gives_identical_streams(tmp_path, paper_text):
@@ -230,7 +231,8 @@ def test_a_run_without_a_log_counts_every_message_under_every_fault_kind(tmp_pat
     topics = Counter(topic for topic, _, _ in messages)
     reasons = Counter(m["reason"] for topic, _, m in messages if topic == "cpf/comms/event")
     assert reasons["broker_down"] > 0 and reasons["end_of_run"] > 0 and topics["cpf/vehicle/1/rx"] > 0
-    assert bare.messages == recorded.messages == sum(topics.values())
+    run_topics = sum(n for topic, n in topics.items() if not topic.startswith("foxglove/"))
+    assert bare.messages == recorded.messages == run_topics and recorded.scene_messages > bare.scene_messages == 0
     assert bare.link_counts == recorded.link_counts and bare.link_stats == recorded.link_stats
     for name in ("gamma", "gamma_dot", "path_error"):
         assert np.array_equal(getattr(bare.series, name), getattr(recorded.series, name), equal_nan=True), name

@@ -169,10 +169,11 @@ def _report_run(args: argparse.Namespace, scenario: Scenario, result: RunResult,
     tube = tube_radius(scenario)
     summary = summarize(result.series, duration, intervals(scenario), rep.transient, tube, rep.coordination_tolerance)
     factor = duration / max(result.stepping_time, 1e-9)
+    scene = f" (+{result.scene_messages} for Foxglove)" if result.scene_messages else ""
     print(
         f"{scenario.scenario.name}: {len(scenario.vehicles)} vehicles, {args.engine} engine, "
         f"{duration:g} s simulated in {result.wall_time:.2f} s "
-        f"(stepping {result.stepping_time:.2f} s, {factor:.0f}x real time), {result.messages} messages -> {out}"
+        f"(stepping {result.stepping_time:.2f} s, {factor:.0f}x real time), {result.messages} messages{scene} -> {out}"
     )
     comms = comms_summary(result.link_stats, result.stats_history, result.estimate_ages)
     print(format_summary(summary))

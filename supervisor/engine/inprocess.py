@@ -65,6 +65,7 @@ class RunResult:
     stepping_time: float = 0.0  # s of wall time from the first sync step to the end
     realtime: dict[str, Any] | None = None  # realtime runs: how well they kept to the wall clock (realtime_timing)
     malformed: dict[str, dict[str, int]] | None = None  # zenoh: reader -> key -> malformed messages it dropped
+    scene_messages: int = 0  # the log's Foxglove scene (record.scene), apart from the run's messages
 
 
 class _InProcessRun:
@@ -221,9 +222,9 @@ def run_inprocess(
         run.finish(steps * dt)
         stepping = progress.stepping_time()
         wall = progress.done(steps * dt)
-    messages = rec.count  # once the log is closed: its Foxglove scene is written as it closes
+    messages, scene_count = rec.count, rec.scene_count  # once the log is closed: its scene is written then
     books = run.books
     return RunResult(
         run.builder.series(), wall, messages, books.counts, books.stats.snapshot(steps * dt), books.lambda2,
-        run.builder.ages, stepping,
+        run.builder.ages, stepping, scene_messages=scene_count,
     )  # fmt: skip

@@ -112,7 +112,8 @@ class Recorder:
         self._channels: dict[str, int] = {}
         self._sequence = 0
         self._deadline = 0.0
-        self.count = 0
+        self.count = 0  # the run's messages; its Foxglove scene apart (scene_count), written as the log closes
+        self.scene_count = 0
         self.horizon = LAST_NS / 1e9  # s: the latest time recorded (limit() sets the run's)
         self.refused: Counter[tuple[str, str]] = Counter()  # (key, why) of the messages not recorded
         self.flush()  # magic and header on disk: even a run killed at once leaves a recoverable (empty) MCAP
@@ -213,8 +214,10 @@ class Recorder:
         """The run's Foxglove scene, built from every record written, after them (MCAP readers order by log time)."""
         scene, self.scene = self.scene, None
         if scene is not None:
+            before = self.count
             for topic, t, message in scene.messages():
                 self.write(topic, t, message)
+            self.scene_count, self.count = self.count - before, before
 
     def _refusals(self) -> str:
         return "; ".join(f"{count} on {key}: {why}" for (key, why), count in sorted(self.refused.items()))
@@ -235,6 +238,7 @@ class Tally:
 
     def __init__(self) -> None:
         self.count = 0
+        self.scene_count = 0  # a tally has no scene
 
     def limit(self, end: float) -> None:
         """As Recorder.limit: nothing is kept, so nothing to refuse."""
