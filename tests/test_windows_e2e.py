@@ -13,6 +13,7 @@ from pathlib import Path
 import pytest
 
 from supervisor.config.scenario import parse_scenario
+from supervisor.engine import intake as intake_module
 from supervisor.engine.clock import Clock
 from supervisor.engine.cosim import BusOptions, run_zenoh
 from supervisor.engine.inprocess import RunResult, run_inprocess
@@ -74,6 +75,15 @@ def run(
         take(self, vid, message)
 
     monkeypatch.setattr(Intake, "_window", stepped)
+    read = intake_module.read_window  # the intake reads most step messages in one pass, past _window
+
+    def read_counted(payload: bytes) -> object:
+        window = read(payload)
+        if window is not None:
+            windows.append(len(window[0]))
+        return window
+
+    monkeypatch.setattr(intake_module, "read_window", read_counted)
     bus = BusOptions(overrides=tuple(overrides), faults=tuple(faults))
     result = run_zenoh(scenario, path, text, out, 0, "lockstep", 1.0, bus, quiet, longest)
     monkeypatch.undo()

@@ -22,6 +22,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from vehicles.bounded_min import bounded_minimum
+
 if TYPE_CHECKING:
     from vehicles.paths import Path
 
@@ -143,24 +145,18 @@ def _checked(point: NDArray[np.float64], lo: float, hi: float, samples: int) -> 
 
 
 def _refined(path: Path, q: NDArray[np.float64], g_best: float, d2_best: float, bracket: tuple[float, float]) -> float:
-    """Brent's bounded minimisation of the squared distance between the best sample's neighbours (bracket); the
+    """Brent's bounded minimisation (scipy's: vehicles.bounded_min) of the squared distance between the best
+    sample's neighbours (bracket); the
     best sample (squared distance d2_best) if it does not do better."""
 
     def dist2(g: float) -> float:
         p = path.evaluate(g)[0]
         return float(np.dot(p - q, p - q))
 
-    from scipy.optimize import minimize_scalar  # here: only start-up needs it, and it costs 0.25 s to import
-
     a, b = bracket
     # Minimise over the offset from g_best: Brent's tolerance grows with |x|, and the offset stays small.
-    res = minimize_scalar(
-        lambda t: dist2(g_best + t),
-        bounds=(a - g_best, b - g_best),
-        method="bounded",
-        options={"xatol": 1e-12 * max(1.0, b - a)},
-    )
-    return g_best + float(res.x) if dist2(g_best + float(res.x)) <= d2_best else g_best
+    x = bounded_minimum(lambda t: dist2(g_best + t), a - g_best, b - g_best, 1e-12 * max(1.0, b - a))
+    return g_best + x if dist2(g_best + x) <= d2_best else g_best
 
 
 def _polished(path: Path, q: NDArray[np.float64], g: float, limits: tuple[float, float], width: float) -> float:

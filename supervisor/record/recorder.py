@@ -154,6 +154,26 @@ class Recorder:
         if why is not None:
             self.refused[(key, why)] += 1
             return False
+        self._add(key, t, data)
+        if self.scene is not None:
+            self.scene.take(key, message)
+        if self.live is not None:
+            self.live.take(key, t, message)
+        return True
+
+    def write_json(self, key: str, t: float, data: bytes) -> bool:
+        """As write, for a message already in its log form (what write would make of it: orjson, JSON_OPTIONS), and
+        without feeding the scene (the caller feeds it its records: scene.take_state, take_event)."""
+        why = None if type(t) is float and 0.0 <= t <= self.horizon and t < FAST_MAX else self._bad_time(t)
+        if why is not None:
+            self.refused[(key, why)] += 1
+            return False
+        self._add(key, t, data)
+        if self.live is not None:  # the live view takes messages: read back only for it (--live)
+            self.live.take(key, t, orjson.loads(data))
+        return True
+
+    def _add(self, key: str, t: float, data: bytes) -> None:
         channel = self._channels.get(key)
         self._sequence += 1
         self._writer.add(
@@ -163,13 +183,8 @@ class Recorder:
             self._sequence % SEQUENCES,
         )
         self.count += 1
-        if self.scene is not None:
-            self.scene.take(key, message)
-        if self.live is not None:
-            self.live.take(key, t, message)
         if time.monotonic() >= self._deadline:
             self.flush()
-        return True
 
     def _bad_time(self, t: object) -> str | None:
         """Why t (s) cannot be a message's time, None if it can."""

@@ -15,6 +15,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
+from comms.channel import LinkEvent
 from comms.messages import COMMS_EVENT_KEY, FAULT_KEY, GRAPH_KEY, META_KEY, vehicle_of_key
 from comms.run import FaultEvent, Graph
 from comms.state import StateReport
@@ -85,9 +86,15 @@ class FleetHistory:
             report = StateReport.from_message(message, owned[0] if owned else -1)
         except ValueError:
             return
+        self.take_state(report)
+
+    def take_state(self, report: StateReport) -> None:
+        """A state record already read (and checked) by whoever wrote it: as `take` of its message."""
+        if self.meta is None or report.k % self.every:
+            return
         p, e = report.position, report.error
         target = (p[0] - e[0], p[1] - e[1], p[2] - e[2])
-        self.states.setdefault(k, {})[report.vehicle] = Snapshot(p, report.rotation, report.gamma, target)
+        self.states.setdefault(report.k, {})[report.vehicle] = Snapshot(p, report.rotation, report.gamma, target)
 
     def _event(self, _: str, message: Any) -> None:
         """A link event (comms.channel.LinkEvent's wire form). Every event of a run passes here (32000 in the paper
@@ -99,8 +106,16 @@ class FleetHistory:
         reason = message.get("reason") or ""
         if not (_number(t) and _integer(sender) and _integer(receiver) and _integer(seq) and isinstance(reason, str)):
             return
-        outcome = (float(t), seq, kind, reason)
-        key = ((sender, receiver), self.instant_at_or_after(t))
+        self._outcome(sender, receiver, (float(t), seq, kind, reason))
+
+    def take_event(self, event: LinkEvent) -> None:
+        """A link event already read (and checked) by whoever wrote it: as `take` of its message."""
+        if self.meta is not None and (event.kind == "delivered" or event.kind == "dropped"):
+            self._outcome(event.sender, event.receiver, (event.t, event.seq, event.kind, event.reason or ""))
+
+    def _outcome(self, sender: int, receiver: int, outcome: Outcome) -> None:
+        """A packet's fate on its link: the last before each published instant is kept."""
+        key = ((sender, receiver), self.instant_at_or_after(outcome[0]))
         if key not in self.outcomes or outcome > self.outcomes[key]:
             self.outcomes[key] = outcome
 

@@ -31,6 +31,8 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from comms.channel import LinkEvent
+from comms.state import StateReport
 from supervisor.record.scene import primitives as fx
 from supervisor.record.scene.foxglove_schemas import PATHS_TOPIC, SCENE_TOPIC, TRANSFORMS_TOPIC, trail_topic
 from supervisor.record.scene.geometry import quaternions
@@ -77,6 +79,12 @@ class FleetScene:
 
     def take(self, topic: str, message: Any) -> None:
         self.history.take(topic, message)
+
+    def take_state(self, report: StateReport) -> None:
+        self.history.take_state(report)
+
+    def take_event(self, event: LinkEvent) -> None:
+        self.history.take_event(event)
 
     def messages(self) -> Iterator[SceneMessage]:
         return scene_messages(self.history)
