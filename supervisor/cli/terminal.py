@@ -72,7 +72,9 @@ class SweepBar:
         if self._bar is None:
             from tqdm import tqdm  # here: every vehicle process imports this module
 
-            self._bar = tqdm(total=total, initial=done, desc="sweep", unit="run")
+            # Every run redrawn (runs are seconds apart): by default tqdm skips an update within 0.1 s of the
+            # last, and a sweep interrupted then would not show the run it has kept.
+            self._bar = tqdm(total=total, initial=done, desc="sweep", unit="run", mininterval=0, miniters=1)
         else:
             self._bar.update(done - self._bar.n)
 
