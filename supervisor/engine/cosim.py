@@ -32,6 +32,7 @@ from comms.messages import (
     STOP_END,
     STOP_KEY,
     SUPERVISOR_ALIVE,
+    Message,
 )
 from comms.run import Graph, Stop
 from supervisor.config.scenario import load_scenario
@@ -82,13 +83,8 @@ def run_zenoh(
         Recorder(out, scene, live) as rec,
         _supervisor(scenario, how, Intake(scenario, rec, timing), (clock, speed, longest)) as run,
     ):
-        # In the log from the start: a run that never starts (a process missing or refused) still says what it was.
         meta = RunMeta.of(scenario, str(scenario_path), scenario_toml, seed, "zenoh", clock).to_message()
-        rec.limit(scenario.scenario.duration)  # a message stamped later (forged, broken) is refused
-        rec.write(META_KEY, 0.0, meta)
-        _start(run, endpoint)
-        run.pubs.put(META_KEY, meta)
-        run.publish(GRAPH_KEY, 0.0, Graph.of(0.0, scenario.graph.edges).to_message())
+        _open(run, rec, meta, endpoint)
         _drive(run, progress)
         stepping = progress.stepping_time()
         wall = progress.done(run.t)
@@ -97,6 +93,16 @@ def run_zenoh(
         builder.series(), wall, rec.count, books.counts, books.stats.snapshot(run.t), books.lambda2, builder.ages,
         stepping, timing.as_dict() if timing is not None else None, run.intake.counts(), rec.scene_count,
     )  # fmt: skip
+
+
+def _open(run: Supervisor, rec: Recorder, meta: Message, endpoint: str) -> None:
+    """The run's meta in the log from the start (a run that never starts, a process missing or refused, still says
+    what it was), its processes started, then the meta and the graph on the bus."""
+    rec.limit(run.sc.scenario.duration)  # a message stamped later (forged, broken) is refused
+    rec.write(META_KEY, 0.0, meta)
+    _start(run, endpoint)
+    run.pubs.put(META_KEY, meta)
+    run.publish(GRAPH_KEY, 0.0, Graph.of(0.0, run.sc.graph.edges).to_message())
 
 
 @contextlib.contextmanager
