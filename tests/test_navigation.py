@@ -6,6 +6,7 @@ section's validation, and both engines (and a restart) giving the same records w
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
@@ -204,13 +205,21 @@ def test_the_report_draws_the_navigation_figure_only_for_a_run_with_navigation(t
 
     for name, text in (("nav", shortened(paper_text, 12.0) + NAV), ("plain", shortened(paper_text, 12.0))):
         scenario = _scenario(tmp_path, text)
-        done = cpf("run", str(scenario), "--engine", "inprocess", "--out", f"{name}.mcap", "--quiet", cwd=tmp_path)
+        short = ("--set", "report.transient=2.0")  # the metrics are taken after the transient
+        args = ("--engine", "inprocess", "--out", f"{name}.mcap", "--quiet", *short)
+        done = cpf("run", str(scenario), *args, cwd=tmp_path)
         assert done.returncode == 0, done.stderr
         report = cpf("report", f"{name}.mcap", "--out", name, cwd=tmp_path)
         assert report.returncode == 0, report.stderr
         assert (tmp_path / name / "navigation_errors.png").exists() == (name == "nav")
+        metrics = json.loads((tmp_path / name / "metrics.json").read_text())
+        assert ("navigation" in metrics) == (name == "nav")
         run = load_run(tmp_path / f"{name}.mcap")
         assert has_navigation(run) == (name == "nav")
     series = load_run(tmp_path / "nav.mcap").vehicles[1]
     assert series.nav_error is not None and series.nav_fix is not None
     assert 0.0 < float(series.nav_error.max()) < 10.0 and set(series.nav_fix.tolist()) >= {0, 1}
+    nav = json.loads((tmp_path / "nav" / "metrics.json").read_text())["navigation"]
+    assert set(nav) == {"1", "2", "3"}
+    assert nav["1"]["fixes_fused"] == int((series.nav_fix == 1).sum()) > 0
+    assert 0.0 < nav["1"]["mean_error"] <= nav["1"]["max_error"] <= float(series.nav_error.max())

@@ -83,6 +83,7 @@ def run_metrics(run: RunData) -> dict[str, Any]:
         )
         metrics |= _coordination(series, summary)
         metrics |= _speed_limits(run, series)
+    metrics |= _navigation(run, settings.transient)
     return finite(metrics)
 
 
@@ -95,6 +96,24 @@ def _speed_limits(run: RunData, series: Series) -> dict[str, Any]:
     except ScenarioError:  # an older log: it had no saturation
         return {}
     return {} if scenario is None else limits_metrics(at_limit(scenario, series))
+
+
+def _navigation(run: RunData, transient: float) -> dict[str, Any]:
+    """Per vehicle with navigation: |p_hat - p| after the transient (mean, max, last) and the fixes fused and lost
+    over the run (vehicles.navigation codes 1 and 2); {} for a run whose controllers saw the truth."""
+    out = {}
+    for vid, s in run.vehicles.items():
+        if s.nav_error is None or s.nav_fix is None:
+            continue
+        after = s.nav_error[s.t >= transient]
+        out[str(vid)] = {
+            "mean_error": float(after.mean()) if after.size else None,
+            "max_error": float(after.max()) if after.size else None,
+            "last_error": float(s.nav_error[-1]) if s.nav_error.size else None,
+            "fixes_fused": int((s.nav_fix == 1).sum()),
+            "fixes_lost": int((s.nav_fix == 2).sum()),
+        }
+    return {"navigation": out} if out else {}
 
 
 def run_settings(run: RunData) -> Settings:
