@@ -24,6 +24,7 @@ from comms.messages import (
     COMMS_EVENTS_KEY,
     COMMS_STATS_KEY,
     COMMS_STEP_KEY,
+    SUPERVISOR_ALIVE,
     encode,
     state_key,
     step_message,
@@ -35,7 +36,7 @@ from supervisor.engine.intake import SUPERVISOR, Intake
 from supervisor.record.recorder import Recorder, read_messages
 from tests.conftest import CONFIGS
 from tests.run_digest import digest
-from tests.test_bus_access import arrivals, client, read_credential, run_with_vehicle_2_by_hand, until
+from tests.test_bus_access import WAIT, arrivals, client, read_credential, run_with_vehicle_2_by_hand, until
 
 SCENARIO = parse_scenario((CONFIGS / "paper.toml").read_text())
 DT = SCENARIO.scenario.step
@@ -178,6 +179,8 @@ def test_a_run_attacked_on_a_vehicles_own_keys_counts_drops_and_says_so(tmp_path
                 forger.put(state_key(2), payload)
             for payload in E2E_DONE:
                 forger.put(vehicle_done_key(2), payload)
+            list(forger.liveliness().get(SUPERVISOR_ALIVE, timeout=WAIT))  # a round trip: the forgeries are in
+            assert hand.run.poll() is None  # ... while the run goes on: the supervisor takes in all the router gave
     out, err = hand.out, hand.err
     assert "Traceback" not in err, err
     supervisor = f"supervisor: {len(E2E_DONE)} on {vehicle_done_key(2)}, {len(E2E_FORGED)} on {state_key(2)}"
