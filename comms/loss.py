@@ -128,16 +128,36 @@ class GilbertElliott:
     def draws(self) -> int:
         return 2
 
-    def link(self) -> GilbertElliottLink:
-        return GilbertElliottLink(self)
+    def link(self) -> ChainLink:
+        return ChainLink(self)
+
+    def next_bad(self, bad: bool, step: float, elapsed: float) -> bool:
+        return not step < self.r if bad else step < self.p
+
+
+class _Chain(Protocol):
+    """A good/bad chain: its long-run share of bad packets and its step from one packet to the next."""
+
+    @property
+    def mean_loss(self) -> float: ...
+    @property
+    def good_loss(self) -> float: ...
+    @property
+    def bad_loss(self) -> float: ...
+
+    def next_bad(self, bad: bool, step: float, elapsed: float) -> bool:
+        """The state at this packet from the state at the link's last one, a uniform step and the time since (s)."""
+        ...
 
 
 @dataclass(slots=True)
-class GilbertElliottLink:
-    """The chain's state on one directed link (None until the first packet)."""
+class ChainLink:
+    """A good/bad chain's state on one directed link at its last packet (None until the first), for both the
+    per-packet and the time-based Gilbert-Elliott models: they differ only in how the chain steps (next_bad)."""
 
-    model: GilbertElliott
+    model: _Chain
     bad: bool | None = field(default=None)
+    last_t: float = 0.0
 
     @property
     def draws(self) -> int:
@@ -147,11 +167,10 @@ class GilbertElliottLink:
         step, lose = rng.random(2)
         m = self.model
         if self.bad is None:
-            self.bad = bool(step < m.mean_loss)  # stationary start: P(bad) = p / (p + r) = mean_loss
-        elif self.bad:
-            self.bad = not step < m.r
+            self.bad = bool(step < m.mean_loss)  # stationary start: P(bad) = mean_loss
         else:
-            self.bad = bool(step < m.p)
+            self.bad = m.next_bad(self.bad, float(step), max(t - self.last_t, 0.0))
+        self.last_t = t
         return "burst" if lose < (m.bad_loss if self.bad else m.good_loss) else None
 
 
@@ -186,32 +205,12 @@ class GilbertElliottTime:
     def draws(self) -> int:
         return 2
 
-    def link(self) -> GilbertElliottTimeLink:
-        return GilbertElliottTimeLink(self)
+    def link(self) -> ChainLink:
+        return ChainLink(self)
 
-
-@dataclass(slots=True)
-class GilbertElliottTimeLink:
-    """The chain's state on one directed link at its last packet (None until the first)."""
-
-    model: GilbertElliottTime
-    bad: bool | None = field(default=None)
-    last_t: float = 0.0
-
-    @property
-    def draws(self) -> int:
-        return 2
-
-    def decide(self, rng: np.random.Generator, distance_m: float, size_bytes: int, t: float = 0.0) -> str | None:
-        step, lose = rng.random(2)
-        m = self.model
-        if self.bad is None:
-            p_bad = m.mean_loss  # stationary start
-        else:
-            memory = math.exp(-m.rate * max(t - self.last_t, 0.0))
-            p_bad = m.mean_loss + (1.0 - m.mean_loss) * memory if self.bad else m.mean_loss * (1.0 - memory)
-        self.bad, self.last_t = bool(step < p_bad), t
-        return "burst" if lose < (m.bad_loss if self.bad else m.good_loss) else None
+    def next_bad(self, bad: bool, step: float, elapsed: float) -> bool:
+        memory = math.exp(-self.rate * elapsed)
+        return step < (self.mean_loss + (1.0 - self.mean_loss) * memory if bad else self.mean_loss * (1.0 - memory))
 
 
 @dataclass(frozen=True, slots=True)
