@@ -136,13 +136,9 @@ class Broker:
         tick = self.books.ticks.get(k)
         if tick is not None:
             return tick, self.books.raw_ticks[k]
-        tick = self.grants.tick(k, self._alive_at(k))
+        tick = self.grants.tick(k, self.vehicles)
         assert tick is not None  # advance asked _tick_of first
         return tick, tick.to_message()
-
-    def _alive_at(self, k: int) -> list[int]:
-        tick = self._tick_of(k)
-        return tick.alive if tick is not None and tick.alive is not None else self.vehicles
 
     def _realtime(self) -> bool:
         return self.clock is not None and self.clock.wall is not None

@@ -41,12 +41,14 @@ class Grants:
         starts = [start for start, grant in self.grants.items() if start <= k < grant.reach]
         return self.grants[max(starts)] if starts else None
 
-    def tick(self, k: int, alive: list[int]) -> Tick | None:
-        """The tick of step k, once every report of step k-1 is in (alive: who must have reported): its time window
-        is as long as nothing can cross the bus (comms.windows), up to the span's end; None if no grant holds k."""
+    def tick(self, k: int, vehicles: list[int]) -> Tick | None:
+        """The tick of step k, once every report of step k-1 is in (from the grant's live vehicles, all of vehicles
+        if it does not say): its time window is as long as nothing can cross the bus (comms.windows), up to the
+        span's end; None if no grant holds k."""
         grant = self.governing(k)
         if grant is None:
             return None
+        alive = grant.alive if grant.alive is not None else vehicles
         fresh = {v: r for v, r in self.reports.items() if r[0] == k - 1}  # a stale one may transmit at once
         end = window_end(k, grant.reach, alive, fresh, grant.longest)
         until = end if end > k + 1 else None
