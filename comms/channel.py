@@ -73,10 +73,14 @@ class Capture:
 
     budget: LinkBudgetRange
     threshold_db: float
+    noise_power: float = field(init=False, repr=False, compare=False)  # the budget's in-band noise, linear
+
+    def __post_init__(self) -> None:
+        # The same at every overlap: worked out once, not at each packet's reception.
+        object.__setattr__(self, "noise_power", 10.0 ** (self.budget.noise_level_db() / 10.0))
 
     def survives(self, level_db: float, interferers_db: list[float]) -> bool:
-        noise = [self.budget.noise_level_db(), *interferers_db]
-        total = 10.0 * math.log10(sum(10.0 ** (x / 10.0) for x in noise))
+        total = 10.0 * math.log10(sum((10.0 ** (x / 10.0) for x in interferers_db), self.noise_power))
         return level_db - total >= self.threshold_db
 
 
