@@ -243,8 +243,7 @@ class Intake:
         if transmission is not None:
             self.rec.write_json(tx_key(vid), transmission.t, log_json(transmission))
         report = state.report()
-        if self.rec.write_json(state_key(vid), state.t, log_json(state)) and self.rec.scene is not None:
-            self.rec.scene.take_state(report)
+        self.rec.write_state(state_key(vid), state.t, log_json(state), report)
         self._book(report)
 
     def _typed_tx(self, tx: TxWire, vid: int) -> TxWire:
@@ -320,10 +319,8 @@ class Intake:
             raise ValueError("the batch's step is outside the run")
         self.broker_events += len(batch.events)
         booked = self._checked_events(event.event() for event in batch.events)
-        scene = self.rec.scene
         for event in booked:
-            if self.rec.write_json(COMMS_EVENT_KEY, event.t, log_json(event)) and scene is not None:
-                scene.take_event(event)
+            self.rec.write_event(COMMS_EVENT_KEY, event.t, log_json(event), event)
         self.books.add(booked)
 
     def _checked_events(self, events: Iterable[LinkEvent]) -> list[LinkEvent]:
