@@ -105,6 +105,14 @@ class Capture:
         self.records.append((key, t, data))
         return True
 
+    def write_state(self, key: str, t: float, data: bytes, report: StateReport) -> None:
+        self.write_json(key, t, data)
+        self.scene.take_state(report)
+
+    def write_event(self, key: str, t: float, data: bytes, event: LinkEvent) -> None:
+        self.write_json(key, t, data)
+        self.scene.take_event(event)
+
 
 def taken(items: list[tuple[str, bytes]], typed: bool) -> tuple[Any, ...]:
     """Everything the intake leaves behind after taking items (typed: its one-pass reading; else the slow one)."""

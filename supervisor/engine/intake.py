@@ -52,6 +52,7 @@ from supervisor.record.recorder import TIME_MARGIN, Recorder
 
 log = logging.getLogger("cpf.engine")
 T = TypeVar("T")
+B = TypeVar("B", RxBatch, RxWire)  # a reception batch, as comms.receptions or msgspec reads it
 SUPERVISOR = "supervisor"
 BROKER = "broker"
 
@@ -152,6 +153,7 @@ class Intake:
         if owned is None or window is None:
             return False
         steps, next_tx = window
+        self.bounds.vehicle(owned[0])
         for step in steps:
             self._typed_step(owned[0], step)
         self._next(owned[0], steps[-1].state.k, next_tx)
@@ -189,6 +191,7 @@ class Intake:
         """A vehicle's step message, of one step or of a lockstep time window: each step's records, in order, as
         one step at a time writes them; and the first step at which it may transmit next (the clock's windows)."""
         steps, next_tx = split_window(message)
+        self.bounds.vehicle(vid)  # the key's: once for the window's steps
         for step in steps:
             self._step(vid, step)
         self._next(vid, int(steps[-1]["k"]), next_tx)
@@ -202,7 +205,6 @@ class Intake:
         """A vehicle's step message: its state, and the transmission and reception batch it carries, each read
         through its record and recorded as the record writes it. A bad state drops the whole message; a bad
         transmission or batch only itself (counted), as the broker does."""
-        self.bounds.vehicle(vid)
         raw, tx, rx = split_step(message)
         state = StateReport.from_message(raw, vid)
         self.bounds.step(state.k, state.t)
@@ -225,7 +227,6 @@ class Intake:
     def _typed_step(self, vid: int, step: Step) -> None:
         """_step of a step read by msgspec: the checks its types cannot say (StateReport.from_message's, then
         _step's, in _step's order), and the records written in their log form straight from the typed ones."""
-        self.bounds.vehicle(vid)
         state = step.state
         if state.vehicle != vid:
             raise ValueError(f"vehicle {state.vehicle} published on vehicle {vid}'s key")
@@ -236,14 +237,13 @@ class Intake:
             self.bounds.vehicle(j)
         tx, rx = step.tx, step.rx
         transmission = self._part(tx_key(vid), lambda: self._typed_tx(tx, vid)) if tx is not None else None
-        batch = self._part(rx_key(vid), lambda: self._typed_rx(rx, vid)) if rx is not None else None
+        batch = self._part(rx_key(vid), lambda: self._fitting_rx(rx, vid)) if rx is not None else None
         if batch is not None:
             self.rec.write_json(rx_key(vid), batch.t, log_json(batch))
         if transmission is not None:
             self.rec.write_json(tx_key(vid), transmission.t, log_json(transmission))
         report = state.report()
-        if self.rec.write_json(state_key(vid), state.t, log_json(state)) and self.rec.scene is not None:
-            self.rec.scene.take_state(report)
+        self.rec.write_state(state_key(vid), state.t, log_json(state), report)
         self._book(report)
 
     def _typed_tx(self, tx: TxWire, vid: int) -> TxWire:
@@ -252,14 +252,6 @@ class Intake:
         slow_enough("velocity", tx.velocity)
         self.bounds.time(tx.t, "the transmission's")
         return tx
-
-    def _typed_rx(self, batch: RxWire, vid: int) -> RxWire:
-        if batch.vehicle != vid:
-            raise ValueError(f"vehicle {batch.vehicle}'s receptions in vehicle {vid}'s step")
-        self.bounds.time(batch.t, "the batch's")
-        for d in batch.receptions:
-            self.bounds.link(d.sender, vid)
-        return batch
 
     def _part(self, key: str, read: Callable[[], T]) -> T | None:
         """A step message's transmission or reception batch, read; None (counted on key) if it does not read."""
@@ -276,7 +268,10 @@ class Intake:
         return tx
 
     def _rx(self, message: Message, vid: int) -> RxBatch:
-        batch = RxBatch.from_message(message)
+        return self._fitting_rx(RxBatch.from_message(message), vid)
+
+    def _fitting_rx(self, batch: B, vid: int) -> B:
+        """A reception batch (read either way) that fits vehicle vid's step in the run; ValueError if not."""
         if batch.vehicle != vid:
             raise ValueError(f"vehicle {batch.vehicle}'s receptions in vehicle {vid}'s step")
         self.bounds.time(batch.t, "the batch's")
@@ -324,10 +319,8 @@ class Intake:
             raise ValueError("the batch's step is outside the run")
         self.broker_events += len(batch.events)
         booked = self._checked_events(event.event() for event in batch.events)
-        scene = self.rec.scene
         for event in booked:
-            if self.rec.write_json(COMMS_EVENT_KEY, event.t, log_json(event)) and scene is not None:
-                scene.take_event(event)
+            self.rec.write_event(COMMS_EVENT_KEY, event.t, log_json(event), event)
         self.books.add(booked)
 
     def _checked_events(self, events: Iterable[LinkEvent]) -> list[LinkEvent]:

@@ -28,8 +28,10 @@ from typing import IO, Any, Protocol
 import orjson
 from mcap.writer import CompressionType
 
+from comms.channel import LinkEvent
 from comms.messages import Message
 from comms.schemas import schema_for
+from comms.state import StateReport
 from supervisor.errors import ScenarioError
 from supervisor.record.fast_mcap import FastWriter
 from supervisor.record.scene.foxglove_schemas import MESSAGE_ENCODING, SCHEMA_ENCODING, schema_data, schema_name
@@ -161,9 +163,19 @@ class Recorder:
             self.live.take(key, t, message)
         return True
 
+    def write_state(self, key: str, t: float, data: bytes, report: StateReport) -> None:
+        """write_json of a vehicle's state, fed to the scene as its record (as write feeds it the message)."""
+        if self.write_json(key, t, data) and self.scene is not None:
+            self.scene.take_state(report)
+
+    def write_event(self, key: str, t: float, data: bytes, event: LinkEvent) -> None:
+        """write_json of a link event, fed to the scene as its record."""
+        if self.write_json(key, t, data) and self.scene is not None:
+            self.scene.take_event(event)
+
     def write_json(self, key: str, t: float, data: bytes) -> bool:
         """As write, for a message already in its log form (what write would make of it: orjson, JSON_OPTIONS), and
-        without feeding the scene (the caller feeds it its records: scene.take_state, take_event)."""
+        without feeding the scene (write_state and write_event feed it theirs; the other records it ignores)."""
         why = None if type(t) is float and 0.0 <= t <= self.horizon and t < FAST_MAX else self._bad_time(t)
         if why is not None:
             self.refused[(key, why)] += 1

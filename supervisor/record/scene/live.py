@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import logging
 import math
-from collections import Counter
 from typing import Any
 
 import numpy as np
@@ -29,7 +28,7 @@ from supervisor.record.scene.foxglove_schemas import PATHS_TOPIC
 from supervisor.record.scene.geometry import path_points
 from supervisor.record.scene.history import FleetHistory
 from supervisor.record.scene.paths import PATH_POINTS, PATH_SPACING
-from supervisor.record.scene.scene import SceneMessage, _key, _placements, _Sweep, paths_update
+from supervisor.record.scene.scene import SceneMessage, _Placed, _placements, _Sweep, paths_update
 
 log = logging.getLogger(__name__)
 LAG_INSTANTS = 2  # published instants a vehicle's missing state holds up the live view (1 s of simulated time)
@@ -102,27 +101,17 @@ class _LiveSweep(_Sweep):
     """The log's sweep over instants (scene._Sweep) on a history that grows as the run goes: each instant places its
     own vehicles, and puts in force what has come in up to it (graphs, faults, link outcomes), in the log's order."""
 
-    def __init__(self, h: FleetHistory) -> None:
-        super().__init__(h)
-        self.placed = {}
-
-    def instant(self, k: int) -> list[SceneMessage]:
-        self.placed = _placements(FleetHistory(states={k: self.h.states[k]}))
-        return super().instant(k)
+    def _placed(self, k: int) -> dict[int, _Placed]:
+        return {v: placed for (_, v), placed in _placements(FleetHistory(states={k: self.h.states[k]})).items()}
 
     def _advance(self, k: int) -> None:
-        """Graphs and faults (few) sorted and put in force again from the start; the link outcomes up to k that came
-        in since the last instant, in the log's order, then dropped from the history."""
+        """Graphs and faults (few) put in force again from the start; the link outcomes up to k that came in since
+        the last instant, then dropped from the history."""
         h = self.h
-        self.graphs = sorted(h.graphs, key=lambda g: (g.t, g.edges))
-        self.faults = sorted(h.faults, key=lambda f: (f.t, f.phase == "start", f.kind, _key(f.detail)))
         due = [item for item in h.outcomes.items() if item[0][1] <= k]
-        self.outcomes = sorted(due, key=lambda item: (item[0][1], item[0][0]))
         for key, _ in due:
             del h.outcomes[key]
-        self.done = [0, 0, 0]
-        self.edges = h.meta.edges if h.meta is not None else ()
-        self.acting = Counter()
+        self._start(h.graphs, h.faults, due)
         super()._advance(k)
 
 

@@ -24,7 +24,7 @@ from __future__ import annotations
 import json
 import logging
 from collections import Counter
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
@@ -36,12 +36,13 @@ from comms.state import StateReport
 from supervisor.record.scene import primitives as fx
 from supervisor.record.scene.foxglove_schemas import PATHS_TOPIC, SCENE_TOPIC, TRANSFORMS_TOPIC, trail_topic
 from supervisor.record.scene.geometry import quaternions
-from supervisor.record.scene.history import FleetHistory, Link, Outcome
+from supervisor.record.scene.history import FaultEvent, FleetHistory, Graph, Link, Outcome
 from supervisor.record.scene.paths import desired_paths
 
 log = logging.getLogger(__name__)
 
 SceneMessage = tuple[str, float, dict[str, Any]]  # (topic, simulation time s, message)
+LinkOutcome = tuple[tuple[Link, int], Outcome]  # ((link, published instant), its last outcome): a history's
 TRAIL_SECONDS = 30.0
 TRAIL_SPACING = 2.0  # s between a trail's poses
 VEHICLE_LENGTH = 2.0  # m: the arrow (a REMUS 100 is 1.6 m long)
@@ -132,17 +133,26 @@ class _Sweep:
 
     def __init__(self, h: FleetHistory) -> None:
         self.h = h
-        # What happens during the run, in order, and how far each list has been put in force.
-        self.graphs = sorted(h.graphs, key=lambda g: (g.t, g.edges))
-        self.faults = sorted(h.faults, key=lambda f: (f.t, f.phase == "start", f.kind, _key(f.detail)))
-        self.outcomes = sorted(h.outcomes.items(), key=lambda item: (item[0][1], item[0][0]))
-        self.done = [0, 0, 0]  # graphs, faults, outcomes in force
-        self.edges: tuple[Link, ...] = h.meta.edges if h.meta is not None else ()
-        self.acting: Counter[tuple[str, str]] = Counter()  # (kind, detail as JSON) of the faults acting
         self.last: dict[Link, Outcome] = {}
         self.known: dict[int, _Placed] = {}  # vehicle -> as last published
-        self.placed = _placements(h)
+        self.placed: dict[tuple[int, int], _Placed] | None = None  # (k, vehicle) -> placed: the run's, made once
         self.trails: dict[int, list[tuple[int, dict[str, Any]]]] = {}  # vehicle -> (k, pose) samples
+        self._start(h.graphs, h.faults, h.outcomes.items())
+
+    def _start(self, graphs: Iterable[Graph], faults: Iterable[FaultEvent], outcomes: Iterable[LinkOutcome]) -> None:
+        """What happens during the run, in the log's order, none of it in force yet (graph: the meta's)."""
+        self.graphs = sorted(graphs, key=lambda g: (g.t, g.edges))
+        self.faults = sorted(faults, key=lambda f: (f.t, f.phase == "start", f.kind, _key(f.detail)))
+        self.outcomes = sorted(outcomes, key=lambda item: (item[0][1], item[0][0]))
+        self.done = [0, 0, 0]  # graphs, faults, outcomes in force
+        self.edges: tuple[Link, ...] = self.h.meta.edges if self.h.meta is not None else ()
+        self.acting: Counter[tuple[str, str]] = Counter()  # (kind, detail as JSON) of the faults acting
+
+    def _placed(self, k: int) -> dict[int, _Placed]:
+        """Vehicle -> placed at published step k, for each vehicle whose state of k is in."""
+        if self.placed is None:
+            self.placed = _placements(self.h)
+        return {v: self.placed[(k, v)] for v in sorted(self.h.states[k])}
 
     def instant(self, k: int) -> list[SceneMessage]:
         """The messages of published step k."""
@@ -151,7 +161,7 @@ class _Sweep:
         self._advance(k)
         present = self.h.states[k]
         ids = sorted(present)
-        self.known.update({v: self.placed[(k, v)] for v in ids})
+        self.known.update(self._placed(k))
         transforms = [
             fx.frame_transform(t, frame_of(v), self.known[v].position, self.known[v].orientation) for v in ids
         ]
