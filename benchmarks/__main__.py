@@ -21,10 +21,9 @@ in tests.
 from __future__ import annotations
 
 import argparse
-import json
-from pathlib import Path
 
 from benchmarks import (
+    ROOT,
     bench_bus_floor,
     bench_engines,
     bench_parse,
@@ -32,10 +31,8 @@ from benchmarks import (
     bench_realtime,
     bench_scaling,
     bench_targets,
+    save,
 )
-
-ROOT = Path(__file__).resolve().parent.parent
-RESULTS = ROOT / "benchmarks" / "results"
 
 
 def main() -> None:
@@ -70,12 +67,10 @@ def main() -> None:
     print(bench_ready.summary(ready), flush=True)
     targets = [] if args.targets == "none" else bench_targets.run(args.targets.split(","), args.repeat, 100)
 
-    RESULTS.mkdir(parents=True, exist_ok=True)
     everything = {"engines": engines, "scaling": scaling, "realtime": realtime, "bus_floor": floor, "parse": parse}
     everything["ready"] = ready
     everything["targets"] = targets
-    (RESULTS / "all.json").write_text(json.dumps(everything, indent=2))
-    print(f"written: {RESULTS / 'all.json'}")
+    print(f"written: {save('all', everything)}")
 
 
 if __name__ == "__main__":
