@@ -32,4 +32,3 @@ def top_speed_of(scenario: Scenario, vehicle_id: int) -> float | None:
     if speed == "preset":
         return top_speed(params_of(scenario, vehicle_id))
     return speed
-
