@@ -10,10 +10,13 @@
    process: what grouping them would buy);
 5. parse: the CPU cost of reading one bus message through its record (state, transmission, reception batch);
 6. ready: how soon a vehicle process is ready (its liveliness token at the router) after its spawn;
-7. targets: issue 15's cases as whole `cpf run` / `cpf sweep` commands, both engines side by side
+7. live: what `cpf run --live 0` costs with nobody connected, each engine (issue 17: <= 10 %), and how late a
+   client sees the scene (benchmarks.bench_live);
+8. targets: issue 15's cases as whole `cpf run` / `cpf sweep` commands, both engines side by side
    (benchmarks.bench_targets; --targets picks the cases, "none" skips them).
 Each part is also a module of its own (benchmarks.bench_engines, bench_scaling, bench_realtime, bench_bus_floor,
-bench_parse, bench_ready, bench_targets); benchmarks.bench_side_by_side compares this tree with another checkout.
+bench_parse, bench_ready, bench_live, bench_targets); benchmarks.bench_side_by_side compares this tree with another
+checkout; bench_record, bench_intake and bench_critical_path are diagnostics with no target of their own.
 Results go to benchmarks/results/*.json; the targets are printed next to the numbers. Speed is checked here, never
 in tests.
 """
@@ -21,21 +24,19 @@ in tests.
 from __future__ import annotations
 
 import argparse
-import json
-from pathlib import Path
 
 from benchmarks import (
+    ROOT,
     bench_bus_floor,
     bench_engines,
+    bench_live,
     bench_parse,
     bench_ready,
     bench_realtime,
     bench_scaling,
     bench_targets,
+    save,
 )
-
-ROOT = Path(__file__).resolve().parent.parent
-RESULTS = ROOT / "benchmarks" / "results"
 
 
 def main() -> None:
@@ -68,14 +69,15 @@ def main() -> None:
     print(bench_parse.summary(parse), flush=True)
     ready = bench_ready.measure(5)
     print(bench_ready.summary(ready), flush=True)
+    live = bench_live.measure(args.repeat)
+    print(bench_live.summary(live), flush=True)
     targets = [] if args.targets == "none" else bench_targets.run(args.targets.split(","), args.repeat, 100)
 
-    RESULTS.mkdir(parents=True, exist_ok=True)
     everything = {"engines": engines, "scaling": scaling, "realtime": realtime, "bus_floor": floor, "parse": parse}
     everything["ready"] = ready
+    everything["live"] = live
     everything["targets"] = targets
-    (RESULTS / "all.json").write_text(json.dumps(everything, indent=2))
-    print(f"written: {RESULTS / 'all.json'}")
+    print(f"written: {save('all', everything)}")
 
 
 if __name__ == "__main__":

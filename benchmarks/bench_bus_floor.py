@@ -16,21 +16,19 @@ message (one tick starts the run); the engine's own step is measured against it 
 from __future__ import annotations
 
 import argparse
-import json
 import subprocess
 import sys
 import time
 from collections.abc import Callable
-from pathlib import Path
 from typing import Any
 
 import msgpack
 
+from benchmarks import save
 from comms.bus import Handler, Inbox, Publishers, Received, free_port, open_session, serve
 from comms.messages import ALIVE_PREFIX, STOP_END, STOP_KEY, SUPERVISOR_ALIVE, decode
 from comms.run import Stop
 
-RESULTS = Path(__file__).resolve().parent / "results"
 ROOT_KEY = "floor"
 TICK, STEP, EVENTS = f"{ROOT_KEY}/tick", f"{ROOT_KEY}/comms/step", f"{ROOT_KEY}/comms/events"
 STATE_FLOATS = 40  # about what a vehicle's state message carries (position, rotation, velocities, errors, ...)
@@ -177,8 +175,7 @@ def main() -> None:
     rows = [measure_row(int(n), args.steps, args.per_process, lean) for n in args.sizes.split(",") for lean in patterns]
     for row in rows:
         print(summary(row), flush=True)
-    RESULTS.mkdir(parents=True, exist_ok=True)
-    (RESULTS / "bus_floor.json").write_text(json.dumps(rows, indent=2))
+    save("bus_floor", rows)
 
 
 def _groups(n: int, per_process: int) -> list[str]:

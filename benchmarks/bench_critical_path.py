@@ -11,7 +11,6 @@ against the floor and the CPU seconds per process, and writes benchmarks/results
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import re
 import subprocess
@@ -21,10 +20,9 @@ import time
 from pathlib import Path
 from typing import Any
 
+from benchmarks import ROOT, save
 from benchmarks.bench_bus_floor import measure_row
 
-ROOT = Path(__file__).resolve().parent.parent
-RESULTS = ROOT / "benchmarks" / "results"
 TICKS = os.sysconf("SC_CLK_TCK")
 STEPPING = re.compile(r"stepping ([0-9.]+) s")
 
@@ -120,8 +118,7 @@ def main() -> None:
     args = parser.parse_args()
     row = measure(args.tree.resolve(), args.repeat, "configs/paper.toml", 4000, 3)
     print(summary(row))
-    RESULTS.mkdir(parents=True, exist_ok=True)
-    (RESULTS / "critical_path.json").write_text(json.dumps(row, indent=2))
+    save("critical_path", row)
 
 
 if __name__ == "__main__":

@@ -9,20 +9,17 @@ from __future__ import annotations
 
 import argparse
 import io
-import json
 import tempfile
 import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from benchmarks import ROOT, save
 from supervisor.config.scenario import load_scenario
 from supervisor.engine.cosim import BusOptions, run_zenoh
 from supervisor.engine.inprocess import run_inprocess
 from supervisor.engine.progress import Progress
-
-ROOT = Path(__file__).resolve().parent.parent
-RESULTS = ROOT / "benchmarks" / "results"
 
 
 def best_of(repeat: int, run: Callable[[Path], object]) -> float:
@@ -72,8 +69,7 @@ def main() -> None:
     args = parser.parse_args()
     results = measure(args.scenario, args.repeat)
     print(summary(results))
-    RESULTS.mkdir(parents=True, exist_ok=True)
-    (RESULTS / "engines.json").write_text(json.dumps(results, indent=2))
+    save("engines", results)
 
 
 if __name__ == "__main__":

@@ -20,6 +20,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from benchmarks import ROOT, save
 from comms.bus import Received
 from comms.messages import (
     COMMS_EVENT_KEY,
@@ -37,8 +38,6 @@ from supervisor.engine.progress import Progress
 from supervisor.record.logfile import read_messages
 from supervisor.record.recorder import Recorder
 
-ROOT = Path(__file__).resolve().parent.parent
-RESULTS = ROOT / "benchmarks" / "results"
 SCENARIO = ROOT / "configs" / "paper.toml"
 
 
@@ -102,8 +101,7 @@ def main() -> None:
     result = {"messages": len(messages), "steps": steps, "best_s": min(times), "spread_s": max(times) - min(times),
               "us_per_step": min(times) / steps * 1e6}  # fmt: skip
     print(json.dumps(result, indent=2))
-    RESULTS.mkdir(parents=True, exist_ok=True)
-    (RESULTS / "intake.json").write_text(json.dumps(result, indent=2) + "\n")
+    save("intake", result)
 
 
 if __name__ == "__main__":

@@ -4,7 +4,8 @@ Cost: the paper scenario as a whole `cpf run` command, each engine with and with
 alternating, best of N. Latency: a run with a client subscribed to the scene and transforms (tests/foxglove_client.py)
 in this process, the in-process engine paced by nothing: for each message, wall time from the record that completed
 its instant being handed to the view (LiveView.take) to the client reading it off the socket (both time.monotonic,
-one machine). `python -m benchmarks.bench_live [--repeat N]`.
+one machine). `python -m benchmarks.bench_live [--repeat N]` (also part of `make bench`); writes
+benchmarks/results/live.json.
 """
 
 from __future__ import annotations
@@ -19,7 +20,8 @@ import time
 from pathlib import Path
 from typing import Any
 
-ROOT = Path(__file__).resolve().parent.parent
+from benchmarks import ROOT, save
+
 CPF = str(Path(sys.executable).parent / "cpf")
 PAPER = ROOT / "configs" / "paper.toml"
 
@@ -100,21 +102,41 @@ def latency() -> dict[str, Any]:
     return {"messages": len(delays), **share, "max_ms": round(delays[-1], 2), "slowest": slowest}
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser()
-    parser.add_argument("--repeat", type=int, default=3)
-    args = parser.parse_args()
-    times = cost(args.repeat)
-    summary: dict[str, Any] = {}
-    for engine, runs in times.items():
+def measure(repeat: int) -> dict[str, Any]:
+    """The cost of `--live 0` per engine (wall and CPU of every run, the ratios of the best) and the latency."""
+    costs: dict[str, Any] = {}
+    for engine, runs in cost(repeat).items():
         best = {key: (min(w for w, _ in v), min(c for _, c in v)) for key, v in runs.items()}
-        summary[engine] = {
+        costs[engine] = {
             "wall": {key: [round(w, 2) for w, _ in v] for key, v in runs.items()},
             "cpu": {key: [round(c, 2) for _, c in v] for key, v in runs.items()},
             "best_wall_ratio": round(best["live"][0] / best["plain"][0], 3),
             "best_cpu_ratio": round(best["live"][1] / best["plain"][1], 3),
         }
-    print(json.dumps({"cost": summary if args.repeat else None, "latency": latency()}, indent=2))
+    return {"cost": costs if repeat else None, "latency": latency()}
+
+
+def summary(row: dict[str, Any]) -> str:
+    lines = [
+        f"live view, nobody connected, {engine}: wall x{c['best_wall_ratio']:.3f}, CPU x{c['best_cpu_ratio']:.3f}"
+        "   [target (issue 17): <= 1.10]"
+        for engine, c in (row["cost"] or {}).items()
+    ]
+    lat = row["latency"]
+    lines.append(
+        f"live view latency to a client: p50 {lat['p50_ms']} ms, p99 {lat['p99_ms']} ms, max {lat['max_ms']} ms"
+    )
+    return "\n".join(lines)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--repeat", type=int, default=3)
+    args = parser.parse_args()
+    row = measure(args.repeat)
+    print(json.dumps(row, indent=2))
+    print(summary(row))
+    save("live", row)
 
 
 if __name__ == "__main__":

@@ -12,13 +12,13 @@ from __future__ import annotations
 
 import argparse
 import io
-import json
 import tempfile
 import timeit
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from benchmarks import ROOT, save
 from comms.messages import vehicle_of_key
 from comms.receptions import RxBatch
 from comms.records import Transmission
@@ -28,8 +28,6 @@ from supervisor.engine.inprocess import run_inprocess
 from supervisor.engine.progress import Progress
 from supervisor.record.logfile import read_messages
 
-ROOT = Path(__file__).resolve().parent.parent
-RESULTS = ROOT / "benchmarks" / "results"
 Reading = Callable[[dict[str, Any], int], object]
 KINDS: dict[str, tuple[str, Reading, Reading]] = {  # kind -> (topic leaf, reading, hand-written checks)
     "state": ("state", StateReport.from_message, StateReport.checked),
@@ -82,8 +80,7 @@ def main() -> None:
     args = parser.parse_args()
     results = measure(args.scenario)
     print(summary(results))
-    RESULTS.mkdir(parents=True, exist_ok=True)
-    (RESULTS / "parse.json").write_text(json.dumps(results, indent=2))
+    save("parse", results)
 
 
 if __name__ == "__main__":

@@ -10,7 +10,6 @@ benchmarks/results/ready.json.
 from __future__ import annotations
 
 import argparse
-import json
 import subprocess
 import sys
 import tempfile
@@ -21,14 +20,13 @@ from typing import Any
 
 import zenoh
 
+from benchmarks import ROOT, save
 from comms.bus import free_port, open_session
 from comms.messages import vehicle_alive_key
 from supervisor.config.scenario import load_scenario
 from supervisor.config.vehicle_start import vehicle_starts
 from vehicles.start import write_starts
 
-ROOT = Path(__file__).resolve().parent.parent
-RESULTS = ROOT / "benchmarks" / "results"
 TIMEOUT = 30.0  # s: a start slower than this is a failure, not a number
 
 
@@ -83,8 +81,7 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=5, help="starts measured (best kept)")
     row = measure(parser.parse_args().repeat)
     print(summary(row))
-    RESULTS.mkdir(parents=True, exist_ok=True)
-    (RESULTS / "ready.json").write_text(json.dumps(row, indent=2))
+    save("ready", row)
 
 
 if __name__ == "__main__":

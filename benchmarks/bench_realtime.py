@@ -14,18 +14,15 @@ from __future__ import annotations
 
 import argparse
 import io
-import json
 import tempfile
 from pathlib import Path
 from typing import Any
 
+from benchmarks import ROOT, save
 from supervisor.config.scenario import load_scenario
 from supervisor.engine.cosim import BusOptions, run_zenoh
 from supervisor.engine.progress import Progress
 from supervisor.engine.realtime_timing import format_timing
-
-ROOT = Path(__file__).resolve().parent.parent
-RESULTS = ROOT / "benchmarks" / "results"
 
 
 def main() -> None:
@@ -36,8 +33,7 @@ def main() -> None:
     args = parser.parse_args()
     result = measure(args.scenario, args.duration, args.speed)
     print(summary(result))
-    RESULTS.mkdir(parents=True, exist_ok=True)
-    (RESULTS / "realtime.json").write_text(json.dumps(result, indent=2))
+    save("realtime", result)
 
 
 def measure(scenario_path: Path, duration: float, speed: float) -> dict[str, Any]:

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import argparse
 import io
-import json
 import tempfile
 import time
 from pathlib import Path
@@ -21,14 +20,13 @@ from typing import Any
 import orjson
 from mcap.writer import CompressionType, Writer
 
+from benchmarks import ROOT, save
 from supervisor.config.scenario import load_scenario
 from supervisor.engine.inprocess import run_inprocess
 from supervisor.engine.progress import Progress
 from supervisor.record.logfile import read_messages
 from supervisor.record.recorder import CHUNK_BYTES, FLUSH_INTERVAL, JSON_OPTIONS, SEQUENCES, Recorder
 
-ROOT = Path(__file__).resolve().parent.parent
-RESULTS = ROOT / "benchmarks" / "results"
 Logged = list[tuple[str, float, dict[str, Any]]]
 
 
@@ -104,8 +102,7 @@ def main() -> None:
     args = parser.parse_args()
     row = measure(args.scenario, args.rounds)
     print(summary(row))
-    RESULTS.mkdir(parents=True, exist_ok=True)
-    (RESULTS / "record.json").write_text(json.dumps(row, indent=2))
+    save("record", row)
 
 
 if __name__ == "__main__":

@@ -11,19 +11,18 @@ from __future__ import annotations
 
 import argparse
 import io
-import json
 import os
 import tempfile
 import threading
 from pathlib import Path
 from typing import Any
 
+from benchmarks import save
 from supervisor.config.scenario import parse_scenario
 from supervisor.engine.cosim import BusOptions, run_zenoh
 from supervisor.engine.inprocess import run_inprocess
 from supervisor.engine.progress import Progress
 
-RESULTS = Path(__file__).resolve().parent / "results"
 TICKS = os.sysconf("SC_CLK_TCK")
 PAGE = os.sysconf("SC_PAGE_SIZE")
 
@@ -140,8 +139,7 @@ def main() -> None:
     for n in (int(s) for s in args.sizes.split(",")):
         rows.append(measure(n, args.duration))
         print(summary(rows[-1]), flush=True)
-    RESULTS.mkdir(parents=True, exist_ok=True)
-    (RESULTS / "scaling.json").write_text(json.dumps(rows, indent=2))
+    save("scaling", rows)
 
 
 if __name__ == "__main__":

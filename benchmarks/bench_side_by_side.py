@@ -11,7 +11,6 @@ writes them to benchmarks/results/side_by_side.json. Not part of `make bench`: i
 from __future__ import annotations
 
 import argparse
-import json
 import re
 import resource
 import subprocess
@@ -20,8 +19,8 @@ import time
 from pathlib import Path
 from typing import Any
 
-ROOT = Path(__file__).resolve().parent.parent
-RESULTS = ROOT / "benchmarks" / "results"
+from benchmarks import ROOT, save
+
 STEPPING = re.compile(r"stepping ([0-9.]+) s")
 
 
@@ -69,8 +68,7 @@ def main() -> None:
     args = parser.parse_args()
     results = measure(args.old.resolve(), args.engine, args.repeat)
     print(summary(results))
-    RESULTS.mkdir(parents=True, exist_ok=True)
-    (RESULTS / "side_by_side.json").write_text(json.dumps(results, indent=2))
+    save("side_by_side", results)
 
 
 if __name__ == "__main__":

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import json
 import subprocess
 import sys
 import tempfile
@@ -28,11 +27,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from benchmarks import ROOT, save
 from benchmarks.bench_scaling import ProcessSampler, ring_scenario
 from supervisor.engine.hosting import cores, default_per_process, groups
 
-ROOT = Path(__file__).resolve().parent.parent
-RESULTS = ROOT / "benchmarks" / "results"
 CPF = [sys.executable, "-m", "supervisor.cli"]
 FORCED = ("ring50-1hz", "ring50-10hz", "ring100-1hz")  # also run with one process per AUV forced
 ONE_PER_AUV = ["--vehicles-per-process", "1"]
@@ -178,8 +176,7 @@ def main() -> None:
     if unknown:
         parser.error(f"unknown case(s): {', '.join(unknown)}")
     rows = run(names, args.repeat, args.runs)
-    RESULTS.mkdir(parents=True, exist_ok=True)
-    (RESULTS / "targets.json").write_text(json.dumps(rows, indent=2))
+    save("targets", rows)
 
 
 if __name__ == "__main__":

@@ -206,7 +206,7 @@ def plot_sweeps(rows: list[dict[str, Any]], out: Path) -> Path:
             ax.fill_between(values, [d.min() for d in data], [d.max() for d in data], color=colour, alpha=0.15)
         ax.set_xlabel(label)
         ax.grid(alpha=0.3)
-    _theory(fix_ax, [r for r in rows if r["group"] == "fix_period"])
+    _theory(fix_ax)
     fix_ax.set_title("Against the fix period (all effects on)")
     current_ax.set_title("Against the current's speed (all effects on)")
     fig.suptitle("Robustness study sweeps: median across seeds, band min-max")
@@ -224,7 +224,7 @@ def nav_theory(period: float, transient: float = 50.0, duration: float = 400.0, 
     return float(np.mean(np.sqrt(np.pi / 2.0) * noise / np.sqrt(1.0 + np.floor(t / period))))
 
 
-def _theory(ax: Any, rows: list[dict[str, Any]]) -> None:
+def _theory(ax: Any) -> None:
     periods = np.linspace(min(FIX_PERIODS), max(FIX_PERIODS), 60)
     ax.plot(periods, [nav_theory(p) for p in periods], "k:", label="nav. error, averaging the fixes (theory)")
 

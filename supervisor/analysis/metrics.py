@@ -41,7 +41,7 @@ from comms.stats import clamp_lambda2
 from supervisor.analysis.summary import PhaseStats, Series, Summary, coordination_error, nan_max, summarize
 from supervisor.config.derived import intervals
 from supervisor.config.scenario import validate_data
-from supervisor.config.scenario_schema import ReportSection
+from supervisor.config.scenario_schema import ReportSection, Scenario
 from supervisor.errors import ScenarioError
 
 if TYPE_CHECKING:
@@ -64,7 +64,8 @@ class Settings(NamedTuple):
 
 def run_metrics(run: RunData) -> dict[str, Any]:
     """Every metric of the run (see the module docstring); non-finite numbers become None."""
-    settings = run_settings(run)
+    scenario = _scenario(run)
+    settings = run_settings(run, scenario)
     metrics: dict[str, Any] = {
         "run": _run_info(run),
         "settings": {
@@ -82,20 +83,22 @@ def run_metrics(run: RunData) -> dict[str, Any]:
             series, settings.duration, settings.faults, settings.transient, settings.tube_radius, settings.tolerance
         )
         metrics |= _coordination(series, summary)
-        metrics |= _speed_limits(run, series)
+        if scenario is not None:  # the time each vehicle sat at its [saturation] top_speed
+            from supervisor.analysis.saturation_summary import at_limit, limits_metrics
+
+            metrics |= limits_metrics(at_limit(scenario, series))
     metrics |= _navigation(run, settings.transient)
     return finite(metrics)
 
 
-def _speed_limits(run: RunData, series: Series) -> dict[str, Any]:
-    """Time each vehicle sat at its [saturation] top_speed (analysis.saturation_summary); {} without one."""
-    from supervisor.analysis.saturation_summary import at_limit, limits_metrics
-
+def _scenario(run: RunData) -> Scenario | None:
+    """The scenario the run's meta holds, validated; None for a log cut before its meta, an older or a synthetic one."""
+    if run.meta is None:
+        return None
     try:
-        scenario = validate_data(run.meta.scenario, "meta") if run.meta is not None else None
-    except ScenarioError:  # an older log: it had no saturation
-        return {}
-    return {} if scenario is None else limits_metrics(at_limit(scenario, series))
+        return validate_data(run.meta.scenario, "meta")
+    except ScenarioError:
+        return None
 
 
 def _navigation(run: RunData, transient: float) -> dict[str, Any]:
@@ -116,16 +119,15 @@ def _navigation(run: RunData, transient: float) -> dict[str, Any]:
     return {"navigation": out} if out else {}
 
 
-def run_settings(run: RunData) -> Settings:
-    """Duration, faults and [report] settings: from the validated scenario in the meta, else from its fields."""
+def run_settings(run: RunData, scenario: Scenario | None) -> Settings:
+    """Duration, faults and [report] settings: from the scenario (the meta's, validated: _scenario), else from the
+    meta's fields."""
     meta = run.meta
     if meta is None:  # a log cut before its meta: what its states say
         rep = ReportSection()
         return Settings(run.t_range[1], [], rep.transient, math.nan, rep.coordination_tolerance)
     duration, tube = meta.duration, meta.tube_radius
-    try:
-        scenario = validate_data(meta.scenario, "meta")
-    except ScenarioError:  # an older log, or a synthetic one: the meta's own fields
+    if scenario is None:  # an older log, or a synthetic one: the meta's own fields
         rep = ReportSection()
         faults = [(str(f["kind"]), float(f["start"]), _end(f.get("end"), duration)) for f in meta.faults]
         return Settings(duration, faults, rep.transient, tube, rep.coordination_tolerance)

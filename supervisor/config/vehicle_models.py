@@ -32,8 +32,3 @@ def top_speed_of(scenario: Scenario, vehicle_id: int) -> float | None:
     if speed == "preset":
         return top_speed(params_of(scenario, vehicle_id))
     return speed
-
-
-def is_mixed(scenario: Scenario) -> bool:
-    """Whether any vehicle differs from [vehicle] (its own preset or overrides)."""
-    return any(v.preset is not None or v.overrides for v in scenario.vehicles)
