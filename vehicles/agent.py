@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 from comms.records import Disturbances, FloatArray
 from vehicles.coordination import CoordinationGains, correction
 from vehicles.current import Current, feedforward
-from vehicles.dynamics import LIFTED_SIZE, Model, kinematics, reorthonormalize, with_inputs
+from vehicles.dynamics import LIFTED_SIZE, Model, reorthonormalize
 from vehicles.estimates import NeighbourEstimate, Predictor, newer, predict
 from vehicles.navigation import HeldError, NavParams, seen
 from vehicles.params import VehicleParams
@@ -46,12 +46,10 @@ class VehicleConfig:
     navigation: NavParams | None = None  # None: the controller sees the true state
     top_speed: float | None = None  # m/s along the path: bounds |gamma_dot| (vehicles.saturation); None: unbounded
     correction_limit: float | None = None  # v_tilde -> c tanh(v_tilde / c) (vehicles.saturation); None: as law (5)
-    ideal: bool = field(init=False)  # neither plant nor current: the closed loop as it always was, to the bit
 
     def __post_init__(self) -> None:
         # Computed once per vehicle: the controller uses them at every RK4 stage.
         object.__setattr__(self, "constants", ControllerConstants.of(self.params, self.path_following))
-        object.__setattr__(self, "ideal", self.plant is None and self.current is None)
 
 
 @dataclass(frozen=True, slots=True)
@@ -126,12 +124,10 @@ def _closed_loop(
         gamma_ddot = min(gamma_ddot, 0.0)  # held at the cap: no wind-up
     if bound is not None:
         gamma_ddot = hold(gamma_ddot, gamma_dot, -bound, bound)
-    if cfg.ideal and held is None:
-        xdot = kinematics(z, with_inputs(out.drift, out.tau, cfg.params))
-    else:
-        # The controller's drift is of the state it sees, with its nominal parameters; the plant moves by its own.
-        own = out.drift if cfg.plant is None and held is None else None
-        xdot = plant_rates(cfg.model, cfg.plant or cfg.params, cfg.current, t, z, own, out.tau)
+    # The controller's drift is of the state it sees, with its nominal parameters: the plant's own when it sees the
+    # truth of a nominal plant (no current: plant_rates is then the plain kinematics), else the plant computes its own.
+    own = out.drift if cfg.plant is None and held is None else None
+    xdot = plant_rates(cfg.model, cfg.plant or cfg.params, cfg.current, t, z, own, out.tau)
     return [*xdot, gamma_dot, gamma_ddot], out, v_tilde
 
 
