@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from comms.records import Disturbances
 from supervisor.analysis.rundata import load_run
 from supervisor.analysis.saturation_summary import at_limit, format_limits
 from supervisor.analysis.summary import Series
@@ -58,6 +59,30 @@ def test_a_vehicle_pulled_hard_by_its_neighbours_stays_at_its_top_speed_along_th
         rates.append(abs(state.gamma_dot) / rate_bound(cfg.model, cfg.path, state.gamma, 0.5))
     assert max(rates) == pytest.approx(1.0, abs=1e-12)  # reached and held, never past
     assert rates[-1] == pytest.approx(1.0, abs=1e-12)
+
+
+@pytest.mark.parametrize("ahead", [True, False])
+def test_a_speed_cap_under_the_top_speed_holds_gamma_dot_at_the_cap_and_the_bound_still_holds_it_below(ahead):
+    # The speed_cap fault and the top speed are one interval [-bound, min(cap, bound)] (vehicles.agent._rate_limits).
+    sc = parse_scenario(_saturated(PAPER, "top_speed = 0.5"), "sat.toml")
+    cfg = vehicle_config(sc, 1)
+    state = initial_state(sc, cfg)
+    cap = 0.5 * rate_bound(cfg.model, cfg.path, state.gamma, 0.5)
+    pull = (
+        NeighbourEstimate(state.gamma + 500.0, 50.0, 0.0)
+        if ahead
+        else NeighbourEstimate(state.gamma - 500.0, -50.0, 0.0)
+    )
+    state = state.__class__(state.t, state.x, state.gamma, state.gamma_dot, {2: pull, 3: pull})
+    rates = []
+    for _ in range(300):
+        state, _ = step(cfg, state, 0.1, [2, 3], Disturbances(gamma_dot_cap=cap))
+        rates.append((state.gamma_dot, -rate_bound(cfg.model, cfg.path, state.gamma, 0.5)))
+    if ahead:
+        assert max(g for g, _ in rates) == cap and rates[-1][0] == cap  # reached and held, never past
+    else:
+        assert min(g - low for g, low in rates) == pytest.approx(0.0, abs=1e-12)
+        assert rates[-1][0] == pytest.approx(rates[-1][1], abs=1e-12)  # backwards at the top speed, held there
 
 
 def test_the_summary_lists_the_spans_at_the_limit():

@@ -7,13 +7,14 @@ once per sync step. Neighbour data enter only through `receive`, so what a vehic
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 from comms.records import Disturbances, FloatArray
 from vehicles.coordination import CoordinationGains, correction
 from vehicles.current import Current, feedforward
-from vehicles.dynamics import LIFTED_SIZE, Model, kinematics, reorthonormalize, with_inputs
+from vehicles.dynamics import LIFTED_SIZE, Model, reorthonormalize
 from vehicles.estimates import NeighbourEstimate, Predictor, newer, predict
 from vehicles.navigation import HeldError, NavParams, seen
 from vehicles.params import VehicleParams
@@ -46,12 +47,10 @@ class VehicleConfig:
     navigation: NavParams | None = None  # None: the controller sees the true state
     top_speed: float | None = None  # m/s along the path: bounds |gamma_dot| (vehicles.saturation); None: unbounded
     correction_limit: float | None = None  # v_tilde -> c tanh(v_tilde / c) (vehicles.saturation); None: as law (5)
-    ideal: bool = field(init=False)  # neither plant nor current: the closed loop as it always was, to the bit
 
     def __post_init__(self) -> None:
         # Computed once per vehicle: the controller uses them at every RK4 stage.
         object.__setattr__(self, "constants", ControllerConstants.of(self.params, self.path_following))
-        object.__setattr__(self, "ideal", self.plant is None and self.current is None)
 
 
 @dataclass(frozen=True, slots=True)
@@ -107,12 +106,9 @@ def _closed_loop(
     that produced it; heard: the neighbours' predicted (gamma_j, gamma_dot_j) then (_neighbour_values); held: the
     navigation error the controller sees the stage state with (None: it sees the truth)."""
     gamma, gamma_dot = z[_GAMMA], z[_GAMMA_DOT]
-    cap = dist.gamma_dot_cap
-    if cap is not None:
-        gamma_dot = min(gamma_dot, cap)
-    bound = None if cfg.top_speed is None else rate_bound(cfg.model, cfg.path, gamma, cfg.top_speed)
-    if bound is not None:
-        gamma_dot = clamp(gamma_dot, -bound, bound)
+    limits = _rate_limits(cfg, dist, gamma)
+    if limits is not None:
+        gamma_dot = clamp(gamma_dot, *limits)
     v_tilde = correction(gamma, gamma_dot, heard, cfg.coordination)
     if cfg.correction_limit is not None:
         v_tilde = bounded_correction(v_tilde, cfg.correction_limit)
@@ -122,17 +118,24 @@ def _closed_loop(
         cfg.model, cfg.params, cfg.constants, cfg.path, view, gamma, gamma_dot, cfg.coordination.v_r, v_tilde, known
     )
     gamma_ddot = out.gamma_ddot
-    if cap is not None and gamma_dot >= cap:
-        gamma_ddot = min(gamma_ddot, 0.0)  # held at the cap: no wind-up
-    if bound is not None:
-        gamma_ddot = hold(gamma_ddot, gamma_dot, -bound, bound)
-    if cfg.ideal and held is None:
-        xdot = kinematics(z, with_inputs(out.drift, out.tau, cfg.params))
-    else:
-        # The controller's drift is of the state it sees, with its nominal parameters; the plant moves by its own.
-        own = out.drift if cfg.plant is None and held is None else None
-        xdot = plant_rates(cfg.model, cfg.plant or cfg.params, cfg.current, t, z, own, out.tau)
+    if limits is not None:
+        gamma_ddot = hold(gamma_ddot, gamma_dot, *limits)  # held at a limit: no wind-up
+    # The controller's drift is of the state it sees, with its nominal parameters: the plant's own when it sees the
+    # truth of a nominal plant (no current: plant_rates is then the plain kinematics), else the plant computes its own.
+    own = out.drift if cfg.plant is None and held is None else None
+    xdot = plant_rates(cfg.model, cfg.plant or cfg.params, cfg.current, t, z, own, out.tau)
     return [*xdot, gamma_dot, gamma_ddot], out, v_tilde
+
+
+def _rate_limits(cfg: VehicleConfig, dist: Disturbances, gamma: float) -> tuple[float, float] | None:
+    """The interval gamma_dot is held in at gamma (None: unbounded): the speed_cap fault's cap (>= 0) from above and
+    the top speed's bound (vehicles.saturation.rate_bound) both ways. One interval, so clamping and holding the
+    integrator at it is the same as at each in turn."""
+    cap = dist.gamma_dot_cap
+    if cfg.top_speed is None:
+        return None if cap is None else (-math.inf, cap)
+    bound = rate_bound(cfg.model, cfg.path, gamma, cfg.top_speed)
+    return -bound, bound if cap is None else min(cap, bound)
 
 
 def _advance(z: Sequence[float], h: float, zdot: Sequence[float]) -> list[float]:
@@ -165,11 +168,9 @@ def step(
     h = dt / 6
     z_next = [a + h * (b1 + 2 * b2 + 2 * b3 + b4) for a, b1, b2, b3, b4 in zip(z, k1, k2, k3, k4, strict=True)]
     gamma_dot_next = z_next[_GAMMA_DOT]
-    if dist.gamma_dot_cap is not None:
-        gamma_dot_next = min(gamma_dot_next, dist.gamma_dot_cap)
-    if cfg.top_speed is not None:
-        bound = rate_bound(model, cfg.path, z_next[_GAMMA], cfg.top_speed)
-        gamma_dot_next = clamp(gamma_dot_next, -bound, bound)
+    limits = _rate_limits(cfg, dist, z_next[_GAMMA])
+    if limits is not None:
+        gamma_dot_next = clamp(gamma_dot_next, *limits)
     error = out.error if held is None else _true_error(out.error, held)
     telemetry = Telemetry(
         cfg.vehicle_id, t, state.gamma, z[_GAMMA_DOT], state.x, model.vector(error), model.inputs(out.tau),
