@@ -120,10 +120,19 @@ def test_both_engines_record_the_same_run_with_fading_capture_and_time_bursts(tm
         done = cpf("run", str(scenario), "--engine", engine, "--out", f"{engine}.mcap", "--quiet", cwd=tmp_path)
         assert done.returncode == 0, done.stderr
     assert digest(tmp_path / "inprocess.mcap") == digest(tmp_path / "zenoh.mcap")
-    causes = Counter(
-        m["reason"] or m["kind"] for topic, _, m in read_messages(tmp_path / "zenoh.mcap") if topic == EVENTS
-    )
+    causes = _causes(tmp_path / "zenoh.mcap")
     assert min(causes[k] for k in ("range", "burst", "collision", "delivered")) > 0, causes  # the options acted
+    # Capture acted: the same run where any overlap loses both delivers fewer packets.
+    args = ("--engine", "inprocess", "--set", "comms.reception=overlap", "--out", "overlap.mcap", "--quiet")
+    done = cpf("run", str(scenario), *args, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    overlap = _causes(tmp_path / "overlap.mcap")
+    assert overlap["delivered"] < causes["delivered"], (overlap, causes)
+
+
+def _causes(log: Path) -> Counter[str]:
+    """What became of each packet of a log: its link events' reasons (or kinds)."""
+    return Counter(m["reason"] or m["kind"] for topic, _, m in read_messages(log) if topic == EVENTS)
 
 
 @pytest.mark.e2e
