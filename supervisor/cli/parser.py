@@ -217,6 +217,10 @@ def _add_processes(sub: Commands) -> None:
         help="what to serve each --id with, as the supervisor hands the processes it starts (a private file of its "
         "run): the scenario file, --set, --fault, --gamma0, --resume and --start-step are then not read",
     )  # fmt: skip
+    _add_broker(sub)
+
+
+def _add_broker(sub: Commands) -> None:
     comms = sub.add_parser("comms", help="run the acoustic-link broker (the supervisor starts it)")
     comms.add_argument("scenario", type=Path)
     comms.add_argument("--seed", type=_seed, default=None)
@@ -226,6 +230,11 @@ def _add_processes(sub: Commands) -> None:
     comms.add_argument(
         "--start-step", type=_step_number, default=0, help="the sync step to resume at (after a restart)"
     )
+    comms.add_argument(
+        "--plan", type=Path, default=None, metavar="FILE",
+        help="what to serve the channel with, as the supervisor hands the broker it starts (a private file of its "
+        "run): the scenario file, --seed, --set and --fault are then not read",
+    )  # fmt: skip
 
 
 def _add_live(command: argparse.ArgumentParser, what: str) -> None:

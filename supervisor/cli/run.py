@@ -19,6 +19,7 @@ if TYPE_CHECKING:
     from collections.abc import Callable, Iterator, Sequence
 
     from comms.access import Credential
+    from comms.broker_start import BrokerStart
     from comms.bus import Ending, Extras
     from supervisor.config.scenario_schema import Scenario
     from supervisor.engine.inprocess import RunResult
@@ -268,16 +269,32 @@ def _gamma0_of(given: list[tuple[int | None, float]], ids: list[int]) -> dict[in
 
 
 def comms(args: argparse.Namespace) -> int:
+    """The broker process. Started by the supervisor (--plan), it serves what the supervisor handed it; started by
+    hand, what it builds from the scenario file."""
     from comms.broker import run_broker
-    from supervisor.config.fleet import broker_core
+
+    start = _planned_broker(args.plan) if args.plan is not None else _broker_from_scenario(args)
+    extras = _process_extras(args, "comms broker")
+    return run_broker(start.core, start.vehicles, start.dt, [args.connect], args.start_step, start.hello, extras)
+
+
+def _planned_broker(plan: Path) -> BrokerStart:
+    """The start the supervisor handed over (no scenario loaded, no pydantic imported); ScenarioError for a file
+    that is not one."""
+    from comms.broker_start import read_broker_start
+
+    try:
+        return read_broker_start(plan)
+    except ValueError as exc:
+        raise ScenarioError(str(exc)) from None  # '<file>: <problem>'
+
+
+def _broker_from_scenario(args: argparse.Namespace) -> BrokerStart:
+    from supervisor.config.broker_start import broker_start
     from supervisor.config.scenario import load_scenario
-    from supervisor.config.scenario_digest import hello
 
     scenario = load_scenario(args.scenario, args.set, args.fault)
-    seed = scenario.scenario.seed if args.seed is None else args.seed
-    dt, ids = scenario.scenario.step, scenario.vehicle_ids
-    greeting, extras = hello("comms broker", scenario, seed), _process_extras(args, "comms broker")
-    return run_broker(broker_core(scenario, seed), ids, dt, [args.connect], args.start_step, greeting, extras)
+    return broker_start(scenario, scenario.scenario.seed if args.seed is None else args.seed)
 
 
 def _vehicle_extras(args: argparse.Namespace, ids: list[int]) -> dict[int, Extras]:

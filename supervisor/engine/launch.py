@@ -1,9 +1,9 @@
 """How the Zenoh supervisor starts its children: the bus options of a run and the command line of each process.
 
 Every child runs `python -m supervisor.cli comms|vehicle` on the supervisor's scenario file with the run's --set and
---fault. The broker loads that very scenario (its hello proves it, supervisor.engine.startup); a vehicle process is
-handed what it serves instead (--plan: a private file of the run, vehicles.start), so it starts without validating
-the scenario again: ~15 MB and ~0.1 s less per process.
+--fault, and is handed what it serves (--plan: a private file of the run, comms.handover), so it starts without
+validating the scenario again: ~15 MB and ~0.1 s of CPU less per process. Its hello still answers with the
+supervisor's digests (supervisor.engine.startup), as a process started by hand answers with its own.
 """
 
 from __future__ import annotations
@@ -13,6 +13,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from comms.broker_start import BrokerStart, write_broker_start
 from vehicles.start import VehicleStart, write_starts
 
 START_TIMEOUT = 60.0  # s for a process to declare its liveliness token (cpf run --start-timeout)
@@ -68,12 +69,16 @@ class Launch:
             *extra,
         ]  # credentials: in the environment (supervisor.engine.bus_access)
 
-    def handover(self, name: str, starts: Sequence[VehicleStart]) -> list[str]:
-        """The options that hand the vehicle process `name` its starts: written to a file of the run's private
-        directory, one per process start (a restarted vehicle's replaces the last)."""
-        path = self.private_dir / f"{name.replace(' ', '-').replace(',', '-')}.starts"
+    def handover(self, name: str, starts: Sequence[VehicleStart] | BrokerStart) -> list[str]:
+        """The options that hand the process `name` what it serves (a vehicle process its starts, the broker its
+        start): written to a file of the run's private directory, one per process start (a restart's replaces the
+        last)."""
+        path = self.private_dir / f"{name.replace(' ', '-').replace(',', '-')}.start"
         path.unlink(missing_ok=True)
-        write_starts(path, starts)
+        if isinstance(starts, BrokerStart):
+            write_broker_start(path, starts)
+        else:
+            write_starts(path, starts)
         return ["--plan", str(path)]
 
 

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 
 from comms.bus import Inbox, Publishers, Received
 from comms.messages import COMMS_ALIVE, Message, vehicle_alive_key
+from supervisor.config.broker_start import broker_start
 from supervisor.config.scenario_schema import Scenario
 from supervisor.config.vehicle_start import Resume, vehicle_starts
 from supervisor.engine import interrupts
@@ -154,7 +155,8 @@ class Supervisor:
 
     def spawn_comms(self, start_step: int = 0) -> None:
         self.roster.expected[COMMS_ALIVE] = "comms broker"
-        extra = ["--seed", str(self.launch.seed), "--start-step", str(start_step)]
+        handed = self.launch.handover("comms broker", broker_start(self.sc, self.launch.seed))
+        extra = ["--seed", str(self.launch.seed), "--start-step", str(start_step), *handed]
         self.procs.spawn("comms broker", self.launch.argv("comms", *extra))
         self.intake.broker_started()
 
