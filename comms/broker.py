@@ -3,7 +3,8 @@
 Thin Zenoh adapter around comms.broker_core. Each vehicle's step message carries its state and its transmission.
 Lockstep: at tick k the broker waits until it holds every vehicle's step message of k-1, submits those
 transmissions to the channel and publishes one batches message for the whole fleet (tick k and every vehicle's
-receptions: each vehicle waits for this one message per step) and the step's link events (one message).
+receptions: each vehicle waits for this one message per step), then the step's link events (one message, after: the
+supervisor's books wait for them, the vehicles do not).
 Realtime (the ticks carry the wall clock): a step's transmissions are submitted as soon as its messages are in, and
 every reception that they decide is published on its vehicle's rx key at once, usually ahead of its arrival,
 stamped with the wall-clock time it is due (its arrival); the vehicle holds it until the step its arrival calls
@@ -199,12 +200,12 @@ class Broker:
             done = CommsDone(tick.t, tick.k, self.books.published, self.books.malformed)
             self.publishers.put(COMMS_DONE_KEY, done.to_message())
             return
-        self._publish_events(tick)
-        self._publish_stats(tick.t)
         if tick.wall is not None:  # realtime: late deliveries go out as such; the batches message is the tick
             self._publish_live(tick, batches)
             batches = {}  # a vehicle named nowhere has nothing: realtime vehicles take in their own deliveries
         self.publishers.put(COMMS_STEP_KEY, batches_message(raw, batches))
+        self._publish_events(tick)  # after what the vehicles wait for: the supervisor's books wait instead
+        self._publish_stats(tick.t)
 
     def _handle_window(self, tick: Tick, raw: dict[str, object]) -> None:
         """A lockstep tick of several steps: one batch per step, the statistics snapshotted at each step's time."""
@@ -213,8 +214,8 @@ class Broker:
             t = tick.t if k == tick.k else k * self.dt
             batches.append(self._deliver(t))
             self._publish_stats(t)
-        self._publish_events(tick)
         self.publishers.put(COMMS_STEP_KEY, batches_message(raw, batches))
+        self._publish_events(tick)
 
     def states_before(self, k: int) -> None:
         """Forget the states of steps before k: those of a window's earlier steps are never submitted."""

@@ -5,8 +5,12 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+import pytest
+
 from comms.bus import Received
-from comms.messages import encode, state_key, step_message
+from comms.channel import LinkEvent
+from comms.events import LinkEvents
+from comms.messages import COMMS_EVENTS_KEY, encode, state_key, step_message
 from comms.state import StateReport
 from supervisor.config.scenario import parse_scenario
 from supervisor.engine.intake import Intake
@@ -29,3 +33,22 @@ def test_a_state_is_booked_only_when_it_reads_as_a_state(tmp_path: Path) -> None
         assert intake.states == {} and intake.last_seq == {}
         intake.take(Received(state_key(1), encode(step_message(REPORT.to_message(), None, None))), 0.1)
         assert intake.states == {1: {1}} and intake.last_seq == {1: 6}
+
+
+def test_a_window_waits_for_the_deliveries_of_its_step_that_come_after_its_states(tmp_path: Path) -> None:
+    """The broker publishes a step's link events after the batches the vehicles step on, so the supervisor may have
+    every state of step k before its events: lambda_2 of a stats window ending at k is taken only once they are in
+    (the paper's graph 2 - 1 - 3: lambda_2 = 1 with both links delivering, 0 if taken without them)."""
+    sc = parse_scenario((CONFIGS / "paper.toml").read_text())
+    end = sc.comms.stats_window  # the first window's end
+    delivered = [LinkEvent(end - 0.05, s, 1, 7, "delivered", delay=0.05) for s in (2, 3)]
+    with Recorder(tmp_path / "run.mcap") as rec:
+        intake = Intake(sc, rec, None)
+        intake.window(end - sc.scenario.step)
+        intake.window(end)  # the step's states are in, its events not yet
+        assert intake.books.lambda2 == []
+        intake.take(Received(COMMS_EVENTS_KEY, encode(LinkEvents(end, 100, tuple(delivered)).to_message())), end)
+        assert intake.books.lambda2 == [{"t": end, "lambda2": pytest.approx(1.0)}]
+        intake.window(end + sc.scenario.step)
+        intake.close_windows()  # the end of the run: nothing waits any longer
+        assert not intake.windows

@@ -11,7 +11,8 @@ fatal: the run reports the counts at its end, with those the broker and the vehi
 from __future__ import annotations
 
 import logging
-from collections import Counter
+import math
+from collections import Counter, deque
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import TypeVar
@@ -110,6 +111,8 @@ class Intake:
         self.next_tx: dict[int, tuple[int, int]] = {}  # vehicle -> (latest step, first step it may transmit at)
         self.done: CommsDone | None = None  # the current broker's end-of-run report
         self.broker_events = 0  # link events published by the current broker
+        self.windows: deque[float] = deque()  # steps' times whose lambda_2 waits for their deliveries (window)
+        self.events_t = -math.inf  # the latest link events message's time: every delivery up to it is booked
         self.malformed: Counter[str] = Counter()  # key -> messages the supervisor dropped
         self.reports: dict[str, dict[str, int]] = {}  # reader -> key -> messages it dropped (broker, vehicles)
 
@@ -175,6 +178,23 @@ class Intake:
     def books_closed(self) -> bool:
         """The broker's end-of-run report is in, and every event it announced with it."""
         return self.done is not None and self.broker_events >= self.done.events
+
+    def window(self, t: float) -> None:
+        """A step at t is done: the books' window for it (LinkBooks.window) once every delivery up to t is booked.
+        The broker publishes a step's link events after the batches the vehicles step on (off their critical path),
+        so they may come after the step's states: the window waits for the first events message at or after t (a
+        delivery comes in the message of its own step), or the end of the run (close_windows)."""
+        self.windows.append(t)
+        self._run_windows()
+
+    def close_windows(self) -> None:
+        """Every window still waiting: at the end, every event is in."""
+        self.events_t = math.inf
+        self._run_windows()
+
+    def _run_windows(self) -> None:
+        while self.windows and self.windows[0] <= self.events_t + 1e-9:
+            self.books.window(self.windows.popleft())
 
     def close_open(self, t: float, reason: str) -> None:
         """Close every packet still open in the books (its broker is gone, or the run ended), on the record."""
@@ -311,6 +331,7 @@ class Intake:
         for event in booked:
             self.rec.write(COMMS_EVENT_KEY, event.t, event_message(event))
         self.books.add(booked)
+        self._events_in(events.t)
 
     def _typed_events(self, batch: EventsWire) -> None:
         """_events of a batch read by msgspec (every event read)."""
@@ -322,6 +343,12 @@ class Intake:
         for event in booked:
             self.rec.write_event(COMMS_EVENT_KEY, event.t, log_json(event), event)
         self.books.add(booked)
+        self._events_in(batch.t)
+
+    def _events_in(self, t: float) -> None:
+        """The broker's events of the step at t are booked: the windows up to it can be taken."""
+        self.events_t = max(self.events_t, t)
+        self._run_windows()
 
     def _checked_events(self, events: Iterable[LinkEvent]) -> list[LinkEvent]:
         """The events that fit the run; the others counted and dropped."""
