@@ -31,7 +31,6 @@ from comms.access import (
     write_private,
 )
 from comms.bus import Extras
-from comms.tls import router_tls
 from supervisor.config.scenario_schema import Scenario
 from supervisor.engine.hosting import hosted_ids
 from supervisor.engine.launch import BusOptions
@@ -96,6 +95,8 @@ def run_access(sc: Scenario, bus: BusOptions, endpoint: str) -> Iterator[RunAcce
     credentials = make_credentials(sc.vehicle_ids)
     entries: dict[str, object] = {}
     if is_tls(endpoint):
+        from comms.tls import router_tls  # here: `cryptography` costs every other run ~17 ms of start-up
+
         tls = router_tls([endpoint_host(endpoint)])
         credentials = {name: c.with_ca(tls.ca) for name, c in credentials.items()}
         entries["transport/link/tls/listen_certificate_base64"] = pem_base64(tls.certificate)
