@@ -203,8 +203,7 @@ class Broker:
         if tick.wall is not None:  # realtime: late deliveries go out as such; the batches message is the tick
             self._publish_live(tick, batches)
             batches = {}  # a vehicle named nowhere has nothing: realtime vehicles take in their own deliveries
-        self.publishers.put(COMMS_STEP_KEY, batches_message(raw, batches))
-        self._publish_events(tick)  # after what the vehicles wait for: the supervisor's books wait instead
+        self._step_out(tick, batches_message(raw, batches))
         self._publish_stats(tick.t)
 
     def _handle_window(self, tick: Tick, raw: dict[str, object]) -> None:
@@ -214,7 +213,16 @@ class Broker:
             t = tick.t if k == tick.k else k * self.dt
             batches.append(self._deliver(t))
             self._publish_stats(t)
-        self.publishers.put(COMMS_STEP_KEY, batches_message(raw, batches))
+        self._step_out(tick, batches_message(raw, batches))
+
+    def _step_out(self, tick: Tick, batches: Message) -> None:
+        """The batches message (what every vehicle waits for), then the tick's link events: off the fleet's critical
+        path (the supervisor's books wait for them instead: supervisor.engine.intake). Before it when a process is
+        killed or restarted next (hold): the supervisor acts once this step's states are in, which the batches
+        message makes possible, and a broker killed with its events unsent would lose them."""
+        if tick.hold:
+            self._publish_events(tick)
+        self.publishers.put(COMMS_STEP_KEY, batches)
         self._publish_events(tick)
 
     def states_before(self, k: int) -> None:

@@ -498,3 +498,22 @@ def test_realtime_waits_for_the_next_tick_before_sending_a_step_whose_end_kills_
     assert broker.submitted == 0
     realtime_tick(broker, 2, start, alive=[1, 2])
     assert link_events(pubs) == delivered({(1, 2), (2, 1)}, 1)  # as lockstep and the in-process engine
+
+
+def test_link_events_go_after_the_batches_but_before_them_when_a_process_is_killed_next(fleet):
+    """The fleet waits for the batches message only: the link events follow it, off the critical path, except on a
+    tick after which a process is killed or restarted (hold), when the supervisor acts as soon as the step's states
+    are in and a killed broker must not take its events with it."""
+    broker, pubs = pure_broker()
+
+    def order(k: int, hold: bool) -> list[str]:
+        pubs.messages.clear()
+        broker.take(TICK_KEY, encode(tick_message(k, k * DT, False, hold=hold)))
+        broker.advance()
+        return [key for key, _ in pubs.messages if key in (COMMS_STEP_KEY, COMMS_EVENTS_KEY)]
+
+    assert order(0, hold=False) == [COMMS_STEP_KEY]  # nothing sent yet: no events
+    report(broker, fleet, 0, seq=1)
+    assert order(1, hold=True) == [COMMS_EVENTS_KEY, COMMS_STEP_KEY]
+    report(broker, fleet, 1, seq=2)
+    assert order(2, hold=False) == [COMMS_STEP_KEY, COMMS_EVENTS_KEY]
