@@ -16,7 +16,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 
 from comms.tick import Tick
-from comms.windows import window_end
+from comms.windows import report_of, window_end
 
 
 @dataclass
@@ -34,7 +34,7 @@ class Grants:
     def report(self, vehicle: int, k: int, next_tx: int | None) -> None:
         """Vehicle's step message of step k (a window's last), which says when it may transmit next (None: at once)."""
         if vehicle not in self.reports or self.reports[vehicle][0] <= k:
-            self.reports[vehicle] = (k, next_tx if next_tx is not None and next_tx > k else k + 1)
+            self.reports[vehicle] = report_of(k, next_tx)
 
     def governing(self, k: int) -> Tick | None:
         """The grant step k runs on: the latest granted at or before k whose span holds k."""

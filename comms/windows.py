@@ -18,6 +18,12 @@ from collections.abc import Mapping, Sequence
 Reports = Mapping[int, tuple[int, int]]  # vehicle -> (its latest step reported, the first step it may transmit at)
 
 
+def report_of(s: int, next_tx: int | None) -> tuple[int, int]:
+    """The report (s, n) of a vehicle's state of step s that says next_tx: n = next_tx if it is after s, else s + 1
+    (one that says nothing, or nothing after s, may transmit at once)."""
+    return s, next_tx if next_tx is not None and next_tx > s else s + 1
+
+
 def window_end(a: int, change: int, alive: Sequence[int], reports: Reports, longest: int | None = None) -> int:
     """b of the window [a, b) granted now: its last step is the earliest at which a live vehicle may transmit, or
     the step before the next change (change: Schedule.next_change(a), at most the run's steps), and at least a. A

@@ -42,6 +42,7 @@ from comms.receptions import RxBatch
 from comms.records import Transmission
 from comms.reports import CommsDone, CommsStats, VehicleDone
 from comms.state import StateReport
+from comms.windows import report_of
 from supervisor.analysis.comms_summary import BY_NO_KEY
 from supervisor.analysis.series import SeriesBuilder
 from supervisor.config.derived import steps_of
@@ -219,7 +220,7 @@ class Intake:
     def _next(self, vid: int, last: int, next_tx: int | None) -> None:
         """Vehicle vid's latest step, and the first at which it may transmit next."""
         if vid not in self.next_tx or self.next_tx[vid][0] < last:  # one that says nothing may transmit at once
-            self.next_tx[vid] = (last, next_tx if next_tx is not None and next_tx > last else last + 1)
+            self.next_tx[vid] = report_of(last, next_tx)
 
     def _step(self, vid: int, message: Message) -> None:
         """A vehicle's step message: its state, and the transmission and reception batch it carries, each read
