@@ -149,10 +149,15 @@ def _update(x: FloatArray, cov: FloatArray, h: FloatArray, z: FloatArray, noise:
 
 
 def navigate(
-    params: NavParams, prior: NavState, s: Sequence[float], k: int, dt: float, drift: Float3 = (0.0, 0.0, 0.0)
+    params: NavParams,
+    prior: NavState,
+    s: Sequence[float],
+    k: int,
+    dt: float,
+    current_body: Float3 = (0.0, 0.0, 0.0),
 ) -> NavOutput:
     """One sync step of the navigation computer at t_k = k dt, on the true lifted state s: measure, fuse, dead
-    reckon to t_k + dt. drift: the current in body axes, R' v_c (s's v is relative to the water)."""
+    reckon to t_k + dt. current_body: the water's velocity in body axes, R' v_c (s's v is relative to the water)."""
     draws = params.rng(_STEP, k)
     n = draws.standard_normal(7)  # always 7 normals, then 1 uniform: no draw depends on another
     lost = draws.random() < params.fix_dropout
@@ -171,7 +176,7 @@ def navigate(
     # A bottom-locked DVL measures the velocity over ground, v + R' v_c: dead reckoning on v alone would leave the
     # current out of the estimate, which then drifts away at v_c between fixes. The controller's velocity error
     # (held) stays the sensor's own error; whether the controller knows the current is [environment]'s business.
-    ground = v_c + np.array(drift)
+    ground = v_c + np.array(current_body)
     return NavOutput(posterior, held, _predict(params, posterior, _heading_rotation(s, heading_error), ground, dt), fix)
 
 

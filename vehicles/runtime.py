@@ -110,5 +110,5 @@ def _navigate(cfg: VehicleConfig, node: NodeState, state: VehicleState, t: float
     if params is None:
         return None
     s = cfg.model.lift(state.x)
-    drift = (0.0, 0.0, 0.0) if cfg.current is None else body(s[3:12], cfg.current.velocity(t, s[2]))
-    return navigate(params, node.nav or initial(params, s), s, round(t / dt), dt, drift)
+    current = (0.0, 0.0, 0.0) if cfg.current is None else body(s[3:12], cfg.current.velocity(t, s[2]))
+    return navigate(params, node.nav or initial(params, s), s, round(t / dt), dt, current)
