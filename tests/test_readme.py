@@ -3,26 +3,17 @@
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import re
-from types import ModuleType
 
 import pytest
 
 from supervisor.cli import _parser, main
 from tests.conftest import ROOT
+from tests.procs import script
 
 README = (ROOT / "README.md").read_text(encoding="utf-8")
 PAPER_RUN = "cpf run configs/paper.toml --out runs/paper/run.mcap"
 REGENERATE = "the README's numbers are not the code's: run `make readme` (scripts/readme_numbers.py) and commit"
-
-
-def _script() -> ModuleType:
-    spec = importlib.util.spec_from_file_location("readme_numbers", ROOT / "scripts" / "readme_numbers.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 def _section(title: str) -> str:
@@ -30,7 +21,7 @@ def _section(title: str) -> str:
 
 
 def test_the_paper_block_is_what_the_current_code_prints(tmp_path, capsys):
-    blocks = dict(_script().blocks(README))
+    blocks = dict(script("readme_numbers").blocks(README))
     shown = blocks[PAPER_RUN].strip().removeprefix("```").removesuffix("```").strip().splitlines()
     code = main(["run", "configs/paper.toml", "--engine", "inprocess", "--quiet", "--out", str(tmp_path / "r.mcap")])
     fresh = capsys.readouterr().out.splitlines()
@@ -41,15 +32,15 @@ def test_the_paper_block_is_what_the_current_code_prints(tmp_path, capsys):
 
 
 def test_the_script_rewrites_every_block_and_nothing_else():
-    script = _script()
+    numbers = script("readme_numbers")
     text = "intro\n<!-- begin: cpf run a.toml -->\n```\nold\n```\n<!-- end -->\nmiddle\n"
     text += "<!-- begin: cpf run b.toml --set x=1 -->\n<!-- end -->\nend\n"
-    out = script.rewrite(text, lambda command: f"ran {command}\nline 2\n")
+    out = numbers.rewrite(text, lambda command: f"ran {command}\nline 2\n")
     assert out == (
         "intro\n<!-- begin: cpf run a.toml -->\n```\nran cpf run a.toml\nline 2\n```\n<!-- end -->\nmiddle\n"
         "<!-- begin: cpf run b.toml --set x=1 -->\n```\nran cpf run b.toml --set x=1\nline 2\n```\n<!-- end -->\nend\n"
     )
-    assert next(command for command, _ in script.blocks(README)) == PAPER_RUN
+    assert next(command for command, _ in numbers.blocks(README)) == PAPER_RUN
 
 
 def test_the_command_line_section_lists_every_command():

@@ -4,26 +4,15 @@ tests/test_robustness_study.py's."""
 
 from __future__ import annotations
 
-import importlib.util
 import tomllib
-from types import ModuleType
 
 import numpy as np
 import pytest
 
 from supervisor.config.scenario import validate_data
-from tests.procs import ROOT
+from tests.procs import script
 
-
-def _script() -> ModuleType:
-    spec = importlib.util.spec_from_file_location("robustness_study", ROOT / "scripts" / "robustness_study.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-study = _script()
+study = script("robustness_study")
 
 
 def _on(data: dict) -> set[str]:
