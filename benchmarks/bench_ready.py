@@ -22,10 +22,10 @@ import zenoh
 
 from benchmarks import ROOT, save
 from comms.bus import free_port, open_session
+from comms.handover import write_private
 from comms.messages import vehicle_alive_key
 from supervisor.config.scenario import load_scenario
 from supervisor.config.vehicle_start import vehicle_starts
-from vehicles.start import write_starts
 
 TIMEOUT = 30.0  # s: a start slower than this is a failure, not a number
 
@@ -43,7 +43,7 @@ def measure(repeat: int) -> dict[str, Any]:
     subscriber = session.liveliness().declare_subscriber(token, changed)
     private = tempfile.TemporaryDirectory(prefix="cpf-bench-ready-")
     plan = Path(private.name) / "vehicle-1.starts"
-    write_starts(plan, vehicle_starts(load_scenario(ROOT / "configs/paper.toml", (), ()), [1]))
+    write_private(plan, vehicle_starts(load_scenario(ROOT / "configs/paper.toml", (), ()), [1]))
     argv = [sys.executable, "-P", "-m", "supervisor.cli", "vehicle", "configs/paper.toml", "--id", "1"]
     argv += ["--plan", str(plan)]
     times = []

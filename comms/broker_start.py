@@ -10,7 +10,7 @@ from pathlib import Path
 
 from comms.broker_core import BrokerCore
 from comms.fields import Message
-from comms.handover import read_private, write_private
+from comms.handover import read_private
 
 WHAT = "a broker start written by cpf run"
 
@@ -26,10 +26,7 @@ class BrokerStart:
     hello: Message  # its answer to which scenario it runs (comms.messages.Hello): the supervisor's own digests
 
 
-def write_broker_start(path: Path, start: BrokerStart) -> None:
-    write_private(path, start)
-
-
 def read_broker_start(path: Path) -> BrokerStart:
-    """ValueError '<file>: <problem>' for a file that is not a private file of this user's holding one."""
+    """The start comms.handover.write_private wrote; ValueError '<file>: <problem>' for a file that is not a
+    private file of this user's holding one."""
     return read_private(path, BrokerStart, WHAT)

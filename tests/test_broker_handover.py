@@ -12,8 +12,8 @@ from pathlib import Path
 
 import zenoh
 
-from comms.broker_start import write_broker_start
 from comms.bus import free_port, open_session
+from comms.handover import write_private
 from comms.messages import COMMS_ALIVE, STOP_KEY, SUPERVISOR_ALIVE, Hello, encode
 from supervisor.config.broker_start import broker_start
 from supervisor.config.scenario import load_scenario
@@ -23,7 +23,6 @@ from supervisor.engine.launch import BusOptions, Launch
 from supervisor.engine.startup import ask_hello
 from tests.conftest import CONFIGS
 from tests.procs import CPF
-from vehicles.start import write_starts
 
 PAPER = CONFIGS / "paper.toml"
 WAIT = 60.0  # s: generous bounds, never reached when things work
@@ -69,7 +68,7 @@ def _refused(plan: Path) -> subprocess.CompletedProcess[str]:
 
 def test_a_vehicles_hand_over_or_none_is_refused_by_the_broker(tmp_path: Path) -> None:
     plan = tmp_path / "vehicle-1.start"
-    write_starts(plan, vehicle_starts(load_scenario(PAPER, (), ()), [1]))
+    write_private(plan, vehicle_starts(load_scenario(PAPER, (), ()), [1]))
     done = _refused(plan)
     assert (done.returncode, done.stderr) == (2, f"cpf: error: {plan}: not a broker start written by cpf run "
                                                  "(a tuple)\n")  # fmt: skip
@@ -84,7 +83,7 @@ def test_a_vehicles_hand_over_or_none_is_refused_by_the_broker(tmp_path: Path) -
 
 def test_a_broker_hand_over_others_could_write_is_refused(tmp_path: Path) -> None:
     plan = tmp_path / "comms-broker.start"
-    write_broker_start(plan, broker_start(load_scenario(PAPER, (), ()), 0))
+    write_private(plan, broker_start(load_scenario(PAPER, (), ()), 0))
     plan.chmod(0o660)
     done = _refused(plan)
     assert (done.returncode, done.stderr) == (2, f"cpf: error: {plan}: not a private file of this user's "

@@ -14,6 +14,7 @@ import pytest
 import zenoh
 
 from comms.bus import free_port, open_session
+from comms.handover import write_private
 from comms.messages import STOP_KEY, SUPERVISOR_ALIVE, Hello, encode, vehicle_alive_key
 from supervisor.config.scenario import load_scenario
 from supervisor.config.scenario_digest import digest, section_digests
@@ -24,7 +25,6 @@ from supervisor.engine.startup import ask_hello
 from supervisor.engine.supervisor import Roster, Supervisor
 from tests.conftest import CONFIGS
 from tests.procs import CPF
-from vehicles.start import write_starts
 
 PAPER = CONFIGS / "paper.toml"  # gamma0 = "closest": the search the supervisor now does for its children
 WAIT = 60.0  # s: generous bounds, never reached when things work
@@ -104,7 +104,7 @@ def _refused(*args: str) -> subprocess.CompletedProcess[str]:
 
 def test_a_hand_over_of_other_vehicles_is_refused(tmp_path: Path) -> None:
     plan = tmp_path / "vehicle-1.starts"
-    write_starts(plan, vehicle_starts(load_scenario(PAPER, (), ()), [1]))
+    write_private(plan, vehicle_starts(load_scenario(PAPER, (), ()), [1]))
     done = _refused("--id", "2", "--plan", str(plan))
     assert done.returncode == 2
     assert done.stderr == f"cpf: error: {plan}: the vehicles of --id [2] are not those it starts, got [1]\n"
@@ -112,7 +112,7 @@ def test_a_hand_over_of_other_vehicles_is_refused(tmp_path: Path) -> None:
 
 def test_a_hand_over_others_could_write_or_that_is_none_is_refused(tmp_path: Path) -> None:
     plan = tmp_path / "vehicle-1.starts"
-    write_starts(plan, vehicle_starts(load_scenario(PAPER, (), ()), [1]))
+    write_private(plan, vehicle_starts(load_scenario(PAPER, (), ()), [1]))
     plan.chmod(0o620)
     done = _refused("--id", "1", "--plan", str(plan))
     assert (done.returncode, done.stderr) == (2, f"cpf: error: {plan}: not a private file of this user's "

@@ -4,12 +4,11 @@ why pickle, and why it is safe).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 from comms.fields import Message
-from comms.handover import read_private, write_private
+from comms.handover import read_private
 from vehicles.agent import VehicleConfig
 from vehicles.runtime import NodeState, Radio
 
@@ -30,14 +29,9 @@ class VehicleStart:
 WHAT = "vehicle starts written by cpf run"
 
 
-def write_starts(path: Path, starts: Sequence[VehicleStart]) -> None:
-    """The starts of one process, to a new file only its owner can read or write."""
-    write_private(path, tuple(starts))
-
-
 def read_starts(path: Path) -> tuple[VehicleStart, ...]:
-    """The starts the supervisor wrote; ValueError '<file>: <problem>' for a file that is not a private file of
-    this user's holding them."""
+    """The starts the supervisor wrote (comms.handover.write_private, a tuple); ValueError '<file>: <problem>'
+    for a file that is not a private file of this user's holding them."""
     starts = read_private(path, tuple, WHAT)
     if not all(isinstance(s, VehicleStart) for s in starts):
         raise ValueError(f"{path}: not {WHAT} (a tuple of {', '.join(sorted({type(s).__name__ for s in starts}))})")

@@ -25,7 +25,7 @@ def vehicle_starts(
     resume: Resume | None = None,
     start_step: int = 0,
     seed: int | None = None,
-) -> list[VehicleStart]:
+) -> tuple[VehicleStart, ...]:
     """The start of each vehicle of ids. gamma0: initial gammas already resolved (no search for "closest");
     resume: the one vehicle of ids restarts from its last recorded state at start_step; seed: the run's (None: the
     scenario's), which navigation noise and a perturbed plant draw from."""
@@ -42,7 +42,7 @@ def vehicle_starts(
         greeting = Hello(f"vehicle {vid}", whole, sections).to_message()
         near = tuple(scenario.neighbours(vid))
         starts.append(VehicleStart(cfg, initial, radio(scenario, vid), near, dt, greeting, start_step))
-    return starts
+    return tuple(starts)  # a process's, as it is handed over (vehicles.start.read_starts)
 
 
 def _starting_at(scenario: Scenario, vid: int, gamma0: float | None) -> Scenario:

@@ -9,12 +9,12 @@ supervisor's digests (supervisor.engine.startup), as a process started by hand a
 from __future__ import annotations
 
 import sys
-from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from comms.broker_start import BrokerStart, write_broker_start
-from vehicles.start import VehicleStart, write_starts
+from comms.broker_start import BrokerStart
+from comms.handover import write_private
+from vehicles.start import VehicleStart
 
 START_TIMEOUT = 60.0  # s for a process to declare its liveliness token (cpf run --start-timeout)
 
@@ -69,16 +69,13 @@ class Launch:
             *extra,
         ]  # credentials: in the environment (supervisor.engine.bus_access)
 
-    def handover(self, name: str, starts: Sequence[VehicleStart] | BrokerStart) -> list[str]:
+    def handover(self, name: str, start: tuple[VehicleStart, ...] | BrokerStart) -> list[str]:
         """The options that hand the process `name` what it serves (a vehicle process its starts, the broker its
         start): written to a file of the run's private directory, one per process start (a restart's replaces the
         last)."""
         path = self.private_dir / f"{name.replace(' ', '-').replace(',', '-')}.start"
         path.unlink(missing_ok=True)
-        if isinstance(starts, BrokerStart):
-            write_broker_start(path, starts)
-        else:
-            write_starts(path, starts)
+        write_private(path, start)
         return ["--plan", str(path)]
 
 
