@@ -222,8 +222,10 @@ class Broker:
         message makes possible, and a broker killed with its events unsent would lose them."""
         if tick.hold:
             self._publish_events(tick)
-        self.publishers.put(COMMS_STEP_KEY, batches)
-        self._publish_events(tick)
+            self.publishers.put(COMMS_STEP_KEY, batches)
+        else:
+            self.publishers.put(COMMS_STEP_KEY, batches)
+            self._publish_events(tick)
 
     def states_before(self, k: int) -> None:
         """Forget the states of steps before k: those of a window's earlier steps are never submitted."""
