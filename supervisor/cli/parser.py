@@ -212,11 +212,7 @@ def _add_processes(sub: Commands) -> None:
         "--gamma0", type=_gamma0, action="append", default=[], metavar="[ID=]GAMMA",
         help="the initial gamma of vehicle ID (of the one --id without ID=), when the supervisor resolved 'closest'",
     )  # fmt: skip
-    vehicle.add_argument(
-        "--plan", type=Path, default=None, metavar="FILE",
-        help="what to serve each --id with, as the supervisor hands the processes it starts (a private file of its "
-        "run): the scenario file, --set, --fault, --gamma0, --resume and --start-step are then not read",
-    )  # fmt: skip
+    _add_plan(vehicle, "each --id", "--set, --fault, --gamma0, --resume and --start-step")
     _add_broker(sub)
 
 
@@ -230,10 +226,15 @@ def _add_broker(sub: Commands) -> None:
     comms.add_argument(
         "--start-step", type=_step_number, default=0, help="the sync step to resume at (after a restart)"
     )
-    comms.add_argument(
+    _add_plan(comms, "the channel", "--seed, --set and --fault")
+
+
+def _add_plan(command: argparse.ArgumentParser, served: str, unread: str) -> None:
+    """--plan: the private file the supervisor hands a process it starts (comms.handover)."""
+    command.add_argument(
         "--plan", type=Path, default=None, metavar="FILE",
-        help="what to serve the channel with, as the supervisor hands the broker it starts (a private file of its "
-        "run): the scenario file, --seed, --set and --fault are then not read",
+        help=f"what to serve {served} with, as the supervisor hands the processes it starts (a private file of its "
+        f"run): the scenario file, {unread} are then not read",
     )  # fmt: skip
 
 
