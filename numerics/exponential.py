@@ -149,9 +149,12 @@ def tanh(x: float) -> float:
 
 # exp10: x*ln(10) as a double-double, then exp(hi)*(1 + lo).
 _LN10_HI = 2.302585092994046  # 0x40026BB1, 0xBBB55516
-_LN10_LO = -2.1707562233822494e-16  # ln(10) - LN10_HI
+_LN10_LO = -2.1707562233822494e-16  # 0xBCAF48AD, 0x494EA3E9: ln(10) - LN10_HI, rounded
 _SPLIT = 134217729.0  # 2^27 + 1, Veltkamp's splitter
-_POWERS_OF_TEN = tuple(float(10**i) for i in range(23))  # exact
+_POWERS_OF_TEN = (  # 10^0 .. 10^22, all exact doubles
+    1.0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11,
+    1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
+)  # fmt: skip
 
 
 def _two_product(a: float, b: float) -> tuple[float, float]:
