@@ -10,7 +10,7 @@ Permission to use, copy, modify, and distribute this software is freely granted,
 preserved.
 """
 
-from math import frexp, ldexp
+from math import fabs, frexp, ldexp
 
 from numerics._bits import from_words
 
@@ -22,6 +22,8 @@ _PIO2_2T = 2.02226624879595063154e-21  # 0x3BA3198A, 0x2E037073: pi/2 - (PIO2_1 
 _PIO2_3 = 2.02226624871116645580e-21  # 0x3BA3198A, 0x2E000000: third 33 bits of pi/2
 _PIO2_3T = 8.47842766036889956997e-32  # 0x397B839A, 0x252049C1: pi/2 - (PIO2_1 + PIO2_2 + PIO2_3)
 _TO_INT = 6755399441055744.0  # 0x1.8p52: (v + TO_INT) - TO_INT rounds v to an integer (round to nearest)
+_TWO_M16 = 1.52587890625e-05  # 2^-16
+_TWO_M49 = 1.7763568394002505e-15  # 2^-49
 MEDIUM_LIMIT = from_words(0x413921FB, 0)  # ~2^20*(pi/2): the medium path below, the exact one above
 
 # 2/pi in 24-bit chunks after the binary point (k_rem_pio2.c, ipio2[], the 66 entries for double).
@@ -45,34 +47,32 @@ PIO2 = (1 << (TWO_OVER_PI_BITS + _PIO2_BITS)) // TWO_OVER_PI  # pi/2 * 2^256, go
 
 
 def rem_pio2(x: float) -> tuple[int, float, float]:
-    """(n, y0, y1) with x = n*(pi/2) + y0 + y1 for finite x (e_rem_pio2.c, __ieee754_rem_pio2)."""
-    if -MEDIUM_LIMIT < x < MEDIUM_LIMIT:
-        return _rem_pio2_medium(x)
-    return rem_pio2_large(x)
+    """(n, y0, y1) with x = n*(pi/2) + y0 + y1 for finite x (e_rem_pio2.c, __ieee754_rem_pio2).
 
-
-def _rem_pio2_medium(x: float) -> tuple[int, float, float]:
-    """The medium case of e_rem_pio2.c: 33+33+33+53 bits of pi/2, as many rounds as the cancellation needs."""
+    The medium case: 33+33+33+53 bits of pi/2, as many rounds as the cancellation needs. fdlibm compares exponents
+    (a 2nd round when y0's is more than 16 below x's, a 3rd at 49); |y0| < |x|*2^-16 (2^-49) asks for a round in
+    every case fdlibm does, and in a few more, without reading exponents.
+    """
+    if not -MEDIUM_LIMIT < x < MEDIUM_LIMIT:
+        return rem_pio2_large(x)
     fn = (x * _INVPIO2 + _TO_INT) - _TO_INT
-    n = int(fn)
     r = x - fn * _PIO2_1
     w = fn * _PIO2_1T  # 1st round good to 85 bits
-    j = frexp(x)[1]
     y0 = r - w
-    if y0 == 0.0 or j - frexp(y0)[1] > 16:  # 2nd iteration needed, good to 118 bits
+    ax = fabs(x)
+    if fabs(y0) < ax * _TWO_M16:  # 2nd iteration needed, good to 118 bits
         t = r
         w = fn * _PIO2_2
         r = t - w
         w = fn * _PIO2_2T - ((t - r) - w)
         y0 = r - w
-        if y0 == 0.0 or j - frexp(y0)[1] > 49:  # 3rd iteration needed, 151 bits
+        if fabs(y0) < ax * _TWO_M49:  # 3rd iteration needed, 151 bits
             t = r
             w = fn * _PIO2_3
             r = t - w
             w = fn * _PIO2_3T - ((t - r) - w)
             y0 = r - w
-    y1 = (r - y0) - w
-    return n, y0, y1
+    return int(fn), y0, (r - y0) - w
 
 
 def rem_pio2_large(x: float) -> tuple[int, float, float]:

@@ -1,6 +1,7 @@
 """log, log1p and log10 ported from fdlibm (FreeBSD msun / openlibm): e_log.c, s_log1p.c, e_log10.c, k_log.h.
 
-The exponent and the leading mantissa bits are read from the high word exactly as fdlibm does (numerics._bits).
+fdlibm's tests on the high word's exponent and mantissa bits are math.frexp and comparisons with the equivalent
+doubles here (the same branches).
 log(0) = -inf and log(x < 0) = nan, as in C (Python's math raises ValueError).
 
 Copyright (C) 1993 by Sun Microsystems, Inc. All rights reserved.
@@ -9,9 +10,9 @@ Permission to use, copy, modify, and distribute this software is freely granted,
 preserved.
 """
 
-from math import inf, nan
+from math import fabs, frexp, inf, nan
 
-from numerics._bits import clear_low_word, from_bits, high_word, to_bits
+from numerics._bits import clear_low_word, from_words
 
 _LN2_HI = 6.93147180369123816490e-01  # 3fe62e42 fee00000
 _LN2_LO = 1.90821492927058770002e-10  # 3dea39ef 35793c76
@@ -23,22 +24,23 @@ _LG4 = 2.222219843214978396e-01  # 3FCC71C5 1D8E78AF
 _LG5 = 1.818357216161805012e-01  # 3FC74664 96CB03DE
 _LG6 = 1.531383769920937332e-01  # 3FC39A09 D078C69F
 _LG7 = 1.479819860511658591e-01  # 3FC2F112 DF3E5244
-_MIN_NORMAL = 2.2250738585072014e-308  # 2^-1022
+_SQRT2_SPLIT = from_words(0x3FF6A09C, 0)  # m in [1, 2) at or above: use m/2 ((hx + 0x95f64) & 0x100000)
+_ONE_PLUS = from_words(0x3FF00001, 0)  # 1 + 2^-20
+_TWO_MINUS = from_words(0x3FFFFFFE, 0)  # 2 - 2^-19
+_CLOSE_LOW = from_words(0x3FF6147A, 0)  # hx - 0x6147a >= 0
+_CLOSE_HIGH = from_words(0x3FF6B852, 0)  # 0x6b851 - hx >= 0
 
 
-def _split(x: float) -> tuple[int, float, int]:
-    """(k, m, hx): x = 2^k*m with m in [sqrt(2)/2, sqrt(2)), hx the mantissa bits of m's high word (e_log.c)."""
-    k = 0
-    if x < _MIN_NORMAL:  # subnormal: scale up
-        k = -54
-        x *= _TWO54
-    bits = to_bits(x)
-    hx = bits >> 32
-    k += (hx >> 20) - 1023
-    hx &= 0x000FFFFF
-    i = (hx + 0x95F64) & 0x100000
-    m = from_bits(((hx | (i ^ 0x3FF00000)) << 32) | (bits & 0xFFFFFFFF))  # normalize x or x/2
-    return k + (i >> 20), m, hx
+def _split(x: float) -> tuple[int, float, float]:
+    """(k, m, m1): x = 2^k*m, m in [sqrt(2)/2, sqrt(2)); m1 in [1, 2) the mantissa of x (e_log.c, with frexp).
+
+    fdlibm reads m1's high word; its tests on those bits are comparisons of m1 with the equivalent doubles here.
+    """
+    mantissa, exponent = frexp(x)  # exact, subnormals included
+    m1 = mantissa * 2.0
+    if m1 >= _SQRT2_SPLIT:
+        return exponent, mantissa, m1
+    return exponent - 1, m1, m1
 
 
 def log(x: float) -> float:
@@ -47,10 +49,10 @@ def log(x: float) -> float:
         if x == 0.0:
             return -inf
         return x if x == inf or x != x else nan
-    k, m, hx = _split(x)
+    k, m, m1 = _split(x)
     f = m - 1.0
     dk = float(k)
-    if (0x000FFFFF & (2 + hx)) < 3:  # -2^-20 <= f < 2^-20
+    if m1 < _ONE_PLUS or m1 >= _TWO_MINUS:  # -2^-20 <= f < 2^-20
         if f == 0.0:
             return 0.0 if k == 0 else dk * _LN2_HI + dk * _LN2_LO
         r = f * f * (0.5 - 0.33333333333333333 * f)
@@ -61,7 +63,7 @@ def log(x: float) -> float:
     t1 = w * (_LG2 + w * (_LG4 + w * _LG6))
     t2 = z * (_LG1 + w * (_LG3 + w * (_LG5 + w * _LG7)))
     r = t2 + t1
-    if ((hx - 0x6147A) | (0x6B851 - hx)) > 0:
+    if _CLOSE_LOW <= m1 < _CLOSE_HIGH:  # ((hx - 0x6147a) | (0x6b851 - hx)) > 0
         hfsq = 0.5 * f * f
         if k == 0:
             return f - (hfsq - s * (hfsq + r))
@@ -71,47 +73,46 @@ def log(x: float) -> float:
     return dk * _LN2_HI - ((s * (f - r) - dk * _LN2_LO) - f)
 
 
-def _log1p_split(x: float) -> tuple[int, float, float, int]:
-    """(k, f, c, hu): 1 + x = 2^k*(1 + f + c), c the rounding error of 1 + x over 1 + f (s_log1p.c, k != 0 path)."""
+_LOG1P_SMALL = from_words(0x3FDA827A, 0)  # 1 + x < sqrt(2)+ below
+_LOG1P_NEG = from_words(0x3FD2BEC5, 0)  # -x below: sqrt(2)/2- <= 1 + x (hx <= 0xbfd2bec4)
+_TWO_M29 = from_words(0x3E200000, 0)
+_TWO_M54 = from_words(0x3C900000, 0)
+_U_SPLIT = from_words(0x3FF6A09E, 0)  # u ~< sqrt(2) below
+_U_TWO_MINUS = from_words(0x3FFFFFFD, 0)  # (0x00100000 - hu) >> 2 == 0 at or above
+
+
+def _log1p_split(x: float) -> tuple[int, float, float, bool]:
+    """(k, f, c, tiny): 1 + x = 2^k*(1 + f + c), c the rounding error of 1 + x, tiny: |f| < 2^-20 (s_log1p.c)."""
     if x < 9007199254740992.0:  # hx < 0x43400000: 2^53
         u = 1.0 + x
-        hu = high_word(u)
-        k = (hu >> 20) - 1023
-        c = (1.0 - (u - x) if k > 0 else x - (u - 1.0)) / u  # correction term
+        mantissa, exponent = frexp(u)
+        c = (1.0 - (u - x) if exponent > 1 else x - (u - 1.0)) / u  # correction term
     else:
-        u = x
-        hu = high_word(u)
-        k = (hu >> 20) - 1023
+        mantissa, exponent = frexp(x)
         c = 0.0
-    hu &= 0x000FFFFF
-    low = to_bits(u) & 0xFFFFFFFF
-    if hu < 0x6A09E:  # u ~< sqrt(2)
-        u = from_bits(((hu | 0x3FF00000) << 32) | low)  # normalize u
-    else:
-        k += 1
-        u = from_bits(((hu | 0x3FE00000) << 32) | low)  # normalize u/2
-        hu = (0x00100000 - hu) >> 2
-    return k, u - 1.0, c, hu
+    u1 = mantissa * 2.0  # in [1, 2)
+    k = exponent - 1
+    if u1 < _U_SPLIT:
+        return k, u1 - 1.0, c, u1 < _ONE_PLUS
+    return k + 1, mantissa - 1.0, c, u1 >= _U_TWO_MINUS
 
 
 def log1p(x: float) -> float:
     """log(1 + x), accurate near 0 (s_log1p.c); log1p(-1) = -inf, log1p(x < -1) = nan."""
-    hx = high_word(x)
     if not -1.0 < x < inf:
         if x == -1.0:
             return -inf
         return x if x == inf or x != x else nan
-    k, f, c, hu = 0, x, 0.0, 1
-    if hx < 0x3FDA827A:  # 1 + x < sqrt(2)+
-        ax = hx & 0x7FFFFFFF
-        if ax < 0x3E200000:  # |x| < 2^-29
-            return x if ax < 0x3C900000 else x - x * x * 0.5
-        if not (hx > 0 or hx <= -0x402D413C):  # not sqrt(2)/2- <= 1 + x < sqrt(2)+ (hx <= 0xbfd2bec4)
-            k, f, c, hu = _log1p_split(x)
+    if x < _LOG1P_SMALL:  # 1 + x < sqrt(2)+
+        ax = fabs(x)
+        if ax < _TWO_M29:
+            return x if ax < _TWO_M54 else x - x * x * 0.5
+    if x < _LOG1P_SMALL and (x > 0.0 or x > -_LOG1P_NEG):  # sqrt(2)/2- <= 1 + x < sqrt(2)+
+        k, f, c, tiny = 0, x, 0.0, False
     else:
-        k, f, c, hu = _log1p_split(x)
+        k, f, c, tiny = _log1p_split(x)
     hfsq = 0.5 * f * f
-    if hu == 0:  # |f| < 2^-20
+    if tiny:  # |f| < 2^-20
         if f == 0.0:
             return 0.0 if k == 0 else k * _LN2_HI + (c + k * _LN2_LO)
         r = hfsq * (1.0 - 0.66666666666666666 * f)
