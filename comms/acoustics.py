@@ -13,6 +13,9 @@ Sources: shared/reference/acoustics.md.
 - SNR (dB) = SL - TL - NL - 10 log10(B) + DI; bit error: coherent BPSK 0.5 erfc(sqrt(ebn0)), non-coherent binary
   FSK 0.5 exp(-ebn0 / 2) (Proakis, Digital Communications), with Eb/N0 = SNR B / R (the energy of one bit over the
   noise in one hertz: SNR in the band B, R bits per second); packet error 1 - (1 - Pb)^bits.
+
+Transcendental functions come from numerics, powers are products: the C library's pow, log10, erfc, ... pick
+CPU-specific kernels, and these numbers decide packets' fates and delays.
 """
 
 from __future__ import annotations
@@ -23,6 +26,7 @@ from typing import Literal
 import numpy as np
 
 from comms.records import FloatArray
+from numerics import erfc, exp, exp10, expm1, log1p, log10
 
 
 def time_of_flight(
@@ -67,13 +71,13 @@ def mackenzie_sound_speed(temperature_c: float, salinity_ppt: float, depth_m: fl
     return (
         1448.96
         + 4.591 * t
-        - 5.304e-2 * t**2
-        + 2.374e-4 * t**3
+        - 5.304e-2 * (t * t)
+        + 2.374e-4 * (t * t * t)
         + 1.340 * ds
         + 1.630e-2 * d
-        + 1.675e-7 * d**2
+        + 1.675e-7 * (d * d)
         - 1.025e-2 * t * ds
-        - 7.139e-13 * t * d**3
+        - 7.139e-13 * t * (d * d * d)
     )
 
 
@@ -91,12 +95,12 @@ def transmission_loss_db(distance_m: float, f_khz: float, spreading: float = 1.5
     """
     _require(distance_m >= 0.0, "distance_m", distance_m, ">= 0")
     length = max(distance_m, 1.0)
-    return spreading * 10.0 * math.log10(length) + length * thorp_absorption_db_per_km(f_khz) / 1000.0
+    return spreading * 10.0 * log10(length) + length * thorp_absorption_db_per_km(f_khz) / 1000.0
 
 
 def _power_sum_db(levels_db: list[float]) -> float:
     """10 log10 of the sum of the powers: uncorrelated noise sources add in power, not in dB."""
-    return 10.0 * math.log10(sum(10.0 ** (x / 10.0) for x in levels_db))
+    return 10.0 * log10(sum(exp10(x / 10.0) for x in levels_db))
 
 
 def noise_psd_db(f_khz: float, shipping: float = 0.5, wind_m_s: float = 0.0) -> float:
@@ -107,10 +111,10 @@ def noise_psd_db(f_khz: float, shipping: float = 0.5, wind_m_s: float = 0.0) -> 
     _require(f_khz > 0.0, "f_khz", f_khz, "> 0")
     _require(0.0 <= shipping <= 1.0, "shipping", shipping, "in [0, 1]")
     _require(wind_m_s >= 0.0, "wind_m_s", wind_m_s, ">= 0")
-    lf = math.log10(f_khz)
+    lf = log10(f_khz)
     turbulence = 17.0 - 30.0 * lf
-    ships = 40.0 + 20.0 * (shipping - 0.5) + 26.0 * lf - 60.0 * math.log10(f_khz + 0.03)
-    wind = 50.0 + 7.5 * math.sqrt(wind_m_s) + 20.0 * lf - 40.0 * math.log10(f_khz + 0.4)
+    ships = 40.0 + 20.0 * (shipping - 0.5) + 26.0 * lf - 60.0 * log10(f_khz + 0.03)
+    wind = 50.0 + 7.5 * math.sqrt(wind_m_s) + 20.0 * lf - 40.0 * log10(f_khz + 0.4)
     thermal = -15.0 + 20.0 * lf
     return _power_sum_db([turbulence, ships, wind, thermal])
 
@@ -131,7 +135,7 @@ def snr_db(
     """
     _require(bandwidth_hz > 0.0, "bandwidth_hz", bandwidth_hz, "> 0")
     loss = transmission_loss_db(distance_m, f_khz, spreading)
-    noise = noise_psd_db(f_khz, shipping, wind_m_s) + 10.0 * math.log10(bandwidth_hz)
+    noise = noise_psd_db(f_khz, shipping, wind_m_s) + 10.0 * log10(bandwidth_hz)
     return source_level_db - loss - noise + directivity_db
 
 
@@ -139,16 +143,16 @@ def ebn0_db(snr_db: float, bandwidth_hz: float, bitrate: float) -> float:
     """Eb/N0 in dB from the in-band SNR: Eb/N0 = SNR B / R (+17 dB for 80 bit/s in 4 kHz)."""
     _require(bandwidth_hz > 0.0, "bandwidth_hz", bandwidth_hz, "> 0")
     _require(bitrate > 0.0, "bitrate", bitrate, "> 0")
-    return snr_db + 10.0 * math.log10(bandwidth_hz / bitrate)
+    return snr_db + 10.0 * log10(bandwidth_hz / bitrate)
 
 
 def bit_error_rate(snr_db: float, modulation: Modulation) -> float:
     """Bit error probability at Eb/N0 = snr_db (dB) for coherent BPSK or non-coherent binary FSK."""
-    snr = 10.0 ** (snr_db / 10.0)
+    snr = exp10(snr_db / 10.0)
     if modulation == "bpsk":
-        return 0.5 * math.erfc(math.sqrt(snr))  # math.erfc keeps relative precision in the tail
+        return 0.5 * erfc(math.sqrt(snr))  # erfc keeps relative precision in the tail
     if modulation == "fsk":
-        return 0.5 * math.exp(-snr / 2.0)
+        return 0.5 * exp(-snr / 2.0)
     raise ValueError(f"modulation must be one of {MODULATIONS}, got {modulation!r}")
 
 
@@ -158,4 +162,4 @@ def packet_error_rate(ber: float, bits: int) -> float:
     _require(bits >= 0, "bits", bits, ">= 0")
     if ber == 1.0:
         return 1.0 if bits > 0 else 0.0  # log1p(-1) is -inf
-    return -math.expm1(bits * math.log1p(-ber))
+    return -expm1(bits * log1p(-ber))

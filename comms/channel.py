@@ -30,6 +30,7 @@ from comms.loss import LinkLoss, LossModel
 from comms.modem import ModemParams
 from comms.network import Impairment, Network
 from comms.records import FloatArray, Transmission
+from numerics import exp10, log10
 
 EventKind = Literal["sent", "delivered", "dropped"]
 EVENT_KINDS: tuple[EventKind, ...] = get_args(EventKind)
@@ -77,10 +78,10 @@ class Capture:
 
     def __post_init__(self) -> None:
         # The same at every overlap: worked out once, not at each packet's reception.
-        object.__setattr__(self, "noise_power", 10.0 ** (self.budget.noise_level_db() / 10.0))
+        object.__setattr__(self, "noise_power", exp10(self.budget.noise_level_db() / 10.0))
 
     def survives(self, level_db: float, interferers_db: list[float]) -> bool:
-        total = 10.0 * math.log10(sum((10.0 ** (x / 10.0) for x in interferers_db), self.noise_power))
+        total = 10.0 * log10(sum((exp10(x / 10.0) for x in interferers_db), self.noise_power))
         return level_db - total >= self.threshold_db
 
 

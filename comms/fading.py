@@ -24,6 +24,7 @@ from functools import lru_cache
 import numpy as np
 
 from comms.records import FloatArray
+from numerics import exp, log1p, log10, sincos
 
 GRID_DB = 0.01  # dB between the points the mean packet error is summed over
 FADE_FLOOR_DB = -120.0  # deeper fades (probability ~1e-12 for Rayleigh) are lumped here: the packet is lost anyway
@@ -32,9 +33,10 @@ FADE_CEILING_DB = 20.0  # a Rician power gain above 100 has probability below e^
 
 def box_muller(u1: float, u2: float) -> tuple[float, float]:
     """Two independent standard normals from two uniforms in [0, 1) (1 - u1 is in (0, 1]: the log is finite)."""
-    radius = math.sqrt(-2.0 * math.log1p(-u1))
+    radius = math.sqrt(-2.0 * log1p(-u1))
     angle = 2.0 * math.pi * u2
-    return radius * math.cos(angle), radius * math.sin(angle)
+    sine, cosine = sincos(angle)
+    return radius * cosine, radius * sine
 
 
 def rician_gain_db(u1: float, u2: float, k_factor: float) -> float:
@@ -42,8 +44,9 @@ def rician_gain_db(u1: float, u2: float, k_factor: float) -> float:
     z1, z2 = box_muller(u1, u2)
     scatter = math.sqrt(0.5 / (k_factor + 1.0))  # each quadrature of CN(0, 1 / (K + 1))
     los = math.sqrt(k_factor / (k_factor + 1.0))
-    power = (los + scatter * z1) ** 2 + (scatter * z2) ** 2
-    return 10.0 * math.log10(power) if power > 0.0 else FADE_FLOOR_DB
+    in_phase, quadrature = los + scatter * z1, scatter * z2
+    power = in_phase * in_phase + quadrature * quadrature
+    return 10.0 * log10(power) if power > 0.0 else FADE_FLOOR_DB
 
 
 def shadowing_step(previous_db: float | None, z: float, sigma_db: float, elapsed: float, correlation: float) -> float:
@@ -51,7 +54,7 @@ def shadowing_step(previous_db: float | None, z: float, sigma_db: float, elapsed
     a standard normal z, the time elapsed since (s) and the correlation time (s; 0: independent per packet)."""
     if previous_db is None or correlation <= 0.0:
         return sigma_db * z
-    rho = math.exp(-max(elapsed, 0.0) / correlation)
+    rho = exp(-max(elapsed, 0.0) / correlation)
     return rho * previous_db + math.sqrt(1.0 - rho * rho) * sigma_db * z
 
 

@@ -28,6 +28,7 @@ from comms.acoustics import (
 )
 from comms.fading import box_muller, mean_over_gain, rician_gain_db, shadowing_step
 from comms.records import FloatArray
+from numerics import log10
 
 
 def _check(ok: bool, name: str, value: object, what: str) -> None:
@@ -102,7 +103,7 @@ class LinkBudgetRange:
 
     def noise_level_db(self) -> float:
         """In-band noise level in dB re 1 uPa: NL + 10 log10(B)."""
-        return noise_psd_db(self.frequency_khz, self.shipping, self.wind_m_s) + 10.0 * math.log10(self.bandwidth_hz)
+        return noise_psd_db(self.frequency_khz, self.shipping, self.wind_m_s) + 10.0 * log10(self.bandwidth_hz)
 
     def _ebn0_db(self, snr: float) -> float:
         return snr if self.bitrate is None else ebn0_db(snr, self.bandwidth_hz, self.bitrate)

@@ -26,6 +26,7 @@ from typing import Protocol
 import numpy as np
 
 from comms.link_budget import LinkBudgetRange
+from numerics import exp
 
 __all__ = ["Bernoulli", "Composite", "GilbertElliott", "GilbertElliottTime", "LinkBudgetRange", "RangeTable"]
 
@@ -209,7 +210,7 @@ class GilbertElliottTime:
         return ChainLink(self)
 
     def next_bad(self, bad: bool, step: float, elapsed: float) -> bool:
-        memory = math.exp(-self.rate * elapsed)
+        memory = exp(-self.rate * elapsed)
         return step < (self.mean_loss + (1.0 - self.mean_loss) * memory if bad else self.mean_loss * (1.0 - memory))
 
 

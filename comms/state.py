@@ -8,6 +8,7 @@ value) need only be numbers. Keys a step message adds around the state (tx, rx) 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Annotated, Any
 
@@ -75,7 +76,7 @@ class StateReport:
         """The filter's standard deviation of each position component, m (None without navigation)."""
         e = self.nav_estimate
         # The diagonal's first three entries in the upper triangle by rows of a 6 x 6 matrix: 0, 6, 11 after x.
-        return None if e is None else (e[6] ** 0.5, e[12] ** 0.5, e[17] ** 0.5)
+        return None if e is None else (math.sqrt(e[6]), math.sqrt(e[12]), math.sqrt(e[17]))
 
     @property
     def kinematics(self) -> Kinematics:

@@ -25,6 +25,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from numerics import cos, sin
 from vehicles.geometry import Float3
 
 TWO_PI = 2.0 * math.pi
@@ -44,7 +45,7 @@ class Current:
     def velocity(self, t: float, z: float) -> Float3:
         """v_c at time t [s] and height z [m] (the field does not depend on x and y), inertial frame, m/s."""
         (cx, cy, cz), (ax, ay, az) = self.constant, self.tide_amplitude
-        tide = math.sin(TWO_PI * t / self.tide_period + self.tide_phase)
+        tide = sin(TWO_PI * t / self.tide_period + self.tide_phase)
         dz = z - self.shear_origin
         return cx + ax * tide + self.shear[0] * dz, cy + ay * tide + self.shear[1] * dz, cz + az * tide
 
@@ -53,7 +54,7 @@ class Current:
         climbs through; inertial frame, m/s^2. What a controller that knows the current feeds forward."""
         ax, ay, az = self.tide_amplitude
         w = TWO_PI / self.tide_period
-        tide = w * math.cos(w * t + self.tide_phase)
+        tide = w * cos(w * t + self.tide_phase)
         return ax * tide + self.shear[0] * z_dot, ay * tide + self.shear[1] * z_dot, az * tide
 
 
@@ -62,6 +63,13 @@ def body(rotation: Sequence[float], vector: Float3) -> Float3:
     r11, r12, r13, r21, r22, r23, r31, r32, r33 = rotation
     x, y, z = vector
     return r11 * x + r21 * y + r31 * z, r12 * x + r22 * y + r32 * z, r13 * x + r23 * y + r33 * z
+
+
+def body_to_inertial(rotation: Sequence[float], vector: Float3) -> Float3:
+    """R vector for R given row-major (9 floats): a body vector in inertial axes."""
+    r11, r12, r13, r21, r22, r23, r31, r32, r33 = rotation
+    x, y, z = vector
+    return r11 * x + r12 * y + r13 * z, r21 * x + r22 * y + r23 * z, r31 * x + r32 * y + r33 * z
 
 
 def feedforward(current: Current, t: float, s: Sequence[float]) -> tuple[Float3, Float3]:

@@ -2,16 +2,19 @@
 
 Frames: the inertial frame {I} has z pointing up (the paper's helix climbs with gamma); the body frame {B} has x
 forward, y to port, z up when R = I. R maps body coordinates into inertial ones (paper, eq. 1).
+
+Everything a run computes goes through float arithmetic and numerics' trigonometry, never LAPACK or numpy's `@`
+(their kernels differ between CPUs): `orthonormalize`, the SVD, is the reference the tests hold the float versions to.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 
 import numpy as np
 
 from comms.records import FloatArray
+from numerics import asin, atan2, sincos
 
 Float3 = tuple[float, float, float]  # a 3-vector as plain floats, for the hot path
 
@@ -37,7 +40,8 @@ def reorthonormalized(r: Sequence[float]) -> tuple[float, ...]:
 
     Newton-Schulz, X <- X - X (X'X - I) / 2, converges quadratically to the same polar factor as the SVD while
     X'X - I is small: one iteration takes RK4's drift below round-off, without numpy's per-call cost. A matrix far
-    from a rotation, or a reflection, goes to orthonormalize and its guard."""
+    from a rotation goes to Newton's polar iteration (_polar), in floats too; only a reflection, which no RK4 step of
+    a rotation gives, goes to orthonormalize (LAPACK) and its guard."""
     m = tuple(r)
     for _ in range(4):
         a, b, c, d, e, f, g, h, i = m
@@ -55,30 +59,50 @@ def reorthonormalized(r: Sequence[float]) -> tuple[float, ...]:
         )  # fmt: skip
         if drift < _ONE_ITERATION_LEFT:
             return m
-    return tuple(orthonormalize(np.array(r, dtype=float).reshape(3, 3)).reshape(9).tolist())
+    a, b, c, d, e, f, g, h, i = r
+    if a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g) <= 0.0:  # a reflection: corrupt input only
+        return tuple(orthonormalize(np.array(r, dtype=float).reshape(3, 3)).reshape(9).tolist())
+    return _polar(tuple(r))
+
+
+def _polar(m: tuple[float, ...]) -> tuple[float, ...]:
+    """The polar factor of a row-major 3x3 matrix with a positive determinant, by Newton's iteration
+    X <- (X + X^-T) / 2 (Higham, Functions of Matrices, SIAM 2008, sec. 8.3): quadratic convergence from any such
+    matrix, in floats, where Newton-Schulz's range ends; the same factor as the SVD's u v'."""
+    for _ in range(64):
+        a, b, c, d, e, f, g, h, i = m
+        co = (e * i - f * h, f * g - d * i, d * h - e * g, c * h - b * i, a * i - c * g, b * g - a * h,
+              b * f - c * e, c * d - a * f, a * e - b * d)  # fmt: skip
+        det = a * co[0] + b * co[1] + c * co[2]
+        nxt = tuple(0.5 * (x + y / det) for x, y in zip(m, co, strict=True))
+        change = max(abs(x - y) for x, y in zip(nxt, m, strict=True))
+        m = nxt
+        if change <= 1e-15:
+            break
+    return m
 
 
 def rotation_from_rpy(roll: float, pitch: float, yaw: float) -> FloatArray:
     """R = Rz(yaw) Ry(pitch) Rx(roll), angles in radians. Only used to set up initial attitudes."""
-    cr, sr = math.cos(roll), math.sin(roll)
-    cp, sp = math.cos(pitch), math.sin(pitch)
-    cy, sy = math.cos(yaw), math.sin(yaw)
-    rx = np.array([[1.0, 0.0, 0.0], [0.0, cr, -sr], [0.0, sr, cr]])
-    ry = np.array([[cp, 0.0, sp], [0.0, 1.0, 0.0], [-sp, 0.0, cp]])
-    rz = np.array([[cy, -sy, 0.0], [sy, cy, 0.0], [0.0, 0.0, 1.0]])
-    result: FloatArray = rz @ ry @ rx
-    return result
+    sr, cr = sincos(roll)
+    sp, cp = sincos(pitch)
+    sy, cy = sincos(yaw)
+    return np.array([
+        [cy * cp, cy * (sp * sr) - sy * cr, cy * (sp * cr) + sy * sr],
+        [sy * cp, sy * (sp * sr) + cy * cr, sy * (sp * cr) - cy * sr],
+        [-sp, cp * sr, cp * cr],
+    ])  # fmt: skip
 
 
 def rotation_2d(yaw: float) -> FloatArray:
     """Planar rotation by yaw (rad)."""
-    c, s = math.cos(yaw), math.sin(yaw)
+    s, c = sincos(yaw)
     return np.array([[c, -s], [s, c]])
 
 
 def roll_pitch_yaw(rotation: FloatArray) -> tuple[float, float, float]:
     """Inverse of rotation_from_rpy, for telemetry and plots (not used in control: the state keeps R)."""
-    pitch = -math.asin(max(-1.0, min(1.0, float(rotation[2, 0]))))
-    roll = math.atan2(float(rotation[2, 1]), float(rotation[2, 2]))
-    yaw = math.atan2(float(rotation[1, 0]), float(rotation[0, 0]))
+    pitch = -asin(max(-1.0, min(1.0, float(rotation[2, 0]))))
+    roll = atan2(float(rotation[2, 1]), float(rotation[2, 2]))
+    yaw = atan2(float(rotation[1, 0]), float(rotation[0, 0]))
     return roll, pitch, yaw

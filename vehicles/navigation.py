@@ -23,6 +23,9 @@ grows an error the filter does not know of) and lets the error between fixes shr
 Within an RK4 step the controller sees the true stage state with the estimation error of t_k held over the step
 (HeldError: position, heading and velocity errors): the filter runs once per sync step, as a navigation computer
 does, and the plant integrates smoothly.
+
+Products go through numerics.linalg (fixed-order sums of elementwise operations), not numpy's `@` and `linalg`
+(BLAS and LAPACK, whose kernels differ per CPU): the filter gives the same bits on every machine.
 """
 
 from __future__ import annotations
@@ -34,6 +37,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from comms.records import FloatArray
+from numerics import sincos
+from numerics.linalg import det, inverse, matmul
 from vehicles.geometry import Float3
 
 NAV_STREAM = 0x6E6176  # "nav": keeps these draws apart from any other random stream of the same (seed, vehicle)
@@ -116,7 +121,7 @@ def initial(params: NavParams, position: Sequence[float]) -> NavState:
     """The estimate at the start: the true position off by initial_error per axis, the bias unknown."""
     error = params.rng(_INIT).standard_normal(3) * params.initial_error
     x = np.concatenate((np.asarray(position[:3], dtype=float) + error, np.zeros(3)))
-    variances = [params.initial_error**2] * 3 + [params.dvl_bias**2] * 3
+    variances = [params.initial_error * params.initial_error] * 3 + [params.dvl_bias * params.dvl_bias] * 3
     return NavState(x, np.diag(variances))
 
 
@@ -130,21 +135,26 @@ def fix_due(k: int, dt: float, period: float) -> bool:
 
 def _heading_rotation(s: Sequence[float], angle: float) -> FloatArray:
     """R_hat = Rz(angle) R of a lifted state s (R row-major in s[3:12])."""
-    c, sn = math.cos(angle), math.sin(angle)
-    rot = np.array(s[3:12], dtype=float).reshape(3, 3)
-    return np.array([[c, -sn, 0.0], [sn, c, 0.0], [0.0, 0.0, 1.0]]) @ rot
+    sn, c = sincos(angle)
+    r11, r12, r13, r21, r22, r23, r31, r32, r33 = s[3:12]
+    return np.array([
+        [c * r11 - sn * r21, c * r12 - sn * r22, c * r13 - sn * r23],
+        [sn * r11 + c * r21, sn * r12 + c * r22, sn * r13 + c * r23],
+        [r31, r32, r33],
+    ])  # fmt: skip
 
 
 def _update(x: FloatArray, cov: FloatArray, h: FloatArray, z: FloatArray, noise: FloatArray) -> tuple[FloatArray, ...]:
     """Kalman measurement update in Joseph form, kept symmetric; skipped if the innovation has no variance (a
     perfect sensor that already fixed the state)."""
-    s = h @ cov @ h.T + noise
-    if np.linalg.det(s) <= 0.0:
+    ch = matmul(cov, h.T)
+    s = matmul(h, ch) + noise
+    if det(s) <= 0.0:
         return x, cov
-    gain = cov @ h.T @ np.linalg.inv(s)
-    x = x + gain @ (z - h @ x)
-    ikh = np.eye(_SIZE) - gain @ h
-    cov = ikh @ cov @ ikh.T + gain @ noise @ gain.T
+    gain = matmul(ch, inverse(s))
+    x = x + matmul(gain, z - matmul(h, x))
+    ikh = np.eye(_SIZE) - matmul(gain, h)
+    cov = matmul(matmul(ikh, cov), ikh.T) + matmul(matmul(gain, noise), gain.T)
     return x, 0.5 * (cov + cov.T)
 
 
@@ -185,13 +195,20 @@ def _predict(params: NavParams, post: NavState, r_hat: FloatArray, v_c: FloatArr
     heading noise added."""
     f = np.eye(_SIZE)
     f[0:3, 3:6] = -dt * r_hat
-    inertial = r_hat @ v_c
+    inertial = matmul(r_hat, v_c)
     across = np.array([-inertial[1], inertial[0], 0.0])
     q = np.zeros((_SIZE, _SIZE))
-    q[0:3, 0:3] = dt * dt * (params.dvl_noise**2 * np.eye(3) + params.heading_noise**2 * np.outer(across, across))
+    q[0:3, 0:3] = (
+        dt
+        * dt
+        * (
+            params.dvl_noise * params.dvl_noise * np.eye(3)
+            + params.heading_noise * params.heading_noise * np.outer(across, across)
+        )
+    )
     x = post.x.copy()
     x[0:3] += dt * inertial
-    cov = f @ post.cov @ f.T + q
+    cov = matmul(matmul(f, post.cov), f.T) + q
     return NavState(x, 0.5 * (cov + cov.T))
 
 
@@ -217,7 +234,7 @@ def _var(sigma: float, n: int) -> FloatArray:
 def seen(s: Sequence[float], held: HeldError) -> list[float]:
     """The lifted state the controller sees: the true (stage) state s with the held estimation error."""
     (ex, ey, ez), (evx, evy, evz) = held.position, held.velocity
-    c, sn = math.cos(held.heading), math.sin(held.heading)
+    sn, c = sincos(held.heading)
     r11, r12, r13, r21, r22, r23 = s[3:9]
     return [
         s[0] + ex, s[1] + ey, s[2] + ez,

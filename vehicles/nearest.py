@@ -11,7 +11,9 @@ that a fleet agrees on where its vehicles start (the rule behind a scenario's ``
   distance from where that end begins;
 - equally near points (within ``TIE`` relative): the one nearest the reference.
 
-Meant for start-up, not for the hot path. Units: positions in m, gamma as the path defines it.
+Meant for start-up, not for the hot path. Units: positions in m, gamma as the path defines it. Every distance
+comes from the path's `evaluate_floats` and float or elementwise arithmetic, never numpy's trigonometry, `dot` or
+`linalg.norm` (CPU-specific kernels): the gamma a vehicle starts at is the same on every machine.
 """
 
 from __future__ import annotations
@@ -83,11 +85,30 @@ def _point(point: ArrayLike) -> NDArray[np.float64]:
 
 
 def _distance(path: Path, q: NDArray[np.float64], gamma: float) -> float:
-    return float(np.linalg.norm(path.evaluate(gamma)[0] - q))
+    return math.sqrt(_dist2(path, q, gamma))
+
+
+def _dist2(path: Path, q: NDArray[np.float64], gamma: float) -> float:
+    p = path.evaluate_floats(gamma)[0]
+    dx, dy, dz = p[0] - float(q[0]), p[1] - float(q[1]), p[2] - float(q[2])
+    return dx * dx + dy * dy + dz * dz
 
 
 def _speed(path: Path, gamma: float) -> float:
-    return float(np.linalg.norm(path.evaluate(gamma)[1]))
+    dx, dy, dz = path.evaluate_floats(gamma)[1]
+    return math.sqrt(dx * dx + dy * dy + dz * dz)
+
+
+def _points(path: Path, gammas: NDArray[np.float64]) -> NDArray[np.float64]:
+    """p_d at each gamma, shape (n, 3), from evaluate_floats: Path.positions is for plotting (numpy's kernels)."""
+    return np.array([path.evaluate_floats(g)[0] for g in gammas.tolist()], dtype=np.float64).reshape(-1, 3)
+
+
+def _norms(vectors: NDArray[np.float64]) -> NDArray[np.float64]:
+    """|row| of an (n, 3) array, elementwise (the same bits on every CPU, unlike linalg.norm)."""
+    x, y, z = vectors[:, 0], vectors[:, 1], vectors[:, 2]
+    out: NDArray[np.float64] = np.sqrt(x * x + y * y + z * z)
+    return out
 
 
 def _samples(
@@ -96,14 +117,14 @@ def _samples(
     """Gammas on [lo, hi] whose points are about MAX_SPACING apart (within the sample limits), their distances to q,
     and the largest distance [m] between consecutive points."""
     gammas = np.linspace(lo, hi, MIN_SAMPLES)
-    points = path.positions(gammas)
-    gaps = np.linalg.norm(np.diff(points, axis=0), axis=1)
-    wanted = min(max(math.ceil(float(gaps.sum()) / MAX_SPACING) + 1, MIN_SAMPLES), MAX_SAMPLES)
+    points = _points(path, gammas)
+    gaps = _norms(np.diff(points, axis=0))
+    wanted = min(max(math.ceil(math.fsum(gaps.tolist()) / MAX_SPACING) + 1, MIN_SAMPLES), MAX_SAMPLES)
     if wanted > MIN_SAMPLES:
         gammas = np.linspace(lo, hi, wanted)
-        points = path.positions(gammas)
-        gaps = np.linalg.norm(np.diff(points, axis=0), axis=1)
-    return gammas, np.linalg.norm(points - q, axis=1), float(gaps.max()) if gaps.size else 0.0
+        points = _points(path, gammas)
+        gaps = _norms(np.diff(points, axis=0))
+    return gammas, _norms(points - q), float(gaps.max()) if gaps.size else 0.0
 
 
 def _local_minima(d: NDArray[np.float64], limit: float) -> list[int]:
@@ -125,7 +146,8 @@ def closest_gamma(path: Path, point: NDArray[np.float64], lo: float, hi: float, 
     if hi == lo:
         return float(lo)
     gs = np.linspace(lo, hi, samples)
-    d2 = np.sum((path.positions(gs) - q) ** 2, axis=1)
+    d = _points(path, gs) - q
+    d2 = d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] + d[:, 2] * d[:, 2]
     i = int(np.argmin(d2))
     bracket = (float(gs[max(i - 1, 0)]), float(gs[min(i + 1, samples - 1)]))
     g = _refined(path, q, float(gs[i]), float(d2[i]), bracket)
@@ -150,8 +172,7 @@ def _refined(path: Path, q: NDArray[np.float64], g_best: float, d2_best: float, 
     best sample (squared distance d2_best) if it does not do better."""
 
     def dist2(g: float) -> float:
-        p = path.evaluate(g)[0]
-        return float(np.dot(p - q, p - q))
+        return _dist2(path, q, g)
 
     a, b = bracket
     # Minimise over the offset from g_best: Brent's tolerance grows with |x|, and the offset stays small.
@@ -164,18 +185,21 @@ def _polished(path: Path, q: NDArray[np.float64], g: float, limits: tuple[float,
     ~sqrt(eps), while the root of f' is resolved to ~eps.  Steps are accepted only while |f'| shrinks, they stay
     within limits and are no longer than the bracket's width, so this can only polish, never wander off."""
     lo, hi = limits
-    p, dp, ddp = path.evaluate(g)
-    grad = float(np.dot(p - q, dp))
+    qx, qy, qz = float(q[0]), float(q[1]), float(q[2])
+    p, dp, ddp = path.evaluate_floats(g)
+    grad = (p[0] - qx) * dp[0] + (p[1] - qy) * dp[1] + (p[2] - qz) * dp[2]
     for _ in range(6):
-        curv = float(np.dot(dp, dp) + np.dot(p - q, ddp))
+        curv = (dp[0] * dp[0] + dp[1] * dp[1] + dp[2] * dp[2]) + (
+            (p[0] - qx) * ddp[0] + (p[1] - qy) * ddp[1] + (p[2] - qz) * ddp[2]
+        )
         if curv <= 0.0 or grad == 0.0:
             break
         step = grad / curv
         if abs(step) > width:
             break
         g_new = min(max(g - step, lo), hi)
-        p, dp, ddp = path.evaluate(g_new)
-        grad_new = float(np.dot(p - q, dp))
+        p, dp, ddp = path.evaluate_floats(g_new)
+        grad_new = (p[0] - qx) * dp[0] + (p[1] - qy) * dp[1] + (p[2] - qz) * dp[2]
         if abs(grad_new) >= abs(grad):
             break
         g, grad = g_new, grad_new

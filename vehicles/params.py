@@ -63,7 +63,7 @@ def _remus100(buoyancy_excess: float = _BUOYANT) -> VehicleParams:
         weight=weight,
         buoyancy=weight + buoyancy_excess,
         center_of_buoyancy=(0.0, 0.0, _CB_ABOVE_CG),  # CG below CB: roll and pitch statically stable
-        max_surge_force=lin * _TOP_SPEED + quad * _TOP_SPEED**2,
+        max_surge_force=lin * _TOP_SPEED + quad * _TOP_SPEED * _TOP_SPEED,
         max_torque=20.0,
     )
 

@@ -10,8 +10,10 @@ Units: positions in metres; gamma is dimensionless (its meaning depends on the p
 divided by ``scale`` for the lawnmower), so dp_d/dgamma is in m per unit gamma and d2p_d/dgamma2 in m per
 unit gamma squared.
 
-``evaluate_floats`` runs four times per integration step per vehicle, so it is scalar ``math`` returning tuples of
-floats; ``evaluate`` is the same as arrays, and ``positions`` the vectorised counterpart for plotting.
+``evaluate_floats`` runs four times per integration step per vehicle, so it is scalar float arithmetic returning
+tuples of floats, with the trigonometry of ``numerics`` (the same bits on every CPU; numpy's and the C library's
+``sin`` pick CPU-specific kernels); ``evaluate`` is the same as arrays, and ``positions`` the vectorised counterpart
+for plotting only (numpy's kernels: its last bits may differ between machines).
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from typing import Protocol, TypeAlias, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from numerics import atan2, sincos
 from vehicles.geometry import Float3
 
 Vec3: TypeAlias = NDArray[np.float64]
@@ -145,7 +148,7 @@ class Helix:
     def evaluate_floats(self, gamma: float) -> tuple[Float3, Float3, Float3]:
         c, w = self.radius, self._omega
         a = w * gamma + self.phase
-        ca, sa = math.cos(a), math.sin(a)
+        sa, ca = sincos(a)
         cx, cy, cz = self.center
         cw2 = c * w * w
         return (
@@ -298,12 +301,12 @@ class Lawnmower:
 
     def _segments(self) -> tuple[tuple[float, ...], tuple[bool, ...], tuple[tuple[float, float, float, float], ...]]:
         """(_breaks, _is_arc, _params) of the pattern: its legs and turns, in order."""
-        ux, uy = math.cos(self.heading), math.sin(self.heading)
+        uy, ux = sincos(self.heading)
         nx, ny = -uy, ux  # left normal of the first leg: the direction the pattern advances
         r = 0.5 * self.spacing
         # Each turn starts with the centre at +r*n from the leg end (left turns after even legs, right
         # turns after odd legs both bend toward +n), so the radius vector starts along -n.
-        start_angle = math.atan2(-ny, -nx)
+        start_angle = atan2(-ny, -nx)
         x0, y0 = self.origin[0], self.origin[1]
         breaks: list[float] = []
         is_arc: list[bool] = []
@@ -350,7 +353,7 @@ class Lawnmower:
             return (a + ls * c, b + ls * d, z), (k * c, k * d, 0.0), (0.0, 0.0, 0.0)
         r = 0.5 * self.spacing
         theta = c + d * ls / r
-        ct, st = math.cos(theta), math.sin(theta)
+        st, ct = sincos(theta)
         kk_r = k * k / r  # centripetal term: speed^2 / radius
         return (a + r * ct, b + r * st, z), (-k * d * st, k * d * ct, 0.0), (-kk_r * ct, -kk_r * st, 0.0)
 

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 from comms.records import Disturbances, Heard, Transmission
 from vehicles.agent import Telemetry, VehicleConfig, VehicleState, own_estimate, receive, step
-from vehicles.current import body
+from vehicles.current import body, body_to_inertial
 from vehicles.estimates import NeighbourEstimate
 from vehicles.navigation import NavOutput, NavState, initial, navigate
 from vehicles.transmission import PeriodicPolicy, Policy, Tdma
@@ -49,10 +49,9 @@ def transmission(
     cfg: VehicleConfig, state: VehicleState, seq: int, told: NeighbourEstimate, dist: Disturbances
 ) -> Transmission:
     """What the modem sends: `told` (the vehicle's belief, possibly corrupted) and its kinematics for the channel."""
-    s = cfg.model.spatial(state.x)
-    p, v = s.position, s.rotation @ s.velocity
-    position = (float(p[0]), float(p[1]), float(p[2]))
-    velocity = (float(v[0]), float(v[1]), float(v[2]))
+    s = cfg.model.lift(state.x)
+    position = (s[0], s[1], s[2])
+    velocity = body_to_inertial(s[3:12], (s[12], s[13], s[14]))  # R v, in floats: numpy's @ calls BLAS
     if cfg.current is not None:  # the state's v is relative to the water (vehicles.current): over ground add v_c
         c = cfg.current.velocity(state.t, position[2])
         velocity = (velocity[0] + c[0], velocity[1] + c[1], velocity[2] + c[2])

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 
+from numerics import tanh
 from vehicles.dynamics import Model
 from vehicles.paths import Path
 
@@ -32,7 +33,7 @@ def rate_bound(model: Model, path: Path, gamma: float, top_speed: float) -> floa
 
 def bounded_correction(v_tilde: float, limit: float) -> float:
     """limit tanh(v_tilde / limit): v_tilde for |v_tilde| << limit, never more than limit in size."""
-    return limit * math.tanh(v_tilde / limit)
+    return limit * tanh(v_tilde / limit)
 
 
 def clamp(value: float, low: float, high: float) -> float:

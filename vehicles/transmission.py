@@ -15,6 +15,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from numerics import exp
 from vehicles.estimates import NeighbourEstimate, Predictor, predict
 
 
@@ -40,7 +41,7 @@ class EventTriggeredPolicy:
     v_r: float = 1.0
 
     def h(self, t: float) -> float:
-        return self.threshold + self.threshold_decay * math.exp(-self.decay_rate * t)
+        return self.threshold + self.threshold_decay * exp(-self.decay_rate * t)
 
     def due(self, t: float, dt: float, now: NeighbourEstimate, last: NeighbourEstimate | None) -> bool:
         if last is None:
