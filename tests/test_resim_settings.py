@@ -73,7 +73,7 @@ def test_a_longer_duration_says_how_long_the_run_was(log: Path) -> None:
 
 @pytest.mark.parametrize("override", APPLIED)
 def test_a_vehicle_setting_is_applied(override: str, log: Path, tmp_path: Path) -> None:
-    sc, original, new = resimulate(log, [override], tmp_path / "resim.mcap")
+    sc, original, new, _ = resimulate(log, [override], tmp_path / "resim.mcap")
     assert np.isfinite(new.gamma).all() and np.isfinite(original.gamma).all()  # no nan rows
     if override.startswith(("coordination", "path_following", "vehicles")):
         assert not np.array_equal(new.gamma, original.gamma)  # it acted

@@ -111,14 +111,23 @@ def states(path: Path) -> dict:
 
 def test_resimulating_with_no_change_reproduces_the_run_exactly(tmp_path):
     log = lossy_run(tmp_path)
-    resimulate(log, [], tmp_path / "same.mcap")
+    agreement = resimulate(log, [], tmp_path / "same.mcap")[3]
     original, again = states(log), states(tmp_path / "same.mcap")
     assert len(original) == 1800 - 20 and again == original  # vehicle 3 was down for 20 steps
+    assert agreement.line() == "state records identical to the log's, bit for bit: 1780 of 1780"
+
+
+def test_resim_names_the_first_record_that_differs(tmp_path):
+    log = lossy_run(tmp_path)
+    agreement = resimulate(log, ["coordination.k=0.05"], tmp_path / "slow.mcap")[3]
+    assert agreement.total == 1780 and agreement.equal < agreement.total
+    assert agreement.first_difference is not None and agreement.first_difference[1] > 0.0
+    assert agreement.line().startswith("state records identical to the log's: ")
 
 
 def test_resimulating_with_other_gains_hears_the_same_packets_and_acts_differently(tmp_path):
     log = lossy_run(tmp_path)
-    _, original, new = resimulate(log, ["coordination.k=0.05"], tmp_path / "slow.mcap")
+    _, original, new, _ = resimulate(log, ["coordination.k=0.05"], tmp_path / "slow.mcap")
     ours = states(tmp_path / "slow.mcap")
     assert ours.keys() == states(log).keys()
     final_spread = lambda series: float(series.gamma[-1].max() - series.gamma[-1].min())  # noqa: E731

@@ -57,7 +57,7 @@ def resim(args: argparse.Namespace) -> int:
     from supervisor.engine.resim import resimulate
 
     out = args.out or args.log.with_name(f"{args.log.stem}.resim.mcap")
-    sc, original, new = resimulate(args.log, args.set, out)
+    sc, original, new, agreement = resimulate(args.log, args.set, out)
     rep, duration = sc.report, sc.scenario.duration
     tube = tube_radius(sc)
     for title, series in (("as run", original), (f"re-simulated with {' '.join(args.set) or 'no change'}", new)):
@@ -65,6 +65,7 @@ def resim(args: argparse.Namespace) -> int:
         print(
             format_summary(summarize(series, duration, intervals(sc), rep.transient, tube, rep.coordination_tolerance))
         )
+    print(agreement.line())
     print(f"-> {out}")
     return 0
 

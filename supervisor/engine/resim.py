@@ -83,8 +83,31 @@ def scenario_of(meta: RunMeta, overrides: Sequence[str], source: str) -> Scenari
     return validate_data(data, f"{source} (--set)")
 
 
-def resimulate(log: Path, overrides: Sequence[str], out: Path) -> tuple[Scenario, Series, Series]:
-    """Re-run the log's vehicles with overrides; write their states to out. Returns (scenario, original, new)."""
+@dataclasses.dataclass(frozen=True, slots=True)
+class Agreement:
+    """How the re-simulated state records compare with the log's, to the bit (their JSON text)."""
+
+    equal: int
+    total: int
+    first_difference: tuple[int, float] | None  # (vehicle, t) of the first record that differs
+
+    def line(self) -> str:
+        if self.first_difference is None:
+            return f"state records identical to the log's, bit for bit: {self.equal} of {self.total}"
+        vehicle, t = self.first_difference
+        return (
+            f"state records identical to the log's: {self.equal} of {self.total}; the first difference: vehicle "
+            f"{vehicle} at t = {t:g} s"
+        )
+
+
+def _canonical(message: Message) -> str:
+    return json.dumps(message, sort_keys=True)
+
+
+def resimulate(log: Path, overrides: Sequence[str], out: Path) -> tuple[Scenario, Series, Series, Agreement]:
+    """Re-run the log's vehicles with overrides; write their states to out. Returns (scenario, original, new, how
+    the new state records agree with the log's)."""
     for override in overrides:
         check_override(log, override)  # before reading the log: a refusal costs nothing
     meta, heard, states = _load(log)
@@ -93,14 +116,20 @@ def resimulate(log: Path, overrides: Sequence[str], out: Path) -> tuple[Scenario
     original, new = (SeriesBuilder(sc.vehicle_ids, steps_of(sc), sc.scenario.step) for _ in range(2))
     for report, _ in states:
         original.add(report)
+    recorded = {(r.vehicle, r.k): _canonical(m) for r, m in states}
+    equal, first = 0, None
     with Recorder(out) as rec:
         rec.limit(sc.scenario.duration)
         meta = dataclasses.replace(meta, engine="resim", scenario=sc.model_dump(mode="json"))
         rec.write(META_KEY, 0.0, meta.to_message())
-        for i, t, state, report in _restep(sc, heard, {(r.vehicle, r.k) for r, _ in states}, meta.seed):
+        for i, t, state, report in _restep(sc, heard, set(recorded), meta.seed):
             rec.write(state_key(i), t, state)
             new.add(report)
-    return sc, original.series(), new.series()
+            if recorded[(i, report.k)] == _canonical(state):
+                equal += 1
+            elif first is None:
+                first = (i, t)
+    return sc, original.series(), new.series(), Agreement(equal, len(recorded), first)
 
 
 def _restep(
