@@ -25,8 +25,12 @@ def script(name: str) -> ModuleType:
     return module
 
 
-def cpf(*args: str, cwd: Path, timeout: float = 300) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([CPF, *args], cwd=cwd, capture_output=True, text=True, timeout=timeout)
+def cpf(
+    *args: str, cwd: Path, timeout: float = 300, env: dict[str, str] | None = None
+) -> subprocess.CompletedProcess[str]:
+    """cpf as a user runs it; env: variables set on top of this process's environment."""
+    full = None if env is None else {**os.environ, **env}
+    return subprocess.run([CPF, *args], cwd=cwd, capture_output=True, text=True, timeout=timeout, env=full)
 
 
 def start_cpf(args: Sequence[str], cwd: Path) -> subprocess.Popen[str]:

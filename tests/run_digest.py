@@ -1,8 +1,9 @@
 """Digests of what a run recorded, by kind of record, to hold a restructuring to bit-identical results.
 
-`python -m tests.run_digest` runs the reference runs (the paper scenario, paper_acoustic and a 20-seed fault soak,
-on the engines named below) and writes tests/data/run_digests.json; tests/test_bit_identical.py runs them again and
-compares. Regenerate the file only for a change that is meant to change results, and say so in the commit.
+`python -m tests.run_digest` runs the reference runs (the paper scenario, paper_acoustic, reference_everything.toml
+and a 20-seed fault soak, on the engines named below) and writes tests/data/run_digests.json;
+tests/test_bit_identical.py runs them again and compares. Regenerate the file only for a change that is meant to
+change results, and say so in the commit.
 
 A digest is the SHA-256 of every record of one kind (state, tx, rx, event, fault, graph, stats) in canonical form:
 sorted keys, floats as Python prints them (round-trip exact), ordered by log time and then by content (processes
@@ -24,6 +25,8 @@ from tests.procs import cpf
 from tests.test_faults_e2e import random_schedule
 
 FIXTURE = Path(__file__).resolve().parent / "data" / "run_digests.json"
+# Every computation a run can make (navigation, currents, mismatch, saturation, fading, ...): see its header.
+EVERYTHING = FIXTURE.parent / "reference_everything.toml"
 KINDS = {
     "state": "/state",
     "tx": "/tx",
@@ -79,9 +82,11 @@ def reference_runs() -> dict[str, tuple[str, list[str]]]:
     paper = on_legacy_vehicle((CONFIGS / "paper.toml").read_text())
     acoustic = on_legacy_vehicle((CONFIGS / "paper_acoustic.toml").read_text())
     runs: dict[str, tuple[str, list[str]]] = {}
+    everything = EVERYTHING.read_text()
     for engine in ("inprocess", "zenoh"):
         runs[f"paper-{engine}"] = (paper, ["--engine", engine])
         runs[f"acoustic-{engine}"] = (acoustic, ["--engine", engine])
+        runs[f"everything-{engine}"] = (everything, ["--engine", engine])
     for seed in SOAK_SEEDS:
         faults = random_schedule(np.random.default_rng(seed), 30.0)
         extra = [arg for spec in faults for arg in ("--fault", spec)]
@@ -89,11 +94,14 @@ def reference_runs() -> dict[str, tuple[str, list[str]]]:
     return runs
 
 
-def run_and_digest(name: str, text: str, extra: list[str], workdir: Path) -> dict[str, str]:
+def run_and_digest(
+    name: str, text: str, extra: list[str], workdir: Path, env: dict[str, str] | None = None
+) -> dict[str, str]:
+    """The digests of a reference run; env: variables on top of the environment (tests.cpu_targets)."""
     scenario = workdir / f"{name}.toml"
     scenario.write_text(text)
     out = workdir / f"{name}.mcap"
-    done = cpf("run", str(scenario), "--quiet", "--out", str(out), *extra, cwd=workdir)
+    done = cpf("run", str(scenario), "--quiet", "--out", str(out), *extra, cwd=workdir, env=env)
     if done.returncode != 0:
         raise RuntimeError(f"{name}: cpf run failed: {done.stderr.strip()}")
     return digest(out)
