@@ -73,6 +73,10 @@ def test_describe_a_run(log: Path) -> None:
         "           link_down on [4, 5) s: link 1<->2",
     ):
         assert line in text.splitlines(), line
+    from importlib import metadata
+
+    versions = next(line for line in text.splitlines() if line.startswith("versions   "))
+    assert f"numpy {metadata.version('numpy')}" in versions and "cpf-cosim " in versions and "python 3." in versions
 
 
 def test_describe_reads_only_the_summary_and_meta(log: Path, monkeypatch: pytest.MonkeyPatch) -> None:
