@@ -7,7 +7,7 @@ import pytest
 from scipy.linalg import null_space
 
 from comms.graph import algebraic_connectivity, laplacian
-from vehicles.coordination import CoordinationGains, correction, correction_vector, l_k
+from vehicles.coordination import CoordinationGains, Corrected, LiteralLaw, correction, correction_vector, l_k
 
 SEEDS = range(25)
 
@@ -108,11 +108,13 @@ def test_decentralised_law_equals_the_vector_form(law, seed):
     n, edges = random_connected_graph(rng)
     lap = laplacian(n, edges)
     gamma, rate = rng.normal(0, 5, n), rng.normal(1, 0.3, n)
-    gains = CoordinationGains(k=0.4, k2=1.3, v_r=0.8, law=law)
+    gains = CoordinationGains(k=0.4, k2=1.3, v_r=0.8)
     vector = correction_vector(gamma, rate, lap, np.full(n, 0.4), np.full(n, 1.3), 0.8, law)
     for i in range(n):
         nbrs = [(gamma[j], rate[j]) for j in range(n) if lap[i, j] != 0 and i != j]
-        assert correction(gamma[i], rate[i], nbrs, gains) == pytest.approx(vector[i], rel=1e-12, abs=1e-12)
+        assert correction(gamma[i], rate[i], nbrs, gains, law) == pytest.approx(vector[i], rel=1e-12, abs=1e-12)
+        chosen = Corrected() if law == "corrected" else LiteralLaw()  # the objects a run calls: the same numbers
+        assert chosen.correction(gamma[i], rate[i], nbrs, gains) == correction(gamma[i], rate[i], nbrs, gains, law)
 
 
 def simulate_coordination(law: str, k_zeta: float = 1.0, k2: float = 2.0, seconds: float = 60.0):

@@ -24,7 +24,7 @@ from comms.stats import LinkStats
 from comms.wire import SIZE, decode_coordination, encode_coordination
 from supervisor.config.fleet import initial_state, vehicle_config
 from supervisor.config.scenario import load_scenario
-from vehicles.estimates import NeighbourEstimate
+from vehicles.estimates import Hold, NeighbourEstimate, Reference
 from vehicles.runtime import NodeState, Radio, node_step
 from vehicles.transmission import EventTriggeredPolicy, PeriodicPolicy, Tdma
 
@@ -400,8 +400,8 @@ def test_event_triggered_transmits_first_then_only_when_the_prediction_fails():
 
 
 def test_event_triggered_uses_its_predictor():
-    reference = EventTriggeredPolicy(threshold=0.1, predictor="reference", v_r=0.5)  # predicts gamma = 0.5 t
-    hold = EventTriggeredPolicy(threshold=0.1, predictor="hold")  # predicts gamma = 0
+    reference = EventTriggeredPolicy(threshold=0.1, predictor=Reference(), v_r=0.5)  # predicts gamma = 0.5 t
+    hold = EventTriggeredPolicy(threshold=0.1, predictor=Hold())  # predicts gamma = 0
     first_order = EventTriggeredPolicy(threshold=0.1)  # predicts gamma = t
     assert not reference.due(4.0, DT, own(2.05, 4.0), LAST) and first_order.due(4.0, DT, own(2.05, 4.0), LAST)
     assert not hold.due(4.0, DT, own(0.05, 4.0), LAST) and reference.due(4.0, DT, own(0.05, 4.0), LAST)

@@ -12,10 +12,10 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 from comms.records import Disturbances, FloatArray
-from vehicles.coordination import CoordinationGains, correction
+from vehicles.coordination import CoordinationGains, CoordinationLaw, Corrected
 from vehicles.current import Current, feedforward
 from vehicles.dynamics import LIFTED_SIZE, Model, reorthonormalize
-from vehicles.estimates import NeighbourEstimate, Predictor, newer, predict
+from vehicles.estimates import FirstOrder, NeighbourEstimate, Predictor, fresh, newer
 from vehicles.navigation import HeldError, NavParams, seen
 from vehicles.params import VehicleParams
 from vehicles.path_following import Control, ControllerConstants, PathFollowingGains, control
@@ -36,7 +36,9 @@ class VehicleConfig:
     path: Path
     path_following: PathFollowingGains
     coordination: CoordinationGains
-    predictor: Predictor = "first_order"
+    predictor: Predictor = field(default_factory=FirstOrder)  # vehicles.estimates: how neighbours are predicted
+    law: CoordinationLaw = field(default_factory=Corrected)  # vehicles.coordination: v_tilde from them
+    max_age: float | None = None  # s after which a neighbour's estimate stops counting (None: never)
     constants: ControllerConstants = field(init=False)
     # The plant where it is not the controller's model (vehicles.plant): params are then the controller's nominal
     # ones, plant the true ones (None: the same); the ocean current (None: still water) and whether the controller
@@ -88,10 +90,13 @@ def receive(state: VehicleState, sender: int, estimate: NeighbourEstimate) -> Ve
 def _neighbour_values(
     cfg: VehicleConfig, state: VehicleState, t: float, neighbours: Iterable[int]
 ) -> list[tuple[float, float]]:
-    """Predicted (gamma_j, gamma_dot_j) of the neighbours heard from so far; unheard ones do not count."""
+    """Predicted (gamma_j, gamma_dot_j) of the neighbours heard from so far; unheard ones, and those not heard for
+    longer than max_age, do not count."""
     held = state.estimates
-    v_r = cfg.coordination.v_r
-    return [predict(held[j], t, cfg.predictor, v_r) for j in neighbours if j in held]
+    v_r, predictor, max_age = cfg.coordination.v_r, cfg.predictor, cfg.max_age
+    if max_age is None:
+        return [predictor.predict(held[j], t, v_r) for j in neighbours if j in held]
+    return [predictor.predict(held[j], t, v_r) for j in neighbours if j in held and fresh(held[j], t, max_age)]
 
 
 def _closed_loop(
@@ -109,7 +114,7 @@ def _closed_loop(
     limits = _rate_limits(cfg, dist, gamma)
     if limits is not None:
         gamma_dot = clamp(gamma_dot, *limits)
-    v_tilde = correction(gamma, gamma_dot, heard, cfg.coordination)
+    v_tilde = cfg.law.correction(gamma, gamma_dot, heard, cfg.coordination)
     if cfg.correction_limit is not None:
         v_tilde = bounded_correction(v_tilde, cfg.correction_limit)
     view = z if held is None else seen(z, held)

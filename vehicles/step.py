@@ -21,6 +21,8 @@ from vehicles.agent import VehicleConfig
 from vehicles.report import state_report
 from vehicles.runtime import NodeState, Radio, node_step
 
+EXTENSION_KINDS = ("law ", "predictor ", "transmission ")  # how vehicles.guard's errors begin (its labels)
+
 
 @dataclass(frozen=True, slots=True)
 class StepRecords:
@@ -47,7 +49,9 @@ def step_records(
     """Step k (at t = k dt) of one vehicle: node_step, then the messages that record it."""
     try:
         node, out = node_step(cfg, radio, node, t, dt, heard, neighbours, dist)
-    except (np.linalg.LinAlgError, ArithmeticError) as exc:  # a state gone to nan/inf: the attitude's SVD fails
+    except (np.linalg.LinAlgError, ArithmeticError) as exc:  # a state gone to nan/inf, or an extension failed
+        if isinstance(exc, FloatingPointError) and str(exc).startswith(EXTENSION_KINDS):  # vehicles.guard's
+            raise FloatingPointError(f"vehicle {cfg.vehicle_id} at t = {t:.1f} s: {exc}") from None
         raise FloatingPointError(f"vehicle {cfg.vehicle_id} diverged at t = {t:.1f} s ({exc})") from None
     sent = out.transmission
     report = state_report(out.telemetry, cfg.model, k, sent.seq if sent else 0, out.estimate_ages, out.navigation)

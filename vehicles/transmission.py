@@ -7,16 +7,32 @@ Policies (pure decisions on the time, the vehicle's own state and what it last s
   gamma leaves that prediction by more than h(t) = c0 + c1 exp(-alpha t); never sooner than `min_interval` after
   the last transmission, and at least every `heartbeat` s if one is set.
 MAC: free (any time) or TDMA (only at the start of the vehicle's own slot; a wish outside it waits for the slot).
+
+A policy is any object with the `TransmissionPolicy` interface; the built-ins are registered under the entry-point
+group `cpf.transmission` like any extension (docs/extending.md).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import ClassVar, Protocol, runtime_checkable
 
 from numerics import exp
-from vehicles.estimates import NeighbourEstimate, Predictor, predict
+from vehicles.estimates import FirstOrder, NeighbourEstimate, Predictor
+
+
+@runtime_checkable
+class TransmissionPolicy(Protocol):
+    """When a vehicle wants to transmit its (gamma, gamma_dot).
+
+    due(t, dt, now, last): whether it wants to at sync instant t [s] (dt: the step, s), now being what it would send
+    (its own gamma, gamma_dot, stamped t) and last what it sent last (None: nothing yet). Pure: the same answer for
+    the same arguments. Optional: earliest(lo, dt, last) -> the first step index >= lo at which due() can be true,
+    a lower bound that lets lockstep runs skip the bus until then (time windows); without it, every step is asked."""
+
+    def due(self, t: float, dt: float, now: NeighbourEstimate, last: NeighbourEstimate | None) -> bool: ...
 
 
 @dataclass(frozen=True, slots=True)
@@ -29,15 +45,19 @@ class PeriodicPolicy:
             return True
         return t - last.stamp >= self.period - dt / 2
 
+    def earliest(self, lo: int, dt: float, last: float) -> int:
+        return periodic_earliest(self.period, lo, dt, last)
+
 
 @dataclass(frozen=True, slots=True)
 class EventTriggeredPolicy:
+    __pydantic_config__: ClassVar[dict[str, bool]] = {"arbitrary_types_allowed": True}  # predictor: the fleet's
     threshold: float  # c0, in units of gamma
     threshold_decay: float = 0.0  # c1
     decay_rate: float = 0.0  # alpha, 1/s
     min_interval: float = 0.0  # s
     heartbeat: float | None = None  # s
-    predictor: Predictor = "first_order"
+    predictor: Predictor = field(default_factory=FirstOrder)  # what the neighbours predict of it: the fleet's
     v_r: float = 1.0
 
     def h(self, t: float) -> float:
@@ -51,11 +71,14 @@ class EventTriggeredPolicy:
             return False
         if self.heartbeat is not None and since >= self.heartbeat - dt / 2:
             return True
-        predicted, _ = predict(last, t, self.predictor, self.v_r)
+        predicted, _ = self.predictor.predict(last, t, self.v_r)
         return abs(now.gamma - predicted) > self.h(t)
 
+    def earliest(self, lo: int, dt: float, last: float) -> int:
+        return interval_earliest(self.min_interval, lo, dt, last)
 
-Policy = PeriodicPolicy | EventTriggeredPolicy
+
+Policy = TransmissionPolicy
 
 
 @dataclass(frozen=True, slots=True)
@@ -104,13 +127,22 @@ def earliest_transmission(
 
 
 def _policy_earliest(policy: Policy, lo: int, dt: float, last: float) -> int:
-    """The first step >= lo at which the policy can be due (the predictor may still say no: a lower bound)."""
-    if isinstance(policy, PeriodicPolicy):
-        if policy.period is None:
-            return lo
-        period = policy.period
-        return _first(lambda j: j * dt - last >= period - dt / 2, lo, (last + period) / dt)
-    interval = policy.min_interval  # the heartbeat only forces a transmission the interval already allows
+    """The first step >= lo at which the policy can be due (a lower bound): its own `earliest`, or lo if it has none
+    (a policy of someone else's that does not say: asked at every step)."""
+    earliest = getattr(policy, "earliest", None)
+    return lo if earliest is None else max(lo, int(earliest(lo, dt, last)))
+
+
+def periodic_earliest(period: float | None, lo: int, dt: float, last: float) -> int:
+    """PeriodicPolicy.earliest: the first j >= lo with j dt - last >= period - dt / 2, as due() computes it."""
+    if period is None:
+        return lo
+    return _first(lambda j: j * dt - last >= period - dt / 2, lo, (last + period) / dt)
+
+
+def interval_earliest(interval: float, lo: int, dt: float, last: float) -> int:
+    """EventTriggeredPolicy.earliest: the first j >= lo that min_interval allows (the heartbeat only forces a
+    transmission the interval already allows; the predictor may still say no)."""
     return _first(lambda j: not j * dt - last < interval - dt / 2, lo, (last + interval) / dt)
 
 

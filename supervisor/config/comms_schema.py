@@ -4,7 +4,7 @@ transmission policy and TDMA schedule. Re-exported by supervisor/config/scenario
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+from typing import Annotated, Any, Literal
 
 from pydantic import Field, field_validator, model_validator
 
@@ -18,6 +18,7 @@ from supervisor.config.schema_base import (
     MAX_LENGTH,
     MAX_TIME,
     MAX_VEHICLE_ID,
+    ExtensionName,
     Float,
     Int,
     Probability,
@@ -120,9 +121,15 @@ class LinkSection(StrictModel):
 class TransmitSection(StrictModel):
     """When vehicles transmit: periodically, or when their gamma leaves what their neighbours predict."""
 
-    policy: Literal["periodic", "event"] = Field(
-        default="periodic", description="periodic: every period; event: when gamma leaves the prediction by h(t)"
+    policy: ExtensionName = Field(
+        default="periodic",
+        description="periodic: every period; event: when gamma leaves the prediction by h(t); an installed "
+        "extension's name (`cpf plugins`), or package.module:Name (its options in `options`)",
     )
+    options: dict[str, Any] = Field(
+        default_factory=dict, description="an extension policy's own options (its fields); the built-ins use the keys "
+        "below",
+    )  # fmt: skip
     period: Float | None = Field(
         default=None, gt=0, le=MAX_TIME, description="periodic: s between messages; omitted: every step"
     )

@@ -6,6 +6,8 @@ Used by both engines (and by a vehicle process, which builds only its own), so v
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 
@@ -25,6 +27,7 @@ from comms.messages import Message
 from comms.modem import ModemParams, modem
 from comms.state import StateReport
 from comms.stats import LinkStats
+from supervisor.config.extensions import build
 from supervisor.config.plant import current_of, plant_of
 from supervisor.config.scenario_schema import (
     BurstSection,
@@ -43,13 +46,15 @@ from supervisor.config.vehicle_models import params_of, top_speed_of
 from vehicles.agent import VehicleConfig, VehicleState
 from vehicles.coordination import CoordinationGains
 from vehicles.dynamics import PLANAR, SPATIAL, Model
+from vehicles.estimates import Predictor
 from vehicles.geometry import rotation_2d, rotation_from_rpy
+from vehicles.guard import Guarded
 from vehicles.navigation import NavParams, NavState
 from vehicles.nearest import nearest_gamma
 from vehicles.path_following import PathFollowingGains
 from vehicles.paths import Circle, Helix, Lawnmower, Line, Path
 from vehicles.runtime import NodeState, Radio
-from vehicles.transmission import EventTriggeredPolicy, PeriodicPolicy, Policy, Tdma
+from vehicles.transmission import Policy, Tdma
 
 
 def build_path(spec: PathSpec) -> Path:
@@ -78,8 +83,10 @@ def vehicle_config(scenario: Scenario, vehicle_id: int, seed: int | None = None)
         params=params_of(scenario, vehicle_id),
         path=build_path(section.path),
         path_following=PathFollowingGains(pf.delta, pf.k1, pf.k2, pf.k_zeta),
-        coordination=CoordinationGains(co.k, co.k2, co.v_r, co.law),
-        predictor=co.predictor,
+        coordination=CoordinationGains(co.k, co.k2, co.v_r),
+        predictor=predictor_of(scenario),
+        law=extension("law", co.law, co.law_options),
+        max_age=co.max_age,
         plant=plant_of(scenario, vehicle_id, run_seed),
         current=current_of(scenario),
         current_known=scenario.environment.current_known,
@@ -209,14 +216,36 @@ def channel_params(scenario: Scenario) -> ChannelParams:
     )  # fmt: skip
 
 
-def radio(scenario: Scenario, vehicle_id: int) -> Radio:
-    """How a vehicle decides to transmit."""
-    tx, co = scenario.comms.transmit, scenario.coordination
-    policy: Policy = PeriodicPolicy(tx.period)
+def extension(kind: str, name: str, options: Mapping[str, Any], context: dict[str, Any] | None = None) -> Any:
+    """The named extension built with its options (supervisor.config.extensions); someone else's behind the guard
+    (vehicles.guard). The scenario's checks have built it once already: here it cannot fail."""
+    instance, identity = build(kind, name, dict(options), context)
+    return instance if identity.builtin else Guarded(instance, f"{kind} {name}")
+
+
+def predictor_of(scenario: Scenario) -> Predictor:
+    co = scenario.coordination
+    predictor: Predictor = extension("predictor", co.predictor, co.predictor_options)
+    return predictor
+
+
+def transmission_options(scenario: Scenario) -> dict[str, Any]:
+    """The transmission policy's options: the built-ins' from their keys of [comms.transmit], an extension's from
+    its `options` table."""
+    tx = scenario.comms.transmit
+    if tx.policy == "periodic":
+        return {"period": tx.period}
     if tx.policy == "event":
-        policy = EventTriggeredPolicy(
-            tx.threshold, tx.threshold_decay, tx.decay_rate, tx.min_interval, tx.heartbeat, co.predictor, co.v_r
-        )
+        keys = ("threshold", "threshold_decay", "decay_rate", "min_interval", "heartbeat")
+        return {key: getattr(tx, key) for key in keys}
+    return dict(tx.options)
+
+
+def radio(scenario: Scenario, vehicle_id: int) -> Radio:
+    """How a vehicle decides to transmit: its policy gets the fleet's predictor and v_r if it has such fields."""
+    tx, co = scenario.comms.transmit, scenario.coordination
+    context = {"predictor": predictor_of(scenario), "v_r": co.v_r}
+    policy: Policy = extension("transmission", tx.policy, transmission_options(scenario), context)
     tdma = scenario.comms.tdma
     schedule = Tdma(tdma.slot, tdma.order or tuple(scenario.vehicle_ids)) if tdma else None
     return Radio(policy, schedule)

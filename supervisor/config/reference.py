@@ -211,7 +211,8 @@ def _type(prop: Schema, defs: Schema) -> str:
         items = prop.get("items", {})
         return f"array of {'tables' if '$ref' in items or 'oneOf' in items else _type(items, defs)}"
     if kind == "object":
-        return f"table of key = {_type(prop.get('additionalProperties', {}), defs)}"
+        values = prop.get("additionalProperties", {})
+        return "table" if values is True else f"table of key = {_type(values, defs)}"
     return str(kind or "any")
 
 

@@ -7,7 +7,7 @@ supervisor/config/schema_base.py.
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+from typing import Annotated, Any, Literal
 
 from pydantic import Field, field_validator
 
@@ -50,6 +50,7 @@ from supervisor.config.schema_base import (
     MAX_VEHICLE_ID,
     MIN_STEP,
     Degrees,
+    ExtensionName,
     Float,
     Int,
     Position,
@@ -60,8 +61,6 @@ from supervisor.config.schema_base import (
     VehicleId,
     one_of,
 )
-from vehicles.coordination import Law
-from vehicles.estimates import Predictor
 from vehicles.params import PRESETS, VehicleParams
 
 __all__ = [
@@ -176,12 +175,18 @@ class PathFollowingSection(StrictModel):
 
 
 class CoordinationSection(StrictModel):
-    """The coordination law (5) that synchronises the path parameters gamma_i over the communication graph."""
+    """How the fleet synchronises the path parameters gamma_i over the communication graph: the coordination law, how
+    each vehicle predicts its neighbours between messages, and the gains of law (5)."""
 
-    law: Law = Field(
+    law: ExtensionName = Field(
         default="corrected",
-        description="corrected: law (5) on the speed error gamma_dot - v_r (settles at v_r); literal: as printed "
-        "(settles at k_zeta v_r / (k_zeta + k2))",
+        description="the coordination law: corrected (law (5) on the speed error gamma_dot - v_r, settles at v_r), "
+        "literal (law (5) as printed, settles at k_zeta v_r / (k_zeta + k2)), saturated (a bounded correction from "
+        "the gamma disagreement alone, Rego et al. 2019), an installed extension's name (`cpf plugins`), or "
+        "package.module:Name",
+    )
+    law_options: dict[str, Any] = Field(
+        default_factory=dict, description="the law's own options (its fields; saturated: k_c, width)"
     )
     k: Float = Field(
         default=0.2, gt=0, le=MAX_GAIN, description="K = diag(k): gain on the disagreement with neighbours, 1/s"
@@ -192,11 +197,20 @@ class CoordinationSection(StrictModel):
         description="reference speed of the path parameters, unit of gamma per s (the speed it asks of each vehicle "
         "along its path must not exceed 100 m/s)",
     )  # fmt: skip
-    predictor: Predictor = Field(
+    predictor: ExtensionName = Field(
         default="first_order",
-        description="how a neighbour's gamma is predicted between messages: first_order (gamma + gamma_dot age), "
-        "hold (last value), reference (gamma + v_r age)",
+        description="how a neighbour's gamma is predicted between messages: first_order (gamma + gamma_dot age, "
+        "option horizon: at most that many s), hold (last value), reference (gamma + v_r age), an installed "
+        "extension's name, or package.module:Name",
     )
+    predictor_options: dict[str, Any] = Field(
+        default_factory=dict, description="the predictor's own options (its fields; first_order: horizon, s)"
+    )
+    max_age: Float | None = Field(
+        default=None, gt=0, le=MAX_TIME,
+        description="s after which a neighbour's estimate stops counting in the law, until it is heard again "
+        "(a switching topology); omitted: estimates never expire",
+    )  # fmt: skip
 
 
 class GraphSection(StrictModel):

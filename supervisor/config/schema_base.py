@@ -44,6 +44,10 @@ Degrees = Annotated[float, Strict(), Field(ge=-360, le=360)]
 VehicleId = Annotated[int, Strict(), Field(ge=1, le=MAX_VEHICLE_ID)]
 Seconds = Annotated[float, Strict(), Field(ge=0, le=MAX_TIME)]
 Probability = Annotated[float, Strict(), Field(ge=0, le=1)]
+# An extension's name: a built-in's or an installed entry point's (a Python identifier), or package.module:Name.
+ExtensionName = Annotated[
+    str, Strict(), Field(min_length=1, max_length=200, pattern=r"^[A-Za-z_][\w.-]*(:[A-Za-z_][\w.]*)?$")
+]
 
 
 def one_of(names: Iterable[str]) -> dict[str, JsonValue]:

@@ -1,0 +1,42 @@
+"""The scenario's extensions, checked before anything runs: each name resolves (an installed entry point or an
+importable package.module:Name), its options validate against its own fields, and the object has the interface.
+Each problem is the usual '<field>: <problem>, got <value>' line (supervisor.config.scenario_checks' rules)."""
+
+from __future__ import annotations
+
+from collections.abc import Generator, Iterator
+from typing import Any
+
+from supervisor.config.extensions import instantiate
+from supervisor.config.scenario_schema import Scenario
+from vehicles.estimates import FirstOrder
+
+
+def extension_errors(sc: Scenario) -> Iterator[str]:
+    co, tx = sc.coordination, sc.comms.transmit
+    predictor = yield from _checked("predictor", "coordination", co.predictor, co.predictor_options)
+    yield from _checked("law", "coordination", co.law, co.law_options)
+    if tx.policy not in ("periodic", "event"):  # the built-ins' keys are [comms.transmit]'s own, checked by pydantic
+        context = {"predictor": predictor or FirstOrder(), "v_r": co.v_r}
+        yield from _checked("transmission", "comms.transmit", tx.policy, tx.options, context)
+    elif tx.options:
+        yield f"comms.transmit.options: the {tx.policy} policy takes its keys from [comms.transmit], got {tx.options}"
+
+
+# Where each kind's name and options are in a scenario, below its section.
+FIELDS = {"law": ("law", "law_options"), "predictor": ("predictor", "predictor_options"),
+          "transmission": ("policy", "options")}  # fmt: skip
+
+
+def _checked(
+    kind: str, section: str, name: str, options: dict[str, Any], context: dict[str, Any] | None = None
+) -> Generator[str, None, Any]:
+    """Yields the errors of one extension; returns its instance (None if it failed)."""
+    instance, _, problems = instantiate(kind, name, dict(options), context)
+    name_field, options_field = FIELDS[kind]
+    for key, text in problems:
+        if key is None:
+            yield f"{section}.{name_field}: {text}, got {name!r}"
+        else:
+            yield f"{section}.{options_field}.{key}: {text}"
+    return instance

@@ -1,0 +1,183 @@
+"""Extensions: coordination laws, neighbour predictors and transmission policies named in a scenario, found,
+checked and built the same way whether they ship with cpf-cosim or with someone else's package.
+
+A name in a scenario is either an entry point of the group (`cpf.coordination`, `cpf.predictors`,
+`cpf.transmission`; cpf-cosim registers its built-ins there itself, pyproject.toml) or an import path
+`package.module:Name`. The object it names is a class whose fields are its options (a dataclass, or a pydantic
+model): its options table in the scenario is validated against those fields by pydantic, so a bad option is the usual
+one-line error naming the file, the field and the value. An instance must have the interface's methods
+(vehicles.coordination.CoordinationLaw, vehicles.estimates.Predictor, vehicles.transmission.TransmissionPolicy).
+
+Each extension has an identity (its name, the object it resolves to, its distribution and version, and the SHA-256
+of its module's source): the hello digest covers it, so a vehicle on another host running other code is refused,
+and the log's meta records it. Someone else's extension runs inside a guard (vehicles.guard) that turns an exception,
+a non-finite result or an overrun of its time budget into one line naming it.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import importlib
+import inspect
+from dataclasses import dataclass
+from importlib import metadata
+from typing import TYPE_CHECKING, Any
+
+from vehicles.coordination import CoordinationLaw
+from vehicles.estimates import Predictor
+from vehicles.transmission import TransmissionPolicy
+
+if TYPE_CHECKING:
+    from pydantic import TypeAdapter
+
+GROUPS: dict[str, tuple[str, type]] = {
+    "law": ("cpf.coordination", CoordinationLaw),
+    "predictor": ("cpf.predictors", Predictor),
+    "transmission": ("cpf.transmission", TransmissionPolicy),
+}
+OURS = "cpf-cosim"  # the distribution whose extensions are built-ins: they run without a guard
+
+
+@dataclass(frozen=True, slots=True)
+class Identity:
+    """Which code an extension name resolved to."""
+
+    kind: str  # law, predictor, transmission
+    name: str  # as the scenario gives it
+    target: str  # module:qualname of the class
+    distribution: str | None  # the installed distribution that provides it (None: not found)
+    version: str | None
+    source_sha256: str  # of the module's source file ("" if it has none)
+
+    @property
+    def builtin(self) -> bool:
+        return self.distribution == OURS
+
+    def describe(self) -> str:
+        where = f"{self.distribution} {self.version}" if self.distribution else "no distribution"
+        return f"{self.kind} {self.name} = {self.target} ({where}, source {self.source_sha256[:12]})"
+
+
+def available(kind: str) -> dict[str, str]:
+    """name -> module:attr of every installed entry point of the kind's group (built-ins included)."""
+    group = GROUPS[kind][0]
+    return {ep.name: ep.value for ep in metadata.entry_points(group=group)}
+
+
+@functools.lru_cache(maxsize=256)
+def resolve(kind: str, name: str) -> tuple[type, Identity]:
+    """The class a name means and its identity; ValueError (a message for '<field>: ...') if there is none. Cached:
+    a fleet of many vehicles looks each name up once."""
+    group, _ = GROUPS[kind]
+    if ":" in name:
+        cls, distribution = _imported(name), _distribution_of(name.partition(":")[0])
+    else:
+        found = [ep for ep in metadata.entry_points(group=group) if ep.name == name]
+        if not found:
+            known = ", ".join(sorted(available(kind))) or "none"
+            raise ValueError(f"no {kind} {name!r} (installed: {known}; or give package.module:Name)")
+        cls = _loaded(found[0])
+        distribution = (found[0].dist.name, found[0].dist.version) if found[0].dist else None
+    if not inspect.isclass(cls):
+        raise ValueError(f"{name!r} is not a class (a {kind} is a class whose fields are its options)")
+    dist, version = distribution if distribution else (None, None)
+    return cls, Identity(kind, name, f"{cls.__module__}:{cls.__qualname__}", dist, version, _source_hash(cls))
+
+
+def _imported(path: str) -> Any:
+    module_name, _, attr = path.partition(":")
+    try:
+        module = importlib.import_module(module_name)
+    except Exception as exc:  # anything an import of someone else's code raises: one line, not a traceback
+        raise ValueError(f"cannot import {module_name!r} ({type(exc).__name__}: {exc})") from None
+    try:
+        obj = module
+        for part in attr.split("."):
+            obj = getattr(obj, part)
+    except AttributeError:
+        raise ValueError(f"module {module_name!r} has no {attr!r}") from None
+    return obj
+
+
+def _loaded(entry: metadata.EntryPoint) -> Any:
+    try:
+        return entry.load()
+    except Exception as exc:  # a broken installed extension: one line naming it
+        raise ValueError(
+            f"entry point {entry.name} = {entry.value} does not load ({type(exc).__name__}: {exc})"
+        ) from None
+
+
+def _distribution_of(module: str) -> tuple[str, str] | None:
+    top = module.partition(".")[0]
+    names = metadata.packages_distributions().get(top, [])
+    if not names:
+        return None
+    return names[0], metadata.version(names[0])
+
+
+def _source_hash(cls: type) -> str:
+    try:
+        source = inspect.getsource(inspect.getmodule(cls))  # type: ignore[arg-type]
+    except (OSError, TypeError):
+        return ""
+    return hashlib.sha256(source.encode()).hexdigest()
+
+
+Problem = tuple[str | None, str]  # (the option it is about, None: the name itself; what is wrong)
+
+
+def build(kind: str, name: str, options: dict[str, Any], context: dict[str, Any] | None = None) -> tuple[Any, Identity]:
+    """An instance of the named extension with its options; ValueError with every problem ('; '-separated)."""
+    instance, identity, problems = instantiate(kind, name, options, context)
+    if problems or identity is None:
+        raise ValueError("; ".join(f"{key}: {text}" if key else text for key, text in problems))
+    return instance, identity
+
+
+def instantiate(
+    kind: str, name: str, options: dict[str, Any], context: dict[str, Any] | None = None
+) -> tuple[Any, Identity | None, list[Problem]]:
+    """(instance, identity, problems) of the named extension built with its options (validated by its own fields)
+    and, for fields it has of those names, the context the fleet gives it (a transmission policy's `predictor` and
+    `v_r`). Problems: the name that does not resolve, options it does not have or refuses, a missing interface."""
+    try:
+        cls, identity = resolve(kind, name)
+    except ValueError as exc:
+        return None, None, [(None, str(exc))]
+    fields = _field_names(cls)
+    unknown = sorted(set(options) - fields)
+    if unknown:
+        known = ", ".join(sorted(fields)) or "none"
+        return None, identity, [(key, f"{name} has no such option (its options: {known})") for key in unknown]
+    given = {key: value for key, value in (context or {}).items() if key in fields and key not in options}
+    from pydantic import ValidationError  # here: a vehicle or broker process started from a plan never gets here
+
+    try:
+        instance = _adapter(cls).validate_python({**options, **given})
+    except ValidationError as exc:
+        return None, identity, [_option_problem(e) for e in exc.errors()]
+    except Exception as exc:  # its own checks (__post_init__) or a class pydantic cannot build
+        return None, identity, [(None, f"{name} refuses its options ({type(exc).__name__}: {exc})")]
+    _, protocol = GROUPS[kind]
+    if not isinstance(instance, protocol):
+        return None, identity, [(None, f"{identity.target} lacks the {kind} interface ({protocol.__qualname__})")]
+    return instance, identity, []
+
+
+@functools.lru_cache(maxsize=256)
+def _adapter(cls: type) -> TypeAdapter[Any]:
+    from pydantic import TypeAdapter
+
+    return TypeAdapter(cls)
+
+
+def _field_names(cls: type) -> set[str]:
+    fields = getattr(cls, "__dataclass_fields__", None) or getattr(cls, "model_fields", None) or {}
+    return set(fields)
+
+
+def _option_problem(error: Any) -> Problem:
+    where = ".".join(str(part) for part in error["loc"]) or None
+    return where, f"{error['msg']}, got {error.get('input')!r}"
