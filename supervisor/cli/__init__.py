@@ -37,6 +37,7 @@ COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
     "schema": commands.schema,
     "validate": commands.validate,
     "presets": commands.presets,
+    "plugins": commands.plugins,
     "per": commands.per,
 }
 

@@ -123,6 +123,13 @@ def validate(args: argparse.Namespace) -> int:
     return 0
 
 
+def plugins(args: argparse.Namespace) -> int:
+    from supervisor.config.extensions import plugins_text
+
+    print(plugins_text())
+    return 0
+
+
 def presets(args: argparse.Namespace) -> int:
     from supervisor.config.presets_table import presets_text
 

@@ -316,6 +316,9 @@ def _add_learning_commands(sub: Commands) -> None:
     check.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override a value (repeatable)")
     check.add_argument("--fault", action="append", default=[], metavar="SPEC", help="add a fault (repeatable)")
     sub.add_parser("presets", help="the vehicle and modem presets a scenario can name, with their key numbers")
+    sub.add_parser(
+        "plugins", help="the coordination laws, predictors and transmission policies installed (built-ins included)"
+    )
     _add_per(sub)
 
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 from collections.abc import Generator, Iterator
 from typing import Any
 
-from supervisor.config.extensions import instantiate
+from supervisor.config.extensions import Identity, instantiate, resolve
 from supervisor.config.scenario_schema import Scenario
 from vehicles.estimates import FirstOrder
 
@@ -40,3 +40,11 @@ def _checked(
         else:
             yield f"{section}.{options_field}.{key}: {text}"
     return instance
+
+
+def extension_identities(sc: Scenario) -> list[Identity]:
+    """The identity of each extension the scenario names (law, predictor, transmission policy): what the hello
+    digest covers and the log's meta records. Call on a checked scenario: every name resolves."""
+    co = sc.coordination
+    named = (("law", co.law), ("predictor", co.predictor), ("transmission", sc.comms.transmit.policy))
+    return [resolve(kind, name)[1] for kind, name in named]

@@ -16,6 +16,7 @@ a non-finite result or an overrun of its time budget into one line naming it.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import hashlib
 import importlib
@@ -174,10 +175,35 @@ def _adapter(cls: type) -> TypeAdapter[Any]:
 
 
 def _field_names(cls: type) -> set[str]:
-    fields = getattr(cls, "__dataclass_fields__", None) or getattr(cls, "model_fields", None) or {}
-    return set(fields)
+    """A dataclass's fields (not its ClassVars) or a pydantic model's: the options it takes."""
+    if dataclasses.is_dataclass(cls):
+        return {f.name for f in dataclasses.fields(cls)}
+    return set(getattr(cls, "model_fields", None) or {})
 
 
 def _option_problem(error: Any) -> Problem:
     where = ".".join(str(part) for part in error["loc"]) or None
     return where, f"{error['msg']}, got {error.get('input')!r}"
+
+
+# Where a kind's name and options go in a scenario (for cpf plugins' table).
+KEYS = {"law": "coordination.law", "predictor": "coordination.predictor", "transmission": "comms.transmit.policy"}
+
+
+def plugins_text() -> str:
+    """What `cpf plugins` prints: per kind, each installed name, what it resolves to and its options; a name that
+    does not load says why, on its line."""
+    lines: list[str] = []
+    for kind, (group, _) in GROUPS.items():
+        lines.append(f"{KEYS[kind]} (entry points {group}):")
+        for name in sorted(available(kind)):
+            try:
+                cls, identity = resolve(kind, name)
+            except ValueError as exc:
+                lines.append(f"  {name:<14}does not load: {exc}")
+                continue
+            where = f"{identity.distribution} {identity.version}" if identity.distribution else "-"
+            options = ", ".join(sorted(_field_names(cls) - {"predictor", "v_r"})) or "-"
+            lines.append(f"  {name:<14}{identity.target:<44}{where:<18}options: {options}")
+    lines.append("or any package.module:Name in the scenario (docs/extending.md)")
+    return "\n".join(lines)

@@ -5,14 +5,18 @@ every host) of the validated Scenario, --set and --fault applied, so two files t
 order or spelling of numbers (1 vs 1.0) give the same digest. Each top-level section has its own digest too, so a
 mismatch can be named ("coordination differs"). The broker draws the channel's randomness from the run's seed: its
 digest covers the seed as well (section "seed"), and so does a vehicle's with navigation on (its sensor noise).
+Section "extensions" covers the code the scenario's law, predictor and transmission policy resolve to on this host
+(name, class, distribution and version, hash of the module's source: supervisor.config.extensions.Identity).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 
 from comms.messages import Hello, Message
+from supervisor.config.extension_checks import extension_identities
 from supervisor.config.plant import spreads
 from supervisor.config.scenario_schema import Scenario
 
@@ -26,6 +30,8 @@ def section_digests(scenario: Scenario, seed: int | None = None) -> dict[str, st
     """sha256 (hex) of each top-level section of the validated scenario, and of the seed if given."""
     dump = scenario.model_dump(mode="json")
     sections = {name: _sha(value) for name, value in dump.items()}
+    # The code the scenario's extensions resolve to here: a process running other code is refused.
+    sections["extensions"] = _sha([dataclasses.asdict(identity) for identity in extension_identities(scenario)])
     if seed is not None:
         sections["seed"] = _sha(seed)
     return sections

@@ -15,6 +15,7 @@ from typing import Any
 from comms.fields import Message, get, is_int, number
 from comms.run import Edge, edges_of
 from supervisor.config.derived import tube_radius
+from supervisor.config.extension_checks import extension_identities
 from supervisor.config.scenario_schema import Scenario
 
 META_NAMES = ("scenario_name", "scenario_file", "scenario_toml", "engine", "clock")  # the string fields
@@ -46,18 +47,20 @@ class RunMeta:
     faults: tuple[dict[str, Any], ...]  # each fault's scenario fields, its kind included
     tube_radius: float
     versions: dict[str, str]
+    extensions: tuple[str, ...] = ()  # what the scenario's law, predictor and policy resolved to (Identity.describe)
 
     @classmethod
     def of(
         cls, scenario: Scenario, scenario_file: str, scenario_toml: str, seed: int, engine: str, clock: str
     ) -> RunMeta:
         versions = {"cpf-cosim": _version("cpf-cosim"), "python": platform.python_version(),
-                    "numpy": _version("numpy"), "eclipse-zenoh": _version("eclipse-zenoh")}  # fmt: skip
+                    "numpy": _version("numpy"), "eclipse-zenoh": _version("eclipse-zenoh"),
+                    "msgspec": _version("msgspec")}  # fmt: skip
         return cls(
             scenario.scenario.name, scenario_file, scenario_toml, scenario.model_dump(mode="json"), seed, engine,
             clock, scenario.scenario.step, scenario.scenario.duration, tuple(scenario.vehicle_ids),
             tuple((i, j) for i, j in scenario.graph.edges), tuple(f.model_dump() for f in scenario.faults),
-            tube_radius(scenario), versions,
+            tube_radius(scenario), versions, tuple(i.describe() for i in extension_identities(scenario)),
         )  # fmt: skip
 
     def to_message(self) -> Message:
@@ -76,6 +79,7 @@ class RunMeta:
             "faults": list(self.faults),
             "tube_radius": self.tube_radius,
             "versions": self.versions,
+            "extensions": list(self.extensions),
         }
 
     @classmethod
@@ -91,6 +95,9 @@ class RunMeta:
         versions = get(message, "versions", dict)
         if not all(isinstance(v, str) for v in versions.values()):
             raise ValueError("field 'versions' is not a map of package to version")
+        extensions = message.get("extensions", [])  # absent in logs of cpf before extensions
+        if not isinstance(extensions, list) or not all(isinstance(e, str) for e in extensions):
+            raise ValueError("field 'extensions' is not a list of descriptions")
         step = number(message, "step")
         if step <= 0:
             raise ValueError(f"field 'step' is not positive, got {step}")
@@ -98,4 +105,5 @@ class RunMeta:
             names["scenario_name"], names["scenario_file"], names["scenario_toml"], get(message, "scenario", dict),
             get(message, "seed", int), names["engine"], names["clock"], step, number(message, "duration"),
             tuple(vehicles), edges_of(message, "edges"), tuple(faults), number(message, "tube_radius"), versions,
+            tuple(extensions),
         )  # fmt: skip

@@ -116,6 +116,7 @@ def _run_lines(meta: RunMeta | str, log: RawLog) -> list[str]:
         *([f"           {description}"] if description else []),
         f"engine     {meta.engine}, clock {meta.clock}, seed {meta.seed}, step {meta.step} s",
         f"versions   {', '.join(f'{name} {version}' for name, version in sorted(meta.versions.items())) or '-'}",
+        *(f"{'extensions' if i == 0 else '':<11}{text}" for i, text in enumerate(meta.extensions)),
         f"duration   {seconds(meta.duration)} s simulated (scenario); messages from t = "
         f"{seconds(_ns(log.first_time))} to {seconds(_ns(log.last_time))} s",
         f"vehicles   {', '.join(str(v) for v in meta.vehicles) or '-'}",

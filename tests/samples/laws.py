@@ -1,0 +1,63 @@
+"""Coordination laws for tests/test_extensions.py: one that works, and one of each way an extension can break."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Annotated
+
+from annotated_types import Gt
+
+from vehicles.coordination import CoordinationGains
+
+
+@dataclass(frozen=True)
+class Damped:
+    """Law (5) without its neighbour-rate term: v_tilde = -k2 (gamma_dot - v_r + gain sum_j (gamma_i - gamma_j))."""
+
+    gain: Annotated[float, Gt(0)] = 0.2
+
+    def correction(
+        self, gamma: float, gamma_dot: float, neighbours: Sequence[tuple[float, float]], gains: CoordinationGains
+    ) -> float:
+        disagreement = sum(gamma - gamma_j for gamma_j, _ in neighbours)
+        return -gains.k2 * (gamma_dot - gains.v_r + self.gain * disagreement)
+
+
+@dataclass(frozen=True)
+class NoCorrection:
+    """Has no correction method: not a law."""
+
+    def predict(self) -> float:
+        return 0.0
+
+
+@dataclass(frozen=True)
+class Raises:
+    """Fails once the run is under way (after = s)."""
+
+    after: float = 1.0
+
+    def correction(self, gamma: float, gamma_dot: float, neighbours: object, gains: CoordinationGains) -> float:
+        if gamma > self.after:
+            return 1.0 / 0.0
+        return 0.0
+
+
+@dataclass(frozen=True)
+class NotFinite:
+    def correction(self, gamma: float, gamma_dot: float, neighbours: object, gains: CoordinationGains) -> float:
+        return float("nan") if gamma > 1.0 else 0.0
+
+
+@dataclass(frozen=True)
+class Slow:
+    """Burns 0.3 s of CPU in one call once gamma passes 1."""
+
+    def correction(self, gamma: float, gamma_dot: float, neighbours: object, gains: CoordinationGains) -> float:
+        if gamma > 1.0:
+            end = time.thread_time() + 0.3
+            while time.thread_time() < end:
+                pass
+        return 0.0

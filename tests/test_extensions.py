@@ -1,0 +1,124 @@
+"""Extension points (issue 22): a law, predictor or transmission policy named by import path or entry point runs on
+both engines; a broken one is one line and the right exit code, before the run (2) or when it breaks (1); its
+identity reaches the hello digest, the log's meta and `cpf info`; the built-ins are listed by `cpf plugins`."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import pytest
+
+from supervisor.config.extensions import build, resolve
+from supervisor.config.scenario import load_scenario
+from supervisor.config.scenario_digest import section_digests
+from supervisor.record.recorder import read_messages
+from tests.conftest import CONFIGS, shortened
+from tests.procs import cpf
+
+ROOT = Path(__file__).resolve().parent.parent
+ENV = {"PYTHONPATH": str(ROOT)}  # tests.samples importable in every process of the run
+SAMPLES = "tests.samples.laws"
+
+
+def run(tmp_path: Path, *options: str, engine: str = "inprocess", seconds: float = 200.0):
+    scenario = tmp_path / "s.toml"
+    scenario.write_text(shortened((CONFIGS / "paper.toml").read_text(), seconds))
+    args = ["run", str(scenario), "--engine", engine, "--quiet", "--out", "run.mcap"]
+    return cpf(*args, *(x for o in options for x in ("--set", o)), cwd=tmp_path, env=ENV)
+
+
+def one_line(text: str) -> str:
+    lines = [line for line in text.splitlines() if line.startswith("cpf: error")]
+    assert len(lines) == 1, text
+    return lines[0]
+
+
+@pytest.mark.parametrize("engine", ["inprocess", "zenoh"])
+def test_a_law_by_import_path_runs_on_both_engines_with_its_options(tmp_path, engine):
+    done = run(tmp_path, f"coordination.law={SAMPLES}:Damped", "coordination.law_options.gain=0.3", engine=engine)
+    assert done.returncode == 0, done.stderr
+    meta = next(m for topic, _, m in read_messages(tmp_path / "run.mcap") if topic == "cpf/run/meta")
+    assert meta["extensions"][0].startswith(f"law {SAMPLES}:Damped = {SAMPLES}:Damped (")
+    info = cpf("info", "run.mcap", cwd=tmp_path, env=ENV)
+    assert f"extensions law {SAMPLES}:Damped" in info.stdout
+
+
+def test_the_engines_record_the_same_with_an_extension(tmp_path):
+    (tmp_path / "a").mkdir(), (tmp_path / "b").mkdir()
+    law = f"coordination.law={SAMPLES}:Damped"
+    for sub, engine in (("a", "inprocess"), ("b", "zenoh")):
+        assert run(tmp_path / sub, law, engine=engine).returncode == 0
+    states = [
+        sorted((t, str(m)) for topic, t, m in read_messages(tmp_path / sub / "run.mcap") if topic.endswith("/state"))
+        for sub in ("a", "b")
+    ]
+    assert states[0] == states[1] and len(states[0]) == 6000
+
+
+@pytest.mark.parametrize(
+    ("setting", "expected"),
+    [
+        ("coordination.law=no_such_module:Law", "coordination.law: cannot import 'no_such_module'"),
+        ("coordination.law=bogus", "coordination.law: no law 'bogus' (installed: corrected, literal, saturated"),
+        (f"coordination.law={SAMPLES}:NoCorrection", "lacks the law interface (CoordinationLaw)"),
+        (f"coordination.law={SAMPLES}:Damped\0coordination.law_options.gain=-1",
+         "coordination.law_options.gain: Input should be greater than 0, got -1"),
+        (f"coordination.law={SAMPLES}:Damped\0coordination.law_options.gian=1",
+         "coordination.law_options.gian: tests.samples.laws:Damped has no such option (its options: gain)"),
+        ("coordination.predictor_options.horizon=0", "coordination.predictor_options.horizon: Input should be greater"),
+    ],
+)  # fmt: skip
+def test_a_bad_extension_or_option_is_one_line_and_exit_2_before_the_run(tmp_path, setting, expected):
+    done = run(tmp_path, *setting.split("\0"))
+    assert done.returncode == 2 and expected in one_line(done.stderr), done.stderr
+    assert not (tmp_path / "run.mcap").exists()
+
+
+@pytest.mark.parametrize("engine", ["inprocess", "zenoh"])
+@pytest.mark.parametrize(
+    ("law", "expected"),
+    [
+        ("Raises", "law tests.samples.laws:Raises raised ZeroDivisionError: float division by zero"),
+        ("NotFinite", "law tests.samples.laws:NotFinite returned nan, not a finite number"),
+        ("Slow", "law tests.samples.laws:Slow took 0.3"),
+    ],
+)
+def test_an_extension_that_breaks_stops_the_run_with_one_line_naming_it(tmp_path, engine, law, expected):
+    done = run(tmp_path, f"coordination.law={SAMPLES}:{law}", engine=engine, seconds=5.0)
+    line = one_line(done.stderr)
+    assert done.returncode == 1 and expected in line and " at t = " in line, done.stderr
+    assert "Traceback" not in done.stderr
+    assert cpf("info", "run.mcap", cwd=tmp_path, env=ENV).returncode == 0  # the log was closed
+
+
+def test_the_hello_digest_covers_the_code_an_extension_resolves_to():
+    sc = load_scenario(CONFIGS / "paper.toml", [f"coordination.law={SAMPLES}:Damped"])
+    here = section_digests(sc)
+    _, identity = resolve("law", f"{SAMPLES}:Damped")
+    other = dataclasses.replace(identity, source_sha256="0" * 64)  # the same name, other code on another host
+    resolve.cache_clear()
+    try:
+        import supervisor.config.extension_checks as checks
+
+        original = checks.resolve
+        checks.resolve = lambda kind, name: (None, other) if kind == "law" else original(kind, name)  # type: ignore
+        assert section_digests(sc)["extensions"] != here["extensions"]
+        assert {k for k in here if section_digests(sc)[k] != here[k]} == {"extensions"}
+    finally:
+        checks.resolve = original
+
+
+def test_the_builtins_are_built_through_the_same_registry_with_their_options():
+    law, identity = build("law", "saturated", {"k_c": 0.5})
+    assert identity.builtin and identity.target == "vehicles.coordination:Saturated" and law.k_c == 0.5
+    with pytest.raises(ValueError, match="width: Input should be greater than 0"):
+        build("law", "saturated", {"width": 0})
+
+
+def test_cpf_plugins_lists_every_builtin(tmp_path):
+    done = cpf("plugins", cwd=tmp_path)
+    assert done.returncode == 0
+    for name in ("corrected", "literal", "saturated", "first_order", "hold", "reference", "periodic", "event"):
+        assert f"  {name} " in done.stdout
+    assert "options: horizon" in done.stdout and "options: k_c, width" in done.stdout
