@@ -204,6 +204,6 @@ def plugins_text() -> str:
                 continue
             where = f"{identity.distribution} {identity.version}" if identity.distribution else "-"
             options = ", ".join(sorted(_field_names(cls) - {"predictor", "v_r"})) or "-"
-            lines.append(f"  {name:<14}{identity.target:<44}{where:<18}options: {options}")
+            lines.append(f"  {name:<14}{identity.target:<44}{where:<22}options: {options}")
     lines.append("or any package.module:Name in the scenario (docs/extending.md)")
     return "\n".join(lines)

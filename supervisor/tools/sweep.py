@@ -16,6 +16,7 @@ import hashlib
 import io
 import json
 import math
+import re
 import tempfile
 import tomllib
 from collections.abc import Callable, Iterable, Iterator, Sequence
@@ -75,10 +76,16 @@ def parse_param(text: str) -> Param:
     return Param(key.strip(), tuple(_value(part, text) for part in split_outside_brackets(spec)))
 
 
+BARE_WORD = re.compile(r"^[A-Za-z_][\w.-]*(:[A-Za-z_][\w.]*)?$")  # a name (corrected, my_pkg.laws:Law): a string
+
+
 def _value(text: str, whole: str) -> Any:
+    """A TOML value; a bare word is a string, as with --set (a law's or a predictor's name)."""
     try:
         return tomllib.loads(f"v = {text.strip()}")["v"]
     except tomllib.TOMLDecodeError:
+        if BARE_WORD.match(text.strip()) and text.strip() not in ("true", "false", "inf", "nan"):
+            return text.strip()
         raise ScenarioError(f"--param: {text.strip()!r} is not a TOML value, in {whole!r}") from None
 
 
