@@ -97,7 +97,9 @@ def largest_loss(setting: Setting) -> float | None:
     if not converges(replace(setting, loss=0.0)):
         return 0.0
     stable = lambda p: converges(replace(setting, loss=p))  # noqa: E731
-    for p in (0.5, 0.9, 0.99, 0.999):
+    good = 0.0
+    for p in (0.5, 0.8, 0.9, 0.95, 0.98, 0.99, 0.995, 0.999):
         if not stable(p):
-            return _bisect(stable, p / 2 if p == 0.5 else 1 - (1 - p) * 10, p, 0.001)
+            return _bisect(stable, good, p, 0.003)
+        good = p
     return None

@@ -154,11 +154,11 @@ def monodromy(layout: Layout) -> Matrix:
     return m
 
 
-def second_moment(layout: Layout, loss: float) -> LinearOperator:
-    """X -> E[M X M'] on the quotient by the consensus direction (vec(X) -> E[M kron M] vec(X)), each delivery
-    lost with probability `loss`; applied as matrix products, never built as a Kronecker product."""
+def _stages(layout: Layout, loss: float) -> list[tuple[Matrix, float]]:
+    """The period's maps on the quotient, each with the probability it acts (the identity otherwise): a delivery's
+    copy to each link acts with 1 - loss, independently; runs of certain maps are multiplied together."""
     r = layout.reduced
-    stages: list[tuple[Matrix, float]] = []  # (map, probability it acts; the identity otherwise)
+    stages: list[tuple[Matrix, float]] = []
     pending = np.eye(layout.size)
     for kind, j, value in steps(layout):
         if kind == "deliver":
@@ -168,6 +168,13 @@ def second_moment(layout: Layout, loss: float) -> LinearOperator:
         else:
             pending = (layout.flow(value) if kind == "flow" else layout.sample(j, int(value))) @ pending
     stages.append((r(pending), 1.0))
+    return stages
+
+
+def second_moment(layout: Layout, loss: float) -> LinearOperator:
+    """X -> E[M X M'] on the quotient by the consensus direction (vec(X) -> E[M kron M] vec(X)), applied as matrix
+    products, never built as a Kronecker product."""
+    stages = _stages(layout, loss)
     size = layout.size - 1
 
     def apply(vec: Matrix) -> Matrix:
@@ -180,12 +187,15 @@ def second_moment(layout: Layout, loss: float) -> LinearOperator:
 
 
 def second_moment_radius(layout: Layout, loss: float) -> float:
-    """Spectral radius of the second-moment operator (below 1: mean-square stable, consensus mode excluded)."""
-    op = second_moment(layout, loss)
-    if op.shape[0] <= 400:
-        dense = op @ np.eye(op.shape[0])
-        return spectral_radius(dense)
-    values = eigs(op, k=1, which="LM", return_eigenvectors=False, tol=1e-8, maxiter=5000)
+    """Spectral radius of the second-moment operator (below 1: mean-square stable, consensus mode excluded): built
+    as E[M kron M] when small, by ARPACK on the operator otherwise."""
+    if layout.size <= 21:
+        size = (layout.size - 1) ** 2
+        g = np.eye(size)
+        for m, p in _stages(layout, loss):
+            g = (p * np.kron(m, m) + (1.0 - p) * np.eye(size)) @ g
+        return spectral_radius(g)
+    values = eigs(second_moment(layout, loss), k=1, which="LM", return_eigenvectors=False, tol=1e-8, maxiter=5000)
     return float(np.max(np.abs(values)))
 
 
