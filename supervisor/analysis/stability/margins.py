@@ -80,11 +80,17 @@ def largest_period(setting: Setting, limit: float = 200.0) -> float | None:
     return _margin(lambda p: converges(replace(setting, period=p)), setting.period, limit)
 
 
+def delay_reach(setting: Setting, limit: float = 200.0) -> float:
+    """The longest delay the scan tries, s: limit, or less where the buffers would pass MAX_STATES states."""
+    n = setting.loop.n
+    return min(limit, setting.period * (MAX_STATES - 2 * n) / (2 * n) - setting.period)
+
+
 def largest_delay(setting: Setting, limit: float = 200.0) -> float | None:
     """The largest delay that converges, s; None: converges up to limit or MAX_STATES states."""
     if not converges(setting):
         return 0.0
-    within = min(limit, setting.period * (MAX_STATES - 2 * setting.loop.n) / (2 * setting.loop.n) - setting.period)
+    within = delay_reach(setting, limit)
     stable = lambda d: converges(replace(setting, delay=d))  # noqa: E731
     return _margin(stable, max(setting.delay, setting.period), within, tolerance=0.01)
 

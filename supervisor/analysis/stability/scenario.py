@@ -17,7 +17,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from comms.wire import SIZE
-from supervisor.analysis.stability.margins import Setting, largest_delay, largest_loss, largest_period, rate
+from supervisor.analysis.stability.margins import (
+    Setting,
+    delay_reach,
+    largest_delay,
+    largest_loss,
+    largest_period,
+    rate,
+)
 from supervisor.analysis.stability.model import Loop
 from supervisor.config.fleet import modem_params, sound_speed
 from supervisor.config.scenario_schema import Scenario
@@ -117,7 +124,7 @@ def describe(verdict: Verdict, scenario: Scenario) -> str:
         return f"{head}, with {how} (linearised sampled loop, perfect path following). It would converge with {tail}."
     margins = ", ".join((
         _margin_text("a transmit period", verdict.period, " s", "of any length up to 200 s"),
-        _margin_text("a delay", verdict.delay, " s", "as long as the analysis reaches"),
+        _margin_text("a delay", verdict.delay, " s", f"of any length up to {delay_reach(s):.3g} s"),
         _margin_text("an independent loss probability", verdict.loss, "", "of any value below 1"),
     ))  # fmt: skip
     return (f"{head}, with {how} (linearised sampled loop, perfect path following). With the other settings as "
