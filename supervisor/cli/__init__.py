@@ -36,6 +36,7 @@ COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
     "replay": commands.replay,
     "schema": commands.schema,
     "validate": commands.validate,
+    "stability": commands.stability,
     "presets": commands.presets,
     "plugins": commands.plugins,
     "per": commands.per,

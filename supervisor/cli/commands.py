@@ -6,9 +6,13 @@ from __future__ import annotations
 import argparse
 import logging
 import textwrap
+from typing import TYPE_CHECKING
 
 from supervisor.cli.terminal import EXIT_INTERRUPTED
 from supervisor.errors import ScenarioError
+
+if TYPE_CHECKING:
+    from supervisor.config.scenario_schema import Scenario
 
 log = logging.getLogger("cpf")
 
@@ -119,6 +123,9 @@ def validate(args: argparse.Namespace) -> int:
     scenario = load_scenario(args.scenario, args.set, args.fault)  # ScenarioError: every error, exit 2
     for warning in scenario_warnings(scenario):  # what cpf run would warn about, said here too
         log.warning("%s: %s", args.scenario, warning)
+    if (growth := _predicted_growth(scenario)) is not None:
+        log.warning("%s: coordination is predicted to diverge (error growing at %.3g 1/s; cpf stability)",
+                    args.scenario, growth)  # fmt: skip
     print(textwrap.fill(f"{args.scenario}: valid. {what_would_run(scenario)}", width=100, break_on_hyphens=False))
     return 0
 
@@ -127,6 +134,29 @@ def plugins(args: argparse.Namespace) -> int:
     from supervisor.config.extensions import plugins_text
 
     print(plugins_text())
+    return 0
+
+
+def _predicted_growth(scenario: Scenario) -> float | None:
+    """The growth rate (1/s) of the coordination error if the stability analysis predicts divergence, else None
+    (also when the loop is too large to analyse quickly)."""
+    from supervisor.analysis.stability.margins import MAX_STATES, rate
+    from supervisor.analysis.stability.scenario import setting_of
+
+    setting = setting_of(scenario)
+    if setting.states() > MAX_STATES:
+        return None
+    growth = -rate(setting)
+    return growth if growth >= 0 else None
+
+
+def stability(args: argparse.Namespace) -> int:
+    from supervisor.analysis.stability.scenario import analyse, describe
+    from supervisor.config.scenario import load_scenario
+
+    scenario = load_scenario(args.scenario, args.set)  # ScenarioError: every error, exit 2
+    text = describe(analyse(scenario), scenario)
+    print(textwrap.fill(f"{args.scenario}: {text}", width=100, break_on_hyphens=False))
     return 0
 
 

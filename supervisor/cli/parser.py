@@ -308,7 +308,7 @@ def _add_replay_and_recover(sub: Commands) -> None:
 
 
 def _add_learning_commands(sub: Commands) -> None:
-    """schema, validate, presets: the scenario format without reading the source."""
+    """schema, validate, presets, stability: the scenario format, and what it would do, without running it."""
     schema = sub.add_parser("schema", help="the JSON Schema of a scenario file, for editors (or the reference)")
     schema.add_argument("--markdown", action="store_true", help="the scenario reference (docs/scenario-reference.md)")
     check = sub.add_parser("validate", help="check a scenario (every error at once) and say what it would run")
@@ -319,6 +319,11 @@ def _add_learning_commands(sub: Commands) -> None:
     sub.add_parser(
         "plugins", help="the coordination laws, predictors and transmission policies installed (built-ins included)"
     )
+    stable = sub.add_parser(
+        "stability", help="predict whether coordination converges, and the period, delay and loss it tolerates"
+    )
+    stable.add_argument("scenario", type=Path, help="scenario file (TOML)")
+    stable.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override a value (repeatable)")
     _add_per(sub)
 
 

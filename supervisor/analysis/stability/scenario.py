@@ -1,0 +1,131 @@
+"""The stability analysis of a validated Scenario: its loop, period, delay and loss, and a paragraph for people.
+
+What is read from the scenario: the graph, law (5)'s gains k, k2, the path-following gain k_zeta and the predictor;
+the transmit period (every step if none; an event-triggered policy is analysed at its heartbeat, the longest silence
+it allows, or else at every step, which is optimistic); TDMA: the frame (slot x vehicles, or the whole frames the
+period needs) with each vehicle's slot start as its offset; the delay d = airtime (packet bits / bitrate, preamble
+included) + time of flight over the mean initial distance of linked vehicles + half the jitter + the mean extra link
+delay, rounded up to the sync step as arrivals are; loss: comms.loss combined with the burst model's long-run rate,
+taken as independent (a bursty channel is worse than that), range-dependent loss left out.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from comms.wire import SIZE
+from supervisor.analysis.stability.margins import (
+    Setting,
+    delay_reach,
+    largest_delay,
+    largest_loss,
+    largest_period,
+    rate,
+)
+from supervisor.analysis.stability.model import Loop
+from supervisor.config.fleet import modem_params, sound_speed
+from supervisor.config.scenario_schema import Scenario
+
+
+def loop_of(scenario: Scenario) -> Loop:
+    """The scenario's coordination loop (vehicles as indices in the order they are listed)."""
+    ids = scenario.vehicle_ids
+    index = {vid: i for i, vid in enumerate(ids)}
+    co = scenario.coordination
+    edges = [(index[a], index[b]) for a, b in scenario.graph.edges]
+    return Loop.of_edges(len(ids), edges, co.k, co.k2, scenario.path_following.k_zeta, co.predictor)
+
+
+def _period(scenario: Scenario) -> float:
+    tx, dt = scenario.comms.transmit, scenario.scenario.step
+    if tx.policy == "event":
+        return tx.heartbeat or dt
+    return tx.period or dt
+
+
+def _timing(scenario: Scenario) -> tuple[float, tuple[float, ...]]:
+    """(period or TDMA frame, each vehicle's offset as a fraction of it)."""
+    period, tdma, n = _period(scenario), scenario.comms.tdma, len(scenario.vehicles)
+    if tdma is None:
+        return period, (0.0,) * n
+    order = tdma.order or tuple(scenario.vehicle_ids)
+    frame = tdma.slot * len(order)
+    frames = max(1, math.ceil(period / frame - 1e-9))
+    return frame * frames, tuple(order.index(vid) * tdma.slot / (frame * frames) for vid in scenario.vehicle_ids)
+
+
+def delay_of(scenario: Scenario) -> float:
+    """Airtime + typical time of flight + half the jitter + mean extra link delay, up to the sync step."""
+    c, dt = scenario.comms, scenario.scenario.step
+    where = {v.id: np.asarray(v.position) for v in scenario.vehicles}
+    distances = [float(np.linalg.norm(where[a] - where[b])) for a, b in scenario.graph.edges]
+    flight = float(np.mean(distances)) / sound_speed(scenario) if distances else 0.0
+    modem = modem_params(scenario)
+    on_air = modem.airtime(c.packet_bytes or SIZE)
+    extra = float(np.mean([link.extra_delay for link in c.links])) if c.links else 0.0
+    raw = on_air + flight + c.jitter / 2 + extra
+    return dt * max(1, math.ceil(raw / dt - 1e-9))
+
+
+def loss_of(scenario: Scenario) -> float:
+    c = scenario.comms
+    burst = c.burst.mean_loss if c.burst is not None else 0.0
+    return 1.0 - (1.0 - c.loss) * (1.0 - burst)
+
+
+def setting_of(scenario: Scenario) -> Setting:
+    period, phases = _timing(scenario)
+    return Setting(loop_of(scenario), period, delay_of(scenario), phases, loss_of(scenario))
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """The analysis of one scenario: its setting, decay rate (1/s) and margins (None: none found in reach)."""
+
+    setting: Setting
+    rate: float
+    period: float | None
+    delay: float | None
+    loss: float | None
+
+    @property
+    def converges(self) -> bool:
+        return self.rate > 0
+
+
+def analyse(scenario: Scenario, margins: bool = True) -> Verdict:
+    """The verdict on a scenario; margins=False: the rate alone (fast, for cpf validate)."""
+    s = setting_of(scenario)
+    if not margins:
+        return Verdict(s, rate(s), None, None, None)
+    return Verdict(s, rate(s), largest_period(s), largest_delay(s), largest_loss(s))
+
+
+def _margin_text(name: str, value: float | None, unit: str, beyond: str) -> str:
+    if value is not None and math.isnan(value):
+        return f"{name} not analysed (too many states: a delay of many periods)"
+    return f"{name} up to {value:.3g}{unit}" if value is not None else f"{name} {beyond}"
+
+
+def describe(verdict: Verdict, scenario: Scenario) -> str:
+    """One paragraph: the verdict, its rate, what was analysed, the margins."""
+    s, co = verdict.setting, scenario.coordination
+    how = (f"law {co.law!r}, predictor {co.predictor!r}, a message every {s.period:g} s"
+           f"{' (TDMA frame)' if scenario.comms.tdma else ''}, {s.delay:g} s of delay, loss {s.loss:g}")  # fmt: skip
+    if verdict.converges:
+        head = f"coordination converges: the error decays at {verdict.rate:.3g} 1/s (time constant "
+        head += f"{1 / verdict.rate:.3g} s)"
+    else:
+        head = f"coordination DIVERGES: the error grows at {-verdict.rate:.3g} 1/s"
+        tail = _margin_text("a transmit period", verdict.period, " s", "of no length tried")
+        return f"{head}, with {how} (linearised sampled loop, perfect path following). It would converge with {tail}."
+    margins = ", ".join((
+        _margin_text("a transmit period", verdict.period, " s", "of any length up to 200 s"),
+        _margin_text("a delay", verdict.delay, " s", f"of any length up to {delay_reach(s):.3g} s"),
+        _margin_text("an independent loss probability", verdict.loss, "", "of any value below 1"),
+    ))  # fmt: skip
+    return (f"{head}, with {how} (linearised sampled loop, perfect path following). With the other settings as "
+            f"they are, it converges with {margins}.")  # fmt: skip

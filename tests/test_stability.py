@@ -1,0 +1,191 @@
+"""The stability analysis of the coordination loop (supervisor.analysis.stability), and theory held as tests: the
+transmit period and delay at which the simulated paper fleet stops converging lie within 20 % of the predicted ones.
+
+        2 ---- 1 ---- 3          (the paper's graph; k = 0.2, k2 = 1, k_zeta = 1, v_r = 1)
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from supervisor.analysis.stability import Loop, Setting, largest_delay, largest_loss, largest_period, rate
+from supervisor.analysis.stability.monodromy import Layout, monodromy, second_moment_radius, spectral_radius
+from supervisor.analysis.stability.scenario import analyse, setting_of
+from supervisor.cli import main
+from supervisor.config.scenario import parse_scenario
+from supervisor.tools.stability_check import simulate
+from tests.conftest import CONFIGS
+
+PAPER = ((0, 1), (0, 2))
+
+
+def paper(predictor: str = "first_order", period: float = 0.1, delay: float = 0.1, loss: float = 0.0) -> Setting:
+    return Setting(Loop.of_edges(3, PAPER, 0.2, 1.0, 1.0, predictor), period, delay, (0.0,) * 3, loss)
+
+
+# --- the model -------------------------------------------------------------------------------------------------
+
+
+def test_the_continuous_loop_is_stable_but_for_the_consensus_mode():
+    values = np.linalg.eigvals(paper().loop.continuous_matrix())
+    values = values[np.argsort(-values.real)]
+    assert abs(values[0]) < 1e-12  # a common shift of every gamma_i: neutral
+    assert values[1].real == pytest.approx(-0.0950, abs=1e-3)
+    assert np.all(values[1:].real < -0.09)
+
+
+@pytest.mark.parametrize("predictor", ["first_order", "hold", "reference"])
+def test_sampling_every_small_step_without_delay_gives_the_continuous_loop(predictor):
+    continuous = -np.sort(np.linalg.eigvals(paper().loop.continuous_matrix()).real)[-2]
+    np.testing.assert_allclose(rate(paper(predictor, period=0.01, delay=0.0)), continuous, rtol=1e-3)
+
+
+def test_the_monodromy_keeps_the_consensus_direction_and_only_it_at_one():
+    layout = Layout(paper().loop, paper(period=3.0, delay=4.0).sampling())  # two messages in flight
+    m = monodromy(layout)
+    np.testing.assert_allclose(m @ layout.consensus, layout.consensus, atol=1e-12)
+    assert spectral_radius(layout.reduced(m)) < 1 - 1e-3
+
+
+def test_first_order_period_boundary_is_near_the_measured_7_4_s():
+    boundary = largest_period(paper())
+    assert boundary is not None and 7.0 < boundary < 7.8
+    assert rate(paper(period=0.98 * boundary)) > 0 > rate(paper(period=1.02 * boundary))
+
+
+def test_hold_and_reference_share_their_linear_loop_and_have_no_period_boundary_in_reach():
+    """In the errors about the synchronised motion both hold x_j (hold adds a forcing, -v_r age, the same for every
+    state: an offset, not growth); first_order extrapolates a stale rate and has a boundary."""
+    for period in (1.0, 10.0, 40.0):
+        assert rate(paper("hold", period)) == pytest.approx(rate(paper("reference", period)), rel=1e-9)
+    assert largest_period(paper("reference")) is None
+    assert rate(paper("first_order", 10.0)) < 0 < rate(paper("reference", 10.0))
+
+
+def test_delay_boundary_shrinks_with_the_period():
+    at_step, at_two = largest_delay(paper(period=2.0)), largest_delay(paper(period=4.0))
+    assert at_step is not None and at_two is not None
+    assert 3.5 < at_two < at_step < 7.0
+
+
+def test_mean_square_loss_without_loss_is_the_deterministic_radius_squared():
+    layout = Layout(paper().loop, paper(period=1.0).sampling())
+    rho = spectral_radius(layout.reduced(monodromy(layout)))
+    assert second_moment_radius(layout, 0.0) == pytest.approx(rho**2, rel=1e-9)
+
+
+def test_loss_boundary_of_the_paper_loop_lies_between_0_85_and_0_87_every_4_s():
+    """(largest_loss finds 0.865; the bisection itself is tested on a smaller loop below, for time.)"""
+    assert rate(paper(period=4.0, loss=0.85)) > 0 > rate(paper(period=4.0, loss=0.88))
+    assert rate(paper(period=1.0, loss=0.88)) > 0  # more messages: more loss tolerated
+
+
+def test_loss_boundary_is_found_where_mean_square_stability_ends_and_falls_with_the_period():
+    pair = [Setting(Loop.of_edges(2, ((0, 1),), 0.2, 1.0, 1.0), period, 0.1, (0.0, 0.0)) for period in (2.0, 4.0)]
+    at_two, at_four = largest_loss(pair[0]), largest_loss(pair[1])
+    assert at_two is not None and at_four is not None and 0.5 < at_four < at_two < 1.0
+    assert rate(replace(pair[1], loss=at_four - 0.01)) > 0 > rate(replace(pair[1], loss=at_four + 0.01))
+
+
+def test_the_paper_scenario_reads_as_its_loop():
+    scenario = parse_scenario((CONFIGS / "paper.toml").read_text(), "paper.toml", ["comms.transmit.period=8"])
+    s = setting_of(scenario)
+    assert (s.period, s.delay, s.loss, s.loop.predictor) == (8.0, pytest.approx(0.1), 0.0, "first_order")
+    assert s.loop.links == ((0, 1), (0, 2), (1, 0), (2, 0))
+    assert not analyse(scenario, margins=False).converges
+
+
+def test_tdma_slots_become_offsets_within_the_frame():
+    scenario = parse_scenario((CONFIGS / "paper.toml").read_text(), "paper.toml", ["comms.tdma.slot=2"])
+    s = setting_of(scenario)
+    assert s.period == 6.0 and s.phases == pytest.approx((0.0, 1 / 3, 2 / 3))
+    assert rate(s) > 0
+
+
+# --- theory held as tests: the simulated fleet against the prediction -----------------------------------------
+
+SHORT = ["scenario.duration=300", "faults=[]"]
+# The period bracket (two 300 s runs, ~5 s) is in the default suite; the other simulated checks take ~25 s more on
+# this 2-core machine: CPF_THEORY=1 runs them (they passed when committed).
+theory = pytest.mark.skipif(not os.environ.get("CPF_THEORY"), reason="set CPF_THEORY=1: ~25 s of simulation")
+
+
+def _simulated(overrides: list[str]):
+    text = (CONFIGS / "paper.toml").read_text()
+    return simulate(parse_scenario(text, "paper.toml", [*SHORT, *overrides]))
+
+
+def _on_grid(seconds: float) -> float:
+    return round(seconds, 1)
+
+
+def test_simulated_fleet_stops_converging_within_20_percent_of_the_predicted_period():
+    boundary = largest_period(paper())
+    assert boundary is not None
+    below = _simulated([f"comms.transmit.period={_on_grid(0.8 * boundary)}"])
+    above = _simulated([f"comms.transmit.period={_on_grid(1.2 * boundary)}"])
+    assert below.converged(tolerance=0.01), below
+    assert above.diverged() and above.last > 10.0, above
+
+
+@theory
+def test_simulated_fleet_stops_converging_within_20_percent_of_the_predicted_delay():
+    """A message every 2 s, delayed by the modem's preamble (airtime). (Every step, the boundary is 6.8 s and
+    holds too, but the model then carries 70 messages in flight and the test would take 10 s more.)"""
+    boundary = largest_delay(paper(period=2.0))
+    assert boundary is not None and 5.0 < boundary < 6.5
+    period = "comms.transmit.period=2"
+    below = _simulated([period, f"comms.preamble={_on_grid(0.8 * boundary)}"])
+    above = _simulated([period, f"comms.preamble={_on_grid(1.2 * boundary)}"])
+    assert below.converged(tolerance=0.01), below
+    assert above.diverged() and above.last > 10.0, above
+
+
+@theory
+@pytest.mark.parametrize("predictor", ["hold", "reference"])
+def test_simulated_fleet_with_hold_or_reference_stays_bounded_past_the_first_order_boundary(predictor):
+    """No boundary predicted in reach: at twice first_order's the error does not grow (hold: a steady offset)."""
+    outcome = _simulated([f"coordination.predictor={predictor}", "comms.transmit.period=15"])
+    assert not outcome.diverged(), outcome
+    assert outcome.last < 5.0
+
+
+@theory
+def test_simulated_decay_rate_matches_the_predicted_one():
+    """reference every 20 s: the error's peaks over two windows of 50 s shrink at the predicted rate (+-35 %)."""
+    predicted = rate(paper("reference", period=20.0))
+    outcome = _simulated(["coordination.predictor=reference", "comms.transmit.period=20"])
+    measured = math.log(outcome.before / outcome.last) / 50.0
+    assert measured == pytest.approx(predicted, rel=0.35), (measured, predicted)
+
+
+# --- the commands ------------------------------------------------------------------------------------------------
+
+
+def test_cpf_stability_prints_the_verdict_and_margins(capsys):
+    assert main(["stability", str(CONFIGS / "paper.toml"), "--set", "comms.transmit.period=8"]) == 0
+    out = " ".join(capsys.readouterr().out.split())
+    assert "coordination DIVERGES" in out and "predictor 'first_order'" in out
+    assert "a transmit period up to 7.3 s" in out
+
+
+def test_cpf_stability_and_validate_refuse_a_bad_scenario_alike(capsys):
+    bad = ["--set", "comms.transmit.period=-1"]
+    assert main(["stability", str(CONFIGS / "paper.toml"), *bad]) == 2
+    stability_err = capsys.readouterr().err
+    assert main(["validate", str(CONFIGS / "paper.toml"), *bad]) == 2
+    assert capsys.readouterr().err == stability_err
+    assert stability_err.count("\n") == 1 and "comms.transmit.period" in stability_err
+
+
+def test_cpf_validate_warns_of_predicted_divergence_and_exits_0(caplog):
+    assert main(["validate", str(CONFIGS / "paper.toml"), "--set", "comms.transmit.period=8"]) == 0
+    assert "predicted to diverge" in caplog.text
+    caplog.clear()
+    assert main(["validate", str(CONFIGS / "paper.toml"), "--set", "comms.transmit.period=4"]) == 0
+    assert "predicted to diverge" not in caplog.text
