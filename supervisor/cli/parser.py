@@ -302,9 +302,19 @@ def _add_replay_and_recover(sub: Commands) -> None:
     _add_live(again, "watch the replay in Foxglove (the log's scene, or one built from its records)")
     again.add_argument("--quiet", action="store_true", help="no progress line")
     _add_zenoh_config(again)
+    _add_export(sub)
     repair = sub.add_parser("recover", help="rebuild the summary and index of a log whose writer was killed")
     repair.add_argument("log", type=Path, help="MCAP file, possibly cut short (no footer, partial last chunk)")
     repair.add_argument("--out", type=Path, default=None, help="MCAP file to write (default: <log>.recovered.mcap)")
+
+
+def _add_export(sub: Commands) -> None:
+    export = sub.add_parser(
+        "export", help="a recorded run as tables: states, transmissions, receptions, ... (docs/api.md)"
+    )
+    export.add_argument("log", type=Path, help="MCAP file written by cpf run")
+    export.add_argument("--format", choices=["csv", "parquet"], default="csv", help="one file per table")
+    export.add_argument("--out", type=Path, required=True, help="directory for the tables (made if missing)")
 
 
 def _add_learning_commands(sub: Commands) -> None:
