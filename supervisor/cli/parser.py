@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import argparse
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import TypeAlias
+from typing import NoReturn, TypeAlias
 
 from supervisor.engine import resim_settings  # light: the table only, for the help text
+from supervisor.errors import ScenarioError
 
 START_TIMEOUT = 60.0  # s: cpf run's default --start-timeout
 LIVE_PORT = 8765  # --live without a port: Foxglove's default for a WebSocket connection (record.live.DEFAULT_PORT)
@@ -103,8 +104,22 @@ class _Help(argparse.ArgumentDefaultsHelpFormatter):
         return f"{text} (default: %(default)s)"
 
 
-def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+class _Refusing(argparse.ArgumentParser):
+    """A parser that raises ScenarioError with argparse's one-line message instead of printing the usage and exiting:
+    for the Python API (cpf.run), which must not end its caller's interpreter."""
+
+    def error(self, message: str) -> NoReturn:
+        raise ScenarioError(message)
+
+
+def arguments(argv: Sequence[str]) -> argparse.Namespace:
+    """`cpf ARGV...` parsed as the command line parses it (the same options, checks and defaults); ScenarioError
+    with argparse's message (what `cpf` prints after 'cpf COMMAND: error: ') for a bad one."""
+    return _parser(_Refusing).parse_args(argv)
+
+
+def _parser(kind: type[argparse.ArgumentParser] = argparse.ArgumentParser) -> argparse.ArgumentParser:
+    parser = kind(
         prog="cpf", description="Coordinated path-following co-simulator for AUV fleets.", formatter_class=_Help
     )
     sub = parser.add_subparsers(dest="command", required=True)
