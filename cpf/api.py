@@ -9,6 +9,7 @@ printed: the progress line (or bar) goes to stderr, unless progress=False, and e
 
 from __future__ import annotations
 
+import shutil
 import tempfile
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -41,19 +42,19 @@ def run(
     from supervisor.cli.parser import arguments
     from supervisor.cli.run import execute
 
-    keep = tempfile.TemporaryDirectory(prefix="cpf-run-")
+    keep = Path(tempfile.mkdtemp(prefix="cpf-run-"))
     try:
-        path = scenario_file(scenario, Path(keep.name))
-        log = Path(keep.name) / "run.mcap" if out is None else Path(out)
+        path = scenario_file(scenario, keep)
+        log = keep / "run.mcap" if out is None else Path(out)
         argv = [str(path), "--engine", engine, "--out", str(log), *options]
         argv += [f"--set={text}" for text in overrides(set)] + [f"--fault={spec}" for spec in fault_specs(faults)]
         argv += ([] if seed is None else ["--seed", str(seed)]) + ([] if progress else ["--quiet"])
         execute(arguments(["run", *argv]))
     except BaseException:
-        keep.cleanup()
+        shutil.rmtree(keep, ignore_errors=True)
         raise
-    if out is not None and path.parent != Path(keep.name):  # nothing of the run in it
-        keep.cleanup()
+    if out is not None and path.parent != keep:  # nothing of the run in it
+        shutil.rmtree(keep, ignore_errors=True)
         return Run(log)
     return Run(log, keep)
 

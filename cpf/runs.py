@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-import tempfile
+import shutil
+import weakref
 from functools import cached_property
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -23,9 +24,11 @@ class Run:
     metrics.json (`cpf report`); metrics: its phases as a table, one row per phase. figures(): `cpf report`'s figures.
     """
 
-    def __init__(self, log: Path, keep: tempfile.TemporaryDirectory[str] | None = None) -> None:
+    def __init__(self, log: Path, temporary: Path | None = None) -> None:
+        """temporary: a directory of the run's (its log, when it went nowhere else), deleted with the Run."""
         self.log = log
-        self._keep = keep  # the temporary directory of a run whose log went nowhere else: deleted with the Run
+        if temporary is not None:
+            weakref.finalize(self, shutil.rmtree, temporary, ignore_errors=True)
 
     def __repr__(self) -> str:
         return f"cpf.Run({str(self.log)!r})"
