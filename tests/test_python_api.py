@@ -7,6 +7,7 @@ the printed summary's numbers, computed here from the tables' own columns.
 
 from __future__ import annotations
 
+import io
 import json
 from pathlib import Path
 
@@ -157,3 +158,19 @@ def test_load_refuses_what_is_not_a_log(tmp_path):
     (tmp_path / "x.mcap").write_text("not a log")
     with pytest.raises(cpf.LogError, match=r"x.mcap: not an MCAP file"):
         cpf.load(tmp_path / "x.mcap")
+
+
+def test_sweep_gives_the_rows_of_cpf_sweep(scenario, capsys):
+    short = scenario.parent / "sweep.toml"
+    short.write_text(shortened(scenario.read_text(), 10.0))
+    grid = ["--param", "comms.loss=0.1,0.3", "--seeds", "2", "--jobs", "2"]
+    done = cpf_command("sweep", short.name, *grid, "--out", "cli_sweep", cwd=scenario.parent)
+    assert done.returncode == 0, done.stderr
+    table = cpf.sweep(short, params={"comms.loss": [0.1, 0.3]}, seeds=2, jobs=2)
+    assert "4/4" in capsys.readouterr().err  # tqdm.auto's bar
+    written = pd.read_csv(scenario.parent / "cli_sweep" / "results.csv")
+    assert list(table.columns) == list(written.columns)
+    assert list(zip(table["comms.loss"], table.seed, strict=True)) == [(0.1, 0), (0.1, 1), (0.3, 0), (0.3, 1)]
+    as_written = pd.read_csv(io.StringIO(table.to_csv(index=False)))  # the same text: exact, whatever the types
+    pd.testing.assert_frame_equal(as_written.drop(columns="wall_s"), written.drop(columns="wall_s"), check_exact=True)
+    assert table.delivered.nunique() == 4  # every run its own draws
