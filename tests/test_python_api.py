@@ -174,3 +174,18 @@ def test_sweep_gives_the_rows_of_cpf_sweep(scenario, capsys):
     as_written = pd.read_csv(io.StringIO(table.to_csv(index=False)))  # the same text: exact, whatever the types
     pd.testing.assert_frame_equal(as_written.drop(columns="wall_s"), written.drop(columns="wall_s"), check_exact=True)
     assert table.delivered.nunique() == 4  # every run its own draws
+
+
+def test_the_readmes_example_runs(tmp_path, monkeypatch, capsys):
+    """The README's Python block, as written, on a 30 s paper scenario (the full one takes a few seconds per run)."""
+    readme = (CONFIGS.parent / "README.md").read_text(encoding="utf-8")
+    code = readme.split("\n## Python API\n", 1)[1].split("```python\n", 1)[1].split("```", 1)[0]
+    (tmp_path / "paper.toml").write_text(shortened((CONFIGS / "paper.toml").read_text(), 30.0))
+    assert code.count('"configs/paper.toml"') == 2
+    monkeypatch.chdir(tmp_path)
+    exec(compile(code.replace('"configs/paper.toml"', '"paper.toml"'), "README.md", "exec"), {})
+    shown = capsys.readouterr().out
+    assert "max_coordination_error" in shown and "whole run" in shown and "steady_coordination_error" in shown
+    assert "loss" in shown  # the drops by cause
+    assert (tmp_path / "coordination.png").read_bytes().startswith(b"\x89PNG")
+
