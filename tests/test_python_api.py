@@ -189,3 +189,25 @@ def test_the_readmes_example_runs(tmp_path, monkeypatch, capsys):
     assert "loss" in shown  # the drops by cause
     assert (tmp_path / "coordination.png").read_bytes().startswith(b"\x89PNG")
 
+
+def test_every_field_of_the_state_record_has_a_column():
+    """A field added to the state record must show in the states table (named by it, or as NAMED says)."""
+    from dataclasses import fields
+
+    from comms.state import StateReport
+    from supervisor.analysis.tables import states_table
+
+    named = {"nav_estimate": "nav_x", "rx_lateness": "rx_lateness_max", "step_lateness": "step_lateness"}
+    report = StateReport(
+        t=0.1, k=1, vehicle=1, gamma=0.5, gamma_dot=1.0, position=(1.0, 2.0, 3.0), rotation=(1, 0, 0, 0, 1, 0, 0, 0, 1),
+        velocity=(1.0, 0.0, 0.0), angular_velocity=(0.0, 0.0, 0.1), error=(0.3, 0.4, 0.0), tau=(1.0, 2.0),
+        correction=0.0, lyapunov=0.1, tx_seq=1, estimate_age=((2, 0.5),), rx_lateness=(0.01, 0.02),
+        step_lateness=0.003, nav_estimate=tuple(float(i) for i in range(27)), nav_fix=1,
+    )  # fmt: skip
+    row = states_table([report]).iloc[0]
+    for f in fields(StateReport):
+        prefix = named.get(f.name, f.name)
+        assert any(column.startswith(prefix) for column in row.index), f"no column for StateReport.{f.name}"
+    assert (row.path_error, row.estimate_age_2, row.rx_lateness_max, row.nav_bias_w, row.nav_cov_55) == (
+        0.5, 0.5, 0.02, 5.0, 26.0
+    )  # fmt: skip
