@@ -46,10 +46,10 @@ def run(
     try:
         path = scenario_file(scenario, keep)
         log = keep / "run.mcap" if out is None else Path(out)
-        argv = [str(path), "--engine", engine, "--out", str(log), *options]
+        argv = ["--engine", engine, "--out", str(log), *options]
         argv += [f"--set={text}" for text in overrides(set)] + [f"--fault={spec}" for spec in fault_specs(faults)]
         argv += ([] if seed is None else ["--seed", str(seed)]) + ([] if progress else ["--quiet"])
-        execute(arguments(["run", *argv]))
+        execute(arguments(["run", *argv, "--", str(path)]))  # --: a file named -x.toml is a file
     except BaseException:
         shutil.rmtree(keep, ignore_errors=True)
         raise
@@ -91,9 +91,9 @@ def sweep(
 
     with tempfile.TemporaryDirectory(prefix="cpf-sweep-") as tmp:
         path = scenario_file(scenario, Path(tmp))
-        argv = ["sweep", str(path), "--seeds", str(seeds), "--jobs", str(jobs), "--engine", engine]
+        argv = ["sweep", "--seeds", str(seeds), "--jobs", str(jobs), "--engine", engine]
         argv += ["--out", str(Path(tmp) / "sweep" if out is None else out)]
-        args = arguments(argv + [f"--param={spec}" for spec in param_specs(params)])
+        args = arguments([*argv, *(f"--param={spec}" for spec in param_specs(params)), "--", str(path)])
         bar = SweepBar(notebook=True) if progress else None
         try:
             rows = run_sweep(args.scenario, [parse_param(t) for t in args.param], args.seeds, args.jobs, args.out,
