@@ -132,6 +132,15 @@ def test_run_takes_text_dicts_and_lists_of_changes(scenario, tmp_path):
     assert not log.exists()  # the temporary log goes with its Run
 
 
+def test_progress_is_the_command_lines_line_on_stderr_unless_turned_off(scenario, capsys):
+    short = shortened(scenario.read_text(), 2.0).replace("start = 150.0", "start = 1.0")
+    cpf.run(short, progress=True)
+    shown = capsys.readouterr()
+    assert shown.out == "" and shown.err.splitlines()[-1].startswith("t =     2.0 / 2 s ")
+    cpf.run(short, progress=False)
+    assert capsys.readouterr() == ("", "")
+
+
 @pytest.mark.parametrize(
     ("api", "cli"),
     [

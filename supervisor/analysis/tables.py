@@ -111,6 +111,7 @@ def log_tables(path: Path) -> dict[str, pd.DataFrame]:
     faults = pd.DataFrame.from_records(rows.faults, columns=list(FAULT_COLUMNS))
     for name in ("vehicle", "sender", "receiver"):  # ids, or none (a fleet- or network-wide fault)
         faults[name] = faults[name].astype("Int64")
+    faults = faults.astype({"start": float, "end": float})  # end NaN: to the end of the run
     return {
         "states": states_table(rows.states),
         "transmissions": pd.DataFrame.from_records(rows.transmissions, columns=list(TX_COLUMNS)),
