@@ -16,8 +16,8 @@ if TYPE_CHECKING:
 
 
 class Run:
-    """A run's log and what it holds. Each table is read from the log the first time it is asked for (every log table
-    at once, in one pass of the one log reader), then kept.
+    """A run's log and what it holds, read from the log the first time any of it is asked for (every table and the
+    report's data at once, in one pass of the one log reader), then kept.
 
     log: the MCAP file. states, transmissions, receptions, link_events, faults: the log's tables
     (supervisor.analysis.tables; docs/api.md gives their columns and units). summary: the run's metrics, the dict of
@@ -34,10 +34,15 @@ class Run:
         return f"cpf.Run({str(self.log)!r})"
 
     @cached_property
-    def _tables(self) -> dict[str, pd.DataFrame]:
-        from supervisor.analysis.tables import log_tables
+    def _read(self) -> tuple[dict[str, pd.DataFrame], RunData]:
+        """The tables and the report's RunData: one pass over the log gives both."""
+        from supervisor.analysis.tables import read_run
 
-        return log_tables(self.log)
+        return read_run(self.log)
+
+    @property
+    def _tables(self) -> dict[str, pd.DataFrame]:
+        return self._read[0]
 
     @property
     def states(self) -> pd.DataFrame:
@@ -59,12 +64,10 @@ class Run:
     def faults(self) -> pd.DataFrame:
         return self._tables["faults"]
 
-    @cached_property
+    @property
     def data(self) -> RunData:
         """The run as `cpf report` reads it (supervisor.analysis.rundata.load_run): arrays per vehicle and link."""
-        from supervisor.analysis.rundata import load_run
-
-        return load_run(self.log)
+        return self._read[1]
 
     @cached_property
     def summary(self) -> dict[str, Any]:

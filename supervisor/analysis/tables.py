@@ -20,7 +20,7 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import pandas as pd
 
@@ -33,7 +33,10 @@ from comms.state import StateReport
 from supervisor.errors import ScenarioError
 from supervisor.record import logfile
 
-__all__ = ["LOG_TABLES", "TABLES", "log_tables", "metrics_table", "run_tables", "states_table"]
+if TYPE_CHECKING:
+    from supervisor.analysis.rundata import RunData
+
+__all__ = ["LOG_TABLES", "TABLES", "log_tables", "metrics_table", "read_run", "run_tables", "states_table"]
 
 LOG_TABLES = ("states", "transmissions", "receptions", "link_events", "faults")  # what log_tables gives
 TABLES = (*LOG_TABLES, "metrics")  # and the one built from the run's metrics: what `cpf export` writes
@@ -71,6 +74,10 @@ class _Rows:
         elif topic == FAULT_KEY:
             self.faults.append(_fault_row(FaultEvent.from_message(message)))
 
+    def wanted(self, topic: str) -> bool:
+        owned = vehicle_of_key(topic)
+        return topic in (COMMS_EVENT_KEY, FAULT_KEY) if owned is None else owned[1] in ("state", "tx", "rx")
+
     def _vehicle(self, vid: int, leaf: str, message: dict[str, Any]) -> None:
         if leaf == "state":
             self.states.append(StateReport.from_message(message, vid))
@@ -82,11 +89,6 @@ class _Rows:
             b = RxBatch.from_message(message)
             self.receptions += [(b.t, b.k, b.vehicle, d.sender, d.seq, d.stamp, d.arrival, d.gamma, d.gamma_dot,
                                  _nan(d.due)) for d in b.receptions]  # fmt: skip
-
-
-def _wanted(topic: str) -> bool:
-    owned = vehicle_of_key(topic)
-    return topic in (COMMS_EVENT_KEY, FAULT_KEY) if owned is None else owned[1] in ("state", "tx", "rx")
 
 
 def _nan(value: float | None) -> float:
@@ -103,11 +105,25 @@ def log_tables(path: Path) -> dict[str, pd.DataFrame]:
     """The log's tables (LOG_TABLES), each in log-time order (equal times in the order written); LogError for a log
     that is missing, cut short or damaged, ScenarioError naming the topic for a record that does not read."""
     rows = _Rows()
-    for topic, _, message in logfile.messages(path, _wanted):
+    for topic, _, message in logfile.messages(path, rows.wanted):
         try:
             rows.add(topic, message)
         except ValueError as exc:
             raise ScenarioError(f"{path}: {topic}: {exc}") from None
+    return _frames(rows)
+
+
+def read_run(path: Path) -> tuple[dict[str, pd.DataFrame], RunData]:
+    """The log's tables (log_tables) and the run as the report reads it (rundata.load_run), in one pass of the
+    log; the errors of both."""
+    from supervisor.analysis.rundata import load_run
+
+    rows = _Rows()
+    data = load_run(path, rows)
+    return _frames(rows), data
+
+
+def _frames(rows: _Rows) -> dict[str, pd.DataFrame]:
     faults = pd.DataFrame.from_records(rows.faults, columns=list(FAULT_COLUMNS))
     for name in ("vehicle", "sender", "receiver"):  # ids, or none (a fleet- or network-wide fault)
         faults[name] = faults[name].astype("Int64")
@@ -202,6 +218,6 @@ def run_tables(path: Path) -> dict[str, pd.DataFrame]:
     """Every table of a recorded run (TABLES): the log's, and its metrics per phase (the numbers of `cpf report`'s
     metrics.json, analysis.metrics)."""
     from supervisor.analysis.metrics import run_metrics
-    from supervisor.analysis.rundata import load_run
 
-    return {**log_tables(path), "metrics": metrics_table(run_metrics(load_run(path)))}
+    tables, data = read_run(path)
+    return {**tables, "metrics": metrics_table(run_metrics(data))}
