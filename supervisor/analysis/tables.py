@@ -1,10 +1,11 @@
 """A recorded run as pandas tables: one row per record of the log, every field of the record in its own column.
 
-`log_tables` reads a log once, through the one reader of logs (supervisor.record.logfile, strict: LogError for a
-log cut short or damaged) and each message through its record type (comms.state.StateReport, comms.records.
-Transmission, comms.receptions.RxBatch, comms.channel.LinkEvent, comms.run.FaultEvent: ScenarioError naming the
-topic for one that does not read), and builds each table at once from lists of tuples. The Python API (`cpf.load`)
-and `cpf export` give these tables; docs/api.md lists their columns and units.
+`read_run` reads a log once, in the pass the report's reader makes (analysis.rundata.load_run, over the one reader
+of logs, supervisor.record.logfile: LogError for a log cut short or damaged), each message through its record type
+(comms.state.StateReport, comms.records.Transmission, comms.receptions.RxBatch, comms.channel.LinkEvent,
+comms.run.FaultEvent: ScenarioError naming the topic for one that does not read), and builds each table at once from
+lists of tuples. The Python API (`cpf.load`) and `cpf export` give these tables; docs/api.md lists their columns
+and units.
 
 - states: one row per vehicle and sync step (t, k, vehicle; position, velocity, error, tau, ... split per axis);
 - transmissions: one row per packet a vehicle transmitted; receptions: one per packet a vehicle took in;
@@ -20,7 +21,7 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import pandas as pd
 
@@ -30,15 +31,11 @@ from comms.receptions import RxBatch
 from comms.records import Transmission
 from comms.run import FaultEvent
 from comms.state import StateReport
-from supervisor.errors import ScenarioError
-from supervisor.record import logfile
+from supervisor.analysis.rundata import RunData, load_run
 
-if TYPE_CHECKING:
-    from supervisor.analysis.rundata import RunData
+__all__ = ["LOG_TABLES", "TABLES", "metrics_table", "read_run", "run_tables", "states_table"]
 
-__all__ = ["LOG_TABLES", "TABLES", "log_tables", "metrics_table", "read_run", "run_tables", "states_table"]
-
-LOG_TABLES = ("states", "transmissions", "receptions", "link_events", "faults")  # what log_tables gives
+LOG_TABLES = ("states", "transmissions", "receptions", "link_events", "faults")  # what read_run gives
 TABLES = (*LOG_TABLES, "metrics")  # and the one built from the run's metrics: what `cpf export` writes
 
 AXES = ("x", "y", "z")  # inertial
@@ -101,23 +98,10 @@ def _fault_row(event: FaultEvent) -> tuple[Any, ...]:
     return (event.t, event.kind, event.phase, *known, d.get("start"), d.get("end"), json.dumps(d, sort_keys=True))
 
 
-def log_tables(path: Path) -> dict[str, pd.DataFrame]:
-    """The log's tables (LOG_TABLES), each in log-time order (equal times in the order written); LogError for a log
-    that is missing, cut short or damaged, ScenarioError naming the topic for a record that does not read."""
-    rows = _Rows()
-    for topic, _, message in logfile.messages(path, rows.wanted):
-        try:
-            rows.add(topic, message)
-        except ValueError as exc:
-            raise ScenarioError(f"{path}: {topic}: {exc}") from None
-    return _frames(rows)
-
-
 def read_run(path: Path) -> tuple[dict[str, pd.DataFrame], RunData]:
-    """The log's tables (log_tables) and the run as the report reads it (rundata.load_run), in one pass of the
-    log; the errors of both."""
-    from supervisor.analysis.rundata import load_run
-
+    """The log's tables (LOG_TABLES, each in log-time order, equal times in the order written) and the run as the
+    report reads it (rundata.load_run), in one pass of the log: LogError for a log that is missing, cut short or
+    damaged, ScenarioError naming the topic for a record that does not read."""
     rows = _Rows()
     data = load_run(path, rows)
     return _frames(rows), data
