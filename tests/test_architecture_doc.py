@@ -9,7 +9,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 TEXT = (ROOT / "ARCHITECTURE.md").read_text(encoding="utf-8")
-PACKAGES = ("supervisor", "comms", "vehicles", "numerics")
+PACKAGES = ("cpf", "supervisor", "comms", "vehicles", "numerics")
 
 
 def _sources() -> list[Path]:

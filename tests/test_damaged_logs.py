@@ -1,5 +1,6 @@
-"""Every command that reads a log (report, info, resim, replay) refuses a log cut short or damaged alike: exit 2, one
-line on stderr that names the log and points to `cpf recover`, never a traceback (supervisor/record/logfile.py)."""
+"""Every command that reads a log (report, info, resim, replay, export) refuses a log cut short or damaged alike:
+exit 2, one line on stderr that names the log and points to `cpf recover`, never a traceback
+(supervisor/record/logfile.py)."""
 
 from __future__ import annotations
 
@@ -25,6 +26,7 @@ OFFSETS = 10  # cuts spread over the file
 COMMANDS = {
     "report": ["report", "{log}", "--out", "{out}"],
     "info": ["info", "{log}"],
+    "export": ["export", "{log}", "--out", "{out}"],
     "resim": ["resim", "{log}", "--out", "{out}/resim.mcap"],
     "replay": ["replay", "{log}", "--speed", "0", "--delay", "0", "--connect", "tcp/127.0.0.1:9", "--quiet"],
 }

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 REPO = Path(__file__).resolve().parent.parent
-LIBRARY = [REPO / "supervisor" / "engine", REPO / "supervisor" / "plan", REPO / "vehicles"]
+LIBRARY = [REPO / "cpf", REPO / "supervisor" / "engine", REPO / "supervisor" / "plan", REPO / "vehicles"]
 
 
 def _prints(path: Path) -> list[int]:

@@ -37,6 +37,7 @@ __all__ = [
     "RunData",
     "VehicleSeries",
     "colour",
+    "figure_builders",
     "finish_time_axes",
     "load_run",
     "new_figure",
@@ -59,25 +60,28 @@ def write_report(log: Path, out_dir: Path) -> list[Path]:
 
 
 def write_figures(run: RunData, out_dir: Path) -> list[Path]:
-    """Render every figure of the run into out_dir as PNG; returns the paths written.
+    """Render every figure of the run (figure_builders) into out_dir as PNG; returns the paths written."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    return [save(build(run), out_dir / f"{name}.png") for name, build in figure_builders(run)]
 
-    The paper's analogues (fig3-fig6, gamma_dot: analysis.figures, which says how each adapts to the fleet and
-    the run), then the channel's (comms_*: supervisor.analysis.report_comms)."""
+
+def figure_builders(run: RunData) -> list[tuple[str, Callable[[RunData], Figure]]]:
+    """(name, builder) of every figure of the run, in the report's order (the PNG is <name>.png): the paper's
+    analogues (fig3-fig6, gamma_dot: analysis.figures, which says how each adapts to the fleet and the run), then
+    the channel's (comms_*: supervisor.analysis.report_comms)."""
     from supervisor.analysis.figures_nav import fig_navigation_errors, has_navigation
     from supervisor.analysis.report_comms import comms_figures  # it builds on this module's data and helpers
 
-    out_dir.mkdir(parents=True, exist_ok=True)
     figures: list[tuple[str, Callable[[RunData], Figure]]] = [
-        ("fig3_trajectories.png", fig_trajectories),
-        ("fig4_path_following_errors.png", fig_path_following_errors),
-        ("fig5_coordination_errors.png", fig_coordination_errors),
+        ("fig3_trajectories", fig_trajectories),
+        ("fig4_path_following_errors", fig_path_following_errors),
+        ("fig5_coordination_errors", fig_coordination_errors),
     ]
-    figures += [(f"fig6_velocities_auv{v}.png", _velocities_figure(v)) for v in run.vehicles]
-    figures.append(("gamma_dot.png", fig_gamma_dot))
+    figures += [(f"fig6_velocities_auv{v}", _velocities_figure(v)) for v in run.vehicles]
+    figures.append(("gamma_dot", fig_gamma_dot))
     if has_navigation(run):
-        figures.append(("navigation_errors.png", fig_navigation_errors))
-    figures += comms_figures(run)
-    return [save(build(run), out_dir / name) for name, build in figures]
+        figures.append(("navigation_errors", fig_navigation_errors))
+    return figures + [(name.removesuffix(".png"), build) for name, build in comms_figures(run)]
 
 
 def _velocities_figure(vehicle: int) -> Callable[[RunData], Figure]:

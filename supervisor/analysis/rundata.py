@@ -11,7 +11,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, NamedTuple, TypeAlias
+from typing import Any, NamedTuple, Protocol, TypeAlias
 
 import numpy as np
 from numpy.typing import NDArray
@@ -174,14 +174,28 @@ class _Collected:
             self.stats.append(CommsStats.from_message(message))
 
 
-def load_run(path: Path) -> RunData:
+class Collector(Protocol):
+    """Another reader of the same pass over a log (analysis.tables): the topics it wants, and each of their messages
+    (ValueError for one that does not read)."""
+
+    def wanted(self, topic: str) -> bool: ...
+
+    def add(self, topic: str, message: dict[str, Any]) -> None: ...
+
+
+def load_run(path: Path, also: Collector | None = None) -> RunData:
     """Read a run's MCAP into arrays; LogError (pointing to `cpf recover`) for a log cut short or damaged,
-    ScenarioError naming the topic and the field for a record that does not read."""
+    ScenarioError naming the topic and the field for a record that does not read. also: handed the messages it
+    wants in the same pass (one read of the log for both)."""
     logfile.verify(path)  # damage anywhere refuses the log, also in chunks the report skips (its Foxglove scene)
     got = _Collected()
-    for topic, _, message in logfile.messages(path, _wanted):
+    wanted = _wanted if also is None else lambda topic: _wanted(topic) or also.wanted(topic)
+    for topic, _, message in logfile.messages(path, wanted):
         try:
-            got.add(topic, message)
+            if _wanted(topic):
+                got.add(topic, message)
+            if also is not None and also.wanted(topic):
+                also.add(topic, message)
         except ValueError as exc:
             raise ScenarioError(f"{path}: {topic}: {exc}") from None
     vehicles = {v: _series(v, got.states[v]) for v in sorted(got.states)}

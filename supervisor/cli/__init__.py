@@ -31,6 +31,7 @@ COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
     "report": commands.report,
     "info": commands.info,
     "recover": commands.recover,
+    "export": commands.export,
     "sweep": commands.sweep,
     "resim": commands.resim,
     "replay": commands.replay,

@@ -1,5 +1,5 @@
-"""The `cpf` commands on logs and scenario files: report, info, recover, sweep, resim, replay, schema, validate,
-presets, per. Each reads its arguments, calls the library, and prints what the user sees."""
+"""The `cpf` commands on logs and scenario files: report, info, recover, export, sweep, resim, replay, schema,
+validate, presets, per. Each reads its arguments, calls the library, and prints what the user sees."""
 
 from __future__ import annotations
 
@@ -32,6 +32,19 @@ def info(args: argparse.Namespace) -> int:
     print(text)
     if problem is not None:  # described as far as it goes, and still an error: scripts must not take it as whole
         raise problem
+    return 0
+
+
+def export(args: argparse.Namespace) -> int:
+    from supervisor.cli.outputs import made_directory
+    from supervisor.record.logfile import open_log
+
+    open_log(args.log).close()  # LogError for a missing log or another file, before anything is made
+    made_directory("--out", args.out)
+    from supervisor.tools.export import export_tables  # pandas: only once the arguments are known good
+
+    for path in export_tables(args.log, args.format, args.out):
+        print(path)
     return 0
 
 

@@ -37,3 +37,20 @@ def output_errors(scenario: Path, outputs: dict[str, Path | None]) -> list[str]:
     if log is not None and log.is_file() and in_use(log):
         errors.append(f"--out: in use: another run is writing this log, got {log}")
     return errors
+
+
+def made_directory(option: str, path: Path) -> None:
+    """The directory path, made if missing (a command's output directory, before any work); ScenarioError
+    '<option>: <problem>, got <path>' if it is a file, under one, or cannot be made or written."""
+    from supervisor.errors import ScenarioError
+
+    if path.exists() and not path.is_dir():
+        raise ScenarioError(f"{option}: not a directory, got {path}")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except FileExistsError:
+        raise ScenarioError(f"{option}: a file is in the way, got {path}") from None
+    except OSError as exc:
+        raise ScenarioError(f"{option}: cannot make the directory ({exc.strerror or exc}), got {path}") from None
+    if not os.access(path, os.W_OK | os.X_OK):
+        raise ScenarioError(f"{option}: not writable, got {path}")

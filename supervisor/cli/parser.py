@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import argparse
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import TypeAlias
+from typing import NoReturn, TypeAlias
 
 from supervisor.engine import resim_settings  # light: the table only, for the help text
+from supervisor.errors import ScenarioError
 
 START_TIMEOUT = 60.0  # s: cpf run's default --start-timeout
 LIVE_PORT = 8765  # --live without a port: Foxglove's default for a WebSocket connection (record.live.DEFAULT_PORT)
@@ -103,8 +104,22 @@ class _Help(argparse.ArgumentDefaultsHelpFormatter):
         return f"{text} (default: %(default)s)"
 
 
-def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+class _Refusing(argparse.ArgumentParser):
+    """A parser that raises ScenarioError with argparse's one-line message instead of printing the usage and exiting:
+    for the Python API (cpf.run), which must not end its caller's interpreter."""
+
+    def error(self, message: str) -> NoReturn:
+        raise ScenarioError(message)
+
+
+def arguments(argv: Sequence[str]) -> argparse.Namespace:
+    """`cpf ARGV...` parsed as the command line parses it (the same options, checks and defaults); ScenarioError
+    with argparse's message (what `cpf` prints after 'cpf COMMAND: error: ') for a bad one."""
+    return _parser(_Refusing).parse_args(argv)
+
+
+def _parser(kind: type[argparse.ArgumentParser] = argparse.ArgumentParser) -> argparse.ArgumentParser:
+    parser = kind(
         prog="cpf", description="Coordinated path-following co-simulator for AUV fleets.", formatter_class=_Help
     )
     sub = parser.add_subparsers(dest="command", required=True)
@@ -302,9 +317,19 @@ def _add_replay_and_recover(sub: Commands) -> None:
     _add_live(again, "watch the replay in Foxglove (the log's scene, or one built from its records)")
     again.add_argument("--quiet", action="store_true", help="no progress line")
     _add_zenoh_config(again)
+    _add_export(sub)
     repair = sub.add_parser("recover", help="rebuild the summary and index of a log whose writer was killed")
     repair.add_argument("log", type=Path, help="MCAP file, possibly cut short (no footer, partial last chunk)")
     repair.add_argument("--out", type=Path, default=None, help="MCAP file to write (default: <log>.recovered.mcap)")
+
+
+def _add_export(sub: Commands) -> None:
+    export = sub.add_parser(
+        "export", help="a recorded run as tables: states, transmissions, receptions, ... (docs/api.md)"
+    )
+    export.add_argument("log", type=Path, help="MCAP file written by cpf run")
+    export.add_argument("--format", choices=["csv", "parquet"], default="csv", help="one file per table")
+    export.add_argument("--out", type=Path, required=True, help="directory for the tables (made if missing)")
 
 
 def _add_learning_commands(sub: Commands) -> None:

@@ -93,12 +93,20 @@ def _bus_errors(args: argparse.Namespace) -> list[str]:
 
 
 def run(args: argparse.Namespace) -> int:
+    scenario, result, out = execute(args)
+    _report_run(args, scenario, result, out)
+    return 0
+
+
+def execute(args: argparse.Namespace) -> tuple[Scenario, RunResult, Path]:
+    """`cpf run` but what it prints: the scenario checked (ScenarioError), simulated on the engine asked for with the
+    progress line on stderr (unless --quiet) and recorded to the log; the scenario, the result and the log's path.
+    The command line prints its summary from these, the Python API (cpf.run) reads the log."""
     scenario = _checked_scenario(args)
     out = _log_path(args, scenario)
     with live_view(args.live, "cpf run") as live:
         result = _simulate(args, scenario, out, live)
-    _report_run(args, scenario, result, out)
-    return 0
+    return scenario, result, out
 
 
 @contextlib.contextmanager

@@ -63,14 +63,19 @@ class ProgressLine:
 
 
 class SweepBar:
-    """`cpf sweep`'s progress bar (tqdm, on stderr): a progress for supervisor.tools.sweep.sweep."""
+    """`cpf sweep`'s progress bar (tqdm, on stderr): a progress for supervisor.tools.sweep.sweep. notebook: tqdm.auto's
+    bar, a widget in a notebook (cpf.sweep)."""
 
-    def __init__(self) -> None:
+    def __init__(self, notebook: bool = False) -> None:
         self._bar: tqdm[None] | None = None
+        self._notebook = notebook
 
     def __call__(self, done: int, total: int) -> None:
         if self._bar is None:
-            from tqdm import tqdm  # here: every vehicle process imports this module
+            if self._notebook:
+                from tqdm.auto import tqdm
+            else:
+                from tqdm import tqdm  # here: every vehicle process imports this module
 
             # Every run redrawn (runs are seconds apart): by default tqdm skips an update within 0.1 s of the
             # last, and a sweep interrupted then would not show the run it has kept.

@@ -1,0 +1,116 @@
+"""What the Python API is given, as the command line would be given it: a scenario file, --set KEY=VALUE, --fault
+SPEC and --param KEY=VALUES texts. A scenario given as TOML text or as a dict is written to a file (the engines, the
+log's meta and `cpf vehicle` started by hand all read one); values become TOML, as the command line's are read."""
+
+from __future__ import annotations
+
+import math
+import numbers
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any, TypeAlias
+
+from supervisor.errors import ScenarioError
+
+Scenario: TypeAlias = "str | Path | Mapping[str, Any]"
+Changes: TypeAlias = "Mapping[str, Any] | Sequence[str] | None"
+SCENARIO_FILE = "scenario.toml"  # a scenario given as text or dict, in the run's temporary directory
+
+
+def scenario_file(scenario: Scenario, where: Path) -> Path:
+    """The scenario as a file: a path as is; TOML text (a str with a line break) or a dict written to
+    where/scenario.toml. ScenarioError for a dict value TOML cannot hold."""
+    if isinstance(scenario, Mapping):
+        text = toml_text(scenario)
+    elif isinstance(scenario, str) and "\n" in scenario:
+        text = scenario
+    else:
+        return Path(scenario)
+    path = where / SCENARIO_FILE
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def toml_text(data: Mapping[str, Any]) -> str:
+    """A scenario dict as TOML: its values, then a [table] per dict and a [[table]] per list of dicts."""
+    lines = [_assignment(k, v) for k, v in data.items() if not _table(v) and not _tables(v)]
+    for key, value in data.items():
+        if _table(value):
+            lines += ["", f"[{_key(key)}]", *(_assignment(k, v) for k, v in value.items())]
+        elif _tables(value):
+            for item in value:
+                lines += ["", f"[[{_key(key)}]]", *(_assignment(k, v) for k, v in item.items())]
+    return "\n".join(lines) + "\n"
+
+
+def _table(value: Any) -> bool:
+    return isinstance(value, Mapping)
+
+
+def _tables(value: Any) -> bool:
+    return isinstance(value, list | tuple) and bool(value) and all(isinstance(v, Mapping) for v in value)
+
+
+def _assignment(key: str, value: Any) -> str:
+    return f"{_key(key)} = {toml_value(value)}"
+
+
+def _key(key: str) -> str:
+    bare = key and all(c.isascii() and (c.isalnum() or c in "_-") for c in key)
+    return key if bare else _string(key)
+
+
+def _string(text: str) -> str:
+    """A TOML basic string (JSON's escapes are TOML's too)."""
+    import json
+
+    return json.dumps(text)
+
+
+def toml_value(value: Any) -> str:
+    """A value as TOML writes it (tables inline); ScenarioError for one TOML has no form for (None, objects)."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, numbers.Integral):
+        return str(int(value))
+    if isinstance(value, numbers.Real):
+        number = float(value)
+        return (
+            ("nan" if math.isnan(number) else f"{'-' if number < 0 else ''}inf")
+            if not math.isfinite(number)
+            else repr(number)
+        )
+    if isinstance(value, str):
+        return _string(value)
+    if isinstance(value, Mapping):
+        return "{" + ", ".join(_assignment(k, v) for k, v in value.items()) + "}"
+    if isinstance(value, list | tuple):
+        return "[" + ", ".join(toml_value(v) for v in value) + "]"
+    raise ScenarioError(f"scenario: TOML has no value like {value!r} ({type(value).__name__})")
+
+
+def overrides(given: Changes) -> list[str]:
+    """--set texts: KEY=VALUE strings as they are, a dict's items with their values as TOML."""
+    if given is None:
+        return []
+    if isinstance(given, Mapping):
+        return [f"{key}={toml_value(value)}" for key, value in given.items()]
+    return _texts(given, "set")
+
+
+def fault_specs(given: Sequence[str | Mapping[str, Any]] | None) -> list[str]:
+    """--fault texts: specs as they are, a dict as KEY=VALUE,... with its values as TOML."""
+    return [spec if isinstance(spec, str) else ",".join(_assignment(k, v) for k, v in spec.items())
+            for spec in given or ()]  # fmt: skip
+
+
+def param_specs(params: Mapping[str, Any]) -> list[str]:
+    """--param texts: KEY=v1,v2,... from a list of values, KEY=TEXT from a str (e.g. '0:0.8:0.1', as the CLI)."""
+    return [f"{key}={values}" if isinstance(values, str) else f"{key}={','.join(toml_value(v) for v in values)}"
+            for key, values in params.items()]  # fmt: skip
+
+
+def _texts(given: Sequence[str], what: str) -> list[str]:
+    if isinstance(given, str) or not all(isinstance(text, str) for text in given):
+        raise ScenarioError(f"{what}: a dict of KEY: VALUE or a list of 'KEY=VALUE' strings, got {given!r}")
+    return list(given)

@@ -1,0 +1,222 @@
+"""`import cpf`: the Python API gives the numbers `cpf run` prints and writes, through the command line's own code.
+
+One shortened paper run (200 s: the phase before the speed cap and the cap itself, 20 % loss so links drop packets)
+is run by `cpf run --metrics` as a user would, then loaded with cpf.load: the tables must give metrics.json's and
+the printed summary's numbers, computed here from the tables' own columns.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import cpf
+from tests.conftest import CONFIGS, shortened
+from tests.procs import cpf as cpf_command
+
+LOSSY = ("--set", "comms.loss=0.2")
+
+
+@pytest.fixture(scope="module")
+def scenario(tmp_path_factory) -> Path:
+    path = tmp_path_factory.mktemp("api") / "short.toml"
+    path.write_text(shortened((CONFIGS / "paper.toml").read_text(), 200.0))
+    return path
+
+
+@pytest.fixture(scope="module")
+def cli_run(scenario) -> tuple[cpf.Run, dict, str]:
+    """(the run cpf.load reads, --metrics JSON, printed summary) of one `cpf run`."""
+    where = scenario.parent
+    done = cpf_command("run", str(scenario), "--engine", "inprocess", *LOSSY, "--metrics", "m.json",
+                       "--out", "run.mcap", "--quiet", cwd=where)  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    return cpf.load(where / "run.mcap"), json.loads((where / "m.json").read_text()), done.stdout
+
+
+def test_phase_table_is_the_summary_of_cpf_run(cli_run):
+    run, metrics, _ = cli_run
+    phases = metrics["coordination"]["phases"]
+    assert list(run.metrics["phase"]) == ["before faults", "during speed_cap"] == [p["name"] for p in phases]
+    for name in ("max_coordination_error", "final_coordination_error", "max_path_error"):
+        np.testing.assert_allclose(run.metrics[name], [p[name] for p in phases], rtol=1e-12, err_msg=name)
+    for vid in (1, 2, 3):
+        expected = [p["mean_gamma_dot"][vid - 1] for p in phases]
+        np.testing.assert_allclose(run.metrics[f"mean_gamma_dot_{vid}"], expected, rtol=1e-12)
+    assert run.summary["path_following"]["max_error_after_transient"] == pytest.approx(
+        metrics["coordination"]["max_path_error_after_transient"], rel=1e-12
+    )
+
+
+def test_states_give_the_coordination_and_path_errors_of_cpf_run(cli_run):
+    """The same numbers, from the states table's columns alone."""
+    run, metrics, printed = cli_run
+    states = run.states
+    gamma = states.pivot(index="t", columns="vehicle", values="gamma")
+    coordination = gamma.max(axis=1) - gamma.min(axis=1)
+    for p in metrics["coordination"]["phases"]:
+        within = (coordination.index >= p["start"]) & (coordination.index < p["end"])
+        assert coordination[within].max() == pytest.approx(p["max_coordination_error"], rel=1e-12)
+        rows = states[(states.t >= p["start"]) & (states.t < p["end"])]
+        rates = rows.groupby("vehicle").gamma_dot.mean()
+        np.testing.assert_allclose(rates.to_numpy(), p["mean_gamma_dot"], rtol=1e-12)
+    transient = metrics["coordination"]["transient"]
+    worst = states[states.t >= transient].path_error.max()
+    assert worst == pytest.approx(metrics["coordination"]["max_path_error_after_transient"], rel=1e-12)
+    assert f"path-following error after the transient: max {worst:.3f} m" in printed
+    assert len(states) == 3 * 2000 and states.position_x.notna().all()
+
+
+def test_link_events_count_what_cpf_run_counted(cli_run):
+    run, metrics, printed = cli_run
+    counts = run.link_events.groupby(["sender", "receiver", "kind"]).size()
+    for link in metrics["comms"]["links"]:
+        key = (link["sender"], link["receiver"])
+        assert counts[(*key, "sent")] == link["sent"]
+        assert counts[(*key, "delivered")] == link["delivered"]
+        assert counts.get((*key, "dropped"), 0) == sum(link["dropped"].values())
+        assert f"{key[0]}->{key[1]:<5}{link['sent']:>7}{link['delivered']:>7}" in printed
+    kinds = run.link_events.kind.value_counts()
+    assert {k: int(kinds[k]) for k in ("sent", "delivered", "dropped")} == metrics["links"]
+    assert kinds["dropped"] > 0  # 20 % loss: the test sees drops
+    delivered = run.link_events[run.link_events.kind == "delivered"]
+    in_time = delivered[delivered.t <= run.states.t.max()]  # one arriving after the last step is never taken in
+    packets = ["sender", "receiver", "seq"]
+    taken = run.receptions[packets]
+    assert sorted(map(tuple, taken.to_numpy())) == sorted(map(tuple, in_time[packets].to_numpy()))
+    assert 0 < len(delivered) - len(in_time) <= 3
+    sent = run.link_events[run.link_events.kind == "sent"].groupby("sender").size()
+    out_links = {1: 2, 2: 1, 3: 1}  # graph 1-2, 1-3: each packet is sent on every link out of its sender
+    assert run.transmissions.groupby("sender").size().mul(pd.Series(out_links)).to_dict() == sent.to_dict()
+
+
+def test_faults_table_holds_the_speed_cap(cli_run):
+    run, _, _ = cli_run
+    faults = run.faults
+    assert list(faults.kind) == ["speed_cap"] and list(faults.phase) == ["start"]
+    assert faults.t[0] == 150.0 and faults.vehicle[0] == 1 and json.loads(faults.detail[0])["end"] == 250.0
+
+
+def test_figures_are_the_reports(cli_run):
+    run, _, _ = cli_run
+    figures = run.figures()
+    assert list(figures)[:3] == ["fig3_trajectories", "fig4_path_following_errors", "fig5_coordination_errors"]
+    assert all(figure.axes for figure in figures.values())
+
+
+@pytest.mark.integration
+def test_both_engines_give_identical_states(scenario):
+    short = shortened(scenario.read_text(), 15.0)
+    runs = [cpf.run(short, engine=engine, set={"comms.loss": 0.2}, progress=False) for engine in ("inprocess", "zenoh")]
+    pd.testing.assert_frame_equal(runs[0].states, runs[1].states, check_exact=True)  # bit for bit
+    assert len(runs[0].states) == 3 * 150
+
+
+def test_run_takes_text_dicts_and_lists_of_changes(scenario, tmp_path):
+    import tomllib
+
+    data = tomllib.loads(shortened(scenario.read_text(), 2.0))
+    by_dict = cpf.run(data, set={"comms.loss": 0.5}, faults=[{"kind": "blackout", "start": 1.0}], progress=False)
+    by_text = cpf.run(str(scenario), set=["comms.loss=0.5", "scenario.duration=2"], faults=["kind=blackout,start=1"],
+                      out=tmp_path / "r.mcap", progress=False)  # fmt: skip
+    assert by_text.log == tmp_path / "r.mcap" and by_text.log.is_file()
+    pd.testing.assert_frame_equal(by_dict.states, by_text.states)
+    assert list(by_dict.faults.kind) == ["blackout"]
+    log = by_dict.log
+    del by_dict
+    assert not log.exists()  # the temporary log goes with its Run
+
+
+def test_progress_is_the_command_lines_line_on_stderr_unless_turned_off(scenario, capsys):
+    short = shortened(scenario.read_text(), 2.0).replace("start = 150.0", "start = 1.0")
+    cpf.run(short, progress=True)
+    shown = capsys.readouterr()
+    assert shown.out == "" and shown.err.splitlines()[-1].startswith("t =     2.0 / 2 s ")
+    cpf.run(short, progress=False)
+    assert capsys.readouterr() == ("", "")
+
+
+@pytest.mark.parametrize(
+    ("api", "cli"),
+    [
+        ({"set": {"scenario.step": -1}}, ["--set", "scenario.step=-1"]),
+        ({"set": ["graph.edges=[[1,9]]"]}, ["--set", "graph.edges=[[1,9]]"]),
+        ({"faults": ["kind=nope"]}, ["--fault", "kind=nope"]),
+        ({"seed": -1}, ["--seed", "-1"]),
+        ({"engine": "warp"}, ["--engine", "warp"]),
+    ],
+    ids=["set", "set-list", "fault", "seed", "engine"],
+)
+def test_bad_input_raises_what_the_command_line_says(scenario, api, cli, monkeypatch):
+    done = cpf_command("run", scenario.name, *cli, "--out", "bad.mcap", cwd=scenario.parent)
+    assert done.returncode == 2
+    said = [line for line in done.stderr.splitlines() if "error: " in line]
+    monkeypatch.chdir(scenario.parent)  # the file named as the command line names it
+    with pytest.raises(cpf.ScenarioError) as caught:
+        cpf.run(scenario.name, **api, out="bad.mcap", progress=False)
+    assert [line.split("error: ", 1)[1] for line in said] == caught.value.errors
+    assert not (scenario.parent / "bad.mcap").exists()
+
+
+def test_load_refuses_what_is_not_a_log(tmp_path):
+    (tmp_path / "x.mcap").write_text("not a log")
+    with pytest.raises(cpf.LogError, match=r"x.mcap: not an MCAP file"):
+        cpf.load(tmp_path / "x.mcap")
+
+
+def test_sweep_gives_the_rows_of_cpf_sweep(scenario, capsys):
+    short = scenario.parent / "sweep.toml"
+    short.write_text(shortened(scenario.read_text(), 10.0))
+    grid = ["--param", "comms.loss=0.1,0.3", "--seeds", "2", "--jobs", "2"]
+    done = cpf_command("sweep", short.name, *grid, "--out", "cli_sweep", cwd=scenario.parent)
+    assert done.returncode == 0, done.stderr
+    table = cpf.sweep(short, params={"comms.loss": [0.1, 0.3]}, seeds=2, jobs=2)
+    assert "4/4" in capsys.readouterr().err  # tqdm.auto's bar
+    written = pd.read_csv(scenario.parent / "cli_sweep" / "results.csv")
+    assert list(table.columns) == list(written.columns)
+    assert list(zip(table["comms.loss"], table.seed, strict=True)) == [(0.1, 0), (0.1, 1), (0.3, 0), (0.3, 1)]
+    as_written = pd.read_csv(io.StringIO(table.to_csv(index=False)))  # the same text: exact, whatever the types
+    pd.testing.assert_frame_equal(as_written.drop(columns="wall_s"), written.drop(columns="wall_s"), check_exact=True)
+    assert table.delivered.nunique() == 4  # every run its own draws
+
+
+def test_the_readmes_example_runs(tmp_path, monkeypatch, capsys):
+    """The README's Python block, as written, on a 30 s paper scenario (the full one takes a few seconds per run)."""
+    readme = (CONFIGS.parent / "README.md").read_text(encoding="utf-8")
+    code = readme.split("\n## Python API\n", 1)[1].split("```python\n", 1)[1].split("```", 1)[0]
+    (tmp_path / "paper.toml").write_text(shortened((CONFIGS / "paper.toml").read_text(), 30.0))
+    assert code.count('"configs/paper.toml"') == 2
+    monkeypatch.chdir(tmp_path)
+    exec(compile(code.replace('"configs/paper.toml"', '"paper.toml"'), "README.md", "exec"), {})
+    shown = capsys.readouterr().out
+    assert "max_coordination_error" in shown and "whole run" in shown and "steady_coordination_error" in shown
+    assert "loss" in shown  # the drops by cause
+    assert (tmp_path / "coordination.png").read_bytes().startswith(b"\x89PNG")
+
+
+def test_every_field_of_the_state_record_has_a_column():
+    """A field added to the state record must show in the states table (named by it, or as NAMED says)."""
+    from dataclasses import fields
+
+    from comms.state import StateReport
+    from supervisor.analysis.tables import states_table
+
+    named = {"nav_estimate": "nav_x", "rx_lateness": "rx_lateness_max", "step_lateness": "step_lateness"}
+    report = StateReport(
+        t=0.1, k=1, vehicle=1, gamma=0.5, gamma_dot=1.0, position=(1.0, 2.0, 3.0), rotation=(1, 0, 0, 0, 1, 0, 0, 0, 1),
+        velocity=(1.0, 0.0, 0.0), angular_velocity=(0.0, 0.0, 0.1), error=(0.3, 0.4, 0.0), tau=(1.0, 2.0),
+        correction=0.0, lyapunov=0.1, tx_seq=1, estimate_age=((2, 0.5),), rx_lateness=(0.01, 0.02),
+        step_lateness=0.003, nav_estimate=tuple(float(i) for i in range(27)), nav_fix=1,
+    )  # fmt: skip
+    row = states_table([report]).iloc[0]
+    for f in fields(StateReport):
+        prefix = named.get(f.name, f.name)
+        assert any(column.startswith(prefix) for column in row.index), f"no column for StateReport.{f.name}"
+    assert (row.path_error, row.estimate_age_2, row.rx_lateness_max, row.nav_bias_w, row.nav_cov_55) == (
+        0.5, 0.5, 0.02, 5.0, 26.0
+    )  # fmt: skip
