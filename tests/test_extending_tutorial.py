@@ -59,3 +59,8 @@ def test_the_tutorials_commands_run_and_the_engines_agree(installed: Path, tmp_p
     assert len(states[0]) == 12000 and states[0] == states[1]
     rows = (runs / "sweep" / "results.csv").read_text().splitlines()
     assert len(rows) == 5 and any("rate_free" in row for row in rows) and any("corrected" in row for row in rows)
+    (script,) = blocks("run by tests/test_extending_tutorial.py", "python")
+    done = subprocess.run([sys.executable, "-c", script], cwd=tmp_path, env=env, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    printed = done.stdout.splitlines()
+    assert len(printed) == 5 and sum("rate_free" in line for line in printed) == 2, done.stdout
