@@ -202,7 +202,9 @@ META = _object(
         "faults": {"type": "array", "items": {"type": "object"}},
         "tube_radius": NUMBER,
         "versions": {"type": "object"},
+        "extensions": {"type": "array", "items": {"type": "string"}},
     },
+    optional=("extensions",),  # logs of cpf before extensions have none
 )
 FAULT = _object(
     "cpf.FaultEvent", {"t": NUMBER, "kind": STRING, "phase": {"enum": ["start", "end"]}, "detail": {"type": "object"}}
