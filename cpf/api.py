@@ -49,7 +49,9 @@ def run(
         argv = ["--engine", engine, "--out", str(log), *options]
         argv += [f"--set={text}" for text in overrides(set)] + [f"--fault={spec}" for spec in fault_specs(faults)]
         argv += ([] if seed is None else ["--seed", str(seed)]) + ([] if progress else ["--quiet"])
-        execute(arguments(["run", *argv, "--", str(path)]))  # --: a file named -x.toml is a file
+        parsed = arguments(["run", *argv, "--", str(path)])  # --: a file named -x.toml is a file
+        parsed.bar = True  # progress as a tqdm.auto bar: a widget in a notebook, a text bar in a terminal
+        execute(parsed)
     except BaseException:
         shutil.rmtree(keep, ignore_errors=True)
         raise

@@ -15,8 +15,8 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
-from supervisor.analysis.stability import largest_period, setting_of
 from supervisor.config.scenario import parse_scenario
+from supervisor.config.stability import largest_period, setting_of
 from supervisor.tools.stability_check import simulate
 
 PAPER = Path(__file__).resolve().parent.parent / "configs" / "paper.toml"

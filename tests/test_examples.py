@@ -25,6 +25,8 @@ SHORT = {
     "lawnmower_survey.toml": 30.0,
     "per_link_comms.toml": 30.0,
     "every_fault.toml": 145.0,
+    "micromodem_tdma.toml": 30.0,
+    "helix_ring_30s.toml": 305.0,  # its fault starts at 300 s
 }
 
 

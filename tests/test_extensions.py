@@ -66,7 +66,8 @@ def test_the_engines_record_the_same_with_an_extension(tmp_path):
          "coordination.law_options.gain: Input should be greater than 0, got -1"),
         (f"coordination.law={SAMPLES}:Damped\0coordination.law_options.gian=1",
          "coordination.law_options.gian: tests.samples.laws:Damped has no such option (its options: gain)"),
-        ("coordination.predictor_options.horizon=0", "coordination.predictor_options.horizon: Input should be greater"),
+        ("coordination.predictor=first_order\0coordination.predictor_options.horizon=0",
+         "coordination.predictor_options.horizon: Input should be greater"),
     ],
 )  # fmt: skip
 def test_a_bad_extension_or_option_is_one_line_and_exit_2_before_the_run(tmp_path, setting, expected):

@@ -132,11 +132,13 @@ def test_run_takes_text_dicts_and_lists_of_changes(scenario, tmp_path):
     assert not log.exists()  # the temporary log goes with its Run
 
 
-def test_progress_is_the_command_lines_line_on_stderr_unless_turned_off(scenario, capsys):
+def test_progress_is_a_tqdm_bar_on_stderr_unless_turned_off(scenario, capsys):
+    """tqdm.auto: this text bar in a terminal (and here), a widget in a notebook."""
     short = shortened(scenario.read_text(), 2.0).replace("start = 150.0", "start = 1.0")
     cpf.run(short, progress=True)
     shown = capsys.readouterr()
-    assert shown.out == "" and shown.err.splitlines()[-1].startswith("t =     2.0 / 2 s ")
+    final = shown.err.replace("\r", "\n").strip().splitlines()[-1]
+    assert shown.out == "" and final.startswith("simulated: 2.0/2 s |") and "x real time" in final
     cpf.run(short, progress=False)
     assert capsys.readouterr() == ("", "")
 

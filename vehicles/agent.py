@@ -21,7 +21,7 @@ from vehicles.params import VehicleParams
 from vehicles.path_following import Control, ControllerConstants, PathFollowingGains, control
 from vehicles.paths import Path
 from vehicles.plant import plant_rates
-from vehicles.saturation import bounded_correction, clamp, hold, rate_bound
+from vehicles.saturation import bounded_correction, clamp, correction_bound, hold, rate_bound
 
 # Where gamma and gamma_dot sit in the integrated vector z = [lifted x, gamma, gamma_dot].
 _GAMMA, _GAMMA_DOT = LIFTED_SIZE, LIFTED_SIZE + 1
@@ -49,6 +49,8 @@ class VehicleConfig:
     navigation: NavParams | None = None  # None: the controller sees the true state
     top_speed: float | None = None  # m/s along the path: bounds |gamma_dot| (vehicles.saturation); None: unbounded
     correction_limit: float | None = None  # v_tilde -> c tanh(v_tilde / c) (vehicles.saturation); None: as law (5)
+    # m/s^2 the correction may accelerate the path's point by: v_tilde bounded by it / |p_d^gamma| (None: no bound)
+    correction_acceleration: float | None = None
 
     def __post_init__(self) -> None:
         # Computed once per vehicle: the controller uses them at every RK4 stage.
@@ -114,9 +116,7 @@ def _closed_loop(
     limits = _rate_limits(cfg, dist, gamma)
     if limits is not None:
         gamma_dot = clamp(gamma_dot, *limits)
-    v_tilde = cfg.law.correction(gamma, gamma_dot, heard, cfg.coordination)
-    if cfg.correction_limit is not None:
-        v_tilde = bounded_correction(v_tilde, cfg.correction_limit)
+    v_tilde = _bounded(cfg, gamma, cfg.law.correction(gamma, gamma_dot, heard, cfg.coordination))
     view = z if held is None else seen(z, held)
     known = feedforward(cfg.current, t, view) if cfg.current_known and cfg.current is not None else None
     out = control(
@@ -130,6 +130,17 @@ def _closed_loop(
     own = out.drift if cfg.plant is None and held is None else None
     xdot = plant_rates(cfg.model, cfg.plant or cfg.params, cfg.current, t, z, own, out.tau)
     return [*xdot, gamma_dot, gamma_ddot], out, v_tilde
+
+
+def _bounded(cfg: VehicleConfig, gamma: float, v_tilde: float) -> float:
+    """The law's correction within the [saturation] bounds: a given c, and what the vehicle's thrust allows."""
+    if cfg.correction_limit is not None:
+        v_tilde = bounded_correction(v_tilde, cfg.correction_limit)
+    if cfg.correction_acceleration is not None:
+        limit = correction_bound(cfg.model, cfg.path, gamma, cfg.correction_acceleration)
+        if limit < math.inf:
+            v_tilde = bounded_correction(v_tilde, limit)
+    return v_tilde
 
 
 def _rate_limits(cfg: VehicleConfig, dist: Disturbances, gamma: float) -> tuple[float, float] | None:

@@ -153,8 +153,8 @@ def plugins(args: argparse.Namespace) -> int:
 def _predicted_growth(scenario: Scenario) -> float | None:
     """The growth rate (1/s) of the coordination error if the stability analysis predicts divergence, else None
     (also when the loop is too large to analyse quickly)."""
-    from supervisor.analysis.stability.margins import MAX_STATES, rate
-    from supervisor.analysis.stability.scenario import setting_of
+    from supervisor.config.stability.margins import MAX_STATES, rate
+    from supervisor.config.stability.scenario import setting_of
 
     setting = setting_of(scenario)
     if setting.states() > MAX_STATES:
@@ -164,8 +164,8 @@ def _predicted_growth(scenario: Scenario) -> float | None:
 
 
 def stability(args: argparse.Namespace) -> int:
-    from supervisor.analysis.stability.scenario import analyse, describe
     from supervisor.config.scenario import load_scenario
+    from supervisor.config.stability.scenario import analyse, describe
 
     scenario = load_scenario(args.scenario, args.set)  # ScenarioError: every error, exit 2
     text = describe(analyse(scenario), scenario)

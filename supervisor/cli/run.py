@@ -152,7 +152,8 @@ def _simulate(args: argparse.Namespace, scenario: Scenario, out: Path, live: Liv
 
     seed = scenario.scenario.seed if args.seed is None else args.seed
     text = args.scenario.read_text(encoding="utf-8")
-    progress = Progress(scenario.scenario.duration, sys.stderr, enabled=not args.quiet)
+    bar = getattr(args, "bar", False)  # set by cpf.run, not an option of the command line
+    progress = Progress(scenario.scenario.duration, sys.stderr, enabled=not args.quiet, bar=bar)
     speed = 1.0 if args.speed is None else args.speed
     if args.engine == "inprocess":
         return run_inprocess(scenario, str(args.scenario), text, out, seed, progress, args.foxglove, live)

@@ -10,8 +10,9 @@ from comms.wire import SIZE
 from supervisor.config.comms_schema import CommsSection, TransmitSection
 from supervisor.config.derived import steps_of
 from supervisor.config.describe import describe_fault
-from supervisor.config.fleet import modem_params, sound_speed
+from supervisor.config.medium import modem_params, sound_speed
 from supervisor.config.scenario_schema import Scenario, VehicleSection
+from supervisor.config.stability.scenario import coupling_gain
 
 __all__ = ["what_would_run"]
 
@@ -25,14 +26,20 @@ def what_would_run(sc: Scenario) -> str:
         f"{run.name}: {len(sc.vehicles)} vehicles ({sc.vehicle.preset}{_overrides(sc)}, {model}) for "
         f"{_num(run.duration)} s in {steps} steps of {_num(run.step)} s, seed {run.seed}",
         "paths: " + "; ".join(_vehicle(v) for v in sc.vehicles),
-        f"coordination: {sc.coordination.law} law, k {_num(sc.coordination.k)}, v_r {_num(sc.coordination.v_r)} "
-        f"per s, over the graph {_edges(sc.graph.edges)}",
+        f"coordination: {sc.coordination.law} law, {_gain(sc)}, predictor {sc.coordination.predictor}, "
+        f"v_r {_num(sc.coordination.v_r)} per s, over the graph {_edges(sc.graph.edges)}",
         "comms: " + _comms(sc),
         "transmission: " + _transmit(sc.comms.transmit, sc.comms, len(sc.vehicles)),
         "faults: " + ("; ".join(describe_fault(f.model_dump()) for f in sc.faults) or "none"),
         f"a vehicle lost: {run.on_vehicle_loss}",
     ]
     return ". ".join([sentences[0], *(s[0].upper() + s[1:] for s in sentences[1:])]) + "."
+
+
+def _gain(sc: Scenario) -> str:
+    """k as law (5) will run with it: fitted to the links if the schedule lowers it (stability.schedule)."""
+    given, used = sc.coordination.k, coupling_gain(sc)
+    return f"k {_num(given)}" if used == given else f"k {_num(used)} (fitted to the links; {_num(given)} given)"
 
 
 def _vehicle(v: VehicleSection) -> str:

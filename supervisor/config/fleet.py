@@ -11,7 +11,6 @@ from typing import Any
 
 import numpy as np
 
-from comms.acoustics import mackenzie_sound_speed
 from comms.broker_core import BrokerCore
 from comms.channel import Capture, Channel, ChannelParams, LinkParams
 from comms.loss import (
@@ -24,10 +23,11 @@ from comms.loss import (
     RangeTable,
 )
 from comms.messages import Message
-from comms.modem import ModemParams, modem
+from comms.modem import ModemParams
 from comms.state import StateReport
 from comms.stats import LinkStats
 from supervisor.config.extensions import build
+from supervisor.config.medium import modem_params, sound_speed
 from supervisor.config.plant import current_of, plant_of
 from supervisor.config.scenario_schema import (
     BurstSection,
@@ -40,7 +40,6 @@ from supervisor.config.scenario_schema import (
     RangeTableSection,
     Scenario,
     VehicleSection,
-    WaterSection,
 )
 from supervisor.config.vehicle_models import params_of, top_speed_of
 from vehicles.agent import VehicleConfig, VehicleState
@@ -54,6 +53,7 @@ from vehicles.nearest import nearest_gamma
 from vehicles.path_following import PathFollowingGains
 from vehicles.paths import Circle, Helix, Lawnmower, Line, Path
 from vehicles.runtime import NodeState, Radio
+from vehicles.saturation import coordination_acceleration
 from vehicles.transmission import Policy, Tdma
 
 
@@ -74,6 +74,9 @@ def model_of(scenario: Scenario) -> Model:
 
 def vehicle_config(scenario: Scenario, vehicle_id: int, seed: int | None = None) -> VehicleConfig:
     """seed: the run's (cpf run --seed); None: the scenario's."""
+    # Imported here: the analysis needs scipy, which a vehicle process (handed its config) never imports.
+    from supervisor.config.stability.scenario import coupling_gain
+
     section = _section(scenario, vehicle_id)
     pf, co = scenario.path_following, scenario.coordination
     run_seed = scenario.scenario.seed if seed is None else seed
@@ -83,7 +86,7 @@ def vehicle_config(scenario: Scenario, vehicle_id: int, seed: int | None = None)
         params=params_of(scenario, vehicle_id),
         path=build_path(section.path),
         path_following=PathFollowingGains(pf.delta, pf.k1, pf.k2, pf.k_zeta),
-        coordination=CoordinationGains(co.k, co.k2, co.v_r),
+        coordination=CoordinationGains(coupling_gain(scenario), co.k2, co.v_r),
         predictor=predictor_of(scenario),
         law=extension("law", co.law, co.law_options),
         max_age=co.max_age,
@@ -92,8 +95,17 @@ def vehicle_config(scenario: Scenario, vehicle_id: int, seed: int | None = None)
         current_known=scenario.environment.current_known,
         navigation=nav_params(scenario, vehicle_id, run_seed),
         top_speed=top_speed_of(scenario, vehicle_id),
-        correction_limit=scenario.saturation.correction,
+        correction_limit=_given(scenario.saturation.correction),
+        correction_acceleration=(
+            coordination_acceleration(params_of(scenario, vehicle_id))
+            if scenario.saturation.correction == "preset"
+            else None
+        ),
     )
+
+
+def _given(value: float | str) -> float | None:
+    return value if isinstance(value, float) else None
 
 
 def nav_params(scenario: Scenario, vehicle_id: int, seed: int) -> NavParams | None:
@@ -151,21 +163,6 @@ def _path_height(path: Path) -> float:
 
 def _section(scenario: Scenario, vehicle_id: int) -> VehicleSection:
     return next(v for v in scenario.vehicles if v.id == vehicle_id)
-
-
-def sound_speed(scenario: Scenario) -> float:
-    water = scenario.comms.sound_speed
-    if isinstance(water, WaterSection):
-        return mackenzie_sound_speed(water.temperature, water.salinity, water.depth)
-    return float(water)
-
-
-def modem_params(scenario: Scenario) -> ModemParams:
-    c = scenario.comms
-    return modem(
-        c.modem, bitrate=c.bitrate, preamble=c.preamble, frame_bytes=c.frame_bytes,
-        half_duplex=c.half_duplex, collisions=c.collisions,
-    )  # fmt: skip
 
 
 def _range_model(scenario: Scenario, radio_modem: ModemParams) -> LossModel | None:

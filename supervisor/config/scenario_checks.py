@@ -258,7 +258,8 @@ def _paths(sc: Scenario) -> Iterator[str]:
 def _comms(sc: Scenario) -> Iterator[str]:
     """Links, TDMA order and packet size against the fleet and the modem; the models' own checks."""
     from comms.wire import SIZE
-    from supervisor.config.fleet import channel_params, modem_params
+    from supervisor.config.fleet import channel_params
+    from supervisor.config.medium import modem_params
 
     ids = sc.vehicle_ids
     edges = {tuple(e) for e in sc.graph.edges} | {(j, i) for i, j in sc.graph.edges}

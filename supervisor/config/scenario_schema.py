@@ -192,13 +192,19 @@ class CoordinationSection(StrictModel):
         default=0.2, gt=0, le=MAX_GAIN, description="K = diag(k): gain on the disagreement with neighbours, 1/s"
     )
     k2: Float = Field(default=1.0, gt=0, le=MAX_GAIN, description="K2 = diag(k2), 1/s")
+    schedule: Literal["rate", "none"] = Field(
+        default="rate",
+        description="how k meets the links: rate (law (5) with a built-in predictor: k is lowered, if the links are "
+        "slow or late, to the gain at which the predicted coordination error decays fastest, cpf stability; "
+        "docs/stability.md), none (k as given)",
+    )
     v_r: Float = Field(
         default=1.0, ge=-MAX_RATE, le=MAX_RATE,
         description="reference speed of the path parameters, unit of gamma per s (the speed it asks of each vehicle "
         "along its path must not exceed 100 m/s)",
     )  # fmt: skip
     predictor: ExtensionName = Field(
-        default="first_order",
+        default="reference",
         description="how a neighbour's gamma is predicted between messages: first_order (gamma + gamma_dot age, "
         "option horizon: at most that many s), hold (last value), reference (gamma + v_r age), an installed "
         "extension's name, or package.module:Name",

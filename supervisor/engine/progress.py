@@ -1,17 +1,19 @@
-"""A one-line progress report for long runs: simulated time and real-time factor, at most once a second."""
+"""A one-line progress report for long runs: simulated time and real-time factor, at most once a second; or, for the
+Python API, a tqdm.auto bar (a text bar in a terminal, a widget in a notebook)."""
 
 from __future__ import annotations
 
 import time
-from typing import TextIO
+from typing import Any, TextIO
 
 from supervisor.engine import interrupts
 
 
 class Progress:
-    def __init__(self, duration: float, stream: TextIO | None = None, enabled: bool = True) -> None:
+    def __init__(self, duration: float, stream: TextIO | None = None, enabled: bool = True, bar: bool = False) -> None:
         """stream: where the line goes, given by the command line (the only code that talks to the user); None: no
-        line, only the timing."""
+        line, only the timing. bar: a tqdm.auto bar on the stream instead of the line (cpf.run: it shows in a
+        notebook as well as in a terminal)."""
         self.duration = duration
         self.stream = stream
         self.enabled = enabled and stream is not None
@@ -19,6 +21,7 @@ class Progress:
         self.stepping = self.started  # when the first sync step began (after any process start-up)
         self._last = self.started
         self._tty = stream is not None and stream.isatty()
+        self._bar: Any = _bar(duration, stream) if bar and self.enabled else None
 
     def begin(self) -> None:
         """Stepping starts now: the real-time factor counts from here, start-up excluded."""
@@ -32,6 +35,10 @@ class Progress:
         self._last = now
         assert self.stream is not None  # enabled
         factor = t / max(now - self.stepping, 1e-9)
+        if self._bar is not None:
+            self._bar.update(t - self._bar.n)
+            self._bar.set_postfix_str(f"{factor:.1f}x real time", refresh=False)
+            return
         line = f"t = {t:7.1f} / {self.duration:.0f} s   {factor:6.1f}x real time"
         self.stream.write(("\r" + line) if self._tty else (line + "\n"))
         self.stream.flush()
@@ -43,6 +50,17 @@ class Progress:
     def done(self, t: float) -> float:
         """Final line; returns the whole wall time, start-up included."""
         self.update(t, force=True)
-        if self.enabled and self._tty and self.stream is not None:
+        if self._bar is not None:
+            self._bar.close()
+        elif self.enabled and self._tty and self.stream is not None:
             self.stream.write("\n")
         return time.perf_counter() - self.started
+
+
+def _bar(duration: float, stream: TextIO | None) -> Any:
+    from tqdm.auto import tqdm  # imported only when asked for: a run from the command line does without it
+
+    return tqdm(total=duration, file=stream, unit="s", desc="simulated", bar_format=BAR)
+
+
+BAR = "{desc}: {n:.1f}/{total:.0f} s |{bar}| {elapsed}<{remaining}{postfix}"

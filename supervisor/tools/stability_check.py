@@ -27,6 +27,7 @@ class Outcome:
     before: float
     last: float
     final: float  # at the end of the run
+    path_error: float = float("nan")  # m, the largest |p_i - p_d_i| of any vehicle after the report's transient
 
     def converged(self, tolerance: float) -> bool:
         return self.last < tolerance or self.last < 0.5 * self.before
@@ -44,7 +45,8 @@ def simulate(scenario: Scenario, window: float = 50.0) -> Outcome:
     end = t[-1]
     last = error[t > end - window]
     before = error[(t > end - 2 * window) & (t <= end - window)]
-    return Outcome(float(np.nanmax(before)), float(np.nanmax(last)), float(error[-1]))
+    after = result.series.path_error[t >= scenario.report.transient]
+    return Outcome(float(np.nanmax(before)), float(np.nanmax(last)), float(error[-1]), float(np.nanmax(after)))
 
 
 def scenario_with(path: Path, overrides: list[str]) -> Scenario:

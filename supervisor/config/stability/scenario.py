@@ -12,12 +12,14 @@ taken as independent (a bursty channel is worse than that), range-dependent loss
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from comms.wire import SIZE
-from supervisor.analysis.stability.margins import (
+from supervisor.config.medium import modem_params, sound_speed
+from supervisor.config.scenario_schema import Scenario
+from supervisor.config.stability.margins import (
     Setting,
     delay_reach,
     largest_delay,
@@ -25,9 +27,8 @@ from supervisor.analysis.stability.margins import (
     largest_period,
     rate,
 )
-from supervisor.analysis.stability.model import Loop
-from supervisor.config.fleet import modem_params, sound_speed
-from supervisor.config.scenario_schema import Scenario
+from supervisor.config.stability.model import PREDICTORS, Loop
+from supervisor.config.stability.schedule import fastest_gain
 
 
 def loop_of(scenario: Scenario) -> Loop:
@@ -39,16 +40,19 @@ def loop_of(scenario: Scenario) -> Loop:
     return Loop.of_edges(len(ids), edges, co.k, co.k2, scenario.path_following.k_zeta, co.predictor)
 
 
-def _period(scenario: Scenario) -> float:
+def _period(scenario: Scenario, event: str) -> float:
+    """The transmit period; an event-triggered policy's at its heartbeat (event = "heartbeat": the longest silence
+    it allows, for a verdict that errs on the safe side) or at the fastest it may send (event = "fastest": it sends
+    whenever its neighbours' prediction of it errs, so their estimates are as good as that)."""
     tx, dt = scenario.comms.transmit, scenario.scenario.step
     if tx.policy == "event":
-        return tx.heartbeat or dt
+        return (tx.heartbeat or dt) if event == "heartbeat" else max(tx.min_interval, dt)
     return tx.period or dt
 
 
-def _timing(scenario: Scenario) -> tuple[float, tuple[float, ...]]:
+def _timing(scenario: Scenario, event: str = "heartbeat") -> tuple[float, tuple[float, ...]]:
     """(period or TDMA frame, each vehicle's offset as a fraction of it)."""
-    period, tdma, n = _period(scenario), scenario.comms.tdma, len(scenario.vehicles)
+    period, tdma, n = _period(scenario, event), scenario.comms.tdma, len(scenario.vehicles)
     if tdma is None:
         return period, (0.0,) * n
     order = tdma.order or tuple(scenario.vehicle_ids)
@@ -77,8 +81,31 @@ def loss_of(scenario: Scenario) -> float:
 
 
 def setting_of(scenario: Scenario) -> Setting:
-    period, phases = _timing(scenario)
+    """The loop as it runs: with the k law (5) runs with (coupling_gain)."""
+    nominal = nominal_setting(scenario)
+    return replace(nominal, loop=replace(nominal.loop, k=coupling_gain(scenario)))
+
+
+def nominal_setting(scenario: Scenario, event: str = "heartbeat") -> Setting:
+    """The loop with the scenario's own k (event: how an event-triggered policy is taken, _period)."""
+    period, phases = _timing(scenario, event)
     return Setting(loop_of(scenario), period, delay_of(scenario), phases, loss_of(scenario))
+
+
+SCHEDULED_LAWS = ("corrected", "literal")
+
+
+def schedules(scenario: Scenario) -> bool:
+    """Whether the scenario's k is fitted to its links (law (5), a built-in predictor, schedule = "rate")."""
+    co = scenario.coordination
+    return co.schedule == "rate" and co.law in SCHEDULED_LAWS and co.predictor in PREDICTORS
+
+
+def coupling_gain(scenario: Scenario) -> float:
+    """The k law (5) runs with: the scenario's, or the one fitted to its links (stability.schedule)."""
+    if not schedules(scenario):
+        return scenario.coordination.k
+    return fastest_gain(nominal_setting(scenario, "fastest"))
 
 
 @dataclass(frozen=True)
@@ -113,7 +140,8 @@ def _margin_text(name: str, value: float | None, unit: str, beyond: str) -> str:
 def describe(verdict: Verdict, scenario: Scenario) -> str:
     """One paragraph: the verdict, its rate, what was analysed, the margins."""
     s, co = verdict.setting, scenario.coordination
-    how = (f"law {co.law!r}, predictor {co.predictor!r}, a message every {s.period:g} s"
+    gain = f"k {s.loop.k:.3g}" + (f" (fitted to the links; {co.k:g} given)" if s.loop.k != co.k else "")
+    how = (f"law {co.law!r} with {gain}, predictor {co.predictor!r}, a message every {s.period:g} s"
            f"{' (TDMA frame)' if scenario.comms.tdma else ''}, {s.delay:g} s of delay, loss {s.loss:g}")  # fmt: skip
     if verdict.converges:
         head = f"coordination converges: the error decays at {verdict.rate:.3g} 1/s (time constant "

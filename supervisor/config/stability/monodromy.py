@@ -1,4 +1,4 @@
-"""The sampled loop's maps over one period: flows, samples, deliveries (supervisor.analysis.stability.model), their
+"""The sampled loop's maps over one period: flows, samples, deliveries (supervisor.config.stability.model), their
 product (the monodromy), and its mean-square counterpart under independent losses.
 
 Mean-square stability of a Markov jump linear system with i.i.d. modes (Costa, Fragoso & Marques, "Discrete-time
@@ -17,7 +17,7 @@ import numpy as np
 from scipy.linalg import block_diag, expm
 from scipy.sparse.linalg import LinearOperator, eigs
 
-from supervisor.analysis.stability.model import Loop, Matrix, Sampling
+from supervisor.config.stability.model import Loop, Matrix, Sampling
 
 
 @dataclass(frozen=True)

@@ -1,7 +1,7 @@
 """Decay rate of the sampled coordination loop and the largest transmit period, delay and loss it tolerates.
 
 The rate is -ln(rho) / P, rho the spectral radius of the monodromy over one period P without the consensus mode
-(supervisor.analysis.stability.monodromy); with losses, -ln(rho_2) / (2 P), rho_2 that of the second-moment operator
+(supervisor.config.stability.monodromy); with losses, -ln(rho_2) / (2 P), rho_2 that of the second-moment operator
 (mean-square stability of the Markov jump linear system, Costa, Fragoso & Marques 2005, Thm. 3.9). Each margin is
 found on the same model by a scan (doubling) for the first unstable value, then bisection; the loop is not known
 to be monotone in any of them, so the margin is the first crossing the scan finds, not a proof of stability beyond.
@@ -13,8 +13,8 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 
-from supervisor.analysis.stability.model import Loop, Sampling
-from supervisor.analysis.stability.monodromy import Layout, monodromy, second_moment_radius, spectral_radius
+from supervisor.config.stability.model import Loop, Sampling
+from supervisor.config.stability.monodromy import Layout, monodromy, second_moment_radius, spectral_radius
 
 MAX_STATES = 700  # a delay of many periods needs a buffer per period in flight: beyond this the scan stops
 MAX_LOSS_STATES = 60  # the second-moment operator acts on N^2 numbers: beyond N = 60 losses are not analysed

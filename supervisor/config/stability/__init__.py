@@ -12,7 +12,7 @@ SIAM J. Control Optim. 48(1), 2009, prove boundedness under bounded delays and l
 one fleet. The reference-speed predictor is that of logic-based communication (Rego, Hung, Jones, Pascoal & Aguiar,
 IET Control Theory Appl., 2019)."""
 
-from supervisor.analysis.stability.margins import (
+from supervisor.config.stability.margins import (
     Setting,
     converges,
     largest_delay,
@@ -20,8 +20,8 @@ from supervisor.analysis.stability.margins import (
     largest_period,
     rate,
 )
-from supervisor.analysis.stability.model import Loop, Sampling
-from supervisor.analysis.stability.scenario import Verdict, analyse, describe, setting_of
+from supervisor.config.stability.model import Loop, Sampling
+from supervisor.config.stability.scenario import Verdict, analyse, describe, setting_of
 
 __all__ = [
     "Loop",
