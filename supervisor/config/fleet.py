@@ -197,8 +197,9 @@ def _loss_model(
     range_model: LossModel | None, loss: float, burst: BurstSection | None, named: LossModel | None
 ) -> LossModel | None:
     """The models that act on one link, composed: range first, then independent, then bursty loss, then the one
-    comms.loss_model names. Each draws its own numbers in that order, so adding the named one changes nothing of
-    what the others decide."""
+    comms.loss_model names. They share the link's random stream, each drawing its numbers in that order at every
+    packet: without a named model the draws are what they always were; with one, the later packets' draws (and so
+    the others' decisions) are another realisation."""
     models: list[LossModel] = [m for m in (range_model,) if m is not None]
     if loss > 0:
         models.append(_builtin(Bernoulli, p=loss))
