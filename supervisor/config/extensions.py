@@ -200,16 +200,17 @@ def plugins_text() -> str:
     """What `cpf plugins` prints: per kind, each installed name, what it resolves to and its options; a name that
     does not load says why, on its line."""
     lines: list[str] = []
+    width = max([14, *(len(name) + 2 for kind in GROUPS for name in available(kind))])  # a column for every name
     for kind, (group, _) in GROUPS.items():
         lines.append(f"{KEYS[kind]} (entry points {group}):")
         for name in sorted(available(kind)):
             try:
                 cls, identity = resolve(kind, name)
             except ValueError as exc:
-                lines.append(f"  {name:<14}does not load: {exc}")
+                lines.append(f"  {name:<{width}}does not load: {exc}")
                 continue
             where = f"{identity.distribution} {identity.version}" if identity.distribution else "-"
             options = ", ".join(sorted(_field_names(cls) - {"predictor", "v_r"})) or "-"
-            lines.append(f"  {name:<14}{identity.target:<44}{where:<22}options: {options}")
+            lines.append(f"  {name:<{width}}{identity.target:<44}{where:<22}options: {options}")
     lines.append("or any package.module:Name in the scenario (docs/extending.md)")
     return "\n".join(lines)
