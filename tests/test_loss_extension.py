@@ -251,3 +251,17 @@ def test_a_scenario_names_a_builtin_loss_model_by_entry_point(entry_points, tmp_
     events = [m for topic, _, m in read_messages(tmp_path / "run.mcap") if topic == "cpf/comms/event"]
     assert 0.2 < sum(m["reason"] == "loss" for m in events) / sum(m["kind"] == "sent" for m in events) < 0.4
     assert sys.modules["comms.loss"].Bernoulli is Bernoulli  # the class the entry point names is this checkout's
+
+
+def test_the_example_in_docs_extending_is_a_loss_model_that_decides_as_the_sample():
+    doc = (ROOT / "docs" / "extending.md").read_text(encoding="utf-8")
+    section = doc.split("## Loss models", 1)[1].split("\n## ", 1)[0]
+    code = section.split("```python\n", 1)[1].split("```", 1)[0]
+    namespace: dict = {}
+    exec(compile(code, "docs/extending.md", "exec"), namespace)
+    example = namespace["Cutoff"](max_range=30.0, p=0.3)
+    assert isinstance(example, LossModel)
+    rng_a, rng_b = np.random.default_rng(1), np.random.default_rng(1)
+    distances = np.linspace(0.0, 60.0, 300)
+    link, sample = example.link(), Cutoff(max_range=30.0, p=0.3)
+    assert [link.decide(rng_a, d, 32) for d in distances] == [sample.decide(rng_b, d, 32) for d in distances]
