@@ -265,3 +265,10 @@ def test_the_example_in_docs_extending_is_a_loss_model_that_decides_as_the_sampl
     distances = np.linspace(0.0, 60.0, 300)
     link, sample = example.link(), Cutoff(max_range=30.0, p=0.3)
     assert [link.decide(rng_a, d, 32) for d in distances] == [sample.decide(rng_b, d, 32) for d in distances]
+
+
+def test_cpf_validate_says_which_loss_model_and_options_would_run(tmp_path):
+    scenario = CONFIGS / "paper.toml"
+    done = cpf("validate", str(scenario), *(x for o in CUTOFF for x in ("--set", o)), cwd=tmp_path, env=ENV)
+    assert done.returncode == 0, done.stderr
+    assert f"loss model {SAMPLES}:Cutoff (p 0.2)" in " ".join(done.stdout.split())
