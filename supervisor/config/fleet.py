@@ -241,8 +241,7 @@ def channel_params(scenario: Scenario, with_named: bool = True) -> ChannelParams
     )
     return ChannelParams(
         sound_speed(scenario), radio_modem, c.packet_bytes, c.jitter, _loss_model(ranged, c.loss, c.burst, named),
-        links,
-        capture,
+        links, capture,
     )  # fmt: skip
 
 
