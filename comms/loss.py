@@ -13,7 +13,9 @@ Distances in m, sizes in bytes, probabilities in [0, 1].
 
 A model (frozen, validated configuration) makes a fresh `LinkLoss` per directed link with `link()`; a `LinkLoss`
 draws exactly `draws` uniforms per decision whatever the outcome, so random streams stay aligned across runs that
-differ only in what gets lost.
+differ only in what gets lost. These are the built-ins of the entry-point group cpf.loss (pyproject.toml); a
+scenario names any model of that interface (LossModel) by `comms.loss_model`, found and checked as the other
+extensions are (supervisor.config.extensions), and someone else's runs behind comms.guard.GuardedLoss.
 """
 
 from __future__ import annotations
@@ -21,37 +23,63 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from itertools import pairwise
-from typing import Protocol
+from typing import Any, ClassVar, Protocol, runtime_checkable
 
 import numpy as np
 
 from comms.link_budget import LinkBudgetRange
 from numerics import exp
 
-__all__ = ["Bernoulli", "Composite", "GilbertElliott", "GilbertElliottTime", "LinkBudgetRange", "RangeTable"]
+__all__ = [
+    "Bernoulli",
+    "Composite",
+    "GilbertElliott",
+    "GilbertElliottTime",
+    "LinkBudgetRange",
+    "LinkLoss",
+    "LossModel",
+    "RangeTable",
+]
 
 
+@runtime_checkable
 class LinkLoss(Protocol):
+    """The loss model's state on one directed link (sender -> receiver): what it remembers from packet to packet
+    (a Gilbert-Elliott chain's state, a shadowing level). A stateless model may be its own LinkLoss."""
+
     @property
     def draws(self) -> int:
-        """Random numbers consumed per decision."""
+        """Uniform random numbers decide consumes per packet: the same count whatever it decides."""
         ...
 
     def decide(self, rng: np.random.Generator, distance_m: float, size_bytes: int, t: float = 0.0) -> str | None:
-        """The reason this packet is lost on this link (None: not lost); t: its transmission time in s (the links'
-        packets come in time order). Always consumes exactly self.draws random numbers from rng whatever the
-        outcome, so streams stay aligned."""
+        """Whether this packet is lost on this link, and why.
+
+        rng: the link's own random stream (seeded from the run's seed, sender and receiver); draw exactly
+        self.draws numbers from it (rng.random()) whatever the outcome, so the streams of runs that differ only in
+        what gets lost stay aligned.
+        distance_m: the path the packet travels, sender at transmission to receiver at arrival, m (time of flight
+        x sound speed).
+        size_bytes: the packet's size on air, B.
+        t: its transmission time, s (a link's packets come in time order).
+        Returns None (not lost) or why it is lost: a short word the link statistics count it under ("loss",
+        "burst", "range", ...).
+        """
         ...
 
 
+@runtime_checkable
 class LossModel(Protocol):
+    """A packet-loss model of the acoustic channel (interface of the entry-point group cpf.loss): frozen
+    configuration, its fields its options; the same for every directed link, each of which gets its own state."""
+
     @property
     def draws(self) -> int:
         """Random numbers consumed per decision by each of its links."""
         ...
 
     def link(self) -> LinkLoss:
-        """Fresh per-directed-link state."""
+        """Fresh state for one directed link, at the start of the run (and when a restarted broker starts anew)."""
         ...
 
 
@@ -251,6 +279,9 @@ class Composite:
     Every model decides every packet, so each one's draws and state (a Gilbert-Elliott chain) advance the same
     whatever the others decide.
     """
+
+    # Its option is models already built (by the scenario's keys): not an option a scenario file can give.
+    __pydantic_config__: ClassVar[dict[str, Any]] = {"arbitrary_types_allowed": True}
 
     models: tuple[LossModel, ...]
 

@@ -4,22 +4,21 @@ failure (vehicles.step adds the vehicle and the time; the run ends with exit 1 a
 the vehicle if scenario.on_vehicle_loss says so). The built-ins run unguarded: they are tested, and the guard's
 clock reads would cost them a third of their time.
 
-The budget is CPU time of the calling thread (time.thread_time), not wall time: a loaded machine does not make a
-well-behaved extension overrun.
+The call itself (exception and CPU budget: time.thread_time, not wall time) is comms.guard's, which the channel's
+loss models share.
 """
 
 from __future__ import annotations
 
 import math
-import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, TypeVar
 
+from comms.guard import CALL_BUDGET, guarded_call, short
 from vehicles.coordination import CoordinationGains
 from vehicles.estimates import NeighbourEstimate
 
-CALL_BUDGET = 0.1  # s of CPU per call: ~10^4 times what a law of this kind needs
 R = TypeVar("R")
 
 
@@ -42,7 +41,7 @@ class Guarded:
         try:
             gamma, rate = value
         except (TypeError, ValueError):
-            raise FloatingPointError(f"{self.label} returned {_short(value)}, not (gamma, gamma_dot)") from None
+            raise FloatingPointError(f"{self.label} returned {short(value)}, not (gamma, gamma_dot)") from None
         return self._finite(gamma), self._finite(rate)
 
     def due(self, t: float, dt: float, now: NeighbourEstimate, last: NeighbourEstimate | None) -> bool:
@@ -53,23 +52,9 @@ class Guarded:
         return lo if earliest is None else int(self._call(earliest, lo, dt, last))
 
     def _call(self, method: Callable[..., R], *args: Any) -> R:
-        start = time.thread_time()
-        try:
-            value = method(*args)
-        except Exception as exc:  # anything it raises: its failure, named, not a traceback
-            raise FloatingPointError(f"{self.label} raised {type(exc).__name__}: {_short(exc)}") from None
-        spent = time.thread_time() - start
-        if spent > self.budget:
-            raise FloatingPointError(f"{self.label} took {spent:.3g} s of CPU in one call (budget {self.budget:g} s)")
-        return value
+        return guarded_call(self.label, self.budget, method, *args)
 
     def _finite(self, value: Any) -> float:
         if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-            raise FloatingPointError(f"{self.label} returned {_short(value)}, not a finite number")
+            raise FloatingPointError(f"{self.label} returned {short(value)}, not a finite number")
         return float(value)
-
-
-def _short(value: object) -> str:
-    """A value for an error line: never its whole repr if that is long."""
-    text = repr(value) if not isinstance(value, BaseException) else str(value)
-    return text if len(text) <= 80 else text[:77] + "..."

@@ -179,6 +179,15 @@ class CommsSection(StrictModel):
     loss: Float = Field(default=0.0, ge=0, le=1, description="independent (Bernoulli) loss per directed link")
     burst: BurstSection | None = Field(default=None, description="bursty (Gilbert-Elliott) loss per directed link")
     range: RangeSpec | None = Field(default=None, description="range-dependent loss: type = link_budget or table")
+    loss_model: ExtensionName | None = Field(
+        default=None,
+        description="a loss model of its own on every directed link, after range, loss and burst (a packet is lost "
+        "if any of them loses it): an installed one's name (`cpf plugins`: bernoulli, gilbert_elliott, "
+        "gilbert_elliott_time, link_budget, range_table) or package.module:Name; omitted: none",
+    )
+    loss_model_options: dict[str, Any] = Field(
+        default_factory=dict, description="the loss model's own options (its fields, e.g. bernoulli: p)"
+    )
     links: tuple[LinkSection, ...] = Field(
         default=(), max_length=MAX_COUNT, description="per directed link settings ([[comms.links]])"
     )

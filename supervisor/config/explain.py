@@ -66,6 +66,9 @@ def _comms(sc: Scenario) -> str:
         parts.append(f"bursts (mean loss {_num(b.mean_loss)}, mean burst {length})")
     if c.range is not None:
         parts.append(f"range-dependent loss ({c.range.type})")
+    if c.loss_model is not None:
+        options = ", ".join(f"{key} {_value(value)}" for key, value in sorted(c.loss_model_options.items()))
+        parts.append(f"loss model {c.loss_model}" + (f" ({options})" if options else ""))
     if c.reception == "sinr":
         parts.append(f"SINR capture at {_num(c.capture_threshold)} dB")
     if c.jitter:

@@ -21,11 +21,16 @@ def extension_errors(sc: Scenario) -> Iterator[str]:
         yield from _checked("transmission", "comms.transmit", tx.policy, tx.options, context)
     elif tx.options:
         yield f"comms.transmit.options: the {tx.policy} policy takes its keys from [comms.transmit], got {tx.options}"
+    c = sc.comms
+    if c.loss_model is not None:
+        yield from _checked("loss", "comms", c.loss_model, c.loss_model_options)
+    elif c.loss_model_options:
+        yield f"comms.loss_model_options: options for no loss model (comms.loss_model), got {c.loss_model_options}"
 
 
 # Where each kind's name and options are in a scenario, below its section.
 FIELDS = {"law": ("law", "law_options"), "predictor": ("predictor", "predictor_options"),
-          "transmission": ("policy", "options")}  # fmt: skip
+          "transmission": ("policy", "options"), "loss": ("loss_model", "loss_model_options")}  # fmt: skip
 
 
 def _checked(
@@ -43,8 +48,11 @@ def _checked(
 
 
 def extension_identities(sc: Scenario) -> list[Identity]:
-    """The identity of each extension the scenario names (law, predictor, transmission policy): what the hello
-    digest covers and the log's meta records. Call on a checked scenario: every name resolves."""
+    """The identity of each extension the scenario names (law, predictor, transmission policy, and the loss model if
+    it names one): what the hello digest covers and the log's meta records. Call on a checked scenario: every name
+    resolves."""
     co = sc.coordination
-    named = (("law", co.law), ("predictor", co.predictor), ("transmission", sc.comms.transmit.policy))
+    named = [("law", co.law), ("predictor", co.predictor), ("transmission", sc.comms.transmit.policy)]
+    if sc.comms.loss_model is not None:  # none named: the digest stays what it was for scenarios without one
+        named.append(("loss", sc.comms.loss_model))
     return [resolve(kind, name)[1] for kind, name in named]

@@ -1,17 +1,18 @@
-"""Extensions: coordination laws, neighbour predictors and transmission policies named in a scenario, found,
-checked and built the same way whether they ship with cpf-cosim or with someone else's package.
+"""Extensions: coordination laws, neighbour predictors, transmission policies and the channel's loss models named in
+a scenario, found, checked and built the same way whether they ship with cpf-cosim or with someone else's package.
 
 A name in a scenario is either an entry point of the group (`cpf.coordination`, `cpf.predictors`,
-`cpf.transmission`; cpf-cosim registers its built-ins there itself, pyproject.toml) or an import path
+`cpf.transmission`, `cpf.loss`; cpf-cosim registers its built-ins there itself, pyproject.toml) or an import path
 `package.module:Name`. The object it names is a class whose fields are its options (a dataclass, or a pydantic
 model): its options table in the scenario is validated against those fields by pydantic, so a bad option is the usual
 one-line error naming the file, the field and the value. An instance must have the interface's methods
-(vehicles.coordination.CoordinationLaw, vehicles.estimates.Predictor, vehicles.transmission.TransmissionPolicy).
+(vehicles.coordination.CoordinationLaw, vehicles.estimates.Predictor, vehicles.transmission.TransmissionPolicy,
+comms.loss.LossModel).
 
 Each extension has an identity (its name, the object it resolves to, its distribution and version, and the SHA-256
 of its module's source): the hello digest covers it, so a vehicle on another host running other code is refused,
-and the log's meta records it. Someone else's extension runs inside a guard (vehicles.guard) that turns an exception,
-a non-finite result or an overrun of its time budget into one line naming it.
+and the log's meta records it. Someone else's extension runs inside a guard (vehicles.guard; comms.guard for a loss
+model) that turns an exception, a result of the wrong kind or an overrun of its time budget into one line naming it.
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ from dataclasses import dataclass
 from importlib import metadata
 from typing import TYPE_CHECKING, Any
 
+from comms.loss import LossModel
 from vehicles.coordination import CoordinationLaw
 from vehicles.estimates import Predictor
 from vehicles.transmission import TransmissionPolicy
@@ -36,6 +38,7 @@ GROUPS: dict[str, tuple[str, type]] = {
     "law": ("cpf.coordination", CoordinationLaw),
     "predictor": ("cpf.predictors", Predictor),
     "transmission": ("cpf.transmission", TransmissionPolicy),
+    "loss": ("cpf.loss", LossModel),
 }
 OURS = "cpf-cosim"  # the distribution whose extensions are built-ins: they run without a guard
 
@@ -44,7 +47,7 @@ OURS = "cpf-cosim"  # the distribution whose extensions are built-ins: they run 
 class Identity:
     """Which code an extension name resolved to."""
 
-    kind: str  # law, predictor, transmission
+    kind: str  # law, predictor, transmission, loss
     name: str  # as the scenario gives it
     target: str  # module:qualname of the class
     distribution: str | None  # the installed distribution that provides it (None: not found)
@@ -158,7 +161,7 @@ def instantiate(
     try:
         instance = _adapter(cls).validate_python({**options, **given})
     except ValidationError as exc:
-        return None, identity, [_option_problem(e) for e in exc.errors()]
+        return None, identity, [_option_problem(name, e) for e in exc.errors()]
     except Exception as exc:  # its own checks (__post_init__) or a class pydantic cannot build
         return None, identity, [(None, f"{name} refuses its options ({type(exc).__name__}: {exc})")]
     _, protocol = GROUPS[kind]
@@ -181,29 +184,33 @@ def _field_names(cls: type) -> set[str]:
     return set(getattr(cls, "model_fields", None) or {})
 
 
-def _option_problem(error: Any) -> Problem:
+def _option_problem(name: str, error: Any) -> Problem:
     where = ".".join(str(part) for part in error["loc"]) or None
+    if where is None and "error" in error.get("ctx", {}):  # its own check of the whole (__post_init__): its words
+        return None, f"{name} refuses its options ({error['ctx']['error']})"
     return where, f"{error['msg']}, got {error.get('input')!r}"
 
 
 # Where a kind's name and options go in a scenario (for cpf plugins' table).
-KEYS = {"law": "coordination.law", "predictor": "coordination.predictor", "transmission": "comms.transmit.policy"}
+KEYS = {"law": "coordination.law", "predictor": "coordination.predictor", "transmission": "comms.transmit.policy",
+        "loss": "comms.loss_model"}  # fmt: skip
 
 
 def plugins_text() -> str:
     """What `cpf plugins` prints: per kind, each installed name, what it resolves to and its options; a name that
     does not load says why, on its line."""
     lines: list[str] = []
+    width = max([14, *(len(name) + 2 for kind in GROUPS for name in available(kind))])  # a column for every name
     for kind, (group, _) in GROUPS.items():
         lines.append(f"{KEYS[kind]} (entry points {group}):")
         for name in sorted(available(kind)):
             try:
                 cls, identity = resolve(kind, name)
             except ValueError as exc:
-                lines.append(f"  {name:<14}does not load: {exc}")
+                lines.append(f"  {name:<{width}}does not load: {exc}")
                 continue
             where = f"{identity.distribution} {identity.version}" if identity.distribution else "-"
             options = ", ".join(sorted(_field_names(cls) - {"predictor", "v_r"})) or "-"
-            lines.append(f"  {name:<14}{identity.target:<44}{where:<22}options: {options}")
+            lines.append(f"  {name:<{width}}{identity.target:<44}{where:<22}options: {options}")
     lines.append("or any package.module:Name in the scenario (docs/extending.md)")
     return "\n".join(lines)

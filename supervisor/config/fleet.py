@@ -13,6 +13,7 @@ import numpy as np
 
 from comms.broker_core import BrokerCore
 from comms.channel import Capture, Channel, ChannelParams, LinkParams
+from comms.guard import GuardedLoss
 from comms.loss import (
     Bernoulli,
     Composite,
@@ -168,39 +169,67 @@ def _section(scenario: Scenario, vehicle_id: int) -> VehicleSection:
 def _range_model(scenario: Scenario, radio_modem: ModemParams) -> LossModel | None:
     spec = scenario.comms.range
     if isinstance(spec, LinkBudgetSection):
-        return LinkBudgetRange(
-            spec.source_level, radio_modem.frequency_khz, radio_modem.bandwidth_hz, radio_modem.modulation,
-            spec.spreading, spec.shipping, spec.wind, spec.directivity,
-            radio_modem.bitrate if spec.ebn0 == "bitrate" else None,
-            radio_modem.frame_bytes if spec.bits == "frame" else None,
-            spec.shadowing, spec.shadowing_time, spec.rician_k,
+        return _builtin(
+            LinkBudgetRange, source_level_db=spec.source_level, frequency_khz=radio_modem.frequency_khz,
+            bandwidth_hz=radio_modem.bandwidth_hz, modulation=radio_modem.modulation, spreading=spec.spreading,
+            shipping=spec.shipping, wind_m_s=spec.wind, directivity_db=spec.directivity,
+            bitrate=radio_modem.bitrate if spec.ebn0 == "bitrate" else None,
+            frame_bytes=radio_modem.frame_bytes if spec.bits == "frame" else None,
+            shadowing_db=spec.shadowing, shadowing_time=spec.shadowing_time, rician_k=spec.rician_k,
         )  # fmt: skip
     if isinstance(spec, RangeTableSection):
-        return RangeTable(spec.ranges, spec.success)
+        return _builtin(RangeTable, ranges_m=spec.ranges, success=spec.success)
     return None
 
 
-def _loss_model(range_model: LossModel | None, loss: float, burst: BurstSection | None) -> LossModel | None:
-    """The models that act on one link, composed: range first, then independent, then bursty loss."""
+def _builtin(cls: type, **options: Any) -> LossModel:
+    """One of cpf-cosim's loss models for the scenario's own keys (range, loss, burst), found and built as any
+    extension is: by its import path, so that those keys work where the cpf.loss entry points are not installed
+    (a source checkout on PYTHONPATH)."""
+    model: LossModel = extension("loss", f"{cls.__module__}:{cls.__qualname__}", options)
+    return model
+
+
+def _loss_model(
+    range_model: LossModel | None, loss: float, burst: BurstSection | None, named: LossModel | None
+) -> LossModel | None:
+    """The models that act on one link, composed: range first, then independent, then bursty loss, then the one
+    comms.loss_model names. They share the link's random stream, each drawing its numbers in that order at every
+    packet: without a named model the draws are what they always were; with one, the later packets' draws (and so
+    the others' decisions) are another realisation."""
     models: list[LossModel] = [m for m in (range_model,) if m is not None]
     if loss > 0:
-        models.append(Bernoulli(loss))
+        models.append(_builtin(Bernoulli, p=loss))
     if burst is not None and burst.mean_loss > 0:
         if burst.mean_duration is not None:
-            models.append(GilbertElliottTime(burst.mean_loss, burst.mean_duration))
+            models.append(_builtin(GilbertElliottTime, mean_loss=burst.mean_loss, mean_duration=burst.mean_duration))
         else:
-            models.append(GilbertElliott(burst.mean_loss, burst.mean_burst or 1.0))
-    return Composite(tuple(models)) if models else None
+            models.append(_builtin(GilbertElliott, mean_loss=burst.mean_loss, mean_burst=burst.mean_burst or 1.0))
+    if named is not None:
+        models.append(named)
+    return _builtin(Composite, models=tuple(models)) if models else None
 
 
-def channel_params(scenario: Scenario) -> ChannelParams:
-    """The channel the scenario describes; ValueError (from the models) for inconsistent numbers."""
+def named_loss_model(scenario: Scenario) -> LossModel | None:
+    """The loss model comms.loss_model names, with its options; None if it names none."""
+    c = scenario.comms
+    if c.loss_model is None:
+        return None
+    model: LossModel = extension("loss", c.loss_model, c.loss_model_options)
+    return model
+
+
+def channel_params(scenario: Scenario, with_named: bool = True) -> ChannelParams:
+    """The channel the scenario describes; ValueError (from the models) for inconsistent numbers. with_named: False
+    leaves comms.loss_model out (the checks of the scenario's own keys: the named model has its own,
+    supervisor.config.extension_checks)."""
     c = scenario.comms
     radio_modem = modem_params(scenario)
-    ranged = _range_model(scenario, radio_modem)
+    ranged, named = _range_model(scenario, radio_modem), named_loss_model(scenario) if with_named else None
     links = {
         (link.sender, link.receiver): LinkParams(
-            _loss_model(ranged, c.loss if link.loss is None else link.loss, link.burst or c.burst), link.extra_delay
+            _loss_model(ranged, c.loss if link.loss is None else link.loss, link.burst or c.burst, named),
+            link.extra_delay,
         )
         for link in c.links
     }
@@ -208,16 +237,20 @@ def channel_params(scenario: Scenario) -> ChannelParams:
         Capture(ranged, c.capture_threshold) if c.reception == "sinr" and isinstance(ranged, LinkBudgetRange) else None
     )
     return ChannelParams(
-        sound_speed(scenario), radio_modem, c.packet_bytes, c.jitter, _loss_model(ranged, c.loss, c.burst), links,
-        capture,
+        sound_speed(scenario), radio_modem, c.packet_bytes, c.jitter, _loss_model(ranged, c.loss, c.burst, named),
+        links, capture,
     )  # fmt: skip
 
 
 def extension(kind: str, name: str, options: Mapping[str, Any], context: dict[str, Any] | None = None) -> Any:
     """The named extension built with its options (supervisor.config.extensions); someone else's behind the guard
-    (vehicles.guard). The scenario's checks have built it once already: here it cannot fail."""
+    (vehicles.guard; comms.guard for a loss model, which the broker runs). The scenario's checks have built it once
+    already: here it cannot fail."""
     instance, identity = build(kind, name, dict(options), context)
-    return instance if identity.builtin else Guarded(instance, f"{kind} {name}")
+    if identity.builtin:
+        return instance
+    label = f"{kind} {name}"
+    return GuardedLoss(instance, label) if kind == "loss" else Guarded(instance, label)
 
 
 def predictor_of(scenario: Scenario) -> Predictor:

@@ -107,7 +107,7 @@ class _InProcessRun:
         """The broker's work at t: submit last step's transmissions, deliver what is due (nothing if it is down)."""
         if self.broker is None:
             return {}
-        self._record_events(self.broker.submit(self.sent, self.where, self.network))
+        self._submit(self.broker, t)
         batches, delivered = self.broker.deliver(t, self.alive)
         self._record_events(delivered)
         self._record_snapshot(self.broker.snapshot_due(t))
@@ -118,6 +118,15 @@ class _InProcessRun:
         for i, batch in out.items():
             self.rec.write(rx_key(i), t, batch.to_message())
         return out
+
+    def _submit(self, broker: BrokerCore, t: float) -> None:
+        """Last step's transmissions into the channel. A loss model behind comms.guard that fails stops the run as
+        the Zenoh engine's broker process does when it ends with that line (exit 1, the line naming the model)."""
+        try:
+            events = broker.submit(self.sent, self.where, self.network)
+        except FloatingPointError as exc:
+            raise SimulationError(f"comms broker stopped at t = {t:.1f} s ({exc})") from None
+        self._record_events(events)
 
     def _vehicle(self, i: int, plan: StepPlan, rx: RxBatch | None) -> None:
         heard = rx.heard if rx is not None else []  # None: the broker is down
@@ -174,7 +183,7 @@ class _InProcessRun:
 
     def finish(self, end: float) -> None:
         if self.broker is not None:
-            self._record_events(self.broker.submit(self.sent, self.where, self.network))
+            self._submit(self.broker, end)
             self._record_events(self.broker.deliver(end, self.alive)[1] + self.broker.finish(end))
             self._record_snapshot(self.broker.snapshot_due(end, final=True))
         self._record_events(self.books.close_open(end, "end_of_run"))  # if the broker was down at the end

@@ -6,7 +6,8 @@ it allows, or else at every step, which is optimistic); TDMA: the frame (slot x 
 period needs) with each vehicle's slot start as its offset; the delay d = airtime (packet bits / bitrate, preamble
 included) + time of flight over the mean initial distance of linked vehicles + half the jitter + the mean extra link
 delay, rounded up to the sync step as arrivals are; loss: comms.loss combined with the burst model's long-run rate,
-taken as independent (a bursty channel is worse than that), range-dependent loss left out.
+taken as independent (a bursty channel is worse than that), range-dependent loss and comms.loss_model (whose rate
+only running it tells) left out.
 """
 
 from __future__ import annotations
