@@ -30,10 +30,12 @@ readme: $(STAMP)
 	$(BIN)/python scripts/readme_numbers.py
 
 # The robustness study (README, "Robustness study"): each effect alone, fix-period and current sweeps; ~4 min of
-# CPU on 2 cores with 4 seeds. Output in runs/study/ (results.csv, table.md, study_*.png).
+# CPU on 2 cores with 4 seeds. Output in runs/study/ (results.csv, table.md, study_*.png). Then coordination on
+# slow links (README, "Coordination on slow links"): real_links.md, period_loss.csv, period_loss_map.png, ~3 min.
 SEEDS ?= 4
 study: $(STAMP)
 	$(BIN)/python scripts/robustness_study.py --seeds $(SEEDS) --jobs 2 --out runs/study
+	$(BIN)/python scripts/real_links_study.py --jobs 2 --out runs/study
 
 bench: $(STAMP)
 	$(BIN)/python -m benchmarks

@@ -72,6 +72,7 @@ def draw(error: np.ndarray, rates: np.ndarray, out: Path) -> None:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib import patheffects
 
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), constrained_layout=True)
     panels = [(np.log10(np.maximum(error, 1e-6)), "simulated: log10 coordination error, last 50 s", "viridis", error),
@@ -84,7 +85,8 @@ def draw(error: np.ndarray, rates: np.ndarray, out: Path) -> None:
         ax.set_ylabel("independent loss")
         ax.set_title(title, fontsize=10)
         for (i, j), v in np.ndenumerate(shown):
-            ax.text(j, i, f"{v:.2g}", ha="center", va="center", color="w", fontsize=8)
+            label = ax.text(j, i, f"{v:.2g}", ha="center", va="center", color="w", fontsize=8)
+            label.set_path_effects([patheffects.withStroke(linewidth=2, foreground="k")])  # legible on any colour
         fig.colorbar(image, ax=ax)
     fig.suptitle("Paper scenario (speed_cap fault included), default coordination: period x loss")
     fig.savefig(out, dpi=110)
