@@ -1,8 +1,8 @@
-"""Someone else's law, predictor or transmission policy, contained: what it raises, a non-finite result, or a call that
-overruns its CPU-time budget becomes a FloatingPointError naming it, which every engine treats as that vehicle's
-failure (vehicles.step adds the vehicle and the time; the run ends with exit 1 and that one line, or goes on without
-the vehicle if scenario.on_vehicle_loss says so). The built-ins run unguarded: they are tested, and the guard's
-clock reads would cost them a third of their time.
+"""Someone else's law, predictor, transmission policy or path-following controller, contained: what it raises, a
+non-finite result, or a call that overruns its CPU-time budget becomes a FloatingPointError naming it, which every
+engine treats as that vehicle's failure (vehicles.step adds the vehicle and the time; the run ends with exit 1 and
+that one line, or goes on without the vehicle if scenario.on_vehicle_loss says so). The built-ins run unguarded: they
+are tested, and the guard's clock reads would cost them a third of their time.
 
 The budget is CPU time of the calling thread (time.thread_time), not wall time: a loaded machine does not make a
 well-behaved extension overrun.
@@ -17,7 +17,10 @@ from dataclasses import dataclass
 from typing import Any, TypeVar
 
 from vehicles.coordination import CoordinationGains
+from vehicles.dynamics import Model, PathVectors
 from vehicles.estimates import NeighbourEstimate
+from vehicles.params import VehicleParams
+from vehicles.path_following import ControlOutput, Current
 
 CALL_BUDGET = 0.1  # s of CPU per call: ~10^4 times what a law of this kind needs
 R = TypeVar("R")
@@ -51,6 +54,22 @@ class Guarded:
     def earliest(self, lo: int, dt: float, last: float) -> int:
         earliest = getattr(self.inner, "earliest", None)
         return lo if earliest is None else int(self._call(earliest, lo, dt, last))
+
+    def control(
+        self, model: Model, params: VehicleParams, s: Sequence[float], path: PathVectors, gamma: float,
+        gamma_dot: float, v_d: float, current: Current | None,
+    ) -> ControlOutput:  # fmt: skip
+        """The controller's output checked; its drift is dropped (the plant computes its own: a wrong one must not
+        move the vehicle) and a planar vehicle's tau_q set to 0 (it has no pitch)."""
+        out = self._call(self.inner.control, model, params, s, path, gamma, gamma_dot, v_d, current)
+        try:
+            tau_u, tau_q, tau_r = out.tau
+            gamma_ddot, lyapunov = out.gamma_ddot, out.lyapunov
+        except (AttributeError, TypeError, ValueError):
+            raise FloatingPointError(f"{self.label} returned {_short(out)}, not a ControlOutput") from None
+        tau_q = self._finite(tau_q) if model.dim == 3 else 0.0
+        tau = (self._finite(tau_u), tau_q, self._finite(tau_r))
+        return ControlOutput(tau, self._finite(gamma_ddot), self._finite(lyapunov), None)
 
     def _call(self, method: Callable[..., R], *args: Any) -> R:
         start = time.thread_time()

@@ -21,11 +21,20 @@ def extension_errors(sc: Scenario) -> Iterator[str]:
         yield from _checked("transmission", "comms.transmit", tx.policy, tx.options, context)
     elif tx.options:
         yield f"comms.transmit.options: the {tx.policy} policy takes its keys from [comms.transmit], got {tx.options}"
+    pf = sc.path_following
+    if pf.controller != "backstepping":  # the built-in's gains are [path_following]'s own keys, checked by pydantic
+        yield from _checked("controller", "path_following", pf.controller, pf.controller_options)
+    elif pf.controller_options:
+        keys = "delta, k1, k2, k_zeta"
+        yield (
+            f"path_following.controller_options: backstepping takes its gains from [path_following] ({keys}), "
+            f"got {pf.controller_options}"
+        )
 
 
 # Where each kind's name and options are in a scenario, below its section.
 FIELDS = {"law": ("law", "law_options"), "predictor": ("predictor", "predictor_options"),
-          "transmission": ("policy", "options")}  # fmt: skip
+          "transmission": ("policy", "options"), "controller": ("controller", "controller_options")}  # fmt: skip
 
 
 def _checked(
@@ -43,8 +52,9 @@ def _checked(
 
 
 def extension_identities(sc: Scenario) -> list[Identity]:
-    """The identity of each extension the scenario names (law, predictor, transmission policy): what the hello
-    digest covers and the log's meta records. Call on a checked scenario: every name resolves."""
+    """The identity of each extension the scenario names (law, predictor, transmission policy, controller): what the
+    hello digest covers and the log's meta records. Call on a checked scenario: every name resolves."""
     co = sc.coordination
-    named = (("law", co.law), ("predictor", co.predictor), ("transmission", sc.comms.transmit.policy))
+    named = (("law", co.law), ("predictor", co.predictor), ("transmission", sc.comms.transmit.policy),
+             ("controller", sc.path_following.controller))  # fmt: skip
     return [resolve(kind, name)[1] for kind, name in named]

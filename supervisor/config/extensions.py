@@ -1,12 +1,13 @@
-"""Extensions: coordination laws, neighbour predictors and transmission policies named in a scenario, found,
-checked and built the same way whether they ship with cpf-cosim or with someone else's package.
+"""Extensions: coordination laws, neighbour predictors, transmission policies and path-following controllers named
+in a scenario, found, checked and built the same way whether they ship with cpf-cosim or with someone else's package.
 
 A name in a scenario is either an entry point of the group (`cpf.coordination`, `cpf.predictors`,
-`cpf.transmission`; cpf-cosim registers its built-ins there itself, pyproject.toml) or an import path
+`cpf.transmission`, `cpf.controllers`; cpf-cosim registers its built-ins there itself, pyproject.toml) or an import path
 `package.module:Name`. The object it names is a class whose fields are its options (a dataclass, or a pydantic
 model): its options table in the scenario is validated against those fields by pydantic, so a bad option is the usual
 one-line error naming the file, the field and the value. An instance must have the interface's methods
-(vehicles.coordination.CoordinationLaw, vehicles.estimates.Predictor, vehicles.transmission.TransmissionPolicy).
+(vehicles.coordination.CoordinationLaw, vehicles.estimates.Predictor, vehicles.transmission.TransmissionPolicy,
+vehicles.path_following.PathFollowingController).
 
 Each extension has an identity (its name, the object it resolves to, its distribution and version, and the SHA-256
 of its module's source): the hello digest covers it, so a vehicle on another host running other code is refused,
@@ -27,6 +28,7 @@ from typing import TYPE_CHECKING, Any
 
 from vehicles.coordination import CoordinationLaw
 from vehicles.estimates import Predictor
+from vehicles.path_following import PathFollowingController
 from vehicles.transmission import TransmissionPolicy
 
 if TYPE_CHECKING:
@@ -36,6 +38,7 @@ GROUPS: dict[str, tuple[str, type]] = {
     "law": ("cpf.coordination", CoordinationLaw),
     "predictor": ("cpf.predictors", Predictor),
     "transmission": ("cpf.transmission", TransmissionPolicy),
+    "controller": ("cpf.controllers", PathFollowingController),
 }
 OURS = "cpf-cosim"  # the distribution whose extensions are built-ins: they run without a guard
 
@@ -164,7 +167,26 @@ def instantiate(
     _, protocol = GROUPS[kind]
     if not isinstance(instance, protocol):
         return None, identity, [(None, f"{identity.target} lacks the {kind} interface ({protocol.__qualname__})")]
+    mismatch = _signature_problem(instance, protocol)
+    if mismatch:
+        return None, identity, [(None, f"{identity.target}.{mismatch}")]
     return instance, identity, []
+
+
+def _signature_problem(instance: Any, protocol: type) -> str | None:
+    """Why a method of the interface cannot be called on instance with the interface's arguments (None: it can):
+    a wrong signature is found before the run, not at its first call."""
+    for name, method in vars(protocol).items():
+        if name.startswith("_") or not callable(method):
+            continue
+        wanted = inspect.signature(method)
+        try:
+            inspect.signature(getattr(instance, name)).bind(*range(len(wanted.parameters) - 1))  # not self
+        except TypeError:
+            return f"{name} cannot be called with the interface's arguments ({', '.join(list(wanted.parameters)[1:])})"
+        except ValueError:  # no signature to read (a builtin): its calls will tell
+            continue
+    return None
 
 
 @functools.lru_cache(maxsize=256)
@@ -187,7 +209,8 @@ def _option_problem(error: Any) -> Problem:
 
 
 # Where a kind's name and options go in a scenario (for cpf plugins' table).
-KEYS = {"law": "coordination.law", "predictor": "coordination.predictor", "transmission": "comms.transmit.policy"}
+KEYS = {"law": "coordination.law", "predictor": "coordination.predictor", "transmission": "comms.transmit.policy",
+        "controller": "path_following.controller"}  # fmt: skip
 
 
 def plugins_text() -> str:

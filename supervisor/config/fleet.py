@@ -51,7 +51,7 @@ from vehicles.geometry import rotation_2d, rotation_from_rpy
 from vehicles.guard import Guarded
 from vehicles.navigation import NavParams, NavState
 from vehicles.nearest import nearest_gamma
-from vehicles.path_following import PathFollowingGains
+from vehicles.path_following import PathFollowingController
 from vehicles.paths import Circle, Helix, Lawnmower, Line, Path
 from vehicles.runtime import NodeState, Radio
 from vehicles.transmission import Policy, Tdma
@@ -75,14 +75,14 @@ def model_of(scenario: Scenario) -> Model:
 def vehicle_config(scenario: Scenario, vehicle_id: int, seed: int | None = None) -> VehicleConfig:
     """seed: the run's (cpf run --seed); None: the scenario's."""
     section = _section(scenario, vehicle_id)
-    pf, co = scenario.path_following, scenario.coordination
+    co = scenario.coordination
     run_seed = scenario.scenario.seed if seed is None else seed
     return VehicleConfig(
         vehicle_id=vehicle_id,
         model=model_of(scenario),
         params=params_of(scenario, vehicle_id),
         path=build_path(section.path),
-        path_following=PathFollowingGains(pf.delta, pf.k1, pf.k2, pf.k_zeta),
+        controller=controller_of(scenario),
         coordination=CoordinationGains(co.k, co.k2, co.v_r),
         predictor=predictor_of(scenario),
         law=extension("law", co.law, co.law_options),
@@ -227,6 +227,16 @@ def predictor_of(scenario: Scenario) -> Predictor:
     co = scenario.coordination
     predictor: Predictor = extension("predictor", co.predictor, co.predictor_options)
     return predictor
+
+
+def controller_of(scenario: Scenario) -> PathFollowingController:
+    """The path-following controller: backstepping with [path_following]'s gains, or the named one with its
+    controller_options."""
+    pf = scenario.path_following
+    gains = {"delta": pf.delta, "k1": pf.k1, "k2": pf.k2, "k_zeta": pf.k_zeta}
+    options = gains if pf.controller == "backstepping" else pf.controller_options
+    controller: PathFollowingController = extension("controller", pf.controller, options)
+    return controller
 
 
 def transmission_options(scenario: Scenario) -> dict[str, Any]:

@@ -349,7 +349,7 @@ RULES: tuple[tuple[frozenset[str], Check], ...] = (
     (frozenset({"vehicles", "faults", "scenario"}), _clock_skew),
     (frozenset({"vehicles", "coordination"}), _path_speed),
     (frozenset({"scenario", "environment"}), planar_current_errors),
-    (frozenset({"coordination", "comms"}), extension_errors),
+    (frozenset({"coordination", "comms", "path_following"}), extension_errors),
 )
 
 

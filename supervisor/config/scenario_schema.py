@@ -155,8 +155,16 @@ class VehicleModelSection(StrictModel):
 
 
 class PathFollowingSection(StrictModel):
-    """Gains of each vehicle's path-following controller (the delta-shifted backstepping design)."""
+    """Each vehicle's path-following controller: the delta-shifted backstepping design with its gains, or another."""
 
+    controller: ExtensionName = Field(
+        default="backstepping",
+        description="the path-following controller: backstepping (the delta-shifted design; its gains are this "
+        "section's delta, k1, k2, k_zeta), an installed extension's name (`cpf plugins`), or package.module:Name",
+    )
+    controller_options: dict[str, Any] = Field(
+        default_factory=dict, description="another controller's own options (its fields; backstepping takes none)"
+    )
     delta: Float = Field(
         default=-1.0, ge=-100, le=100,
         description="the controller steers the point at -delta along the body x axis onto the path, m (negative: "
