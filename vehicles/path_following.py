@@ -205,8 +205,7 @@ def _backstepping(
     nu_c_dot = alpha_dot - Delta' sigma - k2 z2 given the drift (curvature: R' p_d^gammagamma)."""
     (z1x, z1y, z1z), (sx, sy, sz), (tx, ty, tz) = z1, sigma, tangent
     u, v, w, p, q, r = s[12:18]
-    k1, delta = gains.k1, gains.delta
-    inv_delta = 1.0 / delta
+    k1, delta, inv_delta = gains.k1, gains.delta, 1.0 / gains.delta
     # z1_dot = -S(omega) z1 + Delta nu_c + nu_u - tangent gamma_dot; Delta nu_c + nu_u = (u, v - delta r, w + delta q)
     dz1x = -(q * z1z - r * z1y) + u - tx * gamma_dot
     dz1y = -(r * z1x - p * z1z) + (-delta * r + v) - ty * gamma_dot
@@ -226,8 +225,7 @@ def _backstepping(
     # nu_c_dot = alpha_dot - Delta' sigma - k2 z2, Delta' sigma = (sigma_x, delta sigma_z, -delta sigma_y)
     k2 = gains.k2
     z2u, z2q, z2r = u - alpha_u, q - alpha_q, r - alpha_r
-    # How hard each input pushes its own actuated velocity, and the inputs' limits.
-    m_u, j_q, j_r = prm.mass[0], prm.inertia[1], prm.inertia[2]
+    m_u, j_q, j_r = prm.mass[0], prm.inertia[1], prm.inertia[2]  # how hard each input pushes its own velocity
     lim_u, lim_q, lim_r = prm.max_surge_force, prm.max_torque, prm.max_torque
     tau_u = m_u * (dalpha_u - sx - k2 * z2u - du)
     tau_q = j_q * (dalpha_q - delta * sz - k2 * z2q - dq)
