@@ -145,5 +145,5 @@ def test_the_controller_of_docs_extending_builds_and_steers_as_the_builtin_with_
     cfg = vehicle_config(load_scenario(CONFIGS / "paper.toml"), 1)
     s, path = cfg.model.lift(initial_state(load_scenario(CONFIGS / "paper.toml"), cfg).x), cfg.path
     seen = cfg.model.path_seen(path.evaluate_floats(80.0))
-    want = Backstepping(delta=-0.5, k1=0.7, k2=1.5).control(cfg.model, cfg.params, s, seen, 80.0, 0.5, 1.0, None)
-    assert tight.control(cfg.model, cfg.params, s, seen, 80.0, 0.5, 1.0, None) == want
+    want = Backstepping(delta=-0.5, k1=0.7, k2=1.5).control(cfg.vehicle, cfg.params, s, seen, 80.0, 0.5, 1.0, None)
+    assert tight.control(cfg.vehicle, cfg.params, s, seen, 80.0, 0.5, 1.0, None) == want

@@ -23,6 +23,7 @@ from vehicles.path_following import ControlOutput, PathFollowingController
 from vehicles.paths import Path
 from vehicles.plant import plant_rates
 from vehicles.saturation import bounded_correction, clamp, hold, rate_bound
+from vehicles.vehicle_model import Auv, VehicleModel
 
 # Where gamma and gamma_dot sit in the integrated vector z = [lifted x, gamma, gamma_dot].
 _GAMMA, _GAMMA_DOT = LIFTED_SIZE, LIFTED_SIZE + 1
@@ -49,6 +50,14 @@ class VehicleConfig:
     navigation: NavParams | None = None  # None: the controller sees the true state
     top_speed: float | None = None  # m/s along the path: bounds |gamma_dot| (vehicles.saturation); None: unbounded
     correction_limit: float | None = None  # v_tilde -> c tanh(v_tilde / c) (vehicles.saturation); None: as law (5)
+    # The vehicle model (vehicles.vehicle_model) whose parameters are params: its dynamics drive the controller's
+    # inversion and the plant (None: the AUV of eqs. (1)-(2)); `vehicle` is the one in use.
+    vehicle_model: VehicleModel | None = None
+    vehicle: VehicleModel = field(init=False)
+
+    def __post_init__(self) -> None:
+        default = Auv(dimension=self.model.dim)  # only its dynamics count: the parameters are given
+        object.__setattr__(self, "vehicle", self.vehicle_model or default)
 
 
 @dataclass(frozen=True, slots=True)
@@ -118,14 +127,15 @@ def _closed_loop(
     known = feedforward(cfg.current, t, view) if cfg.current_known and cfg.current is not None else None
     model = cfg.model
     point = model.path_seen(cfg.path.evaluate_floats(gamma))
-    out = cfg.controller.control(model, cfg.params, view, point, gamma, gamma_dot, cfg.coordination.v_r, known)
+    vehicle = cfg.vehicle
+    out = cfg.controller.control(vehicle, cfg.params, view, point, gamma, gamma_dot, cfg.coordination.v_r, known)
     gamma_ddot = out.gamma_ddot + v_tilde  # eq. (3): the controller's part, then the coordination's
     if limits is not None:
         gamma_ddot = hold(gamma_ddot, gamma_dot, *limits)  # held at a limit: no wind-up
     # The controller's drift is of the state it sees, with its nominal parameters: the plant's own when it sees the
     # truth of a nominal plant (no current: plant_rates is then the plain kinematics), else the plant computes its own.
     own = out.drift if cfg.plant is None and held is None else None
-    xdot = plant_rates(model, cfg.plant or cfg.params, cfg.current, t, z, own, out.tau)
+    xdot = plant_rates(vehicle, cfg.plant or cfg.params, cfg.current, t, z, own, out.tau)
     p_d = point[0]
     return [*xdot, gamma_dot, gamma_ddot], out, v_tilde, (view[0] - p_d[0], view[1] - p_d[1], view[2] - p_d[2])
 

@@ -34,6 +34,7 @@ from vehicles.dynamics import Accelerations, Model, PathVectors
 from vehicles.geometry import Float3
 from vehicles.params import VehicleParams
 from vehicles.paths import Path
+from vehicles.vehicle_model import Auv, VehicleModel
 
 Current = tuple[Float3, Float3]  # (c, c_dot): the ocean current in body axes, m/s, and its derivative, m/s^2
 
@@ -52,8 +53,8 @@ class PathFollowingController(Protocol):
     """What a path-following controller computes for one vehicle at one RK4 stage (four times a step).
 
     control(model, params, s, path, gamma, gamma_dot, v_d, current) -> ControlOutput, with
-    - model: the vehicle's dynamics (vehicles.dynamics.SPATIAL or PLANAR; scenario.dimension): model.drift(s, params)
-      gives its accelerations with no input ((v_dot [m/s^2], omega_dot [rad/s^2]), body axes);
+    - model: the vehicle model (vehicles.vehicle_model.VehicleModel): model.drift(s, params) gives its accelerations
+      with no input ((v_dot [m/s^2], omega_dot [rad/s^2]), body axes), model.dimension 3 or 2 (planar);
     - params: the vehicle's nominal parameters (vehicles.params.VehicleParams: masses, damping, limits, SI units);
     - s: the state the controller sees (navigation may blur it), 18 floats in the spatial layout of
       vehicles.dynamics: p [m] (inertial, z up), R (body to inertial, row-major), v [m/s], omega [rad/s] (body axes);
@@ -67,7 +68,7 @@ class PathFollowingController(Protocol):
     Must be pure (the same result for the same arguments) and return finite numbers."""
 
     def control(
-        self, model: Model, params: VehicleParams, s: Sequence[float], path: PathVectors, gamma: float,
+        self, model: VehicleModel, params: VehicleParams, s: Sequence[float], path: PathVectors, gamma: float,
         gamma_dot: float, v_d: float, current: Current | None,
     ) -> ControlOutput: ...  # fmt: skip
 
@@ -87,7 +88,7 @@ class Backstepping:
             raise ValueError("delta must be non-zero (delta = 0 leaves the pitch and yaw rates unsteerable)")
 
     def control(
-        self, model: Model, params: VehicleParams, s: Sequence[float], path: PathVectors, gamma: float,
+        self, model: VehicleModel, params: VehicleParams, s: Sequence[float], path: PathVectors, gamma: float,
         gamma_dot: float, v_d: float, current: Current | None,
     ) -> ControlOutput:  # fmt: skip
         return law(self, model, params, s, path, gamma_dot, v_d, current)[0]
@@ -117,7 +118,7 @@ def path_following(
     """Inputs and gamma_ddot for state x on path at gamma, desired speed v_d (constant) plus correction: `law` on
     arrays (the closed loop calls the controller's `control` on floats)."""
     s, seen = model.lift(x), model.path_seen(path.evaluate_floats(gamma))
-    out, z1 = law(gains, model, prm, s, seen, gamma_dot, v_d, None)
+    out, z1 = law(gains, Auv(dimension=model.dim), prm, s, seen, gamma_dot, v_d, None)
     assert out.drift is not None
     v_dot0, w_dot0 = out.drift
     error = (s[0] - seen[0][0], s[1] - seen[0][1], s[2] - seen[0][2])
@@ -129,7 +130,7 @@ def path_following(
 
 def law(
     gains: Backstepping,
-    model: Model,
+    model: VehicleModel,
     prm: VehicleParams,
     s: Sequence[float],
     path: PathVectors,

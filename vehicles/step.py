@@ -22,7 +22,7 @@ from vehicles.report import state_report
 from vehicles.runtime import NodeState, Radio, node_step
 
 # How vehicles.guard's errors begin (its labels).
-EXTENSION_KINDS = ("law ", "predictor ", "transmission ", "controller ")
+EXTENSION_KINDS = ("law ", "predictor ", "transmission ", "controller ", "model ")
 
 
 @dataclass(frozen=True, slots=True)

@@ -1,13 +1,15 @@
-"""Extensions: coordination laws, neighbour predictors, transmission policies and path-following controllers named
-in a scenario, found, checked and built the same way whether they ship with cpf-cosim or with someone else's package.
+"""Extensions: coordination laws, neighbour predictors, transmission policies, path-following controllers and vehicle
+models named in a scenario, found, checked and built the same way whether they ship with cpf-cosim or with someone
+else's package.
 
 A name in a scenario is either an entry point of the group (`cpf.coordination`, `cpf.predictors`,
-`cpf.transmission`, `cpf.controllers`; cpf-cosim registers its built-ins there itself, pyproject.toml) or an import path
-`package.module:Name`. The object it names is a class whose fields are its options (a dataclass, or a pydantic
-model): its options table in the scenario is validated against those fields by pydantic, so a bad option is the usual
-one-line error naming the file, the field and the value. An instance must have the interface's methods
-(vehicles.coordination.CoordinationLaw, vehicles.estimates.Predictor, vehicles.transmission.TransmissionPolicy,
-vehicles.path_following.PathFollowingController).
+`cpf.transmission`, `cpf.controllers`, `cpf.vehicles`; cpf-cosim registers its built-ins there itself,
+pyproject.toml) or an import path `package.module:Name`. The object it names is a class whose fields are its options
+(a dataclass, or a pydantic model): its options table in the scenario is validated against those fields by pydantic,
+so a bad option is the usual one-line error naming the file, the field and the value. An instance must have the
+interface's methods (vehicles.coordination.CoordinationLaw, vehicles.estimates.Predictor,
+vehicles.transmission.TransmissionPolicy, vehicles.path_following.PathFollowingController,
+vehicles.vehicle_model.VehicleModel).
 
 Each extension has an identity (its name, the object it resolves to, its distribution and version, and the SHA-256
 of its module's source): the hello digest covers it, so a vehicle on another host running other code is refused,
@@ -22,14 +24,17 @@ import functools
 import hashlib
 import importlib
 import inspect
+from collections.abc import Mapping
 from dataclasses import dataclass
 from importlib import metadata
 from typing import TYPE_CHECKING, Any
 
 from vehicles.coordination import CoordinationLaw
 from vehicles.estimates import Predictor
+from vehicles.guard import Guarded
 from vehicles.path_following import PathFollowingController
 from vehicles.transmission import TransmissionPolicy
+from vehicles.vehicle_model import VehicleModel
 
 if TYPE_CHECKING:
     from pydantic import TypeAdapter
@@ -39,6 +44,7 @@ GROUPS: dict[str, tuple[str, type]] = {
     "predictor": ("cpf.predictors", Predictor),
     "transmission": ("cpf.transmission", TransmissionPolicy),
     "controller": ("cpf.controllers", PathFollowingController),
+    "model": ("cpf.vehicles", VehicleModel),
 }
 OURS = "cpf-cosim"  # the distribution whose extensions are built-ins: they run without a guard
 
@@ -140,6 +146,13 @@ def build(kind: str, name: str, options: dict[str, Any], context: dict[str, Any]
     return instance, identity
 
 
+def extension(kind: str, name: str, options: Mapping[str, Any], context: dict[str, Any] | None = None) -> Any:
+    """The named extension built with its options; someone else's behind the guard (vehicles.guard). The scenario's
+    checks have built it once already: here it cannot fail."""
+    instance, identity = build(kind, name, dict(options), context)
+    return instance if identity.builtin else Guarded(instance, f"{kind} {name}")
+
+
 def instantiate(
     kind: str, name: str, options: dict[str, Any], context: dict[str, Any] | None = None
 ) -> tuple[Any, Identity | None, list[Problem]]:
@@ -210,7 +223,7 @@ def _option_problem(error: Any) -> Problem:
 
 # Where a kind's name and options go in a scenario (for cpf plugins' table).
 KEYS = {"law": "coordination.law", "predictor": "coordination.predictor", "transmission": "comms.transmit.policy",
-        "controller": "path_following.controller"}  # fmt: skip
+        "controller": "path_following.controller", "model": "vehicle.model"}  # fmt: skip
 
 
 def plugins_text() -> str:
@@ -226,7 +239,7 @@ def plugins_text() -> str:
                 lines.append(f"  {name:<14}does not load: {exc}")
                 continue
             where = f"{identity.distribution} {identity.version}" if identity.distribution else "-"
-            options = ", ".join(sorted(_field_names(cls) - {"predictor", "v_r"})) or "-"
+            options = ", ".join(sorted(_field_names(cls) - {"predictor", "v_r", "dimension"})) or "-"
             lines.append(f"  {name:<14}{identity.target:<44}{where:<22}options: {options}")
     lines.append("or any package.module:Name in the scenario (docs/extending.md)")
     return "\n".join(lines)

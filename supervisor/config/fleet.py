@@ -6,7 +6,6 @@ Used by both engines (and by a vehicle process, which builds only its own), so v
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -27,7 +26,7 @@ from comms.messages import Message
 from comms.modem import ModemParams, modem
 from comms.state import StateReport
 from comms.stats import LinkStats
-from supervisor.config.extensions import build
+from supervisor.config.extensions import extension
 from supervisor.config.plant import current_of, plant_of
 from supervisor.config.scenario_schema import (
     BurstSection,
@@ -42,13 +41,12 @@ from supervisor.config.scenario_schema import (
     VehicleSection,
     WaterSection,
 )
-from supervisor.config.vehicle_models import params_of, top_speed_of
+from supervisor.config.vehicle_models import top_speed_of, vehicle_of
 from vehicles.agent import VehicleConfig, VehicleState
 from vehicles.coordination import CoordinationGains
 from vehicles.dynamics import PLANAR, SPATIAL, Model
 from vehicles.estimates import Predictor
 from vehicles.geometry import rotation_2d, rotation_from_rpy
-from vehicles.guard import Guarded
 from vehicles.navigation import NavParams, NavState
 from vehicles.nearest import nearest_gamma
 from vehicles.path_following import PathFollowingController
@@ -76,11 +74,12 @@ def vehicle_config(scenario: Scenario, vehicle_id: int, seed: int | None = None)
     """seed: the run's (cpf run --seed); None: the scenario's."""
     section = _section(scenario, vehicle_id)
     co = scenario.coordination
+    vehicle = vehicle_of(scenario, vehicle_id)
     run_seed = scenario.scenario.seed if seed is None else seed
     return VehicleConfig(
         vehicle_id=vehicle_id,
         model=model_of(scenario),
-        params=params_of(scenario, vehicle_id),
+        params=vehicle.parameters(),
         path=build_path(section.path),
         controller=controller_of(scenario),
         coordination=CoordinationGains(co.k, co.k2, co.v_r),
@@ -93,6 +92,7 @@ def vehicle_config(scenario: Scenario, vehicle_id: int, seed: int | None = None)
         navigation=nav_params(scenario, vehicle_id, run_seed),
         top_speed=top_speed_of(scenario, vehicle_id),
         correction_limit=scenario.saturation.correction,
+        vehicle_model=vehicle,
     )
 
 
@@ -214,13 +214,6 @@ def channel_params(scenario: Scenario) -> ChannelParams:
         sound_speed(scenario), radio_modem, c.packet_bytes, c.jitter, _loss_model(ranged, c.loss, c.burst), links,
         capture,
     )  # fmt: skip
-
-
-def extension(kind: str, name: str, options: Mapping[str, Any], context: dict[str, Any] | None = None) -> Any:
-    """The named extension built with its options (supervisor.config.extensions); someone else's behind the guard
-    (vehicles.guard). The scenario's checks have built it once already: here it cannot fail."""
-    instance, identity = build(kind, name, dict(options), context)
-    return instance if identity.builtin else Guarded(instance, f"{kind} {name}")
 
 
 def predictor_of(scenario: Scenario) -> Predictor:

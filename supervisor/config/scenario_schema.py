@@ -138,7 +138,8 @@ def _known(value: str | None) -> str | None:
 
 
 class VehicleModelSection(StrictModel):
-    """The vehicle model every AUV of the fleet uses: a named preset (cpf presets lists them) and changes to it."""
+    """The vehicle model every AUV of the fleet uses: a named preset (cpf presets lists them) and changes to it, or
+    another model (`model`)."""
 
     preset: str = Field(default="remus100", description="vehicle preset", json_schema_extra=one_of(PRESETS))
     # Names and shapes (number or 3-vector) are checked against the preset by _check_overrides.
@@ -150,6 +151,11 @@ class VehicleModelSection(StrictModel):
     )
 
     uncertainty: Uncertainty = Field(default=0.0, description=UNCERTAINTY_DESCRIPTION, json_schema_extra=as_any_of)
+    model: ExtensionName | None = Field(
+        default=None, description="another vehicle model for the whole fleet, instead of the preset: an installed "
+        "extension's name (`cpf plugins`) or package.module:Name; absent: the preset (with its overrides)",
+    )  # fmt: skip
+    model_options: dict[str, Any] = Field(default_factory=dict, description="that model's own options (its fields)")
 
     _known_preset = field_validator("preset")(lambda value: _known(value))
 

@@ -10,9 +10,10 @@ from typing import Annotated
 
 from annotated_types import Gt
 
-from vehicles.dynamics import Model, PathVectors
+from vehicles.dynamics import PathVectors
 from vehicles.params import VehicleParams
 from vehicles.path_following import Backstepping, ControlOutput, Current
+from vehicles.vehicle_model import VehicleModel
 
 
 @dataclass(frozen=True)
@@ -23,7 +24,7 @@ class Retuned:
     k2: Annotated[float, Gt(0)] = 1.5
 
     def control(
-        self, model: Model, params: VehicleParams, s: Sequence[float], path: PathVectors, gamma: float,
+        self, model: VehicleModel, params: VehicleParams, s: Sequence[float], path: PathVectors, gamma: float,
         gamma_dot: float, v_d: float, current: Current | None,
     ) -> ControlOutput:  # fmt: skip
         inner = Backstepping(delta=-0.5, k1=self.k1, k2=self.k2, k_zeta=1.0)
