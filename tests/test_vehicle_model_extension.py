@@ -8,6 +8,7 @@ built through the same registry with [vehicle] overrides as their options.
 
 from __future__ import annotations
 
+import re
 from dataclasses import replace
 from pathlib import Path
 
@@ -138,3 +139,15 @@ def test_cpf_plugins_lists_the_presets_as_vehicle_models(tmp_path):
     for name, cls in (("remus100", "Remus100"), ("remus100_neutral", "Remus100Neutral")):
         assert f"  {name:<14}vehicles.vehicle_model:{cls} " in done.stdout
     assert "options: angular_linear_damping, angular_quadratic_damping, buoyancy, center_of_buoyancy" in done.stdout
+
+
+def test_the_vehicle_model_of_docs_extending_builds_with_its_numbers(tmp_path, monkeypatch):
+    doc = (ROOT / "docs" / "extending.md").read_text(encoding="utf-8")
+    (code,) = re.findall(r"<!-- a vehicle model, checked by [^>]*-->\n```python\n(.*?)```", doc, flags=re.S)
+    (tmp_path / "doc_vehicle.py").write_text(code)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    heavy, identity = build("model", "doc_vehicle:Heavy", {"max_torque": 15.0}, {"dimension": 2})
+    assert not identity.builtin and heavy.dimension == 2
+    params = heavy.parameters()
+    assert params.mass == (43.9, 72.5, 72.5) and params.max_torque == 15.0
+    assert params.linear_damping == PRESETS["remus100"].linear_damping  # what it does not change is the preset's
