@@ -84,8 +84,8 @@ def _checked(
 
 def extension_identities(sc: Scenario) -> list[Identity]:
     """The identity of each extension the scenario names (law, predictor, transmission policy, controller, vehicle
-    models: the fleet's presets, or its model): what the
-    hello digest covers and the log's meta records. Call on a checked scenario: every name resolves."""
+    models: the fleet's presets, or its model): what the hello digest covers and the log's meta records. Call on a
+    checked scenario: every name resolves."""
     co = sc.coordination
     named = [("law", co.law), ("predictor", co.predictor), ("transmission", sc.comms.transmit.policy),
              ("controller", sc.path_following.controller)]  # fmt: skip

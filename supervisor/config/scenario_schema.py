@@ -380,11 +380,6 @@ class Scenario(StrictModel):
     def vehicle_ids(self) -> list[int]:
         return [v.id for v in self.vehicles]
 
-    def vehicle_params(self) -> VehicleParams:
-        from vehicles.params import preset
-
-        return preset(self.vehicle.preset, **self.vehicle.overrides)
-
     def neighbours(self, vehicle_id: int) -> list[int]:
         """N_i of the scenario's graph, in ascending order."""
         out = {j for i, j in self.graph.edges if i == vehicle_id} | {i for i, j in self.graph.edges if j == vehicle_id}
