@@ -14,6 +14,7 @@ from pathlib import Path
 
 import pytest
 
+from supervisor.config.explain import what_would_run
 from supervisor.config.extensions import build
 from supervisor.config.fleet import vehicle_config
 from supervisor.config.scenario import load_scenario
@@ -127,7 +128,9 @@ def test_the_presets_are_built_through_the_registry_with_their_overrides_as_opti
     sc = load_scenario(CONFIGS / "paper.toml", settings)
     assert params_of(sc, 1) == replace(PRESETS[sc.vehicle.preset], max_torque=12.0)
     assert params_of(sc, 2) == replace(PRESETS["remus100_legacy"], max_torque=12.0, weight=300.0)
-    users = vehicle_config(load_scenario(CONFIGS / "paper.toml", [HEAVY]), 1)
+    heavy = load_scenario(CONFIGS / "paper.toml", [HEAVY])
+    assert f"3 vehicles ({SAMPLES}:Heavy, the 6-DOF model)" in what_would_run(heavy)  # cpf validate's paragraph
+    users = vehicle_config(heavy, 1)
     assert isinstance(users.vehicle, Guarded) and users.vehicle.label == f"model {SAMPLES}:Heavy"
     assert users.params.mass == (43.9, 72.5, 72.5)
 
