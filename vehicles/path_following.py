@@ -44,7 +44,7 @@ class ControlOutput(NamedTuple):
 
     tau: Float3  # (tau_u [N], tau_q [N m], tau_r [N m]) within the vehicle's limits; a planar vehicle's tau_q is 0
     gamma_ddot: float  # path-parameter acceleration without the coordination correction, unit of gamma per s^2
-    lyapunov: float  # the controller's Lyapunov value V (dimensionless here), recorded in every state message
+    lyapunov: float  # the value of its Lyapunov function (the built-in's: V above), recorded in every state message
     drift: Accelerations | None  # model.drift(s, params) if it computed it (the plant then reuses it), else None
 
 
