@@ -139,8 +139,13 @@ def test_cpf_plugins_lists_the_presets_as_vehicle_models(tmp_path):
     done = cpf("plugins", cwd=tmp_path)
     assert done.returncode == 0
     assert "vehicle.model (entry points cpf.vehicles):" in done.stdout
-    for name, cls in (("remus100", "Remus100"), ("remus100_neutral", "Remus100Neutral")):
-        assert f"  {name:<14}vehicles.vehicle_model:{cls} " in done.stdout
+    rows = [line for line in done.stdout.splitlines() if "vehicles.vehicle_model:" in line]
+    assert [row.split()[:2] for row in rows] == [
+        ["remus100", "vehicles.vehicle_model:Remus100"],
+        ["remus100_legacy", "vehicles.vehicle_model:Remus100Legacy"],
+        ["remus100_neutral", "vehicles.vehicle_model:Remus100Neutral"],
+    ]
+    assert len({row.index("vehicles.vehicle_model:") for row in rows}) == 1  # one column, the longest name too
     assert "options: angular_linear_damping, angular_quadratic_damping, buoyancy, center_of_buoyancy" in done.stdout
 
 

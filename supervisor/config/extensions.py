@@ -232,14 +232,16 @@ def plugins_text() -> str:
     lines: list[str] = []
     for kind, (group, _) in GROUPS.items():
         lines.append(f"{KEYS[kind]} (entry points {group}):")
-        for name in sorted(available(kind)):
+        names = sorted(available(kind))
+        width = max([12, *map(len, names)]) + 2  # a column per group: a long name does not shift the others
+        for name in names:
             try:
                 cls, identity = resolve(kind, name)
             except ValueError as exc:
-                lines.append(f"  {name:<14}does not load: {exc}")
+                lines.append(f"  {name:<{width}}does not load: {exc}")
                 continue
             where = f"{identity.distribution} {identity.version}" if identity.distribution else "-"
             options = ", ".join(sorted(_field_names(cls) - {"predictor", "v_r", "dimension"})) or "-"
-            lines.append(f"  {name:<14}{identity.target:<44}{where:<22}options: {options}")
+            lines.append(f"  {name:<{width}}{identity.target:<44}{where:<22}options: {options}")
     lines.append("or any package.module:Name in the scenario (docs/extending.md)")
     return "\n".join(lines)
