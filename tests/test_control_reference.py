@@ -19,11 +19,11 @@ from vehicles.coordination import CoordinationGains
 from vehicles.dynamics import PLANAR, SPATIAL, Model
 from vehicles.geometry import rotation_2d, rotation_from_rpy
 from vehicles.params import PRESETS, VehicleParams
-from vehicles.path_following import PathFollowingGains, path_following
+from vehicles.path_following import Backstepping, path_following
 from vehicles.paths import Helix, Lawnmower, Path
 
 REMUS = PRESETS["remus100"]
-GAINS = PathFollowingGains(delta=-1.0, k1=0.5, k2=1.0, k_zeta=1.0)
+GAINS = Backstepping(delta=-1.0, k1=0.5, k2=1.0, k_zeta=1.0)
 # A climbing helix for both models: the planar vehicle must follow its horizontal projection.
 HELIX = Helix(radius=20.0, climb=0.05, period=400.0, phase=-3 * math.pi / 4, center=(1.0, -2.0, -7.0))
 SURVEY = Lawnmower(origin=(0.0, 0.0, -4.0), leg_length=40.0, spacing=10.0, legs=3, heading=0.4)
@@ -66,7 +66,7 @@ def input_inertia_and_limits(model: Model, prm: VehicleParams) -> tuple[FloatArr
 
 
 def reference_controller(
-    model: Model, prm: VehicleParams, gains: PathFollowingGains, path: Path, x: FloatArray,
+    model: Model, prm: VehicleParams, gains: Backstepping, path: Path, x: FloatArray,
     gamma: float, gamma_dot: float, v_d: float, correction: float,
 ) -> Reference:  # fmt: skip
     """The equations of vehicles.path_following's docstring, line by line, in numpy."""
@@ -148,7 +148,7 @@ def reference_step(cfg: VehicleConfig, x: FloatArray, gamma: float, gamma_dot: f
     def closed_loop(z: FloatArray) -> FloatArray:
         g_dot = float(z[n + 1])
         v_tilde = -cfg.coordination.k2 * (g_dot - v_r)  # law (5), corrected, with no neighbours
-        out = path_following(cfg.model, cfg.params, cfg.path_following, cfg.path, z[:n], z[n], g_dot, v_r, v_tilde)
+        out = path_following(cfg.model, cfg.params, GAINS, cfg.path, z[:n], z[n], g_dot, v_r, v_tilde)
         return np.concatenate((cfg.model.derivative(z[:n], out.tau, cfg.params), [g_dot, out.gamma_ddot]))
 
     z = np.concatenate((x, [gamma, gamma_dot]))

@@ -22,6 +22,7 @@ from vehicles.dynamics import PLANAR, SPATIAL, Model, reorthonormalize
 from vehicles.geometry import rotation_from_rpy
 from vehicles.params import PRESETS
 from vehicles.plant import plant_rates
+from vehicles.vehicle_model import Remus100Neutral
 
 NEUTRAL = replace(PRESETS["remus100"], buoyancy=PRESETS["remus100"].weight)
 
@@ -45,7 +46,9 @@ def coast(model: Model, current: Current, seconds: float, dt: float = 0.05) -> l
         ks: list[tuple[float, ...]] = []
         for h in (0.0, dt / 2, dt / 2, dt):
             point = s if not ks else [a + h * b for a, b in zip(s, ks[-1], strict=True)]
-            ks.append(plant_rates(model, NEUTRAL, current, t + h, point, None, (0.0, 0.0, 0.0)))
+            ks.append(
+                plant_rates(Remus100Neutral(dimension=model.dim), NEUTRAL, current, t + h, point, None, (0.0, 0.0, 0.0))
+            )
         s = [a + dt / 6 * (b1 + 2 * b2 + 2 * b3 + b4) for a, b1, b2, b3, b4 in zip(s, *ks, strict=True)]
         s = reorthonormalize(s)
         t += dt
@@ -89,7 +92,7 @@ def test_the_feedforward_is_the_body_current_and_its_derivative_along_the_motion
     s, t, h = SPATIAL.lift(x), 7.0, 1e-5
     c, c_dot = feedforward(current, t, s)
     tau = (0.0, 0.0, 0.0)
-    xdot = plant_rates(SPATIAL, NEUTRAL, current, t, s, None, tau)
+    xdot = plant_rates(Remus100Neutral(), NEUTRAL, current, t, s, None, tau)
     ahead = [a + h * b for a, b in zip(s, xdot, strict=True)]
     behind = [a - h * b for a, b in zip(s, xdot, strict=True)]
     numeric = [(a - b) / (2 * h) for a, b in zip(feedforward(current, t + h, ahead)[0],

@@ -15,12 +15,12 @@ from vehicles.dynamics import PLANAR, SPATIAL
 from vehicles.geometry import rotation_2d, rotation_from_rpy
 from vehicles.nearest import closest_gamma
 from vehicles.params import PRESETS
-from vehicles.path_following import PathFollowingGains
+from vehicles.path_following import Backstepping
 from vehicles.paths import Circle, Helix, Lawnmower, Line, Path
 
 REMUS = PRESETS["remus100"]
 PAPER_HELIX = Helix(radius=20.0, climb=0.05, period=400.0, phase=-3 * math.pi / 4)
-GAINS = PathFollowingGains(delta=-1.0, k1=0.5, k2=1.0, k_zeta=1.0)
+GAINS = Backstepping(delta=-1.0, k1=0.5, k2=1.0, k_zeta=1.0)
 
 
 def run_alone(path: Path, x0: np.ndarray, seconds: float, planar: bool = False, dt: float = 0.05, params=REMUS):

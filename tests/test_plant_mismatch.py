@@ -58,9 +58,10 @@ def test_the_draw_depends_on_seed_and_vehicle_only_and_per_group_spreads_keep_th
 def test_the_scenario_draws_one_plant_per_vehicle_and_the_controller_keeps_the_nominal_model():
     sc = scenario("vehicle.uncertainty=0.2", "scenario.seed=5")
     configs = [vehicle_config(sc, i) for i in sc.vehicle_ids]
-    assert all(c.params == sc.vehicle_params() for c in configs)
+    nominal = dataclasses.replace(PRESETS[sc.vehicle.preset], **sc.vehicle.overrides)
+    assert all(c.params == nominal for c in configs)
     plants = [c.plant for c in configs]
-    assert all(p is not None and p != sc.vehicle_params() for p in plants)
+    assert all(p is not None and p != nominal for p in plants)
     assert len({p for p in plants}) == 3
     assert plants[1] == plant_of(sc, 2)  # the same draw wherever it is made
     assert vehicle_config(scenario(), 1).plant is None  # off by default

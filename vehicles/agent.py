@@ -14,14 +14,16 @@ from dataclasses import dataclass, field
 from comms.records import Disturbances, FloatArray
 from vehicles.coordination import CoordinationGains, CoordinationLaw, Corrected
 from vehicles.current import Current, feedforward
-from vehicles.dynamics import LIFTED_SIZE, Model, reorthonormalize
+from vehicles.dynamics import LIFTED_SIZE, Model, PathVectors, reorthonormalize
 from vehicles.estimates import FirstOrder, NeighbourEstimate, Predictor, fresh, newer
+from vehicles.geometry import Float3
 from vehicles.navigation import HeldError, NavParams, seen
 from vehicles.params import VehicleParams
-from vehicles.path_following import Control, ControllerConstants, PathFollowingGains, control
+from vehicles.path_following import ControlOutput, PathFollowingController
 from vehicles.paths import Path
 from vehicles.plant import plant_rates
-from vehicles.saturation import bounded_correction, clamp, correction_bound, hold, rate_bound
+from vehicles.saturation import bounded_correction, clamp, hold, rate_bound, slope_size
+from vehicles.vehicle_model import Auv, VehicleModel
 
 # Where gamma and gamma_dot sit in the integrated vector z = [lifted x, gamma, gamma_dot].
 _GAMMA, _GAMMA_DOT = LIFTED_SIZE, LIFTED_SIZE + 1
@@ -34,12 +36,11 @@ class VehicleConfig:
     model: Model
     params: VehicleParams
     path: Path
-    path_following: PathFollowingGains
+    controller: PathFollowingController  # vehicles.path_following: tau and gamma_ddot from the state and the path
     coordination: CoordinationGains
     predictor: Predictor = field(default_factory=FirstOrder)  # vehicles.estimates: how neighbours are predicted
     law: CoordinationLaw = field(default_factory=Corrected)  # vehicles.coordination: v_tilde from them
     max_age: float | None = None  # s after which a neighbour's estimate stops counting (None: never)
-    constants: ControllerConstants = field(init=False)
     # The plant where it is not the controller's model (vehicles.plant): params are then the controller's nominal
     # ones, plant the true ones (None: the same); the ocean current (None: still water) and whether the controller
     # knows it.
@@ -51,10 +52,14 @@ class VehicleConfig:
     correction_limit: float | None = None  # v_tilde -> c tanh(v_tilde / c) (vehicles.saturation); None: as law (5)
     # m/s^2 the correction may accelerate the path's point by: v_tilde bounded by it / |p_d^gamma| (None: no bound)
     correction_acceleration: float | None = None
+    # The vehicle model (vehicles.vehicle_model) whose parameters are params: its dynamics drive the controller's
+    # inversion and the plant (None: the AUV of eqs. (1)-(2)); `vehicle` is the one in use.
+    vehicle_model: VehicleModel | None = None
+    vehicle: VehicleModel = field(init=False)
 
     def __post_init__(self) -> None:
-        # Computed once per vehicle: the controller uses them at every RK4 stage.
-        object.__setattr__(self, "constants", ControllerConstants.of(self.params, self.path_following))
+        default = Auv(dimension=self.model.dim)  # only its dynamics count: the parameters are given
+        object.__setattr__(self, "vehicle", self.vehicle_model or default)
 
 
 @dataclass(frozen=True, slots=True)
@@ -108,38 +113,41 @@ def _closed_loop(
     dist: Disturbances,
     t: float,
     held: HeldError | None = None,
-) -> tuple[list[float], Control, float]:
-    """Derivative of z = [lifted x, gamma, gamma_dot] at the stage's time t, with the controller outputs and v_tilde
-    that produced it; heard: the neighbours' predicted (gamma_j, gamma_dot_j) then (_neighbour_values); held: the
-    navigation error the controller sees the stage state with (None: it sees the truth)."""
+) -> tuple[list[float], ControlOutput, float, Float3]:
+    """Derivative of z = [lifted x, gamma, gamma_dot] at the stage's time t, with the controller's outputs, v_tilde
+    and the error p - p_d(gamma) the controller saw [m]; heard: the neighbours' predicted (gamma_j, gamma_dot_j) then
+    (_neighbour_values); held: the navigation error the controller sees the stage state with (None: it sees the
+    truth)."""
     gamma, gamma_dot = z[_GAMMA], z[_GAMMA_DOT]
     limits = _rate_limits(cfg, dist, gamma)
     if limits is not None:
         gamma_dot = clamp(gamma_dot, *limits)
-    v_tilde = _bounded(cfg, gamma, cfg.law.correction(gamma, gamma_dot, heard, cfg.coordination))
+    point = cfg.model.path_seen(cfg.path.evaluate_floats(gamma))
+    v_tilde = _bounded(cfg, point, cfg.law.correction(gamma, gamma_dot, heard, cfg.coordination))
     view = z if held is None else seen(z, held)
     known = feedforward(cfg.current, t, view) if cfg.current_known and cfg.current is not None else None
-    out = control(
-        cfg.model, cfg.params, cfg.constants, cfg.path, view, gamma, gamma_dot, cfg.coordination.v_r, v_tilde, known
-    )
-    gamma_ddot = out.gamma_ddot
+    vehicle = cfg.vehicle
+    out = cfg.controller.control(vehicle, cfg.params, view, point, gamma, gamma_dot, cfg.coordination.v_r, known)
+    gamma_ddot = out.gamma_ddot + v_tilde  # eq. (3): the controller's part, then the coordination's
     if limits is not None:
         gamma_ddot = hold(gamma_ddot, gamma_dot, *limits)  # held at a limit: no wind-up
     # The controller's drift is of the state it sees, with its nominal parameters: the plant's own when it sees the
     # truth of a nominal plant (no current: plant_rates is then the plain kinematics), else the plant computes its own.
     own = out.drift if cfg.plant is None and held is None else None
-    xdot = plant_rates(cfg.model, cfg.plant or cfg.params, cfg.current, t, z, own, out.tau)
-    return [*xdot, gamma_dot, gamma_ddot], out, v_tilde
+    xdot = plant_rates(vehicle, cfg.plant or cfg.params, cfg.current, t, z, own, out.tau)
+    p_d = point[0]
+    return [*xdot, gamma_dot, gamma_ddot], out, v_tilde, (view[0] - p_d[0], view[1] - p_d[1], view[2] - p_d[2])
 
 
-def _bounded(cfg: VehicleConfig, gamma: float, v_tilde: float) -> float:
-    """The law's correction within the [saturation] bounds: a given c, and what the vehicle's thrust allows."""
+def _bounded(cfg: VehicleConfig, point: PathVectors, v_tilde: float) -> float:
+    """The law's correction within the [saturation] bounds: a given c, and what the vehicle's thrust allows at the
+    path point (as the model sees it) where the vehicle's gamma is."""
     if cfg.correction_limit is not None:
         v_tilde = bounded_correction(v_tilde, cfg.correction_limit)
     if cfg.correction_acceleration is not None:
-        limit = correction_bound(cfg.model, cfg.path, gamma, cfg.correction_acceleration)
-        if limit < math.inf:
-            v_tilde = bounded_correction(v_tilde, limit)
+        size = slope_size(point)
+        if size > 0.0:  # where the path does not move with gamma, nothing to bound
+            v_tilde = bounded_correction(v_tilde, cfg.correction_acceleration / size)
     return v_tilde
 
 
@@ -176,7 +184,7 @@ def step(
     z = [*model.lift(state.x), float(state.gamma), float(state.gamma_dot)]
     # The estimates do not change within a step: the two midpoint stages predict the neighbours at the same time.
     mid = _neighbour_values(cfg, state, t + dt / 2, neighbours)
-    k1, out, v_tilde = _closed_loop(cfg, z, _neighbour_values(cfg, state, t, neighbours), dist, t, held)
+    k1, out, v_tilde, seen_error = _closed_loop(cfg, z, _neighbour_values(cfg, state, t, neighbours), dist, t, held)
     k2 = _closed_loop(cfg, _advance(z, dt / 2, k1), mid, dist, t + dt / 2, held)[0]
     k3 = _closed_loop(cfg, _advance(z, dt / 2, k2), mid, dist, t + dt / 2, held)[0]
     end = _neighbour_values(cfg, state, t + dt, neighbours)
@@ -187,7 +195,7 @@ def step(
     limits = _rate_limits(cfg, dist, z_next[_GAMMA])
     if limits is not None:
         gamma_dot_next = clamp(gamma_dot_next, *limits)
-    error = out.error if held is None else _true_error(out.error, held)
+    error = seen_error if held is None else _true_error(seen_error, held)
     telemetry = Telemetry(
         cfg.vehicle_id, t, state.gamma, z[_GAMMA_DOT], state.x, model.vector(error), model.inputs(out.tau),
         v_tilde, out.lyapunov,

@@ -1,8 +1,8 @@
-"""Someone else's law, predictor or transmission policy, contained: what it raises, a non-finite result, or a call that
-overruns its CPU-time budget becomes a FloatingPointError naming it, which every engine treats as that vehicle's
-failure (vehicles.step adds the vehicle and the time; the run ends with exit 1 and that one line, or goes on without
-the vehicle if scenario.on_vehicle_loss says so). The built-ins run unguarded: they are tested, and the guard's
-clock reads would cost them a third of their time.
+"""Someone else's law, predictor, transmission policy, path-following controller or vehicle model, contained: what
+it raises, a non-finite result, or a call that overruns its CPU-time budget becomes a FloatingPointError naming it,
+which every engine treats as that vehicle's failure (vehicles.step adds the vehicle and the time; the run ends with
+exit 1 and that one line, or goes on without the vehicle if scenario.on_vehicle_loss says so). The built-ins run
+unguarded: they are tested, and the guard's clock reads would cost them a third of their time.
 
 The call itself (exception and CPU budget: time.thread_time, not wall time) is comms.guard's, which the channel's
 loss models share.
@@ -17,7 +17,11 @@ from typing import Any, TypeVar
 
 from comms.guard import CALL_BUDGET, guarded_call, short
 from vehicles.coordination import CoordinationGains
+from vehicles.dynamics import Accelerations, PathVectors
 from vehicles.estimates import NeighbourEstimate
+from vehicles.params import VehicleParams
+from vehicles.path_following import ControlOutput, Current
+from vehicles.vehicle_model import VehicleModel
 
 R = TypeVar("R")
 
@@ -50,6 +54,42 @@ class Guarded:
     def earliest(self, lo: int, dt: float, last: float) -> int:
         earliest = getattr(self.inner, "earliest", None)
         return lo if earliest is None else int(self._call(earliest, lo, dt, last))
+
+    def control(
+        self, model: VehicleModel, params: VehicleParams, s: Sequence[float], path: PathVectors, gamma: float,
+        gamma_dot: float, v_d: float, current: Current | None,
+    ) -> ControlOutput:  # fmt: skip
+        """The controller's output checked; its drift is dropped (the plant computes its own: a wrong one must not
+        move the vehicle) and a planar vehicle's tau_q set to 0 (it has no pitch)."""
+        out = self._call(self.inner.control, model, params, s, path, gamma, gamma_dot, v_d, current)
+        try:
+            tau_u, tau_q, tau_r = out.tau
+            gamma_ddot, lyapunov = out.gamma_ddot, out.lyapunov
+        except (AttributeError, TypeError, ValueError):
+            raise FloatingPointError(f"{self.label} returned {short(out)}, not a ControlOutput") from None
+        tau_q = self._finite(tau_q) if model.dimension == 3 else 0.0
+        tau = (self._finite(tau_u), tau_q, self._finite(tau_r))
+        return ControlOutput(tau, self._finite(gamma_ddot), self._finite(lyapunov), None)
+
+    @property
+    def dimension(self) -> int:
+        """A vehicle model's (the scenario's, given to it when built)."""
+        return int(self.inner.dimension)
+
+    def parameters(self) -> VehicleParams:
+        value = self._call(self.inner.parameters)
+        if not isinstance(value, VehicleParams):
+            raise FloatingPointError(f"{self.label} returned {short(value)}, not a VehicleParams")
+        return value
+
+    def drift(self, s: Sequence[float], params: VehicleParams) -> Accelerations:
+        value = self._call(self.inner.drift, s, params)
+        try:
+            (du, dv, dw), (dp, dq, dr) = value
+        except (TypeError, ValueError):
+            raise FloatingPointError(f"{self.label} returned {short(value)}, not (v_dot, omega_dot)") from None
+        linear = (self._finite(du), self._finite(dv), self._finite(dw))
+        return linear, (self._finite(dp), self._finite(dq), self._finite(dr))
 
     def _call(self, method: Callable[..., R], *args: Any) -> R:
         return guarded_call(self.label, self.budget, method, *args)

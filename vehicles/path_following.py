@@ -13,8 +13,11 @@ every direction:
 
 V = (rho - 1) + zeta^2 / 2 + |z2|^2 / 2 has V_dot = -sigma' K1 sigma - k_zeta zeta^2 - z2' K2 z2 + zeta v_tilde,
 so with no coordination input and no saturation V never increases, and the vehicle converges to the tube
-|p - p_d| -> |delta| around its path. `control` writes the law once, in floats on the lifted state (see
-vehicles.dynamics), for the spatial and the planar model; `path_following` is its array interface.
+|p - p_d| -> |delta| around its path. `law` writes it once, in floats on the lifted state (see vehicles.dynamics),
+for the spatial and the planar model; `path_following` is its array interface.
+
+A controller is any object with the `PathFollowingController` interface; the built-in `Backstepping` is registered
+under the entry-point group `cpf.controllers` like any extension (docs/extending.md).
 """
 
 from __future__ import annotations
@@ -22,23 +25,73 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import Annotated, NamedTuple, Protocol, runtime_checkable
+
+from annotated_types import Gt
 
 from comms.records import FloatArray
-from vehicles.dynamics import Accelerations, Model
+from vehicles.dynamics import Accelerations, Model, PathVectors
 from vehicles.geometry import Float3
 from vehicles.params import VehicleParams
 from vehicles.paths import Path
+from vehicles.vehicle_model import Auv, VehicleModel
+
+Current = tuple[Float3, Float3]  # (c, c_dot): the ocean current in body axes, m/s, and its derivative, m/s^2
+
+
+class ControlOutput(NamedTuple):
+    """What a path-following controller gives at one evaluation (an RK4 stage)."""
+
+    tau: Float3  # (tau_u [N], tau_q [N m], tau_r [N m]) within the vehicle's limits; a planar vehicle's tau_q is 0
+    gamma_ddot: float  # path-parameter acceleration without the coordination correction, unit of gamma per s^2
+    lyapunov: float  # the value of its Lyapunov function (the built-in's: V above), recorded in every state message
+    drift: Accelerations | None  # model.drift(s, params) if it computed it (the plant then reuses it), else None
+
+
+@runtime_checkable
+class PathFollowingController(Protocol):
+    """What a path-following controller computes for one vehicle at one RK4 stage (four times a step).
+
+    control(model, params, s, path, gamma, gamma_dot, v_d, current) -> ControlOutput, with
+    - model: the vehicle model (vehicles.vehicle_model.VehicleModel): model.drift(s, params) gives its accelerations
+      with no input ((v_dot [m/s^2], omega_dot [rad/s^2]), body axes), model.dimension 3 or 2 (planar);
+    - params: the vehicle's nominal parameters (vehicles.params.VehicleParams: masses, damping, limits, SI units);
+    - s: the state the controller sees (navigation may blur it), 18 floats in the spatial layout of
+      vehicles.dynamics: p [m] (inertial, z up), R (body to inertial, row-major), v [m/s], omega [rad/s] (body axes);
+      a planar vehicle's has z = 0 and no heave, roll or pitch;
+    - path: (p_d, dp_d/dgamma, d2p_d/dgamma2) at gamma, in m, m per unit of gamma, m per unit of gamma^2 (inertial;
+      a planar vehicle sees their horizontal projection);
+    - gamma [unit of gamma], gamma_dot [unit of gamma per s]: the path parameter and its rate;
+    - v_d: the desired rate of gamma, the fleet's v_r [unit of gamma per s];
+    - current: (c, c_dot), the ocean current in body axes if the scenario makes it known to the controller, else None.
+    gamma_ddot is the paper's eq. (3) without the coordination term: the fleet adds v_tilde (docs/extending.md).
+    Must be pure (the same result for the same arguments) and return finite numbers."""
+
+    def control(
+        self, model: VehicleModel, params: VehicleParams, s: Sequence[float], path: PathVectors, gamma: float,
+        gamma_dot: float, v_d: float, current: Current | None,
+    ) -> ControlOutput: ...  # fmt: skip
 
 
 @dataclass(frozen=True, slots=True)
-class PathFollowingGains:
-    """delta in m (non-zero; its size is the tube radius), k1 in m/s, k2 and k_zeta in 1/s."""
+class Backstepping:
+    """The delta-shifted backstepping controller of the module docstring (entry point `backstepping`): delta in m
+    (non-zero; its size is the tube radius), k1 in m/s, k2 and k_zeta in 1/s."""
 
     delta: float = -1.0
-    k1: float = 0.5
-    k2: float = 1.0
-    k_zeta: float = 1.0
+    k1: Annotated[float, Gt(0)] = 0.5
+    k2: Annotated[float, Gt(0)] = 1.0
+    k_zeta: Annotated[float, Gt(0)] = 1.0
+
+    def __post_init__(self) -> None:
+        if self.delta == 0.0:
+            raise ValueError("delta must be non-zero (delta = 0 leaves the pitch and yaw rates unsteerable)")
+
+    def control(
+        self, model: VehicleModel, params: VehicleParams, s: Sequence[float], path: PathVectors, gamma: float,
+        gamma_dot: float, v_d: float, current: Current | None,
+    ) -> ControlOutput:  # fmt: skip
+        return law(self, model, params, s, path, gamma_dot, v_d, current)[0]
 
 
 @dataclass(frozen=True, slots=True)
@@ -51,38 +104,10 @@ class PathFollowingOutput:
     drift: tuple[FloatArray, FloatArray]  # (v_dot, omega_dot) with no input: the model adds tau's part
 
 
-class Control(NamedTuple):
-    """The controller's outputs in floats, in 3-D (a planar vehicle's: the restriction, see `control`)."""
-
-    tau: Float3  # saturated (tau_u, tau_q, tau_r)
-    gamma_ddot: float
-    error: Float3
-    z1: Float3
-    lyapunov: float
-    drift: Accelerations
-
-
-@dataclass(frozen=True, slots=True)
-class ControllerConstants:
-    """What the controller uses at every evaluation and never changes for a vehicle: computed once."""
-
-    gains: PathFollowingGains
-    inverse_delta: float
-    input_inertia: Float3  # how hard each input pushes its own actuated velocity: (m_u, J_q, J_r)
-    limits: Float3  # |tau_u|, |tau_q|, |tau_r|
-
-    @staticmethod
-    def of(prm: VehicleParams, gains: PathFollowingGains) -> ControllerConstants:
-        return ControllerConstants(
-            gains, 1.0 / gains.delta, (prm.mass[0], prm.inertia[1], prm.inertia[2]),
-            (prm.max_surge_force, prm.max_torque, prm.max_torque),
-        )  # fmt: skip
-
-
 def path_following(
     model: Model,
     prm: VehicleParams,
-    gains: PathFollowingGains,
+    gains: Backstepping,
     path: Path,
     x: FloatArray,
     gamma: float,
@@ -90,30 +115,30 @@ def path_following(
     v_d: float,
     correction: float,
 ) -> PathFollowingOutput:
-    """Inputs and gamma_ddot for state x on path at gamma, desired speed v_d (constant) plus correction: `control`
-    on arrays (the closed loop calls `control` with constants it computed once)."""
-    c = ControllerConstants.of(prm, gains)
-    out = control(model, prm, c, path, model.lift(x), gamma, gamma_dot, v_d, correction)
+    """Inputs and gamma_ddot for state x on path at gamma, desired speed v_d (constant) plus correction: `law` on
+    arrays (the closed loop calls the controller's `control` on floats)."""
+    s, seen = model.lift(x), model.path_seen(path.evaluate_floats(gamma))
+    out, z1 = law(gains, Auv(dimension=model.dim), prm, s, seen, gamma_dot, v_d, None)
+    assert out.drift is not None
     v_dot0, w_dot0 = out.drift
+    error = (s[0] - seen[0][0], s[1] - seen[0][1], s[2] - seen[0][2])
     return PathFollowingOutput(
-        model.inputs(out.tau), out.gamma_ddot, model.vector(out.error), model.vector(out.z1), out.lyapunov,
+        model.inputs(out.tau), out.gamma_ddot + correction, model.vector(error), model.vector(z1), out.lyapunov,
         (model.vector(v_dot0), model.angular(w_dot0)),
     )  # fmt: skip
 
 
-def control(
-    model: Model,
+def law(
+    gains: Backstepping,
+    model: VehicleModel,
     prm: VehicleParams,
-    c: ControllerConstants,
-    path: Path,
     s: Sequence[float],
-    gamma: float,
+    path: PathVectors,
     gamma_dot: float,
     v_d: float,
-    correction: float,
-    current: tuple[Float3, Float3] | None = None,
-) -> Control:
-    """The law of the module docstring for a lifted state s (vehicles.dynamics), in floats.
+    current: Current | None = None,
+) -> tuple[ControlOutput, Float3]:
+    """The law of the module docstring for a lifted state s (vehicles.dynamics), in floats, and its z1.
 
     Written once, in 3-D, for both models: the actuated velocities are (u, q, r), so
         Delta = [[1, 0, 0], [0, 0, -delta], [0, delta, 0]],   nu_c = (u, q, r),   nu_u = (0, v, w).
@@ -123,27 +148,25 @@ def control(
 
     current: (c, c_dot), the ocean current in body axes and its derivative, for a controller that knows it (the
     law on the velocity over ground: _over_ground); None for one that does not."""
-    error, z1, tangent, curvature = _path_in_body(model, path, s, gamma, c.gains.delta)
+    z1, tangent, curvature = _path_in_body(path, s, gains.delta)
     rho = math.sqrt(1.0 + z1[0] * z1[0] + z1[1] * z1[1] + z1[2] * z1[2])
     sigma = (z1[0] / rho, z1[1] / rho, z1[2] / rho)
     drift = model.drift(s, prm)  # with zero input: exact for the unactuated velocities, the rest is tau's to add
     if current is None:
-        z2, tau = _backstepping(c, s, z1, sigma, rho, tangent, curvature, drift, gamma_dot, v_d)
+        z2, tau = _backstepping(gains, prm, s, z1, sigma, rho, tangent, curvature, drift, gamma_dot, v_d)
     else:
         ground, ground_drift = _over_ground(s, drift, current)
-        z2, tau = _backstepping(c, ground, z1, sigma, rho, tangent, curvature, ground_drift, gamma_dot, v_d)
+        z2, tau = _backstepping(gains, prm, ground, z1, sigma, rho, tangent, curvature, ground_drift, gamma_dot, v_d)
     zeta = gamma_dot - v_d
     along = sigma[0] * tangent[0] + sigma[1] * tangent[1] + sigma[2] * tangent[2]
-    gamma_ddot = -c.gains.k_zeta * zeta + along + correction
+    gamma_ddot = -gains.k_zeta * zeta + along  # the fleet adds v_tilde to this sum: eq. (3)'s order of terms
     lyapunov = (rho - 1.0) + 0.5 * zeta * zeta + 0.5 * (z2[0] * z2[0] + z2[1] * z2[1] + z2[2] * z2[2])
-    return Control(tau, gamma_ddot, error, z1, lyapunov, drift)
+    return ControlOutput(tau, gamma_ddot, lyapunov, drift), z1
 
 
-def _path_in_body(
-    model: Model, path: Path, s: Sequence[float], gamma: float, delta: float
-) -> tuple[Float3, Float3, Float3, Float3]:
-    """error = p - p_d(gamma), z1 = R' error - delta, tangent = R' p_d^gamma, curvature = R' p_d^gammagamma."""
-    p_d, p_g, p_gg = model.path_seen(path.evaluate_floats(gamma))
+def _path_in_body(path: PathVectors, s: Sequence[float], delta: float) -> tuple[Float3, Float3, Float3]:
+    """z1 = R' (p - p_d) - delta, tangent = R' p_d^gamma, curvature = R' p_d^gammagamma."""
+    p_d, p_g, p_gg = path
     error = (s[0] - p_d[0], s[1] - p_d[1], s[2] - p_d[2])
     r11, r12, r13, r21, r22, r23, r31, r32, r33 = s[3:12]
     z1 = (
@@ -155,7 +178,7 @@ def _path_in_body(
                r13 * p_g[0] + r23 * p_g[1] + r33 * p_g[2])  # fmt: skip
     curvature = (r11 * p_gg[0] + r21 * p_gg[1] + r31 * p_gg[2], r12 * p_gg[0] + r22 * p_gg[1] + r32 * p_gg[2],
                  r13 * p_gg[0] + r23 * p_gg[1] + r33 * p_gg[2])  # fmt: skip
-    return error, z1, tangent, curvature
+    return z1, tangent, curvature
 
 
 def _over_ground(
@@ -176,14 +199,14 @@ def _over_ground(
 
 
 def _backstepping(
-    c: ControllerConstants, s: Sequence[float], z1: Float3, sigma: Float3, rho: float, tangent: Float3,
-    curvature: Float3, drift: Accelerations, gamma_dot: float, v_d: float,
+    gains: Backstepping, prm: VehicleParams, s: Sequence[float], z1: Float3, sigma: Float3, rho: float,
+    tangent: Float3, curvature: Float3, drift: Accelerations, gamma_dot: float, v_d: float,
 ) -> tuple[Float3, Float3]:  # fmt: skip
     """(z2, saturated tau): the virtual control alpha, its derivative (v_d constant), and the inputs that give
     nu_c_dot = alpha_dot - Delta' sigma - k2 z2 given the drift (curvature: R' p_d^gammagamma)."""
     (z1x, z1y, z1z), (sx, sy, sz), (tx, ty, tz) = z1, sigma, tangent
     u, v, w, p, q, r = s[12:18]
-    k1, inv_delta, delta = c.gains.k1, c.inverse_delta, c.gains.delta
+    k1, delta, inv_delta = gains.k1, gains.delta, 1.0 / gains.delta
     # z1_dot = -S(omega) z1 + Delta nu_c + nu_u - tangent gamma_dot; Delta nu_c + nu_u = (u, v - delta r, w + delta q)
     dz1x = -(q * z1z - r * z1y) + u - tx * gamma_dot
     dz1y = -(r * z1x - p * z1z) + (-delta * r + v) - ty * gamma_dot
@@ -201,9 +224,10 @@ def _backstepping(
     day, daz = -k1 * dsy - dv + dty * v_d, -k1 * dsz - dw + dtz * v_d
     dalpha_u, dalpha_q, dalpha_r = -k1 * dsx + dtx * v_d, inv_delta * daz, -inv_delta * day
     # nu_c_dot = alpha_dot - Delta' sigma - k2 z2, Delta' sigma = (sigma_x, delta sigma_z, -delta sigma_y)
-    k2 = c.gains.k2
+    k2 = gains.k2
     z2u, z2q, z2r = u - alpha_u, q - alpha_q, r - alpha_r
-    (m_u, j_q, j_r), (lim_u, lim_q, lim_r) = c.input_inertia, c.limits
+    m_u, j_q, j_r = prm.mass[0], prm.inertia[1], prm.inertia[2]  # how hard each input pushes its own velocity
+    lim_u, lim_q, lim_r = prm.max_surge_force, prm.max_torque, prm.max_torque
     tau_u = m_u * (dalpha_u - sx - k2 * z2u - du)
     tau_q = j_q * (dalpha_q - delta * sz - k2 * z2q - dq)
     tau_r = j_r * (dalpha_r + delta * sy - k2 * z2r - dr)

@@ -12,13 +12,14 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from vehicles.current import Current
-from vehicles.dynamics import Accelerations, Model, kinematics, with_inputs
+from vehicles.dynamics import Accelerations, kinematics, with_inputs
 from vehicles.geometry import Float3
 from vehicles.params import VehicleParams
+from vehicles.vehicle_model import VehicleModel
 
 
 def plant_rates(
-    model: Model,
+    model: VehicleModel,
     plant: VehicleParams,
     current: Current | None,
     t: float,

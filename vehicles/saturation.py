@@ -22,7 +22,7 @@ from __future__ import annotations
 import math
 
 from numerics import tanh
-from vehicles.dynamics import Model
+from vehicles.dynamics import Model, PathVectors
 from vehicles.params import VehicleParams
 from vehicles.paths import Path
 
@@ -42,7 +42,12 @@ def rate_bound(model: Model, path: Path, gamma: float, top_speed: float) -> floa
 def path_slope(model: Model, path: Path, gamma: float) -> float:
     """|p_d^gamma(gamma)|, m per unit of gamma, of the path as the model sees it (a planar vehicle: its horizontal
     projection)."""
-    slope = model.path_seen(path.evaluate_floats(gamma))[1]
+    return slope_size(model.path_seen(path.evaluate_floats(gamma)))
+
+
+def slope_size(point: PathVectors) -> float:
+    """|p_d^gamma| of a path point (p_d, p_d^gamma, p_d^gammagamma), m per unit of gamma."""
+    slope = point[1]
     return math.sqrt(slope[0] * slope[0] + slope[1] * slope[1] + slope[2] * slope[2])
 
 
@@ -50,13 +55,6 @@ def coordination_acceleration(params: VehicleParams) -> float:
     """m/s^2 of along-path acceleration the coordination may ask: COORDINATION_SHARE of full thrust over the surge
     mass (rigid body + added), the acceleration from rest."""
     return COORDINATION_SHARE * params.max_surge_force / params.mass[0]
-
-
-def correction_bound(model: Model, path: Path, gamma: float, acceleration: float) -> float:
-    """The bound c (unit of gamma per s^2) at which the correction accelerates the path's point by `acceleration`
-    m/s^2; inf where the path does not move with gamma."""
-    size = path_slope(model, path, gamma)
-    return acceleration / size if size > 0.0 else math.inf
 
 
 def bounded_correction(v_tilde: float, limit: float) -> float:

@@ -21,7 +21,8 @@ from vehicles.agent import VehicleConfig
 from vehicles.report import state_report
 from vehicles.runtime import NodeState, Radio, node_step
 
-EXTENSION_KINDS = ("law ", "predictor ", "transmission ")  # how vehicles.guard's errors begin (its labels)
+# How vehicles.guard's errors begin (its labels).
+EXTENSION_KINDS = ("law ", "predictor ", "transmission ", "controller ", "model ")
 
 
 @dataclass(frozen=True, slots=True)

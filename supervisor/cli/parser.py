@@ -342,7 +342,9 @@ def _add_learning_commands(sub: Commands) -> None:
     check.add_argument("--fault", action="append", default=[], metavar="SPEC", help="add a fault (repeatable)")
     sub.add_parser("presets", help="the vehicle and modem presets a scenario can name, with their key numbers")
     sub.add_parser(
-        "plugins", help="the coordination laws, predictors and transmission policies installed (built-ins included)"
+        "plugins",
+        help="the coordination laws, predictors, transmission policies, controllers and vehicle models installed "
+        "(built-ins included)",
     )
     stable = sub.add_parser(
         "stability", help="predict whether coordination converges, and the period, delay and loss it tolerates"

@@ -22,8 +22,9 @@ def what_would_run(sc: Scenario) -> str:
     run = sc.scenario
     steps = steps_of(sc)
     model = "the 6-DOF model" if run.dimension == 3 else "the planar model"
+    vehicle = sc.vehicle.model or sc.vehicle.preset
     sentences = [
-        f"{run.name}: {len(sc.vehicles)} vehicles ({sc.vehicle.preset}{_overrides(sc)}, {model}) for "
+        f"{run.name}: {len(sc.vehicles)} vehicles ({vehicle}{_overrides(sc)}, {model}) for "
         f"{_num(run.duration)} s in {steps} steps of {_num(run.step)} s, seed {run.seed}",
         "paths: " + "; ".join(_vehicle(v) for v in sc.vehicles),
         f"coordination: {sc.coordination.law} law, {_gain(sc)}, predictor {sc.coordination.predictor}, "

@@ -10,6 +10,7 @@ from typing import Any
 from supervisor.config.extensions import Identity, instantiate, resolve
 from supervisor.config.scenario_schema import Scenario
 from vehicles.estimates import FirstOrder
+from vehicles.params import VehicleParams
 
 
 def extension_errors(sc: Scenario) -> Iterator[str]:
@@ -26,11 +27,50 @@ def extension_errors(sc: Scenario) -> Iterator[str]:
         yield from _checked("loss", "comms", c.loss_model, c.loss_model_options)
     elif c.loss_model_options:
         yield f"comms.loss_model_options: options for no loss model (comms.loss_model), got {c.loss_model_options}"
+    pf = sc.path_following
+    if pf.controller != "backstepping":  # the built-in's gains are [path_following]'s own keys, checked by pydantic
+        yield from _checked("controller", "path_following", pf.controller, pf.controller_options)
+    elif pf.controller_options:
+        keys = "delta, k1, k2, k_zeta"
+        yield (
+            f"path_following.controller_options: backstepping takes its gains from [path_following] ({keys}), "
+            f"got {pf.controller_options}"
+        )
+
+
+def vehicle_model_errors(sc: Scenario) -> Iterator[str]:
+    """[vehicle] model with its model_options (the whole fleet's: no preset or overrides besides), or the presets,
+    which take their changes from overrides (checked by scenario_checks against the preset's parameters)."""
+    v, context = sc.vehicle, {"dimension": sc.scenario.dimension}
+    if v.model is None:
+        if v.model_options:
+            yield f"vehicle.model_options: a preset takes its changes from [vehicle] overrides, got {v.model_options}"
+        return
+    instance = yield from _checked("model", "vehicle", v.model, v.model_options, context)
+    if v.overrides:
+        yield f"vehicle.overrides: a vehicle.model takes its options from vehicle.model_options, got {v.overrides}"
+    for index, entry in enumerate(sc.vehicles):
+        if entry.preset is not None or entry.overrides:
+            yield f"vehicles[{index}].preset: the fleet runs vehicle.model {v.model}: no preset or overrides of its own"
+    if instance is not None:
+        yield from _parameters_errors(instance, v.model)
+
+
+def _parameters_errors(instance: Any, name: str) -> Iterator[str]:
+    """Whether the model gives its parameters (a VehicleParams): asked once here, so that it fails before the run."""
+    try:
+        params = instance.parameters()
+    except Exception as exc:  # someone else's code: one line naming it, not a traceback
+        yield f"vehicle.model: parameters() raised {type(exc).__name__}: {exc}, got {name!r}"
+        return
+    if not isinstance(params, VehicleParams):
+        yield f"vehicle.model: parameters() returned {type(params).__name__}, not a VehicleParams, got {name!r}"
 
 
 # Where each kind's name and options are in a scenario, below its section.
 FIELDS = {"law": ("law", "law_options"), "predictor": ("predictor", "predictor_options"),
-          "transmission": ("policy", "options"), "loss": ("loss_model", "loss_model_options")}  # fmt: skip
+          "transmission": ("policy", "options"), "loss": ("loss_model", "loss_model_options"),
+          "controller": ("controller", "controller_options"), "model": ("model", "model_options")}  # fmt: skip
 
 
 def _checked(
@@ -48,11 +88,13 @@ def _checked(
 
 
 def extension_identities(sc: Scenario) -> list[Identity]:
-    """The identity of each extension the scenario names (law, predictor, transmission policy, and the loss model if
-    it names one): what the hello digest covers and the log's meta records. Call on a checked scenario: every name
-    resolves."""
+    """The identity of each extension the scenario names (law, predictor, transmission policy, controller, vehicle
+    models: the fleet's presets, or its model; the loss model if it names one): what the hello digest covers and the
+    log's meta records. Call on a checked scenario: every name resolves."""
     co = sc.coordination
-    named = [("law", co.law), ("predictor", co.predictor), ("transmission", sc.comms.transmit.policy)]
+    named = [("law", co.law), ("predictor", co.predictor), ("transmission", sc.comms.transmit.policy),
+             ("controller", sc.path_following.controller)]  # fmt: skip
     if sc.comms.loss_model is not None:  # none named: the digest stays what it was for scenarios without one
         named.append(("loss", sc.comms.loss_model))
-    return [resolve(kind, name)[1] for kind, name in named]
+    models = [sc.vehicle.model] if sc.vehicle.model else sorted({v.preset or sc.vehicle.preset for v in sc.vehicles})
+    return [resolve(kind, name)[1] for kind, name in named + [("model", model) for model in models]]

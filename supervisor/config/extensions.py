@@ -1,13 +1,15 @@
-"""Extensions: coordination laws, neighbour predictors, transmission policies and the channel's loss models named in
-a scenario, found, checked and built the same way whether they ship with cpf-cosim or with someone else's package.
+"""Extensions: coordination laws, neighbour predictors, transmission policies, the channel's loss models,
+path-following controllers and vehicle models named in a scenario, found, checked and built the same way whether
+they ship with cpf-cosim or with someone else's package.
 
 A name in a scenario is either an entry point of the group (`cpf.coordination`, `cpf.predictors`,
-`cpf.transmission`, `cpf.loss`; cpf-cosim registers its built-ins there itself, pyproject.toml) or an import path
-`package.module:Name`. The object it names is a class whose fields are its options (a dataclass, or a pydantic
-model): its options table in the scenario is validated against those fields by pydantic, so a bad option is the usual
-one-line error naming the file, the field and the value. An instance must have the interface's methods
-(vehicles.coordination.CoordinationLaw, vehicles.estimates.Predictor, vehicles.transmission.TransmissionPolicy,
-comms.loss.LossModel).
+`cpf.transmission`, `cpf.loss`, `cpf.controllers`, `cpf.vehicles`; cpf-cosim registers its built-ins there itself,
+pyproject.toml) or an import path `package.module:Name`. The object it names is a class whose fields are its options
+(a dataclass, or a pydantic model): its options table in the scenario is validated against those fields by pydantic,
+so a bad option is the usual one-line error naming the file, the field and the value. An instance must have the
+interface's methods (vehicles.coordination.CoordinationLaw, vehicles.estimates.Predictor,
+vehicles.transmission.TransmissionPolicy, comms.loss.LossModel, vehicles.path_following.PathFollowingController,
+vehicles.vehicle_model.VehicleModel).
 
 Each extension has an identity (its name, the object it resolves to, its distribution and version, and the SHA-256
 of its module's source): the hello digest covers it, so a vehicle on another host running other code is refused,
@@ -22,14 +24,19 @@ import functools
 import hashlib
 import importlib
 import inspect
+from collections.abc import Mapping
 from dataclasses import dataclass
 from importlib import metadata
 from typing import TYPE_CHECKING, Any
 
+from comms.guard import GuardedLoss
 from comms.loss import LossModel
 from vehicles.coordination import CoordinationLaw
 from vehicles.estimates import Predictor
+from vehicles.guard import Guarded
+from vehicles.path_following import PathFollowingController
 from vehicles.transmission import TransmissionPolicy
+from vehicles.vehicle_model import VehicleModel
 
 if TYPE_CHECKING:
     from pydantic import TypeAdapter
@@ -39,6 +46,8 @@ GROUPS: dict[str, tuple[str, type]] = {
     "predictor": ("cpf.predictors", Predictor),
     "transmission": ("cpf.transmission", TransmissionPolicy),
     "loss": ("cpf.loss", LossModel),
+    "controller": ("cpf.controllers", PathFollowingController),
+    "model": ("cpf.vehicles", VehicleModel),
 }
 OURS = "cpf-cosim"  # the distribution whose extensions are built-ins: they run without a guard
 
@@ -140,6 +149,16 @@ def build(kind: str, name: str, options: dict[str, Any], context: dict[str, Any]
     return instance, identity
 
 
+def extension(kind: str, name: str, options: Mapping[str, Any], context: dict[str, Any] | None = None) -> Any:
+    """The named extension built with its options; someone else's behind the guard (vehicles.guard; comms.guard for
+    a loss model, which the broker runs). The scenario's checks have built it once already: here it cannot fail."""
+    instance, identity = build(kind, name, dict(options), context)
+    if identity.builtin:
+        return instance
+    label = f"{kind} {name}"
+    return GuardedLoss(instance, label) if kind == "loss" else Guarded(instance, label)
+
+
 def instantiate(
     kind: str, name: str, options: dict[str, Any], context: dict[str, Any] | None = None
 ) -> tuple[Any, Identity | None, list[Problem]]:
@@ -167,7 +186,26 @@ def instantiate(
     _, protocol = GROUPS[kind]
     if not isinstance(instance, protocol):
         return None, identity, [(None, f"{identity.target} lacks the {kind} interface ({protocol.__qualname__})")]
+    mismatch = _signature_problem(instance, protocol)
+    if mismatch:
+        return None, identity, [(None, f"{identity.target}.{mismatch}")]
     return instance, identity, []
+
+
+def _signature_problem(instance: Any, protocol: type) -> str | None:
+    """Why a method of the interface cannot be called on instance with the interface's arguments (None: it can):
+    a wrong signature is found before the run, not at its first call."""
+    for name, method in vars(protocol).items():
+        if name.startswith("_") or not callable(method):
+            continue
+        wanted = inspect.signature(method)
+        try:
+            inspect.signature(getattr(instance, name)).bind(*range(len(wanted.parameters) - 1))  # not self
+        except TypeError:
+            return f"{name} cannot be called with the interface's arguments ({', '.join(list(wanted.parameters)[1:])})"
+        except ValueError:  # no signature to read (a builtin): its calls will tell
+            continue
+    return None
 
 
 @functools.lru_cache(maxsize=256)
@@ -193,24 +231,25 @@ def _option_problem(name: str, error: Any) -> Problem:
 
 # Where a kind's name and options go in a scenario (for cpf plugins' table).
 KEYS = {"law": "coordination.law", "predictor": "coordination.predictor", "transmission": "comms.transmit.policy",
-        "loss": "comms.loss_model"}  # fmt: skip
+        "loss": "comms.loss_model", "controller": "path_following.controller", "model": "vehicle.model"}  # fmt: skip
 
 
 def plugins_text() -> str:
     """What `cpf plugins` prints: per kind, each installed name, what it resolves to and its options; a name that
     does not load says why, on its line."""
     lines: list[str] = []
-    width = max([14, *(len(name) + 2 for kind in GROUPS for name in available(kind))])  # a column for every name
     for kind, (group, _) in GROUPS.items():
         lines.append(f"{KEYS[kind]} (entry points {group}):")
-        for name in sorted(available(kind)):
+        names = sorted(available(kind))
+        width = max([12, *map(len, names)]) + 2  # a column per group: a long name does not shift the others
+        for name in names:
             try:
                 cls, identity = resolve(kind, name)
             except ValueError as exc:
                 lines.append(f"  {name:<{width}}does not load: {exc}")
                 continue
             where = f"{identity.distribution} {identity.version}" if identity.distribution else "-"
-            options = ", ".join(sorted(_field_names(cls) - {"predictor", "v_r"})) or "-"
+            options = ", ".join(sorted(_field_names(cls) - {"predictor", "v_r", "dimension"})) or "-"
             lines.append(f"  {name:<{width}}{identity.target:<44}{where:<22}options: {options}")
     lines.append("or any package.module:Name in the scenario (docs/extending.md)")
     return "\n".join(lines)

@@ -6,14 +6,12 @@ Used by both engines (and by a vehicle process, which builds only its own), so v
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
 from comms.broker_core import BrokerCore
 from comms.channel import Capture, Channel, ChannelParams, LinkParams
-from comms.guard import GuardedLoss
 from comms.loss import (
     Bernoulli,
     Composite,
@@ -27,7 +25,7 @@ from comms.messages import Message
 from comms.modem import ModemParams
 from comms.state import StateReport
 from comms.stats import LinkStats
-from supervisor.config.extensions import build
+from supervisor.config.extensions import extension
 from supervisor.config.medium import modem_params, sound_speed
 from supervisor.config.plant import current_of, plant_of
 from supervisor.config.scenario_schema import (
@@ -42,16 +40,15 @@ from supervisor.config.scenario_schema import (
     Scenario,
     VehicleSection,
 )
-from supervisor.config.vehicle_models import params_of, top_speed_of
+from supervisor.config.vehicle_models import top_speed_of, vehicle_of
 from vehicles.agent import VehicleConfig, VehicleState
 from vehicles.coordination import CoordinationGains
 from vehicles.dynamics import PLANAR, SPATIAL, Model
 from vehicles.estimates import Predictor
 from vehicles.geometry import rotation_2d, rotation_from_rpy
-from vehicles.guard import Guarded
 from vehicles.navigation import NavParams, NavState
 from vehicles.nearest import nearest_gamma
-from vehicles.path_following import PathFollowingGains
+from vehicles.path_following import PathFollowingController
 from vehicles.paths import Circle, Helix, Lawnmower, Line, Path
 from vehicles.runtime import NodeState, Radio
 from vehicles.saturation import coordination_acceleration
@@ -79,14 +76,16 @@ def vehicle_config(scenario: Scenario, vehicle_id: int, seed: int | None = None)
     from supervisor.config.stability.scenario import coupling_gain
 
     section = _section(scenario, vehicle_id)
-    pf, co = scenario.path_following, scenario.coordination
+    co = scenario.coordination
+    vehicle = vehicle_of(scenario, vehicle_id)
+    params = vehicle.parameters()
     run_seed = scenario.scenario.seed if seed is None else seed
     return VehicleConfig(
         vehicle_id=vehicle_id,
         model=model_of(scenario),
-        params=params_of(scenario, vehicle_id),
+        params=params,
         path=build_path(section.path),
-        path_following=PathFollowingGains(pf.delta, pf.k1, pf.k2, pf.k_zeta),
+        controller=controller_of(scenario),
         coordination=CoordinationGains(coupling_gain(scenario), co.k2, co.v_r),
         predictor=predictor_of(scenario),
         law=extension("law", co.law, co.law_options),
@@ -98,10 +97,9 @@ def vehicle_config(scenario: Scenario, vehicle_id: int, seed: int | None = None)
         top_speed=top_speed_of(scenario, vehicle_id),
         correction_limit=_given(scenario.saturation.correction),
         correction_acceleration=(
-            coordination_acceleration(params_of(scenario, vehicle_id))
-            if scenario.saturation.correction == "preset"
-            else None
+            coordination_acceleration(params) if scenario.saturation.correction == "preset" else None
         ),
+        vehicle_model=vehicle,
     )
 
 
@@ -242,21 +240,20 @@ def channel_params(scenario: Scenario, with_named: bool = True) -> ChannelParams
     )  # fmt: skip
 
 
-def extension(kind: str, name: str, options: Mapping[str, Any], context: dict[str, Any] | None = None) -> Any:
-    """The named extension built with its options (supervisor.config.extensions); someone else's behind the guard
-    (vehicles.guard; comms.guard for a loss model, which the broker runs). The scenario's checks have built it once
-    already: here it cannot fail."""
-    instance, identity = build(kind, name, dict(options), context)
-    if identity.builtin:
-        return instance
-    label = f"{kind} {name}"
-    return GuardedLoss(instance, label) if kind == "loss" else Guarded(instance, label)
-
-
 def predictor_of(scenario: Scenario) -> Predictor:
     co = scenario.coordination
     predictor: Predictor = extension("predictor", co.predictor, co.predictor_options)
     return predictor
+
+
+def controller_of(scenario: Scenario) -> PathFollowingController:
+    """The path-following controller: backstepping with [path_following]'s gains, or the named one with its
+    controller_options."""
+    pf = scenario.path_following
+    gains = {"delta": pf.delta, "k1": pf.k1, "k2": pf.k2, "k_zeta": pf.k_zeta}
+    options = gains if pf.controller == "backstepping" else pf.controller_options
+    controller: PathFollowingController = extension("controller", pf.controller, options)
+    return controller
 
 
 def transmission_options(scenario: Scenario) -> dict[str, Any]:

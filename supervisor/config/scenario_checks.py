@@ -15,7 +15,7 @@ from collections.abc import Callable, Iterable, Iterator, Mapping
 import numpy as np
 
 from supervisor.config.derived import active, end_of, first_step, graph_at, steps_of
-from supervisor.config.extension_checks import extension_errors
+from supervisor.config.extension_checks import extension_errors, vehicle_model_errors
 from supervisor.config.plant import planar_current_errors
 from supervisor.config.scenario_schema import (
     LINK_FAULTS,
@@ -350,7 +350,8 @@ RULES: tuple[tuple[frozenset[str], Check], ...] = (
     (frozenset({"vehicles", "faults", "scenario"}), _clock_skew),
     (frozenset({"vehicles", "coordination"}), _path_speed),
     (frozenset({"scenario", "environment"}), planar_current_errors),
-    (frozenset({"coordination", "comms"}), extension_errors),
+    (frozenset({"coordination", "comms", "path_following"}), extension_errors),
+    (frozenset({"vehicle", "vehicles", "scenario"}), vehicle_model_errors),
 )
 
 

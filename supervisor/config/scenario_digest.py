@@ -5,8 +5,9 @@ every host) of the validated Scenario, --set and --fault applied, so two files t
 order or spelling of numbers (1 vs 1.0) give the same digest. Each top-level section has its own digest too, so a
 mismatch can be named ("coordination differs"). The broker draws the channel's randomness from the run's seed: its
 digest covers the seed as well (section "seed"), and so does a vehicle's with navigation on (its sensor noise).
-Section "extensions" covers the code the scenario's law, predictor and transmission policy resolve to on this host
-(name, class, distribution and version, hash of the module's source: supervisor.config.extensions.Identity).
+Section "extensions" covers the code the scenario's law, predictor, transmission policy, controller and vehicle models
+resolve to on this host (name, class, distribution and version, hash of the module's source:
+supervisor.config.extensions.Identity).
 """
 
 from __future__ import annotations

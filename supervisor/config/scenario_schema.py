@@ -138,7 +138,8 @@ def _known(value: str | None) -> str | None:
 
 
 class VehicleModelSection(StrictModel):
-    """The vehicle model every AUV of the fleet uses: a named preset (cpf presets lists them) and changes to it."""
+    """The vehicle model every AUV of the fleet uses: a named preset (cpf presets lists them) and changes to it, or
+    another model (`model`)."""
 
     preset: str = Field(default="remus100", description="vehicle preset", json_schema_extra=one_of(PRESETS))
     # Names and shapes (number or 3-vector) are checked against the preset by _check_overrides.
@@ -150,13 +151,26 @@ class VehicleModelSection(StrictModel):
     )
 
     uncertainty: Uncertainty = Field(default=0.0, description=UNCERTAINTY_DESCRIPTION, json_schema_extra=as_any_of)
+    model: ExtensionName | None = Field(
+        default=None, description="another vehicle model for the whole fleet, instead of the preset: an installed "
+        "extension's name (`cpf plugins`) or package.module:Name; absent: the preset (with its overrides)",
+    )  # fmt: skip
+    model_options: dict[str, Any] = Field(default_factory=dict, description="that model's own options (its fields)")
 
     _known_preset = field_validator("preset")(lambda value: _known(value))
 
 
 class PathFollowingSection(StrictModel):
-    """Gains of each vehicle's path-following controller (the delta-shifted backstepping design)."""
+    """Each vehicle's path-following controller: the delta-shifted backstepping design with its gains, or another."""
 
+    controller: ExtensionName = Field(
+        default="backstepping",
+        description="the path-following controller: backstepping (the delta-shifted design; its gains are this "
+        "section's delta, k1, k2, k_zeta), an installed extension's name (`cpf plugins`), or package.module:Name",
+    )
+    controller_options: dict[str, Any] = Field(
+        default_factory=dict, description="another controller's own options (its fields; backstepping takes none)"
+    )
     delta: Float = Field(
         default=-1.0, ge=-100, le=100,
         description="the controller steers the point at -delta along the body x axis onto the path, m (negative: "
@@ -371,11 +385,6 @@ class Scenario(StrictModel):
     @property
     def vehicle_ids(self) -> list[int]:
         return [v.id for v in self.vehicles]
-
-    def vehicle_params(self) -> VehicleParams:
-        from vehicles.params import preset
-
-        return preset(self.vehicle.preset, **self.vehicle.overrides)
 
     def neighbours(self, vehicle_id: int) -> list[int]:
         """N_i of the scenario's graph, in ascending order."""

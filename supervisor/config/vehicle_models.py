@@ -1,14 +1,21 @@
-"""Each vehicle's model and limits in a (possibly mixed) fleet: its preset and overrides, its top speed.
+"""Each vehicle's model and limits in a (possibly mixed) fleet: its vehicle model, its parameters, its top speed.
 
-A [[vehicles]] entry may name its own preset and overrides; what it leaves out comes from [vehicle]. The overrides
-compose: the preset's values, then [vehicle] overrides (fleet-wide changes), then the entry's own.
+A vehicle model (vehicles.vehicle_model) is an extension of the group `cpf.vehicles`: the presets are its built-ins,
+found by name and built with their parameters as options, the same way as a model named by [vehicle] model. A
+[[vehicles]] entry may name its own preset and overrides; what it leaves out comes from [vehicle]. The overrides
+compose: the preset's values, then [vehicle] overrides (fleet-wide changes), then the entry's own. A [vehicle] model
+takes its options from [vehicle] model_options, for the whole fleet.
 """
 
 from __future__ import annotations
 
+from typing import Any
+
+from supervisor.config.extensions import extension
 from supervisor.config.presets_table import top_speed
 from supervisor.config.scenario_schema import Scenario, VehicleSection
-from vehicles.params import VehicleParams, preset
+from vehicles.params import VehicleParams
+from vehicles.vehicle_model import VehicleModel
 
 
 def _entry(scenario: Scenario, vehicle_id: int) -> VehicleSection:
@@ -20,10 +27,30 @@ def preset_of(scenario: Scenario, vehicle_id: int) -> str:
     return _entry(scenario, vehicle_id).preset or scenario.vehicle.preset
 
 
+def model_name_of(scenario: Scenario, vehicle_id: int) -> str:
+    """The vehicle model vehicle_id runs: [vehicle] model, or its preset."""
+    return scenario.vehicle.model or preset_of(scenario, vehicle_id)
+
+
+def model_options_of(scenario: Scenario, vehicle_id: int) -> dict[str, Any]:
+    """Its options: [vehicle] model_options, or a preset's overrides ([vehicle]'s, then its entry's)."""
+    if scenario.vehicle.model is not None:
+        return dict(scenario.vehicle.model_options)
+    return {**scenario.vehicle.overrides, **_entry(scenario, vehicle_id).overrides}
+
+
+def vehicle_of(scenario: Scenario, vehicle_id: int) -> VehicleModel:
+    """vehicle_id's vehicle model, built with its options and the scenario's dimension (someone else's guarded)."""
+    context = {"dimension": scenario.scenario.dimension}
+    model: VehicleModel = extension(
+        "model", model_name_of(scenario, vehicle_id), model_options_of(scenario, vehicle_id), context
+    )
+    return model
+
+
 def params_of(scenario: Scenario, vehicle_id: int) -> VehicleParams:
-    """vehicle_id's parameters: its preset with [vehicle] overrides and then its own applied."""
-    entry = _entry(scenario, vehicle_id)
-    return preset(preset_of(scenario, vehicle_id), **{**scenario.vehicle.overrides, **entry.overrides})
+    """vehicle_id's parameters: its vehicle model's (a preset's with [vehicle] overrides and then its own applied)."""
+    return vehicle_of(scenario, vehicle_id).parameters()
 
 
 def top_speed_of(scenario: Scenario, vehicle_id: int) -> float | None:

@@ -47,7 +47,7 @@ class RunMeta:
     faults: tuple[dict[str, Any], ...]  # each fault's scenario fields, its kind included
     tube_radius: float
     versions: dict[str, str]
-    extensions: tuple[str, ...] = ()  # what the scenario's law, predictor and policy resolved to (Identity.describe)
+    extensions: tuple[str, ...] = ()  # what the scenario's extensions resolved to (Identity.describe)
 
     @classmethod
     def of(
