@@ -1,7 +1,7 @@
 """Digests of what a run recorded, by kind of record, to hold a restructuring to bit-identical results.
 
 `python -m tests.run_digest` runs the reference runs (the paper scenario, paper_acoustic, reference_everything.toml
-and a 20-seed fault soak, on the engines named below) and writes tests/data/run_digests.json;
+and a 10-seed fault soak, on the engines named below) and writes tests/data/run_digests.json;
 tests/test_bit_identical.py runs them again and compares. Regenerate the file only for a change that is meant to
 change results, and say so in the commit.
 
@@ -36,7 +36,7 @@ KINDS = {
     "graph": "cpf/run/graph",
     "stats": "cpf/comms/stats",
 }
-SOAK_SEEDS = range(20)
+SOAK_SEEDS = range(10)
 
 
 def kind_of(topic: str) -> str | None:

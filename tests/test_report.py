@@ -350,18 +350,20 @@ def test_synthetic_metrics_packets(run: RunData) -> None:
     assert total["dropped_by_cause"].keys() == {"loss", "collision"}
 
 
-# --- a real run: paper.toml, 60 s, lossy, its fault moved into the run and a link cut during it ---------------
+# --- a real run: paper.toml, 80 s, lossy, its fault moved into the run and a link cut during it ---------------
 
-DURATION = 60.0
-FIRST_FAULT, LAST_FAULT_END = 25.0, 35.0
-TOLERANCE = 5.0  # reached in each phase within 60 s (the fleet starts 50 apart in gamma)
+DURATION = 80.0
+FIRST_FAULT, LAST_FAULT_END = 45.0, 55.0
+# Reached in each phase (the fleet starts 50 apart in gamma: with the correction bounded by each vehicle's thrust,
+# the default, it takes about 35 s).
+TOLERANCE = 5.0
 OVERRIDES = [
     "comms.loss=0.2",
     f"faults.0.start={FIRST_FAULT}",
     f"faults.0.end={LAST_FAULT_END}",
     f"report.coordination_tolerance={TOLERANCE}",
 ]
-EXTRA_FAULTS = ["kind=link_down,sender=1,receiver=2,start=28,end=32"]
+EXTRA_FAULTS = ["kind=link_down,sender=1,receiver=2,start=48,end=52"]
 
 
 @dataclass(frozen=True)
@@ -460,7 +462,7 @@ def test_real_convergence_times(real: RealRun, logged: list[tuple[str, int, dict
     check_settled(t[first], error[first], TOLERANCE, coord["convergence_time"])
     check_settled(t[last], error[last], TOLERANCE, coord["reconvergence_time"])
     # the same as the engine's own summary of the run
-    summary = summarize(real.result.series, DURATION, [("speed_cap", 25.0, 35.0), ("link_down", 28.0, 32.0)],
+    summary = summarize(real.result.series, DURATION, [("speed_cap", 45.0, 55.0), ("link_down", 48.0, 52.0)],
                         50.0, 1.2, TOLERANCE)  # fmt: skip
     assert coord["convergence_time"] == pytest.approx(summary.sync_time)
     assert coord["reconvergence_time"] == pytest.approx(summary.resync_time)
@@ -485,7 +487,7 @@ def test_real_phases_and_steady_state(real: RealRun, logged: list[tuple[str, int
     t, error = coordination_series(logged)
     coord = real.metrics["coordination"]
     bounds = [(p["start"], p["end"]) for p in coord["phases"]]
-    assert bounds == [(0.0, 25.0), (25.0, 28.0), (28.0, 32.0), (32.0, 35.0), (35.0, DURATION)]
+    assert bounds == [(0.0, 45.0), (45.0, 48.0), (48.0, 52.0), (52.0, 55.0), (55.0, DURATION)]
     assert [p["name"] for p in coord["phases"]][2] == "during link_down+speed_cap"
     for phase in coord["phases"]:
         inside = (t >= phase["start"]) & (t < phase["end"])

@@ -64,7 +64,9 @@ def test_a_vehicle_pulled_hard_by_its_neighbours_stays_at_its_top_speed_along_th
 @pytest.mark.parametrize("ahead", [True, False])
 def test_a_speed_cap_under_the_top_speed_holds_gamma_dot_at_the_cap_and_the_bound_still_holds_it_below(ahead):
     # The speed_cap fault and the top speed are one interval [-bound, min(cap, bound)] (vehicles.agent._rate_limits).
-    sc = parse_scenario(_saturated(PAPER, "top_speed = 0.5"), "sat.toml")
+    # The correction unbounded: the neighbours' pull must reach the top speed backwards (bounded by default, it does
+    # not: the thrust bound keeps the correction below what would take gamma_dot there).
+    sc = parse_scenario(_saturated(PAPER, "top_speed = 0.5\ncorrection = 'none'"), "sat.toml")
     cfg = vehicle_config(sc, 1)
     state = initial_state(sc, cfg)
     cap = 0.5 * rate_bound(cfg.model, cfg.path, state.gamma, 0.5)
@@ -108,7 +110,7 @@ def test_the_summary_lists_the_spans_at_the_limit():
     [
         ("top_speed = -1.0", "saturation.top_speed: must be greater than 0"),
         ('top_speed = "fast"', "saturation.top_speed: "),
-        ("correction = 0.0", "saturation.correction: must be greater than 0, got 0.0"),
+        ("correction = 0.0", "saturation.correction: must be greater than 0 or 'preset' or 'none', got 0.0"),
         ("speed = 1.0", "saturation.speed: unknown key"),
     ],
 )
@@ -130,11 +132,19 @@ def _survey(tmp_path: Path, name: str, extra: list[str]) -> dict[int, tuple[floa
             for v, s in run.vehicles.items()}  # fmt: skip
 
 
+# Law (5) as the paper has it: the defaults since issue 23 (reference predictor, fitted k, bounded correction) keep
+# this survey coordinated on their own (tests/test_gain_schedule.py).
+FORMER = ["--set", "coordination.predictor=first_order", "--set", "coordination.schedule=none",
+          "--set", "saturation.correction=none"]  # fmt: skip
+
+
 def test_the_survey_that_diverges_unsaturated_stays_bounded_with_a_top_speed(tmp_path):
-    free = _survey(tmp_path, "free", [])
+    free = _survey(tmp_path, "free", FORMER)
     assert max(rate for rate, _ in free.values()) > 20.0  # gamma_dot runs away (1 is the reference)
     assert max(error for _, error in free.values()) > 100.0  # and the vehicles leave their paths
-    held = _survey(tmp_path, "held", ["--set", "saturation.top_speed=1.5", "--set", "saturation.correction=0.1"])
+    held = _survey(
+        tmp_path, "held", [*FORMER, "--set", "saturation.top_speed=1.5", "--set", "saturation.correction=0.1"]
+    )
     assert max(rate for rate, _ in held.values()) <= 1.5 * (1 + 1e-12)  # 1 m of path per unit of gamma
     assert max(error for _, error in held.values()) < 2.0  # back in the 1.2 m tube, give or take the turns
 

@@ -10,9 +10,9 @@ from comms.wire import SIZE
 from supervisor.config.comms_schema import CommsSection, TransmitSection
 from supervisor.config.derived import steps_of
 from supervisor.config.describe import describe_fault
+from supervisor.config.links import coupling_gain
 from supervisor.config.medium import modem_params, sound_speed
 from supervisor.config.scenario_schema import Scenario, VehicleSection
-from supervisor.config.stability.scenario import coupling_gain
 
 __all__ = ["what_would_run"]
 

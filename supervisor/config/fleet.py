@@ -26,6 +26,7 @@ from comms.modem import ModemParams
 from comms.state import StateReport
 from comms.stats import LinkStats
 from supervisor.config.extensions import extension
+from supervisor.config.links import coupling_gain
 from supervisor.config.medium import modem_params, sound_speed
 from supervisor.config.plant import current_of, plant_of
 from supervisor.config.scenario_schema import (
@@ -72,9 +73,6 @@ def model_of(scenario: Scenario) -> Model:
 
 def vehicle_config(scenario: Scenario, vehicle_id: int, seed: int | None = None) -> VehicleConfig:
     """seed: the run's (cpf run --seed); None: the scenario's."""
-    # Imported here: the analysis needs scipy, which a vehicle process (handed its config) never imports.
-    from supervisor.config.stability.scenario import coupling_gain
-
     section = _section(scenario, vehicle_id)
     co = scenario.coordination
     vehicle = vehicle_of(scenario, vehicle_id)

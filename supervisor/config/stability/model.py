@@ -31,8 +31,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from supervisor.config.links import PREDICTORS
+
 Matrix = NDArray[np.float64]
-PREDICTORS = ("first_order", "hold", "reference")
 
 
 @dataclass(frozen=True)

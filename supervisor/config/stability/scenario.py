@@ -15,10 +15,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
-import numpy as np
-
-from comms.wire import SIZE
-from supervisor.config.medium import modem_params, sound_speed
+from supervisor.config.links import coupling_gain, delay_of, loss_of, timing
 from supervisor.config.scenario_schema import Scenario
 from supervisor.config.stability.margins import (
     Setting,
@@ -28,8 +25,7 @@ from supervisor.config.stability.margins import (
     largest_period,
     rate,
 )
-from supervisor.config.stability.model import PREDICTORS, Loop
-from supervisor.config.stability.schedule import fastest_gain
+from supervisor.config.stability.model import Loop
 
 
 def loop_of(scenario: Scenario) -> Loop:
@@ -41,72 +37,16 @@ def loop_of(scenario: Scenario) -> Loop:
     return Loop.of_edges(len(ids), edges, co.k, co.k2, scenario.path_following.k_zeta, co.predictor)
 
 
-def _period(scenario: Scenario, event: str) -> float:
-    """The transmit period; an event-triggered policy's at its heartbeat (event = "heartbeat": the longest silence
-    it allows, for a verdict that errs on the safe side) or at the fastest it may send (event = "fastest": it sends
-    whenever its neighbours' prediction of it errs, so their estimates are as good as that)."""
-    tx, dt = scenario.comms.transmit, scenario.scenario.step
-    if tx.policy == "event":
-        return (tx.heartbeat or dt) if event == "heartbeat" else max(tx.min_interval, dt)
-    return tx.period or dt
-
-
-def _timing(scenario: Scenario, event: str = "heartbeat") -> tuple[float, tuple[float, ...]]:
-    """(period or TDMA frame, each vehicle's offset as a fraction of it)."""
-    period, tdma, n = _period(scenario, event), scenario.comms.tdma, len(scenario.vehicles)
-    if tdma is None:
-        return period, (0.0,) * n
-    order = tdma.order or tuple(scenario.vehicle_ids)
-    frame = tdma.slot * len(order)
-    frames = max(1, math.ceil(period / frame - 1e-9))
-    return frame * frames, tuple(order.index(vid) * tdma.slot / (frame * frames) for vid in scenario.vehicle_ids)
-
-
-def delay_of(scenario: Scenario) -> float:
-    """Airtime + typical time of flight + half the jitter + mean extra link delay, up to the sync step."""
-    c, dt = scenario.comms, scenario.scenario.step
-    where = {v.id: np.asarray(v.position) for v in scenario.vehicles}
-    distances = [float(np.linalg.norm(where[a] - where[b])) for a, b in scenario.graph.edges]
-    flight = float(np.mean(distances)) / sound_speed(scenario) if distances else 0.0
-    modem = modem_params(scenario)
-    on_air = modem.airtime(c.packet_bytes or SIZE)
-    extra = float(np.mean([link.extra_delay for link in c.links])) if c.links else 0.0
-    raw = on_air + flight + c.jitter / 2 + extra
-    return dt * max(1, math.ceil(raw / dt - 1e-9))
-
-
-def loss_of(scenario: Scenario) -> float:
-    c = scenario.comms
-    burst = c.burst.mean_loss if c.burst is not None else 0.0
-    return 1.0 - (1.0 - c.loss) * (1.0 - burst)
-
-
 def setting_of(scenario: Scenario) -> Setting:
-    """The loop as it runs: with the k law (5) runs with (coupling_gain)."""
+    """The loop as it runs: with the k law (5) runs with (supervisor.config.links.coupling_gain)."""
     nominal = nominal_setting(scenario)
     return replace(nominal, loop=replace(nominal.loop, k=coupling_gain(scenario)))
 
 
 def nominal_setting(scenario: Scenario, event: str = "heartbeat") -> Setting:
     """The loop with the scenario's own k (event: how an event-triggered policy is taken, _period)."""
-    period, phases = _timing(scenario, event)
+    period, phases = timing(scenario, event)
     return Setting(loop_of(scenario), period, delay_of(scenario), phases, loss_of(scenario))
-
-
-SCHEDULED_LAWS = ("corrected", "literal")
-
-
-def schedules(scenario: Scenario) -> bool:
-    """Whether the scenario's k is fitted to its links (law (5), a built-in predictor, schedule = "rate")."""
-    co = scenario.coordination
-    return co.schedule == "rate" and co.law in SCHEDULED_LAWS and co.predictor in PREDICTORS
-
-
-def coupling_gain(scenario: Scenario) -> float:
-    """The k law (5) runs with: the scenario's, or the one fitted to its links (stability.schedule)."""
-    if not schedules(scenario):
-        return scenario.coordination.k
-    return fastest_gain(nominal_setting(scenario, "fastest"))
 
 
 @dataclass(frozen=True)

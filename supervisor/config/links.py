@@ -1,0 +1,90 @@
+"""What a scenario's links give its coordination loop, and the gain law (5) runs with on them: the transmit period or
+TDMA frame with each sender's offset, the delay, the long-run loss, and k fitted to them
+(supervisor.config.stability.schedule). Light: the stability analysis (scipy) is imported only where k must be
+fitted.
+
+The delay is airtime (packet bits / bitrate, preamble included) + time of flight over the mean initial distance of
+linked vehicles + half the jitter + the mean extra link delay, rounded up to the sync step as arrivals are; the loss
+is comms.loss combined with the burst model's long-run rate.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from comms.wire import SIZE
+from supervisor.config.medium import modem_params, sound_speed
+from supervisor.config.scenario_schema import Scenario
+
+PREDICTORS = ("first_order", "hold", "reference")  # the ones the analysis models (stability.model)
+
+
+def _period(scenario: Scenario, event: str) -> float:
+    """The transmit period; an event-triggered policy's at its heartbeat (event = "heartbeat": the longest silence
+    it allows, for a verdict that errs on the safe side) or at the fastest it may send (event = "fastest": it sends
+    whenever its neighbours' prediction of it errs, so their estimates are as good as that)."""
+    tx, dt = scenario.comms.transmit, scenario.scenario.step
+    if tx.policy == "event":
+        return (tx.heartbeat or dt) if event == "heartbeat" else max(tx.min_interval, dt)
+    return tx.period or dt
+
+
+def timing(scenario: Scenario, event: str = "heartbeat") -> tuple[float, tuple[float, ...]]:
+    """(period or TDMA frame, each vehicle's offset as a fraction of it)."""
+    period, tdma, n = _period(scenario, event), scenario.comms.tdma, len(scenario.vehicles)
+    if tdma is None:
+        return period, (0.0,) * n
+    order = tdma.order or tuple(scenario.vehicle_ids)
+    frame = tdma.slot * len(order)
+    frames = max(1, math.ceil(period / frame - 1e-9))
+    return frame * frames, tuple(order.index(vid) * tdma.slot / (frame * frames) for vid in scenario.vehicle_ids)
+
+
+def delay_of(scenario: Scenario) -> float:
+    """Airtime + typical time of flight + half the jitter + mean extra link delay, up to the sync step."""
+    c, dt = scenario.comms, scenario.scenario.step
+    where = {v.id: np.asarray(v.position) for v in scenario.vehicles}
+    distances = [float(np.linalg.norm(where[a] - where[b])) for a, b in scenario.graph.edges]
+    flight = float(np.mean(distances)) / sound_speed(scenario) if distances else 0.0
+    modem = modem_params(scenario)
+    on_air = modem.airtime(c.packet_bytes or SIZE)
+    extra = float(np.mean([link.extra_delay for link in c.links])) if c.links else 0.0
+    raw = on_air + flight + c.jitter / 2 + extra
+    return dt * max(1, math.ceil(raw / dt - 1e-9))
+
+
+def loss_of(scenario: Scenario) -> float:
+    c = scenario.comms
+    burst = c.burst.mean_loss if c.burst is not None else 0.0
+    return 1.0 - (1.0 - c.loss) * (1.0 - burst)
+
+
+SCHEDULED_LAWS = ("corrected", "literal")
+
+
+def schedules(scenario: Scenario) -> bool:
+    """Whether the scenario's k is fitted to its links (law (5), a built-in predictor, schedule = "rate")."""
+    co = scenario.coordination
+    return co.schedule == "rate" and co.law in SCHEDULED_LAWS and co.predictor in PREDICTORS
+
+
+def coupling_gain(scenario: Scenario) -> float:
+    """The k law (5) runs with: the scenario's, or the one fitted to its links (stability.schedule)."""
+    if not schedules(scenario) or continuous(scenario):
+        return scenario.coordination.k
+    # Imported here: the analysis needs scipy, which a run whose links are continuous never imports (~0.4 s).
+    from supervisor.config.stability.scenario import nominal_setting
+    from supervisor.config.stability.schedule import fastest_gain
+
+    return fastest_gain(nominal_setting(scenario, "fastest"))
+
+
+def continuous(scenario: Scenario) -> bool:
+    """Whether every neighbour is heard every step, one step late at most, without loss and without TDMA: the
+    continuous loop, whose decay rate rises with k (its slow root k k2 lambda / (c + k lambda), c = k_zeta + k2, or
+    (c + k lambda) / 2 once complex, rises with k), so the schedule would keep k: no analysis needed."""
+    dt, c = scenario.scenario.step, scenario.comms
+    return (c.tdma is None and _period(scenario, "fastest") <= dt and delay_of(scenario) <= dt
+            and loss_of(scenario) == 0.0 and c.range is None and not c.links)  # fmt: skip
