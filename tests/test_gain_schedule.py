@@ -10,10 +10,9 @@ import numpy as np
 import pytest
 
 from supervisor.config.derived import tube_radius
-from supervisor.config.links import coupling_gain
 from supervisor.config.scenario import parse_scenario
 from supervisor.config.stability import Setting, rate
-from supervisor.config.stability.scenario import nominal_setting, setting_of
+from supervisor.config.stability.scenario import coupling_gain, nominal_setting, setting_of
 from supervisor.tools.stability_check import simulate
 from tests.conftest import CONFIGS
 from vehicles.params import preset

@@ -10,7 +10,7 @@ from comms.wire import SIZE
 from supervisor.config.comms_schema import CommsSection, TransmitSection
 from supervisor.config.derived import steps_of
 from supervisor.config.describe import describe_fault
-from supervisor.config.links import coupling_gain
+from supervisor.config.fleet import coupling_k
 from supervisor.config.medium import modem_params, sound_speed
 from supervisor.config.scenario_schema import Scenario, VehicleSection
 
@@ -39,7 +39,7 @@ def what_would_run(sc: Scenario) -> str:
 
 def _gain(sc: Scenario) -> str:
     """k as law (5) will run with it: fitted to the links if the schedule lowers it (stability.schedule)."""
-    given, used = sc.coordination.k, coupling_gain(sc)
+    given, used = sc.coordination.k, coupling_k(sc)
     return f"k {_num(given)}" if used == given else f"k {_num(used)} (fitted to the links; {_num(given)} given)"
 
 

@@ -26,7 +26,7 @@ from comms.modem import ModemParams
 from comms.state import StateReport
 from comms.stats import LinkStats
 from supervisor.config.extensions import extension
-from supervisor.config.links import coupling_gain
+from supervisor.config.links import needs_fitting
 from supervisor.config.medium import modem_params, sound_speed
 from supervisor.config.plant import current_of, plant_of
 from supervisor.config.scenario_schema import (
@@ -84,7 +84,7 @@ def vehicle_config(scenario: Scenario, vehicle_id: int, seed: int | None = None)
         params=params,
         path=build_path(section.path),
         controller=controller_of(scenario),
-        coordination=CoordinationGains(coupling_gain(scenario), co.k2, co.v_r),
+        coordination=CoordinationGains(coupling_k(scenario), co.k2, co.v_r),
         predictor=predictor_of(scenario),
         law=extension("law", co.law, co.law_options),
         max_age=co.max_age,
@@ -99,6 +99,16 @@ def vehicle_config(scenario: Scenario, vehicle_id: int, seed: int | None = None)
         ),
         vehicle_model=vehicle,
     )
+
+
+def coupling_k(scenario: Scenario) -> float:
+    """The k law (5) runs with (supervisor.config.stability.scenario.coupling_gain), the analysis and its scipy
+    imported only where k must be fitted to the links."""
+    if not needs_fitting(scenario):
+        return scenario.coordination.k
+    from supervisor.config.stability.scenario import coupling_gain
+
+    return coupling_gain(scenario)
 
 
 def _given(value: float | str) -> float | None:

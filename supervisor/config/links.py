@@ -1,7 +1,6 @@
 """What a scenario's links give its coordination loop, and the gain law (5) runs with on them: the transmit period or
-TDMA frame with each sender's offset, the delay, the long-run loss, and k fitted to them
-(supervisor.config.stability.schedule). Light: the stability analysis (scipy) is imported only where k must be
-fitted.
+TDMA frame with each sender's offset, the delay, the long-run loss, and whether law (5)'s k must be fitted to them
+(supervisor.config.stability). Light: no scipy, so that a run whose links are continuous never imports it.
 
 The delay is airtime (packet bits / bitrate, preamble included) + time of flight over the mean initial distance of
 linked vehicles + half the jitter + the mean extra link delay, rounded up to the sync step as arrivals are; the loss
@@ -70,15 +69,10 @@ def schedules(scenario: Scenario) -> bool:
     return co.schedule == "rate" and co.law in SCHEDULED_LAWS and co.predictor in PREDICTORS
 
 
-def coupling_gain(scenario: Scenario) -> float:
-    """The k law (5) runs with: the scenario's, or the one fitted to its links (stability.schedule)."""
-    if not schedules(scenario) or continuous(scenario):
-        return scenario.coordination.k
-    # Imported here: the analysis needs scipy, which a run whose links are continuous never imports (~0.4 s).
-    from supervisor.config.stability.scenario import nominal_setting
-    from supervisor.config.stability.schedule import fastest_gain
-
-    return fastest_gain(nominal_setting(scenario, "fastest"))
+def needs_fitting(scenario: Scenario) -> bool:
+    """Whether law (5)'s k must be fitted to the links by the analysis (supervisor.config.stability.scenario
+    .coupling_gain): it is scheduled and the links are not continuous."""
+    return schedules(scenario) and not continuous(scenario)
 
 
 def continuous(scenario: Scenario) -> bool:

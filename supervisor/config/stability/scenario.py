@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
-from supervisor.config.links import coupling_gain, delay_of, loss_of, timing
+from supervisor.config.links import delay_of, loss_of, needs_fitting, timing
 from supervisor.config.scenario_schema import Scenario
 from supervisor.config.stability.margins import (
     Setting,
@@ -26,6 +26,7 @@ from supervisor.config.stability.margins import (
     rate,
 )
 from supervisor.config.stability.model import Loop
+from supervisor.config.stability.schedule import fastest_gain
 
 
 def loop_of(scenario: Scenario) -> Loop:
@@ -38,9 +39,16 @@ def loop_of(scenario: Scenario) -> Loop:
 
 
 def setting_of(scenario: Scenario) -> Setting:
-    """The loop as it runs: with the k law (5) runs with (supervisor.config.links.coupling_gain)."""
+    """The loop as it runs: with the k law (5) runs with (coupling_gain)."""
     nominal = nominal_setting(scenario)
     return replace(nominal, loop=replace(nominal.loop, k=coupling_gain(scenario)))
+
+
+def coupling_gain(scenario: Scenario) -> float:
+    """The k law (5) runs with: the scenario's, or the one fitted to its links (stability.schedule)."""
+    if not needs_fitting(scenario):
+        return scenario.coordination.k
+    return fastest_gain(nominal_setting(scenario, "fastest"))
 
 
 def nominal_setting(scenario: Scenario, event: str = "heartbeat") -> Setting:
