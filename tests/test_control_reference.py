@@ -8,7 +8,7 @@ for Delta^-1, so a slip in the float arithmetic or in the planar embedding shows
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pytest
@@ -65,6 +65,16 @@ def input_inertia_and_limits(model: Model, prm: VehicleParams) -> tuple[FloatArr
     return np.array([prm.mass[0], prm.inertia[2]]), np.array([prm.max_surge_force, prm.max_torque])
 
 
+def actuated_damping(model: Model, prm: VehicleParams) -> tuple[FloatArray, FloatArray]:
+    """(linear, quadratic) damping of the actuated velocities nu_c."""
+    if model.dim == 3:
+        return (np.array([prm.linear_damping[0], prm.angular_linear_damping[1], prm.angular_linear_damping[2]]),
+                np.array([prm.quadratic_damping[0], prm.angular_quadratic_damping[1],
+                          prm.angular_quadratic_damping[2]]))  # fmt: skip
+    return (np.array([prm.linear_damping[0], prm.angular_linear_damping[2]]),
+            np.array([prm.quadratic_damping[0], prm.angular_quadratic_damping[2]]))  # fmt: skip
+
+
 def reference_controller(
     model: Model, prm: VehicleParams, gains: Backstepping, path: Path, x: FloatArray,
     gamma: float, gamma_dot: float, v_d: float, correction: float,
@@ -95,7 +105,11 @@ def reference_controller(
     z2 = nu_c - alpha
     nu_c_dot = alpha_dot - delta_mat.T @ sigma - gains.k2 * z2
     inertia, limits = input_inertia_and_limits(model, prm)
-    tau = np.clip(inertia * (nu_c_dot - nu_c_dot0), -limits, limits)
+    raw = inertia * (nu_c_dot - nu_c_dot0)
+    if gains.damping == "feedforward":  # the damping of nu_c fed forward at alpha, not cancelled at nu_c
+        linear, quadratic = actuated_damping(model, prm)
+        raw = raw + (linear + quadratic * np.abs(alpha)) * alpha - (linear + quadratic * np.abs(nu_c)) * nu_c
+    tau = np.clip(raw, -limits, limits)
 
     zeta = gamma_dot - v_d
     gamma_ddot = -gains.k_zeta * zeta + sigma @ tangent + correction
@@ -103,14 +117,19 @@ def reference_controller(
     return Reference(tau, float(gamma_ddot), error, z1, float(lyapunov))
 
 
-def random_state(model: Model, path: Path, rng: np.random.Generator, gamma: float) -> FloatArray:
-    """Somewhere near the path, any attitude, moving and turning."""
-    near = path.evaluate(gamma)[0] + rng.normal(0.0, 3.0, 3)
+def random_state(model: Model, path: Path, rng: np.random.Generator, gamma: float, calm: bool) -> FloatArray:
+    """Somewhere near the path, any attitude, moving and turning (calm: slowly, so that some inputs stay within
+    their limits whichever way the damping enters them)."""
+    point, slope, _ = path.evaluate(gamma)
+    near = point + rng.normal(0.0, 0.3 if calm else 3.0, 3)
+    speed, spin, turn = (0.3, 0.03, 0.2) if calm else (1.0, 0.3, math.pi)
+    yaw = math.atan2(slope[1], slope[0]) if calm else 0.0  # calm: heading roughly along the path
     if model.dim == 3:
-        rot = rotation_from_rpy(*rng.uniform(-math.pi, math.pi, 3))
-        return SPATIAL.pack(near, rot, rng.normal(0.0, 1.0, 3), rng.normal(0.0, 0.3, 3))
+        roll, pitch, spin_yaw = rng.uniform(-turn, turn, 3)
+        rot = rotation_from_rpy(roll, pitch, yaw + spin_yaw)
+        return SPATIAL.pack(near, rot, rng.normal(0.0, speed, 3), rng.normal(0.0, spin, 3))
     return PLANAR.pack(
-        near[:2], rotation_2d(rng.uniform(-math.pi, math.pi)), rng.normal(0.0, 1.0, 2), rng.normal(0.0, 0.3, 1)
+        near[:2], rotation_2d(yaw + rng.uniform(-turn, turn)), rng.normal(0.0, speed, 2), rng.normal(0.0, spin, 1)
     )
 
 
@@ -118,16 +137,18 @@ CASES = [(SPATIAL, HELIX), (PLANAR, HELIX), (PLANAR, SURVEY)]
 IDS = ["spatial-helix", "planar-helix", "planar-survey"]
 
 
+@pytest.mark.parametrize("damping", ["feedforward", "cancel"])
 @pytest.mark.parametrize(("model", "path"), CASES, ids=IDS)
-def test_float_controller_matches_the_numpy_transcription(model, path):
+def test_float_controller_matches_the_numpy_transcription(model, path, damping):
+    gains = replace(GAINS, damping=damping)
     rng = np.random.default_rng(11)
     saturated = unsaturated = 0
-    for _ in range(400):
+    for i in range(400):
         gamma = rng.uniform(-20.0, 120.0)
-        x = random_state(model, path, rng, gamma)
+        x = random_state(model, path, rng, gamma, calm=i % 2 == 0)
         gamma_dot, correction = rng.uniform(-0.5, 2.0), rng.normal(0.0, 0.2)
-        got = path_following(model, REMUS, GAINS, path, x, gamma, gamma_dot, 1.0, correction)
-        want = reference_controller(model, REMUS, GAINS, path, x, gamma, gamma_dot, 1.0, correction)
+        got = path_following(model, REMUS, gains, path, x, gamma, gamma_dot, 1.0, correction)
+        want = reference_controller(model, REMUS, gains, path, x, gamma, gamma_dot, 1.0, correction)
         assert got.tau.shape == want.tau.shape == (model.dim,)
         np.testing.assert_allclose(got.tau, want.tau, rtol=1e-10, atol=1e-10)
         np.testing.assert_allclose(got.error, want.error, rtol=1e-12, atol=1e-12)
@@ -166,7 +187,7 @@ def test_float_step_is_rk4_of_the_closed_loop(model, path):
     rng = np.random.default_rng(5)
     for _ in range(50):
         gamma = rng.uniform(-20.0, 120.0)
-        x, gamma_dot = random_state(model, path, rng, gamma), rng.uniform(-0.5, 2.0)
+        x, gamma_dot = random_state(model, path, rng, gamma, calm=False), rng.uniform(-0.5, 2.0)
         state, telemetry = step(cfg, VehicleState(3.0, x, gamma, gamma_dot), 0.1, neighbours=[])
         want_x, want_gamma, want_gamma_dot = reference_step(cfg, x, gamma, gamma_dot, 0.1)
         assert state.x.shape == x.shape and state.t == pytest.approx(3.1)

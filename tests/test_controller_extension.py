@@ -132,7 +132,7 @@ def test_cpf_plugins_lists_the_builtin_controller(tmp_path):
     assert done.returncode == 0
     assert "path_following.controller (entry points cpf.controllers):" in done.stdout
     assert "  backstepping  vehicles.path_following:Backstepping" in done.stdout
-    assert "options: delta, k1, k2, k_zeta" in done.stdout
+    assert "options: damping, delta, k1, k2, k_zeta" in done.stdout
 
 
 def test_the_controller_of_docs_extending_builds_and_steers_as_the_builtin_with_its_gains(tmp_path, monkeypatch):

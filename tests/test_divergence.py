@@ -3,6 +3,8 @@ both engines, or is lost as a dead process is under on_vehicle_loss = continue; 
 
 from __future__ import annotations
 
+import re
+
 import pytest
 
 from tests.conftest import shortened
@@ -21,8 +23,11 @@ def test_a_diverging_vehicle_stops_the_run_with_one_line(tmp_path, paper_text, e
     assert "Traceback" not in done.stderr
     lines = [line for line in done.stderr.splitlines() if line.startswith("cpf: error")]  # (and the warning that
     # the shortened run ends before the paper's fault)
-    assert len(lines) == 1 and lines[0].startswith("cpf: error: vehicle 1 stopped at t = 1.0 s"), lines
-    assert "vehicle 1 diverged at t = 1.0 s: its speed is" in lines[0]
+    # Every vehicle diverges in the same step; over Zenoh whichever process exits first is the one named.
+    assert len(lines) == 1, lines
+    stopped = re.match(r"cpf: error: vehicle (\d) stopped at t = 1\.0 s", lines[0])
+    assert stopped is not None, lines
+    assert f"vehicle {stopped[1]} diverged at t = 1.0 s: its speed is" in lines[0]
 
 
 @pytest.mark.parametrize("engine", ["inprocess", "zenoh"])
@@ -32,4 +37,4 @@ def test_a_diverging_vehicle_is_lost_when_the_scenario_says_continue(tmp_path, p
     args = ["--set", "scenario.on_vehicle_loss=continue", "--engine", engine, "--out", "r.mcap", *DIVERGES]
     done = cpf("run", str(scenario), *args, cwd=tmp_path, timeout=120)
     assert "Traceback" not in done.stderr
-    assert "vehicle 1 lost at t = 1.0 s" in done.stderr and "diverged" in done.stderr, done.stderr
+    assert re.search(r"vehicle \d lost at t = 1\.0 s", done.stderr) and "diverged" in done.stderr, done.stderr

@@ -85,9 +85,11 @@ def errors(seconds: float, *sets: str) -> list[float]:
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_a_perturbed_plant_converges_into_the_tube(seed):
-    """Lemma 1: the loop is practically stable under parametric mismatch, the tube |delta| + epsilon. Stated here
-    as the report's tube, |delta| + tube_margin = 1.2 m; with +-30 % on every coefficient the error stays within
-    a few cm of |delta| (the nominal run stays at |delta| = 1 m)."""
+    """The paper's Lemma 1 assumes a path-following controller that tolerates parametric uncertainty (Aguiar &
+    Hespanha's adaptive switching supervisor); the built-in backstepping has no adaptation, so this holds what it
+    does show: with +-30 % on every coefficient the error stays in the report's tube, |delta| + tube_margin = 1.2 m,
+    within a few cm of |delta| (the nominal run stays at |delta| = 1 m). scripts/vehicle_robustness.py measures it
+    to +-60 %."""
     nominal = errors(200.0)
     mismatched = errors(200.0, "vehicle.uncertainty=0.3", f"scenario.seed={seed}")
     assert max(mismatched) <= 1.2

@@ -13,7 +13,18 @@ every direction:
 
 V = (rho - 1) + zeta^2 / 2 + |z2|^2 / 2 has V_dot = -sigma' K1 sigma - k_zeta zeta^2 - z2' K2 z2 + zeta v_tilde,
 so with no coordination input and no saturation V never increases, and the vehicle converges to the tube
-|p - p_d| -> |delta| around its path. `law` writes it once, in floats on the lifted state (see vehicles.dynamics),
+|p - p_d| -> |delta| around its path.
+
+Damping. Inverting the model exactly ("cancel") cancels the nominal damping D(nu_c) nu_c of the measured velocity;
+where the true vehicle has less damping than its model (the angular quadratic terms are the least known), the
+difference acts as anti-damping that grows as |nu_c|^2 and beats the linear K2 feedback above a rate (about
+0.18 rad/s in issue 24's runs). "feedforward" (the default) feeds the nominal damping forward at the virtual
+velocity alpha instead, D(alpha) alpha, and leaves the true vehicle's own damping on the measured one: on the z2
+error it then acts as D_true(nu_c) nu_c - D_true(alpha) alpha, which has the sign of z2 for any positive damping
+(x -> D(x) x is increasing), plus the bounded mismatch (D_nominal - D_true)(alpha) alpha; the nominal V_dot gains
+-z2' J^-1 (D(nu_c) nu_c - D(alpha) alpha) <= 0, so V still never increases. A damping term is a useful
+nonlinearity, one a Lyapunov design need not cancel (Krstic, Kanellakopoulos & Kokotovic, Nonlinear and Adaptive
+Control Design, Wiley 1995). `law` writes the controller once, in floats on the lifted state (see vehicles.dynamics),
 for the spatial and the planar model; `path_following` is its array interface.
 
 A controller is any object with the `PathFollowingController` interface; the built-in `Backstepping` is registered
@@ -25,7 +36,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Annotated, NamedTuple, Protocol, runtime_checkable
+from typing import Annotated, Literal, NamedTuple, Protocol, runtime_checkable
 
 from annotated_types import Gt
 
@@ -76,12 +87,15 @@ class PathFollowingController(Protocol):
 @dataclass(frozen=True, slots=True)
 class Backstepping:
     """The delta-shifted backstepping controller of the module docstring (entry point `backstepping`): delta in m
-    (non-zero; its size is the tube radius), k1 in m/s, k2 and k_zeta in 1/s."""
+    (non-zero; its size is the tube radius), k1 in m/s, k2 and k_zeta in 1/s; damping: how the model's damping of
+    the actuated velocities (u, q, r) enters the inputs, "feedforward" (the default) or "cancel" (the former
+    default; see the module docstring)."""
 
     delta: float = -1.0
     k1: Annotated[float, Gt(0)] = 0.5
     k2: Annotated[float, Gt(0)] = 1.0
     k_zeta: Annotated[float, Gt(0)] = 1.0
+    damping: Literal["feedforward", "cancel"] = "feedforward"
 
     def __post_init__(self) -> None:
         if self.delta == 0.0:
@@ -164,6 +178,12 @@ def law(
     return ControlOutput(tau, gamma_ddot, lyapunov, drift), z1
 
 
+def _drag(linear: float, quadratic: float, wanted: float, measured: float) -> float:
+    """D(wanted) wanted - D(measured) measured for D(x) = linear + quadratic |x|: what feeding the damping forward at
+    the virtual velocity adds to inputs that cancel it at the measured one."""
+    return (linear + quadratic * abs(wanted)) * wanted - (linear + quadratic * abs(measured)) * measured
+
+
 def _path_in_body(path: PathVectors, s: Sequence[float], delta: float) -> tuple[Float3, Float3, Float3]:
     """z1 = R' (p - p_d) - delta, tangent = R' p_d^gamma, curvature = R' p_d^gammagamma."""
     p_d, p_g, p_gg = path
@@ -231,6 +251,10 @@ def _backstepping(
     tau_u = m_u * (dalpha_u - sx - k2 * z2u - du)
     tau_q = j_q * (dalpha_q - delta * sz - k2 * z2q - dq)
     tau_r = j_r * (dalpha_r + delta * sy - k2 * z2r - dr)
+    if gains.damping == "feedforward":  # the drift's damping of (u, q, r) moved from the measured to the virtual one
+        tau_u += _drag(prm.linear_damping[0], prm.quadratic_damping[0], alpha_u, u)
+        tau_q += _drag(prm.angular_linear_damping[1], prm.angular_quadratic_damping[1], alpha_q, q)
+        tau_r += _drag(prm.angular_linear_damping[2], prm.angular_quadratic_damping[2], alpha_r, r)
     # Saturated: min(max(tau, -lim), lim) to the bit, NaN included, without six builtin calls per evaluation.
     return (z2u, z2q, z2r), (
         lim_u if tau_u > lim_u else -lim_u if tau_u < -lim_u else tau_u,

@@ -31,7 +31,7 @@ def extension_errors(sc: Scenario) -> Iterator[str]:
     if pf.controller != "backstepping":  # the built-in's gains are [path_following]'s own keys, checked by pydantic
         yield from _checked("controller", "path_following", pf.controller, pf.controller_options)
     elif pf.controller_options:
-        keys = "delta, k1, k2, k_zeta"
+        keys = "delta, k1, k2, k_zeta, damping"
         yield (
             f"path_following.controller_options: backstepping takes its gains from [path_following] ({keys}), "
             f"got {pf.controller_options}"

@@ -258,7 +258,7 @@ def controller_of(scenario: Scenario) -> PathFollowingController:
     """The path-following controller: backstepping with [path_following]'s gains, or the named one with its
     controller_options."""
     pf = scenario.path_following
-    gains = {"delta": pf.delta, "k1": pf.k1, "k2": pf.k2, "k_zeta": pf.k_zeta}
+    gains = {"delta": pf.delta, "k1": pf.k1, "k2": pf.k2, "k_zeta": pf.k_zeta, "damping": pf.damping}
     options = gains if pf.controller == "backstepping" else pf.controller_options
     controller: PathFollowingController = extension("controller", pf.controller, options)
     return controller

@@ -166,7 +166,8 @@ class PathFollowingSection(StrictModel):
     controller: ExtensionName = Field(
         default="backstepping",
         description="the path-following controller: backstepping (the delta-shifted design; its gains are this "
-        "section's delta, k1, k2, k_zeta), an installed extension's name (`cpf plugins`), or package.module:Name",
+        "section's delta, k1, k2, k_zeta, damping), an installed extension's name (`cpf plugins`), or "
+        "package.module:Name",
     )
     controller_options: dict[str, Any] = Field(
         default_factory=dict, description="another controller's own options (its fields; backstepping takes none)"
@@ -179,6 +180,12 @@ class PathFollowingSection(StrictModel):
     k1: Float = Field(default=0.5, gt=0, le=MAX_GAIN, description="K1: gain on the position error, m/s")
     k2: Float = Field(default=1.0, gt=0, le=MAX_GAIN, description="K2: gain on the velocity error, 1/s")
     k_zeta: Float = Field(default=1.0, gt=0, le=MAX_GAIN, description="gain on the speed error gamma_dot - v_r, 1/s")
+    damping: Literal["feedforward", "cancel"] = Field(
+        default="feedforward",
+        description="how the model's damping of surge, pitch and yaw rate enters the inputs: feedforward (at the "
+        "velocity the controller asks for; the vehicle's own damping acts on the error, robust to a wrong model) or "
+        "cancel (at the measured velocity: the nominal model inverted exactly, the former default)",
+    )
 
     @field_validator("delta")
     @classmethod
