@@ -31,11 +31,13 @@ readme: $(STAMP)
 
 # The robustness study (README, "Robustness study"): each effect alone, fix-period and current sweeps; ~4 min of
 # CPU on 2 cores with 4 seeds. Output in runs/study/ (results.csv, table.md, study_*.png). Then coordination on
-# slow links (README, "Coordination on slow links"): real_links.md, period_loss.csv, period_loss_map.png, ~3 min.
+# slow links (README, "Coordination on slow links"): real_links.md, period_loss.csv, period_loss_map.png, ~6 min.
+# Then robust vehicles (README, "Robust vehicles"): mismatch.md, mismatch.csv, 10 seeds, ~2 min.
 SEEDS ?= 4
 study: $(STAMP)
 	$(BIN)/python scripts/robustness_study.py --seeds $(SEEDS) --jobs 2 --out runs/study
 	$(BIN)/python scripts/real_links_study.py --jobs 2 --out runs/study
+	$(BIN)/python scripts/vehicle_robustness.py --seeds 10 --jobs 2 --out runs/study
 
 bench: $(STAMP)
 	$(BIN)/python -m benchmarks
