@@ -22,9 +22,14 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
+from supervisor.config.stability.schedule import CANDIDATES  # noqa: E402  (after the path)
+
 PAPER = ROOT / "configs" / "paper.toml"
 FORMER = ["coordination.predictor=first_order", "coordination.schedule=none", "saturation.correction=none"]
 AIRTIME_8S = ["comms.bitrate=15"]  # a 15-byte message at 15 bit/s: 8 s on air
+NO_FAULT = ["faults=[]"]
+# The gains the schedule chooses among (supervisor.config.stability.schedule), from the paper's k = 0.2.
+GAINS = tuple(0.2 * 2.0 ** (-m / 4) for m in range(CANDIDATES))
 PERIODS = (1.0, 5.0, 10.0, 20.0, 30.0)
 LOSSES = (0.0, 0.1, 0.3, 0.5)
 
@@ -47,15 +52,22 @@ def predicted_rate(overrides: list[str]) -> float:
 
 
 def acceptance_rows(pool: ProcessPoolExecutor) -> list[str]:
+    """The issue-23 acceptance rows: the defaults, the same without the fault, law (5) at the best of the schedule's
+    candidate gains (k fixed, no schedule), and the former defaults."""
     cases = [(f"{p:g} s", [f"comms.transmit.period={p}"]) for p in (10.0, 20.0, 30.0)]
     cases = [*cases, *((f"{name}, 8 s on air", [*o, *AIRTIME_8S]) for name, o in [("every step", []), *cases])]
-    runs = {(name, former): pool.submit(measure, [*o, *(FORMER if former else [])])
-            for name, o in cases for former in (False, True)}  # fmt: skip
-    rows = ["| messages | coord. error, last 50 s | path error [m] | former defaults: coord. | path [m] |",
-            "|---|---|---|---|---|"]  # fmt: skip
+    variants = {"defaults": [], "no fault": NO_FAULT, "former": FORMER}
+    runs = {(name, v): pool.submit(measure, [*o, *extra]) for name, o in cases for v, extra in variants.items()}
+    gains = {(name, k): pool.submit(measure, [*o, "coordination.schedule=none", f"coordination.k={k:.6g}"])
+             for name, o in cases for k in GAINS}  # fmt: skip
+    rows = ["| messages | coord. error, last 50 s | path error [m] | without the fault: coord. | path [m] "
+            "| law (5), best fixed k: coord. (k) | former defaults: coord. | path [m] |",
+            "|---|---|---|---|---|---|---|---|"]  # fmt: skip
     for name, _ in cases:
-        (c, p), (fc, fp) = runs[(name, False)].result(), runs[(name, True)].result()
-        rows.append(f"| {name} | {c:.3g} | {p:.3g} | {fc:.3g} | {fp:.3g} |")
+        (c, p), (nc, np_), (fc, fp) = (runs[(name, v)].result() for v in variants)
+        best_c, best_k = min((gains[(name, k)].result()[0], k) for k in GAINS)
+        rows.append(f"| {name} | {c:.3g} | {p:.3g} | {nc:.3g} | {np_:.3g} | {best_c:.3g} ({best_k:.3g}) | {fc:.3g} "
+                    f"| {fp:.3g} |")  # fmt: skip
     return rows
 
 
