@@ -45,6 +45,7 @@ class StateWire(msgspec.Struct, omit_defaults=True):
     step_lateness: Finite | None = None
     nav_estimate: tuple[Real, ...] | None = None
     nav_fix: int | None = None
+    current_estimate: Real3 | None = None
 
     def report(self) -> StateReport:
         return StateReport(*msgspec.structs.astuple(self))

@@ -72,8 +72,9 @@ STATE = _object(
         "step_lateness": NUMBER,  # realtime: s (wall clock) from t_k to the vehicle's starting its step
         "nav_estimate": _vector(27),  # navigation on: the filter's [p_hat, bias, covariance upper triangle]
         "nav_fix": INTEGER,  # navigation on: 0 no fix due, 1 fix fused, 2 fix lost
+        "current_estimate": _vector(3),  # current observer on: its estimate, inertial, m/s
     },
-    optional=("rx_lateness", "step_lateness", "nav_estimate", "nav_fix"),
+    optional=("rx_lateness", "step_lateness", "nav_estimate", "nav_fix", "current_estimate"),
 )
 TRANSMISSION = _object(
     "cpf.Transmission",

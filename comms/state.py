@@ -64,6 +64,8 @@ class StateReport:
     # DVL bias (3)], then its covariance's upper triangle by rows (21); absent without navigation.
     nav_estimate: tuple[Real, ...] | None = None
     nav_fix: int | None = None  # 0: no position fix due, 1: a fix fused, 2: a fix due but lost
+    # With a current observer (vehicles.current_observer), the current it estimates, inertial, m/s; absent without.
+    current_estimate: Real3 | None = None
 
     @property
     def estimated_position(self) -> Float3 | None:
@@ -110,6 +112,8 @@ class StateReport:
         if self.nav_estimate is not None:
             message["nav_estimate"] = list(self.nav_estimate)
             message["nav_fix"] = self.nav_fix
+        if self.current_estimate is not None:
+            message["current_estimate"] = list(self.current_estimate)
         return message
 
     @classmethod
@@ -140,6 +144,7 @@ class StateReport:
             None if message.get("step_lateness") is None else number(message, "step_lateness"),
             None if message.get("nav_estimate") is None else tuple(_reals(message, "nav_estimate")),
             None if message.get("nav_fix") is None else get(message, "nav_fix", int),
+            None if message.get("current_estimate") is None else _reals3(message, "current_estimate"),
         )  # fmt: skip
 
 

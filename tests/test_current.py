@@ -105,11 +105,12 @@ def test_the_feedforward_is_the_body_current_and_its_derivative_along_the_motion
 
 
 def follow(current: str, known: bool, seconds: float = 300.0) -> list[tuple[float, float]]:
-    """(t, |p - p_d|) of AUV 1 of the paper scenario alone (no neighbours) in the given current."""
+    """(t, |p - p_d|) of AUV 1 of the paper scenario alone (no neighbours) in the given current, told to its
+    controller or not; not told, the controller does not estimate it either (the observer is
+    tests/test_current_observer.py's)."""
     text = (CONFIGS / "paper.toml").read_text()
-    sc = parse_scenario(
-        text, overrides=[f"environment.current={current}", f"environment.current_known={str(known).lower()}"]
-    )
+    told = f"environment.current_known={str(known).lower()}"
+    sc = parse_scenario(text, overrides=[f"environment.current={current}", told, "environment.estimate_current=off"])
     cfg = vehicle_config(sc, 1)
     state = initial_state(sc, cfg)
     out = []

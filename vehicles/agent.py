@@ -14,6 +14,8 @@ from dataclasses import dataclass, field
 from comms.records import Disturbances, FloatArray
 from vehicles.coordination import CoordinationGains, CoordinationLaw, Corrected
 from vehicles.current import Current, feedforward
+from vehicles.current_observer import CurrentObserver
+from vehicles.current_observer import feedforward as estimated_current
 from vehicles.dynamics import LIFTED_SIZE, Model, PathVectors, reorthonormalize
 from vehicles.estimates import FirstOrder, NeighbourEstimate, Predictor, fresh, newer
 from vehicles.geometry import Float3
@@ -25,8 +27,8 @@ from vehicles.plant import plant_rates
 from vehicles.saturation import bounded_correction, clamp, hold, rate_bound, slope_size
 from vehicles.vehicle_model import Auv, VehicleModel
 
-# Where gamma and gamma_dot sit in the integrated vector z = [lifted x, gamma, gamma_dot].
-_GAMMA, _GAMMA_DOT = LIFTED_SIZE, LIFTED_SIZE + 1
+# Where gamma and gamma_dot sit in the integrated vector z = [lifted x, gamma, gamma_dot, current observer's state].
+_GAMMA, _GAMMA_DOT, _OBSERVER = LIFTED_SIZE, LIFTED_SIZE + 1, LIFTED_SIZE + 2
 UNDISTURBED = Disturbances()  # no fault acts on the vehicle
 
 
@@ -55,6 +57,9 @@ class VehicleConfig:
     # The vehicle model (vehicles.vehicle_model) whose parameters are params: its dynamics drive the controller's
     # inversion and the plant (None: the AUV of eqs. (1)-(2)); `vehicle` is the one in use.
     vehicle_model: VehicleModel | None = None
+    # The on-board current estimate fed to the controller (vehicles.current_observer; None: none). A current the
+    # controller is told (current_known) takes its place.
+    current_observer: CurrentObserver | None = None
     vehicle: VehicleModel = field(init=False)
 
     def __post_init__(self) -> None:
@@ -69,6 +74,7 @@ class VehicleState:
     gamma: float
     gamma_dot: float
     estimates: Mapping[int, NeighbourEstimate] = field(default_factory=dict)
+    observer: tuple[float, ...] = ()  # the current observer's state (vehicles.current_observer); () before it starts
 
 
 @dataclass(frozen=True, slots=True)
@@ -84,6 +90,7 @@ class Telemetry:
     tau: FloatArray
     correction: float  # v_tilde_i
     lyapunov: float
+    current_estimate: Float3 | None = None  # the observer's current, inertial, m/s (None: no observer)
 
 
 def receive(state: VehicleState, sender: int, estimate: NeighbourEstimate) -> VehicleState:
@@ -91,7 +98,9 @@ def receive(state: VehicleState, sender: int, estimate: NeighbourEstimate) -> Ve
     if not newer(state.estimates.get(sender), estimate):
         return state
     # The constructor, not dataclasses.replace: the same object, at a fraction of the cost (per message per step).
-    return VehicleState(state.t, state.x, state.gamma, state.gamma_dot, {**state.estimates, sender: estimate})
+    return VehicleState(
+        state.t, state.x, state.gamma, state.gamma_dot, {**state.estimates, sender: estimate}, state.observer
+    )
 
 
 def _neighbour_values(
@@ -125,7 +134,16 @@ def _closed_loop(
     point = cfg.model.path_seen(cfg.path.evaluate_floats(gamma))
     v_tilde = _bounded(cfg, point, cfg.law.correction(gamma, gamma_dot, heard, cfg.coordination))
     view = z if held is None else seen(z, held)
-    known = feedforward(cfg.current, t, view) if cfg.current_known and cfg.current is not None else None
+    observer = cfg.current_observer
+    observer_rates: tuple[float, ...] = ()
+    if cfg.current_known and cfg.current is not None:
+        known = feedforward(cfg.current, t, view)
+    elif observer is not None:
+        estimate = z[_OBSERVER:]
+        observer_rates = observer.rates(view, estimate)
+        known = estimated_current(view, estimate, observer_rates)
+    else:
+        known = None
     vehicle = cfg.vehicle
     out = cfg.controller.control(vehicle, cfg.params, view, point, gamma, gamma_dot, cfg.coordination.v_r, known)
     gamma_ddot = out.gamma_ddot + v_tilde  # eq. (3): the controller's part, then the coordination's
@@ -136,7 +154,8 @@ def _closed_loop(
     own = out.drift if cfg.plant is None and held is None else None
     xdot = plant_rates(vehicle, cfg.plant or cfg.params, cfg.current, t, z, own, out.tau)
     p_d = point[0]
-    return [*xdot, gamma_dot, gamma_ddot], out, v_tilde, (view[0] - p_d[0], view[1] - p_d[1], view[2] - p_d[2])
+    zdot = [*xdot, gamma_dot, gamma_ddot, *observer_rates]
+    return zdot, out, v_tilde, (view[0] - p_d[0], view[1] - p_d[1], view[2] - p_d[2])
 
 
 def _bounded(cfg: VehicleConfig, point: PathVectors, v_tilde: float) -> float:
@@ -181,7 +200,8 @@ def step(
     error the controller sees every stage with (vehicles.navigation); the telemetry's error is the true one."""
     model = cfg.model
     t = state.t
-    z = [*model.lift(state.x), float(state.gamma), float(state.gamma_dot)]
+    lifted = model.lift(state.x)
+    z = [*lifted, float(state.gamma), float(state.gamma_dot), *_observer_state(cfg, state, lifted, held)]
     # The estimates do not change within a step: the two midpoint stages predict the neighbours at the same time.
     mid = _neighbour_values(cfg, state, t + dt / 2, neighbours)
     k1, out, v_tilde, seen_error = _closed_loop(cfg, z, _neighbour_values(cfg, state, t, neighbours), dist, t, held)
@@ -196,13 +216,28 @@ def step(
     if limits is not None:
         gamma_dot_next = clamp(gamma_dot_next, *limits)
     error = seen_error if held is None else _true_error(seen_error, held)
+    observed = (z[_OBSERVER + 3], z[_OBSERVER + 4], z[_OBSERVER + 5]) if len(z) > _OBSERVER else None
     telemetry = Telemetry(
         cfg.vehicle_id, t, state.gamma, z[_GAMMA_DOT], state.x, model.vector(error), model.inputs(out.tau),
-        v_tilde, out.lyapunov,
+        v_tilde, out.lyapunov, observed,
     )  # fmt: skip
     x_next = model.lower(reorthonormalize(z_next[:LIFTED_SIZE]))
-    next_state = VehicleState(t + dt, x_next, z_next[_GAMMA], gamma_dot_next, state.estimates)
+    observer_next = tuple(z_next[_OBSERVER:])
+    next_state = VehicleState(t + dt, x_next, z_next[_GAMMA], gamma_dot_next, state.estimates, observer_next)
     return next_state, telemetry
+
+
+def _observer_state(
+    cfg: VehicleConfig, state: VehicleState, lifted: Sequence[float], held: HeldError | None
+) -> tuple[float, ...]:
+    """The current observer's state to integrate: the state's own, or the observer's start from what the controller
+    sees now if it has none yet (a new or restarted vehicle); () without an observer, or when the current is told."""
+    observer = cfg.current_observer
+    if observer is None or (cfg.current_known and cfg.current is not None):
+        return ()
+    if state.observer:
+        return state.observer
+    return observer.initial(lifted if held is None else seen(lifted, held))
 
 
 def _true_error(error: Sequence[float], held: HeldError) -> tuple[float, float, float]:

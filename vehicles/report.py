@@ -40,6 +40,7 @@ def state_report(
         tuple(s[3:12]), (s[12], s[13], s[14]), (s[15], s[16], s[17]),
         _three(error), tuple(telemetry.tau.tolist()), telemetry.correction, telemetry.lyapunov, tx_seq, ages,
         nav_estimate=None if nav is None else nav.posterior.flat(), nav_fix=None if nav is None else nav.fix,
+        current_estimate=telemetry.current_estimate,
     )  # fmt: skip
 
 

@@ -69,6 +69,7 @@ def figure_builders(run: RunData) -> list[tuple[str, Callable[[RunData], Figure]
     """(name, builder) of every figure of the run, in the report's order (the PNG is <name>.png): the paper's
     analogues (fig3-fig6, gamma_dot: analysis.figures, which says how each adapts to the fleet and the run), then
     the channel's (comms_*: supervisor.analysis.report_comms)."""
+    from supervisor.analysis.figures_current import fig_current_estimates, has_current_estimate
     from supervisor.analysis.figures_nav import fig_navigation_errors, has_navigation
     from supervisor.analysis.report_comms import comms_figures  # it builds on this module's data and helpers
 
@@ -81,6 +82,8 @@ def figure_builders(run: RunData) -> list[tuple[str, Callable[[RunData], Figure]
     figures.append(("gamma_dot", fig_gamma_dot))
     if has_navigation(run):
         figures.append(("navigation_errors", fig_navigation_errors))
+    if has_current_estimate(run):
+        figures.append(("current_estimates", fig_current_estimates))
     return figures + [(name.removesuffix(".png"), build) for name, build in comms_figures(run)]
 
 

@@ -59,6 +59,8 @@ class VehicleSeries:
     nav_error: Array | None = None
     nav_sigma: Array | None = None
     nav_fix: Array | None = None
+    # With a current observer on (vehicles.current_observer): its estimate of the current, (n, 3) inertial, m/s
+    current_estimate: Array | None = None
 
     @property
     def desired(self) -> Array:
@@ -249,7 +251,15 @@ def _series(vehicle: int, messages: list[StateReport]) -> VehicleSeries:
         correction=column("correction"),
         lyapunov=column("lyapunov"),
         **_navigation(messages),
+        current_estimate=_current_estimate(messages),
     )
+
+
+def _current_estimate(messages: list[StateReport]) -> Array | None:
+    """The observer's estimates, if every message has one, else None."""
+    if not messages or any(m.current_estimate is None for m in messages):
+        return None
+    return _matrix([m.current_estimate or (math.nan,) * 3 for m in messages], 3)
 
 
 def _navigation(messages: list[StateReport]) -> dict[str, Array]:

@@ -44,6 +44,7 @@ from supervisor.config.scenario_schema import (
 from supervisor.config.vehicle_models import top_speed_of, vehicle_of
 from vehicles.agent import VehicleConfig, VehicleState
 from vehicles.coordination import CoordinationGains
+from vehicles.current_observer import CurrentObserver
 from vehicles.dynamics import PLANAR, SPATIAL, Model
 from vehicles.estimates import Predictor
 from vehicles.geometry import rotation_2d, rotation_from_rpy
@@ -91,6 +92,7 @@ def vehicle_config(scenario: Scenario, vehicle_id: int, seed: int | None = None)
         plant=plant_of(scenario, vehicle_id, run_seed),
         current=current_of(scenario),
         current_known=scenario.environment.current_known,
+        current_observer=current_observer_of(scenario),
         navigation=nav_params(scenario, vehicle_id, run_seed),
         top_speed=top_speed_of(scenario, vehicle_id),
         correction_limit=_given(scenario.saturation.correction),
@@ -252,6 +254,14 @@ def predictor_of(scenario: Scenario) -> Predictor:
     co = scenario.coordination
     predictor: Predictor = extension("predictor", co.predictor, co.predictor_options)
     return predictor
+
+
+def current_observer_of(scenario: Scenario) -> CurrentObserver | None:
+    """The on-board current observer (vehicles.current_observer) with the gains of the path-following loop it feeds:
+    on where the scenario says, or by default ("auto") where there is a current the controllers are not told."""
+    env, pf = scenario.environment, scenario.path_following
+    wanted = {"on": True, "off": False}.get(env.estimate_current, not env.still and not env.current_known)
+    return CurrentObserver.for_loop(pf.k1, pf.delta, pf.k2) if wanted else None
 
 
 def controller_of(scenario: Scenario) -> PathFollowingController:

@@ -3,7 +3,7 @@ the model mismatch ([vehicle] uncertainty). Each is off by default (still water,
 
 from __future__ import annotations
 
-from typing import Annotated
+from typing import Annotated, Literal
 
 from pydantic import Discriminator, Field, JsonValue, Strict, Tag
 
@@ -46,6 +46,11 @@ class EnvironmentSection(StrictModel):
         default=False,
         description="true: each controller knows the current where its vehicle is and feeds it forward; false: it "
         "steers as in still water",
+    )
+    estimate_current: Literal["auto", "on", "off"] = Field(
+        default="auto",
+        description="the on-board current observer whose estimate each controller feeds forward: auto (on where "
+        "there is a current the controllers are not told), on, off (they steer as in still water)",
     )
 
     @property
