@@ -1,9 +1,10 @@
 """Robust vehicles (README, "Robust vehicles"; issue 24): the paper scenario under model mismatch, with the
-path-following controller's damping fed forward (the default) and cancelled (the former default).
+path-following controller's damping fed forward (the default) and cancelled (the former default); and in an unknown
+0.3 m/s current (steady, tidal, sheared), with the on-board current observer (the default) and without.
 
 `python scripts/vehicle_robustness.py [--seeds N] [--jobs N] [--out DIR]` (`make study` runs it): DIR/mismatch.md
-(the table) and DIR/mismatch.csv (one row per run). Each run is in process and not recorded
-(supervisor.tools.stability_check.simulate); ~1 min per seed on 2 cores.
+and DIR/current.md (the tables), DIR/mismatch.csv (one row per run). Each run is in process and not recorded
+(supervisor.tools.stability_check.simulate); ~2 min on 2 cores with 10 seeds.
 
 Measures (as issue 24 states them): path error, the largest |p_i - p_d_i(gamma_i)| of any vehicle after the 50 s
 transient (the tube is 1.2 m); coordination error, the largest max_ij |gamma_i - gamma_j| over the last 50 s
@@ -22,6 +23,11 @@ sys.path.insert(0, str(ROOT))
 PAPER = ROOT / "configs" / "paper.toml"
 UNCERTAINTIES = (0.0, 0.2, 0.4, 0.6)
 DAMPING = ("feedforward", "cancel")
+CURRENTS = {  # 0.3 m/s each: the tide near its flood's middle, the shear over the 20 m the helices climb
+    "steady": ["environment.current=[0.3, 0.0, 0.0]"],
+    "tidal": ["environment.tide={amplitude = [0.3, 0.0, 0.0], period = 44712.0, phase = 0.785}"],
+    "sheared": ["environment.shear=[0.015, 0.0]"],
+}
 TUBE = 1.2  # m: |delta| + the report's margin in configs/paper.toml
 SETTLED = 0.05  # the coordination error issue 24 asks for over the last 50 s
 
@@ -45,6 +51,10 @@ def main() -> int:
     seeds = range(args.seeds)
     cases = [(u, d, seed) for u in UNCERTAINTIES for d in DAMPING for seed in (seeds if u > 0 else [0])]
     with ProcessPoolExecutor(args.jobs) as pool:
+        in_current = {
+            (name, observer): pool.submit(measure, [*o, f"environment.estimate_current={observer}"])
+            for name, o in [("still water", []), *CURRENTS.items()] for observer in ("auto", "off")
+        }  # fmt: skip
         futures = {
             case: pool.submit(
                 measure,
@@ -58,8 +68,20 @@ def main() -> int:
     (args.out / "mismatch.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
     rows = table(results)
     (args.out / "mismatch.md").write_text("\n".join(rows) + "\n", encoding="utf-8")
-    print("\n".join(rows))
+    current_rows = current_table({case: future.result() for case, future in in_current.items()})
+    (args.out / "current.md").write_text("\n".join(current_rows) + "\n", encoding="utf-8")
+    print("\n".join([*rows, "", *current_rows]))
     return 0
+
+
+def current_table(results: dict[tuple[str, str], tuple[float, float]]) -> list[str]:
+    """One row per current: the errors with the observer and without, beside still water's."""
+    rows = ["| current | observer: path error [m] | coord. error | without: path error [m] | coord. error |",
+            "|---|---|---|---|---|"]  # fmt: skip
+    for name in ["still water", *CURRENTS]:
+        (c, p), (bc, bp) = results[(name, "auto")], results[(name, "off")]
+        rows.append(f"| {name} | {p:.3g} | {c:.2g} | {bp:.3g} | {bc:.2g} |")
+    return rows
 
 
 def table(results: dict[tuple[float, str, int], tuple[float, float]]) -> list[str]:
