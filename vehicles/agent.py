@@ -24,7 +24,7 @@ from vehicles.params import VehicleParams
 from vehicles.path_following import ControlOutput, PathFollowingController
 from vehicles.paths import Path
 from vehicles.plant import plant_rates
-from vehicles.saturation import bounded_correction, clamp, hold, rate_bound, slope_size
+from vehicles.saturation import bounded_correction, clamp, hold, slope_rate_bound, slope_size
 from vehicles.vehicle_model import Auv, VehicleModel
 
 # Where gamma and gamma_dot sit in the integrated vector z = [lifted x, gamma, gamma_dot, current observer's state].
@@ -128,10 +128,10 @@ def _closed_loop(
     (_neighbour_values); held: the navigation error the controller sees the stage state with (None: it sees the
     truth)."""
     gamma, gamma_dot = z[_GAMMA], z[_GAMMA_DOT]
-    limits = _rate_limits(cfg, dist, gamma)
+    point = cfg.model.path_seen(cfg.path.evaluate_floats(gamma))
+    limits = _rate_limits(cfg, dist, point)
     if limits is not None:
         gamma_dot = clamp(gamma_dot, *limits)
-    point = cfg.model.path_seen(cfg.path.evaluate_floats(gamma))
     v_tilde = _bounded(cfg, point, cfg.law.correction(gamma, gamma_dot, heard, cfg.coordination))
     view = z if held is None else seen(z, held)
     observer = cfg.current_observer
@@ -170,14 +170,15 @@ def _bounded(cfg: VehicleConfig, point: PathVectors, v_tilde: float) -> float:
     return v_tilde
 
 
-def _rate_limits(cfg: VehicleConfig, dist: Disturbances, gamma: float) -> tuple[float, float] | None:
-    """The interval gamma_dot is held in at gamma (None: unbounded): the speed_cap fault's cap (>= 0) from above and
-    the top speed's bound (vehicles.saturation.rate_bound) both ways. One interval, so clamping and holding the
-    integrator at it is the same as at each in turn."""
+def _rate_limits(cfg: VehicleConfig, dist: Disturbances, point: PathVectors | None) -> tuple[float, float] | None:
+    """The interval gamma_dot is held in (None: unbounded): the speed_cap fault's cap (>= 0) from above and the top
+    speed's bound (vehicles.saturation.rate_bound) both ways, at the path point of gamma as the model sees it (needed
+    with a top speed only). One interval, so clamping and holding the integrator at it is the same as at each in
+    turn."""
     cap = dist.gamma_dot_cap
-    if cfg.top_speed is None:
+    if cfg.top_speed is None or point is None:
         return None if cap is None else (-math.inf, cap)
-    bound = rate_bound(cfg.model, cfg.path, gamma, cfg.top_speed)
+    bound = slope_rate_bound(slope_size(point), cfg.top_speed)
     return -bound, bound if cap is None else min(cap, bound)
 
 
@@ -212,7 +213,8 @@ def step(
     h = dt / 6
     z_next = [a + h * (b1 + 2 * b2 + 2 * b3 + b4) for a, b1, b2, b3, b4 in zip(z, k1, k2, k3, k4, strict=True)]
     gamma_dot_next = z_next[_GAMMA_DOT]
-    limits = _rate_limits(cfg, dist, z_next[_GAMMA])
+    point_next = None if cfg.top_speed is None else cfg.model.path_seen(cfg.path.evaluate_floats(z_next[_GAMMA]))
+    limits = _rate_limits(cfg, dist, point_next)
     if limits is not None:
         gamma_dot_next = clamp(gamma_dot_next, *limits)
     error = seen_error if held is None else _true_error(seen_error, held)

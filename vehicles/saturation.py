@@ -35,7 +35,11 @@ COORDINATION_SHARE = 0.5
 def rate_bound(model: Model, path: Path, gamma: float, top_speed: float) -> float:
     """The largest |gamma_dot| that keeps the path's point within top_speed m/s, for the path as the model sees it
     (a planar vehicle: its horizontal projection); inf where the path does not move with gamma."""
-    size = path_slope(model, path, gamma)
+    return slope_rate_bound(path_slope(model, path, gamma), top_speed)
+
+
+def slope_rate_bound(size: float, top_speed: float) -> float:
+    """rate_bound where |p_d^gamma| = size (slope_size of the path point as the model sees it)."""
     return top_speed / size if size > 0.0 else math.inf
 
 
