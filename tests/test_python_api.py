@@ -214,6 +214,7 @@ def test_every_field_of_the_state_record_has_a_column():
         velocity=(1.0, 0.0, 0.0), angular_velocity=(0.0, 0.0, 0.1), error=(0.3, 0.4, 0.0), tau=(1.0, 2.0),
         correction=0.0, lyapunov=0.1, tx_seq=1, estimate_age=((2, 0.5),), rx_lateness=(0.01, 0.02),
         step_lateness=0.003, nav_estimate=tuple(float(i) for i in range(27)), nav_fix=1,
+        current_estimate=(0.2, -0.1, 0.0),
     )  # fmt: skip
     row = states_table([report]).iloc[0]
     for f in fields(StateReport):
@@ -222,3 +223,4 @@ def test_every_field_of_the_state_record_has_a_column():
     assert (row.path_error, row.estimate_age_2, row.rx_lateness_max, row.nav_bias_w, row.nav_cov_55) == (
         0.5, 0.5, 0.02, 5.0, 26.0
     )  # fmt: skip
+    assert (row.current_estimate_x, row.current_estimate_y) == (0.2, -0.1)

@@ -134,16 +134,7 @@ def _closed_loop(
         gamma_dot = clamp(gamma_dot, *limits)
     v_tilde = _bounded(cfg, point, cfg.law.correction(gamma, gamma_dot, heard, cfg.coordination))
     view = z if held is None else seen(z, held)
-    observer = cfg.current_observer
-    observer_rates: tuple[float, ...] = ()
-    if cfg.current_known and cfg.current is not None:
-        known = feedforward(cfg.current, t, view)
-    elif observer is not None:
-        estimate = z[_OBSERVER:]
-        observer_rates = observer.rates(view, estimate)
-        known = estimated_current(view, estimate, observer_rates)
-    else:
-        known = None
+    known, observer_rates = _current_fed(cfg, z, view, t)
     vehicle = cfg.vehicle
     out = cfg.controller.control(vehicle, cfg.params, view, point, gamma, gamma_dot, cfg.coordination.v_r, known)
     gamma_ddot = out.gamma_ddot + v_tilde  # eq. (3): the controller's part, then the coordination's
@@ -156,6 +147,21 @@ def _closed_loop(
     p_d = point[0]
     zdot = [*xdot, gamma_dot, gamma_ddot, *observer_rates]
     return zdot, out, v_tilde, (view[0] - p_d[0], view[1] - p_d[1], view[2] - p_d[2])
+
+
+def _current_fed(
+    cfg: VehicleConfig, z: Sequence[float], view: Sequence[float], t: float
+) -> tuple[tuple[Float3, Float3] | None, tuple[float, ...]]:
+    """The current the controller is fed, (c, c_dot) in body axes (None: it steers as in still water): the one it is
+    told, or its observer's estimate; and the observer's rates (() without one)."""
+    if cfg.current_known and cfg.current is not None:
+        return feedforward(cfg.current, t, view), ()
+    observer = cfg.current_observer
+    if observer is None:
+        return None, ()
+    estimate = z[_OBSERVER:]
+    rates = observer.rates(view, estimate)
+    return estimated_current(view, estimate, rates), rates
 
 
 def _bounded(cfg: VehicleConfig, point: PathVectors, v_tilde: float) -> float:
@@ -203,6 +209,27 @@ def step(
     t = state.t
     lifted = model.lift(state.x)
     z = [*lifted, float(state.gamma), float(state.gamma_dot), *_observer_state(cfg, state, lifted, held)]
+    z_next, out, v_tilde, seen_error = _rk4(cfg, state, z, dt, neighbours, dist, held)
+    error = seen_error if held is None else _true_error(seen_error, held)
+    observed = (z[_OBSERVER + 3], z[_OBSERVER + 4], z[_OBSERVER + 5]) if len(z) > _OBSERVER else None
+    telemetry = Telemetry(
+        cfg.vehicle_id, t, state.gamma, z[_GAMMA_DOT], state.x, model.vector(error), model.inputs(out.tau),
+        v_tilde, out.lyapunov, observed,
+    )  # fmt: skip
+    x_next = model.lower(reorthonormalize(z_next[:LIFTED_SIZE]))
+    gamma_dot_next = _within_limits(cfg, dist, z_next[_GAMMA], z_next[_GAMMA_DOT])
+    observer_next = tuple(z_next[_OBSERVER:])
+    next_state = VehicleState(t + dt, x_next, z_next[_GAMMA], gamma_dot_next, state.estimates, observer_next)
+    return next_state, telemetry
+
+
+def _rk4(
+    cfg: VehicleConfig, state: VehicleState, z: list[float], dt: float, neighbours: Sequence[int],
+    dist: Disturbances, held: HeldError | None,
+) -> tuple[list[float], ControlOutput, float, Float3]:  # fmt: skip
+    """z after one classical RK4 step of dt, with the controller's outputs, v_tilde and the error it saw at the
+    step's start."""
+    t = state.t
     # The estimates do not change within a step: the two midpoint stages predict the neighbours at the same time.
     mid = _neighbour_values(cfg, state, t + dt / 2, neighbours)
     k1, out, v_tilde, seen_error = _closed_loop(cfg, z, _neighbour_values(cfg, state, t, neighbours), dist, t, held)
@@ -212,21 +239,14 @@ def step(
     k4 = _closed_loop(cfg, _advance(z, dt, k3), end, dist, t + dt, held)[0]
     h = dt / 6
     z_next = [a + h * (b1 + 2 * b2 + 2 * b3 + b4) for a, b1, b2, b3, b4 in zip(z, k1, k2, k3, k4, strict=True)]
-    gamma_dot_next = z_next[_GAMMA_DOT]
-    point_next = None if cfg.top_speed is None else cfg.model.path_seen(cfg.path.evaluate_floats(z_next[_GAMMA]))
-    limits = _rate_limits(cfg, dist, point_next)
-    if limits is not None:
-        gamma_dot_next = clamp(gamma_dot_next, *limits)
-    error = seen_error if held is None else _true_error(seen_error, held)
-    observed = (z[_OBSERVER + 3], z[_OBSERVER + 4], z[_OBSERVER + 5]) if len(z) > _OBSERVER else None
-    telemetry = Telemetry(
-        cfg.vehicle_id, t, state.gamma, z[_GAMMA_DOT], state.x, model.vector(error), model.inputs(out.tau),
-        v_tilde, out.lyapunov, observed,
-    )  # fmt: skip
-    x_next = model.lower(reorthonormalize(z_next[:LIFTED_SIZE]))
-    observer_next = tuple(z_next[_OBSERVER:])
-    next_state = VehicleState(t + dt, x_next, z_next[_GAMMA], gamma_dot_next, state.estimates, observer_next)
-    return next_state, telemetry
+    return z_next, out, v_tilde, seen_error
+
+
+def _within_limits(cfg: VehicleConfig, dist: Disturbances, gamma: float, gamma_dot: float) -> float:
+    """gamma_dot clamped to the interval it is held in at gamma (_rate_limits)."""
+    point = None if cfg.top_speed is None else cfg.model.path_seen(cfg.path.evaluate_floats(gamma))
+    limits = _rate_limits(cfg, dist, point)
+    return gamma_dot if limits is None else clamp(gamma_dot, *limits)
 
 
 def _observer_state(

@@ -178,6 +178,18 @@ def law(
     return ControlOutput(tau, gamma_ddot, lyapunov, drift), z1
 
 
+def _fed_forward(prm: VehicleParams, tau: Float3, alpha: Float3, nu_c: Float3) -> Float3:
+    """Inputs that cancel the damping of nu_c = (u, q, r) made to feed it forward at alpha instead."""
+    lin, quad, ang_lin, ang_quad = (
+        prm.linear_damping, prm.quadratic_damping, prm.angular_linear_damping, prm.angular_quadratic_damping,
+    )  # fmt: skip
+    return (
+        tau[0] + _drag(lin[0], quad[0], alpha[0], nu_c[0]),
+        tau[1] + _drag(ang_lin[1], ang_quad[1], alpha[1], nu_c[1]),
+        tau[2] + _drag(ang_lin[2], ang_quad[2], alpha[2], nu_c[2]),
+    )
+
+
 def _drag(linear: float, quadratic: float, wanted: float, measured: float) -> float:
     """D(wanted) wanted - D(measured) measured for D(x) = linear + quadratic |x|: what feeding the damping forward at
     the virtual velocity adds to inputs that cancel it at the measured one."""
@@ -247,17 +259,20 @@ def _backstepping(
     k2 = gains.k2
     z2u, z2q, z2r = u - alpha_u, q - alpha_q, r - alpha_r
     m_u, j_q, j_r = prm.mass[0], prm.inertia[1], prm.inertia[2]  # how hard each input pushes its own velocity
-    lim_u, lim_q, lim_r = prm.max_surge_force, prm.max_torque, prm.max_torque
     tau_u = m_u * (dalpha_u - sx - k2 * z2u - du)
     tau_q = j_q * (dalpha_q - delta * sz - k2 * z2q - dq)
     tau_r = j_r * (dalpha_r + delta * sy - k2 * z2r - dr)
     if gains.damping == "feedforward":  # the drift's damping of (u, q, r) moved from the measured to the virtual one
-        tau_u += _drag(prm.linear_damping[0], prm.quadratic_damping[0], alpha_u, u)
-        tau_q += _drag(prm.angular_linear_damping[1], prm.angular_quadratic_damping[1], alpha_q, q)
-        tau_r += _drag(prm.angular_linear_damping[2], prm.angular_quadratic_damping[2], alpha_r, r)
-    # Saturated: min(max(tau, -lim), lim) to the bit, NaN included, without six builtin calls per evaluation.
-    return (z2u, z2q, z2r), (
+        tau_u, tau_q, tau_r = _fed_forward(prm, (tau_u, tau_q, tau_r), (alpha_u, alpha_q, alpha_r), (u, q, r))
+    return (z2u, z2q, z2r), _saturated(prm, tau_u, tau_q, tau_r)
+
+
+def _saturated(prm: VehicleParams, tau_u: float, tau_q: float, tau_r: float) -> Float3:
+    """The inputs within the vehicle's limits: min(max(tau, -lim), lim) to the bit, NaN included, without six
+    builtin calls per evaluation."""
+    lim_u, lim_t = prm.max_surge_force, prm.max_torque
+    return (
         lim_u if tau_u > lim_u else -lim_u if tau_u < -lim_u else tau_u,
-        lim_q if tau_q > lim_q else -lim_q if tau_q < -lim_q else tau_q,
-        lim_r if tau_r > lim_r else -lim_r if tau_r < -lim_r else tau_r,
+        lim_t if tau_q > lim_t else -lim_t if tau_q < -lim_t else tau_q,
+        lim_t if tau_r > lim_t else -lim_t if tau_r < -lim_t else tau_r,
     )

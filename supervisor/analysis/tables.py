@@ -156,7 +156,7 @@ def _state_columns(reports: Sequence[StateReport]) -> Columns:
 
 
 def _optional_columns(reports: Sequence[StateReport]) -> Columns:
-    """The realtime and navigation columns, if any report has them."""
+    """The realtime, navigation and current-observer columns, if any report has them."""
     columns: Columns = []
     if any(r.rx_lateness is not None for r in reports):
         columns.append((("rx_lateness_max",), lambda r: (max(r.rx_lateness or (), default=math.nan),)))
@@ -166,6 +166,9 @@ def _optional_columns(reports: Sequence[StateReport]) -> Columns:
         width = len(NAV_STATE) + len(NAV_COVARIANCE)
         columns.append(((*NAV_STATE, *NAV_COVARIANCE), lambda r: _padded(r.nav_estimate or (), width)))
         columns.append((("nav_fix",), lambda r: (-1 if r.nav_fix is None else r.nav_fix,)))
+    if any(r.current_estimate is not None for r in reports):
+        names = tuple(f"current_estimate_{a}" for a in AXES)
+        columns.append((names, lambda r: _padded(r.current_estimate or (), 3)))
     return columns
 
 
