@@ -7,7 +7,6 @@ transmit period and delay at which the simulated paper fleet stops converging li
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import replace
 
 import numpy as np
@@ -113,9 +112,8 @@ def test_tdma_slots_become_offsets_within_the_frame():
 # since issue 23 are reference, a fitted k and a bound: tests/test_gain_schedule.py holds those).
 LAW5 = ["coordination.predictor=first_order", "coordination.schedule=none", "saturation.correction=none"]
 SHORT = ["scenario.duration=300", "faults=[]", *LAW5]
-# The period bracket (two 300 s runs, ~5 s) is in the default suite; the other simulated checks take ~25 s more on
-# this 2-core machine: CPF_THEORY=1 runs them (they passed when committed).
-theory = pytest.mark.skipif(not os.environ.get("CPF_THEORY"), reason="set CPF_THEORY=1: ~25 s of simulation")
+# The simulated checks of the predictions (~30 s of simulation on this 2-core machine) run in the default suite:
+# theory held as tests, on every change.
 
 
 def _simulated(overrides: list[str]):
@@ -136,7 +134,6 @@ def test_simulated_fleet_stops_converging_within_20_percent_of_the_predicted_per
     assert above.diverged() and above.last > 10.0, above
 
 
-@theory
 def test_simulated_fleet_stops_converging_within_20_percent_of_the_predicted_delay():
     """A message every 2 s, delayed by the modem's preamble (airtime). (Every step, the boundary is 6.8 s and
     holds too, but the model then carries 70 messages in flight and the test would take 10 s more.)"""
@@ -149,7 +146,6 @@ def test_simulated_fleet_stops_converging_within_20_percent_of_the_predicted_del
     assert above.diverged() and above.last > 10.0, above
 
 
-@theory
 @pytest.mark.parametrize("predictor", ["hold", "reference"])
 def test_simulated_fleet_with_hold_or_reference_stays_bounded_past_the_first_order_boundary(predictor):
     """No boundary predicted in reach: at twice first_order's the error does not grow (hold: a steady offset)."""
@@ -158,7 +154,6 @@ def test_simulated_fleet_with_hold_or_reference_stays_bounded_past_the_first_ord
     assert outcome.last < 5.0
 
 
-@theory
 def test_simulated_decay_rate_matches_the_predicted_one():
     """reference every 20 s: the error's peaks over two windows of 50 s shrink at the predicted rate (+-35 %)."""
     predicted = rate(paper("reference", period=20.0))
