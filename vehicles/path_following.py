@@ -74,7 +74,8 @@ class PathFollowingController(Protocol):
       a planar vehicle sees their horizontal projection);
     - gamma [unit of gamma], gamma_dot [unit of gamma per s]: the path parameter and its rate;
     - v_d: the desired rate of gamma, the fleet's v_r [unit of gamma per s];
-    - current: (c, c_dot), the ocean current in body axes if the scenario makes it known to the controller, else None.
+    - current: (c, c_dot), the ocean current in body axes and its derivative if the scenario makes it known to the
+      controller, or else the vehicle's on-board estimate of it (vehicles.current_observer) if it runs one, else None.
     gamma_ddot is the paper's eq. (3) without the coordination term: the fleet adds v_tilde (docs/extending.md).
     Must be pure (the same result for the same arguments) and return finite numbers."""
 
