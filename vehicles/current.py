@@ -78,8 +78,15 @@ def feedforward(current: Current, t: float, s: Sequence[float]) -> tuple[Float3,
     .control). The state's v is relative to the water, so the height rate is (R v)_z + v_c,z."""
     rot = s[3:12]
     v_c = current.velocity(t, s[2])
-    c = body(rot, v_c)
     z_dot = rot[6] * s[12] + rot[7] * s[13] + rot[8] * s[14] + v_c[2]
-    dx, dy, dz = body(rot, current.rate(t, s[2], z_dot))
+    return in_body(s, v_c, current.rate(t, s[2], z_dot))
+
+
+def in_body(s: Sequence[float], v_c: Float3, v_c_dot: Float3) -> tuple[Float3, Float3]:
+    """(c, c_dot) in body axes of an inertial current v_c and its rate along the motion, for a lifted state s:
+    c = R' v_c, c_dot = -omega x c + R' v_c_dot (the known current's and the observer's estimate's alike)."""
+    rot = s[3:12]
+    c = body(rot, v_c)
+    dx, dy, dz = body(rot, v_c_dot)
     p, q, r = s[15:18]
     return c, (dx - (q * c[2] - r * c[1]), dy - (r * c[0] - p * c[2]), dz - (p * c[1] - q * c[0]))

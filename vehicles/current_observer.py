@@ -29,7 +29,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from vehicles.current import body, body_to_inertial
+from vehicles.current import body_to_inertial, in_body
 from vehicles.geometry import Float3
 
 SIZE = 9  # p_hat (3), c_hat (3), r_hat (3), inertial, m, m/s and m/s^2
@@ -69,10 +69,5 @@ def estimate(o: Sequence[float]) -> Float3:
 
 
 def feedforward(s: Sequence[float], o: Sequence[float], o_dot: Sequence[float]) -> tuple[Float3, Float3]:
-    """(c, c_dot) in body axes from the estimate, for the controller (vehicles.current.feedforward's form):
-    c = R' c_hat, c_dot = -omega x c + R' c_hat_dot."""
-    rot = s[3:12]
-    c = body(rot, (o[3], o[4], o[5]))
-    dx, dy, dz = body(rot, (o_dot[3], o_dot[4], o_dot[5]))
-    p, q, r = s[15:18]
-    return c, (dx - (q * c[2] - r * c[1]), dy - (r * c[0] - p * c[2]), dz - (p * c[1] - q * c[0]))
+    """(c, c_dot) in body axes from the estimate, for the controller (vehicles.current.in_body)."""
+    return in_body(s, (o[3], o[4], o[5]), (o_dot[3], o_dot[4], o_dot[5]))

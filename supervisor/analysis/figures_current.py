@@ -5,12 +5,11 @@ vehicle's recorded depth). Absent for a run without the observer (its state mess
 from __future__ import annotations
 
 from matplotlib.figure import Figure
-from pydantic import ValidationError
 
 from supervisor.analysis.figures import _vehicle_colours, finish_time_axes, new_figure
+from supervisor.analysis.metrics import run_scenario
 from supervisor.analysis.rundata import RunData
 from supervisor.config.plant import current_of
-from supervisor.config.scenario_schema import Scenario
 from vehicles.current import Current
 
 
@@ -21,12 +20,8 @@ def has_current_estimate(run: RunData) -> bool:
 def _true_current(run: RunData) -> Current | None:
     """The scenario's current, from the run's meta (None: still water, no meta, or a scenario this version cannot
     read)."""
-    if run.meta is None:
-        return None
-    try:
-        return current_of(Scenario.model_validate(run.meta.scenario))
-    except ValidationError:
-        return None
+    scenario = run_scenario(run)
+    return None if scenario is None else current_of(scenario)
 
 
 def fig_current_estimates(run: RunData) -> Figure:

@@ -64,7 +64,7 @@ class Settings(NamedTuple):
 
 def run_metrics(run: RunData) -> dict[str, Any]:
     """Every metric of the run (see the module docstring); non-finite numbers become None."""
-    scenario = _scenario(run)
+    scenario = run_scenario(run)
     settings = run_settings(run, scenario)
     metrics: dict[str, Any] = {
         "run": _run_info(run),
@@ -91,7 +91,7 @@ def run_metrics(run: RunData) -> dict[str, Any]:
     return finite(metrics)
 
 
-def _scenario(run: RunData) -> Scenario | None:
+def run_scenario(run: RunData) -> Scenario | None:
     """The scenario the run's meta holds, validated; None for a log cut before its meta, an older or a synthetic one."""
     if run.meta is None:
         return None
