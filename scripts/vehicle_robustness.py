@@ -1,6 +1,7 @@
-"""Robust vehicles (README, "Robust vehicles"; issue 24): the paper scenario under model mismatch, with the
-path-following controller's damping fed forward (the default) and cancelled (the former default); and in an unknown
-0.3 m/s current (steady, tidal, sheared), with the on-board current observer (the default) and without.
+"""Robust vehicles (README, "Robust vehicles"; issue 24): the paper scenario under model mismatch with the default
+path-following controller (`auto`: the adaptive switching supervisor where the plant is uncertain), with backstepping
+alone (damping fed forward) and with backstepping cancelling the damping (the controller before issue 24); and in an
+unknown 0.3 m/s current (steady, tidal, sheared), with the on-board current observer (the default) and without.
 
 `python scripts/vehicle_robustness.py [--seeds N] [--jobs N] [--out DIR]` (`make study` runs it): DIR/mismatch.md
 and DIR/current.md (the tables), DIR/mismatch.csv (one row per run). Each run is in process and not recorded
@@ -22,7 +23,11 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 PAPER = ROOT / "configs" / "paper.toml"
 UNCERTAINTIES = (0.0, 0.2, 0.4, 0.6)
-DAMPING = ("feedforward", "cancel")
+CONTROLLERS = {  # the label in the table: the scenario changes that select it
+    "default (supervisory)": ["path_following.controller=auto"],
+    "backstepping": ["path_following.controller=backstepping"],
+    "backstepping, cancel (before)": ["path_following.controller=backstepping", "path_following.damping=cancel"],
+}
 CURRENTS = {  # 0.3 m/s each: the tide near its flood's middle, the shear over the 20 m the helices climb
     "steady": ["environment.current=[0.3, 0.0, 0.0]"],
     "tidal": ["environment.tide={amplitude = [0.3, 0.0, 0.0], period = 44712.0, phase = 0.785}"],
@@ -49,7 +54,7 @@ def main() -> int:
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
     seeds = range(args.seeds)
-    cases = [(u, d, seed) for u in UNCERTAINTIES for d in DAMPING for seed in (seeds if u > 0 else [0])]
+    cases = [(u, c, seed) for u in UNCERTAINTIES for c in CONTROLLERS for seed in (seeds if u > 0 else [0])]
     with ProcessPoolExecutor(args.jobs) as pool:
         in_current = {
             (name, observer): pool.submit(measure, [*o, f"environment.estimate_current={observer}"])
@@ -58,12 +63,12 @@ def main() -> int:
         futures = {
             case: pool.submit(
                 measure,
-                [f"vehicle.uncertainty={case[0]}", f"path_following.damping={case[1]}", f"scenario.seed={case[2]}"],
+                [f"vehicle.uncertainty={case[0]}", *CONTROLLERS[case[1]], f"scenario.seed={case[2]}"],
             )
             for case in cases
         }
         results = {case: future.result() for case, future in futures.items()}
-    lines = ["uncertainty,damping,seed,coordination_error_last_50s,path_error_after_transient"]
+    lines = ["uncertainty,controller,seed,coordination_error_last_50s,path_error_after_transient"]
     lines += [f"{u},{d},{s},{c:.6g},{p:.6g}" for (u, d, s), (c, p) in results.items()]
     (args.out / "mismatch.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
     rows = table(results)
@@ -85,12 +90,12 @@ def current_table(results: dict[tuple[str, str], tuple[float, float]]) -> list[s
 
 
 def table(results: dict[tuple[float, str, int], tuple[float, float]]) -> list[str]:
-    """One row per uncertainty and damping: the largest path and coordination errors over the seeds, and how many
-    seeds stay in the tube and settle."""
-    rows = ["| vehicle.uncertainty | damping | path error, worst seed [m] | in the tube | coord. error, worst seed "
+    """One row per uncertainty and controller: the largest path and coordination errors over the seeds, and how
+    many seeds stay in the tube and settle."""
+    rows = ["| vehicle.uncertainty | controller | path error, worst seed [m] | in the tube | coord. error, worst seed "
             "| settled (< 0.05) |", "|---|---|---|---|---|---|"]  # fmt: skip
     for u in UNCERTAINTIES:
-        for d in DAMPING:
+        for d in CONTROLLERS:
             runs = [value for (uu, dd, _), value in results.items() if uu == u and dd == d]
             coord, path = max(c for c, _ in runs), max(p for _, p in runs)
             inside, settled = sum(p <= TUBE for _, p in runs), sum(c < SETTLED for c, _ in runs)

@@ -8,20 +8,22 @@ backstepping controller is built through the same registry.
 
 from __future__ import annotations
 
+import dataclasses
 import re
 from pathlib import Path
 
 import pytest
 
-from supervisor.config.extensions import build
+from supervisor.config.extensions import build, extension
 from supervisor.config.fleet import initial_state, vehicle_config
 from supervisor.config.scenario import load_scenario
 from supervisor.config.scenario_digest import section_digests
 from supervisor.record.recorder import read_messages
 from tests.conftest import CONFIGS, shortened
 from tests.procs import cpf
+from vehicles.agent import step
 from vehicles.guard import Guarded
-from vehicles.path_following import Backstepping
+from vehicles.path_following import Backstepping, is_adaptive
 
 ROOT = Path(__file__).resolve().parent.parent
 ENV = {"PYTHONPATH": str(ROOT)}  # tests.samples importable in every process of the run
@@ -79,8 +81,10 @@ def test_a_controller_by_import_path_gives_the_same_records_on_both_engines(tmp_
          "path_following.controller_options.k1: Input should be greater than 0, got -1"),
         ([RETUNED[0], "path_following.controller_options.delta=1"],
          f"path_following.controller_options.delta: {SAMPLES}:Retuned has no such option (its options: k1, k2)"),
-        (["path_following.controller_options.k1=2"],
+        (["path_following.controller=backstepping", "path_following.controller_options.k1=2"],
          "path_following.controller_options: backstepping takes its gains from [path_following]"),
+        (["path_following.controller_options.k1=2"],
+         "path_following.controller_options: auto chooses the controller and its options"),
     ],
 )  # fmt: skip
 def test_a_bad_controller_or_option_is_one_line_and_exit_2_before_the_run(tmp_path, settings, expected):
@@ -147,3 +151,43 @@ def test_the_controller_of_docs_extending_builds_and_steers_as_the_builtin_with_
     seen = cfg.model.path_seen(path.evaluate_floats(80.0))
     want = Backstepping(delta=-0.5, k1=0.7, k2=1.5).control(cfg.vehicle, cfg.params, s, seen, 80.0, 0.5, 1.0, None)
     assert tight.control(cfg.vehicle, cfg.params, s, seen, 80.0, 0.5, 1.0, None) == want
+
+
+def _doc_adaptive(tmp_path, monkeypatch) -> None:
+    doc = (ROOT / "docs" / "extending.md").read_text(encoding="utf-8")
+    (code,) = re.findall(r"<!-- an adaptive controller, checked by [^>]*-->\n```python\n(.*?)```", doc, flags=re.S)
+    broken = "\n\nclass Broken(SurgeBias):\n    def update(self, memory, model, params, stages, after, dt):\n"
+    (tmp_path / "doc_adaptive.py").write_text(code + broken + "        raise KeyError('no memory')\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+
+
+def _surge_run(controller, steps: int):
+    """Vehicle 1 of the paper with twice the model's surge drag (the force its model lacks: -1.62 u|u| N)."""
+    sc = load_scenario(CONFIGS / "paper.toml")
+    base = vehicle_config(sc, 1)
+    plant = dataclasses.replace(base.params, quadratic_damping=(3.24, *base.params.quadratic_damping[1:]))
+    cfg = dataclasses.replace(base, controller=controller, plant=plant)
+    state = initial_state(sc, cfg)
+    for _ in range(steps):
+        state, tel = step(cfg, state, 0.1, [])
+    return state, tel
+
+
+def test_the_adaptive_controller_of_docs_extending_learns_its_memory_behind_the_guard(tmp_path, monkeypatch):
+    """The AdaptiveController interface as a user's extension meets it: built guarded, its memory started, carried
+    by the state and updated every step; it converges on the surge force the model lacks."""
+    _doc_adaptive(tmp_path, monkeypatch)
+    controller = extension("controller", "doc_adaptive:SurgeBias", {})
+    assert isinstance(controller, Guarded) and is_adaptive(controller)
+    state, tel = _surge_run(controller, 600)
+    u = float(tel.x[12])
+    lacking = -1.62 * u * abs(u)
+    assert u > 0.3
+    assert state.memory == pytest.approx(lacking, rel=0.1)
+
+
+def test_an_adaptive_controller_whose_update_raises_stops_its_vehicle_with_one_line(tmp_path, monkeypatch):
+    _doc_adaptive(tmp_path, monkeypatch)
+    with pytest.raises(FloatingPointError) as err:
+        _surge_run(extension("controller", "doc_adaptive:Broken", {}), 3)
+    assert "controller doc_adaptive:Broken" in str(err.value) and "KeyError" in str(err.value)

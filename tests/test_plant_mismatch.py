@@ -86,10 +86,9 @@ def errors(seconds: float, *sets: str) -> list[float]:
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_a_perturbed_plant_converges_into_the_tube(seed):
     """The paper's Lemma 1 assumes a path-following controller that tolerates parametric uncertainty (Aguiar &
-    Hespanha's adaptive switching supervisor); the built-in backstepping has no adaptation, so this holds what it
-    does show: with +-30 % on every coefficient the error stays in the report's tube, |delta| + tube_margin = 1.2 m,
-    within a few cm of |delta| (the nominal run stays at |delta| = 1 m). scripts/vehicle_robustness.py measures it
-    to +-60 %."""
+    Hespanha's adaptive switching supervisor, which `auto` chooses here): with +-30 % on every coefficient the error
+    stays in the report's tube, |delta| + tube_margin = 1.2 m, within a few cm of |delta| (the nominal run stays at
+    |delta| = 1 m). scripts/vehicle_robustness.py measures it to +-60 %."""
     nominal = errors(200.0)
     mismatched = errors(200.0, "vehicle.uncertainty=0.3", f"scenario.seed={seed}")
     assert max(mismatched) <= 1.2
@@ -142,16 +141,23 @@ def test_cpf_info_lines_name_the_current_and_each_vehicles_drawn_plant():
     assert len(lines) == 4
 
 
-def test_at_60_percent_mismatch_the_default_controller_coordinates_where_cancelling_the_damping_does_not():
-    """vehicles/path_following.py's damping argument, held: with every coefficient within +-60 % (seed 0), the damping
-    fed forward (the default) keeps the paper fleet coordinated and its path error within 1 cm of the tube; cancelled
-    at the measured velocity (the former default) it is anti-damping and the fleet does not coordinate (measured
-    1.54, path 3.4 m; scripts/vehicle_robustness.py)."""
+@pytest.mark.parametrize("seed", [0, 3])
+def test_at_60_percent_mismatch_the_supervisor_keeps_the_tube_where_backstepping_alone_does_not(seed):
+    """Issue 24's acceptance on the seeds where backstepping alone left the tube (scripts/vehicle_robustness.py
+    runs seeds 0-9): with every coefficient within +-60 %, the default controller (`auto`: the adaptive switching
+    supervisor) keeps the paper fleet's path error inside the tube (1.2 m) and its coordination error < 0.05 over
+    the last 50 s; backstepping with the damping fed forward also coordinates but leaves the tube by 5-8 mm
+    (measured 1.2065 and 1.2078), and cancelling the damping at the measured velocity (the controller before issue
+    24) is anti-damping: the fleet does not coordinate (measured 1.54, path 3.4 m at seed 0)."""
     from supervisor.tools.stability_check import simulate
 
     text = (CONFIGS / "paper.toml").read_text()
-    mismatch = ["vehicle.uncertainty=0.6", "scenario.seed=0"]
-    fed = simulate(parse_scenario(text, "paper.toml", mismatch))
-    cancelled = simulate(parse_scenario(text, "paper.toml", [*mismatch, "path_following.damping=cancel"]))
-    assert fed.last < 0.05 and fed.path_error < 1.21, fed
-    assert cancelled.last > 0.5 and cancelled.path_error > 2.0, cancelled
+    mismatch = ["vehicle.uncertainty=0.6", f"scenario.seed={seed}"]
+    supervised = simulate(parse_scenario(text, "paper.toml", mismatch))
+    alone = ["path_following.controller=backstepping"]
+    fed = simulate(parse_scenario(text, "paper.toml", [*mismatch, *alone]))
+    assert supervised.last < 0.05 and supervised.path_error < 1.2, supervised
+    assert fed.last < 0.05 and 1.2 < fed.path_error < 1.21, fed
+    if seed == 0:
+        cancelled = simulate(parse_scenario(text, "paper.toml", [*mismatch, *alone, "path_following.damping=cancel"]))
+        assert cancelled.last > 0.5 and cancelled.path_error > 2.0, cancelled

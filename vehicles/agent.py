@@ -21,7 +21,7 @@ from vehicles.estimates import FirstOrder, NeighbourEstimate, Predictor, fresh, 
 from vehicles.geometry import Float3
 from vehicles.navigation import HeldError, NavParams, seen
 from vehicles.params import VehicleParams
-from vehicles.path_following import ControlOutput, PathFollowingController
+from vehicles.path_following import AdaptiveController, ControlOutput, PathFollowingController, is_adaptive
 from vehicles.paths import Path
 from vehicles.plant import plant_rates
 from vehicles.saturation import bounded_correction, clamp, hold, slope_rate_bound, slope_size
@@ -61,10 +61,13 @@ class VehicleConfig:
     # controller is told (current_known) takes its place.
     current_observer: CurrentObserver | None = None
     vehicle: VehicleModel = field(init=False)
+    adaptive: AdaptiveController | None = field(init=False)  # the controller if it has a memory, else None
 
     def __post_init__(self) -> None:
         default = Auv(dimension=self.model.dim)  # only its dynamics count: the parameters are given
         object.__setattr__(self, "vehicle", self.vehicle_model or default)
+        adaptive = self.controller if is_adaptive(self.controller) else None
+        object.__setattr__(self, "adaptive", adaptive)
 
 
 @dataclass(frozen=True, slots=True)
@@ -75,6 +78,7 @@ class VehicleState:
     gamma_dot: float
     estimates: Mapping[int, NeighbourEstimate] = field(default_factory=dict)
     observer: tuple[float, ...] = ()  # the current observer's state (vehicles.current_observer); () before it starts
+    memory: object = None  # an adaptive controller's (vehicles.path_following.AdaptiveController); None: none yet
 
 
 @dataclass(frozen=True, slots=True)
@@ -99,8 +103,9 @@ def receive(state: VehicleState, sender: int, estimate: NeighbourEstimate) -> Ve
         return state
     # The constructor, not dataclasses.replace: the same object, at a fraction of the cost (per message per step).
     return VehicleState(
-        state.t, state.x, state.gamma, state.gamma_dot, {**state.estimates, sender: estimate}, state.observer
-    )
+        state.t, state.x, state.gamma, state.gamma_dot, {**state.estimates, sender: estimate}, state.observer,
+        state.memory,
+    )  # fmt: skip
 
 
 def _neighbour_values(
@@ -122,11 +127,12 @@ def _closed_loop(
     dist: Disturbances,
     t: float,
     held: HeldError | None = None,
+    memory: object = None,
 ) -> tuple[list[float], ControlOutput, float, Float3]:
     """Derivative of z = [lifted x, gamma, gamma_dot] at the stage's time t, with the controller's outputs, v_tilde
     and the error p - p_d(gamma) the controller saw [m]; heard: the neighbours' predicted (gamma_j, gamma_dot_j) then
     (_neighbour_values); held: the navigation error the controller sees the stage state with (None: it sees the
-    truth)."""
+    truth); memory: an adaptive controller's, of the step's start."""
     gamma, gamma_dot = z[_GAMMA], z[_GAMMA_DOT]
     point = cfg.model.path_seen(cfg.path.evaluate_floats(gamma))
     limits = _rate_limits(cfg, dist, point)
@@ -135,14 +141,18 @@ def _closed_loop(
     v_tilde = _bounded(cfg, point, cfg.law.correction(gamma, gamma_dot, heard, cfg.coordination))
     view = z if held is None else seen(z, held)
     known, observer_rates = _current_fed(cfg, z, view, t)
-    vehicle = cfg.vehicle
-    out = cfg.controller.control(vehicle, cfg.params, view, point, gamma, gamma_dot, cfg.coordination.v_r, known)
+    vehicle, v_r, adaptive = cfg.vehicle, cfg.coordination.v_r, cfg.adaptive
+    if adaptive is None:
+        out = cfg.controller.control(vehicle, cfg.params, view, point, gamma, gamma_dot, v_r, known)
+    else:
+        out = adaptive.control_with(memory, vehicle, cfg.params, view, point, gamma, gamma_dot, v_r, known)
     gamma_ddot = out.gamma_ddot + v_tilde  # eq. (3): the controller's part, then the coordination's
     if limits is not None:
         gamma_ddot = hold(gamma_ddot, gamma_dot, *limits)  # held at a limit: no wind-up
     # The controller's drift is of the state it sees, with its nominal parameters: the plant's own when it sees the
-    # truth of a nominal plant (no current: plant_rates is then the plain kinematics), else the plant computes its own.
-    own = out.drift if cfg.plant is None and held is None else None
+    # truth of a nominal plant (no current: plant_rates is then the plain kinematics), else the plant computes its own
+    # (an adaptive controller's parameters are its estimates, not the plant's).
+    own = out.drift if cfg.plant is None and held is None and adaptive is None else None
     xdot = plant_rates(vehicle, cfg.plant or cfg.params, cfg.current, t, z, own, out.tau)
     p_d = point[0]
     zdot = [*xdot, gamma_dot, gamma_ddot, *observer_rates]
@@ -209,7 +219,9 @@ def step(
     t = state.t
     lifted = model.lift(state.x)
     z = [*lifted, float(state.gamma), float(state.gamma_dot), *_observer_state(cfg, state, lifted, held)]
-    z_next, out, v_tilde, seen_error = _rk4(cfg, state, z, dt, neighbours, dist, held)
+    memory = _memory(cfg, state, lifted, held)
+    z_next, stages, v_tilde, seen_error = _rk4(cfg, state, z, dt, neighbours, dist, held, memory)
+    out = stages[0][1]
     error = seen_error if held is None else _true_error(seen_error, held)
     observed = (z[_OBSERVER + 3], z[_OBSERVER + 4], z[_OBSERVER + 5]) if len(z) > _OBSERVER else None
     telemetry = Telemetry(
@@ -219,27 +231,61 @@ def step(
     x_next = model.lower(reorthonormalize(z_next[:LIFTED_SIZE]))
     gamma_dot_next = _within_limits(cfg, dist, z_next[_GAMMA], z_next[_GAMMA_DOT])
     observer_next = tuple(z_next[_OBSERVER:])
-    next_state = VehicleState(t + dt, x_next, z_next[_GAMMA], gamma_dot_next, state.estimates, observer_next)
+    memory_next = _learned(cfg, memory, stages, z_next, dt, held)
+    next_state = VehicleState(
+        t + dt, x_next, z_next[_GAMMA], gamma_dot_next, state.estimates, observer_next, memory_next
+    )
     return next_state, telemetry
 
 
 def _rk4(
     cfg: VehicleConfig, state: VehicleState, z: list[float], dt: float, neighbours: Sequence[int],
-    dist: Disturbances, held: HeldError | None,
-) -> tuple[list[float], ControlOutput, float, Float3]:  # fmt: skip
-    """z after one classical RK4 step of dt, with the controller's outputs, v_tilde and the error it saw at the
-    step's start."""
+    dist: Disturbances, held: HeldError | None, memory: object,
+) -> tuple[list[float], list[tuple[list[float], ControlOutput]], float, Float3]:  # fmt: skip
+    """z after one classical RK4 step of dt, with its four stages (z, the controller's outputs there), v_tilde and
+    the error the controller saw at the step's start."""
     t = state.t
     # The estimates do not change within a step: the two midpoint stages predict the neighbours at the same time.
     mid = _neighbour_values(cfg, state, t + dt / 2, neighbours)
-    k1, out, v_tilde, seen_error = _closed_loop(cfg, z, _neighbour_values(cfg, state, t, neighbours), dist, t, held)
-    k2 = _closed_loop(cfg, _advance(z, dt / 2, k1), mid, dist, t + dt / 2, held)[0]
-    k3 = _closed_loop(cfg, _advance(z, dt / 2, k2), mid, dist, t + dt / 2, held)[0]
+    start = _neighbour_values(cfg, state, t, neighbours)
+    k1, out, v_tilde, seen_error = _closed_loop(cfg, z, start, dist, t, held, memory)
+    z2 = _advance(z, dt / 2, k1)
+    k2, out2, _, _ = _closed_loop(cfg, z2, mid, dist, t + dt / 2, held, memory)
+    z3 = _advance(z, dt / 2, k2)
+    k3, out3, _, _ = _closed_loop(cfg, z3, mid, dist, t + dt / 2, held, memory)
     end = _neighbour_values(cfg, state, t + dt, neighbours)
-    k4 = _closed_loop(cfg, _advance(z, dt, k3), end, dist, t + dt, held)[0]
+    z4 = _advance(z, dt, k3)
+    k4, out4, _, _ = _closed_loop(cfg, z4, end, dist, t + dt, held, memory)
     h = dt / 6
     z_next = [a + h * (b1 + 2 * b2 + 2 * b3 + b4) for a, b1, b2, b3, b4 in zip(z, k1, k2, k3, k4, strict=True)]
-    return z_next, out, v_tilde, seen_error
+    return z_next, [(z, out), (z2, out2), (z3, out3), (z4, out4)], v_tilde, seen_error
+
+
+def _memory(cfg: VehicleConfig, state: VehicleState, lifted: Sequence[float], held: HeldError | None) -> object:
+    """An adaptive controller's memory for this step: the state's, or its start from what it sees now if it has
+    none yet (a new or restarted vehicle); None for a controller without one."""
+    adaptive = cfg.adaptive
+    if adaptive is None:
+        return None
+    if state.memory is not None:
+        return state.memory
+    return adaptive.start(cfg.vehicle, cfg.params, lifted if held is None else seen(lifted, held))
+
+
+def _learned(
+    cfg: VehicleConfig, memory: object, stages: Sequence[tuple[list[float], ControlOutput]], z_next: Sequence[float],
+    dt: float, held: HeldError | None,
+) -> object:  # fmt: skip
+    """An adaptive controller's memory after the step: from the RK4 stages it steered at and the state at the step's
+    end, as it saw them (with the step's navigation error)."""
+    adaptive = cfg.adaptive
+    if adaptive is None:
+        return None
+    after = z_next[:LIFTED_SIZE]
+    steered = [(z[:LIFTED_SIZE], out.tau) for z, out in stages]
+    if held is not None:
+        after, steered = seen(after, held), [(seen(s, held), tau) for s, tau in steered]
+    return adaptive.update(memory, cfg.vehicle, cfg.params, steered, after, dt)
 
 
 def _within_limits(cfg: VehicleConfig, dist: Disturbances, gamma: float, gamma_dot: float) -> float:

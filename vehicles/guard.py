@@ -20,7 +20,7 @@ from vehicles.coordination import CoordinationGains
 from vehicles.dynamics import Accelerations, PathVectors
 from vehicles.estimates import NeighbourEstimate
 from vehicles.params import VehicleParams
-from vehicles.path_following import ControlOutput, Current
+from vehicles.path_following import ControlOutput, Current, Stage, is_adaptive
 from vehicles.vehicle_model import VehicleModel
 
 R = TypeVar("R")
@@ -62,6 +62,9 @@ class Guarded:
         """The controller's output checked; its drift is dropped (the plant computes its own: a wrong one must not
         move the vehicle) and a planar vehicle's tau_q set to 0 (it has no pitch)."""
         out = self._call(self.inner.control, model, params, s, path, gamma, gamma_dot, v_d, current)
+        return self._checked(out, model)
+
+    def _checked(self, out: Any, model: VehicleModel) -> ControlOutput:
         try:
             tau_u, tau_q, tau_r = out.tau
             gamma_ddot, lyapunov = out.gamma_ddot, out.lyapunov
@@ -70,6 +73,28 @@ class Guarded:
         tau_q = self._finite(tau_q) if model.dimension == 3 else 0.0
         tau = (self._finite(tau_u), tau_q, self._finite(tau_r))
         return ControlOutput(tau, self._finite(gamma_ddot), self._finite(lyapunov), None)
+
+    @property
+    def adaptive(self) -> bool:
+        """Whether what it guards is a controller with a memory (vehicles.path_following.is_adaptive)."""
+        return is_adaptive(self.inner)
+
+    def start(self, model: VehicleModel, params: VehicleParams, s: Sequence[float]) -> object:
+        return self._call(self.inner.start, model, params, s)
+
+    def control_with(
+        self, memory: object, model: VehicleModel, params: VehicleParams, s: Sequence[float], path: PathVectors,
+        gamma: float, gamma_dot: float, v_d: float, current: Current | None,
+    ) -> ControlOutput:  # fmt: skip
+        """As control, with an adaptive controller's memory."""
+        out = self._call(self.inner.control_with, memory, model, params, s, path, gamma, gamma_dot, v_d, current)
+        return self._checked(out, model)
+
+    def update(
+        self, memory: object, model: VehicleModel, params: VehicleParams, stages: Sequence[Stage],
+        after: Sequence[float], dt: float,
+    ) -> object:  # fmt: skip
+        return self._call(self.inner.update, memory, model, params, stages, after, dt)
 
     @property
     def dimension(self) -> int:

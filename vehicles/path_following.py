@@ -48,6 +48,8 @@ from vehicles.paths import Path
 from vehicles.vehicle_model import Auv, VehicleModel
 
 Current = tuple[Float3, Float3]  # (c, c_dot): the ocean current in body axes, m/s, and its derivative, m/s^2
+Stage = tuple[Sequence[float], Float3]  # an RK4 stage as the controller steered at it: (the lifted state seen, tau)
+STAGE_WEIGHTS = (1 / 6, 1 / 3, 1 / 3, 1 / 6)  # how classical RK4 averages its four stages' rates over a step
 
 
 class ControlOutput(NamedTuple):
@@ -83,6 +85,39 @@ class PathFollowingController(Protocol):
         self, model: VehicleModel, params: VehicleParams, s: Sequence[float], path: PathVectors, gamma: float,
         gamma_dot: float, v_d: float, current: Current | None,
     ) -> ControlOutput: ...  # fmt: skip
+
+
+@runtime_checkable
+class AdaptiveController(Protocol):
+    """A path-following controller with a memory it learns from (vehicles.supervisory's estimators and switching
+    logic, an adaptive law's parameter estimates): the memory is any immutable value, made once when the vehicle
+    starts (or restarts) and replaced after every step, and the vehicle's state carries it between steps.
+
+    - start(model, params, s) -> memory: its memory for a vehicle that starts at the lifted state s it sees;
+    - control_with(memory, model, params, s, path, gamma, gamma_dot, v_d, current) -> ControlOutput: as `control`
+      (PathFollowingController), with the memory of the step's start; called at every RK4 stage instead of it;
+    - update(memory, model, params, stages, after, dt) -> memory: after a step of dt, from the four RK4 stages it
+      steered at, (lifted state it saw, tau [N, N m, N m]) each, which the step averages with the weights STAGE_WEIGHTS
+      (stages[0][0] is the state at the step's start), and the state it sees at the step's end (after; the same
+      navigation error as the stages').
+    All three pure: the same memory in every engine, in every hosting, after a restart."""
+
+    def start(self, model: VehicleModel, params: VehicleParams, s: Sequence[float]) -> object: ...
+
+    def control_with(
+        self, memory: object, model: VehicleModel, params: VehicleParams, s: Sequence[float], path: PathVectors,
+        gamma: float, gamma_dot: float, v_d: float, current: Current | None,
+    ) -> ControlOutput: ...  # fmt: skip
+
+    def update(
+        self, memory: object, model: VehicleModel, params: VehicleParams, stages: Sequence[Stage],
+        after: Sequence[float], dt: float,
+    ) -> object: ...  # fmt: skip
+
+
+def is_adaptive(controller: object) -> bool:
+    """Whether a controller has a memory (AdaptiveController); a guarded extension says so for what it guards."""
+    return isinstance(controller, AdaptiveController) and bool(getattr(controller, "adaptive", True))
 
 
 @dataclass(frozen=True, slots=True)

@@ -8,6 +8,7 @@ from typing import Any
 
 from comms.wire import SIZE
 from supervisor.config.comms_schema import CommsSection, TransmitSection
+from supervisor.config.controller_choice import AUTO, controller_name, estimated_spread
 from supervisor.config.derived import steps_of
 from supervisor.config.describe import describe_fault
 from supervisor.config.fleet import coupling_k
@@ -27,6 +28,7 @@ def what_would_run(sc: Scenario) -> str:
         f"{run.name}: {len(sc.vehicles)} vehicles ({vehicle}{_overrides(sc)}, {model}) for "
         f"{_num(run.duration)} s in {steps} steps of {_num(run.step)} s, seed {run.seed}",
         "paths: " + "; ".join(_vehicle(v) for v in sc.vehicles),
+        "path following: " + _controller(sc),
         f"coordination: {sc.coordination.law} law, {_gain(sc)}, predictor {sc.coordination.predictor}, "
         f"v_r {_num(sc.coordination.v_r)} per s, over the graph {_edges(sc.graph.edges)}",
         "comms: " + _comms(sc),
@@ -35,6 +37,17 @@ def what_would_run(sc: Scenario) -> str:
         f"a vehicle lost: {run.on_vehicle_loss}",
     ]
     return ". ".join([sentences[0], *(s[0].upper() + s[1:] for s in sentences[1:])]) + "."
+
+
+def _controller(sc: Scenario) -> str:
+    """The controller as it will run: auto's choice and why, and the tube's delta."""
+    pf, name = sc.path_following, controller_name(sc)
+    text = f"{name}, delta {_num(pf.delta)} m"
+    if pf.controller == AUTO:
+        spread = estimated_spread(sc)
+        why = f"inertia or damping uncertain by up to +-{_num(100 * spread)} %" if spread else "the nominal plant"
+        text += f" (auto: {why})"
+    return text
 
 
 def _gain(sc: Scenario) -> str:

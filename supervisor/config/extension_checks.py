@@ -7,6 +7,7 @@ from __future__ import annotations
 from collections.abc import Generator, Iterator
 from typing import Any
 
+from supervisor.config.controller_choice import AUTO, controller_name, controller_options
 from supervisor.config.extensions import Identity, instantiate, resolve
 from supervisor.config.scenario_schema import Scenario
 from vehicles.estimates import FirstOrder
@@ -27,9 +28,18 @@ def extension_errors(sc: Scenario) -> Iterator[str]:
         yield from _checked("loss", "comms", c.loss_model, c.loss_model_options)
     elif c.loss_model_options:
         yield f"comms.loss_model_options: options for no loss model (comms.loss_model), got {c.loss_model_options}"
-    pf = sc.path_following
-    if pf.controller != "backstepping":  # the built-in's gains are [path_following]'s own keys, checked by pydantic
-        yield from _checked("controller", "path_following", pf.controller, pf.controller_options)
+    yield from _controller_errors(sc)
+
+
+def _controller_errors(sc: Scenario) -> Iterator[str]:
+    pf, name = sc.path_following, controller_name(sc)
+    if pf.controller == AUTO and pf.controller_options:
+        yield (
+            "path_following.controller_options: auto chooses the controller and its options; name the controller "
+            f"(backstepping, supervisory, ...) to give it options, got {pf.controller_options}"
+        )
+    elif name != "backstepping":  # the built-in's gains are [path_following]'s own keys, checked by pydantic
+        yield from _checked("controller", "path_following", name, controller_options(sc))
     elif pf.controller_options:
         keys = "delta, k1, k2, k_zeta, damping"
         yield (
@@ -93,7 +103,7 @@ def extension_identities(sc: Scenario) -> list[Identity]:
     log's meta records. Call on a checked scenario: every name resolves."""
     co = sc.coordination
     named = [("law", co.law), ("predictor", co.predictor), ("transmission", sc.comms.transmit.policy),
-             ("controller", sc.path_following.controller)]  # fmt: skip
+             ("controller", controller_name(sc))]  # fmt: skip
     if sc.comms.loss_model is not None:  # none named: the digest stays what it was for scenarios without one
         named.append(("loss", sc.comms.loss_model))
     models = [sc.vehicle.model] if sc.vehicle.model else sorted({v.preset or sc.vehicle.preset for v in sc.vehicles})

@@ -25,6 +25,7 @@ from comms.messages import Message
 from comms.modem import ModemParams
 from comms.state import StateReport
 from comms.stats import LinkStats
+from supervisor.config.controller_choice import controller_name, controller_options
 from supervisor.config.extensions import extension
 from supervisor.config.links import needs_fitting
 from supervisor.config.medium import modem_params, sound_speed
@@ -265,12 +266,10 @@ def current_observer_of(scenario: Scenario) -> CurrentObserver | None:
 
 
 def controller_of(scenario: Scenario) -> PathFollowingController:
-    """The path-following controller: backstepping with [path_following]'s gains, or the named one with its
-    controller_options."""
-    pf = scenario.path_following
-    gains = {"delta": pf.delta, "k1": pf.k1, "k2": pf.k2, "k_zeta": pf.k_zeta, "damping": pf.damping}
-    options = gains if pf.controller == "backstepping" else pf.controller_options
-    controller: PathFollowingController = extension("controller", pf.controller, options)
+    """The path-following controller with its options (supervisor.config.controller_choice)."""
+    controller: PathFollowingController = extension(
+        "controller", controller_name(scenario), controller_options(scenario)
+    )
     return controller
 
 

@@ -164,13 +164,14 @@ class PathFollowingSection(StrictModel):
     """Each vehicle's path-following controller: the delta-shifted backstepping design with its gains, or another."""
 
     controller: ExtensionName = Field(
-        default="backstepping",
-        description="the path-following controller: backstepping (the delta-shifted design; its gains are this "
-        "section's delta, k1, k2, k_zeta, damping), an installed extension's name (`cpf plugins`), or "
-        "package.module:Name",
+        default="auto",
+        description="auto (supervisory where vehicle.uncertainty makes the inertia or damping uncertain, over a "
+        "set that wide; else backstepping), backstepping (the delta-shifted design with this section's gains), "
+        "supervisory (adaptive switching over backstepping candidates, Aguiar & Hespanha 2007), an installed "
+        "extension's name (`cpf plugins`), or package.module:Name",
     )
     controller_options: dict[str, Any] = Field(
-        default_factory=dict, description="another controller's own options (its fields; backstepping takes none)"
+        default_factory=dict, description="a named controller's options (its fields; auto and backstepping take none)"
     )
     delta: Float = Field(
         default=-1.0, ge=-100, le=100,

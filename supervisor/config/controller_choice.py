@@ -1,0 +1,47 @@
+"""Which path-following controller a scenario's vehicles steer with, and its options.
+
+`path_following.controller = "auto"` (the default) picks by what the scenario says the controller cannot know:
+where the plant's inertia or damping may differ from the model (`vehicle.uncertainty` on any of their groups), the
+adaptive switching supervisor (vehicles.supervisory, the controller the paper's Lemma 1 rests on: Aguiar & Hespanha,
+IEEE TAC 52(8), 2007) with its parameter set as wide as the uncertainty declared; else the backstepping design, which
+the supervisor reduces to on a nominal plant (its nominal candidate is exact there: the same results, at less cost).
+A named controller is used as named, with its controller_options.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from supervisor.config.plant import spreads
+from supervisor.config.scenario_schema import Scenario
+
+AUTO = "auto"
+# The groups the supervisor's parameter set covers (vehicles.supervisory: each row's inertia and damping).
+ESTIMATED = ("mass", "inertia", "linear_damping", "quadratic_damping", "angular_linear_damping",
+             "angular_quadratic_damping")  # fmt: skip
+
+
+def estimated_spread(sc: Scenario) -> float:
+    """The largest declared spread of a group the supervisor estimates (0: none declared)."""
+    declared = spreads(sc)
+    return max((declared.get(group, 0.0) for group in ESTIMATED), default=0.0)
+
+
+def controller_name(sc: Scenario) -> str:
+    """The controller's name, `auto` resolved."""
+    name = sc.path_following.controller
+    if name != AUTO:
+        return name
+    return "supervisory" if estimated_spread(sc) > 0 else "backstepping"
+
+
+def controller_options(sc: Scenario) -> dict[str, Any]:
+    """Its options: backstepping's are [path_following]'s gains; `auto`'s supervisor has those gains and a parameter
+    set as wide as the declared uncertainty; a named one has the scenario's controller_options."""
+    pf, name = sc.path_following, controller_name(sc)
+    gains = {"delta": pf.delta, "k1": pf.k1, "k2": pf.k2, "k_zeta": pf.k_zeta, "damping": pf.damping}
+    if name == "backstepping":
+        return gains
+    if pf.controller == AUTO:
+        return {**gains, "spread": estimated_spread(sc)}
+    return dict(pf.controller_options)
