@@ -29,10 +29,10 @@ docs: $(STAMP)
 readme: $(STAMP)
 	$(BIN)/python scripts/readme_numbers.py
 
-# The robustness study (README, "Robustness study"): each effect alone, fix-period and current sweeps; ~4 min of
+# The robustness study (README, "Robustness study"): each effect alone, fix-period and current sweeps; ~12 min of
 # CPU on 2 cores with 4 seeds. Output in runs/study/ (results.csv, table.md, study_*.png). Then coordination on
 # slow links (README, "Coordination on slow links"): real_links.md, period_loss.csv, period_loss_map.png, ~6 min.
-# Then robust vehicles (README, "Robust vehicles"): mismatch.md, mismatch.csv, 10 seeds, ~2 min.
+# Then robust vehicles (README, "Robust vehicles"): mismatch.md, mismatch.csv, current.md, 10 seeds, ~5 min.
 SEEDS ?= 4
 study: $(STAMP)
 	$(BIN)/python scripts/robustness_study.py --seeds $(SEEDS) --jobs 2 --out runs/study

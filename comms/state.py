@@ -53,7 +53,7 @@ class StateReport:
     velocity: Finite3  # body frame, m/s
     angular_velocity: Finite3  # body frame, rad/s
     error: Real3  # p - p_d(gamma), m (zero-padded for planar vehicles)
-    tau: tuple[Real, ...]  # the inputs the controller asked for
+    tau: tuple[Real, ...]  # the inputs the vehicle got: the controller's, through its actuators if not ideal
     correction: Real  # v_tilde
     lyapunov: Real
     tx_seq: int

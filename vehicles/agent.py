@@ -12,6 +12,9 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 from comms.records import Disturbances, FloatArray
+from vehicles.actuators import SIZE as ACTUATOR_SIZE
+from vehicles.actuators import START as ACTUATOR_START
+from vehicles.actuators import Actuators
 from vehicles.coordination import CoordinationGains, CoordinationLaw, Corrected
 from vehicles.current import Current, feedforward
 from vehicles.current_observer import CurrentObserver
@@ -27,8 +30,9 @@ from vehicles.plant import plant_rates
 from vehicles.saturation import bounded_correction, clamp, hold, slope_rate_bound, slope_size
 from vehicles.vehicle_model import Auv, VehicleModel
 
-# Where gamma and gamma_dot sit in the integrated vector z = [lifted x, gamma, gamma_dot, current observer's state].
-_GAMMA, _GAMMA_DOT, _OBSERVER = LIFTED_SIZE, LIFTED_SIZE + 1, LIFTED_SIZE + 2
+# Where gamma and gamma_dot sit in the integrated vector z = [lifted x, gamma, gamma_dot, actuators' state (if
+# any), current observer's state (if any)].
+_GAMMA, _GAMMA_DOT, _ACTUATORS = LIFTED_SIZE, LIFTED_SIZE + 1, LIFTED_SIZE + 2
 UNDISTURBED = Disturbances()  # no fault acts on the vehicle
 
 
@@ -60,6 +64,7 @@ class VehicleConfig:
     # The on-board current estimate fed to the controller (vehicles.current_observer; None: none). A current the
     # controller is told (current_known) takes its place.
     current_observer: CurrentObserver | None = None
+    actuators: Actuators | None = None  # fins and propeller between the controller and the plant (None: ideal)
     vehicle: VehicleModel = field(init=False)
     adaptive: AdaptiveController | None = field(init=False)  # the controller if it has a memory, else None
 
@@ -79,6 +84,7 @@ class VehicleState:
     estimates: Mapping[int, NeighbourEstimate] = field(default_factory=dict)
     observer: tuple[float, ...] = ()  # the current observer's state (vehicles.current_observer); () before it starts
     memory: object = None  # an adaptive controller's (vehicles.path_following.AdaptiveController); None: none yet
+    actuators: tuple[float, ...] = ()  # the actuators' state (vehicles.actuators); () before they start or if ideal
 
 
 @dataclass(frozen=True, slots=True)
@@ -104,7 +110,7 @@ def receive(state: VehicleState, sender: int, estimate: NeighbourEstimate) -> Ve
     # The constructor, not dataclasses.replace: the same object, at a fraction of the cost (per message per step).
     return VehicleState(
         state.t, state.x, state.gamma, state.gamma_dot, {**state.estimates, sender: estimate}, state.observer,
-        state.memory,
+        state.memory, state.actuators,
     )  # fmt: skip
 
 
@@ -128,11 +134,11 @@ def _closed_loop(
     t: float,
     held: HeldError | None = None,
     memory: object = None,
-) -> tuple[list[float], ControlOutput, float, Float3]:
-    """Derivative of z = [lifted x, gamma, gamma_dot] at the stage's time t, with the controller's outputs, v_tilde
-    and the error p - p_d(gamma) the controller saw [m]; heard: the neighbours' predicted (gamma_j, gamma_dot_j) then
-    (_neighbour_values); held: the navigation error the controller sees the stage state with (None: it sees the
-    truth); memory: an adaptive controller's, of the step's start."""
+) -> tuple[list[float], ControlOutput, float, Float3, Float3]:
+    """Derivative of z (see _GAMMA) at the stage's time t, with the controller's outputs, v_tilde, the error
+    p - p_d(gamma) the controller saw [m] and the inputs the vehicle got; heard: the neighbours' predicted
+    (gamma_j, gamma_dot_j) then (_neighbour_values); held: the navigation error the controller sees the stage state
+    with (None: it sees the truth); memory: an adaptive controller's, of the step's start."""
     gamma, gamma_dot = z[_GAMMA], z[_GAMMA_DOT]
     point = cfg.model.path_seen(cfg.path.evaluate_floats(gamma))
     limits = _rate_limits(cfg, dist, point)
@@ -153,10 +159,26 @@ def _closed_loop(
     # truth of a nominal plant (no current: plant_rates is then the plain kinematics), else the plant computes its own
     # (an adaptive controller's parameters are its estimates, not the plant's).
     own = out.drift if cfg.plant is None and held is None and adaptive is None else None
-    xdot = plant_rates(vehicle, cfg.plant or cfg.params, cfg.current, t, z, own, out.tau)
+    applied, actuator_rates = _actuated(cfg, z, out.tau)
+    xdot = plant_rates(vehicle, cfg.plant or cfg.params, cfg.current, t, z, own, applied)
     p_d = point[0]
-    zdot = [*xdot, gamma_dot, gamma_ddot, *observer_rates]
-    return zdot, out, v_tilde, (view[0] - p_d[0], view[1] - p_d[1], view[2] - p_d[2])
+    zdot = [*xdot, gamma_dot, gamma_ddot, *actuator_rates, *observer_rates]
+    return zdot, out, v_tilde, (view[0] - p_d[0], view[1] - p_d[1], view[2] - p_d[2]), applied
+
+
+def _actuated(cfg: VehicleConfig, z: Sequence[float], commanded: Float3) -> tuple[Float3, tuple[float, ...]]:
+    """The inputs the vehicle gets for those commanded, and the actuators' rates (() if ideal): the fins' lift
+    follows the true speed through the water (z's surge)."""
+    actuators = cfg.actuators
+    if actuators is None:
+        return commanded, ()
+    a, u = z[_ACTUATORS : _ACTUATORS + ACTUATOR_SIZE], z[12]
+    return actuators.applied(a, u), actuators.rates(a, commanded, u)
+
+
+def _observer_at(cfg: VehicleConfig) -> int:
+    """Where the current observer's state starts in z."""
+    return _ACTUATORS + (0 if cfg.actuators is None else ACTUATOR_SIZE)
 
 
 def _current_fed(
@@ -169,7 +191,7 @@ def _current_fed(
     observer = cfg.current_observer
     if observer is None:
         return None, ()
-    estimate = z[_OBSERVER:]
+    estimate = z[_observer_at(cfg) :]
     rates = observer.rates(view, estimate)
     return estimated_current(view, estimate, rates), rates
 
@@ -218,22 +240,25 @@ def step(
     model = cfg.model
     t = state.t
     lifted = model.lift(state.x)
-    z = [*lifted, float(state.gamma), float(state.gamma_dot), *_observer_state(cfg, state, lifted, held)]
+    actuated = state.actuators or (ACTUATOR_START if cfg.actuators is not None else ())
+    observer = _observer_state(cfg, state, lifted, held)
+    z = [*lifted, float(state.gamma), float(state.gamma_dot), *actuated, *observer]
     memory = _memory(cfg, state, lifted, held)
     z_next, stages, v_tilde, seen_error = _rk4(cfg, state, z, dt, neighbours, dist, held, memory)
-    out = stages[0][1]
+    _, out, applied = stages[0]
     error = seen_error if held is None else _true_error(seen_error, held)
-    observed = (z[_OBSERVER + 3], z[_OBSERVER + 4], z[_OBSERVER + 5]) if len(z) > _OBSERVER else None
+    observed = (observer[3], observer[4], observer[5]) if observer else None
     telemetry = Telemetry(
-        cfg.vehicle_id, t, state.gamma, z[_GAMMA_DOT], state.x, model.vector(error), model.inputs(out.tau),
+        cfg.vehicle_id, t, state.gamma, z[_GAMMA_DOT], state.x, model.vector(error), model.inputs(applied),
         v_tilde, out.lyapunov, observed,
     )  # fmt: skip
     x_next = model.lower(reorthonormalize(z_next[:LIFTED_SIZE]))
     gamma_dot_next = _within_limits(cfg, dist, z_next[_GAMMA], z_next[_GAMMA_DOT])
-    observer_next = tuple(z_next[_OBSERVER:])
+    at = _observer_at(cfg)
+    actuated_next, observer_next = tuple(z_next[_ACTUATORS:at]), tuple(z_next[at:])
     memory_next = _learned(cfg, memory, stages, z_next, dt, held)
     next_state = VehicleState(
-        t + dt, x_next, z_next[_GAMMA], gamma_dot_next, state.estimates, observer_next, memory_next
+        t + dt, x_next, z_next[_GAMMA], gamma_dot_next, state.estimates, observer_next, memory_next, actuated_next
     )
     return next_state, telemetry
 
@@ -241,24 +266,25 @@ def step(
 def _rk4(
     cfg: VehicleConfig, state: VehicleState, z: list[float], dt: float, neighbours: Sequence[int],
     dist: Disturbances, held: HeldError | None, memory: object,
-) -> tuple[list[float], list[tuple[list[float], ControlOutput]], float, Float3]:  # fmt: skip
-    """z after one classical RK4 step of dt, with its four stages (z, the controller's outputs there), v_tilde and
-    the error the controller saw at the step's start."""
+) -> tuple[list[float], list[tuple[list[float], ControlOutput, Float3]], float, Float3]:  # fmt: skip
+    """z after one classical RK4 step of dt, with its four stages (z, the controller's outputs there, the inputs the
+    vehicle got), v_tilde and the error the controller saw at the step's start."""
     t = state.t
     # The estimates do not change within a step: the two midpoint stages predict the neighbours at the same time.
     mid = _neighbour_values(cfg, state, t + dt / 2, neighbours)
     start = _neighbour_values(cfg, state, t, neighbours)
-    k1, out, v_tilde, seen_error = _closed_loop(cfg, z, start, dist, t, held, memory)
+    k1, out, v_tilde, seen_error, tau = _closed_loop(cfg, z, start, dist, t, held, memory)
     z2 = _advance(z, dt / 2, k1)
-    k2, out2, _, _ = _closed_loop(cfg, z2, mid, dist, t + dt / 2, held, memory)
+    k2, out2, _, _, tau2 = _closed_loop(cfg, z2, mid, dist, t + dt / 2, held, memory)
     z3 = _advance(z, dt / 2, k2)
-    k3, out3, _, _ = _closed_loop(cfg, z3, mid, dist, t + dt / 2, held, memory)
+    k3, out3, _, _, tau3 = _closed_loop(cfg, z3, mid, dist, t + dt / 2, held, memory)
     end = _neighbour_values(cfg, state, t + dt, neighbours)
     z4 = _advance(z, dt, k3)
-    k4, out4, _, _ = _closed_loop(cfg, z4, end, dist, t + dt, held, memory)
+    k4, out4, _, _, tau4 = _closed_loop(cfg, z4, end, dist, t + dt, held, memory)
     h = dt / 6
     z_next = [a + h * (b1 + 2 * b2 + 2 * b3 + b4) for a, b1, b2, b3, b4 in zip(z, k1, k2, k3, k4, strict=True)]
-    return z_next, [(z, out), (z2, out2), (z3, out3), (z4, out4)], v_tilde, seen_error
+    stages = [(z, out, tau), (z2, out2, tau2), (z3, out3, tau3), (z4, out4, tau4)]
+    return z_next, stages, v_tilde, seen_error
 
 
 def _memory(cfg: VehicleConfig, state: VehicleState, lifted: Sequence[float], held: HeldError | None) -> object:
@@ -273,16 +299,16 @@ def _memory(cfg: VehicleConfig, state: VehicleState, lifted: Sequence[float], he
 
 
 def _learned(
-    cfg: VehicleConfig, memory: object, stages: Sequence[tuple[list[float], ControlOutput]], z_next: Sequence[float],
-    dt: float, held: HeldError | None,
+    cfg: VehicleConfig, memory: object, stages: Sequence[tuple[list[float], ControlOutput, Float3]],
+    z_next: Sequence[float], dt: float, held: HeldError | None,
 ) -> object:  # fmt: skip
-    """An adaptive controller's memory after the step: from the RK4 stages it steered at and the state at the step's
-    end, as it saw them (with the step's navigation error)."""
+    """An adaptive controller's memory after the step: from the RK4 stages it steered at (the inputs the vehicle got
+    there) and the state at the step's end, as it saw them (with the step's navigation error)."""
     adaptive = cfg.adaptive
     if adaptive is None:
         return None
     after = z_next[:LIFTED_SIZE]
-    steered = [(z[:LIFTED_SIZE], out.tau) for z, out in stages]
+    steered = [(z[:LIFTED_SIZE], tau) for z, _, tau in stages]
     if held is not None:
         after, steered = seen(after, held), [(seen(s, held), tau) for s, tau in steered]
     return adaptive.update(memory, cfg.vehicle, cfg.params, steered, after, dt)

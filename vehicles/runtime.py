@@ -85,7 +85,7 @@ def node_step(
 ) -> tuple[NodeState, StepOutput]:
     """One sync step at time t: receive, maybe transmit, integrate."""
     v = node.vehicle  # at the clock's t, so that every engine steps on the same grid
-    state = VehicleState(t, v.x, v.gamma, v.gamma_dot, v.estimates, v.observer, v.memory)
+    state = VehicleState(t, v.x, v.gamma, v.gamma_dot, v.estimates, v.observer, v.memory, v.actuators)
     for h in heard:
         state = receive(state, h.sender, NeighbourEstimate(h.gamma, h.gamma_dot, h.stamp))
     ages = tuple((j, t - state.estimates[j].stamp) for j in neighbours if j in state.estimates)

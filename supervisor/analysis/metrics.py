@@ -84,9 +84,11 @@ def run_metrics(run: RunData) -> dict[str, Any]:
         )
         metrics |= _coordination(series, summary)
         if scenario is not None:  # the time each vehicle sat at its [saturation] top_speed
+            from supervisor.analysis.input_limits import at_input_limits, input_limits_metrics
             from supervisor.analysis.saturation_summary import at_limit, limits_metrics
 
             metrics |= limits_metrics(at_limit(scenario, series))
+            metrics |= input_limits_metrics(at_input_limits(scenario, series))
     metrics |= _navigation(run, settings.transient)
     return finite(metrics)
 
@@ -148,12 +150,20 @@ def run_series(run: RunData) -> Series:
     keys = {v: _step_index(s.t, step) for v, s in run.vehicles.items()}
     grid = np.unique(np.concatenate(list(keys.values())))
     columns = [np.full((grid.size, len(ids)), np.nan) for _ in range(3)]
+    inputs, surge = np.full((grid.size, 3, len(ids)), np.nan), np.full((grid.size, len(ids)), np.nan)
     for col, (vid, series) in enumerate(run.vehicles.items()):
         rows = np.searchsorted(grid, keys[vid])
         for out, values in zip(columns, (series.gamma, series.gamma_dot, series.error_norm), strict=True):
             out[rows, col] = values
+        tau = series.tau  # (n, 3), or a planar vehicle's (n, 2): surge and yaw
+        if tau.shape[1] in (2, 3):
+            inputs[rows, :, col] = (
+                tau if tau.shape[1] == 3 else np.column_stack((tau[:, 0], tau[:, 0] * np.nan, tau[:, 1]))
+            )
+        surge[rows, col] = series.velocity[:, 0]
     t = grid * step if step > 0 else grid
-    return Series(ids, t.astype(float), *columns)
+    gamma, gamma_dot, path_error = columns
+    return Series(ids, t.astype(float), gamma, gamma_dot, path_error, inputs, surge)
 
 
 def _step_index(t: np.ndarray, step: float) -> np.ndarray:

@@ -11,10 +11,12 @@ from comms.state import StateReport
 from supervisor.analysis.summary import Series
 
 INITIAL_ROWS = 1024  # steps held before the first growth; the array doubles as the run goes
+_COLUMNS = 7  # gamma, gamma_dot, |p - p_d|, surge force, pitch torque, yaw torque, surge speed
 
 
 class SeriesBuilder:
-    """Rows of (gamma, gamma_dot, |p - p_d|) per step and vehicle, NaN where no state came in. The array grows with
+    """Rows of (gamma, gamma_dot, |p - p_d|, the three inputs, surge speed) per step and vehicle, NaN where no state
+    came in. The array grows with
     the steps that arrive (doubling, so amortised O(1) a state): nothing is allocated for the whole duration up
     front, and a run that stops early never held more than it recorded."""
 
@@ -22,7 +24,7 @@ class SeriesBuilder:
         self.ids = tuple(vehicle_ids)
         self._column = {vid: col for col, vid in enumerate(self.ids)}
         self._steps = steps
-        self._data = np.full((min(steps, INITIAL_ROWS), 3, len(self.ids)), np.nan)  # gamma, gamma_dot, |p - p_d|
+        self._data = np.full((min(steps, INITIAL_ROWS), _COLUMNS, len(self.ids)), np.nan)
         self._dt = dt
         self.ages: dict[tuple[int, int], list[float]] = {}  # (sender, receiver) -> [sum, count, max]
 
@@ -39,7 +41,8 @@ class SeriesBuilder:
         if 0 <= k < self._steps:
             if k >= len(self._data):
                 self._grow(k)
-            self._data[k, :, col] = (state.gamma, state.gamma_dot, _magnitude(state.error))
+            row = (state.gamma, state.gamma_dot, _magnitude(state.error), *_inputs(state.tau), state.velocity[0])
+            self._data[k, :, col] = row
         for sender, age in state.estimate_age:
             book = self.ages.setdefault((sender, state.vehicle), [0.0, 0.0, 0.0])
             book[0] += age
@@ -51,7 +54,14 @@ class SeriesBuilder:
         d = np.full((self._steps, *self._data.shape[1:]), np.nan)
         d[: len(self._data)] = self._data
         times = np.arange(self._steps, dtype=np.float64) * self._dt
-        return Series(self.ids, times, d[:, 0].copy(), d[:, 1].copy(), d[:, 2].copy())
+        return Series(self.ids, times, d[:, 0].copy(), d[:, 1].copy(), d[:, 2].copy(), d[:, 3:6].copy(), d[:, 6].copy())
+
+
+def _inputs(tau: Sequence[float]) -> tuple[float, float, float]:
+    """(surge, pitch, yaw) from a state's inputs: three, or a planar vehicle's two (surge, yaw)."""
+    if len(tau) == 2:
+        return tau[0], math.nan, tau[1]
+    return tau[0], tau[1], tau[2]
 
 
 def _magnitude(error: tuple[float, float, float]) -> float:

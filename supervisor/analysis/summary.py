@@ -29,6 +29,10 @@ class Series:
     gamma: FloatArray
     gamma_dot: FloatArray
     path_error: FloatArray  # |p_i - p_d_i(gamma_i)|, m
+    # The inputs the vehicles got, (steps, 3, vehicles): surge force [N], pitch and yaw torque [N m] (a planar
+    # vehicle's pitch NaN), and their surge speed through the water [m/s]; None where the source has none.
+    inputs: FloatArray | None = None
+    surge: FloatArray | None = None
 
 
 @dataclass(frozen=True, slots=True)

@@ -166,9 +166,17 @@ def _simulate(args: argparse.Namespace, scenario: Scenario, out: Path, live: Liv
     return run_zenoh(scenario, args.scenario, text, out, seed, *how, scene=args.foxglove, live=live)
 
 
+def _input_lines(scenario: Scenario, result: RunResult) -> str | None:
+    """The summary's lines on inputs at their limits (supervisor.analysis.input_limits)."""
+    from supervisor.analysis.input_limits import at_input_limits, format_input_limits
+
+    return format_input_limits(at_input_limits(scenario, result.series))
+
+
 def _report_run(args: argparse.Namespace, scenario: Scenario, result: RunResult, out: Path) -> None:
     """The run's headline, summary per phase and per link (and realtime timing) on stdout; --metrics as JSON."""
     from supervisor.analysis.comms_summary import comms_summary, format_comms, format_malformed
+    from supervisor.analysis.input_limits import at_input_limits, input_limits_metrics
     from supervisor.analysis.metrics import finite
     from supervisor.analysis.saturation_summary import at_limit, format_limits
     from supervisor.analysis.summary import format_summary, summarize
@@ -187,9 +195,9 @@ def _report_run(args: argparse.Namespace, scenario: Scenario, result: RunResult,
     )
     comms = comms_summary(result.link_stats, result.stats_history, result.estimate_ages)
     print(format_summary(summary))
-    limits = format_limits(at_limit(scenario, result.series), duration)
-    if limits is not None:
-        print(limits)
+    for lines in (format_limits(at_limit(scenario, result.series), duration), _input_lines(scenario, result)):
+        if lines is not None:
+            print(lines)
     print(format_comms(comms))
     if result.realtime is not None:
         print(format_timing(result.realtime))
@@ -203,6 +211,7 @@ def _report_run(args: argparse.Namespace, scenario: Scenario, result: RunResult,
             metrics["realtime"] = result.realtime
         if result.malformed is not None:
             metrics["malformed"] = result.malformed  # reader -> key -> messages it dropped
+        metrics |= input_limits_metrics(at_input_limits(scenario, result.series))
         args.metrics.write_text(json.dumps(finite(metrics), indent=2, allow_nan=False))
 
 

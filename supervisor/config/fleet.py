@@ -29,7 +29,7 @@ from supervisor.config.controller_choice import controller_name, controller_opti
 from supervisor.config.extensions import extension
 from supervisor.config.links import needs_fitting
 from supervisor.config.medium import modem_params, sound_speed
-from supervisor.config.plant import current_of, plant_of
+from supervisor.config.plant import actuators_of, current_of, plant_of
 from supervisor.config.scenario_schema import (
     BurstSection,
     CirclePath,
@@ -101,6 +101,7 @@ def vehicle_config(scenario: Scenario, vehicle_id: int, seed: int | None = None)
             coordination_acceleration(params) if scenario.saturation.correction == "preset" else None
         ),
         vehicle_model=vehicle,
+        actuators=actuators_of(scenario, params),
     )
 
 

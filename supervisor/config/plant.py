@@ -6,11 +6,13 @@ same plant wherever and whenever it runs (vehicles.uncertainty seeds its draw by
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator
 
-from supervisor.config.plant_schema import UncertaintyTable
+from supervisor.config.plant_schema import ActuatorTable, UncertaintyTable
 from supervisor.config.scenario_schema import Scenario
 from supervisor.config.vehicle_models import params_of
+from vehicles.actuators import Actuators, remus100
 from vehicles.current import Current
 from vehicles.params import VehicleParams
 from vehicles.uncertainty import GROUPS, perturbed
@@ -32,6 +34,22 @@ def spreads(scenario: Scenario) -> dict[str, float]:
     given = scenario.vehicle.uncertainty
     table = given.model_dump() if isinstance(given, UncertaintyTable) else dict.fromkeys(GROUPS, given)
     return {group: spread for group, spread in table.items() if spread > 0}
+
+
+def actuators_of(scenario: Scenario, params: VehicleParams) -> Actuators | None:
+    """The fleet's actuators ([vehicle] actuators) for a vehicle with these nominal parameters (its propeller's
+    thrust is their max_surge_force); None: ideal."""
+    given = scenario.vehicle.actuators
+    if given == "ideal":
+        return None
+    if given == "remus100":
+        return remus100(params.max_surge_force)
+    assert isinstance(given, ActuatorTable)
+    rate = None if given.max_rate_deg is None else math.radians(given.max_rate_deg)
+    return Actuators(
+        given.fin_lift, math.radians(given.max_deflection_deg), given.fin_time_constant,
+        given.thruster_time_constant, params.max_surge_force, rate,
+    )  # fmt: skip
 
 
 def plant_of(scenario: Scenario, vehicle_id: int, seed: int | None = None) -> VehicleParams | None:

@@ -8,6 +8,7 @@ from typing import Annotated, Literal
 from pydantic import Discriminator, Field, JsonValue, Strict, Tag
 
 from supervisor.config.schema_base import MAX_ANGLE, MAX_TIME, Float, Length, StrictModel
+from vehicles.params import PRESETS
 
 MAX_CURRENT = 5.0  # m/s: a component of the current; the strongest tidal races run at 4-5 m/s
 MAX_SHEAR = 1.0  # 1/s: 1 m/s more current per metre of depth is far beyond any ocean shear
@@ -95,3 +96,37 @@ UNCERTAINTY_DESCRIPTION = (
     "controller keeps), one draw per vehicle seeded by (scenario.seed, vehicle id); a number for every group of "
     f"coefficients (at most {MAX_SPREAD}), or a table of spreads per group; 0: the plant is the nominal model"
 )
+
+
+class ActuatorTable(StrictModel):
+    """Fins and propeller between the controller and the vehicle (vehicles.actuators); the defaults are the REMUS
+    100's ("remus100")."""
+
+    fin_lift: Float = Field(default=6.15, gt=0, le=1e4, description="fin moment per (m/s)^2 and rad, N m s^2/(m^2 rad)")
+    max_deflection_deg: Float = Field(default=13.6, gt=0, le=60, description="fin deflection limit, deg")
+    fin_time_constant: Float = Field(default=1.0, gt=0, le=100, description="fin servo's time constant, s")
+    thruster_time_constant: Float = Field(default=1.0, gt=0, le=100, description="propeller's time constant, s")
+    max_rate_deg: Float | None = Field(default=None, gt=0, le=1000, description="fin rate limit, deg/s (absent: none)")
+
+
+def _name_or_table(value: object) -> str:
+    """Which form of actuators a value is meant as, so that a bad table is not also reported as a bad name."""
+    return "table" if isinstance(value, dict | ActuatorTable) else "name"
+
+
+Actuation = Annotated[
+    Annotated[Literal["ideal", "remus100"], Tag("name")] | Annotated[ActuatorTable, Tag("table")],
+    Discriminator(_name_or_table),
+]
+ACTUATORS = (  # [vehicle] actuators' description
+    "what turns the controller's force and torques into motion: ideal (the paper's model: the inputs as asked, within "
+    "the preset's limits), remus100 (a REMUS 100's fins and propeller from sources: vehicles/actuators.py), or a "
+    "table of their parameters"
+)
+
+
+def known_preset(value: str | None) -> str | None:
+    """A [vehicle] or [[vehicles]] preset, checked against the presets (vehicles.params)."""
+    if value is not None and value not in PRESETS:
+        raise ValueError(f"unknown preset, expected one of {sorted(PRESETS)}")
+    return value

@@ -13,9 +13,11 @@ from collections.abc import Sequence
 from comms.modem import PRESETS as MODEMS
 from comms.modem import ModemParams
 from comms.wire import SIZE
+from vehicles.actuators import remus100
 from vehicles.params import GRAVITY, PRESETS, VehicleParams
 
 __all__ = ["presets_text", "top_speed"]
+_FINS = remus100(PRESETS["remus100"].max_surge_force)
 
 VEHICLE_HEAD = (
     "vehicle", "mass [kg]", "M11/M22 [kg]", "W - B [N]", "max thrust [N]", "max torque [N m]", "top speed [m/s]",
@@ -72,6 +74,12 @@ def presets_text() -> str:
             *vehicles,
             "  mass: rigid body (W / g); M11/M22: surge / sway with added mass; W - B < 0: buoyant;",
             "  top speed: steady surge at full thrust against the model's surge damping.",
+            "  Actuators are ideal by default (the paper's model: the force and torques as asked, within these",
+            "  limits; the paper's example keeps them). [vehicle] actuators = \"remus100\" puts a REMUS 100's fins",
+            f"  and propeller between (vehicles/actuators.py): fin moment {_FINS.fin_lift:g} u^2 d, |d| <= "
+            f"{math.degrees(_FINS.max_deflection):g} deg ({_FINS.torque_limit(1.0):.2f} N m at 1 m/s),",
+            f"  lags of {_FINS.fin_time_constant:g} s (fins) and {_FINS.thruster_time_constant:g} s (propeller); the "
+            "built-in controllers cannot fly with them yet (README, Robust vehicles).",
             "",
             "Modem presets ([comms] modem = NAME; bitrate, preamble, frame_bytes, half_duplex, collisions can be",
             "changed in [comms]; the source level is the link budget's:",

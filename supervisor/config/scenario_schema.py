@@ -11,6 +11,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import Field, field_validator
 
+from supervisor.config import plant_schema
 from supervisor.config.comms_schema import (
     BurstSection,
     CommsSection,
@@ -131,12 +132,6 @@ class RunSection(StrictModel):
     )
 
 
-def _known(value: str | None) -> str | None:
-    if value is not None and value not in PRESETS:
-        raise ValueError(f"unknown preset, expected one of {sorted(PRESETS)}")
-    return value
-
-
 class VehicleModelSection(StrictModel):
     """The vehicle model every AUV of the fleet uses: a named preset (cpf presets lists them) and changes to it, or
     another model (`model`)."""
@@ -149,15 +144,17 @@ class VehicleModelSection(StrictModel):
         description=f"parameter = value, replacing the preset's; names: {', '.join(VehicleParams.__dataclass_fields__)}"
         " (units: kg, kg m^2, N s/m, N s^2/m^2, N m s, N m s^2, N, m; 3 numbers for the diagonal ones)",
     )
-
     uncertainty: Uncertainty = Field(default=0.0, description=UNCERTAINTY_DESCRIPTION, json_schema_extra=as_any_of)
+    actuators: plant_schema.Actuation = Field(
+        default="ideal", description=plant_schema.ACTUATORS, json_schema_extra=as_any_of
+    )
     model: ExtensionName | None = Field(
         default=None, description="another vehicle model for the whole fleet, instead of the preset: an installed "
         "extension's name (`cpf plugins`) or package.module:Name; absent: the preset (with its overrides)",
     )  # fmt: skip
     model_options: dict[str, Any] = Field(default_factory=dict, description="that model's own options (its fields)")
 
-    _known_preset = field_validator("preset")(lambda value: _known(value))
+    _known_preset = field_validator("preset")(lambda value: plant_schema.known_preset(value))
 
 
 class PathFollowingSection(StrictModel):
@@ -165,10 +162,8 @@ class PathFollowingSection(StrictModel):
 
     controller: ExtensionName = Field(
         default="auto",
-        description="auto (supervisory where vehicle.uncertainty makes the inertia or damping uncertain, over a "
-        "set that wide; else backstepping), backstepping (the delta-shifted design with this section's gains), "
-        "supervisory (adaptive switching over backstepping candidates, Aguiar & Hespanha 2007), an installed "
-        "extension's name (`cpf plugins`), or package.module:Name",
+        description="auto (supervisory where vehicle.uncertainty makes inertia or damping uncertain, else "
+        "backstepping), backstepping, supervisory (Aguiar & Hespanha 2007), an extension (cpf plugins), pkg.mod:Name",
     )
     controller_options: dict[str, Any] = Field(
         default_factory=dict, description="a named controller's options (its fields; auto and backstepping take none)"
@@ -348,7 +343,7 @@ class VehicleSection(StrictModel):
         description="parameter = value for this vehicle, applied after [vehicle] overrides (same names and units)",
     )  # fmt: skip
 
-    _known_preset = field_validator("preset")(lambda value: _known(value))
+    _known_preset = field_validator("preset")(lambda value: plant_schema.known_preset(value))
 
 
 class ReportSection(StrictModel):
