@@ -56,13 +56,20 @@ def test_report_of_a_missing_log_is_a_one_line_error(tmp_path):
 
 
 def test_run_metrics_json_says_what_the_printed_summary_says(tmp_path, paper_text):
+    from supervisor.analysis.input_limits import percent
+
     scenario = tmp_path / "short.toml"
     scenario.write_text(shortened(paper_text, 60.0) + "\n[comms]\nloss = 0.3\n")
     args = ["run", str(scenario), "--engine", "inprocess", "--out", "m.mcap", "--metrics", "out/m.json", "--quiet"]
     done = cpf(*args, cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     metrics = json.loads((tmp_path / "out/m.json").read_text())
-    assert set(metrics) == {"coordination", "comms", "links"}
+    assert set(metrics) == {"coordination", "comms", "links", "inputs_at_limit"}
+    for vehicle, limits in metrics["inputs_at_limit"].items():  # issue 24: the seconds each input sat at its limit
+        shares = [f"{name} {percent(limits[name] / limits['alive'])}" for name in ("surge", "pitch", "yaw")]
+        said = [share for share, name in zip(shares, ("surge", "pitch", "yaw"), strict=True) if limits[name] > 0]
+        if said:
+            assert f"vehicle {vehicle}: inputs at their limits for {', '.join(said)} of its time" in done.stdout
     coordination = metrics["coordination"]
     assert [p["name"] for p in coordination["phases"]] == ["whole run"]
     assert f"max {coordination['max_path_error_after_transient']:.3f} m" in done.stdout

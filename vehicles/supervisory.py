@@ -38,7 +38,6 @@ h > 0 (the theorem cited); the selections put together are the parameters the co
 from __future__ import annotations
 
 import functools
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from typing import Annotated, Literal
@@ -47,6 +46,7 @@ import numpy as np
 from annotated_types import Ge, Gt, Lt
 
 from comms.records import FloatArray
+from numerics import exp
 from vehicles.dynamics import PathVectors, with_inputs
 from vehicles.geometry import Float3
 from vehicles.params import VehicleParams
@@ -128,11 +128,12 @@ class Supervisory:
         before = stages[0][0]
         residual = _predicted(model, memory.params, candidates, stages, after) - _measured(before, after, dt)
         lam = self.k2 if self.rate is None else self.rate
-        decay = math.exp(-lam * dt)
+        decay = exp(-lam * dt)
         error = decay * memory.error + ((1.0 - decay) / lam) * residual
-        keep = math.exp(-self.forgetting * dt)
+        keep = exp(-self.forgetting * dt)
         monitor = keep * memory.monitor + dt * error * error + (1.0 - keep) * self.floor
-        weights = (1.0, 1.0, 1.0, self.delta**2, self.delta**2, self.delta**2)
+        arm = self.delta * self.delta
+        weights = (1.0, 1.0, 1.0, arm, arm, arm)
         selected = _switched(monitor, memory.selected, self.hysteresis, self.levels, weights)
         if selected == memory.selected:
             return SupervisorMemory(memory.candidate, error, monitor, selected, memory.params, memory.switches)
@@ -206,16 +207,16 @@ def _switched(
     row's damping within it (candidates in the grid's order: inertia level major)."""
     per_level = levels * levels
     slices = monitor.reshape(levels, per_level, ROWS)
-    cost = (slices.min(axis=1) * np.asarray(weights)).sum(axis=1)  # elementwise, not BLAS: the same bits on any CPU
+    cost = (slices.min(axis=1) * np.asarray(weights)).sum(axis=1).tolist()  # elementwise, not BLAS: any CPU's bits
     current = selected[0] // per_level
-    best = int(np.argmin(cost))
+    best = min(range(levels), key=cost.__getitem__)  # the first of equals, as numpy's argmin
     if (1.0 + hysteresis) * cost[best] < cost[current]:
-        return tuple(best * per_level + int(np.argmin(slices[best, :, i])) for i in range(ROWS))
+        return tuple(best * per_level + int(j) for j in slices[best].argmin(axis=0))
+    rows = monitor.tolist()
     out = []
-    for i in range(ROWS):
-        candidate = current * per_level + int(np.argmin(slices[current, :, i]))
-        better = (1.0 + hysteresis) * monitor[candidate, i] < monitor[selected[i], i]
-        out.append(candidate if better else selected[i])
+    for i, j in enumerate(slices[current].argmin(axis=0).tolist()):
+        candidate = current * per_level + j
+        out.append(candidate if (1.0 + hysteresis) * rows[candidate][i] < rows[selected[i]][i] else selected[i])
     return tuple(out)
 
 

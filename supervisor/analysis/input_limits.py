@@ -66,9 +66,14 @@ def format_input_limits(times: list[InputTime] | None) -> str | None:
     for item in times:
         shares = [(name, s / item.alive) for name, s in zip(INPUTS, item.seconds, strict=True) if item.alive and s > 0]
         if shares:
-            text = ", ".join(f"{name} {100 * share:.0f} %" for name, share in shares)
+            text = ", ".join(f"{name} {percent(share)}" for name, share in shares)
             lines.append(f"vehicle {item.vehicle}: inputs at their limits for {text} of its time")
     return "\n".join(lines) or None
+
+
+def percent(share: float) -> str:
+    """A share of the time as the summary prints it: whole percent, tenths below 1 %."""
+    return f"{100 * share:.0f} %" if share >= 0.01 else f"{100 * share:.1f} %"
 
 
 def input_limits_metrics(times: list[InputTime] | None) -> dict[str, object]:

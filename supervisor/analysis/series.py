@@ -58,10 +58,12 @@ class SeriesBuilder:
 
 
 def _inputs(tau: Sequence[float]) -> tuple[float, float, float]:
-    """(surge, pitch, yaw) from a state's inputs: three, or a planar vehicle's two (surge, yaw)."""
+    """(surge, pitch, yaw) from a state's inputs: three, or a planar vehicle's two (surge, yaw); NaN for what a
+    state of another shape leaves out."""
     if len(tau) == 2:
         return tau[0], math.nan, tau[1]
-    return tau[0], tau[1], tau[2]
+    u, q, r = (*tau[:3], math.nan, math.nan, math.nan)[:3]
+    return u, q, r
 
 
 def _magnitude(error: tuple[float, float, float]) -> float:
