@@ -53,7 +53,7 @@ typecheck: $(STAMP)
 # Two workers (pytest-xdist): a serial suite keeps about one of the two cores busy (its e2e runs wait on their
 # processes), so a second worker takes the idle one; worksteal balances the long tests between them.
 test: lint typecheck
-	$(BIN)/pytest -n 2 --dist worksteal
+	$(BIN)/pytest -n 2 --dist worksteal --durations=30
 
 clean:
 	rm -rf $(VENV) runs .pytest_cache .mypy_cache .ruff_cache
