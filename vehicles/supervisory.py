@@ -32,7 +32,9 @@ gives the least cost, J_L = sum_i w_i min_(l,q) mu_(L,l,q),i, when (1 + h) J_min
 level each row's damping moves to q = argmin mu_q,i when (1 + h) mu_q,i < mu_sigma_i,i. w_i is 1 for the linear rows
 and delta^2 for the angular ones (an angular velocity error times |delta| is the speed error it gives the point the
 controller steers). With no forgetting (the default) and a finite set, the number of switches is finite for any
-h > 0 (the theorem cited); the selections put together are the parameters the controller uses.
+h > 0 (the theorem cited); the selections put together are the parameters the controller uses. The floor, 1e-6
+(m/s)^2 s by default (1 mm/s of estimation error held for 1 s), is the evidence a first switch needs: without it the
+first steps, where every error is near zero, would switch on rounding.
 """
 
 from __future__ import annotations
