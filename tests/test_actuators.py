@@ -126,3 +126,22 @@ def test_time_at_the_input_limits_is_counted_from_the_recorded_inputs_and_speed(
     )
     table = input_limits_metrics(fins)["inputs_at_limit"]
     assert isinstance(table, dict) and table["3"] == {"surge": 0.0, "pitch": 0.5, "yaw": 0.0, "alive": 1.0}
+
+
+def test_the_vehicle_moves_with_what_the_actuators_give_not_with_what_was_asked():
+    """From rest the propeller's thrust builds up over its 1 s lag: the state records the inputs the actuators gave
+    (none at the first instant) and the vehicle is slower after 1 s than with ideal actuators, which give what is
+    asked at once."""
+    paper = (CONFIGS / "paper.toml").read_text()
+    speeds, first = {}, {}
+    for name in ("ideal", "remus100"):
+        sc = parse_scenario(paper, "paper.toml", [f'vehicle.actuators="{name}"'])
+        cfg = vehicle_config(sc, 1)
+        state = initial_state(sc, cfg)
+        for k in range(10):
+            state, tel = step(cfg, state, 0.1, [])
+            if k == 0:
+                first[name] = float(tel.tau[0])
+        speeds[name] = float(state.x[12])
+    assert first["ideal"] > 1.0 and first["remus100"] == 0.0
+    assert 0.0 < speeds["remus100"] < 0.8 * speeds["ideal"]
