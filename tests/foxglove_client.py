@@ -22,6 +22,7 @@ from websockets.typing import Subprotocol
 SUBPROTOCOLS = [Subprotocol("foxglove.sdk.v1"), Subprotocol("foxglove.websocket.v1")]
 MESSAGE_DATA, TIME = 1, 2
 WAIT = 20.0  # s: a frame not here by then is a failure (a hung server), not a timing assertion
+CLOSE_WAIT = 60.0  # s: the close comes after the run has shut down (processes stopped, log finished): slow under load
 
 
 @dataclass
@@ -60,11 +61,12 @@ class FoxgloveClient:
             subscriptions.append({"id": sid, "channelId": self.channels[topic]["id"]})
         self.ws.send(json.dumps({"op": "subscribe", "subscriptions": subscriptions}))
 
-    def receive(self) -> Received | None:
-        """The next message of a subscribed channel; None when the server has closed the connection."""
+    def receive(self, wait: float = WAIT) -> Received | None:
+        """The next message of a subscribed channel within `wait` s (else TimeoutError); None when the server has
+        closed the connection."""
         while True:
             try:
-                frame = self.ws.recv(timeout=WAIT)
+                frame = self.ws.recv(timeout=wait)
             except ConnectionClosed:
                 return None
             got = self._take(frame)

@@ -11,10 +11,12 @@ import socket
 import subprocess
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import jsonschema
 import pytest
 
+from comms.messages import COMMS_EVENT_KEY
 from supervisor.record import logfile
 from supervisor.record.live import LiveView
 from supervisor.record.scene.foxglove_schemas import (
@@ -27,7 +29,7 @@ from supervisor.record.scene.foxglove_schemas import (
 )
 from supervisor.record.scene.live import LiveScene
 from tests.conftest import CONFIGS, shortened
-from tests.foxglove_client import FoxgloveClient, Received
+from tests.foxglove_client import CLOSE_WAIT, FoxgloveClient, Received
 from tests.procs import CPF, cpf
 
 pytestmark = pytest.mark.e2e
@@ -78,23 +80,58 @@ def valid(received: list[Received]) -> None:
         jsonschema.validate(r.message, schema(name))
 
 
-def test_the_live_scene_is_the_logs_scene_instant_by_instant(tmp_path: Path) -> None:
-    """Fed the records of a log in the order they were written, the live builder gives every transform, scene and
-    trail message of the log's scene, each as soon as its instant is complete (none left for the end)."""
+@pytest.fixture(scope="module")
+def inprocess_log(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A 30 s paper run with a link fault, in process (its records in a deterministic order)."""
+    tmp_path = tmp_path_factory.mktemp("live")
     out = tmp_path / "run.mcap"
     done = cpf("run", str(scenario(tmp_path, 30)), "--engine", "inprocess", "--fault", LINK_FAULT,
                "--out", str(out), "--quiet", cwd=tmp_path)  # fmt: skip
     assert done.returncode == 0, done.stderr
-    live, made = LiveScene(), []
-    for m in logfile.messages(out, lambda topic: not is_scene_topic(topic)):
-        made += [(topic, round(t * 1e9), message) for topic, t, message in live.take(m.topic, m.message)]
+    return out
+
+
+def live_scene_of(records: list[tuple[str, Any]]) -> list[tuple[str, int, Any]]:
+    """The live builder's messages, each instant as it completes (none may be left for the end)."""
+    live, made = LiveScene(), list[tuple[str, int, Any]]()
+    for topic, message in records:
+        made += [(scene_topic, round(t * 1e9), m) for scene_topic, t, m in live.take(topic, message)]
     assert live.finish() == []
+    return made
+
+
+def assert_the_logs_scene(made: list[tuple[str, int, Any]], out: Path) -> None:
     expected = [record for record in log_scene(out) if record[0] != PATHS_TOPIC]
     assert len(expected) == 60 * 5  # 60 instants: transforms, scene, 3 trails
     assert [record for record in made if record[0] != PATHS_TOPIC] == expected
     paths = [(t, m) for topic, t, m in made if topic == PATHS_TOPIC]  # drawn at once, further when a vehicle leaves it
     assert paths[0][0] == 0 and len(paths) <= 5
     assert all(len(m["entities"]) == 3 for _, m in paths)
+
+
+def test_the_live_scene_is_the_logs_scene_instant_by_instant(inprocess_log: Path) -> None:
+    """Fed the records of a log in the order they were written, the live builder gives every transform, scene and
+    trail message of the log's scene, each as soon as its instant is complete (none left for the end)."""
+    records = [(m.topic, m.message) for m in logfile.messages(inprocess_log, lambda topic: not is_scene_topic(topic))]
+    assert_the_logs_scene(live_scene_of(records), inprocess_log)
+
+
+def test_link_events_overtaken_by_the_next_states_still_reach_their_instant(inprocess_log: Path) -> None:
+    """On the realtime clock the broker's link events of t_k can come in after a vehicle's state of step k + 1 (its
+    own connection; seen under load: a link going down at t_k shown up live). Records so reordered, every event
+    after the states of the next step, give the same scene."""
+    records = [(m.topic, m.message) for m in logfile.messages(inprocess_log, lambda topic: not is_scene_topic(topic))]
+    held: list[tuple[str, Any]] = []
+    reordered: list[tuple[str, Any]] = []
+    for topic, message in records:
+        if topic == COMMS_EVENT_KEY:
+            held.append((topic, message))
+            continue
+        reordered.append((topic, message))
+        if held and topic.endswith("/state") and isinstance(message, dict) and message["t"] > held[0][1]["t"]:
+            reordered += held
+            held = []
+    assert_the_logs_scene(live_scene_of(reordered + held), inprocess_log)
 
 
 def test_a_client_watches_a_run_live_and_the_run_ends_cleanly_with_it_connected(tmp_path: Path) -> None:
@@ -109,7 +146,7 @@ def test_a_client_watches_a_run_live_and_the_run_ends_cleanly_with_it_connected(
         first = c.receive()
         assert first is not None and proc.poll() is None  # the run still going
         received = [first]
-        while (r := c.receive()) is not None:  # None: the server closed the connection as the run ended
+        while (r := c.receive(CLOSE_WAIT)) is not None:  # None: the server closed the connection as the run ended
             received.append(r)
         assert proc.wait(timeout=60) == 0
     valid(received)
@@ -145,7 +182,7 @@ def test_ctrl_c_stops_the_server_with_a_client_connected(tmp_path: Path) -> None
             client.subscribe([TRANSFORMS_TOPIC])
             assert client.receive() is not None
             proc.send_signal(signal.SIGINT)
-            while client.receive() is not None:  # until the server closes the connection
+            while client.receive(CLOSE_WAIT) is not None:  # until the server closes the connection
                 pass
         assert proc.wait(timeout=60) != 0
     with socket.socket() as probe:

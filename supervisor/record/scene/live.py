@@ -4,10 +4,13 @@ record, giving each published instant's messages as soon as the instant is compl
 The log's scene is built once the run is over, from every record; a live view cannot wait. An instant (a published
 step k) is complete when every vehicle of the run has reported its state at k, or, for a vehicle that does not (its
 process is down, or its records come late), once a state LAG_INSTANTS published instants later has come in: the
-vehicle is then shown as the log shows it, "no state". Complete means a state of a later step has come in too: what
-the engines record at t_k besides the states (a fault starting, a graph switching, link events) comes before it.
-Instants go out in order, each once; a record about an instant already out (a late link outcome, a late state) is
-left out of the live view (the log has it).
+vehicle is then shown as the log shows it, "no state". Complete means a state of a later step has come in too (what
+the supervisor records at t_k besides the states, a fault starting or a graph switching, comes before it), and a link
+event later than t_k: the broker reports its events in time order, but on its own connection, so on the realtime
+clock under load a vehicle's next state can overtake the broker's events of t_k (seen: a link going down at t_k shown
+up). A run whose broker is silent past t_k (nothing sent) waits LAG_INSTANTS for it. Instants go out in order, each
+once; a record about an instant already out (a later link outcome, a late state) is left out of the live view (the
+log has it).
 
 What differs from the log's scene, and why: the desired paths (foxglove/paths) go out with the first instant over
 the gammas the run is planned to cover (gamma at the start + v_r x duration), and again, drawn further, whenever a
@@ -23,7 +26,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from comms.messages import vehicle_of_key
+from comms.messages import COMMS_EVENT_KEY, vehicle_of_key
 from supervisor.record.scene.foxglove_schemas import PATHS_TOPIC
 from supervisor.record.scene.geometry import path_points
 from supervisor.record.scene.history import FleetHistory
@@ -31,7 +34,7 @@ from supervisor.record.scene.paths import PATH_POINTS, PATH_SPACING
 from supervisor.record.scene.scene import SceneMessage, _Placed, _placements, _Sweep, paths_update
 
 log = logging.getLogger(__name__)
-LAG_INSTANTS = 2  # published instants a vehicle's missing state holds up the live view (1 s of simulated time)
+LAG_INSTANTS = 2  # published instants a missing state or link event holds up the live view (1 s of simulated time)
 PLAN_MARGIN = 0.25  # of the planned gammas, drawn on either side of them at first
 Range = tuple[float, float]  # of gamma, drawn
 
@@ -43,6 +46,7 @@ class LiveScene:
         self.history = FleetHistory()
         self.emitted = -1  # the last published step whose messages went out
         self.top = -1  # the latest step any state has reached
+        self.heard = -math.inf  # s: the time of the latest link event (the broker's progress)
         self._sweep: _LiveSweep | None = None
         self._paths: _LivePaths | None = None
         self._is_state: dict[str, bool] = {}
@@ -51,6 +55,8 @@ class LiveScene:
         """One record; the messages of the instants it completed (most records complete none)."""
         h = self.history
         h.take(topic, message)
+        if topic == COMMS_EVENT_KEY:
+            return self._heard(message)
         if topic not in self._is_state:
             owned = vehicle_of_key(topic)
             self._is_state[topic] = owned is not None and owned[1] == "state"
@@ -61,6 +67,14 @@ class LiveScene:
             return []
         self.top = k
         return self._ready(final=False) if h.states else []
+
+    def _heard(self, message: Any) -> list[SceneMessage]:
+        """A link event: the broker has reported up to its time; an instant waiting for that may now be out."""
+        t = message.get("t") if isinstance(message, dict) else None
+        if not isinstance(t, float | int) or not t > self.heard or self.history.meta is None:
+            return []
+        self.heard = float(t)
+        return self._ready(final=False) if self.history.states else []
 
     def finish(self) -> list[SceneMessage]:
         """The messages of every instant not yet out (the run is over: nothing more will complete them)."""
@@ -78,10 +92,14 @@ class LiveScene:
             if not h.states:
                 return out
             k = min(h.states)
-            complete = len(h.states[k]) == fleet and self.top > k
+            complete = len(h.states[k]) == fleet and self.top > k and self._heard_past(k)
             if not (final or complete or k + LAG_INSTANTS * h.every <= self.top):
                 return out
             out += self._instant(k)
+
+    def _heard_past(self, k: int) -> bool:
+        """Whether the broker has reported a link event after published step k (then all of k's are in)."""
+        return math.isfinite(self.heard) and self.history.instant_at_or_after(self.heard) > k
 
     def _instant(self, k: int) -> list[SceneMessage]:
         h = self.history
