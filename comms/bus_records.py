@@ -1,8 +1,9 @@
 """A vehicle's step message and the broker's link events read straight from their msgpack payload into typed records,
 in one pass of msgspec in C, and each record's log form from them: the supervisor's intake reads ~18 records a step.
 
-The structs are the records' own (comms.state.StateReport, comms.records.Transmission, comms.receptions.RxBatch,
-comms.channel.LinkEvent) with the same msgspec checks (comms.fields.converted: the same annotations; held together
+The state and the link events are their records themselves (comms.state.StateReport, comms.channel.LinkEvent, each
+its message's only description); the others are structs of the records' (comms.records.Transmission,
+comms.receptions.RxBatch) with the same msgspec checks (comms.fields.converted: the same annotations; held together
 by tests/test_bus_records.py), in the order of the record's `to_message`, so that the log form `log_json` is the
 bytes orjson writes for `to_message()`. What the types cannot say (a vehicle owning its key, a rotation, a speed) is
 the caller's to check, as `from_message` does. A payload msgspec refuses reads as None here: the caller then reads
@@ -12,43 +13,15 @@ cases msgspec is stricter, accepts it; so what these readings accept, the slow w
 
 from __future__ import annotations
 
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any
 
 import msgspec
 import orjson
 
 from comms.channel import LinkEvent
-from comms.fields import Finite, Finite3, Real, Real3
+from comms.fields import Finite, Finite3
 from comms.records import Float32, Time
-from comms.state import Rotation, StateReport
-
-
-class StateWire(msgspec.Struct, omit_defaults=True):
-    """comms.state.StateReport as its message has it (fields, types and order: StateReport's)."""
-
-    t: Finite
-    k: int
-    vehicle: int
-    gamma: Real
-    gamma_dot: Real
-    position: Finite3
-    rotation: Rotation
-    velocity: Finite3
-    angular_velocity: Finite3
-    error: Real3
-    tau: tuple[Real, ...]
-    correction: Real
-    lyapunov: Real
-    tx_seq: int
-    estimate_age: tuple[tuple[int, Real], ...]
-    rx_lateness: tuple[Real, ...] | None = None
-    step_lateness: Finite | None = None
-    nav_estimate: tuple[Real, ...] | None = None
-    nav_fix: int | None = None
-    current_estimate: Real3 | None = None
-
-    def report(self) -> StateReport:
-        return StateReport(*msgspec.structs.astuple(self))
+from comms.state import StateReport
 
 
 class TxWire(msgspec.Struct, kw_only=True):
@@ -100,38 +73,23 @@ class StepWire(PartsWire):
     earlier: list[msgspec.Raw] | None = None
 
 
-class EventWire(msgspec.Struct):
-    """comms.channel.LinkEvent as its message has it: every field there (delay and reason may be null)."""
-
-    t: Finite
-    sender: int
-    receiver: int
-    seq: int
-    kind: Literal["sent", "delivered", "dropped"]
-    delay: Finite | None
-    reason: str | None
-
-    def event(self) -> LinkEvent:
-        return LinkEvent(self.t, self.sender, self.receiver, self.seq, self.kind, self.delay, self.reason)
-
-
 class EventsWire(msgspec.Struct):
     """comms.events.LinkEvents as its message has it."""
 
     t: Finite
     k: int
-    events: list[EventWire]
+    events: list[LinkEvent]
 
 
 class Step(msgspec.Struct):
     """One step of a vehicle's step message, read."""
 
-    state: StateWire
+    state: StateReport
     tx: TxWire | None
     rx: RxWire | None
 
 
-_STATE = msgspec.msgpack.Decoder(StateWire)
+_STATE = msgspec.msgpack.Decoder(StateReport)
 _STEP = msgspec.msgpack.Decoder(StepWire)
 _PARTS = msgspec.msgpack.Decoder(PartsWire)
 _EVENTS = msgspec.msgpack.Decoder(EventsWire)
@@ -169,11 +127,7 @@ def read_events(payload: bytes) -> EventsWire | None:
         return None
 
 
-def log_json(record: StateWire | TxWire | RxWire | LinkEvent) -> bytes:
+def log_json(record: StateReport | TxWire | RxWire | LinkEvent) -> bytes:
     """The record's log form: what orjson writes for its record's to_message() (supervisor.record.recorder)."""
-    if isinstance(record, LinkEvent):
-        return orjson.dumps(record)  # a dataclass: its fields in to_message's order, each as to_message has it
     message: dict[str, Any] = msgspec.to_builtins(record)
-    if isinstance(record, StateWire) and record.nav_estimate is not None and record.nav_fix is None:
-        message["nav_fix"] = None  # StateReport.to_message writes it with the estimate, even null
     return orjson.dumps(message)

@@ -19,12 +19,13 @@ import heapq
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Literal, cast, get_args
+from typing import Literal, get_args
 
+import msgspec
 import numpy as np
 
 from comms.acoustics import time_of_flight
-from comms.fields import Message, get, nullable_number, number
+from comms.fields import Finite, Message
 from comms.link_budget import LinkBudgetRange
 from comms.loss import LinkLoss, LossModel
 from comms.modem import ModemParams
@@ -104,33 +105,30 @@ class Reception:
     gamma_dot: float
 
 
-@dataclass(frozen=True, slots=True)
-class LinkEvent:
-    t: float
+class LinkEvent(msgspec.Struct, frozen=True, omit_defaults=True):
+    """A packet's fate on one link: the message's only description (a cpf/comms/event log record, an item of a
+    cpf/comms/events batch; its schema comms.schemas.LINK_EVENT is generated from it). delay and reason are left out
+    of the message where they say nothing (older logs have them null)."""
+
+    t: Finite
     sender: int
     receiver: int
     seq: int
     kind: EventKind
-    delay: float | None = None  # delivered: arrival - transmission time
+    delay: Finite | None = None  # delivered: arrival - transmission time
     reason: str | None = None  # dropped: why
 
     def to_message(self) -> Message:
-        """The wire form: a cpf/comms/event log record, an item of a cpf/comms/events batch (schema LINK_EVENT)."""
-        return {"t": self.t, "sender": self.sender, "receiver": self.receiver, "seq": self.seq, "kind": self.kind,
-                "delay": self.delay, "reason": self.reason}  # fmt: skip
+        message: Message = msgspec.to_builtins(self)
+        return message
 
     @classmethod
-    def from_message(cls, message: Message) -> LinkEvent:
-        """The inverse of to_message, checked: ValueError for anything malformed."""
-        kind = get(message, "kind", str)
-        if kind not in EVENT_KINDS:
-            raise ValueError(f"unknown event kind {kind!r}")
-        delay = nullable_number(message, "delay")
-        reason = get(message, "reason", (str, type(None)))
-        return cls(
-            number(message, "t"), get(message, "sender", int), get(message, "receiver", int),
-            get(message, "seq", int), cast(EventKind, kind), delay, reason,
-        )  # fmt: skip
+    def from_message(cls, message: object) -> LinkEvent:
+        """The inverse of to_message, checked: ValueError naming the field for anything malformed."""
+        try:
+            return msgspec.convert(message, cls)
+        except msgspec.ValidationError as exc:
+            raise ValueError(str(exc)) from None
 
 
 @dataclass(frozen=True, slots=True)

@@ -11,6 +11,7 @@ from functools import lru_cache
 from typing import Any
 
 from comms.fields import get, is_int, number
+from comms.run import edges_of, link_of, links_message
 
 
 @dataclass(frozen=True, slots=True)
@@ -43,35 +44,22 @@ class Network:
 
     def to_message(self) -> dict[str, Any]:
         """The wire form inside a tick (schema comms.schemas.TICK's network)."""
-        return {
-            "edges": [list(e) for e in self.edges],
-            "down": [list(link) for link in sorted(self.down)],
-            "degraded": [[s, r, loss, delay] for (s, r), (loss, delay) in sorted(self.degraded.items())],
-            "blackout": self.blackout,
-            "silent": sorted(self.silent),
-        }
+        degraded = [{"sender": s, "receiver": r, "loss": loss, "delay": delay}
+                    for (s, r), (loss, delay) in sorted(self.degraded.items())]  # fmt: skip
+        return {"edges": links_message(self.edges), "down": links_message(sorted(self.down)), "degraded": degraded,
+                "blackout": self.blackout, "silent": sorted(self.silent)}  # fmt: skip
 
     @classmethod
     def from_message(cls, net: object) -> Network:
         """The inverse of to_message, checked: ValueError for anything malformed."""
         if not isinstance(net, dict):
             raise ValueError("field 'network' is not a map")
-        edges = _pairs(net.get("edges"), 2, "edges")
-        down = _pairs(net.get("down"), 2, "down")
-        degraded = _pairs(net.get("degraded"), 4, "degraded")
         silent = net.get("silent")
-        links = [pair[:2] for pair in edges + down + degraded]
-        if not all(is_int(v) for pair in links for v in pair):
-            raise ValueError("field 'network' has a link whose ends are not vehicle ids")
         if not isinstance(silent, list) or not all(is_int(v) for v in silent):
             raise ValueError("field 'silent' is not a list of vehicle ids")
-        return cls(
-            tuple((a, b) for a, b in edges),
-            frozenset((a, b) for a, b in down),
-            {(s, r): (number({"l": loss}, "l"), number({"d": delay}, "d")) for s, r, loss, delay in degraded},
-            get(net, "blackout", bool),
-            frozenset(silent),
-        )
+        degraded = dict(_degraded(item) for item in get(net, "degraded", list))
+        return cls(edges_of(net, "edges"), frozenset(edges_of(net, "down")), degraded, get(net, "blackout", bool),
+                   frozenset(silent))  # fmt: skip
 
 
 @lru_cache(maxsize=256)
@@ -85,7 +73,10 @@ def _adjacency(edges: tuple[tuple[int, int], ...]) -> dict[int, tuple[int, ...]]
     return {v: tuple(sorted(js)) for v, js in out.items()}
 
 
-def _pairs(items: object, width: int, name: str) -> list[list[Any]]:
-    if not isinstance(items, list) or not all(isinstance(i, list) and len(i) == width for i in items):
-        raise ValueError(f"field {name!r} is not a list of {width}-item lists")
-    return items
+def _degraded(item: object) -> tuple[tuple[int, int], tuple[float, float]]:
+    """A degraded link: {"sender", "receiver", "loss", "delay"}, or an older log's [sender, receiver, loss, delay]."""
+    if isinstance(item, list) and len(item) == 4:
+        item = dict(zip(("sender", "receiver", "loss", "delay"), item, strict=True))
+    if not isinstance(item, dict):
+        raise ValueError("field 'degraded' is not a list of degraded links")
+    return link_of(item, "degraded"), (number(item, "loss"), number(item, "delay"))

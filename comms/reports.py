@@ -74,15 +74,16 @@ class LinkCounts:
     max_delay: float | None
 
     def to_message(self) -> Message:
+        delays = {} if self.mean_delay is None else {"mean_delay": self.mean_delay, "max_delay": self.max_delay}
         return {"sender": self.sender, "receiver": self.receiver, "sent": self.sent, "delivered": self.delivered,
-                "dropped": dict(self.dropped), "mean_delay": self.mean_delay, "max_delay": self.max_delay}  # fmt: skip
+                "dropped": dict(self.dropped), **delays}  # fmt: skip
 
     @classmethod
     def from_message(cls, item: object) -> LinkCounts:
         if not isinstance(item, dict):
             raise ValueError("a link of the statistics is not a map")
         dropped = counts_by_key(item, "dropped")
-        delays = [None if item.get(n, 0) is None else non_negative(item, n) for n in ("mean_delay", "max_delay")]
+        delays = [None if item.get(n) is None else non_negative(item, n) for n in ("mean_delay", "max_delay")]
         return cls(
             get(item, "sender", int), get(item, "receiver", int), count(item, "sent"), count(item, "delivered"),
             dropped, delays[0], delays[1],

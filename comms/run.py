@@ -19,12 +19,22 @@ PHASES = ("start", "end")
 Phase = Literal["start", "end"]
 
 
+def links_message(edges: Iterable[Edge]) -> list[Message]:
+    """Directed links as a message has them: objects, which viewers can read (an array of arrays they cannot)."""
+    return [{"sender": i, "receiver": j} for i, j in edges]
+
+
 def edges_of(message: Message, name: str) -> tuple[Edge, ...]:
-    """A list of directed [sender, receiver] vehicle-id pairs."""
-    pairs = get(message, name, list)
-    if not all(isinstance(p, list) and len(p) == 2 and is_int(p[0]) and is_int(p[1]) for p in pairs):
-        raise ValueError(f"field {name!r} is not a list of [sender, receiver] vehicle ids")
-    return tuple((i, j) for i, j in pairs)
+    """The directed links of links_message (or, in logs before it, [sender, receiver] pairs) as vehicle-id pairs."""
+    return tuple(link_of(item, name) for item in get(message, name, list))
+
+
+def link_of(item: object, name: str) -> Edge:
+    """One link of a list: {"sender": i, "receiver": j}, or an older log's [i, j]."""
+    pair = [item.get("sender"), item.get("receiver")] if isinstance(item, dict) else item
+    if not (isinstance(pair, list) and len(pair) == 2 and is_int(pair[0]) and is_int(pair[1])):
+        raise ValueError(f"field {name!r} is not a list of links (sender and receiver vehicle ids)")
+    return pair[0], pair[1]
 
 
 @dataclass(frozen=True, slots=True)
@@ -39,7 +49,7 @@ class Graph:
         return cls(t, tuple((i, j) for i, j in edges))
 
     def to_message(self) -> Message:
-        return {"t": self.t, "edges": [list(e) for e in self.edges]}
+        return {"t": self.t, "edges": links_message(self.edges)}
 
     @classmethod
     def from_message(cls, message: Message) -> Graph:

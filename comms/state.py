@@ -1,49 +1,48 @@
-"""A vehicle's state report of one sync step: the record, its wire form and its checked reading, side by side.
+"""A vehicle's state report of one sync step: one msgspec Struct, the message's only description.
 
-`to_message` gives the dict that travels on the vehicle's state key (msgpack on the bus, JSON in the log, schema
-comms.schemas.STATE); `from_message` is its inverse, checked: what the broker needs (position, attitude, velocity,
-which step, whether it transmitted) must be finite and physical, the diagnostics (gamma, errors, forces, Lyapunov
-value) need only be numbers. Keys a step message adds around the state (tx, rx) are not the state's and are ignored.
+From it come the message on the vehicle's state key (msgpack on the bus), the log's JSON (`to_message`, written by
+the recorder: an optional field is left out when absent, never null), the JSON Schema of the log's channel
+(comms.schemas, generated from this struct) and the checks: msgspec checks every type as it reads (`from_message`, or
+its decoders of the bus: comms.bus_records), and `check` adds what a type cannot say (the vehicle owns its key, a
+rotation, a speed). What the broker needs (position, attitude, velocity, which step, whether it transmitted) must be
+finite and physical; the diagnostics (gamma, errors, forces, Lyapunov value) need only be numbers. Keys a step message
+adds around the state (tx, rx) are not the state's and are ignored.
+
+Adding a field is one line here (optional, `= None`, if older logs lack it) and a test.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import Annotated, Any
+from typing import Annotated
 
 import msgspec
 import numpy as np
 
 from comms.channel import Kinematics
-from comms.fields import (
-    Finite,
-    Finite3,
-    Message,
-    Real,
-    Real3,
-    converted,
-    get,
-    is_int,
-    number,
-    orthonormal,
-    rotation,
-    slow_enough,
-    vector3,
-    velocity,
-)
+from comms.fields import Finite, Finite3, Message, Real, Real3, orthonormal, slow_enough
 
 Float3 = tuple[float, float, float]
 Rotation = Annotated[tuple[Finite, ...], msgspec.Meta(min_length=9, max_length=9)]  # R row-major
 
 
-@dataclass(frozen=True, slots=True)
-class StateReport:
+_ENCODE = msgspec.msgpack.Encoder().encode
+_AS_BUILTINS = msgspec.msgpack.Decoder()  # untyped: dicts, lists and numbers
+
+
+class NeighbourAge(msgspec.Struct, frozen=True):
+    """How old the estimate a vehicle holds of one neighbour is (an object in the message, so that viewers can plot
+    it)."""
+
+    vehicle: int
+    age: Real  # s: t minus the time stamp of the data held
+
+
+class StateReport(msgspec.Struct, frozen=True, omit_defaults=True):
     """What a vehicle says about itself at step k. position, rotation (R row-major, body to inertial) and velocity
     (body frame) place it in 3-D (a planar vehicle is embedded); tx_seq: its transmission of step k, or 0."""
 
-    # The annotations are the checks msgspec does (comms.fields.converted); the rest are in from_message.
-    t: Finite
+    t: Finite  # s
     k: int
     vehicle: int
     gamma: Real
@@ -57,9 +56,9 @@ class StateReport:
     correction: Real  # v_tilde
     lyapunov: Real
     tx_seq: int
-    estimate_age: tuple[tuple[int, Real], ...]  # (neighbour, how old the estimate held of it is, s)
-    rx_lateness: tuple[Real, ...] | None = None  # realtime: s from each reception's arrival to its coming
-    step_lateness: Finite | None = None  # realtime: s from t_k to the vehicle's starting its step
+    estimate_age: tuple[NeighbourAge, ...]  # of each neighbour's estimate held
+    rx_lateness: tuple[Real, ...] | None = None  # realtime: s (wall clock) from each reception's arrival to its coming
+    step_lateness: Finite | None = None  # realtime: s (wall clock) from t_k to the vehicle's starting its step
     # With navigation on ([navigation]), the navigation filter at t_k after its measurements: estimate [p_hat (3),
     # DVL bias (3)], then its covariance's upper triangle by rows (21); absent without navigation.
     nav_estimate: tuple[Real, ...] | None = None
@@ -88,100 +87,39 @@ class StateReport:
         return Kinematics(np.array(self.position), inertial)
 
     def to_message(self) -> Message:
-        message: Message = {
-            "t": self.t,
-            "k": self.k,
-            "vehicle": self.vehicle,
-            "gamma": self.gamma,
-            "gamma_dot": self.gamma_dot,
-            "position": list(self.position),
-            "rotation": list(self.rotation),
-            "velocity": list(self.velocity),
-            "angular_velocity": list(self.angular_velocity),
-            "error": list(self.error),
-            "tau": list(self.tau),
-            "correction": self.correction,
-            "lyapunov": self.lyapunov,
-            "tx_seq": self.tx_seq,
-            "estimate_age": [[j, age] for j, age in self.estimate_age],
-        }
-        if self.rx_lateness is not None:
-            message["rx_lateness"] = list(self.rx_lateness)
-        if self.step_lateness is not None:
-            message["step_lateness"] = self.step_lateness
-        if self.nav_estimate is not None:
-            message["nav_estimate"] = list(self.nav_estimate)
-            message["nav_fix"] = self.nav_fix
-        if self.current_estimate is not None:
-            message["current_estimate"] = list(self.current_estimate)
+        """The message: the struct's fields as JSON types (lists, where msgspec.to_builtins keeps tuples), in order,
+        the absent optional ones left out."""
+        message: Message = _AS_BUILTINS.decode(_ENCODE(self))
         return message
 
     @classmethod
-    def from_message(cls, message: Message, key_vehicle: int) -> StateReport:
-        """The report, checked; its vehicle must own the key it came on. ValueError for anything malformed."""
-        report = converted(message, cls)
-        if report is None:
-            return cls.checked(message, key_vehicle)
-        if report.vehicle != key_vehicle:
-            raise ValueError(f"vehicle {report.vehicle} published on vehicle {key_vehicle}'s key")
-        orthonormal(report.rotation)
-        slow_enough("velocity", report.velocity)
-        return report
+    def from_message(cls, message: object, key_vehicle: int) -> StateReport:
+        """The report, checked; its vehicle must own the key it came on. ValueError for anything malformed, naming
+        the field (msgspec's message: "Expected `float`, got `str` - at `$.gamma`")."""
+        try:
+            report = msgspec.convert(message, cls)
+        except msgspec.ValidationError as exc:
+            older = _from_older_log(message)
+            if older is None:
+                raise ValueError(str(exc)) from None
+            return cls.from_message(older, key_vehicle)
+        return report.check(key_vehicle)
 
-    @classmethod
-    def checked(cls, message: Message, key_vehicle: int) -> StateReport:
-        """from_message by hand-written checks, field by field: what says why a message is malformed."""
-        vehicle = get(message, "vehicle", int)
-        if vehicle != key_vehicle:
-            raise ValueError(f"vehicle {vehicle} published on vehicle {key_vehicle}'s key")
-        return cls(
-            number(message, "t"), get(message, "k", int), vehicle, _real(message, "gamma"),
-            _real(message, "gamma_dot"), vector3(message, "position"), tuple(rotation(message)),
-            velocity(message, "velocity"), vector3(message, "angular_velocity"), _reals3(message, "error"),
-            tuple(_reals(message, "tau")), _real(message, "correction"), _real(message, "lyapunov"),
-            get(message, "tx_seq", int), _ages(message),
-            None if message.get("rx_lateness") is None else tuple(_reals(message, "rx_lateness")),
-            None if message.get("step_lateness") is None else number(message, "step_lateness"),
-            None if message.get("nav_estimate") is None else tuple(_reals(message, "nav_estimate")),
-            None if message.get("nav_fix") is None else get(message, "nav_fix", int),
-            None if message.get("current_estimate") is None else _reals3(message, "current_estimate"),
-        )  # fmt: skip
+    def check(self, key_vehicle: int) -> StateReport:
+        """What the types cannot say: the vehicle owns the key (ValueError otherwise), R is a rotation, the velocity
+        one no vehicle exceeds."""
+        if self.vehicle != key_vehicle:
+            raise ValueError(f"vehicle {self.vehicle} published on vehicle {key_vehicle}'s key")
+        orthonormal(self.rotation)
+        slow_enough("velocity", self.velocity)
+        return self
 
 
-def _is_real(value: object) -> bool:
-    """A float (finite or not) or an integer a float holds (no reader has to handle one beyond)."""
-    if isinstance(value, float):
-        return True
-    return isinstance(value, int) and not isinstance(value, bool) and abs(value) <= _MAX_INT
-
-
-_MAX_INT = 2**63  # the widest integer a log's JSON keeps
-
-
-def _real(message: Message, name: str) -> float:
-    """A number, finite or not: a diagnostic the broker does not compute with."""
-    value: float = get(message, name, (int, float))
-    if not _is_real(value):
-        raise ValueError(f"field {name!r} is too large")
-    return value
-
-
-def _reals(message: Message, name: str) -> list[Any]:
-    values = get(message, name, list)
-    if not all(_is_real(v) for v in values):
-        raise ValueError(f"field {name!r} is not a list of numbers")
-    return values
-
-
-def _reals3(message: Message, name: str) -> Float3:
-    values = _reals(message, name)
-    if len(values) != 3:
-        raise ValueError(f"field {name!r} has {len(values)} items, not 3")
-    return values[0], values[1], values[2]
-
-
-def _ages(message: Message) -> tuple[tuple[int, float], ...]:
-    pairs = get(message, "estimate_age", list)
-    if not all(isinstance(p, list) and len(p) == 2 and is_int(p[0]) and _is_real(p[1]) for p in pairs):
-        raise ValueError("field 'estimate_age' is not a list of [vehicle id, age] pairs")
-    return tuple((j, age) for j, age in pairs)
+def _from_older_log(message: object) -> Message | None:
+    """A state of a log written before estimate ages were objects ([vehicle, age] pairs), in today's form; None for
+    anything else."""
+    ages = message.get("estimate_age") if isinstance(message, dict) else None
+    if not (isinstance(ages, list) and ages and all(isinstance(a, list) and len(a) == 2 for a in ages)):
+        return None
+    assert isinstance(message, dict)
+    return {**message, "estimate_age": [{"vehicle": a[0], "age": a[1]} for a in ages]}

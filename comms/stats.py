@@ -44,15 +44,10 @@ class LinkBook:
             self.dropped[event.reason or "unknown"] += 1
 
     def as_message(self, sender: int, receiver: int) -> dict[str, object]:
-        return {
-            "sender": sender,
-            "receiver": receiver,
-            "sent": self.sent,
-            "delivered": self.delivered,
-            "dropped": dict(sorted(self.dropped.items())),
-            "mean_delay": self.delay_sum / self.delivered if self.delivered else None,
-            "max_delay": self.delay_max if self.delivered else None,
-        }
+        """comms.reports.LinkCounts' message; the delays only once a packet was delivered (left out, not null)."""
+        delays = {"mean_delay": self.delay_sum / self.delivered, "max_delay": self.delay_max} if self.delivered else {}
+        return {"sender": sender, "receiver": receiver, "sent": self.sent, "delivered": self.delivered,
+                "dropped": dict(sorted(self.dropped.items())), **delays}  # fmt: skip
 
 
 class LinkStats:

@@ -1,8 +1,10 @@
 """The supervisor's clock tick: the record, its wire form and its checked reading, side by side.
 
 `Tick.to_message` gives the dict on cpf/clock/tick (schema comms.schemas.TICK); `from_message` is its inverse,
-checked (ValueError for anything malformed). Ticks in logs from before realtime delivery lack wall, speed and hold:
-they read as lockstep (None, 1.0, False), and write back with those fields spelt out.
+checked (ValueError for anything malformed). What says nothing is left out of the message rather than null (viewers
+read no nulls): no network (the scenario's graph), no alive list (every vehicle), no wall time (lockstep), no cap;
+older logs' nulls read the same. Ticks in logs from before realtime delivery lack wall, speed and hold: they read as
+lockstep (None, 1.0, False), and write back with speed and hold spelt out.
 """
 
 from __future__ import annotations
@@ -10,7 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar
 
-from comms.fields import Message, get, is_int, nullable_number, number
+from comms.fields import Message, get, is_int, number
 from comms.network import Network
 from comms.records import Disturbances
 
@@ -34,14 +36,14 @@ class DisturbedVehicle:
         return Disturbances(self.cap, self.freeze, self.offset, self.skew)
 
     def to_message(self) -> Message:
-        return {"vehicle": self.vehicle, "cap": self.cap, "freeze": self.freeze, "offset": self.offset,
-                "skew": self.skew}  # fmt: skip
+        cap = {} if self.cap is None else {"cap": self.cap}  # no cap: left out (older logs have null)
+        return {"vehicle": self.vehicle, **cap, "freeze": self.freeze, "offset": self.offset, "skew": self.skew}
 
     @classmethod
     def from_message(cls, item: object) -> DisturbedVehicle:
         if not isinstance(item, dict):
             raise ValueError("a vehicle entry is not a map")
-        cap = nullable_number(item, "cap")
+        cap = None if item.get("cap") is None else number(item, "cap")
         return cls(get(item, "vehicle", int), cap, get(item, "freeze", bool), number(item, "offset"),
                    number(item, "skew"))  # fmt: skip
 
@@ -95,24 +97,22 @@ class Tick:
             "k": self.k,
             "final": self.final,
             "vehicles": [DisturbedVehicle.of(vid, d).to_message() for vid, d in sorted(self.disturbed.items())],
-            "network": self.network.to_message() if self.network is not None else None,
-            "alive": self.alive,
+            **({} if self.network is None else {"network": self.network.to_message()}),
+            **({} if self.alive is None else {"alive": self.alive}),
             "comms": self.comms,
-            "wall": self.wall,
+            **({} if self.wall is None else {"wall": self.wall}),
             "speed": self.speed,
             "hold": self.hold,
             **({} if self.until is None else {"until": self.until}),  # the log keeps one tick per step, without it
-            **({} if self.span is None else {"span": self.span, "longest": self.longest}),  # on the bus only
+            **({} if self.span is None else {"span": self.span}),  # on the bus only
+            **({} if self.longest is None else {"longest": self.longest}),
         }
 
     @classmethod
     def from_message(cls, message: Message) -> Tick:
         entries = [DisturbedVehicle.from_message(item) for item in get(message, "vehicles", list)]
-        for required in ("network", "alive"):
-            if required not in message:  # null is meaningful (no faults, everyone alive); absent is not
-                raise ValueError(f"missing field {required!r}")
-        net = message["network"]
-        alive = message["alive"]
+        net = message.get("network")  # absent (null in older logs): the scenario's graph
+        alive = message.get("alive")  # absent (null in older logs): every vehicle
         if alive is not None and not (isinstance(alive, list) and all(is_int(v) for v in alive)):
             raise ValueError("field 'alive' is not a list of vehicle ids")
         hold = get(message, "hold", bool) if "hold" in message else False

@@ -31,7 +31,7 @@ from comms.messages import (
     step_message,
     vehicle_done_key,
 )
-from comms.state import StateReport
+from comms.state import NeighbourAge, StateReport
 from supervisor.config.scenario import parse_scenario
 from supervisor.engine.intake import SUPERVISOR, Intake
 from supervisor.record.recorder import Recorder, read_messages
@@ -43,7 +43,7 @@ SCENARIO = parse_scenario((CONFIGS / "paper.toml").read_text())
 DT = SCENARIO.scenario.step
 STATE = StateReport(
     DT, 1, 2, 4.25, 0.98, (1.0, -2.0, 3.0), (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0), (1.2, 0.1, 0.0),
-    (0.0, 0.0, 0.3), (0.5, -0.25, 0.0), (10.0, 3.0), -0.02, 0.75, 0, ((1, 0.5),),
+    (0.0, 0.0, 0.3), (0.5, -0.25, 0.0), (10.0, 3.0), -0.02, 0.75, 0, (NeighbourAge(1, 0.5),),
 ).to_message()  # fmt: skip
 STATS = {"t": 10.0, "window": 10.0, "horizon": 10.0, "lambda2": 1.0, "links": []}
 DONE = {"t": 10.0, "k": 100, "events": 0, "malformed": 0}

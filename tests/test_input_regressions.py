@@ -8,10 +8,10 @@ import fcntl
 import io
 import math
 import tracemalloc
-from dataclasses import replace
 
 import numpy as np
 import pytest
+from msgspec.structs import replace
 
 from comms.state import StateReport
 from supervisor.analysis.series import SeriesBuilder

@@ -11,7 +11,7 @@ from comms.bus import Received
 from comms.channel import LinkEvent
 from comms.events import LinkEvents
 from comms.messages import COMMS_EVENTS_KEY, encode, state_key, step_message
-from comms.state import StateReport
+from comms.state import NeighbourAge, StateReport
 from supervisor.config.scenario import parse_scenario
 from supervisor.engine.intake import Intake
 from supervisor.record.recorder import Recorder
@@ -19,7 +19,7 @@ from tests.conftest import CONFIGS
 
 REPORT = StateReport(
     0.1, 1, 1, 4.25, 0.98, (1.0, -2.0, 3.0), (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0), (1.2, 0.1, 0.0),
-    (0.0, 0.0, 0.3), (0.5, -0.25, 0.0), (10.0, 3.0), -0.02, 0.75, 6, ((2, 0.5),),
+    (0.0, 0.0, 0.3), (0.5, -0.25, 0.0), (10.0, 3.0), -0.02, 0.75, 6, (NeighbourAge(2, 0.5),),
 )  # fmt: skip
 
 

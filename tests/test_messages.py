@@ -65,6 +65,7 @@ from comms.schemas import (
     Schema,
     schema_for,
 )
+from comms.state import NeighbourAge
 from comms.stats import LinkStats
 from comms.wire import SIZE, encode_coordination
 from supervisor.config.fleet import initial_state, radio, vehicle_config
@@ -353,9 +354,9 @@ def tick_of(tick: Tick) -> Message:
 def assert_valid_tick(message: Message) -> None:
     """Valid against the schema, and every nested object has exactly the fields the schema describes."""
     assert_valid(message, TICK_KEY)
-    for item in message["vehicles"]:
-        assert set(item) == set(TICK["properties"]["vehicles"]["items"]["properties"])
-    if message["network"] is not None:
+    for item in message["vehicles"]:  # the cap only where there is one
+        assert set(item) | {"cap"} == set(TICK["properties"]["vehicles"]["items"]["properties"])
+    if "network" in message:
         assert set(message["network"]) == set(TICK["properties"]["network"]["properties"])
 
 
@@ -377,18 +378,20 @@ def test_tick_message_spells_out_the_faults():
         "final": False,
         "vehicles": [
             {"vehicle": 1, "cap": 0.5, "freeze": False, "offset": 0.0, "skew": 0.0},
-            {"vehicle": 2, "cap": None, "freeze": True, "offset": 0.1, "skew": -0.2},
+            {"vehicle": 2, "freeze": True, "offset": 0.1, "skew": -0.2},  # no cap: left out, not null
         ],
         "network": {
-            "edges": [[1, 2], [1, 3], [2, 3]],
-            "down": [[1, 2], [3, 1]],
-            "degraded": [[1, 3, 0.0, 1.0], [2, 1, 0.25, 0.5]],
+            "edges": [{"sender": 1, "receiver": 2}, {"sender": 1, "receiver": 3}, {"sender": 2, "receiver": 3}],
+            "down": [{"sender": 1, "receiver": 2}, {"sender": 3, "receiver": 1}],
+            "degraded": [
+                {"sender": 1, "receiver": 3, "loss": 0.0, "delay": 1.0},
+                {"sender": 2, "receiver": 1, "loss": 0.25, "delay": 0.5},
+            ],
             "blackout": False,
             "silent": [3],
         },
         "alive": [1, 2],
         "comms": False,
-        "wall": None,
         "speed": 1.0,
         "hold": False,
     }
@@ -396,11 +399,8 @@ def test_tick_message_spells_out_the_faults():
         "t": 0.0,
         "k": 0,
         "final": False,
-        "vehicles": [],
-        "network": None,
-        "alive": None,
+        "vehicles": [],  # no network, no alive list, no wall time: left out, not null
         "comms": True,
-        "wall": None,
         "speed": 1.0,
         "hold": False,
     }
@@ -468,8 +468,8 @@ def test_the_coordination_frame_is_the_compact_wire_size_not_the_bus_message():
 def test_state_message_carries_the_ages_of_the_estimates_it_holds(spatial_fleet):
     telemetry, model, sent = spatial_fleet[0]
     assert state_message(telemetry, model, 0, sent.seq)["estimate_age"] == []
-    message = state_message(telemetry, model, 7, sent.seq, ages=((2, 0.25), (3, 1.5)))
-    assert message["estimate_age"] == [[2, 0.25], [3, 1.5]]
+    message = state_message(telemetry, model, 7, sent.seq, ages=(NeighbourAge(2, 0.25), NeighbourAge(3, 1.5)))
+    assert message["estimate_age"] == [{"vehicle": 2, "age": 0.25}, {"vehicle": 3, "age": 1.5}]
     assert_valid(message, state_key(telemetry.vehicle_id))
     assert wire(message) == message
     assert parse_state(wire(message), telemetry.vehicle_id).k == 7  # the broker does not need it
@@ -563,7 +563,8 @@ def test_the_validator_is_not_vacuous(spatial_fleet):
     assert schema_errors({**tick, "caps": []}, TICK) == []  # extra fields are allowed; assert_valid forbids them
     assert schema_errors(without(tick, "comms"), TICK) != []
     assert schema_errors({**tick, "alive": [1.5]}, TICK) != []
-    assert schema_errors({**tick, "alive": None, "network": None}, TICK) == []
+    assert schema_errors(without(without(tick, "alive"), "network"), TICK) == []
+    assert schema_errors({**tick, "alive": None}, TICK) != []  # left out, never null (viewers read no null)
     assert schema_errors({**tick, "vehicles": [with_(tick["vehicles"][0], cap="0.5")]}, TICK) != []
     assert schema_errors({**tick, "vehicles": [without(tick["vehicles"][0], "skew")]}, TICK) != []
     assert schema_errors({**tick, "network": with_(tick["network"], down=[[1, 2, 3]])}, TICK) != []
@@ -680,8 +681,8 @@ def state_cases() -> list[tuple[str, Message]]:
         ("error has 2 items", with_(VALID_STATE, error=[0.0, 0.0])),
         ("tau holds a string", with_(VALID_STATE, tau=["1.0"])),
         ("angular_velocity holds nan", with_(VALID_STATE, angular_velocity=[NAN, 0.0, 0.0])),
-        ("estimate_age holds a triple", with_(VALID_STATE, estimate_age=[[1, 0.5, 2]])),
-        ("estimate_age names a float vehicle", with_(VALID_STATE, estimate_age=[[1.0, 0.5]])),
+        ("estimate_age lacks an age", with_(VALID_STATE, estimate_age=[{"vehicle": 1}])),
+        ("estimate_age names a float vehicle", with_(VALID_STATE, estimate_age=[{"vehicle": 1.5, "age": 0.5}])),
         ("rx_lateness is a number", with_(VALID_STATE, rx_lateness=0.5)),
         ("step_lateness is a string", with_(VALID_STATE, step_lateness="late")),
     ]

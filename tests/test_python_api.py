@@ -203,16 +203,16 @@ def test_the_readmes_example_runs(tmp_path, monkeypatch, capsys):
 
 def test_every_field_of_the_state_record_has_a_column():
     """A field added to the state record must show in the states table (named by it, or as NAMED says)."""
-    from dataclasses import fields
+    from msgspec.structs import fields
 
-    from comms.state import StateReport
+    from comms.state import NeighbourAge, StateReport
     from supervisor.analysis.tables import states_table
 
     named = {"nav_estimate": "nav_x", "rx_lateness": "rx_lateness_max", "step_lateness": "step_lateness"}
     report = StateReport(
         t=0.1, k=1, vehicle=1, gamma=0.5, gamma_dot=1.0, position=(1.0, 2.0, 3.0), rotation=(1, 0, 0, 0, 1, 0, 0, 0, 1),
         velocity=(1.0, 0.0, 0.0), angular_velocity=(0.0, 0.0, 0.1), error=(0.3, 0.4, 0.0), tau=(1.0, 2.0),
-        correction=0.0, lyapunov=0.1, tx_seq=1, estimate_age=((2, 0.5),), rx_lateness=(0.01, 0.02),
+        correction=0.0, lyapunov=0.1, tx_seq=1, estimate_age=(NeighbourAge(2, 0.5),), rx_lateness=(0.01, 0.02),
         step_lateness=0.003, nav_estimate=tuple(float(i) for i in range(27)), nav_fix=1,
         current_estimate=(0.2, -0.1, 0.0),
     )  # fmt: skip

@@ -8,14 +8,14 @@ and its wire form.
 from __future__ import annotations
 
 from comms.messages import Message
-from comms.state import StateReport
+from comms.state import NeighbourAge, StateReport
 from vehicles.agent import Telemetry
 from vehicles.dynamics import Model
 from vehicles.navigation import NavOutput
 
 
 def state_message(
-    telemetry: Telemetry, model: Model, k: int, tx_seq: int, ages: tuple[tuple[int, float], ...] = ()
+    telemetry: Telemetry, model: Model, k: int, tx_seq: int, ages: tuple[NeighbourAge, ...] = ()
 ) -> Message:
     """A vehicle's telemetry of step k as its state message (state_report's wire form)."""
     return state_report(telemetry, model, k, tx_seq, ages).to_message()
@@ -26,7 +26,7 @@ def state_report(
     model: Model,
     k: int,
     tx_seq: int,
-    ages: tuple[tuple[int, float], ...] = (),
+    ages: tuple[NeighbourAge, ...] = (),
     nav: NavOutput | None = None,
 ) -> StateReport:
     """A vehicle's telemetry of step k (planar vehicles embedded in 3-D); tx_seq: its transmission then, or 0;

@@ -12,6 +12,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 from comms.records import Disturbances, Heard, Transmission
+from comms.state import NeighbourAge
 from vehicles.agent import Telemetry, VehicleConfig, VehicleState, own_estimate, receive, step
 from vehicles.current import body, body_to_inertial
 from vehicles.estimates import NeighbourEstimate
@@ -41,7 +42,7 @@ class NodeState:
 class StepOutput:
     telemetry: Telemetry
     transmission: Transmission | None
-    estimate_ages: tuple[tuple[int, float], ...]  # (neighbour, t - stamp of the estimate held of it)
+    estimate_ages: tuple[NeighbourAge, ...]  # (neighbour, t - stamp of the estimate held of it)
     navigation: NavOutput | None = None  # the navigation computer's step (None: the controller sees the truth)
 
 
@@ -88,7 +89,7 @@ def node_step(
     state = VehicleState(t, v.x, v.gamma, v.gamma_dot, v.estimates, v.observer, v.memory, v.actuators)
     for h in heard:
         state = receive(state, h.sender, NeighbourEstimate(h.gamma, h.gamma_dot, h.stamp))
-    ages = tuple((j, t - state.estimates[j].stamp) for j in neighbours if j in state.estimates)
+    ages = tuple(NeighbourAge(j, t - state.estimates[j].stamp) for j in neighbours if j in state.estimates)
     now = own_estimate(state)
     frozen = _sensed(node, now, dist)
     wants, may = _wants_and_may(radio, node, cfg.vehicle_id, now, dt)

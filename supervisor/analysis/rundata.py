@@ -228,8 +228,9 @@ def _estimate_ages(states: dict[int, list[StateReport]]) -> dict[Edge, AgeSeries
     rows: dict[Edge, tuple[list[float], list[float]]] = {}
     for holder, reports in states.items():
         for m in reports:
-            for neighbour, age in m.estimate_age:
-                t, ages = rows.setdefault((neighbour, holder), ([], []))
+            for held in m.estimate_age:
+                t, ages = rows.setdefault((held.vehicle, holder), ([], []))
+                age = held.age
                 t.append(m.t)
                 ages.append(age)
     return {key: AgeSeries(np.array(t, dtype=float), np.array(a, dtype=float)) for key, (t, a) in sorted(rows.items())}

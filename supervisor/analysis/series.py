@@ -43,8 +43,9 @@ class SeriesBuilder:
                 self._grow(k)
             row = (state.gamma, state.gamma_dot, _magnitude(state.error), *_inputs(state.tau), state.velocity[0])
             self._data[k, :, col] = row
-        for sender, age in state.estimate_age:
-            book = self.ages.setdefault((sender, state.vehicle), [0.0, 0.0, 0.0])
+        for held in state.estimate_age:
+            book = self.ages.setdefault((held.vehicle, state.vehicle), [0.0, 0.0, 0.0])
+            age = held.age
             book[0] += age
             book[1] += 1
             book[2] = max(book[2], age)

@@ -139,7 +139,7 @@ def _state_columns(reports: Sequence[StateReport]) -> Columns:
     """(column names, the values of a report for them), for every field of the state record; the variable-length
     fields get as many columns as the longest has (NaN-padded), the optional ones columns only if a report has them."""
     taus = max((len(r.tau) for r in reports), default=0)
-    neighbours = sorted({j for r in reports for j, _ in r.estimate_age})
+    neighbours = sorted({held.vehicle for r in reports for held in r.estimate_age})
     columns: Columns = [
         (("t", "k", "vehicle", "gamma", "gamma_dot"), lambda r: (r.t, r.k, r.vehicle, r.gamma, r.gamma_dot)),
         (tuple(f"position_{a}" for a in AXES), lambda r: r.position),
@@ -177,7 +177,7 @@ def _padded(values: Sequence[float], width: int) -> tuple[float, ...]:
 
 
 def _ages(report: StateReport, neighbours: Sequence[int]) -> tuple[float, ...]:
-    held = dict(report.estimate_age)
+    held = {a.vehicle: a.age for a in report.estimate_age}
     return tuple(held.get(j, math.nan) for j in neighbours)
 
 

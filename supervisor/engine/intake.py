@@ -21,7 +21,7 @@ from comms.bus import Publishers, Received
 from comms.bus_records import EventsWire, RxWire, Step, TxWire, log_json, read_events, read_window
 from comms.channel import LinkEvent
 from comms.events import LinkEvents
-from comms.fields import orthonormal, slow_enough
+from comms.fields import slow_enough
 from comms.messages import (
     COMMS_DONE_KEY,
     COMMS_EVENT_KEY,
@@ -229,8 +229,8 @@ class Intake:
         raw, tx, rx = split_step(message)
         state = StateReport.from_message(raw, vid)
         self.bounds.step(state.k, state.t)
-        for j, _ in state.estimate_age:
-            self.bounds.vehicle(j)
+        for held in state.estimate_age:
+            self.bounds.vehicle(held.vehicle)
         transmission = self._part(tx_key(vid), lambda: self._tx(tx, vid)) if tx is not None else None
         batch = self._part(rx_key(vid), lambda: self._rx(rx, vid)) if rx is not None else None
         message = state.to_message()
@@ -248,14 +248,10 @@ class Intake:
     def _typed_step(self, vid: int, step: Step) -> None:
         """_step of a step read by msgspec: the checks its types cannot say (StateReport.from_message's, then
         _step's, in _step's order), and the records written in their log form straight from the typed ones."""
-        state = step.state
-        if state.vehicle != vid:
-            raise ValueError(f"vehicle {state.vehicle} published on vehicle {vid}'s key")
-        orthonormal(state.rotation)
-        slow_enough("velocity", state.velocity)
+        state = step.state.check(vid)
         self.bounds.step(state.k, state.t)
-        for j, _ in state.estimate_age:
-            self.bounds.vehicle(j)
+        for held in state.estimate_age:
+            self.bounds.vehicle(held.vehicle)
         tx, rx = step.tx, step.rx
         transmission = self._part(tx_key(vid), lambda: self._typed_tx(tx, vid)) if tx is not None else None
         batch = self._part(rx_key(vid), lambda: self._fitting_rx(rx, vid)) if rx is not None else None
@@ -263,9 +259,8 @@ class Intake:
             self.rec.write_json(rx_key(vid), batch.t, log_json(batch))
         if transmission is not None:
             self.rec.write_json(tx_key(vid), transmission.t, log_json(transmission))
-        report = state.report()
-        self.rec.write_state(state_key(vid), state.t, log_json(state), report)
-        self._book(report)
+        self.rec.write_state(state_key(vid), state.t, log_json(state), state)
+        self._book(state)
 
     def _typed_tx(self, tx: TxWire, vid: int) -> TxWire:
         if tx.sender != vid:
@@ -340,7 +335,7 @@ class Intake:
         if not 0 <= batch.k <= self.bounds.steps:
             raise ValueError("the batch's step is outside the run")
         self.broker_events += len(batch.events)
-        booked = self._checked_events(event.event() for event in batch.events)
+        booked = self._checked_events(batch.events)
         for event in booked:
             self.rec.write_event(COMMS_EVENT_KEY, event.t, log_json(event), event)
         self.books.add(booked)

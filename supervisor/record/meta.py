@@ -13,7 +13,7 @@ from importlib import metadata
 from typing import Any
 
 from comms.fields import Message, get, is_int, number
-from comms.run import Edge, edges_of
+from comms.run import Edge, edges_of, links_message
 from supervisor.config.derived import tube_radius
 from supervisor.config.extension_checks import extension_identities
 from supervisor.config.scenario_schema import Scenario
@@ -75,7 +75,7 @@ class RunMeta:
             "step": self.step,
             "duration": self.duration,
             "vehicles": list(self.vehicles),
-            "edges": [list(e) for e in self.edges],
+            "edges": links_message(self.edges),
             "faults": list(self.faults),
             "tube_radius": self.tube_radius,
             "versions": self.versions,

@@ -1,0 +1,27 @@
+"""Every cpf channel's schema is one the viewers read (tests/viewer_rules.py): Lichtblick refused 9 of them (issue
+25), and a refused schema leaves every plot of its channel empty."""
+
+from __future__ import annotations
+
+import pytest
+
+from comms.messages import COMMS_EVENT_KEY, COMMS_STATS_KEY, FAULT_KEY, GRAPH_KEY, META_KEY, STOP_KEY, TICK_KEY
+from comms.schemas import schema_for
+from tests.viewer_rules import viewer_problems
+
+KEYS = [META_KEY, FAULT_KEY, GRAPH_KEY, STOP_KEY, TICK_KEY, COMMS_EVENT_KEY, COMMS_STATS_KEY, "cpf/comms/done",
+        "cpf/vehicle/2/state", "cpf/vehicle/2/tx", "cpf/vehicle/2/rx", "cpf/vehicle/2/done"]  # fmt: skip
+
+
+@pytest.mark.parametrize("key", KEYS)
+def test_a_channels_schema_is_one_the_viewers_read(key: str) -> None:
+    schema = schema_for(key)
+    assert schema is not None
+    assert viewer_problems(schema) == []
+
+
+def test_the_rules_refuse_what_lichtblick_refused() -> None:
+    """The forms Lichtblick's alerts named (issue 25): an array of arrays, a type list, an untyped enum."""
+    for field in ({"type": "array", "items": {"type": "array", "items": {"type": "number"}}},
+                  {"type": ["number", "null"]}, {"enum": ["start", "end"]}):  # fmt: skip
+        assert viewer_problems({"type": "object", "properties": {"x": field}}) != []
