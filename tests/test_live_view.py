@@ -103,7 +103,7 @@ def live_scene_of(records: list[tuple[str, Any]]) -> list[tuple[str, int, Any]]:
 
 def assert_the_logs_scene(made: list[tuple[str, int, Any]], out: Path) -> None:
     expected = [record for record in log_scene(out) if record[0] != PATHS_TOPIC]
-    assert len(expected) == 60 * 5  # 60 instants: transforms, scene, 3 trails
+    assert len(expected) == 60 * 8  # 60 instants: transforms, scene, 3 trails, 3 vehicles' coordination
     assert [record for record in made if record[0] != PATHS_TOPIC] == expected
     paths = [(t, m) for topic, t, m in made if topic == PATHS_TOPIC]  # drawn at once, further when a vehicle leaves it
     assert paths[0][0] == 0 and len(paths) <= 5
@@ -306,3 +306,18 @@ def test_the_view_closes_each_connection_with_a_code_as_it_stops(finished: bool,
             assert client.close_code == code
     finally:
         view.stop()
+
+
+def test_the_transforms_place_a_fleet_frame_at_the_centroid_for_the_camera(inprocess_log: Path) -> None:
+    """world -> fleet, unrotated, at the mean of the vehicles' positions (the layout's 3-D panel follows it), in
+    every transforms message of the log's scene, which the live view's is."""
+    transforms: list[Any] = [m for topic, _, m in log_scene(inprocess_log) if topic == TRANSFORMS_TOPIC]
+    assert len(transforms) == 60
+    for message in transforms:
+        frames = {tf["child_frame_id"]: tf for tf in message["transforms"]}
+        assert set(frames) == {"vehicle_1", "vehicle_2", "vehicle_3", "fleet"}
+        vehicles = [frames[f"vehicle_{v}"]["translation"] for v in (1, 2, 3)]
+        centre = [sum(p[axis] for p in vehicles) / 3 for axis in "xyz"]
+        fleet = frames["fleet"]
+        assert fleet["parent_frame_id"] == "world" and fleet["rotation"] == {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}
+        assert [fleet["translation"][axis] for axis in "xyz"] == pytest.approx(centre, abs=1e-4)
