@@ -1,9 +1,9 @@
 """A Foxglove WebSocket client for the tests (the `websockets` package, synchronous), speaking Foxglove's WebSocket
-protocol (github.com/foxglove/ws-protocol, v1) as Foxglove does. Its subprotocol was `foxglove.websocket.v1`; the
-foxglove-sdk server (0.30) answers only to its new name, `foxglove.sdk.v1` (rust/foxglove/src/websocket/handshake.rs),
-so the client offers both, as Foxglove does. The protocol: the server sends serverInfo and advertise (JSON text), the
-client subscribes to channel ids, the server sends binary messageData frames (opcode 1: subscription id u32, log time
-u64 ns, then the message, here JSON) and time frames (opcode 2: u64 ns)."""
+protocol (github.com/foxglove/ws-protocol, v1) as Foxglove does. Its subprotocol is `foxglove.websocket.v1`, and
+`foxglove.sdk.v1` its new name: the client offers both, as Foxglove does, or those it is given. The protocol: the
+server sends serverInfo and advertise (JSON text), the client subscribes to channel ids, the server sends binary
+messageData frames (opcode 1: subscription id u32, log time u64 ns, then the message, here JSON) and time frames
+(opcode 2: u64 ns)."""
 
 from __future__ import annotations
 
@@ -43,12 +43,14 @@ class FoxgloveClient:
 
     @classmethod
     @contextlib.contextmanager
-    def open(cls, port: int, wanted: set[str]) -> Iterator[FoxgloveClient]:
+    def open(
+        cls, port: int, wanted: set[str], subprotocols: list[Subprotocol] = SUBPROTOCOLS
+    ) -> Iterator[FoxgloveClient]:
         """Connected, serverInfo read, and advertisements read until every wanted topic is advertised; closed on
         the way out."""
-        with connect(f"ws://127.0.0.1:{port}", subprotocols=SUBPROTOCOLS, open_timeout=WAIT, proxy=None) as ws:
+        with connect(f"ws://127.0.0.1:{port}", subprotocols=subprotocols, open_timeout=WAIT, proxy=None) as ws:
             client = cls(ws)
-            assert ws.subprotocol in SUBPROTOCOLS
+            assert ws.subprotocol in subprotocols
             while not client.server_info or not wanted <= set(client.channels):
                 client._take(ws.recv(timeout=WAIT))
             yield client
@@ -90,3 +92,9 @@ class FoxgloveClient:
 
     def close(self) -> None:
         self.ws.close()
+
+    @property
+    def close_code(self) -> int | None:
+        """The code of the server's close frame (None: none came, 1005 its code if it had none: RFC 6455, 7.4.1)."""
+        received = self.ws.protocol.close_rcvd
+        return None if received is None else received.code

@@ -25,7 +25,7 @@ from tests.test_faults_e2e import EVERY_KIND, fault_args
 
 pytestmark = pytest.mark.e2e
 DURATION = 60.0
-NAMES = {"foxglove.FrameTransforms", "foxglove.SceneUpdate", "foxglove.PosesInFrame"}
+NAMES = {"foxglove.FrameTransforms", "foxglove.SceneUpdate", "foxglove.PosesInFrame", "cpf.Coordination"}
 
 
 @pytest.fixture(scope="module")
@@ -69,12 +69,13 @@ def test_the_log_has_foxglove_channels_with_foxglove_schemas_in_json(logs):
     assert summary is not None and summary.statistics is not None
     scene = {ch.topic: ch for ch in summary.channels.values() if is_scene_topic(ch.topic)}
     expected = {"foxglove/transforms", "foxglove/scene", "foxglove/paths"} | {f"foxglove/trail/{v}" for v in (1, 2, 3)}
+    expected |= {f"foxglove/coordination/{v}" for v in (1, 2, 3)}
     assert set(scene) == expected
     for topic, channel in scene.items():
         found = summary.schemas[channel.schema_id]
         assert channel.message_encoding == "json" and found.encoding == "jsonschema"
         assert found.name == schema_name(topic) and found.name in NAMES
-        assert json.loads(found.data)["title"] == found.name  # Foxglove's schema itself, as shipped
+        assert json.loads(found.data)["title"] == found.name  # Foxglove's schema itself (or cpf's), as shipped
     counts = {summary.channels[c].topic: n for c, n in summary.statistics.channel_message_counts.items()}
     assert counts["foxglove/paths"] == 1
     assert counts["foxglove/scene"] == counts["foxglove/transforms"] == DURATION / 0.5  # published every 0.5 s
@@ -163,7 +164,9 @@ def test_the_shipped_layout_names_only_topics_and_fields_the_log_has(logs):
     topics = {ch.topic for ch in summary.channels.values()}
     last = {m.topic: m.message for m in logfile.messages(logs["inprocess"])}
     three_d = next(config for name, config in panels.items() if name.startswith("3D!"))
-    assert three_d["followTf"] == "world" and set(three_d["topics"]) <= topics
+    assert three_d["followTf"] == "fleet" and set(three_d["topics"]) <= topics  # the camera follows the fleet
+    frames = {tf["child_frame_id"] for tf in last["foxglove/transforms"]["transforms"]}
+    assert three_d["followTf"] in frames
     plotted = [p["value"] for name, config in panels.items() if name.startswith("Plot!") for p in config["paths"]]
     assert len(plotted) >= 6
     for path in plotted:

@@ -15,10 +15,11 @@ from typing import Any
 
 import jsonschema
 import pytest
+from websockets.typing import Subprotocol
 
-from comms.messages import COMMS_EVENT_KEY
+from comms.messages import COMMS_EVENT_KEY, GRAPH_KEY, META_KEY
 from supervisor.record import logfile
-from supervisor.record.live import LiveView
+from supervisor.record.live import ALWAYS, WATCH_PERIOD, LiveView
 from supervisor.record.scene.foxglove_schemas import (
     PATHS_TOPIC,
     SCENE_TOPIC,
@@ -102,7 +103,7 @@ def live_scene_of(records: list[tuple[str, Any]]) -> list[tuple[str, int, Any]]:
 
 def assert_the_logs_scene(made: list[tuple[str, int, Any]], out: Path) -> None:
     expected = [record for record in log_scene(out) if record[0] != PATHS_TOPIC]
-    assert len(expected) == 60 * 5  # 60 instants: transforms, scene, 3 trails
+    assert len(expected) == 60 * 8  # 60 instants: transforms, scene, 3 trails, 3 vehicles' coordination
     assert [record for record in made if record[0] != PATHS_TOPIC] == expected
     paths = [(t, m) for topic, t, m in made if topic == PATHS_TOPIC]  # drawn at once, further when a vehicle leaves it
     assert paths[0][0] == 0 and len(paths) <= 5
@@ -149,6 +150,7 @@ def test_a_client_watches_a_run_live_and_the_run_ends_cleanly_with_it_connected(
         while (r := c.receive(CLOSE_WAIT)) is not None:  # None: the server closed the connection as the run ended
             received.append(r)
         assert proc.wait(timeout=60) == 0
+    assert c.close_code == 1000  # normal closure: the run is over
     valid(received)
     times = [r.log_time for r in received if r.topic == TRANSFORMS_TOPIC]
     assert times == sorted(times) and len(set(times)) >= 20 and times[-1] == 19_500_000_000  # to the last instant
@@ -245,3 +247,77 @@ def test_nobody_watching_no_scene_is_built_and_nothing_served(tmp_path: Path) ->
         history = view.scene.history
         assert view.scene.emitted == -1 and not history.states and not history.outcomes
         assert history.meta is not None and len(history.faults) == 2 and view.served == 0
+
+
+@pytest.mark.parametrize("offered", ["foxglove.websocket.v1", "foxglove.sdk.v1"])
+def test_either_name_of_the_protocol_is_accepted(offered: str) -> None:
+    """Foxglove's own client library (@foxglove/ws-protocol) offers only the protocol's first name; foxglove-sdk's
+    clients its new one: each is answered with the name it offered, and served."""
+    with LiveView(0) as view, FoxgloveClient.open(view.port, {TRANSFORMS_TOPIC}, [Subprotocol(offered)]) as client:
+        assert client.ws.subprotocol == offered and client.server_info["name"] == "cpf"
+
+
+def test_a_client_that_joins_late_gets_the_meta_the_graph_and_the_paths_at_once(inprocess_log: Path) -> None:
+    """What a new subscriber needs, sent when it subscribes, whenever that is (latched): the run's meta and graph
+    (from its start), the desired paths as last drawn, while the run goes on (no record comes in meanwhile)."""
+    records = [(m.topic, m.log_time / 1e9, m.message)
+               for m in logfile.messages(inprocess_log, lambda topic: not is_scene_topic(topic))]  # fmt: skip
+    assert records[0][0] == META_KEY
+    # What the view's scene takes: watched from its first look after the first client came (WATCH_PERIOD).
+    made = live_scene_of([(topic, m) for topic, t, m in records if topic in ALWAYS or t >= WATCH_PERIOD])
+    paths = [(ns, m) for topic, ns, m in made if topic == PATHS_TOPIC]
+    with LiveView(0) as view:
+        view.take(*records[0])
+        with FoxgloveClient.open(view.port, {TRANSFORMS_TOPIC, PATHS_TOPIC, META_KEY}) as first:
+            first.subscribe([TRANSFORMS_TOPIC, PATHS_TOPIC])
+            first.subscribe([META_KEY])  # handled after the first subscription, so that one is in force now:
+            meta = first.receive()  # nobody watched before: the meta, latched
+            assert meta is not None and meta.topic == META_KEY
+            for record in records[1:]:
+                view.take(*record)
+            with FoxgloveClient.open(view.port, {META_KEY, GRAPH_KEY, PATHS_TOPIC}) as late:
+                late.subscribe([META_KEY, GRAPH_KEY, PATHS_TOPIC])
+                got = {r.topic: r for r in (late.receive(), late.receive(), late.receive()) if r is not None}
+    graph = [(round(t * 1e9), m) for topic, t, m in records if topic == GRAPH_KEY]
+    assert set(got) == {META_KEY, GRAPH_KEY, PATHS_TOPIC}
+    assert (got[META_KEY].log_time, got[META_KEY].message) == (0, records[0][2])
+    assert (got[GRAPH_KEY].log_time, got[GRAPH_KEY].message) == graph[-1]
+    assert (got[PATHS_TOPIC].log_time, got[PATHS_TOPIC].message) == paths[-1]
+
+
+def test_a_clients_close_is_answered_with_its_code() -> None:
+    """RFC 6455, 5.5.1: an endpoint answers a close frame with one, typically echoing its code (without the answer a
+    client sees 1006, abnormal closure)."""
+    with LiveView(0) as view, FoxgloveClient.open(view.port, {TRANSFORMS_TOPIC}) as client:
+        client.ws.close(1000, "bye")
+        assert client.close_code == 1000
+
+
+@pytest.mark.parametrize(("finished", "code"), [(True, 1000), (False, 1001)], ids=["run-over", "stopped"])
+def test_the_view_closes_each_connection_with_a_code_as_it_stops(finished: bool, code: int) -> None:
+    """After the run's end, normal closure (1000); stopped before it (Ctrl-C, an error), going away (1001)."""
+    view = LiveView(0)
+    try:
+        with FoxgloveClient.open(view.port, {TRANSFORMS_TOPIC}) as client:
+            if finished:
+                view.finish()
+            view.stop()
+            assert client.receive() is None  # the connection closed, by the server
+            assert client.close_code == code
+    finally:
+        view.stop()
+
+
+def test_the_transforms_place_a_fleet_frame_at_the_centroid_for_the_camera(inprocess_log: Path) -> None:
+    """world -> fleet, unrotated, at the mean of the vehicles' positions (the layout's 3-D panel follows it), in
+    every transforms message of the log's scene, which the live view's is."""
+    transforms: list[Any] = [m for topic, _, m in log_scene(inprocess_log) if topic == TRANSFORMS_TOPIC]
+    assert len(transforms) == 60
+    for message in transforms:
+        frames = {tf["child_frame_id"]: tf for tf in message["transforms"]}
+        assert set(frames) == {"vehicle_1", "vehicle_2", "vehicle_3", "fleet"}
+        vehicles = [frames[f"vehicle_{v}"]["translation"] for v in (1, 2, 3)]
+        centre = [sum(p[axis] for p in vehicles) / 3 for axis in "xyz"]
+        fleet = frames["fleet"]
+        assert fleet["parent_frame_id"] == "world" and fleet["rotation"] == {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}
+        assert [fleet["translation"][axis] for axis in "xyz"] == pytest.approx(centre, abs=1e-4)

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import json
 import logging
+import threading
 from types import TracebackType
 from typing import TYPE_CHECKING, Any
 
@@ -24,6 +25,7 @@ import orjson
 from comms.messages import FAULT_KEY, GRAPH_KEY, META_KEY
 from comms.schemas import schema_for
 from supervisor.errors import ScenarioError
+from supervisor.record.live_relay import Relay
 from supervisor.record.scene.foxglove_schemas import (
     MESSAGE_ENCODING,
     PATHS_TOPIC,
@@ -46,6 +48,24 @@ CLOCK_PERIOD = 0.1  # s of simulated time between the server's time announcement
 WATCH_PERIOD = 0.5  # s of simulated time between looks at whether a client watches the scene (an instant's worth)
 ALWAYS = (META_KEY, GRAPH_KEY, FAULT_KEY)  # what the scene takes even while nobody watches: few, and needed later
 JSON_OPTIONS = orjson.OPT_NON_STR_KEYS | orjson.OPT_SERIALIZE_NUMPY  # as the recorder: NaN and inf as null
+# What a new subscriber needs at once (as a ROS latched topic): the latest message of each is sent to whoever
+# subscribes, whenever that is (the run's meta and graph come once, at the start; the paths once, redrawn rarely).
+LATCHED = frozenset((META_KEY, GRAPH_KEY, PATHS_TOPIC))
+NORMAL = (1000, "the run is over")  # close codes (RFC 6455, 7.4.1): normal closure
+GOING_AWAY = (1001, "cpf stopped")  # the server going down before the run's end (Ctrl-C, an error)
+
+
+class _Latching:
+    """The server's listener (foxglove.websocket.ServerListener): a subscription to a latched topic gets its latest."""
+
+    def __init__(self, view: LiveView) -> None:
+        self._view = view
+
+    def on_subscribe(self, client: Any, channel: Any) -> None:  # foxglove.websocket.Client, ChannelView
+        self._view.subscribed(channel.topic)
+
+    def on_unsubscribe(self, client: Any, channel: Any) -> None:  # called too (a missing method: an error logged)
+        return None
 
 
 class LiveView:
@@ -59,15 +79,13 @@ class LiveView:
 
         self._foxglove = foxglove
         self._context = foxglove.Context()  # its own channels and server: nothing shared with another view
-        try:
-            self._server = foxglove.start_server(
-                name="cpf", host=HOST, port=port, context=self._context, capabilities=[foxglove.Capability.Time]
-            )
-        except RuntimeError as exc:  # FoxgloveError: the port is taken, or not ours to bind
-            raise ScenarioError(f"--live: cannot serve on {HOST}:{port} ({exc}), got {port}") from None
-        self.port: int = self._server.port
+        self._server, self._relay = self._serve(port)
+        self.port: int = self._relay.port
         self.scene: LiveScene | None = LiveScene() if build_scene else None
         self._build = build_scene
+        self._latched: dict[str, tuple[bytes, int]] = {}  # topic of LATCHED -> its latest message, its log time (ns)
+        self._latch = threading.Lock()  # a latched message and its sending, against a subscriber's copy of it
+        self._finished = False
         # The scene's fixed channels advertised at once: a client can subscribe before the first message (a trail's
         # channel, per vehicle, comes with its first message, as a cpf record's).
         self._channels: dict[str, foxglove.Channel] = {t: self._channel(t) for t in (TRANSFORMS_TOPIC, SCENE_TOPIC,
@@ -76,6 +94,20 @@ class LiveView:
         self._watched = False  # whether a client subscribes to a scene channel (looked at every WATCH_PERIOD)
         self._look_again = 0.0  # s of simulated time
         self.served = 0  # messages handed to the server with a client subscribed
+
+    def _serve(self, port: int) -> tuple[foxglove.websocket.WebSocketServer, Relay]:
+        """foxglove-sdk's server on a free port, the relay on `port` in front of it (ScenarioError if not to be had)."""
+        fox = self._foxglove
+        try:
+            server = fox.start_server(name="cpf", host=HOST, port=0, context=self._context,
+                                      capabilities=[fox.Capability.Time], server_listener=_Latching(self))  # fmt: skip
+        except RuntimeError as exc:  # FoxgloveError: no port to be had
+            raise ScenarioError(f"--live: cannot serve on {HOST} ({exc})") from None
+        try:
+            return server, Relay(HOST, port, server.port)
+        except OSError as exc:  # the port is taken, or not ours to bind
+            server.stop()
+            raise ScenarioError(f"--live: cannot serve on {HOST}:{port} ({exc.strerror or exc})") from None
 
     @property
     def url(self) -> str:
@@ -97,19 +129,41 @@ class LiveView:
                 self.publish(scene_topic, at, scene_message)
 
     def publish(self, topic: str, t: float, message: Any) -> None:
-        """One message on its channel at simulation time t (s), encoded only if a client subscribes to it."""
+        """One message on its channel at simulation time t (s), encoded only if a client subscribes to it (or it is
+        latched: kept for whoever subscribes later)."""
         channel = self._channels.get(topic)
         if channel is None:
             channel = self._channels[topic] = self._channel(topic)
-        if channel.has_sinks():
+        if topic in LATCHED:
+            self._publish_latched(channel, topic, orjson.dumps(message, option=JSON_OPTIONS), round(t * 1e9))
+        elif channel.has_sinks():
             channel.log(orjson.dumps(message, option=JSON_OPTIONS), log_time=round(t * 1e9))
             self.served += 1
         if t >= self._clock + CLOCK_PERIOD:
             self._clock = t
             self._server.broadcast_time(round(t * 1e9))
 
+    def _publish_latched(self, channel: foxglove.Channel, topic: str, data: bytes, ns: int) -> None:
+        with self._latch:
+            self._latched[topic] = (data, ns)
+            if channel.has_sinks():
+                channel.log(data, log_time=ns)
+                self.served += 1
+
+    def subscribed(self, topic: str) -> None:
+        """A client has subscribed to topic (the server's thread): a latched topic's latest message sent again. To
+        every subscriber of the topic: the Python API does not name the new one's sink; the others get a copy of a
+        message they have (meta, a graph, the paths: a few, and a copy changes nothing they show)."""
+        channel = self._channels.get(topic)
+        with self._latch:
+            latest = self._latched.get(topic)
+            if latest is not None and channel is not None:
+                channel.log(latest[0], log_time=latest[1])
+
     def finish(self) -> None:
-        """The run is over: the scene's last instants out."""
+        """The run is over: the scene's last instants out (and the clients' connections will close with 1000,
+        normal closure, rather than 1001, going away)."""
+        self._finished = True
         if self.scene is not None:
             for topic, t, message in self.scene.finish():
                 self.publish(topic, t, message)
@@ -126,10 +180,13 @@ class LiveView:
         self._look_again = 0.0
 
     def stop(self) -> None:
-        """The server stopped (clients disconnected) and the channels closed; again: nothing."""
+        """The server stopped, each client's connection closed (after what was sent to it: with 1000 after `finish`,
+        else 1001) and the channels closed; again: nothing."""
         try:
+            self._relay.closing(*(NORMAL if self._finished else GOING_AWAY))
             self._server.stop()
         finally:
+            self._relay.stop()
             for channel in self._channels.values():
                 channel.close()
             self._channels.clear()

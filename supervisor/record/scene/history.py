@@ -29,12 +29,15 @@ Outcome = tuple[float, int, str, str]  # (t, seq, kind, reason): a packet's fate
 
 @dataclass(frozen=True, slots=True)
 class Snapshot:
-    """A vehicle at a published step: where it is, its attitude (R row-major), gamma and its virtual target."""
+    """A vehicle at a published step: where it is, its attitude (R row-major), gamma, its virtual target, and what
+    the plots show of it: gamma's rate and the path error's norm."""
 
     position: Float3
     rotation: tuple[float, ...]
     gamma: float
     target: Float3  # p_d(gamma) = position - error
+    gamma_dot: float  # 1/s
+    path_error: float  # m: |error| = |position - p_d(gamma)|
 
 
 def publish_every(step: float) -> int:
@@ -94,7 +97,9 @@ class FleetHistory:
             return
         p, e = report.position, report.error
         target = (p[0] - e[0], p[1] - e[1], p[2] - e[2])
-        self.states.setdefault(report.k, {})[report.vehicle] = Snapshot(p, report.rotation, report.gamma, target)
+        norm = math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])  # correctly rounded, in a fixed order: portable
+        snapshot = Snapshot(p, report.rotation, report.gamma, target, report.gamma_dot, norm)
+        self.states.setdefault(report.k, {})[report.vehicle] = snapshot
 
     def _event(self, _: str, message: Any) -> None:
         """A link event (comms.channel.LinkEvent's wire form). Every event of a run passes here (32000 in the paper

@@ -4,7 +4,8 @@
 too), then `messages()` gives every Foxglove message in (time, topic) order. At each published instant (every
 history.PUBLISH_PERIOD s of simulated time, in whole steps):
 
-- foxglove/transforms (foxglove.FrameTransforms): world -> vehicle_<id>, each vehicle's position and attitude;
+- foxglove/transforms (foxglove.FrameTransforms): world -> vehicle_<id>, each vehicle's position and attitude, and
+  world -> fleet, the centroid of the vehicles as last placed (unrotated): what a 3-D panel's camera follows;
 - foxglove/scene (foxglove.SceneUpdate): entity vehicle_<id> (an arrow along body x, a label with its id, gamma and
   the faults acting on it, in red while any does; grey with "no state" while its process is down), its virtual
   target p_d(gamma) (a sphere, joined to the vehicle by a thin line); entity links (each directed link of the graph
@@ -12,7 +13,10 @@ history.PUBLISH_PERIOD s of simulated time, in whole steps):
   packet did: LINK_COLOURS; a link fault's kind as a label there); entity fleet (the faults that act on the whole
   fleet, as a label above it);
 - foxglove/trail/<id> (foxglove.PosesInFrame): the vehicle's poses over the last TRAIL_SECONDS, one every
-  TRAIL_SPACING s, and its current pose.
+  TRAIL_SPACING s, and its current pose;
+- foxglove/coordination/<id> (cpf.Coordination), for each vehicle reporting at the instant: its gamma minus the mean
+  of theirs, its path error's norm and gamma_dot (PLOT_DIGITS decimals), what Foxglove's plots cannot compute from
+  the state records (a plot draws a field, not a norm or a difference between topics).
 
 And once, at t = 0, foxglove/paths (foxglove.SceneUpdate): each vehicle's desired path over the gammas the run went
 through, as a line strip (its own topic, so that Foxglove, which shows a topic's last message after a seek, keeps
@@ -23,6 +27,7 @@ from __future__ import annotations
 
 import json
 import logging
+import math
 from collections import Counter
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
@@ -34,9 +39,16 @@ from numpy.typing import NDArray
 from comms.channel import LinkEvent
 from comms.state import StateReport
 from supervisor.record.scene import primitives as fx
-from supervisor.record.scene.foxglove_schemas import PATHS_TOPIC, SCENE_TOPIC, TRANSFORMS_TOPIC, trail_topic
+from supervisor.record.scene.foxglove_schemas import (
+    FLEET_FRAME,
+    PATHS_TOPIC,
+    SCENE_TOPIC,
+    TRANSFORMS_TOPIC,
+    coordination_topic,
+    trail_topic,
+)
 from supervisor.record.scene.geometry import quaternions
-from supervisor.record.scene.history import FaultEvent, FleetHistory, Graph, Link, Outcome
+from supervisor.record.scene.history import FaultEvent, FleetHistory, Graph, Link, Outcome, Snapshot
 from supervisor.record.scene.paths import desired_paths
 
 log = logging.getLogger(__name__)
@@ -48,6 +60,7 @@ TRAIL_SPACING = 2.0  # s between a trail's poses
 VEHICLE_LENGTH = 2.0  # m: the arrow (a REMUS 100 is 1.6 m long)
 TARGET_DIAMETER = 0.6  # m
 LABEL_HEIGHT = 2.0  # m above the vehicle
+PLOT_DIGITS = 6  # decimals of foxglove/coordination's numbers
 # Tableau 10, the palette of the report's figures: vehicle n in colour n (mod 10).
 PALETTE = ((0.12, 0.47, 0.71), (1.0, 0.5, 0.05), (0.17, 0.63, 0.17), (0.84, 0.15, 0.16), (0.58, 0.4, 0.74),
            (0.55, 0.34, 0.29), (0.89, 0.47, 0.76), (0.5, 0.5, 0.5), (0.74, 0.74, 0.13), (0.09, 0.75, 0.81))  # fmt: skip
@@ -165,10 +178,17 @@ class _Sweep:
         transforms = [
             fx.frame_transform(t, frame_of(v), self.known[v].position, self.known[v].orientation) for v in ids
         ]
+        transforms.append(fx.frame_transform(t, FLEET_FRAME, self._centroid(), fx.IDENTITY))
         out: list[SceneMessage] = [(TRANSFORMS_TOPIC, t, fx.frame_transforms(transforms))]
         out.append((SCENE_TOPIC, t, fx.scene_update(self._entities(t, set(present)))))
         out += [(trail_topic(v), t, self._trail(t, k, v)) for v in ids]
-        return out
+        return out + _coordination(t, present)
+
+    def _centroid(self) -> list[float]:
+        """The mean of the vehicles' positions as last placed (summed in the order of their ids: the same bits on
+        any machine), rounded as a position."""
+        placed = [self.known[v].position for v in sorted(self.known)]
+        return fx.rounded([[sum(p[axis] for p in placed) / len(placed) for axis in range(3)]])[0]
 
     def _advance(self, k: int) -> None:
         """Everything that happened up to published step k put in force."""
@@ -238,8 +258,8 @@ class _Sweep:
         kinds = [kind for kind, detail in acting if not {"vehicle", "sender"} & set(detail)]
         if not kinds or not self.known:
             return fx.entity(t, "fleet")
-        centre = np.mean([v.position for v in self.known.values()], axis=0)
-        above = fx.rounded([centre + np.array([0.0, 0.0, 3 * LABEL_HEIGHT])])[0]
+        x, y, z = self._centroid()
+        above = fx.rounded([[x, y, z + 3 * LABEL_HEIGHT]])[0]
         return fx.entity(t, "fleet", texts=[fx.text(above, "\n".join(kinds), RED)])
 
     def _trail(self, t: float, k: int, vid: int) -> dict[str, Any]:
@@ -255,6 +275,21 @@ class _Sweep:
         if (k // self.h.every) % stride == 0:
             trail.append((k, here))
         return fx.poses_in_frame(t, [*poses, here])
+
+
+def _coordination(t: float, present: dict[int, Snapshot]) -> list[SceneMessage]:
+    """foxglove/coordination/<id> at time t of each vehicle present: gamma minus the mean of the finite gammas
+    present (summed in the order of the ids), |error| and gamma_dot; a value that is not finite left out."""
+    ids = sorted(present)
+    gammas = [present[v].gamma for v in ids if math.isfinite(present[v].gamma)]
+    mean = sum(gammas) / len(gammas) if gammas else math.nan
+    out: list[SceneMessage] = []
+    for v in ids:
+        s = present[v]
+        values = {"gamma_offset": s.gamma - mean, "path_error": s.path_error, "gamma_dot": s.gamma_dot}
+        message = {key: round(x, PLOT_DIGITS) for key, x in values.items() if math.isfinite(x)}
+        out.append((coordination_topic(v), t, message))
+    return out
 
 
 def _placements(h: FleetHistory) -> dict[tuple[int, int], _Placed]:

@@ -1,0 +1,123 @@
+"""The live view's front door: a WebSocket relay on the view's port, in front of foxglove-sdk's server (which listens
+on a free port of the same host), for what that server does not do and Foxglove's clients need:
+
+- the subprotocol: Foxglove's WebSocket protocol (github.com/foxglove/ws-protocol, docs/spec.md) is
+  `foxglove.websocket.v1`, the only name Foxglove's own client library (@foxglove/ws-protocol) and older Foxglove and
+  Lichtblick versions offer; foxglove-sdk's server (0.30, its rust/foxglove/src/websocket/handshake.rs, no option)
+  answers only to `foxglove.sdk.v1`, with HTTP 400 otherwise. The relay accepts either (the client's own answered)
+  and speaks `foxglove.sdk.v1` to the server: the same protocol under its new name.
+- the close (RFC 6455, 5.5.1 and 7.4): the server drops the connection on a client's close frame without answering
+  (the client sees 1006, abnormal closure) and stops with a close frame without a code (1005). The relay answers a
+  client's close with its code (the websockets package's closing handshake), and once the server has stopped and
+  everything it sent is passed on, closes each connection with the code `stop` is given.
+
+A byte splice that rewrote the handshake's header would do the first, not the second: the close is a frame. Frames
+pass as they are (text as text, binary as binary, in order, uncompressed); the relay runs an asyncio loop on its own
+thread, from construction to `stop`."""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import threading
+from collections.abc import Coroutine
+from typing import Any
+
+from websockets.asyncio.client import ClientConnection, connect
+from websockets.asyncio.server import Server, ServerConnection, serve
+from websockets.exceptions import ConnectionClosed, InvalidHandshake
+from websockets.frames import CloseCode
+from websockets.typing import Subprotocol
+
+log = logging.getLogger(__name__)
+SDK_SUBPROTOCOL = Subprotocol("foxglove.sdk.v1")  # what foxglove-sdk's server answers to
+SUBPROTOCOLS = [SDK_SUBPROTOCOL, Subprotocol("foxglove.websocket.v1")]  # what the relay answers to, in preference
+DRAIN_WAIT = 5.0  # s for the connections to pass on what the stopped server sent, and close
+BACKEND_WAIT = 10.0  # s to connect to the server on the same host (a loaded machine), or to close a connection to it
+
+
+class Relay:
+    """Listening on host:port (0: a free port; `port` is the one it got) and relaying each connection to the server
+    at ws://host:backend_port. OSError if the port cannot be had."""
+
+    def __init__(self, host: str, port: int, backend_port: int) -> None:
+        self._backend = f"ws://{host}:{backend_port}"
+        self._closing: tuple[int, str] = (CloseCode.GOING_AWAY, "cpf stopped")  # see `closing`
+        self._handlers: set[asyncio.Task[None]] = set()
+        self._loop = asyncio.new_event_loop()
+        self._thread = threading.Thread(target=self._loop.run_forever, name="cpf-live-relay", daemon=True)
+        self._thread.start()
+        try:
+            self._server: Server = self._run(self._listen(host, port))
+        except BaseException:
+            self._end_loop()
+            raise
+        self.port: int = self._server.sockets[0].getsockname()[1]
+
+    def closing(self, code: int, reason: str) -> None:
+        """The close code and reason each connection gets once the server is gone (before stopping the server)."""
+        self._closing = (code, reason)
+
+    def stop(self) -> None:
+        """No more connections; those open pass on what the server sent (it has stopped) and close with the code of
+        `closing`, within DRAIN_WAIT (then closed with it); the loop ended. Again: nothing."""
+        if not self._thread.is_alive():
+            return
+        try:
+            self._run(self._shutdown())
+        finally:
+            self._end_loop()
+
+    def _run(self, coroutine: Coroutine[Any, Any, Any]) -> Any:
+        return asyncio.run_coroutine_threadsafe(coroutine, self._loop).result()
+
+    def _end_loop(self) -> None:
+        self._loop.call_soon_threadsafe(self._loop.stop)
+        self._thread.join()
+        self._loop.close()
+
+    async def _listen(self, host: str, port: int) -> Server:
+        return await serve(self._relay, host, port, subprotocols=SUBPROTOCOLS, compression=None, max_size=None,
+                           ping_interval=None)  # fmt: skip
+
+    async def _shutdown(self) -> None:
+        self._server.close(close_connections=False)  # the listening socket: no new connection
+        if self._handlers:
+            await asyncio.wait(set(self._handlers), timeout=DRAIN_WAIT)
+        for connection in self._server.connections:  # any left
+            await connection.close(*self._closing)
+        await self._server.wait_closed()
+
+    async def _relay(self, client: ServerConnection) -> None:
+        """One client's connection: frames both ways until either side closes; then the client's closed."""
+        task = asyncio.current_task()
+        assert task is not None
+        self._handlers.add(task)
+        try:
+            async with connect(self._backend, subprotocols=[SDK_SUBPROTOCOL], compression=None, max_size=None,
+                               ping_interval=None, open_timeout=BACKEND_WAIT, close_timeout=BACKEND_WAIT,
+                               proxy=None) as server:  # fmt: skip
+                await _both_ways(client, server)
+        except (OSError, InvalidHandshake, TimeoutError) as exc:  # the server is gone, or going
+            log.info("live view: no server for %s (%s)", client.remote_address, exc)
+        finally:
+            await client.close(*self._closing)  # nothing if the client closed: its close was answered
+            self._handlers.discard(task)
+
+
+async def _both_ways(client: ServerConnection, server: ClientConnection) -> None:
+    pumps = [asyncio.create_task(_pump(client, server)), asyncio.create_task(_pump(server, client))]
+    try:
+        await asyncio.wait(pumps, return_when=asyncio.FIRST_COMPLETED)
+    finally:
+        for pump in pumps:
+            pump.cancel()
+
+
+async def _pump(source: ServerConnection | ClientConnection, sink: ServerConnection | ClientConnection) -> None:
+    """Each frame from source to sink, until either closes."""
+    try:
+        async for frame in source:
+            await sink.send(frame)
+    except ConnectionClosed:
+        return
