@@ -132,7 +132,7 @@ def test_both_engines_record_the_same_run_with_fading_capture_and_time_bursts(tm
 
 def _causes(log: Path) -> Counter[str]:
     """What became of each packet of a log: its link events' reasons (or kinds)."""
-    return Counter(m["reason"] or m["kind"] for topic, _, m in read_messages(log) if topic == EVENTS)
+    return Counter(m.get("reason") or m["kind"] for topic, _, m in read_messages(log) if topic == EVENTS)
 
 
 @pytest.mark.e2e

@@ -254,10 +254,10 @@ def test_load_run_link_events(run: RunData) -> None:
         assert (link.sender, link.receiver, link.name) == (sender, receiver, f"{sender}->{receiver}")
         np.testing.assert_allclose(link.t, [e["t"] for e in expected])
         assert list(link.kind) == [e["kind"] for e in expected]
-        delivered = [e["delay"] for e in expected if e["kind"] == "delivered"]
+        delivered = [e.get("delay") for e in expected if e["kind"] == "delivered"]
         np.testing.assert_allclose(link.delays, delivered)
         assert np.isnan(link.delay[link.kind != "delivered"]).all()
-        causes = Counter(e["reason"] for e in expected if e["kind"] == "dropped")
+        causes = Counter(e.get("reason") for e in expected if e["kind"] == "dropped")
         assert link.dropped_by_cause() == dict(causes)
         assert link.times("sent").size == sum(e["kind"] == "sent" for e in expected)
 
@@ -344,7 +344,7 @@ def test_synthetic_metrics_packets(run: RunData) -> None:
         assert (counts["sent"], counts["delivered"], counts["dropped"], counts["in_flight"]) == (
             kinds["sent"], kinds["delivered"], kinds["dropped"], 0,
         )  # fmt: skip
-        assert counts["dropped_by_cause"] == dict(Counter(e["reason"] for e in events if e["kind"] == "dropped"))
+        assert counts["dropped_by_cause"] == dict(Counter(e.get("reason") for e in events if e["kind"] == "dropped"))
     total = packets["total"]
     assert total["sent"] == sum(c["sent"] for c in packets["links"].values())
     assert total["dropped_by_cause"].keys() == {"loss", "collision"}

@@ -61,11 +61,11 @@ def test_a_batch_keeps_the_events_that_read_when_asked_to():
     of the batch still counts."""
     unread: list[ValueError] = []
     batch = LinkEvents.from_message({**EVENTS, "events": [*EVENTS["events"], {"t": 0.1}]}, unread)
-    assert len(batch.events) == 1 and len(unread) == 1 and "missing field" in str(unread[0])
+    assert len(batch.events) == 1 and len(unread) == 1 and "missing required field" in str(unread[0])
 
 
 def test_the_run_meta_of_a_scenario_reads_back():
     scenario = load_scenario(CONFIGS / "paper.toml")
     meta = RunMeta.of(scenario, "configs/paper.toml", "", 7, "inprocess", "lockstep")
     assert RunMeta.from_message(meta.to_message()) == meta
-    assert meta.to_message()["edges"] == [list(e) for e in scenario.graph.edges]
+    assert meta.to_message()["edges"] == [{"sender": i, "receiver": j} for i, j in scenario.graph.edges]
