@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 
 from comms.broker_core import BrokerCore
 from comms.bus import Extras, Handler, Publishers, serve
-from comms.channel import ARRIVAL_SLACK, Kinematics, LinkEvent, Reception, intake_step
+from comms.channel import ARRIVAL_SLACK, intake_step
 from comms.events import LinkEvents
 from comms.messages import (
     COMMS_ALIVE,
@@ -41,7 +41,7 @@ from comms.messages import (
     rx_message,
     vehicle_of_key,
 )
-from comms.records import Transmission
+from comms.records import Kinematics, LinkEvent, Reception, Transmission
 from comms.reports import CommsDone
 from comms.span import Grants
 from comms.state import StateReport

@@ -11,10 +11,10 @@ from __future__ import annotations
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 
-from comms.channel import Channel, Kinematics, LinkEvent, Reception
+from comms.channel import Channel
 from comms.messages import Message
 from comms.network import Network
-from comms.records import Transmission
+from comms.records import Kinematics, LinkEvent, Reception, Transmission
 from comms.stats import LinkStats
 from comms.wire import decode_coordination, encode_coordination
 

@@ -1,7 +1,7 @@
 """A vehicle's step message and the broker's link events read straight from their msgpack payload into typed records,
 in one pass of msgspec in C, and each record's log form from them: the supervisor's intake reads ~18 records a step.
 
-The state and the link events are their records themselves (comms.state.StateReport, comms.channel.LinkEvent, each
+The state and the link events are their records themselves (comms.state.StateReport, comms.records.LinkEvent, each
 its message's only description); the others are structs of the records' (comms.records.Transmission,
 comms.receptions.RxBatch) with the same msgspec checks (comms.fields.converted: the same annotations; held together
 by tests/test_bus_records.py), in the order of the record's `to_message`, so that the log form `log_json` is the
@@ -18,9 +18,8 @@ from typing import Annotated, Any
 import msgspec
 import orjson
 
-from comms.channel import LinkEvent
 from comms.fields import Finite, Finite3
-from comms.records import Float32, Time
+from comms.records import Float32, LinkEvent, Time
 from comms.state import StateReport
 
 

@@ -19,22 +19,17 @@ import heapq
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Literal, get_args
 
-import msgspec
 import numpy as np
 
 from comms.acoustics import time_of_flight
-from comms.fields import Finite, Message
 from comms.link_budget import LinkBudgetRange
 from comms.loss import LinkLoss, LossModel
 from comms.modem import ModemParams
 from comms.network import Impairment, Network
-from comms.records import FloatArray, Transmission
+from comms.records import Kinematics, LinkEvent, Reception, Transmission
 from numerics import exp10, log10
 
-EventKind = Literal["sent", "delivered", "dropped"]
-EVENT_KINDS: tuple[EventKind, ...] = get_args(EventKind)
 ARRIVAL_SLACK = 1e-9  # s: an arrival this close after a sync instant counts as at it (float rounding of k * dt)
 
 
@@ -84,51 +79,6 @@ class Capture:
     def survives(self, level_db: float, interferers_db: list[float]) -> bool:
         total = 10.0 * log10(sum((exp10(x / 10.0) for x in interferers_db), self.noise_power))
         return level_db - total >= self.threshold_db
-
-
-@dataclass(frozen=True, slots=True)
-class Kinematics:
-    """What the channel knows of a vehicle at transmission time: inertial position and velocity."""
-
-    position: FloatArray
-    velocity: FloatArray
-
-
-@dataclass(frozen=True, slots=True)
-class Reception:
-    receiver: int
-    sender: int
-    seq: int
-    stamp: float  # time of the data, as the packet carries it
-    arrival: float
-    gamma: float
-    gamma_dot: float
-
-
-class LinkEvent(msgspec.Struct, frozen=True, omit_defaults=True):
-    """A packet's fate on one link: the message's only description (a cpf/comms/event log record, an item of a
-    cpf/comms/events batch; its schema comms.schemas.LINK_EVENT is generated from it). delay and reason are left out
-    of the message where they say nothing (older logs have them null)."""
-
-    t: Finite
-    sender: int
-    receiver: int
-    seq: int
-    kind: EventKind
-    delay: Finite | None = None  # delivered: arrival - transmission time
-    reason: str | None = None  # dropped: why
-
-    def to_message(self) -> Message:
-        message: Message = msgspec.to_builtins(self)
-        return message
-
-    @classmethod
-    def from_message(cls, message: object) -> LinkEvent:
-        """The inverse of to_message, checked: ValueError naming the field for anything malformed."""
-        try:
-            return msgspec.convert(message, cls)
-        except msgspec.ValidationError as exc:
-            raise ValueError(str(exc)) from None
 
 
 @dataclass(frozen=True, slots=True)

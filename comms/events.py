@@ -1,5 +1,5 @@
 """The broker's link events of one step as the bus carries them (cpf/comms/events): one message a step, where the
-log keeps one cpf/comms/event record per event (comms.channel.LinkEvent). The record, its wire form and its checked
+log keeps one cpf/comms/event record per event (comms.records.LinkEvent). The record, its wire form and its checked
 reading side by side.
 """
 
@@ -7,8 +7,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from comms.channel import LinkEvent
 from comms.fields import Message, get, number
+from comms.records import LinkEvent
 
 
 @dataclass(frozen=True, slots=True)

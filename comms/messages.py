@@ -14,12 +14,11 @@ from typing import Any
 
 import msgpack
 
-from comms.channel import LinkEvent, Reception
 from comms.fields import Message, is_int
 from comms.fields import get as _get
 from comms.network import Network
 from comms.receptions import Delivery, RxBatch
-from comms.records import Disturbances, Heard, Transmission
+from comms.records import Disturbances, Heard, LinkEvent, Reception, Transmission
 from comms.state import StateReport
 from comms.tick import Tick
 

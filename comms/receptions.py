@@ -10,9 +10,8 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-from comms.channel import Reception
 from comms.fields import Finite, Message, converted, get, number
-from comms.records import Heard
+from comms.records import Heard, Reception
 
 
 @dataclass(frozen=True, slots=True)

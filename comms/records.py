@@ -8,7 +8,7 @@ comms.messages otherwise). Nothing here knows how a vehicle works, so comms depe
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Annotated
+from typing import Annotated, Literal, get_args
 
 import msgspec
 import numpy as np
@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 from comms.fields import (
     MAX_FLOAT32,
     MAX_TIME,
+    Finite,
     Finite3,
     Message,
     carried,
@@ -128,3 +129,52 @@ class Disturbances:
     gamma_freeze: bool = False
     gamma_offset: float = 0.0
     clock_offset: float = 0.0
+
+
+EventKind = Literal["sent", "delivered", "dropped"]
+EVENT_KINDS: tuple[EventKind, ...] = get_args(EventKind)
+
+
+@dataclass(frozen=True, slots=True)
+class Kinematics:
+    """What the channel knows of a vehicle at transmission time: inertial position and velocity."""
+
+    position: FloatArray
+    velocity: FloatArray
+
+
+@dataclass(frozen=True, slots=True)
+class Reception:
+    receiver: int
+    sender: int
+    seq: int
+    stamp: float  # time of the data, as the packet carries it
+    arrival: float
+    gamma: float
+    gamma_dot: float
+
+
+class LinkEvent(msgspec.Struct, frozen=True, omit_defaults=True):
+    """A packet's fate on one link: the message's only description (a cpf/comms/event log record, an item of a
+    cpf/comms/events batch; its schema comms.schemas.LINK_EVENT is generated from it). delay and reason are left out
+    of the message where they say nothing (older logs have them null)."""
+
+    t: Finite
+    sender: int
+    receiver: int
+    seq: int
+    kind: EventKind
+    delay: Finite | None = None  # delivered: arrival - transmission time
+    reason: str | None = None  # dropped: why
+
+    def to_message(self) -> Message:
+        message: Message = msgspec.to_builtins(self)
+        return message
+
+    @classmethod
+    def from_message(cls, message: object) -> LinkEvent:
+        """The inverse of to_message, checked: ValueError naming the field for anything malformed."""
+        try:
+            return msgspec.convert(message, cls)
+        except msgspec.ValidationError as exc:
+            raise ValueError(str(exc)) from None

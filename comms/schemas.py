@@ -16,7 +16,6 @@ from typing import Any
 
 import msgspec
 
-from comms.channel import LinkEvent
 from comms.messages import (
     COMMS_DONE_KEY,
     COMMS_EVENT_KEY,
@@ -30,6 +29,7 @@ from comms.messages import (
     TICK_KEY,
     vehicle_of_key,
 )
+from comms.records import LinkEvent
 from comms.state import StateReport
 
 Schema = dict[str, Any]

@@ -19,8 +19,8 @@ from typing import Annotated
 import msgspec
 import numpy as np
 
-from comms.channel import Kinematics
 from comms.fields import Finite, Finite3, Message, Real, Real3, orthonormal, slow_enough
+from comms.records import Kinematics
 
 Float3 = tuple[float, float, float]
 Rotation = Annotated[tuple[Finite, ...], msgspec.Meta(min_length=9, max_length=9)]  # R row-major

@@ -13,8 +13,8 @@ from collections import Counter, deque
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 
-from comms.channel import LinkEvent
 from comms.graph import algebraic_connectivity, laplacian
+from comms.records import LinkEvent
 
 CONNECTED = 1e-9  # lambda_2 at or below this is 0 (disconnected): eigvalsh gives +-1e-17 there, never less than 4/n^2
 

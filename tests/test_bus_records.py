@@ -20,10 +20,9 @@ from hypothesis import strategies as st
 from comms import bus_records
 from comms.bus import Received
 from comms.bus_records import DeliveryWire, RxWire, TxWire, log_json, read_events, read_window
-from comms.channel import LinkEvent
 from comms.messages import COMMS_EVENTS_KEY, META_KEY, encode, state_key, step_message, window_message
 from comms.receptions import Delivery, RxBatch
-from comms.records import Transmission, _TransmissionWire
+from comms.records import LinkEvent, Transmission, _TransmissionWire
 from comms.state import NeighbourAge, StateReport
 from supervisor.config.scenario import parse_scenario
 from supervisor.engine import intake as intake_module

@@ -16,10 +16,10 @@ from hypothesis import strategies as st
 
 from comms.acoustics import airtime, time_of_flight
 from comms.broker_core import BrokerCore
-from comms.channel import ARRIVAL_SLACK, Channel, ChannelParams, Kinematics, LinkEvent, Reception
+from comms.channel import ARRIVAL_SLACK, Channel, ChannelParams
 from comms.loss import Bernoulli
 from comms.modem import ModemParams
-from comms.records import FloatArray, Transmission
+from comms.records import FloatArray, Kinematics, LinkEvent, Reception, Transmission
 from comms.stats import LinkStats
 from comms.wire import SIZE, encode_coordination
 from supervisor.config.scenario import parse_scenario

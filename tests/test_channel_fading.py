@@ -13,12 +13,12 @@ import numpy as np
 import pytest
 
 from comms.acoustics import bit_error_rate, ebn0_db, packet_error_rate, snr_db
-from comms.channel import Capture, Channel, ChannelParams, Kinematics
+from comms.channel import Capture, Channel, ChannelParams
 from comms.fading import gain_distribution, mean_over_gain
 from comms.link_budget import FadingLink, LinkBudgetRange
 from comms.loss import GilbertElliott, GilbertElliottTime
 from comms.modem import PRESETS
-from comms.records import Transmission
+from comms.records import Kinematics, Transmission
 from supervisor.config.fleet import channel_params
 from supervisor.config.scenario import parse_scenario
 from tests.test_loss import loss_runs

@@ -8,9 +8,9 @@ from pathlib import Path
 import pytest
 
 from comms.bus import Received
-from comms.channel import LinkEvent
 from comms.events import LinkEvents
 from comms.messages import COMMS_EVENTS_KEY, encode, state_key, step_message
+from comms.records import LinkEvent
 from comms.state import NeighbourAge, StateReport
 from supervisor.config.scenario import parse_scenario
 from supervisor.engine.intake import Intake

@@ -16,8 +16,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from comms.channel import LinkEvent
 from comms.graph import algebraic_connectivity, laplacian
+from comms.records import LinkEvent
 from comms.reports import CommsStats
 from comms.stats import LinkStats, clamp_lambda2
 from supervisor.analysis.comms_summary import comms_summary, format_comms

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from comms.channel import LinkEvent
+from comms.records import LinkEvent
 from comms.stats import LinkStats
 from supervisor.engine.books import LinkBooks
 

@@ -16,7 +16,7 @@ from hypothesis import event, example, given, settings
 from hypothesis import strategies as st
 
 from comms.broker_core import BrokerCore
-from comms.channel import Channel, ChannelParams, Kinematics, LinkEvent, Reception
+from comms.channel import Channel, ChannelParams
 from comms.events import LinkEvents
 from comms.fields import MAX_TIME
 from comms.loss import Bernoulli
@@ -52,7 +52,7 @@ from comms.messages import (
     vehicle_of_key,
 )
 from comms.network import Network
-from comms.records import Disturbances, Heard, Transmission
+from comms.records import Disturbances, Heard, Kinematics, LinkEvent, Reception, Transmission
 from comms.schemas import (
     COMMS_DONE,
     COMMS_STATS,

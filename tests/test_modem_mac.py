@@ -16,10 +16,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from comms.channel import Channel, ChannelParams, Kinematics, LinkEvent, LinkParams, Reception
+from comms.channel import Channel, ChannelParams, LinkParams
 from comms.loss import Bernoulli, GilbertElliott
 from comms.modem import PRESETS, ModemParams, modem
-from comms.records import Disturbances, Transmission
+from comms.records import Disturbances, Kinematics, LinkEvent, Reception, Transmission
 from comms.stats import LinkStats
 from comms.wire import SIZE, decode_coordination, encode_coordination
 from supervisor.config.fleet import initial_state, vehicle_config

@@ -12,12 +12,11 @@ from typing import Any
 import msgspec
 import pytest
 
-from comms.channel import LinkEvent, Reception
 from comms.events import LinkEvents
 from comms.messages import Hello, decode, encode, rx_message, state_key, step_message, tick_message
 from comms.network import Network
 from comms.receptions import Delivery, RxBatch
-from comms.records import Disturbances, Transmission
+from comms.records import Disturbances, LinkEvent, Reception, Transmission
 from comms.run import FaultEvent, Graph, Stop
 from comms.schemas import (
     FAULT,

@@ -6,7 +6,6 @@ from pathlib import Path
 
 import pytest
 
-from comms.channel import Reception
 from comms.messages import (
     COMMS_STEP_KEY,
     Message,
@@ -18,6 +17,7 @@ from comms.messages import (
     tick_lead,
     tick_message,
 )
+from comms.records import Reception
 from supervisor.config.fleet import initial_state, radio, vehicle_config
 from supervisor.config.scenario import load_scenario
 from tests.conftest import RecordingPublishers

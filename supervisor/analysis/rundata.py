@@ -16,8 +16,8 @@ from typing import Any, NamedTuple, Protocol, TypeAlias
 import numpy as np
 from numpy.typing import NDArray
 
-from comms.channel import LinkEvent
 from comms.messages import COMMS_EVENT_KEY, COMMS_STATS_KEY, FAULT_KEY, GRAPH_KEY, META_KEY, vehicle_of_key
+from comms.records import LinkEvent
 from comms.reports import CommsStats
 from comms.run import FaultEvent, Graph
 from comms.state import StateReport

@@ -2,7 +2,7 @@
 
 `read_run` reads a log once, in the pass the report's reader makes (analysis.rundata.load_run, over the one reader
 of logs, supervisor.record.logfile: LogError for a log cut short or damaged), each message through its record type
-(comms.state.StateReport, comms.records.Transmission, comms.receptions.RxBatch, comms.channel.LinkEvent,
+(comms.state.StateReport, comms.records.Transmission, comms.receptions.RxBatch, comms.records.LinkEvent,
 comms.run.FaultEvent: ScenarioError naming the topic for one that does not read), and builds each table at once from
 lists of tuples. The Python API (`cpf.load`) and `cpf export` give these tables; docs/api.md lists their columns
 and units.
@@ -25,10 +25,9 @@ from typing import Any
 
 import pandas as pd
 
-from comms.channel import LinkEvent
 from comms.messages import COMMS_EVENT_KEY, FAULT_KEY, vehicle_of_key
 from comms.receptions import RxBatch
-from comms.records import Transmission
+from comms.records import LinkEvent, Transmission
 from comms.run import FaultEvent
 from comms.state import StateReport
 from supervisor.analysis.rundata import RunData, load_run

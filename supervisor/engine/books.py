@@ -10,8 +10,8 @@ from __future__ import annotations
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 
-from comms.channel import LinkEvent
 from comms.messages import Message
+from comms.records import LinkEvent
 from comms.stats import LinkStats
 
 

@@ -17,7 +17,6 @@ from pathlib import Path
 from typing import Any
 
 from comms.broker_core import BrokerCore
-from comms.channel import Kinematics, LinkEvent
 from comms.messages import (
     COMMS_EVENT_KEY,
     COMMS_STATS_KEY,
@@ -32,7 +31,7 @@ from comms.messages import (
 )
 from comms.network import Network
 from comms.receptions import RxBatch
-from comms.records import Transmission
+from comms.records import Kinematics, LinkEvent, Transmission
 from comms.run import Graph
 from supervisor.analysis.series import SeriesBuilder
 from supervisor.analysis.summary import Series

@@ -19,7 +19,6 @@ from typing import TypeVar
 
 from comms.bus import Publishers, Received
 from comms.bus_records import EventsWire, RxWire, Step, TxWire, log_json, read_events, read_window
-from comms.channel import LinkEvent
 from comms.events import LinkEvents
 from comms.fields import slow_enough
 from comms.messages import (
@@ -39,7 +38,7 @@ from comms.messages import (
     vehicle_of_key,
 )
 from comms.receptions import RxBatch
-from comms.records import Transmission
+from comms.records import LinkEvent, Transmission
 from comms.reports import CommsDone, CommsStats, VehicleDone
 from comms.state import StateReport
 from comms.windows import report_of

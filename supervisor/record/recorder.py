@@ -28,8 +28,8 @@ from typing import IO, Any, Protocol
 import orjson
 from mcap.writer import CompressionType
 
-from comms.channel import LinkEvent
 from comms.messages import Message
+from comms.records import LinkEvent
 from comms.schemas import schema_for
 from comms.state import StateReport
 from supervisor.errors import ScenarioError

@@ -36,7 +36,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from comms.channel import LinkEvent
+from comms.records import LinkEvent
 from comms.state import StateReport
 from supervisor.record.scene import primitives as fx
 from supervisor.record.scene.foxglove_schemas import (
