@@ -2,7 +2,7 @@
 
 The Zenoh engine's message pattern with no work in it, to tell the cost of the process-per-vehicle architecture
 from the cost of our code. A router (in this process, which also takes in and decodes what the supervisor records:
-the vehicles' step messages and the broker's events), a broker process and N vehicle processes on comms.bus, as the
+the vehicles' step messages and the broker's events), a broker process and N vehicle processes on comms.bus.bus, as the
 real ones: per step the supervisor publishes a tick, the broker waits for the tick and every vehicle's step message
 of the step before and publishes one batches message (each vehicle's part packed on its own) and one events
 message, each vehicle waits for the batches and publishes a step message of about the real size. No dynamics, no
@@ -25,9 +25,9 @@ from typing import Any
 import msgpack
 
 from benchmarks import save
-from comms.bus import Handler, Inbox, Publishers, Received, free_port, open_session, serve
-from comms.messages import ALIVE_PREFIX, STOP_END, STOP_KEY, SUPERVISOR_ALIVE, decode
-from comms.run import Stop
+from comms.bus.bus import Handler, Inbox, Publishers, Received, free_port, open_session, serve
+from comms.records.messages import ALIVE_PREFIX, STOP_END, STOP_KEY, SUPERVISOR_ALIVE, decode
+from comms.records.run import Stop
 
 ROOT_KEY = "floor"
 TICK, STEP, EVENTS = f"{ROOT_KEY}/tick", f"{ROOT_KEY}/comms/step", f"{ROOT_KEY}/comms/events"

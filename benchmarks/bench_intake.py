@@ -21,8 +21,8 @@ from pathlib import Path
 from typing import Any
 
 from benchmarks import ROOT, save
-from comms.bus import Received
-from comms.messages import (
+from comms.bus.bus import Received
+from comms.records.messages import (
     COMMS_EVENT_KEY,
     COMMS_EVENTS_KEY,
     COMMS_STATS_KEY,

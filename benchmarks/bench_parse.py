@@ -3,8 +3,8 @@
 The messages are those of a run of the scenario (in-process engine, recorded to a temporary log): each vehicle's
 state, transmission and reception batch of every step, read as the broker and the Zenoh supervisor read them on
 every step. Prints, per kind, the best of 5 rounds in us per message of the reading the engines use (msgspec,
-comms.fields.converted, then what its types cannot say) and of the hand-written checks it falls back to, and writes
-them to benchmarks/results/parse.json. Issue 13 put these readings on every message of the Zenoh engine (the
+comms.records.fields.converted, then what its types cannot say) and of the hand-written checks it falls back to, and
+writes them to benchmarks/results/parse.json. Issue 13 put these readings on every message of the Zenoh engine (the
 hand-written checks alone cost ~10 us per state message, ~11 % of a paper run).
 """
 
@@ -19,10 +19,10 @@ from pathlib import Path
 from typing import Any
 
 from benchmarks import ROOT, save
-from comms.messages import vehicle_of_key
-from comms.receptions import RxBatch
-from comms.records import Transmission
-from comms.state import StateReport
+from comms.records.messages import vehicle_of_key
+from comms.records.receptions import RxBatch
+from comms.records.records import Transmission
+from comms.records.state import StateReport
 from supervisor.config.scenario import load_scenario
 from supervisor.engine.inprocess import run_inprocess
 from supervisor.engine.progress import Progress

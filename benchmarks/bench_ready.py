@@ -21,9 +21,9 @@ from typing import Any
 import zenoh
 
 from benchmarks import ROOT, save
-from comms.bus import free_port, open_session
-from comms.handover import write_private
-from comms.messages import vehicle_alive_key
+from comms.bus.bus import free_port, open_session
+from comms.bus.handover import write_private
+from comms.records.messages import vehicle_alive_key
 from supervisor.config.scenario import load_scenario
 from supervisor.config.vehicle_start import vehicle_starts
 

@@ -11,8 +11,8 @@ from typing import Any
 import pytest
 from hypothesis import settings
 
-from comms.bus import Publishers
-from comms.messages import Message
+from comms.bus.bus import Publishers
+from comms.records.messages import Message
 from supervisor.record.meta import RunMeta
 
 # Property tests draw the same examples on every run (derandomize): a clean clone's `make test` fails because of a

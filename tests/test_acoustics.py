@@ -1,4 +1,4 @@
-"""Sound speed, absorption, transmission loss, noise, SNR and bit/packet errors (comms.acoustics).
+"""Sound speed, absorption, transmission loss, noise, SNR and bit/packet errors (comms.channel.acoustics).
 
 Check values: Mackenzie (1981) publishes 1550.744 m/s at 25 C, 35 ppt, 1000 m; the others are recomputed here from
 the formulas in shared/reference/acoustics.md by an independent (numpy/scipy) code path.
@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from scipy.stats import norm
 
-from comms.acoustics import (
+from comms.channel.acoustics import (
     bit_error_rate,
     mackenzie_sound_speed,
     noise_psd_db,

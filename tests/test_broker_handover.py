@@ -1,7 +1,7 @@
-"""The broker the supervisor starts is handed what it serves (comms.broker_start) instead of loading the scenario: it
-never imports pydantic, starts on half the CPU, and yet answers the hello with the supervisor's digests and runs the
-same channel (a whole run is bit-identical: tests/test_bit_identical.py); a file that is not such a hand-over, or a
-vehicle's, is refused with a one-line error."""
+"""The broker the supervisor starts is handed what it serves (comms.broker.broker_start) instead of loading the
+scenario: it never imports pydantic, starts on half the CPU, and yet answers the hello with the supervisor's digests and
+runs the same channel (a whole run is bit-identical: tests/test_bit_identical.py); a file that is not such a hand-over,
+or a vehicle's, is refused with a one-line error."""
 
 from __future__ import annotations
 
@@ -12,9 +12,9 @@ from pathlib import Path
 
 import zenoh
 
-from comms.bus import free_port, open_session
-from comms.handover import write_private
-from comms.messages import COMMS_ALIVE, STOP_KEY, SUPERVISOR_ALIVE, Hello, encode
+from comms.bus.bus import free_port, open_session
+from comms.bus.handover import write_private
+from comms.records.messages import COMMS_ALIVE, STOP_KEY, SUPERVISOR_ALIVE, Hello, encode
 from supervisor.config.broker_start import broker_start
 from supervisor.config.scenario import load_scenario
 from supervisor.config.scenario_digest import digest, section_digests

@@ -18,9 +18,9 @@ import numpy as np
 import pytest
 import zenoh
 
-from comms.broker import Broker
-from comms.bus import Publishers, free_port, open_session
-from comms.messages import (
+from comms.broker.broker import Broker
+from comms.bus.bus import Publishers, free_port, open_session
+from comms.records.messages import (
     COMMS_ALIVE,
     COMMS_DONE_KEY,
     COMMS_EVENT_KEY,
@@ -42,8 +42,8 @@ from comms.messages import (
     tick_message,
     tx_message,
 )
-from comms.network import Network
-from comms.records import Transmission
+from comms.records.network import Network
+from comms.records.records import Transmission
 from supervisor.config.fleet import broker_core
 from supervisor.config.scenario import load_scenario
 from tests.conftest import RecordingPublishers

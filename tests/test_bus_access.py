@@ -25,9 +25,9 @@ from pathlib import Path
 import pytest
 import zenoh
 
-from comms.access import ENV, Credential, client_config, read_credential
-from comms.bus import Extras, free_port, open_session
-from comms.messages import (
+from comms.bus.access import ENV, Credential, client_config, read_credential
+from comms.bus.bus import Extras, free_port, open_session
+from comms.records.messages import (
     COMMS_ALIVE,
     COMMS_DONE_KEY,
     COMMS_EVENT_KEY,

@@ -1,11 +1,11 @@
-"""The Zenoh configuration every process of a run opens its session with (comms.bus.config)."""
+"""The Zenoh configuration every process of a run opens its session with (comms.bus.bus.config)."""
 
 from __future__ import annotations
 
 import json
 from pathlib import Path
 
-from comms.bus import Extras, config
+from comms.bus.bus import Extras, config
 
 
 def shared_memory(conf: object) -> bool:

@@ -1,6 +1,6 @@
-"""The intake's one-pass reading (comms.bus_records): its structs are the records' own, their log form is the bytes
-the records' to_message gives through orjson, and on any payload (good, altered anywhere, windows of several steps,
-link events) the intake records, counts and books exactly what the slow reading (decode, then each record's
+"""The intake's one-pass reading (comms.records.bus_records): its structs are the records' own, their log form is the
+bytes the records' to_message gives through orjson, and on any payload (good, altered anywhere, windows of several
+steps, link events) the intake records, counts and books exactly what the slow reading (decode, then each record's
 from_message) does."""
 
 from __future__ import annotations
@@ -17,14 +17,13 @@ import pytest
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
-from comms import bus_records
-from comms.bus import Received
-from comms.bus_records import DeliveryWire, RxWire, TxWire, log_json, read_events, read_window
-from comms.channel import LinkEvent
-from comms.messages import COMMS_EVENTS_KEY, META_KEY, encode, state_key, step_message, window_message
-from comms.receptions import Delivery, RxBatch
-from comms.records import Transmission, _TransmissionWire
-from comms.state import NeighbourAge, StateReport
+from comms.bus.bus import Received
+from comms.records import bus_records
+from comms.records.bus_records import DeliveryWire, RxWire, TxWire, log_json, read_events, read_window
+from comms.records.messages import COMMS_EVENTS_KEY, META_KEY, encode, state_key, step_message, window_message
+from comms.records.receptions import Delivery, RxBatch
+from comms.records.records import LinkEvent, Transmission, _TransmissionWire
+from comms.records.state import NeighbourAge, StateReport
 from supervisor.config.scenario import parse_scenario
 from supervisor.engine import intake as intake_module
 from supervisor.engine.intake import Intake
@@ -186,7 +185,7 @@ def test_good_messages_are_read_in_one_pass(monkeypatch: pytest.MonkeyPatch) -> 
 )
 def test_the_structs_check_what_the_records_check(wire: type, record: type) -> None:
     """The same fields with the same msgspec types (so the same checks; the records' order but the transmission's,
-    which is its message's order): the struct reads what comms.fields.converted reads as the record."""
+    which is its message's order): the struct reads what comms.records.fields.converted reads as the record."""
     ours = get_type_hints(wire, include_extras=True)
     theirs = get_type_hints(record, include_extras=True)
     if record is RxBatch:

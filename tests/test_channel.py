@@ -14,14 +14,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from comms.acoustics import airtime, time_of_flight
-from comms.broker_core import BrokerCore
-from comms.channel import ARRIVAL_SLACK, Channel, ChannelParams, Kinematics, LinkEvent, Reception
-from comms.loss import Bernoulli
-from comms.modem import ModemParams
-from comms.records import FloatArray, Transmission
-from comms.stats import LinkStats
-from comms.wire import SIZE, encode_coordination
+from comms.broker.broker_core import BrokerCore
+from comms.broker.stats import LinkStats
+from comms.channel.acoustics import airtime, time_of_flight
+from comms.channel.channel import ARRIVAL_SLACK, Channel, ChannelParams
+from comms.channel.loss import Bernoulli
+from comms.channel.modem import ModemParams
+from comms.records.records import FloatArray, Kinematics, LinkEvent, Reception, Transmission
+from comms.records.wire import SIZE, encode_coordination
 from supervisor.config.scenario import parse_scenario
 from supervisor.errors import ScenarioError
 

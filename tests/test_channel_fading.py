@@ -1,6 +1,7 @@
-"""The link budget's issue-16 channel (comms.link_budget, comms.fading, comms.loss.GilbertElliottTime, SINR capture in
-comms.channel): PER against range, the bits and Eb/N0 it is computed on, shadowing and fading against their integrated
-mean, the time-based Gilbert-Elliott chain's bursts in seconds, and capture of the stronger of two packets.
+"""The link budget's issue-16 channel (comms.channel.link_budget, comms.channel.fading,
+comms.channel.loss.GilbertElliottTime, SINR capture in comms.channel.channel): PER against range, the bits and Eb/N0 it
+is computed on, shadowing and fading against their integrated mean, the time-based Gilbert-Elliott chain's bursts in
+seconds, and capture of the stronger of two packets.
 
 Statistical checks use fixed seeds and a 4-sigma tolerance computed from the model.
 """
@@ -12,13 +13,13 @@ import math
 import numpy as np
 import pytest
 
-from comms.acoustics import bit_error_rate, ebn0_db, packet_error_rate, snr_db
-from comms.channel import Capture, Channel, ChannelParams, Kinematics
-from comms.fading import gain_distribution, mean_over_gain
-from comms.link_budget import FadingLink, LinkBudgetRange
-from comms.loss import GilbertElliott, GilbertElliottTime
-from comms.modem import PRESETS
-from comms.records import Transmission
+from comms.channel.acoustics import bit_error_rate, ebn0_db, packet_error_rate, snr_db
+from comms.channel.channel import Capture, Channel, ChannelParams
+from comms.channel.fading import gain_distribution, mean_over_gain
+from comms.channel.link_budget import FadingLink, LinkBudgetRange
+from comms.channel.loss import GilbertElliott, GilbertElliottTime
+from comms.channel.modem import PRESETS
+from comms.records.records import Kinematics, Transmission
 from supervisor.config.fleet import channel_params
 from supervisor.config.scenario import parse_scenario
 from tests.test_loss import loss_runs

@@ -7,7 +7,7 @@ import json
 
 import pytest
 
-from comms.modem import PRESETS as MODEMS
+from comms.channel.modem import PRESETS as MODEMS
 from supervisor.cli import _parser, main
 from supervisor.config.presets_table import top_speed
 from supervisor.config.reference import json_schema, markdown

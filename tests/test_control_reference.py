@@ -13,7 +13,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import pytest
 
-from comms.records import FloatArray
+from comms.records.records import FloatArray
 from vehicles.agent import VehicleConfig, VehicleState, step
 from vehicles.coordination import CoordinationGains
 from vehicles.dynamics import PLANAR, SPATIAL, Model

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.linalg import null_space
 
-from comms.graph import algebraic_connectivity, laplacian
+from comms.records.graph import algebraic_connectivity, laplacian
 from vehicles.coordination import CoordinationGains, Corrected, LiteralLaw, correction, correction_vector, l_k
 
 SEEDS = range(25)

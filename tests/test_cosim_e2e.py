@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 from mcap.reader import make_reader
 
-from comms.channel import intake_step
+from comms.channel.channel import intake_step
 from supervisor.config.scenario import load_scenario
 from supervisor.engine.cosim import BusOptions, run_zenoh
 from supervisor.engine.progress import Progress
@@ -188,7 +188,7 @@ def assert_complete_mcap(path: Path) -> None:
 
 def test_a_vehicle_started_by_hand_joins_the_run(tmp_path, paper_text):
     """The multi-host workflow on one machine: the supervisor listens, vehicle 3 is started separately."""
-    from comms.bus import free_port
+    from comms.bus.bus import free_port
     from tests.procs import CPF, wait_for_file
 
     scenario = write_scenario(tmp_path, shortened(paper_text, 5.0))

@@ -12,7 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from mcap.reader import make_reader
 
-from comms.bus import free_port
+from comms.bus.bus import free_port
 from supervisor import cli
 from supervisor.config.scenario import parse_scenario
 from supervisor.engine.inprocess import run_inprocess

@@ -8,7 +8,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from comms.records import FloatArray
+from comms.records.records import FloatArray
 from vehicles.dynamics import PLANAR, SPATIAL, Model
 from vehicles.geometry import orthonormalize, reorthonormalized, roll_pitch_yaw, rotation_2d, rotation_from_rpy
 from vehicles.params import PRESETS, VehicleParams

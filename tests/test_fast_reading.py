@@ -1,6 +1,6 @@
-"""msgspec reads the records of the bus first (comms.fields.converted), the hand-written checks only what it refuses:
-so msgspec must never accept a message the checks refuse, nor read one to another record. Each message here is a
-valid one with a field replaced (by any value a decoder could give: null, bools, integers of any size, floats with
+"""msgspec reads the records of the bus first (comms.records.fields.converted), the hand-written checks only what it
+refuses: so msgspec must never accept a message the checks refuse, nor read one to another record. Each message here is
+a valid one with a field replaced (by any value a decoder could give: null, bools, integers of any size, floats with
 NaN and infinities, strings, lists, maps), a list item replaced or a field removed; both readings must agree."""
 
 from __future__ import annotations
@@ -15,11 +15,11 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from comms.fields import MAX_FLOAT32, MAX_TIME
-from comms.messages import step_message
-from comms.receptions import Delivery, RxBatch
-from comms.records import Transmission
-from comms.state import StateReport
+from comms.records.fields import MAX_FLOAT32, MAX_TIME
+from comms.records.messages import step_message
+from comms.records.receptions import Delivery, RxBatch
+from comms.records.records import Transmission
+from comms.records.state import StateReport
 
 from .test_state_report import REPORT
 
@@ -70,7 +70,7 @@ def altered(draw: st.DrawFn, message: dict[str, Any]) -> dict[str, Any]:
 @settings(max_examples=400, deadline=None)
 @given(altered(REPORT.to_message()) | altered(REALTIME) | altered(step_message(REPORT.to_message(), TX, RX)))
 def test_a_state_is_read_whole_or_refused_with_a_reason(message):
-    """The state has one description (comms.state.StateReport, msgspec reads it): whatever a decoder gives, it
+    """The state has one description (comms.records.state.StateReport, msgspec reads it): whatever a decoder gives, it
     reads as a report that writes back what it read, or is refused with a ValueError that says why."""
     try:
         report = StateReport.from_message(message, 3)

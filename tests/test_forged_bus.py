@@ -18,8 +18,8 @@ import zenoh
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from comms.bus import Received
-from comms.messages import (
+from comms.bus.bus import Received
+from comms.records.messages import (
     COMMS_DONE_KEY,
     COMMS_EVENT_KEY,
     COMMS_EVENTS_KEY,
@@ -31,7 +31,7 @@ from comms.messages import (
     step_message,
     vehicle_done_key,
 )
-from comms.state import NeighbourAge, StateReport
+from comms.records.state import NeighbourAge, StateReport
 from supervisor.config.scenario import parse_scenario
 from supervisor.engine.intake import SUPERVISOR, Intake
 from supervisor.record.recorder import Recorder, read_messages
@@ -203,7 +203,7 @@ def test_a_run_attacked_on_a_vehicles_own_keys_counts_drops_and_says_so(tmp_path
 def test_the_broker_keeps_no_state_from_beyond_the_clock():
     """A vehicle's credential can publish states on its own key: one claiming a step far ahead of the clock would be
     held by the broker for ever (memory), so it is counted and dropped like any malformed message."""
-    from comms.broker import Broker
+    from comms.broker.broker import Broker
     from supervisor.config.fleet import broker_core
     from tests.conftest import RecordingPublishers
 

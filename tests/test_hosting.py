@@ -13,7 +13,7 @@ from typing import Any
 import pytest
 
 from benchmarks.bench_scaling import ring_scenario
-from comms.bus import Extras
+from comms.bus.bus import Extras
 from supervisor.cli import main
 from supervisor.config.scenario import parse_scenario
 from supervisor.engine import supervisor as supervisor_module

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from msgspec.structs import replace
 
-from comms.state import StateReport
+from comms.records.state import StateReport
 from supervisor.analysis.series import SeriesBuilder
 from supervisor.cli import main
 from supervisor.errors import ScenarioError

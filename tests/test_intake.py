@@ -1,4 +1,4 @@
-"""The supervisor's intake reads a vehicle's state through its record (comms.state.StateReport)."""
+"""The supervisor's intake reads a vehicle's state through its record (comms.records.state.StateReport)."""
 
 from __future__ import annotations
 
@@ -7,11 +7,11 @@ from pathlib import Path
 
 import pytest
 
-from comms.bus import Received
-from comms.channel import LinkEvent
-from comms.events import LinkEvents
-from comms.messages import COMMS_EVENTS_KEY, encode, state_key, step_message
-from comms.state import NeighbourAge, StateReport
+from comms.bus.bus import Received
+from comms.records.events import LinkEvents
+from comms.records.messages import COMMS_EVENTS_KEY, encode, state_key, step_message
+from comms.records.records import LinkEvent
+from comms.records.state import NeighbourAge, StateReport
 from supervisor.config.scenario import parse_scenario
 from supervisor.engine.intake import Intake
 from supervisor.record.recorder import Recorder

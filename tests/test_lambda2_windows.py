@@ -16,10 +16,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from comms.channel import LinkEvent
-from comms.graph import algebraic_connectivity, laplacian
-from comms.reports import CommsStats
-from comms.stats import LinkStats, clamp_lambda2
+from comms.broker.stats import LinkStats, clamp_lambda2
+from comms.records.graph import algebraic_connectivity, laplacian
+from comms.records.records import LinkEvent
+from comms.records.reports import CommsStats
 from supervisor.analysis.comms_summary import comms_summary, format_comms
 from supervisor.analysis.metrics import run_metrics
 from supervisor.analysis.report import RunData

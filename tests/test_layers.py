@@ -36,6 +36,6 @@ def test_no_comms_module_imports_an_upper_layer(path: Path) -> None:
 
 
 def test_the_check_sees_imports_at_any_depth() -> None:
-    source = "import numpy\nfrom comms.records import Heard\n\ndef f():\n    from vehicles.agent import step\n"
+    source = "import numpy\nfrom comms.records.records import Heard\n\ndef f():\n    from vehicles.agent import step\n"
     assert upward(source) == ["line 5: vehicles.agent"]
     assert upward("import supervisor.cli as cli\n") == ["line 1: supervisor.cli"]

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
-from comms.channel import LinkEvent
-from comms.stats import LinkStats
+from comms.broker.stats import LinkStats
+from comms.records.records import LinkEvent
 from supervisor.engine.books import LinkBooks
 
 IDS = (1, 2, 3)

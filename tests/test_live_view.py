@@ -17,7 +17,7 @@ import jsonschema
 import pytest
 from websockets.typing import Subprotocol
 
-from comms.messages import COMMS_EVENT_KEY, GRAPH_KEY, META_KEY
+from comms.records.messages import COMMS_EVENT_KEY, GRAPH_KEY, META_KEY
 from supervisor.record import logfile
 from supervisor.record.live import ALWAYS, WATCH_PERIOD, LiveView
 from supervisor.record.scene.foxglove_schemas import (

@@ -1,4 +1,4 @@
-"""Packet loss models (comms.loss): rates, burstiness, stream alignment, range dependence and validation.
+"""Packet loss models (comms.channel.loss): rates, burstiness, stream alignment, range dependence and validation.
 
 Statistical checks use fixed seeds and a 4-sigma tolerance computed from the model (for Gilbert-Elliott the variance
 of a Markov-chain mean is inflated by (1 + rho) / (1 - rho), rho = 1 - p - r the chain's lag-1 autocorrelation).
@@ -12,8 +12,8 @@ from itertools import pairwise
 import numpy as np
 import pytest
 
-from comms.acoustics import bit_error_rate, packet_error_rate, snr_db
-from comms.loss import Bernoulli, Composite, GilbertElliott, LinkBudgetRange, LinkLoss, LossModel, RangeTable
+from comms.channel.acoustics import bit_error_rate, packet_error_rate, snr_db
+from comms.channel.loss import Bernoulli, Composite, GilbertElliott, LinkBudgetRange, LinkLoss, LossModel, RangeTable
 
 N = 200_000
 BUDGET = LinkBudgetRange(source_level_db=185.0, frequency_khz=25.0, bandwidth_hz=5000.0, modulation="bpsk")

@@ -18,8 +18,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from comms.guard import GuardedLink, GuardedLoss
-from comms.loss import Bernoulli, Composite, GilbertElliott, LossModel, RangeTable
+from comms.channel.guard import GuardedLink, GuardedLoss
+from comms.channel.loss import Bernoulli, Composite, GilbertElliott, LossModel, RangeTable
 from supervisor.config import extensions
 from supervisor.config.extensions import build, plugins_text, resolve
 from supervisor.config.fleet import channel_params
@@ -77,8 +77,8 @@ def test_a_user_loss_model_runs_the_paper_scenario_on_both_engines_with_the_same
          "comms.loss_model_options.p: Input should be less than or equal to 1, got 2"),
         (f"comms.loss_model={SAMPLES}:Cutoff\0comms.loss_model_options.range=1",
          "comms.loss_model_options.range: tests.samples.loss:Cutoff has no such option (its options: max_range, p)"),
-        ("comms.loss_model=comms.loss:Bernoulli\0comms.loss_model_options.p=1.5",
-         "comms.loss_model: comms.loss:Bernoulli refuses its options (p must be in [0, 1], got 1.5)"),
+        ("comms.loss_model=comms.channel.loss:Bernoulli\0comms.loss_model_options.p=1.5",
+         "comms.loss_model: comms.channel.loss:Bernoulli refuses its options (p must be in [0, 1], got 1.5)"),
         ("comms.loss_model_options.p=0.2", "comms.loss_model_options: options for no loss model"),
     ],
 )  # fmt: skip
@@ -162,10 +162,10 @@ def test_the_scenario_keys_build_their_models_through_the_registry(monkeypatch):
     monkeypatch.setattr(extensions, "build", recording)
     params = channel_params(scenario)
     assert named == [
-        "comms.loss:RangeTable",
-        "comms.loss:Bernoulli",
-        "comms.loss:GilbertElliott",
-        "comms.loss:Composite",
+        "comms.channel.loss:RangeTable",
+        "comms.channel.loss:Bernoulli",
+        "comms.channel.loss:GilbertElliott",
+        "comms.channel.loss:Composite",
     ]
     # The very models the keys always made, so their runs are unchanged (tests/test_bit_identical.py: every bit).
     assert params.loss == Composite((RangeTable((0.0, 100.0), (1.0, 0.5)), Bernoulli(0.2), GilbertElliott(0.1, 3.0)))
@@ -181,7 +181,7 @@ def test_a_named_model_composes_after_the_scenario_keys_on_every_link():
 
 
 def test_a_builtin_named_by_import_path_runs_unguarded():
-    sets = ["comms.loss_model=comms.loss:GilbertElliott", "comms.loss_model_options.mean_loss=0.2",
+    sets = ["comms.loss_model=comms.channel.loss:GilbertElliott", "comms.loss_model_options.mean_loss=0.2",
             "comms.loss_model_options.mean_burst=4"]  # fmt: skip
     params = channel_params(load_scenario(CONFIGS / "paper.toml", sets))
     assert params.loss == Composite((GilbertElliott(0.2, 4.0),))
@@ -231,7 +231,7 @@ def entry_points(tmp_path, monkeypatch):
 
 def test_a_builtin_is_found_by_its_entry_point_name(entry_points):
     model, identity = build("loss", "gilbert_elliott_time", {"mean_loss": 0.2, "mean_duration": 5.0})
-    assert identity.builtin and identity.target == "comms.loss:GilbertElliottTime"
+    assert identity.builtin and identity.target == "comms.channel.loss:GilbertElliottTime"
     assert isinstance(model, LossModel) and model.link().draws == 2
 
 
@@ -250,7 +250,7 @@ def test_a_scenario_names_a_builtin_loss_model_by_entry_point(entry_points, tmp_
     assert done.returncode == 0, done.stderr
     events = [m for topic, _, m in read_messages(tmp_path / "run.mcap") if topic == "cpf/comms/event"]
     assert 0.2 < sum(m.get("reason") == "loss" for m in events) / sum(m["kind"] == "sent" for m in events) < 0.4
-    assert sys.modules["comms.loss"].Bernoulli is Bernoulli  # the class the entry point names is this checkout's
+    assert sys.modules["comms.channel.loss"].Bernoulli is Bernoulli  # the entry point's class is this checkout's
 
 
 def test_the_example_in_docs_extending_is_a_loss_model_that_decides_as_the_sample():

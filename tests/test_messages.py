@@ -15,12 +15,13 @@ import pytest
 from hypothesis import event, example, given, settings
 from hypothesis import strategies as st
 
-from comms.broker_core import BrokerCore
-from comms.channel import Channel, ChannelParams, Kinematics, LinkEvent, Reception
-from comms.events import LinkEvents
-from comms.fields import MAX_TIME
-from comms.loss import Bernoulli
-from comms.messages import (
+from comms.broker.broker_core import BrokerCore
+from comms.broker.stats import LinkStats
+from comms.channel.channel import Channel, ChannelParams
+from comms.channel.loss import Bernoulli
+from comms.records.events import LinkEvents
+from comms.records.fields import MAX_TIME
+from comms.records.messages import (
     COMMS_DONE_KEY,
     COMMS_EVENT_KEY,
     COMMS_STATS_KEY,
@@ -51,9 +52,9 @@ from comms.messages import (
     tx_message,
     vehicle_of_key,
 )
-from comms.network import Network
-from comms.records import Disturbances, Heard, Transmission
-from comms.schemas import (
+from comms.records.network import Network
+from comms.records.records import Disturbances, Heard, Kinematics, LinkEvent, Reception, Transmission
+from comms.records.schemas import (
     COMMS_DONE,
     COMMS_STATS,
     LINK_EVENT,
@@ -65,9 +66,8 @@ from comms.schemas import (
     Schema,
     schema_for,
 )
-from comms.state import NeighbourAge
-from comms.stats import LinkStats
-from comms.wire import SIZE, encode_coordination
+from comms.records.state import NeighbourAge
+from comms.records.wire import SIZE, encode_coordination
 from supervisor.config.fleet import initial_state, radio, vehicle_config
 from supervisor.config.scenario import load_scenario
 from vehicles.agent import Telemetry
@@ -80,7 +80,7 @@ PAPER = Path(__file__).resolve().parent.parent / "configs" / "paper.toml"
 STILL_AT_150 = Kinematics(np.array([150.0, 0.0, 0.0]), np.zeros(3))
 HAVE_JSONSCHEMA = importlib.util.find_spec("jsonschema") is not None
 
-# --- a validator for the subset of JSON-Schema that comms/schemas.py uses ---------------------------------------
+# --- a validator for the subset of JSON-Schema that comms/records/schemas.py uses -------------------------------------
 
 KEYWORDS = {
     "$schema",
@@ -674,7 +674,7 @@ def state_cases() -> list[tuple[str, Message]]:
         ("velocity holds inf", with_(VALID_STATE, velocity=[INF, 0.0, 0.0])),
         ("velocity holds a bool", with_(VALID_STATE, velocity=[False, 0.0, 0.0])),
         ("another vehicle's key", with_(VALID_STATE, vehicle=5)),
-        # the diagnostics too: the state report is read whole (comms.state.StateReport.from_message)
+        # the diagnostics too: the state report is read whole (comms.records.state.StateReport.from_message)
         ("t holds nan", with_(VALID_STATE, t=NAN)),
         ("gamma is a string", with_(VALID_STATE, gamma="7.5")),
         ("lyapunov is None", with_(VALID_STATE, lyapunov=None)),
@@ -828,7 +828,7 @@ def tick_cases() -> list[tuple[str, Message]]:
 
 
 def tick_network_bug_cases() -> list[tuple[str, Message]]:
-    """Malformed networks comms.messages._network gets wrong: an error other than ValueError, or none at all."""
+    """Malformed networks comms.records.messages._network gets wrong: an error other than ValueError, or none at all."""
     net = VALID_TICK["network"]
 
     def network(**changes: Any) -> Message:

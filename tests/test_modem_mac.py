@@ -16,12 +16,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from comms.channel import Channel, ChannelParams, Kinematics, LinkEvent, LinkParams, Reception
-from comms.loss import Bernoulli, GilbertElliott
-from comms.modem import PRESETS, ModemParams, modem
-from comms.records import Disturbances, Transmission
-from comms.stats import LinkStats
-from comms.wire import SIZE, decode_coordination, encode_coordination
+from comms.broker.stats import LinkStats
+from comms.channel.channel import Channel, ChannelParams, LinkParams
+from comms.channel.loss import Bernoulli, GilbertElliott
+from comms.channel.modem import PRESETS, ModemParams, modem
+from comms.records.records import Disturbances, Kinematics, LinkEvent, Reception, Transmission
+from comms.records.wire import SIZE, decode_coordination, encode_coordination
 from supervisor.config.fleet import initial_state, vehicle_config
 from supervisor.config.scenario import load_scenario
 from vehicles.estimates import Hold, NeighbourEstimate, Reference

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from comms.state import StateReport
+from comms.records.state import StateReport
 from supervisor.config.fleet import initial_state, radio, restarted_node, vehicle_config
 from supervisor.config.scenario import load_scenario
 from supervisor.errors import ScenarioError

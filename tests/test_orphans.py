@@ -4,7 +4,7 @@ comes up (its lifeline alone ends it). A vehicle started by hand is not a launch
 A launched child that ends early still says why (its stderr file has no name, so a killed supervisor leaves none).
 
     cpf run --(spawn: launcher, then python -m supervisor.cli)--> broker, vehicle 1..3
-        stdin of each = read end of a pipe whose write end only cpf holds (comms.lifeline)
+        stdin of each = read end of a pipe whose write end only cpf holds (comms.bus.lifeline)
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 
-from comms.bus import free_port
+from comms.bus.bus import free_port
 from supervisor.engine.processes import ProcessGroup
 from tests.conftest import shortened
 from tests.procs import (

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from comms.records import Disturbances
+from comms.records.records import Disturbances
 from supervisor.config.scenario import parse_scenario
 from supervisor.plan.faults import _disturbances, _events_at, _network_at, _process_actions
 from supervisor.plan.schedule import Schedule

@@ -34,11 +34,23 @@ ALLOWED = {
     ("vehicles/geometry.py", "orthonormalize"): "LAPACK's SVD: the tests' reference, and the guard of a reflection",
     ("vehicles/coordination.py", "correction_vector"): "law (5) in vector form, to check the decentralised one",
     ("vehicles/coordination.py", "l_k"): "the projection L_K, for analysis and tests",
-    ("comms/graph.py", "algebraic_connectivity"): "lambda_2 by LAPACK: the one recorded value held to a tolerance",
-    ("comms/link_budget.py", "LinkBudgetRange.success_at"): "vectorised success over fades: `cpf per` figures only",
-    ("comms/fading.py", "_fading_cdf_db"): "the fade distribution for the mean over fades: `cpf per` figures only",
-    ("comms/fading.py", "gain_distribution"): "the fade distribution for the mean over fades: `cpf per` figures only",
-    ("comms/fading.py", "mean_over_gain"): "the mean over fades: `cpf per` figures only",
+    (
+        "comms/records/graph.py",
+        "algebraic_connectivity",
+    ): "lambda_2 by LAPACK: the one recorded value held to a tolerance",
+    (
+        "comms/channel/link_budget.py",
+        "LinkBudgetRange.success_at",
+    ): "vectorised success over fades: `cpf per` figures only",
+    (
+        "comms/channel/fading.py",
+        "_fading_cdf_db",
+    ): "the fade distribution for the mean over fades: `cpf per` figures only",
+    (
+        "comms/channel/fading.py",
+        "gain_distribution",
+    ): "the fade distribution for the mean over fades: `cpf per` figures only",
+    ("comms/channel/fading.py", "mean_over_gain"): "the mean over fades: `cpf per` figures only",
 }
 
 

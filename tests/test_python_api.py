@@ -205,7 +205,7 @@ def test_every_field_of_the_state_record_has_a_column():
     """A field added to the state record must show in the states table (named by it, or as NAMED says)."""
     from msgspec.structs import fields
 
-    from comms.state import NeighbourAge, StateReport
+    from comms.records.state import NeighbourAge, StateReport
     from supervisor.analysis.tables import states_table
 
     named = {"nav_estimate": "nav_x", "rx_lateness": "rx_lateness_max", "step_lateness": "step_lateness"}

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
-from comms.channel import Reception
-from comms.messages import Message, rx_message
+from comms.records.messages import Message, rx_message
+from comms.records.records import Reception
 from supervisor.engine.realtime_timing import RealtimeTiming, format_timing
 
 DT = 0.1

@@ -56,8 +56,8 @@ def test_the_run_end_bounds_the_times(tmp_path: Path) -> None:
 def test_what_the_supervisor_takes_from_the_bus_cannot_break_its_log(tmp_path: Path) -> None:
     """The issue's messages, through the Zenoh supervisor's intake: the log closes and reads; the bad ones are not in
     it."""
-    from comms.bus import Received
-    from comms.messages import COMMS_STATS_KEY, encode
+    from comms.bus.bus import Received
+    from comms.records.messages import COMMS_STATS_KEY, encode
     from supervisor.config.scenario import load_scenario
     from supervisor.engine.intake import Intake
     from tests.conftest import CONFIGS

@@ -20,7 +20,7 @@ import pytest
 from mcap.opcode import Opcode
 from mcap.reader import make_reader
 
-from comms.messages import COMMS_STATS_KEY, META_KEY, TICK_KEY, rx_key, state_key, tick_message, tx_key
+from comms.records.messages import COMMS_STATS_KEY, META_KEY, TICK_KEY, rx_key, state_key, tick_message, tx_key
 from supervisor.record import recorder
 from supervisor.record.recorder import Recorder, seconds_to_ns
 from supervisor.record.recover import MAGIC, RecoveryError, recover

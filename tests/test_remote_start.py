@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 
-from comms.bus import free_port
+from comms.bus.bus import free_port
 from tests.conftest import shortened
 from tests.procs import CPF, cpf, processes_with, wait_for_file
 

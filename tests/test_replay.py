@@ -15,8 +15,8 @@ from typing import Any
 import pytest
 import zenoh
 
-from comms.bus import free_port, open_session
-from comms.messages import META_KEY, ROOT, Message, decode
+from comms.bus.bus import free_port, open_session
+from comms.records.messages import META_KEY, ROOT, Message, decode
 from supervisor.config.scenario import parse_scenario
 from supervisor.engine.inprocess import run_inprocess
 from supervisor.engine.progress import Progress

@@ -20,7 +20,7 @@ from typing import Any
 import pytest
 import zenoh
 
-from comms.bus import free_port, open_session
+from comms.bus.bus import free_port, open_session
 from supervisor.tools.replay import ReplayReport, replay
 from supervisor.tools.replay_control import CONTROL_KEY
 from supervisor.tools.replay_player import SEEK_KEY

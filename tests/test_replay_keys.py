@@ -13,8 +13,8 @@ import threading
 import pytest
 import zenoh
 
-from comms.bus import free_port, open_session
-from comms.messages import (
+from comms.bus.bus import free_port, open_session
+from comms.records.messages import (
     COMMS_EVENTS_KEY,
     COMMS_STEP_KEY,
     FAULT_KEY,
@@ -85,7 +85,7 @@ def test_a_replay_publishes_the_keys_of_the_live_run_in_the_same_form(live) -> N
     assert keys(seen_replay) == keys(seen_live)
     assert {COMMS_STEP_KEY, COMMS_EVENTS_KEY, state_key(1)} <= keys(seen_live)
     for key in keys(seen_live):
-        # a lockstep tick's span is the supervisor's grant to the broker (comms.span): on the bus, not in the log
+        # a lockstep tick's span is the supervisor's grant to the broker (comms.broker.span): on the bus, not in the log
         bus_only = {"span", "longest"} if key == TICK_KEY else set()
         live_fields = {field for k, m, _ in seen_live if k == key for field in m} - bus_only
         replay_fields = {field for k, m, _ in seen_replay if k == key for field in m}

@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from comms.messages import COMMS_EVENT_KEY, COMMS_STATS_KEY, FAULT_KEY, GRAPH_KEY, META_KEY, state_key
+from comms.records.messages import COMMS_EVENT_KEY, COMMS_STATS_KEY, FAULT_KEY, GRAPH_KEY, META_KEY, state_key
 from supervisor.analysis.metrics import STEADY_STATE_WINDOW, run_metrics
 from supervisor.analysis.report import FaultInterval, RunData, load_run, write_figures, write_report
 from supervisor.analysis.summary import summarize

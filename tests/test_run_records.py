@@ -8,8 +8,8 @@ from typing import Any
 
 import pytest
 
-from comms.events import LinkEvents
-from comms.run import FaultEvent, Graph, Stop
+from comms.records.events import LinkEvents
+from comms.records.run import FaultEvent, Graph, Stop
 from supervisor.config.scenario import load_scenario
 from supervisor.record.meta import RunMeta
 from tests.conftest import CONFIGS

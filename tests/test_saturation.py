@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from comms.records import Disturbances
+from comms.records.records import Disturbances
 from supervisor.analysis.rundata import load_run
 from supervisor.analysis.saturation_summary import at_limit, format_limits
 from supervisor.analysis.summary import Series

@@ -6,8 +6,8 @@ from __future__ import annotations
 import pytest
 import zenoh
 
-from comms.bus import free_port, open_session, serve
-from comms.messages import (
+from comms.bus.bus import free_port, open_session, serve
+from comms.records.messages import (
     COMMS_ALIVE,
     STOP_KEY,
     SUPERVISOR_ALIVE,

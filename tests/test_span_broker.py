@@ -1,4 +1,4 @@
-"""The broker over a lockstep span (no Zenoh, comms.span): one grant of steps a .. c-1 and the broker issues each
+"""The broker over a lockstep span (no Zenoh, comms.broker.span): one grant of steps a .. c-1 and the broker issues each
 step's tick itself, handing out exactly what the supervisor's ticks one step at a time did (the same batches
 messages, ticks in them included, and the same link events); its windows come from the vehicles' fresh reports."""
 
@@ -6,8 +6,16 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from comms.messages import COMMS_EVENTS_KEY, COMMS_STEP_KEY, TICK_KEY, encode, state_key, step_message, tick_message
-from comms.messages import tx_message as tx_wire
+from comms.records.messages import (
+    COMMS_EVENTS_KEY,
+    COMMS_STEP_KEY,
+    TICK_KEY,
+    encode,
+    state_key,
+    step_message,
+    tick_message,
+)
+from comms.records.messages import tx_message as tx_wire
 from tests.test_broker_integration import DT, IDS, Fleet, fleet, pure_broker, state_message  # noqa: F401
 
 STEPS = 12

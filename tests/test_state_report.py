@@ -1,6 +1,6 @@
 """Each message described once: a record (frozen dataclass), its wire form, its reading and its JSON schema agree.
 
-Started with comms.state.StateReport; the other records of the bus follow the same checks (RECORDS below)."""
+Started with comms.records.state.StateReport; the other records of the bus follow the same checks (RECORDS below)."""
 
 from __future__ import annotations
 
@@ -12,14 +12,13 @@ from typing import Any
 import msgspec
 import pytest
 
-from comms.channel import LinkEvent, Reception
-from comms.events import LinkEvents
-from comms.messages import Hello, decode, encode, rx_message, state_key, step_message, tick_message
-from comms.network import Network
-from comms.receptions import Delivery, RxBatch
-from comms.records import Disturbances, Transmission
-from comms.run import FaultEvent, Graph, Stop
-from comms.schemas import (
+from comms.records.events import LinkEvents
+from comms.records.messages import Hello, decode, encode, rx_message, state_key, step_message, tick_message
+from comms.records.network import Network
+from comms.records.receptions import Delivery, RxBatch
+from comms.records.records import Disturbances, LinkEvent, Reception, Transmission
+from comms.records.run import FaultEvent, Graph, Stop
+from comms.records.schemas import (
     FAULT,
     GRAPH,
     HELLO,
@@ -33,8 +32,8 @@ from comms.schemas import (
     TRANSMISSION,
     schema_for,
 )
-from comms.state import NeighbourAge, StateReport
-from comms.tick import DisturbedVehicle, Tick
+from comms.records.state import NeighbourAge, StateReport
+from comms.records.tick import DisturbedVehicle, Tick
 from supervisor.record.meta import RunMeta
 from vehicles.dynamics import PLANAR, SPATIAL
 from vehicles.report import state_message

@@ -18,7 +18,7 @@ from distributed import LocalCluster
 from distributed.diagnostics.plugin import SchedulerPlugin
 
 import supervisor.tools.sweep as sweep_module
-from comms.bus import free_port
+from comms.bus.bus import free_port
 from tests.conftest import shortened
 from tests.procs import cpf, start_cpf
 from tests.test_sweep_resim import read_rows

@@ -13,9 +13,9 @@ from typing import Any
 import pytest
 import zenoh
 
-from comms.bus import free_port, open_session
-from comms.handover import write_private
-from comms.messages import STOP_KEY, SUPERVISOR_ALIVE, Hello, encode, vehicle_alive_key
+from comms.bus.bus import free_port, open_session
+from comms.bus.handover import write_private
+from comms.records.messages import STOP_KEY, SUPERVISOR_ALIVE, Hello, encode, vehicle_alive_key
 from supervisor.config.scenario import load_scenario
 from supervisor.config.scenario_digest import digest, section_digests
 from supervisor.config.vehicle_start import vehicle_starts

@@ -6,8 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from comms.channel import Reception
-from comms.messages import (
+from comms.records.messages import (
     COMMS_STEP_KEY,
     Message,
     batches_message,
@@ -18,6 +17,7 @@ from comms.messages import (
     tick_lead,
     tick_message,
 )
+from comms.records.records import Reception
 from supervisor.config.fleet import initial_state, radio, vehicle_config
 from supervisor.config.scenario import load_scenario
 from tests.conftest import RecordingPublishers
@@ -62,7 +62,7 @@ def send_tick(node: _Vehicle, k: int, wall: float | None, comms: bool = True) ->
 
 
 def serve_one(node: _Vehicle, key: str, payload: bytes) -> None:
-    """What comms.bus.serve does with each message: hand it over, then run what is due."""
+    """What comms.bus.bus.serve does with each message: hand it over, then run what is due."""
     node(key, payload)
     node.on_time()
 

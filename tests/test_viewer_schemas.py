@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import pytest
 
-from comms.messages import COMMS_EVENT_KEY, COMMS_STATS_KEY, FAULT_KEY, GRAPH_KEY, META_KEY, STOP_KEY, TICK_KEY
-from comms.schemas import schema_for
+from comms.records.messages import COMMS_EVENT_KEY, COMMS_STATS_KEY, FAULT_KEY, GRAPH_KEY, META_KEY, STOP_KEY, TICK_KEY
+from comms.records.schemas import schema_for
 from tests.viewer_rules import viewer_problems
 
 KEYS = [META_KEY, FAULT_KEY, GRAPH_KEY, STOP_KEY, TICK_KEY, COMMS_EVENT_KEY, COMMS_STATS_KEY, "cpf/comms/done",

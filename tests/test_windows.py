@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from comms.messages import TICK_KEY
+from comms.records.messages import TICK_KEY
 from supervisor.config.scenario import load_scenario
 from supervisor.engine.clock import LONGEST_WINDOW, Clock
 from supervisor.engine.windows import window_end, worth_waiting
@@ -81,7 +81,8 @@ class Run:
     """What the clock drives (supervisor.engine.clock.Driven): who is alive, what they reported, what it said."""
 
     def __init__(self, reports: dict[int, tuple[int, int]], comms_up: bool = False) -> None:
-        """comms_up: with a broker, lockstep ticks grant it spans (comms.span); without, the supervisor's windows."""
+        """comms_up: with a broker, lockstep ticks grant it spans (comms.broker.span); without, the supervisor's
+        windows."""
         self.alive, self.comms_up, self._reports = list(FLEET), comms_up, reports
         self.recorded: list[tuple[str, float, dict]] = []
 
@@ -133,8 +134,8 @@ def test_the_clock_stops_a_window_before_a_fault_and_at_the_end():
 
 
 def test_with_a_broker_the_clock_grants_it_the_span_up_to_the_next_change_and_logs_one_tick_per_step():
-    """Lockstep with a broker: one grant for the whole stretch to the next change (comms.span), nothing per step on
-    the bus; the log gets, step by step as the supervisor reaches them, the ticks stepping one at a time gives."""
+    """Lockstep with a broker: one grant for the whole stretch to the next change (comms.broker.span), nothing per step
+    on the bus; the log gets, step by step as the supervisor reaches them, the ticks stepping one at a time gives."""
     ticks, pubs = clock()
     run = Run({v: (9, 10) for v in FLEET}, comms_up=True)
     assert ticks.issue(run, 10) == 1500  # the speed cap starts at step 1500

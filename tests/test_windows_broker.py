@@ -4,7 +4,7 @@ batches message; and it then waits for the window's last states, not for those i
 
 from __future__ import annotations
 
-from comms.messages import (
+from comms.records.messages import (
     COMMS_EVENTS_KEY,
     COMMS_STATS_KEY,
     COMMS_STEP_KEY,

@@ -50,7 +50,7 @@ def run(
     tmp: Path, name: str, engine: str, longest: int | None, monkeypatch: pytest.MonkeyPatch
 ) -> tuple[Path, RunResult, list[int]]:
     """One run of CASES[name]; the window lengths run (zenoh only): one per tick the supervisor published, and one per
-    step message of a vehicle (inside a span the broker works the windows out: comms.span)."""
+    step message of a vehicle (inside a span the broker works the windows out: comms.broker.span)."""
     file, duration, overrides, faults = CASES[name]
     text = shortened((CONFIGS / file).read_text(), duration)
     path = tmp / "s.toml"

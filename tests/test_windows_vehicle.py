@@ -8,8 +8,16 @@ from pathlib import Path
 
 import pytest
 
-from comms.channel import Reception
-from comms.messages import COMMS_STEP_KEY, Message, batches_message, encode, split_window, state_key, tick_message
+from comms.records.messages import (
+    COMMS_STEP_KEY,
+    Message,
+    batches_message,
+    encode,
+    split_window,
+    state_key,
+    tick_message,
+)
+from comms.records.records import Reception
 from supervisor.config.fleet import initial_state, radio, vehicle_config
 from supervisor.config.scenario import load_scenario
 from tests.conftest import RecordingPublishers

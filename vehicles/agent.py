@@ -11,7 +11,7 @@ import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 
-from comms.records import Disturbances, FloatArray
+from comms.records.records import Disturbances, FloatArray
 from vehicles.actuators import SIZE as ACTUATOR_SIZE
 from vehicles.actuators import START as ACTUATOR_START
 from vehicles.actuators import Actuators

@@ -1,5 +1,5 @@
 """Coordination of the path parameters gamma_i: the coordination-law interface and law (5) of the paper (its graph
-matrices are in comms.graph).
+matrices are in comms.records.graph).
 
 A law is any object with the `CoordinationLaw` interface: from vehicle i's own (gamma, gamma_dot), what it predicts
 of its neighbours and the fleet's gains, the correction v_tilde_i that enters gamma_ddot_i (paper, eq. (3)). The
@@ -30,7 +30,7 @@ from typing import Annotated, Literal, Protocol, runtime_checkable
 import numpy as np
 from annotated_types import Gt
 
-from comms.records import FloatArray
+from comms.records.records import FloatArray
 from numerics import tanh
 
 Law = Literal["corrected", "literal"]

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from comms.records import FloatArray
+from comms.records.records import FloatArray
 from vehicles.geometry import Float3, reorthonormalized
 from vehicles.params import VehicleParams
 

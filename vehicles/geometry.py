@@ -13,7 +13,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from comms.records import FloatArray
+from comms.records.records import FloatArray
 from numerics import asin, atan2, sincos
 
 Float3 = tuple[float, float, float]  # a 3-vector as plain floats, for the hot path

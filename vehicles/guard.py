@@ -4,8 +4,8 @@ which every engine treats as that vehicle's failure (vehicles.step adds the vehi
 exit 1 and that one line, or goes on without the vehicle if scenario.on_vehicle_loss says so). The built-ins run
 unguarded: they are tested, and the guard's clock reads would cost them a third of their time.
 
-The call itself (exception and CPU budget: time.thread_time, not wall time) is comms.guard's, which the channel's
-loss models share.
+The call itself (exception and CPU budget: time.thread_time, not wall time) is comms.channel.guard's, which the
+channel's loss models share.
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, TypeVar
 
-from comms.guard import CALL_BUDGET, guarded_call, short
+from comms.channel.guard import CALL_BUDGET, guarded_call, short
 from vehicles.coordination import CoordinationGains
 from vehicles.dynamics import Accelerations, PathVectors
 from vehicles.estimates import NeighbourEstimate

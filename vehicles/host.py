@@ -2,13 +2,13 @@
 
 Each vehicle keeps its own Zenoh session, opened with its own credential: its own keys, liveliness token, hello and
 messages, so neither the router's access control nor the log can tell a hosted vehicle from one in a process of its
-own. Each is served by its own thread, running comms.bus.serve as a lone vehicle's main thread would: its messages go
-out in its own order, whatever its host-mates do (the GIL has them step one after another; none waits on another's
+own. Each is served by its own thread, running comms.bus.bus.serve as a lone vehicle's main thread would: its messages
+go out in its own order, whatever its host-mates do (the GIL has them step one after another; none waits on another's
 queue). The process pays its interpreter and imports once for all of them.
 
 The supervisor holds the write end of a control pipe (CONTROL_ENV names the read end): a line `kill N` stops serving
 vehicle N alone, as its SIGKILL would (no end-of-run report, its token gone, its session closed); its host-mates go on.
-The host's lifeline (comms.lifeline) ends every vehicle; the process ends when its last vehicle has.
+The host's lifeline (comms.bus.lifeline) ends every vehicle; the process ends when its last vehicle has.
 """
 
 from __future__ import annotations
@@ -18,8 +18,8 @@ import os
 import threading
 from collections.abc import Callable, Mapping
 
-from comms.bus import Ending
-from comms.lifeline import Lifeline, watch
+from comms.bus.bus import Ending
+from comms.bus.lifeline import Lifeline, watch
 
 CONTROL_ENV = "CPF_HOST_CONTROL"  # the file descriptor of the control pipe's read end
 log = logging.getLogger(__name__)

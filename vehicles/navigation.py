@@ -36,7 +36,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from comms.records import FloatArray
+from comms.records.records import FloatArray
 from numerics import sincos
 from numerics.linalg import det, inverse, matmul
 from vehicles.geometry import Float3

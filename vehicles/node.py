@@ -5,8 +5,9 @@ k: both come in the one batches message the broker publishes for the whole fleet
 publishes it while the broker is down). It runs vehicles.step.step_records, then publishes one step message: its
 state, the transmission it made (if any) and the receptions it took in. In realtime the broker sends each reception
 as soon as the channel has decided it, usually ahead of its arrival: the vehicle holds it until the step its arrival
-calls for, and reports how late each one reached it against its arrival (negative: how far ahead). comms.bus.serve runs
-its life: it stops on the stop message, or by itself when the supervisor's liveliness token disappears (no orphans).
+calls for, and reports how late each one reached it against its arrival (negative: how far ahead). comms.bus.bus.serve
+runs its life: it stops on the stop message, or by itself when the supervisor's liveliness token disappears (no
+orphans).
 """
 
 from __future__ import annotations
@@ -17,9 +18,9 @@ from collections import Counter
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
-from comms.bus import Ending, Extras, Publishers, Timed, serve
-from comms.channel import intake_step
-from comms.messages import (
+from comms.bus.bus import Ending, Extras, Publishers, Timed, serve
+from comms.channel.channel import intake_step
+from comms.records.messages import (
     COMMS_STEP_KEY,
     Message,
     Tick,
@@ -33,9 +34,9 @@ from comms.messages import (
     vehicle_done_key,
     window_message,
 )
-from comms.receptions import Delivery, RxBatch
-from comms.records import Disturbances, Heard
-from comms.reports import VehicleDone
+from comms.records.receptions import Delivery, RxBatch
+from comms.records.records import Disturbances, Heard
+from comms.records.reports import VehicleDone
 from vehicles.agent import VehicleConfig
 from vehicles.runtime import NodeState, Radio
 from vehicles.step import step_records
@@ -95,8 +96,8 @@ def run_vehicle(
 ) -> int:
     """Serve one vehicle from step start_step (a restarted process resumes mid-run) until told to stop or the
     supervisor disappears; returns the exit code. neighbours: the scenario's, until a tick says otherwise.
-    hello: the answer to the supervisor's question which scenario the vehicle runs (comms.messages.Hello);
-    extras: its credentials and the site's Zenoh config (comms.bus.Extras); ending: a vehicle host's hold on it
+    hello: the answer to the supervisor's question which scenario the vehicle runs (comms.records.messages.Hello);
+    extras: its credentials and the site's Zenoh config (comms.bus.bus.Extras); ending: a vehicle host's hold on it
     (vehicles.host)."""
     vid = cfg.vehicle_id
 
@@ -108,7 +109,7 @@ def run_vehicle(
 
 
 class _Vehicle:
-    """The vehicle as comms.bus.serve drives it: it steps once it has the tick of its next step and, in realtime,
+    """The vehicle as comms.bus.bus.serve drives it: it steps once it has the tick of its next step and, in realtime,
     once that step's wall-clock time has come (ticks go out ahead, so the bus's latency is not in the step's), or
     at the latest the tick's lead after the tick came (its host's clock may lag the supervisor's)."""
 
@@ -128,13 +129,13 @@ class _Vehicle:
         self.publishers, self.k, self.pending, self.now = publishers, k, _Pending(), now
 
     def __call__(self, key: str, payload: bytes) -> None:
-        _take(key, payload, self.cfg.vehicle_id, self.pending, self.dt, self.now)  # comms.bus.serve then: on_time
+        _take(key, payload, self.cfg.vehicle_id, self.pending, self.dt, self.now)  # comms.bus.bus.serve then: on_time
 
     def due(self) -> float | None:
         return self.pending.start_at.get(self.k)
 
     def final_report(self) -> tuple[str, Message]:
-        """Its end-of-run report (comms.bus.serve publishes it on the stop message): what it dropped, by key."""
+        """Its end-of-run report (comms.bus.bus.serve publishes it on the stop message): what it dropped, by key."""
         vid = self.cfg.vehicle_id
         report = VehicleDone(self.k * self.dt, self.k, vid, dict(sorted(self.pending.malformed.items())))
         return vehicle_done_key(vid), report.to_message()

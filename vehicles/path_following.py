@@ -40,7 +40,7 @@ from typing import Annotated, Literal, NamedTuple, Protocol, runtime_checkable
 
 from annotated_types import Gt
 
-from comms.records import FloatArray
+from comms.records.records import FloatArray
 from vehicles.dynamics import Accelerations, Model, PathVectors
 from vehicles.geometry import Float3
 from vehicles.params import VehicleParams

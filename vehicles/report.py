@@ -1,14 +1,14 @@
 """A vehicle's state report: what it says about step k, built from its telemetry and its model.
 
 Only the vehicle knows how its state vector maps to a position, an attitude and velocities (planar vehicles are
-embedded in 3-D here), so the report is built on this side; comms only defines the record (comms.state.StateReport)
-and its wire form.
+embedded in 3-D here), so the report is built on this side; comms only defines the record
+(comms.records.state.StateReport) and its wire form.
 """
 
 from __future__ import annotations
 
-from comms.messages import Message
-from comms.state import NeighbourAge, StateReport
+from comms.records.messages import Message
+from comms.records.state import NeighbourAge, StateReport
 from vehicles.agent import Telemetry
 from vehicles.dynamics import Model
 from vehicles.navigation import NavOutput

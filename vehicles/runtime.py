@@ -11,8 +11,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
-from comms.records import Disturbances, Heard, Transmission
-from comms.state import NeighbourAge
+from comms.records.records import Disturbances, Heard, Transmission
+from comms.records.state import NeighbourAge
 from vehicles.agent import Telemetry, VehicleConfig, VehicleState, own_estimate, receive, step
 from vehicles.current import body, body_to_inertial
 from vehicles.estimates import NeighbourEstimate

@@ -1,4 +1,4 @@
-"""What a vehicle process serves a vehicle with, whole, handed over in a private file of the run (comms.handover:
+"""What a vehicle process serves a vehicle with, whole, handed over in a private file of the run (comms.bus.handover:
 why pickle, and why it is safe).
 """
 
@@ -7,8 +7,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from comms.fields import Message
-from comms.handover import read_private
+from comms.bus.handover import read_private
+from comms.records.fields import Message
 from vehicles.agent import VehicleConfig
 from vehicles.runtime import NodeState, Radio
 
@@ -22,7 +22,7 @@ class VehicleStart:
     radio: Radio
     neighbours: tuple[int, ...]  # the scenario's graph, until a tick says otherwise
     dt: float
-    hello: Message  # its answer to which scenario it runs (comms.messages.Hello): the supervisor's own digests
+    hello: Message  # its answer to which scenario it runs (comms.records.messages.Hello): the supervisor's own digests
     start_step: int = 0
 
 
@@ -30,7 +30,7 @@ WHAT = "vehicle starts written by cpf run"
 
 
 def read_starts(path: Path) -> tuple[VehicleStart, ...]:
-    """The starts the supervisor wrote (comms.handover.write_private, a tuple); ValueError '<file>: <problem>'
+    """The starts the supervisor wrote (comms.bus.handover.write_private, a tuple); ValueError '<file>: <problem>'
     for a file that is not a private file of this user's holding them."""
     starts = read_private(path, tuple, WHAT)
     if not all(isinstance(s, VehicleStart) for s in starts):

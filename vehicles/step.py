@@ -13,10 +13,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from comms.fields import MAX_SPEED
-from comms.messages import Message, tx_message
-from comms.records import Disturbances, Heard, Transmission
-from comms.state import StateReport
+from comms.records.fields import MAX_SPEED
+from comms.records.messages import Message, tx_message
+from comms.records.records import Disturbances, Heard, Transmission
+from comms.records.state import StateReport
 from vehicles.agent import VehicleConfig
 from vehicles.report import state_report
 from vehicles.runtime import NodeState, Radio, node_step

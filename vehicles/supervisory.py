@@ -47,7 +47,7 @@ from typing import Annotated, Literal
 import numpy as np
 from annotated_types import Ge, Gt, Lt
 
-from comms.records import FloatArray
+from comms.records.records import FloatArray
 from numerics import exp
 from vehicles.dynamics import PathVectors, with_inputs
 from vehicles.geometry import Float3

@@ -12,8 +12,8 @@ from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, fields
 from typing import Any
 
-from comms.reports import LinkCounts
-from comms.stats import clamp_lambda2
+from comms.broker.stats import clamp_lambda2
+from comms.records.reports import LinkCounts
 
 BY_NO_KEY = "any key"  # a reader that reports one count, not by key (the broker)
 

@@ -36,8 +36,8 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
-from comms.reports import CommsStats
-from comms.stats import clamp_lambda2
+from comms.broker.stats import clamp_lambda2
+from comms.records.reports import CommsStats
 from supervisor.analysis.summary import PhaseStats, Series, Summary, coordination_error, nan_max, summarize
 from supervisor.config.derived import intervals
 from supervisor.config.scenario import validate_data

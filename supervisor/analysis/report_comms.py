@@ -15,8 +15,8 @@ import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
-from comms.graph import algebraic_connectivity, laplacian
-from comms.stats import clamp_lambda2
+from comms.broker.stats import clamp_lambda2
+from comms.records.graph import algebraic_connectivity, laplacian
 from supervisor.analysis.figures import colour, finish_time_axes, new_figure
 from supervisor.analysis.rundata import AgeSeries, Array, LinkLog, RunData
 

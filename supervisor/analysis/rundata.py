@@ -16,11 +16,11 @@ from typing import Any, NamedTuple, Protocol, TypeAlias
 import numpy as np
 from numpy.typing import NDArray
 
-from comms.channel import LinkEvent
-from comms.messages import COMMS_EVENT_KEY, COMMS_STATS_KEY, FAULT_KEY, GRAPH_KEY, META_KEY, vehicle_of_key
-from comms.reports import CommsStats
-from comms.run import FaultEvent, Graph
-from comms.state import StateReport
+from comms.records.messages import COMMS_EVENT_KEY, COMMS_STATS_KEY, FAULT_KEY, GRAPH_KEY, META_KEY, vehicle_of_key
+from comms.records.records import LinkEvent
+from comms.records.reports import CommsStats
+from comms.records.run import FaultEvent, Graph
+from comms.records.state import StateReport
 from supervisor.errors import ScenarioError
 from supervisor.record import logfile
 from supervisor.record.meta import RunMeta

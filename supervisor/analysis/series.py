@@ -7,7 +7,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from comms.state import StateReport
+from comms.records.state import StateReport
 from supervisor.analysis.summary import Series
 
 INITIAL_ROWS = 1024  # steps held before the first growth; the array doubles as the run goes

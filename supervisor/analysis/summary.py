@@ -17,7 +17,7 @@ from itertools import pairwise
 
 import numpy as np
 
-from comms.records import FloatArray
+from comms.records.records import FloatArray
 
 
 @dataclass(frozen=True, slots=True)

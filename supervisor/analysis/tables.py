@@ -2,10 +2,10 @@
 
 `read_run` reads a log once, in the pass the report's reader makes (analysis.rundata.load_run, over the one reader
 of logs, supervisor.record.logfile: LogError for a log cut short or damaged), each message through its record type
-(comms.state.StateReport, comms.records.Transmission, comms.receptions.RxBatch, comms.channel.LinkEvent,
-comms.run.FaultEvent: ScenarioError naming the topic for one that does not read), and builds each table at once from
-lists of tuples. The Python API (`cpf.load`) and `cpf export` give these tables; docs/api.md lists their columns
-and units.
+(comms.records.state.StateReport, comms.records.records.Transmission, comms.records.receptions.RxBatch,
+comms.records.records.LinkEvent, comms.records.run.FaultEvent: ScenarioError naming the topic for one that does not
+read), and builds each table at once from lists of tuples. The Python API (`cpf.load`) and `cpf export` give these
+tables; docs/api.md lists their columns and units.
 
 - states: one row per vehicle and sync step (t, k, vehicle; position, velocity, error, tau, ... split per axis);
 - transmissions: one row per packet a vehicle transmitted; receptions: one per packet a vehicle took in;
@@ -25,12 +25,11 @@ from typing import Any
 
 import pandas as pd
 
-from comms.channel import LinkEvent
-from comms.messages import COMMS_EVENT_KEY, FAULT_KEY, vehicle_of_key
-from comms.receptions import RxBatch
-from comms.records import Transmission
-from comms.run import FaultEvent
-from comms.state import StateReport
+from comms.records.messages import COMMS_EVENT_KEY, FAULT_KEY, vehicle_of_key
+from comms.records.receptions import RxBatch
+from comms.records.records import LinkEvent, Transmission
+from comms.records.run import FaultEvent
+from comms.records.state import StateReport
 from supervisor.analysis.rundata import RunData, load_run
 
 __all__ = ["LOG_TABLES", "TABLES", "metrics_table", "read_run", "run_tables", "states_table"]

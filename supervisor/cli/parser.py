@@ -245,7 +245,7 @@ def _add_broker(sub: Commands) -> None:
 
 
 def _add_plan(command: argparse.ArgumentParser, served: str, unread: str) -> None:
-    """--plan: the private file the supervisor hands a process it starts (comms.handover)."""
+    """--plan: the private file the supervisor hands a process it starts (comms.bus.handover)."""
     command.add_argument(
         "--plan", type=Path, default=None, metavar="FILE",
         help=f"what to serve {served} with, as the supervisor hands the processes it starts (a private file of its "

@@ -18,9 +18,9 @@ from supervisor.errors import ScenarioError
 if TYPE_CHECKING:
     from collections.abc import Callable, Iterator, Sequence
 
-    from comms.access import Credential
-    from comms.broker_start import BrokerStart
-    from comms.bus import Ending, Extras
+    from comms.broker.broker_start import BrokerStart
+    from comms.bus.access import Credential
+    from comms.bus.bus import Ending, Extras
     from supervisor.config.scenario_schema import Scenario
     from supervisor.engine.inprocess import RunResult
     from supervisor.record.live import LiveView
@@ -65,7 +65,7 @@ def _option_errors(args: argparse.Namespace, scenario: Scenario) -> list[str]:
 def _bus_errors(args: argparse.Namespace) -> list[str]:
     """Who may reach the run's bus, and how: what --listen, --remote, --credentials-dir and --zenoh-config ask for
     must be safe and possible (supervisor.engine.bus_access)."""
-    from comms.bus import site_config
+    from comms.bus.bus import site_config
     from supervisor.engine.bus_access import is_loopback, is_tls
 
     errors, router, given = [], args.connect is None, args.credentials_dir
@@ -289,7 +289,7 @@ def _gamma0_of(given: list[tuple[int | None, float]], ids: list[int]) -> dict[in
 def comms(args: argparse.Namespace) -> int:
     """The broker process. Started by the supervisor (--plan), it serves what the supervisor handed it; started by
     hand, what it builds from the scenario file."""
-    from comms.broker import run_broker
+    from comms.broker.broker import run_broker
 
     start = _planned_broker(args.plan) if args.plan is not None else _broker_from_scenario(args)
     extras = _process_extras(args, "comms broker")
@@ -299,7 +299,7 @@ def comms(args: argparse.Namespace) -> int:
 def _planned_broker(plan: Path) -> BrokerStart:
     """The start the supervisor handed over (no scenario loaded, no pydantic imported); ScenarioError for a file
     that is not one."""
-    from comms.broker_start import read_broker_start
+    from comms.broker.broker_start import read_broker_start
 
     try:
         return read_broker_start(plan)
@@ -318,7 +318,7 @@ def _broker_from_scenario(args: argparse.Namespace) -> BrokerStart:
 def _vehicle_extras(args: argparse.Namespace, ids: list[int]) -> dict[int, Extras]:
     """Each vehicle's extras: its credential from the --credentials files (or those its supervisor handed it, by
     name), one for every --id or none at all; ScenarioError if one is missing or another process's."""
-    from comms.access import ENV, read_credential
+    from comms.bus.access import ENV, read_credential
 
     where = ", ".join(str(p) for p in args.credentials) if args.credentials else f"${ENV}"
     handed = [Path(p) for p in os.environ.get(ENV, "").split(os.pathsep) if p]  # a host's: one per vehicle
@@ -340,7 +340,7 @@ def _vehicle_extras(args: argparse.Namespace, ids: list[int]) -> dict[int, Extra
 def _process_extras(args: argparse.Namespace, name: str) -> Extras:
     """The broker's credential (--credentials, else the one its supervisor handed it) and the site's Zenoh config;
     ScenarioError for a file that is not one, or another process's credential."""
-    from comms.access import ENV, credential_from_env, read_credential
+    from comms.bus.access import ENV, credential_from_env, read_credential
 
     where = str(args.credentials) if args.credentials is not None else f"${ENV}"
     try:
@@ -354,8 +354,8 @@ def _process_extras(args: argparse.Namespace, name: str) -> Extras:
 
 def _extras(args: argparse.Namespace, credential: Credential | None) -> Extras:
     """A session's extras: the credential's settings over the site's Zenoh config (ScenarioError if that is not one)."""
-    from comms.access import client_config
-    from comms.bus import Extras, site_config
+    from comms.bus.access import client_config
+    from comms.bus.bus import Extras, site_config
 
     if args.zenoh_config is not None:
         try:

@@ -1,4 +1,4 @@
-"""From a validated Scenario to what the broker process serves the channel with (comms.broker_start).
+"""From a validated Scenario to what the broker process serves the channel with (comms.broker.broker_start).
 
 The supervisor builds it for the broker it starts (and hands it over in a private file); a broker started by hand
 builds its own from the scenario file. Either way from here, so both start identically.
@@ -6,7 +6,7 @@ builds its own from the scenario file. Either way from here, so both start ident
 
 from __future__ import annotations
 
-from comms.broker_start import BrokerStart
+from comms.broker.broker_start import BrokerStart
 from supervisor.config.fleet import broker_core
 from supervisor.config.scenario_digest import hello
 from supervisor.config.scenario_schema import Scenario

@@ -1,5 +1,5 @@
-"""The scenario's [comms] section: the acoustic channel between vehicles (comms/channel.py), its loss models, links,
-transmission policy and TDMA schedule. Re-exported by supervisor/config/scenario_schema.py.
+"""The scenario's [comms] section: the acoustic channel between vehicles (comms/channel/channel.py), its loss models,
+links, transmission policy and TDMA schedule. Re-exported by supervisor/config/scenario_schema.py.
 """
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import Field, field_validator, model_validator
 
-from comms.modem import PRESETS as MODEMS
+from comms.channel.modem import PRESETS as MODEMS
 from supervisor.config.schema_base import (
     MAX_BYTES,
     MAX_COUNT,
@@ -156,7 +156,7 @@ class TdmaSection(StrictModel):
 
 
 class CommsSection(StrictModel):
-    """The acoustic channel between vehicles (comms/channel.py). Defaults: the ideal channel."""
+    """The acoustic channel between vehicles (comms/channel/channel.py). Defaults: the ideal channel."""
 
     sound_speed: Annotated[Float, Field(ge=1000, le=2000)] | WaterSection = Field(
         default=1500.0, description="m/s (sea water: about 1450-1550), or water properties"

@@ -6,7 +6,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 from typing import Any
 
-from comms.wire import SIZE
+from comms.records.wire import SIZE
 from supervisor.config.comms_schema import CommsSection, TransmitSection
 from supervisor.config.controller_choice import AUTO, controller_name, estimated_spread
 from supervisor.config.derived import steps_of

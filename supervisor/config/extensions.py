@@ -8,13 +8,14 @@ pyproject.toml) or an import path `package.module:Name`. The object it names is 
 (a dataclass, or a pydantic model): its options table in the scenario is validated against those fields by pydantic,
 so a bad option is the usual one-line error naming the file, the field and the value. An instance must have the
 interface's methods (vehicles.coordination.CoordinationLaw, vehicles.estimates.Predictor,
-vehicles.transmission.TransmissionPolicy, comms.loss.LossModel, vehicles.path_following.PathFollowingController,
+vehicles.transmission.TransmissionPolicy, comms.channel.loss.LossModel, vehicles.path_following.PathFollowingController,
 vehicles.vehicle_model.VehicleModel).
 
 Each extension has an identity (its name, the object it resolves to, its distribution and version, and the SHA-256
 of its module's source): the hello digest covers it, so a vehicle on another host running other code is refused,
-and the log's meta records it. Someone else's extension runs inside a guard (vehicles.guard; comms.guard for a loss
-model) that turns an exception, a result of the wrong kind or an overrun of its time budget into one line naming it.
+and the log's meta records it. Someone else's extension runs inside a guard (vehicles.guard; comms.channel.guard for a
+loss model) that turns an exception, a result of the wrong kind or an overrun of its time budget into one line naming
+it.
 """
 
 from __future__ import annotations
@@ -29,8 +30,8 @@ from dataclasses import dataclass
 from importlib import metadata
 from typing import TYPE_CHECKING, Any
 
-from comms.guard import GuardedLoss
-from comms.loss import LossModel
+from comms.channel.guard import GuardedLoss
+from comms.channel.loss import LossModel
 from vehicles.coordination import CoordinationLaw
 from vehicles.estimates import Predictor
 from vehicles.guard import Guarded
@@ -150,8 +151,8 @@ def build(kind: str, name: str, options: dict[str, Any], context: dict[str, Any]
 
 
 def extension(kind: str, name: str, options: Mapping[str, Any], context: dict[str, Any] | None = None) -> Any:
-    """The named extension built with its options; someone else's behind the guard (vehicles.guard; comms.guard for
-    a loss model, which the broker runs). The scenario's checks have built it once already: here it cannot fail."""
+    """The named extension built with its options; someone else's behind the guard (vehicles.guard; comms.channel.guard
+    for a loss model, which the broker runs). The scenario's checks have built it once already: here it cannot fail."""
     instance, identity = build(kind, name, dict(options), context)
     if identity.builtin:
         return instance

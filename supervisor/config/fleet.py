@@ -10,9 +10,10 @@ from typing import Any
 
 import numpy as np
 
-from comms.broker_core import BrokerCore
-from comms.channel import Capture, Channel, ChannelParams, LinkParams
-from comms.loss import (
+from comms.broker.broker_core import BrokerCore
+from comms.broker.stats import LinkStats
+from comms.channel.channel import Capture, Channel, ChannelParams, LinkParams
+from comms.channel.loss import (
     Bernoulli,
     Composite,
     GilbertElliott,
@@ -21,10 +22,9 @@ from comms.loss import (
     LossModel,
     RangeTable,
 )
-from comms.messages import Message
-from comms.modem import ModemParams
-from comms.state import StateReport
-from comms.stats import LinkStats
+from comms.channel.modem import ModemParams
+from comms.records.messages import Message
+from comms.records.state import StateReport
 from supervisor.config.controller_choice import controller_name, controller_options
 from supervisor.config.extensions import extension
 from supervisor.config.links import needs_fitting

@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from comms.wire import SIZE
+from comms.records.wire import SIZE
 from supervisor.config.medium import modem_params, sound_speed
 from supervisor.config.scenario_schema import Scenario
 

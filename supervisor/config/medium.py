@@ -3,8 +3,8 @@
 
 from __future__ import annotations
 
-from comms.acoustics import mackenzie_sound_speed
-from comms.modem import ModemParams, modem
+from comms.channel.acoustics import mackenzie_sound_speed
+from comms.channel.modem import ModemParams, modem
 from supervisor.config.scenario_schema import Scenario, WaterSection
 
 

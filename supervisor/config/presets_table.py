@@ -1,8 +1,8 @@
 """`cpf presets`: the vehicle and modem presets a scenario can name, with their key numbers.
 
-Everything is read from the presets themselves (vehicles/params.py, comms/modem.py) or derived from them with the
-model's own equations (top speed: full thrust against the surge damping; airtime of one cpf message), so a new preset
-shows up here without a change.
+Everything is read from the presets themselves (vehicles/params.py, comms/channel/modem.py) or derived from them with
+the model's own equations (top speed: full thrust against the surge damping; airtime of one cpf message), so a new
+preset shows up here without a change.
 """
 
 from __future__ import annotations
@@ -10,9 +10,9 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-from comms.modem import PRESETS as MODEMS
-from comms.modem import ModemParams
-from comms.wire import SIZE
+from comms.channel.modem import PRESETS as MODEMS
+from comms.channel.modem import ModemParams
+from comms.records.wire import SIZE
 from vehicles.actuators import remus100
 from vehicles.params import GRAVITY, PRESETS, VehicleParams
 

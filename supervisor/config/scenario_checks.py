@@ -257,7 +257,7 @@ def _paths(sc: Scenario) -> Iterator[str]:
 
 def _comms(sc: Scenario) -> Iterator[str]:
     """Links, TDMA order and packet size against the fleet and the modem; the models' own checks."""
-    from comms.wire import SIZE
+    from comms.records.wire import SIZE
     from supervisor.config.fleet import channel_params
     from supervisor.config.medium import modem_params
 

@@ -16,7 +16,7 @@ import dataclasses
 import hashlib
 import json
 
-from comms.messages import Hello, Message
+from comms.records.messages import Hello, Message
 from supervisor.config.extension_checks import extension_identities
 from supervisor.config.plant import spreads
 from supervisor.config.scenario_schema import Scenario

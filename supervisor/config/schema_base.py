@@ -13,8 +13,8 @@ from typing import Annotated
 
 from pydantic import BaseModel, ConfigDict, Field, JsonValue, Strict
 
-from comms.fields import MAX_SPEED, MAX_TIME
-from comms.wire import MAX_VEHICLE_ID
+from comms.records.fields import MAX_SPEED, MAX_TIME
+from comms.records.wire import MAX_VEHICLE_ID
 
 __all__ = ["MAX_SPEED", "MAX_TIME", "MAX_VEHICLE_ID"]
 

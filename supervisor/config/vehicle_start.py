@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from comms.messages import Hello, Message
+from comms.records.messages import Hello, Message
 from supervisor.config.fleet import initial_state, radio, restarted_node, vehicle_config
 from supervisor.config.scenario_digest import digest, section_digests, vehicle_seed
 from supervisor.config.scenario_schema import Scenario

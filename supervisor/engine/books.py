@@ -10,9 +10,9 @@ from __future__ import annotations
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 
-from comms.channel import LinkEvent
-from comms.messages import Message
-from comms.stats import LinkStats
+from comms.broker.stats import LinkStats
+from comms.records.messages import Message
+from comms.records.records import LinkEvent
 
 
 @dataclass

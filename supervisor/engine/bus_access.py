@@ -1,9 +1,10 @@
 """A run's access to its bus, the supervisor's side: fresh credentials for every process, the router's
-authentication, TLS and access-control settings (comms.access, comms.tls), and where each child finds its credential.
+authentication, TLS and access-control settings (comms.bus.access, comms.bus.tls), and where each child finds its
+credential.
 
 On Linux nothing is written to disk: the router's dictionary and each child's credential are memory files
 (memfd), the child inherits its own by file descriptor and finds it at /proc/self/fd/N, named in its environment
-(comms.access.ENV), never on its command line; they vanish with the processes, however the run ends (a SIGKILLed
+(comms.bus.access.ENV), never on its command line; they vanish with the processes, however the run ends (a SIGKILLed
 supervisor left a directory of credentials behind). Elsewhere they are 0600 files in a private temporary directory
 that goes with the run. Vehicles started by hand (--remote) get
 theirs in --credentials-dir, for the user to copy to their hosts. A supervisor that joins another router (--connect)
@@ -20,7 +21,7 @@ from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from comms.access import (
+from comms.bus.access import (
     ENV,
     Credential,
     access_control,
@@ -30,7 +31,7 @@ from comms.access import (
     vehicle_name,
     write_private,
 )
-from comms.bus import Extras
+from comms.bus.bus import Extras
 from supervisor.config.scenario_schema import Scenario
 from supervisor.engine.hosting import hosted_ids
 from supervisor.engine.launch import BusOptions
@@ -95,7 +96,7 @@ def run_access(sc: Scenario, bus: BusOptions, endpoint: str) -> Iterator[RunAcce
     credentials = make_credentials(sc.vehicle_ids)
     entries: dict[str, object] = {}
     if is_tls(endpoint):
-        from comms.tls import router_tls  # here: `cryptography` costs every other run ~17 ms of start-up
+        from comms.bus.tls import router_tls  # here: `cryptography` costs every other run ~17 ms of start-up
 
         tls = router_tls([endpoint_host(endpoint)])
         credentials = {name: c.with_ca(tls.ca) for name, c in credentials.items()}

@@ -15,8 +15,8 @@ from __future__ import annotations
 import time
 from typing import Protocol
 
-from comms.bus import Publishers
-from comms.messages import (
+from comms.bus.bus import Publishers
+from comms.records.messages import (
     COMMS_STEP_KEY,
     FAULT_KEY,
     GRAPH_KEY,
@@ -26,8 +26,8 @@ from comms.messages import (
     tick_lead,
     tick_message,
 )
-from comms.network import Network
-from comms.run import Graph
+from comms.records.network import Network
+from comms.records.run import Graph
 from supervisor.config.scenario_schema import Scenario
 from supervisor.engine.windows import Reports, window_end, worth_waiting
 from supervisor.plan.faults import ProcessAction
@@ -119,12 +119,13 @@ class Clock:
         return end
 
     def _spanning(self, run: Driven, k: int) -> bool:
-        """Whether step k starts a span the broker runs itself (comms.span): lockstep with windows, a broker up."""
+        """Whether step k starts a span the broker runs itself (comms.broker.span): lockstep with windows, a broker
+        up."""
         return self.mode == "lockstep" and self.longest > 1 and run.comms_up and k < self.schedule.steps
 
     def _grant(self, run: Driven, plan: StepPlan) -> int:
-        """The broker is granted steps plan.k up to the next change (comms.span); returns that step. Their ticks go
-        on the record one by one as the supervisor reaches them (record)."""
+        """The broker is granted steps plan.k up to the next change (comms.broker.span); returns that step. Their ticks
+        go on the record one by one as the supervisor reaches them (record)."""
         reach = self.schedule.next_change(plan.k)
         self.spans = [span for span in self.spans if span[1] > self.waiting] + [(plan.k, reach, {})]
         self.issued = None  # nothing of the supervisor's own ticks to say again: the grant says it (reissue)

@@ -19,9 +19,9 @@ from pathlib import Path
 
 import zenoh
 
-from comms.access import done_key_pattern
-from comms.bus import Inbox, Publishers, free_port, open_session
-from comms.messages import (
+from comms.bus.access import done_key_pattern
+from comms.bus.bus import Inbox, Publishers, free_port, open_session
+from comms.records.messages import (
     ALIVE_PREFIX,
     COMMS_DONE_KEY,
     COMMS_EVENTS_KEY,
@@ -34,7 +34,7 @@ from comms.messages import (
     SUPERVISOR_ALIVE,
     Message,
 )
-from comms.run import Graph, Stop
+from comms.records.run import Graph, Stop
 from supervisor.config.scenario import load_scenario
 from supervisor.config.scenario_schema import Scenario
 from supervisor.engine import interrupts

@@ -1,7 +1,7 @@
 """The single-process engine: every vehicle and the channel stepped in one loop.
 
 It runs exactly the pipeline of the multi-process engine (vehicles.step.step_records for each vehicle,
-comms.broker_core for the channel, messages built and parsed the same way, the plan of each step from the one
+comms.broker.broker_core for the channel, messages built and parsed the same way, the plan of each step from the one
 supervisor.plan.schedule.Schedule), in one process
 and one thread. Process faults are emulated as the Zenoh engine performs them: a killed vehicle stops stepping (the run
 goes on: a scheduled kill is the fault, not a loss) and restarts from its last recorded state; a killed broker loses
@@ -16,9 +16,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from comms.broker_core import BrokerCore
-from comms.channel import Kinematics, LinkEvent
-from comms.messages import (
+from comms.broker.broker_core import BrokerCore
+from comms.records.messages import (
     COMMS_EVENT_KEY,
     COMMS_STATS_KEY,
     FAULT_KEY,
@@ -30,10 +29,10 @@ from comms.messages import (
     state_key,
     tx_key,
 )
-from comms.network import Network
-from comms.receptions import RxBatch
-from comms.records import Transmission
-from comms.run import Graph
+from comms.records.network import Network
+from comms.records.receptions import RxBatch
+from comms.records.records import Kinematics, LinkEvent, Transmission
+from comms.records.run import Graph
 from supervisor.analysis.series import SeriesBuilder
 from supervisor.analysis.summary import Series
 from supervisor.config.derived import steps_of
@@ -120,8 +119,8 @@ class _InProcessRun:
         return out
 
     def _submit(self, broker: BrokerCore, t: float) -> None:
-        """Last step's transmissions into the channel. A loss model behind comms.guard that fails stops the run as
-        the Zenoh engine's broker process does when it ends with that line (exit 1, the line naming the model)."""
+        """Last step's transmissions into the channel. A loss model behind comms.channel.guard that fails stops the run
+        as the Zenoh engine's broker process does when it ends with that line (exit 1, the line naming the model)."""
         try:
             events = broker.submit(self.sent, self.where, self.network)
         except FloatingPointError as exc:

@@ -1,7 +1,7 @@
-"""What the Zenoh supervisor takes in from the bus: every message read through its record (comms.state, comms.records,
-comms.receptions, comms.channel, comms.reports) and checked against the run, then recorded in the record's own form;
-the vehicles' states counted by step (the clock waits on them), and the broker's link events booked in the
-supervisor's own books.
+"""What the Zenoh supervisor takes in from the bus: every message read through its record (comms.records.state,
+comms.records.records, comms.records.receptions, comms.channel.channel, comms.records.reports) and checked against the
+run, then recorded in the record's own form; the vehicles' states counted by step (the clock waits on them), and the
+broker's link events booked in the supervisor's own books.
 
 A message that does not read as its record, or does not fit the run (a step or a time outside it, a time that is not
 its step's, a vehicle or a link the run does not have), is counted by its key and dropped, never recorded and never
@@ -17,12 +17,12 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import TypeVar
 
-from comms.bus import Publishers, Received
-from comms.bus_records import EventsWire, RxWire, Step, TxWire, log_json, read_events, read_window
-from comms.channel import LinkEvent
-from comms.events import LinkEvents
-from comms.fields import slow_enough
-from comms.messages import (
+from comms.broker.windows import report_of
+from comms.bus.bus import Publishers, Received
+from comms.records.bus_records import EventsWire, RxWire, Step, TxWire, log_json, read_events, read_window
+from comms.records.events import LinkEvents
+from comms.records.fields import slow_enough
+from comms.records.messages import (
     COMMS_DONE_KEY,
     COMMS_EVENT_KEY,
     COMMS_EVENTS_KEY,
@@ -38,11 +38,10 @@ from comms.messages import (
     vehicle_done_key,
     vehicle_of_key,
 )
-from comms.receptions import RxBatch
-from comms.records import Transmission
-from comms.reports import CommsDone, CommsStats, VehicleDone
-from comms.state import StateReport
-from comms.windows import report_of
+from comms.records.receptions import RxBatch
+from comms.records.records import LinkEvent, Transmission
+from comms.records.reports import CommsDone, CommsStats, VehicleDone
+from comms.records.state import StateReport
 from supervisor.analysis.comms_summary import BY_NO_KEY
 from supervisor.analysis.series import SeriesBuilder
 from supervisor.config.derived import steps_of
@@ -54,7 +53,7 @@ from supervisor.record.recorder import TIME_MARGIN, Recorder
 
 log = logging.getLogger("cpf.engine")
 T = TypeVar("T")
-B = TypeVar("B", RxBatch, RxWire)  # a reception batch, as comms.receptions or msgspec reads it
+B = TypeVar("B", RxBatch, RxWire)  # a reception batch, as comms.records.receptions or msgspec reads it
 SUPERVISOR = "supervisor"
 BROKER = "broker"
 
@@ -143,10 +142,10 @@ class Intake:
             raise ValueError("not a key the supervisor reads")
 
     def _typed(self, key: str, payload: bytes) -> bool:
-        """A vehicle's step message or the broker's link events read straight into typed records (comms.bus_records:
-        ~2x faster) and checked and recorded as _take would; False, with nothing done, for any message msgspec
-        refuses (or any other key): _take then reads it and says what is wrong. Realtime runs read the slow way (the
-        timing reads the messages)."""
+        """A vehicle's step message or the broker's link events read straight into typed records
+        (comms.records.bus_records: ~2x faster) and checked and recorded as _take would; False, with nothing done, for
+        any message msgspec refuses (or any other key): _take then reads it and says what is wrong. Realtime runs read
+        the slow way (the timing reads the messages)."""
         if key == COMMS_EVENTS_KEY:
             events = read_events(payload)
             if events is not None:

@@ -1,7 +1,7 @@
 """How the Zenoh supervisor starts its children: the bus options of a run and the command line of each process.
 
 Every child runs `python -m supervisor.cli comms|vehicle` on the supervisor's scenario file with the run's --set and
---fault, and is handed what it serves (--plan: a private file of the run, comms.handover), so it starts without
+--fault, and is handed what it serves (--plan: a private file of the run, comms.bus.handover), so it starts without
 validating the scenario again: ~15 MB and ~0.1 s of CPU less per process. Its hello still answers with the
 supervisor's digests (supervisor.engine.startup), as a process started by hand answers with its own.
 """
@@ -12,8 +12,8 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from comms.broker_start import BrokerStart
-from comms.handover import write_private
+from comms.broker.broker_start import BrokerStart
+from comms.bus.handover import write_private
 from vehicles.start import VehicleStart
 
 START_TIMEOUT = 60.0  # s for a process to declare its liveliness token (cpf run --start-timeout)

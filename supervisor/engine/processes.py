@@ -6,8 +6,8 @@ group, then SIGKILL. Children's stderr goes to a temporary file whose last line 
 has no name (unlinked at once), so a supervisor that is killed leaves none behind.
 
 No child outlives the supervisor by more than about a second, whenever and however it ends: every child is started
-through comms.lifeline's launcher, with the read end of a pipe as its stdin (the write end stays here, and the kernel
-closes it when this process ends) and, on Linux, a parent-death signal that covers the child's start-up.
+through comms.bus.lifeline's launcher, with the read end of a pipe as its stdin (the write end stays here, and the
+kernel closes it when this process ends) and, on Linux, a parent-death signal that covers the child's start-up.
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ from dataclasses import dataclass
 from types import TracebackType
 from typing import IO
 
-from comms import lifeline
+from comms.bus import lifeline
 
 
 @dataclass
@@ -90,7 +90,7 @@ class ProcessGroup:
     def spawn(self, name: str, argv: list[str], control_env: str | None = None) -> Child:
         """Start argv as a child in its own session. The parent-death signal names the forking thread as the
         parent, so it is asked for only from the main thread (the lifeline alone covers a child spawned elsewhere
-        once it runs comms.bus.serve). control_env: give it a control pipe (Child.tell), its read end's descriptor
+        once it runs comms.bus.bus.serve). control_env: give it a control pipe (Child.tell), its read end's descriptor
         in that environment variable."""
         stderr = tempfile.TemporaryFile(prefix="cpf-" + name.replace(",", "-").replace(" ", "-") + "-")  # noqa: SIM115 - closed in stop()
         from_main = threading.current_thread() is threading.main_thread()

@@ -10,9 +10,9 @@ from typing import Any, TypeGuard
 
 import numpy as np
 
-from comms.channel import intake_step
-from comms.messages import Message
-from comms.receptions import RxBatch
+from comms.channel.channel import intake_step
+from comms.records.messages import Message
+from comms.records.receptions import RxBatch
 
 
 @dataclass

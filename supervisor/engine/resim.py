@@ -19,9 +19,9 @@ import math
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 
-from comms.messages import META_KEY, Message, parse_rx, state_key, vehicle_of_key
-from comms.records import Heard
-from comms.state import StateReport
+from comms.records.messages import META_KEY, Message, parse_rx, state_key, vehicle_of_key
+from comms.records.records import Heard
+from comms.records.state import StateReport
 from supervisor.analysis.series import SeriesBuilder
 from supervisor.analysis.summary import Series
 from supervisor.config.derived import steps_of

@@ -1,5 +1,5 @@
 """The start of a distributed run, the supervisor's side: who is still missing, and whether each process that came
-alive runs the supervisor's scenario (its hello, comms.messages.Hello, against the expected digests)."""
+alive runs the supervisor's scenario (its hello, comms.records.messages.Hello, against the expected digests)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import zenoh
 
-from comms.messages import COMMS_ALIVE, Hello, decode, hello_key
+from comms.records.messages import COMMS_ALIVE, Hello, decode, hello_key
 from supervisor.config.scenario_digest import difference, section_digests, vehicle_seed
 from supervisor.config.scenario_schema import Scenario
 from supervisor.errors import ScenarioError

@@ -12,8 +12,8 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-from comms.bus import Inbox, Publishers, Received
-from comms.messages import COMMS_ALIVE, Message, vehicle_alive_key
+from comms.bus.bus import Inbox, Publishers, Received
+from comms.records.messages import COMMS_ALIVE, Message, vehicle_alive_key
 from supervisor.config.broker_start import broker_start
 from supervisor.config.scenario_schema import Scenario
 from supervisor.config.vehicle_start import Resume, vehicle_starts

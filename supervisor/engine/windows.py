@@ -1,6 +1,6 @@
-"""Lockstep time windows: the rule lives in comms.windows, where the broker, which works out the windows of a span
-itself (comms.span), can reach it too."""
+"""Lockstep time windows: the rule lives in comms.broker.windows, where the broker, which works out the windows of a
+span itself (comms.broker.span), can reach it too."""
 
-from comms.windows import Reports, window_end, worth_waiting
+from comms.broker.windows import Reports, window_end, worth_waiting
 
 __all__ = ["Reports", "window_end", "worth_waiting"]

@@ -12,9 +12,9 @@ import logging
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from comms.network import Network
-from comms.records import Disturbances
-from comms.run import FaultEvent  # a fault starting or ending: the plan's record, as the log keeps it
+from comms.records.network import Network
+from comms.records.records import Disturbances
+from comms.records.run import FaultEvent  # a fault starting or ending: the plan's record, as the log keeps it
 from supervisor.config.derived import active, end_of, graph_at
 from supervisor.config.scenario_schema import (
     BlackoutFault,

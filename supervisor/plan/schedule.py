@@ -16,8 +16,8 @@ import math
 from dataclasses import dataclass
 from types import MappingProxyType
 
-from comms.network import Network
-from comms.records import Disturbances
+from comms.records.network import Network
+from comms.records.records import Disturbances
 from supervisor.config.derived import active, end_of, first_step, steps_of
 from supervisor.config.scenario_schema import FaultSpec, Scenario, VehicleKillFault
 from supervisor.plan.faults import (

@@ -22,8 +22,8 @@ from typing import TYPE_CHECKING, Any
 
 import orjson
 
-from comms.messages import FAULT_KEY, GRAPH_KEY, META_KEY
-from comms.schemas import schema_for
+from comms.records.messages import FAULT_KEY, GRAPH_KEY, META_KEY
+from comms.records.schemas import schema_for
 from supervisor.errors import ScenarioError
 from supervisor.record.live_relay import Relay
 from supervisor.record.scene.foxglove_schemas import (

@@ -1,7 +1,7 @@
 """The run's metadata (cpf/run/meta), the first record of every log: what ran, with which seed and which versions.
 
-A supervisor record (schema comms.schemas.META): it carries the scenario as validated, which the lower layers know
-nothing of. `RunMeta.of` builds it from a scenario, `to_message` gives its wire form (JSON in the log, msgpack on
+A supervisor record (schema comms.records.schemas.META): it carries the scenario as validated, which the lower layers
+know nothing of. `RunMeta.of` builds it from a scenario, `to_message` gives its wire form (JSON in the log, msgpack on
 the bus), `from_message` is its checked inverse (ValueError naming the field) that every reader of a log goes through.
 """
 
@@ -12,8 +12,8 @@ from dataclasses import dataclass
 from importlib import metadata
 from typing import Any
 
-from comms.fields import Message, get, is_int, number
-from comms.run import Edge, edges_of, links_message
+from comms.records.fields import Message, get, is_int, number
+from comms.records.run import Edge, edges_of, links_message
 from supervisor.config.derived import tube_radius
 from supervisor.config.extension_checks import extension_identities
 from supervisor.config.scenario_schema import Scenario

@@ -28,10 +28,10 @@ from typing import IO, Any, Protocol
 import orjson
 from mcap.writer import CompressionType
 
-from comms.channel import LinkEvent
-from comms.messages import Message
-from comms.schemas import schema_for
-from comms.state import StateReport
+from comms.records.messages import Message
+from comms.records.records import LinkEvent
+from comms.records.schemas import schema_for
+from comms.records.state import StateReport
 from supervisor.errors import ScenarioError
 from supervisor.record.fast_mcap import FastWriter
 from supervisor.record.scene.foxglove_schemas import MESSAGE_ENCODING, SCHEMA_ENCODING, schema_data, schema_name

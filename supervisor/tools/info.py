@@ -16,7 +16,7 @@ from typing import IO
 from mcap.records import Statistics
 from mcap.summary import Summary
 
-from comms.messages import META_KEY
+from comms.records.messages import META_KEY
 from supervisor.config.describe import describe_fault, seconds
 from supervisor.record.logfile import (
     LogError,

@@ -12,8 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from comms.link_budget import LinkBudgetRange
-from comms.modem import PRESETS, ModemParams
+from comms.channel.link_budget import LinkBudgetRange
+from comms.channel.modem import PRESETS, ModemParams
 from supervisor.analysis.figures import colour, new_figure, save
 
 MAX_RANGE_M = 200_000.0  # the search for where a preset's link dies stops here
@@ -23,7 +23,7 @@ DRAW_RANGES = 12
 
 @dataclass(frozen=True, slots=True)
 class Channel:
-    """What the figure is drawn for (units as in comms.link_budget.LinkBudgetRange)."""
+    """What the figure is drawn for (units as in comms.channel.link_budget.LinkBudgetRange)."""
 
     source_level_db: float = 185.0
     size_bytes: int = 15

@@ -2,9 +2,9 @@
 
 `cpf replay RUN.mcap` reads the log in log-time order (streamed, chunk by chunk: a long log is never held in memory),
 turns its records back into the messages a live run puts on the bus (tools.replay_bus: the same keys and forms)
-and puts each, encoded as msgpack (the live wire format, comms.messages.encode), on its key, so a subscriber written
-against a live run sees the run again, and the reverse. A window that starts late begins with the latest meta and
-graph and the faults in force. The message logged at simulation time t
+and puts each, encoded as msgpack (the live wire format, comms.records.messages.encode), on its key, so a subscriber
+written against a live run sees the run again, and the reverse. A window that starts late begins with the latest meta
+and graph and the faults in force. The message logged at simulation time t
 goes out at wall time t0 + (t - t_first) / speed; speed 0 means as fast as possible (publishers block rather than
 drop, so nothing is lost either way). `start` and `end` (simulation seconds, both inclusive) select a window;
 `loop` replays it again and again until interrupted. Liveliness keys (cpf/alive/...), channels that are not JSON and
@@ -38,8 +38,8 @@ from typing import TYPE_CHECKING
 
 import zenoh
 
-from comms.bus import Extras, Publishers, free_port, open_session, site_config
-from comms.messages import ALIVE_PREFIX, FAULT_KEY, GRAPH_KEY, META_KEY, Message
+from comms.bus.bus import Extras, Publishers, free_port, open_session, site_config
+from comms.records.messages import ALIVE_PREFIX, FAULT_KEY, GRAPH_KEY, META_KEY, Message
 from supervisor.errors import ScenarioError
 from supervisor.record.logfile import LogMessage, messages, open_log, reader_of, verify
 from supervisor.record.recorder import seconds_to_ns

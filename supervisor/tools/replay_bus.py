@@ -24,7 +24,7 @@ import math
 from collections.abc import Iterable, Iterator
 from typing import Any
 
-from comms.messages import (
+from comms.records.messages import (
     COMMS_EVENT_KEY,
     COMMS_EVENTS_KEY,
     COMMS_STEP_KEY,
@@ -38,9 +38,9 @@ from comms.messages import (
     step_message,
     vehicle_of_key,
 )
-from comms.receptions import RxBatch
-from comms.run import FaultEvent
-from comms.tick import Tick
+from comms.records.receptions import RxBatch
+from comms.records.run import FaultEvent
+from comms.records.tick import Tick
 from supervisor.record.meta import RunMeta
 
 Record = tuple[str, int, Any]  # (topic, log time ns, message)

@@ -27,7 +27,7 @@ from typing import Any, cast
 
 import zenoh
 
-from comms.messages import ROOT
+from comms.records.messages import ROOT
 from supervisor.tools.replay_player import MAX_SPEED, Command, Done, Player, PlayerState, Publish, Verb, Wait
 
 log = logging.getLogger(__name__)

@@ -24,7 +24,7 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import Any, Literal
 
-from comms.messages import ROOT
+from comms.records.messages import ROOT
 
 NS_PER_S = 1e9
 SEEK_KEY = f"{ROOT}/replay/seek"  # {"from": s, "to": s, "seek": n}: what follows starts at log time `to`

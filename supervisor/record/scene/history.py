@@ -15,10 +15,10 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from comms.channel import LinkEvent
-from comms.messages import COMMS_EVENT_KEY, FAULT_KEY, GRAPH_KEY, META_KEY, vehicle_of_key
-from comms.run import FaultEvent, Graph
-from comms.state import StateReport
+from comms.records.messages import COMMS_EVENT_KEY, FAULT_KEY, GRAPH_KEY, META_KEY, vehicle_of_key
+from comms.records.records import LinkEvent
+from comms.records.run import FaultEvent, Graph
+from comms.records.state import StateReport
 from supervisor.record.meta import RunMeta
 
 PUBLISH_PERIOD = 0.5  # s of simulated time between published instants (rounded to whole steps)
@@ -102,8 +102,8 @@ class FleetHistory:
         self.states.setdefault(report.k, {})[report.vehicle] = snapshot
 
     def _event(self, _: str, message: Any) -> None:
-        """A link event (comms.channel.LinkEvent's wire form). Every event of a run passes here (32000 in the paper
-        scenario): read by hand, for the fields kept, rather than through LinkEvent.from_message (3x the time)."""
+        """A link event (comms.records.records.LinkEvent's wire form). Every event of a run passes here (32000 in the
+        paper scenario): read by hand, for the fields kept, rather than through LinkEvent.from_message (3x the time)."""
         kind = message.get("kind")
         if kind != "delivered" and kind != "dropped":  # sent: a packet's fate is its delivery or its drop
             return

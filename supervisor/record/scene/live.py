@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from comms.messages import COMMS_EVENT_KEY, vehicle_of_key
+from comms.records.messages import COMMS_EVENT_KEY, vehicle_of_key
 from supervisor.record.scene.foxglove_schemas import PATHS_TOPIC
 from supervisor.record.scene.geometry import path_points
 from supervisor.record.scene.history import FleetHistory

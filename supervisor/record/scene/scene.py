@@ -36,8 +36,8 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from comms.channel import LinkEvent
-from comms.state import StateReport
+from comms.records.records import LinkEvent
+from comms.records.state import StateReport
 from supervisor.record.scene import primitives as fx
 from supervisor.record.scene.foxglove_schemas import (
     FLEET_FRAME,

@@ -1,0 +1,88 @@
+"""The broker's work at each sync step, as plain code shared by the broker process and the in-process engine.
+
+At sync instant t_k: first the transmissions of step k-1 (all stamped t_{k-1}) enter the channel in sender order,
+encoded as the modem would carry them, with every vehicle's kinematics of t_{k-1}; then everything arriving no
+later than t_k is handed out, one batch per vehicle. Only links of the current graph carry messages. Link
+statistics are kept all along and snapshotted every stats window.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
+
+from comms.broker.stats import LinkStats
+from comms.channel.channel import Channel
+from comms.records.messages import Message
+from comms.records.network import Network
+from comms.records.records import Kinematics, LinkEvent, Reception, Transmission
+from comms.records.wire import decode_coordination, encode_coordination
+
+
+@dataclass
+class BrokerCore:
+    channel: Channel
+    neighbours: dict[int, list[int]]  # the current graph: who hears whom
+    stats: LinkStats
+    _next_snapshot: float | None = None  # the first snapshot after one full window
+
+    def submit(
+        self,
+        transmissions: Iterable[Transmission],
+        kinematics: Mapping[int, Kinematics],
+        network: Network | None = None,
+    ) -> list[LinkEvent]:
+        """Put one step's transmissions in the water; kinematics: every live vehicle's, at the transmission time;
+        network: the graph and link faults in force then (None: the scenario's graph, no faults)."""
+        events: list[LinkEvent] = []
+        for tx in sorted(transmissions, key=lambda tx: tx.sender):
+            wire = encode_coordination(tx)
+            carried = decode_coordination(wire)  # what receivers will read: float32 values
+            as_sent = Transmission(  # not dataclasses.replace: the same record, a fraction of the cost
+                tx.sender, tx.seq, tx.t, carried.gamma, carried.gamma_dot, tx.position, tx.velocity, tx.stamp
+            )
+            heard_by = network.neighbours(tx.sender) if network else self.neighbours.get(tx.sender, [])
+            receivers = set(heard_by) & set(kinematics)
+            if network is not None and tx.sender in network.silent:
+                events += _silenced(tx, receivers)
+                continue
+            events += self.channel.transmit(as_sent, len(wire), receivers, kinematics, network)
+        self.stats.add(events)
+        return events
+
+    def deliver(self, t: float, vehicles: Sequence[int]) -> tuple[dict[int, list[Reception]], list[LinkEvent]]:
+        """Receptions due by t, per vehicle (every vehicle gets a batch, possibly empty)."""
+        receptions, events = self.channel.deliver(t)
+        batches: dict[int, list[Reception]] = {i: [] for i in vehicles}
+        for r in receptions:
+            batches.setdefault(r.receiver, []).append(r)
+        self.stats.add(events)
+        return batches, events
+
+    def finish(self, t: float, reason: str = "end_of_run") -> list[LinkEvent]:
+        """End of run (or of this broker): what is still in flight is dropped, so every link's books balance."""
+        events = self.channel.flush(t, reason)
+        self.stats.add(events)
+        return events
+
+    def snapshot_due(self, t: float, final: bool = False) -> Message | None:
+        """The link statistics, once per window and at the end."""
+        if self._next_snapshot is None:
+            self._next_snapshot = self.stats.window
+        if not final and t + 1e-9 < self._next_snapshot:
+            return None
+        self._next_snapshot = t + self.stats.window
+        return self.stats.snapshot(t)
+
+    @property
+    def counts(self) -> dict[str, int]:
+        return self.stats.totals()
+
+
+def _silenced(tx: Transmission, receivers: set[int]) -> list[LinkEvent]:
+    """A silent modem: the vehicle believes it sent; nothing entered the water."""
+    events = []
+    for j in sorted(receivers):
+        events.append(LinkEvent(tx.t, tx.sender, j, tx.seq, "sent"))
+        events.append(LinkEvent(tx.t, tx.sender, j, tx.seq, "dropped", reason="modem_silent"))
+    return events

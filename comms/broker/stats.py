@@ -1,0 +1,97 @@
+"""Per-directed-link statistics of a run, and the connectivity the channel actually delivered.
+
+Fed with the channel's link events, it keeps per link: packets sent, delivered, dropped by cause, and the mean and
+largest delay. Every window it computes lambda_2 of the undirected graph whose edges are the pairs that delivered at
+least one packet (either way) within the last `horizon` s: zero means the delivered graph was disconnected. The
+horizon is the window unless the caller gives a longer one: a vehicle that transmits once a TDMA frame longer than
+the window would otherwise leave its links out of most windows although they deliver every frame.
+"""
+
+from __future__ import annotations
+
+from collections import Counter, deque
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+
+from comms.records.graph import algebraic_connectivity, laplacian
+from comms.records.records import LinkEvent
+
+CONNECTED = 1e-9  # lambda_2 at or below this is 0 (disconnected): eigvalsh gives +-1e-17 there, never less than 4/n^2
+
+
+def clamp_lambda2(value: float) -> float:
+    """lambda_2 with the rounding of a disconnected graph's (tiny, possibly negative) eigenvalue set to 0."""
+    return value if value > CONNECTED else 0.0
+
+
+@dataclass
+class LinkBook:
+    sent: int = 0
+    delivered: int = 0
+    dropped: Counter[str] = field(default_factory=Counter)
+    delay_sum: float = 0.0
+    delay_max: float = 0.0
+
+    def add(self, event: LinkEvent) -> None:
+        if event.kind == "sent":
+            self.sent += 1
+        elif event.kind == "delivered":
+            self.delivered += 1
+            delay = event.delay or 0.0
+            self.delay_sum += delay
+            self.delay_max = max(self.delay_max, delay)
+        else:
+            self.dropped[event.reason or "unknown"] += 1
+
+    def as_message(self, sender: int, receiver: int) -> dict[str, object]:
+        """comms.records.reports.LinkCounts' message; the delays only once a packet was delivered (left out, not
+        null)."""
+        delays = {"mean_delay": self.delay_sum / self.delivered, "max_delay": self.delay_max} if self.delivered else {}
+        return {"sender": sender, "receiver": receiver, "sent": self.sent, "delivered": self.delivered,
+                "dropped": dict(sorted(self.dropped.items())), **delays}  # fmt: skip
+
+
+class LinkStats:
+    def __init__(self, vehicles: Sequence[int], window: float, horizon: float | None = None) -> None:
+        self.vehicles = list(vehicles)
+        self.window = window  # s between snapshots
+        self.horizon = window if horizon is None else max(horizon, window)  # s a delivery keeps its pair connected
+        self.books: dict[tuple[int, int], LinkBook] = {}
+        self._recent: deque[tuple[float, int, int]] = deque()  # (arrival, sender, receiver) of deliveries
+
+    def add(self, events: Iterable[LinkEvent]) -> None:
+        books = self.books
+        for event in events:
+            book = books.get((event.sender, event.receiver))
+            if book is None:  # not setdefault: that built a LinkBook (and its Counter) for every event
+                book = books[(event.sender, event.receiver)] = LinkBook()
+            book.add(event)
+            if event.kind == "delivered":
+                self._recent.append((event.t, event.sender, event.receiver))
+
+    def delivered_connectivity(self, t: float) -> float:
+        """lambda_2 (>= 0) of the graph of pairs that delivered in (t - horizon, t]."""
+        while self._recent and self._recent[0][0] <= t - self.horizon:
+            self._recent.popleft()
+        index = {v: i for i, v in enumerate(self.vehicles)}
+        edges = {(index[s], index[r]) for at, s, r in self._recent if at <= t and s in index and r in index}
+        return clamp_lambda2(algebraic_connectivity(laplacian(len(self.vehicles), edges)))
+
+    def totals(self) -> dict[str, int]:
+        """Packets sent, delivered and dropped over every link."""
+        books = self.books.values()
+        return {
+            "sent": sum(b.sent for b in books),
+            "delivered": sum(b.delivered for b in books),
+            "dropped": sum(sum(b.dropped.values()) for b in books),
+        }
+
+    def snapshot(self, t: float) -> dict[str, object]:
+        """The message published on cpf/comms/stats: cumulative books per link, and lambda_2 now (over the horizon)."""
+        return {
+            "t": t,
+            "window": self.window,
+            "horizon": self.horizon,
+            "lambda2": self.delivered_connectivity(t),
+            "links": [book.as_message(s, r) for (s, r), book in sorted(self.books.items())],
+        }

@@ -1,0 +1,49 @@
+"""The private file a supervisor hands a process it starts over in: what the process serves, whole.
+
+A process the supervisor starts does not load the scenario: validating it (pydantic) and building what it serves
+costs a fresh process ~15 MB and ~0.1 s, which the supervisor has already paid. The supervisor writes the process's
+start to a file of its run's private temporary directory instead (supervisor.engine.launch), and the process reads
+it back here (vehicles.start, comms.broker.broker's BrokerStart). A process started by hand elsewhere still loads the
+scenario file.
+
+The encoding is pickle, for two reasons. It carries our own dataclasses whole, with whatever fields they grow (a new
+path kind, vehicle parameters, a channel model) and numpy state arrays and random generators bit for bit, with no
+schema to keep beside them. And the file cannot be another user's: it is created 0600 in a 0700 directory of the
+user running both processes, and read_private refuses one that is not the user's own or that others could write, so
+whoever could make it unpickle something could already run code as that user.
+"""
+
+from __future__ import annotations
+
+import os
+import pickle
+import stat
+from pathlib import Path
+from typing import TypeVar
+
+T = TypeVar("T")
+
+
+def write_private(path: Path, start: object) -> None:
+    """start, to a new file only its owner can read or write."""
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+    with os.fdopen(fd, "wb") as out:
+        pickle.dump(start, out, protocol=pickle.HIGHEST_PROTOCOL)
+
+
+def read_private(path: Path, kind: type[T], what: str) -> T:
+    """What write_private wrote, if it is a kind; ValueError '<file>: <problem>' for a file that is not a private
+    file of this user's holding one (what: how the problem names it, e.g. 'vehicle starts written by cpf run')."""
+    try:
+        with path.open("rb") as given:
+            info = os.fstat(given.fileno())
+            if info.st_uid != os.getuid() or info.st_mode & (stat.S_IWGRP | stat.S_IWOTH):
+                raise ValueError(f"{path}: not a private file of this user's (mode {stat.filemode(info.st_mode)})")
+            start = pickle.load(given)
+    except OSError as exc:
+        raise ValueError(f"{path}: cannot read it ({exc.strerror})") from None
+    except (pickle.UnpicklingError, EOFError, AttributeError, ImportError, IndexError) as exc:
+        raise ValueError(f"{path}: not {what} ({exc})") from None
+    if not isinstance(start, kind):
+        raise ValueError(f"{path}: not {what} (a {type(start).__name__})")
+    return start

@@ -1,0 +1,232 @@
+"""The acoustic channel as a pure, seeded model: who hears a transmission, when, or why not.
+
+A transmission is offered to every neighbour of its sender in the current graph (one directed link each). On each
+link: a `sent` event at transmission, then exactly one of
+- `dropped` at transmission: a fault (`blackout`, `link_down`, `modem_silent`, set by the broker), the loss
+  models (`loss`, `burst`, `range`), or a degraded link's extra loss (`degraded`);
+- `dropped` at arrival: `half_duplex` (the receiver's modem was transmitting during the packet) or `collision`
+  (another packet overlapped it at the receiver: every other vehicle's transmissions count, neighbour or not; with
+  SINR capture only if its SINR, the overlapping packets counted as noise, falls below the capture threshold);
+- `delivered` at arrival = t + time of flight + jitter + extra link delay + airtime (the end of the packet);
+- `dropped` as `end_of_run` when the run ends first.
+So per link: sent = delivered + dropped, always. Every directed link draws from its own random stream derived from
+(seed, sender, receiver), a fixed number of draws per packet, so results never depend on processing order.
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from comms.channel.acoustics import time_of_flight
+from comms.channel.link_budget import LinkBudgetRange
+from comms.channel.loss import LinkLoss, LossModel
+from comms.channel.modem import ModemParams
+from comms.records.network import Impairment, Network
+from comms.records.records import Kinematics, LinkEvent, Reception, Transmission
+from numerics import exp10, log10
+
+ARRIVAL_SLACK = 1e-9  # s: an arrival this close after a sync instant counts as at it (float rounding of k * dt)
+
+
+def intake_step(arrival: float, dt: float) -> int:
+    """The sync step whose instant first takes in a packet arriving then (deliver(t) hands out arrivals <= t)."""
+    return math.ceil((arrival - ARRIVAL_SLACK) / dt)
+
+
+INTACT = Network(())  # no link faults
+MEMORY = 120.0  # s of past airtime kept for half-duplex and collision checks (far above any packet's duration)
+
+
+@dataclass(frozen=True, slots=True)
+class LinkParams:
+    """Per directed link: its loss models (replacing the fleet-wide ones when given) and extra delay."""
+
+    loss: LossModel | None = None
+    extra_delay: float = 0.0  # s
+
+
+@dataclass(frozen=True, slots=True)
+class ChannelParams:
+    sound_speed: float = 1500.0  # m/s
+    modem: ModemParams = field(default_factory=ModemParams)
+    packet_bytes: int | None = None  # None: the encoded size of each message
+    jitter: float = 0.0  # s, uniform on [0, jitter]
+    loss: LossModel | None = None  # every directed link, unless it has its own
+    links: Mapping[tuple[int, int], LinkParams] = field(default_factory=dict)
+    capture: Capture | None = None  # None: any overlap at a receiver loses both packets (with collisions on)
+
+
+@dataclass(frozen=True, slots=True)
+class Capture:
+    """SINR reception: a packet overlapped by others at its receiver survives when its received level over the noise
+    plus every overlapping packet's level (interference counted as noise, powers summed) is at least threshold_db.
+    Levels are the link budget's mean received levels (SL - TL + DI at each packet's distance), without shadowing
+    or fading; "any overlap loses both" is the pessimistic bound this relaxes."""
+
+    budget: LinkBudgetRange
+    threshold_db: float
+    noise_power: float = field(init=False, repr=False, compare=False)  # the budget's in-band noise, linear
+
+    def __post_init__(self) -> None:
+        # The same at every overlap: worked out once, not at each packet's reception.
+        object.__setattr__(self, "noise_power", exp10(self.budget.noise_level_db() / 10.0))
+
+    def survives(self, level_db: float, interferers_db: list[float]) -> bool:
+        total = 10.0 * log10(sum((exp10(x / 10.0) for x in interferers_db), self.noise_power))
+        return level_db - total >= self.threshold_db
+
+
+@dataclass(frozen=True, slots=True)
+class _Airtime:
+    """A packet's presence at one place: [start, end) in s, and whose it is."""
+
+    start: float
+    end: float
+    sender: int
+    seq: int
+    level_db: float = 0.0  # received level there, dB re 1 uPa (only with SINR capture)
+
+
+@dataclass(slots=True)
+class _Link:
+    rng: np.random.Generator
+    loss: LinkLoss | None
+    extra_delay: float
+
+
+@dataclass
+class Channel:
+    params: ChannelParams
+    seed: int
+    _links: dict[tuple[int, int], _Link] = field(default_factory=dict)
+    _in_flight: list[tuple[float, int, int, int, _Airtime, Reception, float]] = field(default_factory=list)
+    _heard: dict[int, list[_Airtime]] = field(default_factory=dict)  # every packet in the water at each vehicle
+    _sending: dict[int, list[_Airtime]] = field(default_factory=dict)  # each vehicle's own transmissions
+
+    def _link(self, sender: int, receiver: int) -> _Link:
+        key = (sender, receiver)
+        if key not in self._links:
+            own = self.params.links.get(key, LinkParams())
+            model = own.loss or self.params.loss
+            rng = np.random.default_rng([self.seed, sender, receiver])
+            self._links[key] = _Link(rng, model.link() if model else None, own.extra_delay)
+        return self._links[key]
+
+    def transmit(
+        self,
+        tx: Transmission,
+        size_bytes: int,
+        receivers: set[int],
+        everyone: Mapping[int, Kinematics],
+        network: Network | None = None,
+    ) -> list[LinkEvent]:
+        """Put a transmission in the water. receivers: the sender's neighbours now; everyone: all vehicles'
+        kinematics at the transmission time (non-neighbours matter for collisions); network: link faults in force.
+        Returns the events of now."""
+        intact = network or INTACT
+        size = self.params.packet_bytes or size_bytes
+        on_air = self.params.modem.airtime(size)
+        if self.params.modem.half_duplex:
+            self._sending.setdefault(tx.sender, []).append(_Airtime(tx.t, tx.t + on_air, tx.sender, tx.seq))
+        events: list[LinkEvent] = []
+        sender_at = np.asarray(tx.position)
+        collisions = self.params.modem.collisions
+        for j in sorted(everyone):
+            if j == tx.sender or not (collisions or j in receivers):
+                continue  # without collisions a non-neighbour's position does not matter: skip its time of flight
+            flight = time_of_flight(sender_at, everyone[j].position, everyone[j].velocity, self.params.sound_speed)
+            start = tx.t + flight
+            capture = self.params.capture
+            level = capture.budget.received_level_db(flight * self.params.sound_speed) if capture else 0.0
+            if j in receivers:
+                impaired = intact.impairment(tx.sender, j)
+                start = self._offer(tx, j, start, (flight, level), size, on_air, impaired, events)
+            self._record_heard(j, _Airtime(start, start + on_air, tx.sender, tx.seq, level))
+        return events
+
+    def _offer(
+        self,
+        tx: Transmission,
+        j: int,
+        start: float,
+        flight_level: tuple[float, float],
+        size: int,
+        on_air: float,
+        impaired: Impairment,
+        events: list[LinkEvent],
+    ) -> float:
+        """One directed link: draws (jitter, loss models, fault loss), the sent event, the packet's fate so far;
+        returns when the packet starts arriving (a lost packet still fills the water and can spoil others).
+        flight_level: the time of flight (s) and the received level (dB, for SINR capture)."""
+        link = self._link(tx.sender, j)
+        flight, level = flight_level
+        start += float(link.rng.random()) * self.params.jitter + link.extra_delay + impaired.extra_delay
+        distance = flight * self.params.sound_speed
+        reason = link.loss.decide(link.rng, distance, size, tx.t) if link.loss else None
+        degraded = float(link.rng.random()) < impaired.extra_loss  # drawn always: streams stay aligned
+        reason = impaired.lost or reason or ("degraded" if degraded else None)
+        events.append(LinkEvent(tx.t, tx.sender, j, tx.seq, "sent"))
+        if reason is not None:
+            events.append(LinkEvent(tx.t, tx.sender, j, tx.seq, "dropped", reason=reason))
+            return start
+        arrival = start + on_air
+        there = _Airtime(start, arrival, tx.sender, tx.seq, level)
+        reception = Reception(j, tx.sender, tx.seq, tx.data_time, arrival, tx.gamma, tx.gamma_dot)
+        heapq.heappush(self._in_flight, (arrival, tx.sender, tx.seq, j, there, reception, tx.t))
+        return start
+
+    def _record_heard(self, j: int, airtime: _Airtime) -> None:
+        if self.params.modem.collisions:
+            self._heard.setdefault(j, []).append(airtime)
+
+    def deliver(self, t: float) -> tuple[list[Reception], list[LinkEvent]]:
+        """Everything whose arrival is no later than t, in arrival order: receptions and their events."""
+        out: list[Reception] = []
+        events: list[LinkEvent] = []
+        while self._in_flight and self._in_flight[0][0] <= t + ARRIVAL_SLACK:
+            arrival, sender, seq, j, there, reception, sent_at = heapq.heappop(self._in_flight)
+            reason = self._spoiled(j, there)
+            if reason is None:
+                out.append(reception)
+                events.append(LinkEvent(arrival, sender, j, seq, "delivered", delay=arrival - sent_at))
+            else:
+                events.append(LinkEvent(arrival, sender, j, seq, "dropped", reason=reason))
+        self._forget(t - MEMORY)
+        return out, events
+
+    def _spoiled(self, j: int, there: _Airtime) -> str | None:
+        """Why a packet could not be received at j, if it could not."""
+        if any(_overlap(own, there) for own in self._sending.get(j, [])):
+            return "half_duplex"
+        overlapping = [o for o in self._heard.get(j, []) if _overlap(o, there) and not _same(o, there)]
+        if not overlapping:
+            return None
+        capture = self.params.capture
+        if capture is not None and capture.survives(there.level_db, [o.level_db for o in overlapping]):
+            return None
+        return "collision"
+
+    def _forget(self, before: float) -> None:
+        for table in (self._heard, self._sending):
+            for key, items in table.items():
+                if items and items[0].end < before:
+                    table[key] = [a for a in items if a.end >= before]
+
+    def flush(self, t: float, reason: str = "end_of_run") -> list[LinkEvent]:
+        """Drop whatever is still in flight: at the end of the run, or when the broker dies."""
+        left = sorted(self._in_flight, key=lambda item: item[:4])
+        self._in_flight.clear()
+        return [LinkEvent(t, sender, j, seq, "dropped", reason=reason) for _, sender, seq, j, *_ in left]
+
+
+def _overlap(a: _Airtime, b: _Airtime) -> bool:
+    return a.start < b.end and b.start < a.end
+
+
+def _same(a: _Airtime, b: _Airtime) -> bool:
+    return a.sender == b.sender and a.seq == b.seq

@@ -1,0 +1,90 @@
+"""Someone else's code, contained: a call that raises, or that overruns its CPU-time budget, becomes a
+FloatingPointError whose message is one line naming the extension (its label, e.g. 'loss my_pkg:Fading').
+
+FloatingPointError because that is what every engine and the command line already treat as a run-time failure of
+the model (exit 1, one line), the same as a closed loop that diverged. Here for the lowest layer that runs
+extensions (the channel's loss models); vehicles.guard builds its guard for laws, predictors and transmission
+policies on the same call.
+
+The budget is CPU time of the calling thread (time.thread_time), not wall time: a loaded machine does not make a
+well-behaved extension overrun.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any, TypeVar
+
+import numpy as np
+
+from comms.channel.loss import LinkLoss
+
+CALL_BUDGET = 0.1  # s of CPU per call: ~10^4 times what a law or a loss model of this kind needs
+R = TypeVar("R")
+
+
+def guarded_call(label: str, budget: float, method: Callable[..., R], *args: Any) -> R:
+    """method(*args); FloatingPointError naming label if it raises or takes more than budget s of CPU."""
+    start = time.thread_time()
+    try:
+        value = method(*args)
+    except Exception as exc:  # anything it raises: its failure, named, not a traceback
+        raise FloatingPointError(f"{label} raised {type(exc).__name__}: {short(exc)}") from None
+    spent = time.thread_time() - start
+    if spent > budget:
+        raise FloatingPointError(f"{label} took {spent:.3g} s of CPU in one call (budget {budget:g} s)")
+    return value
+
+
+def short(value: object) -> str:
+    """A value for an error line: never its whole repr if that is long."""
+    text = repr(value) if not isinstance(value, BaseException) else str(value)
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
+@dataclass(frozen=True, slots=True)
+class GuardedLoss:
+    """Someone else's loss model (comms.channel.loss.LossModel) behind the guard; label: how an error names it
+    ('loss my_pkg:Fading'). Each link it makes is guarded too: a decision that raises, overruns the budget or returns
+    anything but None or a reason string ends the broker's run with one line naming it."""
+
+    inner: Any
+    label: str
+    budget: float = CALL_BUDGET
+
+    @property
+    def draws(self) -> int:
+        return _count(self.label, guarded_call(self.label, self.budget, lambda: self.inner.draws))
+
+    def link(self) -> GuardedLink:
+        made = guarded_call(self.label, self.budget, self.inner.link)
+        if not isinstance(made, LinkLoss):
+            raise FloatingPointError(f"{self.label} link() returned {short(made)}, not a link (draws and decide)")
+        return GuardedLink(made, self.label, self.budget)
+
+
+@dataclass(frozen=True, slots=True)
+class GuardedLink:
+    """One directed link of a guarded loss model."""
+
+    inner: Any
+    label: str
+    budget: float
+
+    @property
+    def draws(self) -> int:
+        return _count(self.label, guarded_call(self.label, self.budget, lambda: self.inner.draws))
+
+    def decide(self, rng: np.random.Generator, distance_m: float, size_bytes: int, t: float = 0.0) -> str | None:
+        reason = guarded_call(self.label, self.budget, self.inner.decide, rng, distance_m, size_bytes, t)
+        if reason is not None and not (isinstance(reason, str) and reason):  # "" would pass as delivered
+            raise FloatingPointError(f"{self.label} returned {short(reason)}, not None or a reason string")
+        return reason
+
+
+def _count(label: str, value: object) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+        raise FloatingPointError(f"{label} has draws = {short(value)}, not a count of random numbers")
+    return value
