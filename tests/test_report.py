@@ -254,7 +254,7 @@ def test_load_run_link_events(run: RunData) -> None:
         assert (link.sender, link.receiver, link.name) == (sender, receiver, f"{sender}->{receiver}")
         np.testing.assert_allclose(link.t, [e["t"] for e in expected])
         assert list(link.kind) == [e["kind"] for e in expected]
-        delivered = [e.get("delay") for e in expected if e["kind"] == "delivered"]
+        delivered = [float(e["delay"]) for e in expected if e["kind"] == "delivered"]
         np.testing.assert_allclose(link.delays, delivered)
         assert np.isnan(link.delay[link.kind != "delivered"]).all()
         causes = Counter(e.get("reason") for e in expected if e["kind"] == "dropped")
