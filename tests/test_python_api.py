@@ -9,15 +9,19 @@ from __future__ import annotations
 
 import io
 import json
+import math
 from pathlib import Path
 
+import msgspec
 import numpy as np
 import pandas as pd
 import pytest
 
 import cpf
+from comms.records.state import StateReport
 from tests.conftest import CONFIGS, shortened
 from tests.procs import cpf as cpf_command
+from tests.test_state_report import REPORT
 
 LOSSY = ("--set", "comms.loss=0.2")
 
@@ -224,3 +228,18 @@ def test_every_field_of_the_state_record_has_a_column():
         0.5, 0.5, 0.02, 5.0, 26.0
     )  # fmt: skip
     assert (row.current_estimate_x, row.current_estimate_y) == (0.2, -0.1)
+
+
+class _WithDepthRate(StateReport, frozen=True, omit_defaults=True):
+    """The state record with one field more, as a contributor would add it to comms.records.state.StateReport."""
+
+    depth_rate: float | None = None
+
+
+def test_a_field_added_to_the_state_record_gets_its_column_with_no_other_edit():
+    """Issue 25: adding a field to the state message is one edit (its struct) and a test; the table follows."""
+    from supervisor.analysis.tables import states_table
+
+    base = msgspec.structs.asdict(REPORT)
+    rows = states_table([_WithDepthRate(**base, depth_rate=0.05), _WithDepthRate(**base)])
+    assert list(rows["depth_rate"].iloc[:1]) == [0.05] and math.isnan(rows["depth_rate"].iloc[1])

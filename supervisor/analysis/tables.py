@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import msgspec
 import pandas as pd
 
 from comms.records.messages import COMMS_EVENT_KEY, FAULT_KEY, vehicle_of_key
@@ -151,7 +152,7 @@ def _state_columns(reports: Sequence[StateReport]) -> Columns:
         (("correction", "lyapunov", "tx_seq"), lambda r: (r.correction, r.lyapunov, r.tx_seq)),
         (tuple(f"estimate_age_{j}" for j in neighbours), lambda r: _ages(r, neighbours)),
     ]
-    return columns + _optional_columns(reports)
+    return columns + _optional_columns(reports) + _further_columns(reports)
 
 
 def _optional_columns(reports: Sequence[StateReport]) -> Columns:
@@ -168,6 +169,31 @@ def _optional_columns(reports: Sequence[StateReport]) -> Columns:
     if any(r.current_estimate is not None for r in reports):
         names = tuple(f"current_estimate_{a}" for a in AXES)
         columns.append((names, lambda r: _padded(r.current_estimate or (), 3)))
+    return columns
+
+
+# The fields the columns above spell out; any other (one added to comms.records.state.StateReport since) gets
+# columns of its own by _further_columns, so that adding a field to the state message is one edit.
+_SPELT_OUT = frozenset({"t", "k", "vehicle", "gamma", "gamma_dot", "position", "rotation", "velocity",
+                        "angular_velocity", "error", "tau", "correction", "lyapunov", "tx_seq", "estimate_age",
+                        "rx_lateness", "step_lateness", "nav_estimate", "nav_fix", "current_estimate"})  # fmt: skip
+
+
+def _further_columns(reports: Sequence[StateReport]) -> Columns:
+    """A column for each other field a report has: its name for a number, name_i for each item of a tuple
+    (NaN where a report lacks it)."""
+    columns: Columns = []
+    kind = type(reports[0]) if reports else StateReport
+    for name in (f.name for f in msgspec.structs.fields(kind) if f.name not in _SPELT_OUT):
+        present = [value for r in reports if (value := getattr(r, name)) is not None]
+        if not present:
+            continue
+        if isinstance(present[0], tuple):
+            width = max(len(value) for value in present)
+            names = tuple(f"{name}_{i}" for i in range(width))
+            columns.append((names, lambda r, n=name, w=width: _padded(getattr(r, n) or (), w)))  # type: ignore[misc]
+        else:
+            columns.append(((name,), lambda r, n=name: (_nan(getattr(r, n)),)))  # type: ignore[misc]
     return columns
 
 
