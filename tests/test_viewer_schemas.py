@@ -25,3 +25,11 @@ def test_the_rules_refuse_what_lichtblick_refused() -> None:
     for field in ({"type": "array", "items": {"type": "array", "items": {"type": "number"}}},
                   {"type": ["number", "null"]}, {"enum": ["start", "end"]}):  # fmt: skip
         assert viewer_problems({"type": "object", "properties": {"x": field}}) != []
+
+
+def test_the_scenes_own_schema_is_one_the_viewers_read() -> None:
+    """foxglove/coordination/<id> (cpf.Coordination, cpf's own; the foxglove.* schemas are Foxglove's, which the
+    viewers know by name)."""
+    from supervisor.record.scene.foxglove_schemas import schema
+
+    assert viewer_problems(schema("cpf.Coordination")) == []
