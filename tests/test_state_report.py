@@ -104,9 +104,9 @@ NETWORK = Network(((1, 2), (2, 3)), frozenset({(2, 1)}), {(1, 3): (0.25, 0.5)}, 
 DELIVERY = Delivery(1, 4, 0.3, 0.31, 5.0, 1.0)
 # record -> (its schema, an example with every optional field set, one with none set, how to read a message)
 RECORDS: dict[str, tuple[dict[str, Any], Any, Any, Callable[[Any], Any]]] = {
-    "rx batch": (RECEPTIONS, RxBatch(0.4, 4, 2, (dataclasses.replace(DELIVERY, due=100.31),)),
+    "rx batch": (RECEPTIONS, RxBatch(0.4, 4, 2, (msgspec.structs.replace(DELIVERY, due=100.31),)),
                  RxBatch(0.4, 4, 2, ()), RxBatch.from_message),
-    "reception": (RECEPTIONS["properties"]["receptions"]["items"], dataclasses.replace(DELIVERY, due=100.31),
+    "reception": (RECEPTIONS["properties"]["receptions"]["items"], msgspec.structs.replace(DELIVERY, due=100.31),
                   DELIVERY, Delivery.from_message),
     "tick": (TICK, Tick(4, 0.4, True, {2: Disturbances(0.5, True, 0.1, 0.2)}, NETWORK, [1, 2], False, 99.5, 4.0,
                         True, 9, 20, 100), Tick(4, 0.4, False, {}, None, None, True), Tick.from_message),

@@ -20,6 +20,7 @@ import msgspec
 import orjson
 
 from comms.records.fields import Finite, Finite3
+from comms.records.receptions import RxBatch
 from comms.records.records import Float32, LinkEvent, Time
 from comms.records.state import StateReport
 
@@ -38,32 +39,11 @@ class TxWire(msgspec.Struct, kw_only=True):
     velocity: Finite3
 
 
-class DeliveryWire(msgspec.Struct, omit_defaults=True):
-    """comms.records.receptions.Delivery as its message has it."""
-
-    sender: int
-    seq: int
-    stamp: Finite
-    arrival: Finite
-    gamma: Finite
-    gamma_dot: Finite
-    due: Finite | None = None
-
-
-class RxWire(msgspec.Struct):
-    """comms.records.receptions.RxBatch as its message has it."""
-
-    t: Finite
-    k: int
-    vehicle: int
-    receptions: tuple[DeliveryWire, ...]
-
-
 class PartsWire(msgspec.Struct):
     """What a step message carries besides its state (comms.records.messages.step_message): an earlier step's."""
 
     tx: TxWire | None = None
-    rx: RxWire | None = None
+    rx: RxBatch | None = None
 
 
 class StepWire(PartsWire):
@@ -86,7 +66,7 @@ class Step(msgspec.Struct):
 
     state: StateReport
     tx: TxWire | None
-    rx: RxWire | None
+    rx: RxBatch | None
 
 
 _STATE = msgspec.msgpack.Decoder(StateReport)
@@ -127,7 +107,7 @@ def read_events(payload: bytes) -> EventsWire | None:
         return None
 
 
-def log_json(record: StateReport | TxWire | RxWire | LinkEvent) -> bytes:
+def log_json(record: StateReport | TxWire | RxBatch | LinkEvent) -> bytes:
     """The record's log form: what orjson writes for its record's to_message() (supervisor.record.recorder)."""
     message: dict[str, Any] = msgspec.to_builtins(record)
     return orjson.dumps(message)

@@ -122,3 +122,22 @@ def nullable_number(message: Message, name: str) -> float | None:
     if name not in message:
         raise ValueError(f"missing field {name!r}")
     return None if message[name] is None else number(message, name)
+
+
+def _number(value: object) -> float:
+    """msgspec's hook for what it does not encode itself: a numpy float (a channel's arithmetic gives them), as the
+    float it is; anything else is refused (TypeError)."""
+    if isinstance(value, float):  # numpy.float64 subclasses float, and holds the same double
+        return float(value)
+    raise TypeError(f"cannot encode {type(value).__name__}")
+
+
+_ENCODE = msgspec.msgpack.Encoder(enc_hook=_number).encode
+_AS_BUILTINS = msgspec.msgpack.Decoder()  # untyped: dicts, lists and numbers
+
+
+def as_message(record: msgspec.Struct) -> Message:
+    """A struct's message: its fields as JSON types, in order, lists where msgspec.to_builtins would keep tuples,
+    the optional fields left out where the struct omits its defaults."""
+    message: Message = _AS_BUILTINS.decode(_ENCODE(record))
+    return message

@@ -1,21 +1,23 @@
-"""A vehicle's reception batch of one sync step: the record, its wire form and its checked reading, side by side.
+"""A vehicle's reception batch of one sync step: one msgspec Struct, the message's only description.
 
-`RxBatch.to_message` gives the dict on a vehicle's rx key (schema comms.records.schemas.RECEPTIONS), and the batch the
-vehicle reports in its step message; `from_message` is its inverse, checked (ValueError for anything malformed).
-Each reception is a `Delivery`: what the channel delivered, and in realtime runs when it was due on the wall clock.
+`RxBatch.to_message` gives the dict on a vehicle's rx key and the batch the vehicle reports in its step message (its
+schema comms.records.schemas.RECEPTIONS is generated from the struct); `from_message` is its inverse, checked by
+msgspec's types (ValueError naming the field for anything malformed). Each reception is a `Delivery`: what the
+channel delivered, and in realtime runs when it was due on the wall clock (left out of the message otherwise).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from typing import TypeVar
 
-from comms.records.fields import Finite, Message, converted, get, number
+import msgspec
+
+from comms.records.fields import Finite, Message, as_message
 from comms.records.records import Heard, Reception
 
 
-@dataclass(frozen=True, slots=True)
-class Delivery:
+class Delivery(msgspec.Struct, frozen=True, omit_defaults=True):
     """One reception as a batch carries it (its receiver is the batch's vehicle). due: realtime deliveries only, the
     wall-clock time (time.time()) at which it should reach the vehicle, so the vehicle can measure how late it did."""
 
@@ -38,29 +40,15 @@ class Delivery:
         return Heard(self.sender, self.stamp, self.gamma, self.gamma_dot)
 
     def to_message(self) -> Message:
-        item = {"sender": self.sender, "seq": self.seq, "stamp": self.stamp, "arrival": self.arrival,
-                "gamma": self.gamma, "gamma_dot": self.gamma_dot}  # fmt: skip
-        if self.due is not None:
-            item["due"] = self.due
-        return item
+        return as_message(self)
 
     @classmethod
     def from_message(cls, item: object) -> Delivery:
-        """The reception, checked (ValueError for anything malformed); msgspec's reading, else the checks'."""
-        return converted(item, cls) or cls.checked(item)
-
-    @classmethod
-    def checked(cls, item: object) -> Delivery:
-        if not isinstance(item, dict):
-            raise ValueError("a reception is not a map")
-        return cls(
-            get(item, "sender", int), get(item, "seq", int), number(item, "stamp"), number(item, "arrival"),
-            number(item, "gamma"), number(item, "gamma_dot"), None if item.get("due") is None else number(item, "due"),
-        )  # fmt: skip
+        """The reception, checked: ValueError naming the field for anything malformed."""
+        return _read(item, cls)
 
 
-@dataclass(frozen=True, slots=True)
-class RxBatch:
+class RxBatch(msgspec.Struct, frozen=True):
     """What vehicle `vehicle` takes in at step k (t: the step's time, or a realtime delivery's arrival)."""
 
     t: Finite
@@ -86,15 +74,19 @@ class RxBatch:
         return timed
 
     def to_message(self) -> Message:
-        receptions = [d.to_message() for d in self.receptions]
-        return {"t": self.t, "k": self.k, "vehicle": self.vehicle, "receptions": receptions}
+        return as_message(self)
 
     @classmethod
-    def from_message(cls, message: Message) -> RxBatch:
-        """The batch, checked (ValueError for anything malformed); msgspec's reading, else the checks'."""
-        return converted(message, cls) or cls.checked(message)
+    def from_message(cls, message: object) -> RxBatch:
+        """The batch, checked: ValueError naming the field for anything malformed."""
+        return _read(message, cls)
 
-    @classmethod
-    def checked(cls, message: Message) -> RxBatch:
-        receptions = tuple(Delivery.checked(item) for item in get(message, "receptions", list))
-        return cls(number(message, "t"), get(message, "k", int), get(message, "vehicle", int), receptions)
+
+T = TypeVar("T")
+
+
+def _read(message: object, kind: type[T]) -> T:
+    try:
+        return msgspec.convert(message, kind)
+    except msgspec.ValidationError as exc:
+        raise ValueError(str(exc)) from None

@@ -20,6 +20,7 @@ from comms.records.fields import (
     Finite,
     Finite3,
     Message,
+    as_message,
     carried,
     converted,
     get,
@@ -168,8 +169,7 @@ class LinkEvent(msgspec.Struct, frozen=True, omit_defaults=True):
     reason: str | None = None  # dropped: why
 
     def to_message(self) -> Message:
-        message: Message = msgspec.to_builtins(self)
-        return message
+        return as_message(self)
 
     @classmethod
     def from_message(cls, message: object) -> LinkEvent:

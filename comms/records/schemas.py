@@ -29,6 +29,7 @@ from comms.records.messages import (
     TICK_KEY,
     vehicle_of_key,
 )
+from comms.records.receptions import RxBatch
 from comms.records.records import LinkEvent
 from comms.records.state import StateReport
 
@@ -133,23 +134,7 @@ TRANSMISSION = _object(
         "velocity": _vector(3),
     },
 )
-_RECEPTION = _object(
-    "cpf.Reception",
-    {
-        "sender": INTEGER,
-        "seq": INTEGER,
-        "stamp": NUMBER,
-        "arrival": NUMBER,
-        "gamma": NUMBER,
-        "gamma_dot": NUMBER,
-        "due": NUMBER,
-    },
-    optional=("due",),  # realtime: the wall-clock time (time.time()) the delivery was due
-)
-RECEPTIONS = _object(
-    "cpf.Receptions",
-    {"t": NUMBER, "k": INTEGER, "vehicle": INTEGER, "receptions": {"type": "array", "items": _RECEPTION}},
-)
+RECEPTIONS = struct_schema(RxBatch, "cpf.Receptions")
 LINK_EVENT = struct_schema(LinkEvent, "cpf.LinkEvent")
 LINK_EVENTS = _object(  # the bus's form of a step's link events (the log keeps one LINK_EVENT record each)
     "cpf.LinkEvents", {"t": NUMBER, "k": INTEGER, "events": {"type": "array", "items": LINK_EVENT}}

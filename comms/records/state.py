@@ -19,15 +19,11 @@ from typing import Annotated
 import msgspec
 import numpy as np
 
-from comms.records.fields import Finite, Finite3, Message, Real, Real3, orthonormal, slow_enough
+from comms.records.fields import Finite, Finite3, Message, Real, Real3, as_message, orthonormal, slow_enough
 from comms.records.records import Kinematics
 
 Float3 = tuple[float, float, float]
 Rotation = Annotated[tuple[Finite, ...], msgspec.Meta(min_length=9, max_length=9)]  # R row-major
-
-
-_ENCODE = msgspec.msgpack.Encoder().encode
-_AS_BUILTINS = msgspec.msgpack.Decoder()  # untyped: dicts, lists and numbers
 
 
 class NeighbourAge(msgspec.Struct, frozen=True):
@@ -89,8 +85,7 @@ class StateReport(msgspec.Struct, frozen=True, omit_defaults=True):
     def to_message(self) -> Message:
         """The message: the struct's fields as JSON types (lists, where msgspec.to_builtins keeps tuples), in order,
         the absent optional ones left out."""
-        message: Message = _AS_BUILTINS.decode(_ENCODE(self))
-        return message
+        return as_message(self)
 
     @classmethod
     def from_message(cls, message: object, key_vehicle: int) -> StateReport:

@@ -19,7 +19,7 @@ from typing import TypeVar
 
 from comms.broker.windows import report_of
 from comms.bus.bus import Publishers, Received
-from comms.records.bus_records import EventsWire, RxWire, Step, TxWire, log_json, read_events, read_window
+from comms.records.bus_records import EventsWire, Step, TxWire, log_json, read_events, read_window
 from comms.records.events import LinkEvents
 from comms.records.fields import slow_enough
 from comms.records.messages import (
@@ -53,7 +53,6 @@ from supervisor.record.recorder import TIME_MARGIN, Recorder
 
 log = logging.getLogger("cpf.engine")
 T = TypeVar("T")
-B = TypeVar("B", RxBatch, RxWire)  # a reception batch, as comms.records.receptions or msgspec reads it
 SUPERVISOR = "supervisor"
 BROKER = "broker"
 
@@ -285,7 +284,7 @@ class Intake:
     def _rx(self, message: Message, vid: int) -> RxBatch:
         return self._fitting_rx(RxBatch.from_message(message), vid)
 
-    def _fitting_rx(self, batch: B, vid: int) -> B:
+    def _fitting_rx(self, batch: RxBatch, vid: int) -> RxBatch:
         """A reception batch (read either way) that fits vehicle vid's step in the run; ValueError if not."""
         if batch.vehicle != vid:
             raise ValueError(f"vehicle {batch.vehicle}'s receptions in vehicle {vid}'s step")
