@@ -22,6 +22,7 @@ from supervisor.record.scene_log import add_scene, scene_of_log
 from tests.conftest import CONFIGS, ROOT, shortened
 from tests.procs import cpf
 from tests.test_faults_e2e import EVERY_KIND, fault_args
+from tests.viewer_rules import viewer_problems
 
 pytestmark = pytest.mark.e2e
 DURATION = 60.0
@@ -56,7 +57,7 @@ def closed(node: Any) -> Any:
     Foxglove would silently ignore, fails validation."""
     if isinstance(node, dict):
         node = {key: closed(value) for key, value in node.items()}
-        if "properties" in node:
+        if node.get("properties"):  # an object without properties is a free map (cpf's FREE)
             node["additionalProperties"] = False
     elif isinstance(node, list):
         node = [closed(item) for item in node]
@@ -172,3 +173,26 @@ def test_the_shipped_layout_names_only_topics_and_fields_the_log_has(logs):
     for path in plotted:
         topic, field = path.split(".")
         assert topic in topics and isinstance(last[topic][field], float), path
+
+
+@pytest.mark.parametrize("engine", ["inprocess", "zenoh"])
+def test_every_cpf_record_validates_against_its_channels_schema_which_the_viewers_read(logs, engine):
+    """Issue 25: each cpf channel's schema, as the log carries it, is one Lichtblick reads (tests/viewer_rules.py),
+    and every record of a run with a fault of every kind validates against it (closed: a field the schema does not
+    name fails too)."""
+    with logs[engine].open("rb") as stream:
+        reader = make_reader(stream)
+        summary = reader.get_summary()
+        assert summary is not None
+        validators = {}
+        for channel in summary.channels.values():
+            if not is_scene_topic(channel.topic) and channel.schema_id:
+                found = json.loads(summary.schemas[channel.schema_id].data)
+                assert viewer_problems(found) == [], channel.topic
+                validators[channel.topic] = jsonschema.Draft7Validator(closed(found))
+        seen: Counter[str] = Counter()
+        for _, channel, message in reader.iter_messages():
+            if channel.topic in validators:
+                validators[channel.topic].validate(json.loads(message.data))
+                seen[channel.topic.rsplit("/", 1)[-1]] += 1
+    assert {"meta", "graph", "fault", "state", "tx", "rx", "event", "stats"} <= set(seen), seen  # zenoh: tick, stop too
