@@ -143,11 +143,15 @@ class Inbox:
 
     def __init__(self) -> None:
         self._queue: queue.SimpleQueue[Received | str] = queue.SimpleQueue()  # C-implemented: cheaper per message
+        # Waited on instead of SimpleQueue.get(timeout): in CPython 3.11 that call blocks for ever when a signal
+        # interrupts its wait and the handler outlasts the timeout (it retries with a negative timeout, which means
+        # none): a realtime run's supervisor hung so for 50 min. Event.wait recomputes its timeout correctly.
+        self._arrived = threading.Event()
         self._keep: list[Any] = []  # subscribers live as long as the inbox
 
     def subscribe(self, session: zenoh.Session, key: str) -> None:
         def on_sample(sample: zenoh.Sample) -> None:
-            self._queue.put(Received(str(sample.key_expr), sample.payload.to_bytes()))
+            self._put(Received(str(sample.key_expr), sample.payload.to_bytes()))
 
         self._keep.append(session.declare_subscriber(key, on_sample))
 
@@ -156,19 +160,32 @@ class Inbox:
 
         def on_token(sample: zenoh.Sample) -> None:
             sign = "+" if sample.kind == zenoh.SampleKind.PUT else "-"
-            self._queue.put(sign + str(sample.key_expr))
+            self._put(sign + str(sample.key_expr))
 
         self._keep.append(session.liveliness().declare_subscriber(key, on_token, history=True))
 
     def nudge(self) -> None:
         """Wake the consumer (an empty change it ignores), e.g. to have it check whether it was ended."""
-        self._queue.put("")
+        self._put("")
+
+    def _put(self, item: Received | str) -> None:
+        self._queue.put(item)
+        self._arrived.set()
 
     def get(self, timeout: float) -> Received | str | None:
-        try:
-            return self._queue.get(timeout=timeout)
-        except queue.Empty:
-            return None
+        """The next item, or None if none comes within timeout s (whatever signals come meanwhile)."""
+        deadline = time.monotonic() + timeout
+        while True:
+            try:
+                return self._queue.get_nowait()
+            except queue.Empty:
+                pass
+            left = deadline - time.monotonic()
+            if left <= 0:
+                return None
+            self._arrived.clear()
+            if self._queue.empty():  # else one came between the look and the clear: take it
+                self._arrived.wait(left)
 
 
 class Publishers:
