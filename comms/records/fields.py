@@ -27,6 +27,15 @@ Real = Annotated[int, msgspec.Meta(ge=-(2**63) + 1, le=2**63 - 1)] | float
 Real3 = tuple[Real, Real, Real]
 
 
+def read_as(message: object, kind: type[T]) -> T:
+    """The record `kind` (a msgspec Struct: its message's only description) of a message, checked by its types;
+    ValueError naming the field for anything malformed (msgspec's words: "Expected `float`, got `str` - at `$.t`")."""
+    try:
+        return msgspec.convert(message, kind)
+    except msgspec.ValidationError as exc:
+        raise ValueError(str(exc)) from None
+
+
 def converted(message: object, kind: type[T]) -> T | None:
     """The record `kind` of a message, read and checked by msgspec in C (with what its types cannot say, 2-3x faster
     than the checks below: benchmarks/bench_parse.py; it runs on every message of a run), or None where msgspec

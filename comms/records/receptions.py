@@ -9,11 +9,10 @@ channel delivered, and in realtime runs when it was due on the wall clock (left 
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from typing import TypeVar
 
 import msgspec
 
-from comms.records.fields import Finite, Message, as_message
+from comms.records.fields import Finite, Message, as_message, read_as
 from comms.records.records import Heard, Reception
 
 
@@ -45,7 +44,7 @@ class Delivery(msgspec.Struct, frozen=True, omit_defaults=True):
     @classmethod
     def from_message(cls, item: object) -> Delivery:
         """The reception, checked: ValueError naming the field for anything malformed."""
-        return _read(item, cls)
+        return read_as(item, cls)
 
 
 class RxBatch(msgspec.Struct, frozen=True):
@@ -79,14 +78,4 @@ class RxBatch(msgspec.Struct, frozen=True):
     @classmethod
     def from_message(cls, message: object) -> RxBatch:
         """The batch, checked: ValueError naming the field for anything malformed."""
-        return _read(message, cls)
-
-
-T = TypeVar("T")
-
-
-def _read(message: object, kind: type[T]) -> T:
-    try:
-        return msgspec.convert(message, kind)
-    except msgspec.ValidationError as exc:
-        raise ValueError(str(exc)) from None
+        return read_as(message, cls)

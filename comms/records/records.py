@@ -24,6 +24,7 @@ from comms.records.fields import (
     carried,
     converted,
     get,
+    read_as,
     slow_enough,
     vector3,
     velocity,
@@ -174,7 +175,4 @@ class LinkEvent(msgspec.Struct, frozen=True, omit_defaults=True):
     @classmethod
     def from_message(cls, message: object) -> LinkEvent:
         """The inverse of to_message, checked: ValueError naming the field for anything malformed."""
-        try:
-            return msgspec.convert(message, cls)
-        except msgspec.ValidationError as exc:
-            raise ValueError(str(exc)) from None
+        return read_as(message, cls)

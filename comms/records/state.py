@@ -19,7 +19,7 @@ from typing import Annotated
 import msgspec
 import numpy as np
 
-from comms.records.fields import Finite, Finite3, Message, Real, Real3, as_message, orthonormal, slow_enough
+from comms.records.fields import Finite, Finite3, Message, Real, Real3, as_message, orthonormal, read_as, slow_enough
 from comms.records.records import Kinematics
 
 Float3 = tuple[float, float, float]
@@ -92,11 +92,11 @@ class StateReport(msgspec.Struct, frozen=True, omit_defaults=True):
         """The report, checked; its vehicle must own the key it came on. ValueError for anything malformed, naming
         the field (msgspec's message: "Expected `float`, got `str` - at `$.gamma`")."""
         try:
-            report = msgspec.convert(message, cls)
-        except msgspec.ValidationError as exc:
+            report = read_as(message, cls)
+        except ValueError:
             older = _from_older_log(message)
             if older is None:
-                raise ValueError(str(exc)) from None
+                raise
             return cls.from_message(older, key_vehicle)
         return report.check(key_vehicle)
 
