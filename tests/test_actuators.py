@@ -17,6 +17,8 @@ from supervisor.errors import ScenarioError
 from tests.conftest import CONFIGS
 from vehicles.actuators import START, Actuators, remus100
 from vehicles.agent import step
+from vehicles.params import PRESETS
+from vehicles.vehicle_model import Auv
 
 FINS = remus100(max_thrust=14.1)
 
@@ -80,6 +82,27 @@ def test_it_cannot_fly_the_paper_helices_which_keep_ideal_actuators():
     _, ideal = _run(paper, 150.0)
     assert max(ideal[500:]) < 1.2
     assert max(real[500:]) > 3.0
+
+
+def test_running_straight_the_models_remus_is_unstable_faster_than_its_fin_servo():
+    """Why no controller flies eqs. (1)-(2) with these fins (vehicles/line_of_sight.py): linearised about a straight
+    run at 1 m/s, the sway-yaw pair of the REMUS 100 model (its drift, numerically differentiated) has an unstable
+    pole, the Munk moment (M_22 - M_11) u v unopposed by the hull's and fins' lift the model leaves out; it is faster
+    than the fins' servo (1 / 1 s), and a loop must be faster than the unstable pole it stabilises (Stein, IEEE
+    Control Systems Magazine 23(4), 2003)."""
+    model, prm, h = Auv(dimension=2), PRESETS["remus100"], 1e-6
+    straight = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+
+    def rates(v: float, r: float) -> tuple[float, float]:
+        (_, v_dot, _), (_, _, r_dot) = model.drift([*straight[:13], v, 0.0, 0.0, 0.0, r], prm)
+        return v_dot, r_dot
+
+    columns = [
+        np.subtract(rates(h, 0.0), rates(-h, 0.0)) / (2 * h),
+        np.subtract(rates(0.0, h), rates(0.0, -h)) / (2 * h),
+    ]
+    fastest = max(np.linalg.eigvals(np.column_stack(columns)).real)
+    assert fastest > 1.0 / FINS.fin_time_constant  # 1.3 1/s
 
 
 @pytest.mark.parametrize(

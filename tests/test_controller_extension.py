@@ -135,7 +135,8 @@ def test_cpf_plugins_lists_the_builtin_controller(tmp_path):
     done = cpf("plugins", cwd=tmp_path)
     assert done.returncode == 0
     assert "path_following.controller (entry points cpf.controllers):" in done.stdout
-    assert "  backstepping  vehicles.path_following:Backstepping" in done.stdout
+    assert re.search(r"^  backstepping +vehicles\.path_following:Backstepping ", done.stdout, flags=re.M)
+    assert re.search(r"^  line_of_sight +vehicles\.line_of_sight:LineOfSight ", done.stdout, flags=re.M)
     assert "options: damping, delta, k1, k2, k_zeta" in done.stdout
 
 

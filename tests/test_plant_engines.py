@@ -31,10 +31,13 @@ end = 10.0
 """
 
 
-@pytest.mark.parametrize("known", ["true", "false"])
-def test_both_engines_agree_with_current_and_mismatch_on_across_a_restart(tmp_path, paper_text, known):
+@pytest.mark.parametrize(("known", "controller"), [("true", "auto"), ("false", "auto"), ("false", "line_of_sight")])
+def test_both_engines_agree_with_current_and_mismatch_on_across_a_restart(tmp_path, paper_text, known, controller):
+    """auto: the adaptive supervisor (the plant is uncertain), with the current observer where the current is not
+    known; line_of_sight: vehicles.line_of_sight."""
     text = shortened(paper_text, 20.0).replace("[vehicle]\n", "[vehicle]\nuncertainty = 0.2\n", 1)
-    assert "uncertainty = 0.2" in text
+    text = text.replace("[path_following]\n", f'[path_following]\ncontroller = "{controller}"\n', 1)
+    assert "uncertainty = 0.2" in text and controller in text
     scenario = write_scenario(tmp_path, text + PLANT.format(known=known))
     runs = {}
     for engine in ("zenoh", "inprocess"):

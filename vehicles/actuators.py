@@ -63,9 +63,14 @@ class Actuators:
         wanted = math.copysign(min(1.0, math.sqrt(abs(commanded[0]) / self.max_thrust)), commanded[0])
         return d_s, d_r, (wanted - a[2]) / self.thruster_time_constant
 
+    @property
+    def fin_moment(self) -> float:
+        """The fins' largest moment per (m/s)^2 of surge speed [N m / (m/s)^2]: fin_lift max_deflection."""
+        return self.fin_lift * self.max_deflection
+
     def torque_limit(self, u: float) -> float:
         """The largest pitch or yaw moment the fins give at surge speed u [N m]."""
-        return self.fin_lift * u * u * self.max_deflection
+        return self.fin_moment * u * u
 
     def _deflection(self, torque: float, flow: float) -> float:
         """The fin angle that gives torque at u|u| = flow, within the limit."""

@@ -220,13 +220,13 @@ def _fed_forward(prm: VehicleParams, tau: Float3, alpha: Float3, nu_c: Float3) -
         prm.linear_damping, prm.quadratic_damping, prm.angular_linear_damping, prm.angular_quadratic_damping,
     )  # fmt: skip
     return (
-        tau[0] + _drag(lin[0], quad[0], alpha[0], nu_c[0]),
-        tau[1] + _drag(ang_lin[1], ang_quad[1], alpha[1], nu_c[1]),
-        tau[2] + _drag(ang_lin[2], ang_quad[2], alpha[2], nu_c[2]),
+        tau[0] + drag(lin[0], quad[0], alpha[0], nu_c[0]),
+        tau[1] + drag(ang_lin[1], ang_quad[1], alpha[1], nu_c[1]),
+        tau[2] + drag(ang_lin[2], ang_quad[2], alpha[2], nu_c[2]),
     )
 
 
-def _drag(linear: float, quadratic: float, wanted: float, measured: float) -> float:
+def drag(linear: float, quadratic: float, wanted: float, measured: float) -> float:
     """D(wanted) wanted - D(measured) measured for D(x) = linear + quadratic |x|: what feeding the damping forward at
     the virtual velocity adds to inputs that cancel it at the measured one."""
     return (linear + quadratic * abs(wanted)) * wanted - (linear + quadratic * abs(measured)) * measured
@@ -300,10 +300,10 @@ def _backstepping(
     tau_r = j_r * (dalpha_r + delta * sy - k2 * z2r - dr)
     if gains.damping == "feedforward":  # the drift's damping of (u, q, r) moved from the measured to the virtual one
         tau_u, tau_q, tau_r = _fed_forward(prm, (tau_u, tau_q, tau_r), (alpha_u, alpha_q, alpha_r), (u, q, r))
-    return (z2u, z2q, z2r), _saturated(prm, tau_u, tau_q, tau_r)
+    return (z2u, z2q, z2r), saturated(prm, tau_u, tau_q, tau_r)
 
 
-def _saturated(prm: VehicleParams, tau_u: float, tau_q: float, tau_r: float) -> Float3:
+def saturated(prm: VehicleParams, tau_u: float, tau_q: float, tau_r: float) -> Float3:
     """The inputs within the vehicle's limits: min(max(tau, -lim), lim) to the bit, NaN included, without six
     builtin calls per evaluation."""
     lim_u, lim_t = prm.max_surge_force, prm.max_torque

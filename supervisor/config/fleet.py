@@ -43,6 +43,7 @@ from supervisor.config.scenario_schema import (
     VehicleSection,
 )
 from supervisor.config.vehicle_models import top_speed_of, vehicle_of
+from vehicles.actuators import Actuators
 from vehicles.agent import VehicleConfig, VehicleState
 from vehicles.coordination import CoordinationGains
 from vehicles.current_observer import CurrentObserver
@@ -85,7 +86,7 @@ def vehicle_config(scenario: Scenario, vehicle_id: int, seed: int | None = None)
         model=model_of(scenario),
         params=params,
         path=build_path(section.path),
-        controller=controller_of(scenario),
+        controller=controller_of(scenario, actuators_of(scenario, params)),
         coordination=CoordinationGains(coupling_k(scenario), co.k2, co.v_r),
         predictor=predictor_of(scenario),
         law=extension("law", co.law, co.law_options),
@@ -266,10 +267,12 @@ def current_observer_of(scenario: Scenario) -> CurrentObserver | None:
     return CurrentObserver.for_loop(pf.k1, pf.delta, pf.k2) if wanted else None
 
 
-def controller_of(scenario: Scenario) -> PathFollowingController:
-    """The path-following controller with its options (supervisor.config.controller_choice)."""
+def controller_of(scenario: Scenario, actuators: Actuators | None = None) -> PathFollowingController:
+    """The path-following controller with its options (supervisor.config.controller_choice); a controller with a
+    field `fin_moment` that its options leave out gets the fins' largest moment per (m/s)^2 (vehicles.actuators)."""
+    context = None if actuators is None else {"fin_moment": actuators.fin_moment}
     controller: PathFollowingController = extension(
-        "controller", controller_name(scenario), controller_options(scenario)
+        "controller", controller_name(scenario), controller_options(scenario), context
     )
     return controller
 

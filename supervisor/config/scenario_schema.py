@@ -163,7 +163,8 @@ class PathFollowingSection(StrictModel):
     controller: ExtensionName = Field(
         default="auto",
         description="auto (supervisory where vehicle.uncertainty makes inertia or damping uncertain, else "
-        "backstepping), backstepping, supervisory (Aguiar & Hespanha 2007), an extension (cpf plugins), pkg.mod:Name",
+        "backstepping), backstepping, supervisory (Aguiar & Hespanha 2007), line_of_sight (bounded demands: "
+        "vehicles/line_of_sight.py), an extension (cpf plugins), pkg.mod:Name",
     )
     controller_options: dict[str, Any] = Field(
         default_factory=dict, description="a named controller's options (its fields; auto and backstepping take none)"

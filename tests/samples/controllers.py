@@ -32,6 +32,13 @@ class Retuned:
 
 
 @dataclass(frozen=True)
+class FinAware(Retuned):
+    """Retuned, with a field the fleet fills with the fins' moment limit when the scenario has fins (issue 24)."""
+
+    fin_moment: float | None = None
+
+
+@dataclass(frozen=True)
 class NoControl:
     """Has no control method: not a controller."""
 

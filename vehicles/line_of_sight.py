@@ -1,0 +1,186 @@
+"""Line-of-sight path following that knows its inputs' limits: for a vehicle whose fins give a moment that grows
+with the square of its speed (vehicles.actuators), where the backstepping design asks for more than they give.
+
+Why. The delta-shifted backstepping law (vehicles.path_following) asks for angular rates up to about u / |delta|
+and cancels the model's dynamics with torque it assumes it has: from rest it asks for 15 N m in the first second,
+while a REMUS 100's fins give L u^2 d_max, 1.5 N m at 1 m/s and nothing at rest (issue 24's measurements: 47-307 m
+off on the examples with fins). This law asks only for what the fins can give at the speed the vehicle has.
+
+Guidance (Fossen & Pettersen, "On uniform semiglobal exponential stability (USGES) of proportional line-of-sight
+guidance laws", Automatica 50(11), 2014; Breivik & Fossen, "Principles of guidance-based path following in 2D and
+3D", CDC-ECC 2005): the vehicle steers toward the point `lookahead` metres ahead of its path point along the path's
+tangent, T = p_d + lookahead t, t = p_d^gamma / |p_d^gamma| (a point on a curved path ahead would cut inside it).
+The direction d to T in body axes, against the direction the vehicle moves (its sideslip and climb angles, over
+ground where it knows or estimates the current: the sideslip compensation of Fossen, Pettersen & Galeazzi, IEEE TCST
+23(2), 2015), gives a course error e_r = atan2(d_y, d_x) - atan2(v, u) and a climb error e_q likewise. For a
+straight line, a constant speed U and a course that follows the line of sight, the cross-track error e obeys
+e' = -U e / sqrt(lookahead^2 + e^2): USGES (the paper cited, Theorem 1), |e(t)| <= |e0| exp(-U t / sqrt(lookahead^2
++ e0^2)).
+
+Rates within what the fins hold. The virtual yaw and pitch rates are the path's own turning rate (its tangent's
+angular velocity in body axes, a feed-forward) plus k_heading times the error, each within the rate whose damping
+takes the share `margin` of the moment available at the present speed, tau_max(u) = min(max_torque, fin_moment u^2)
+(minus, in pitch, the restoring moment being held). A slower vehicle turns more gently instead of asking for a moment
+it does not have; at rest it asks for none and thrusts first. The speed wanted is the path's, v_d |p_d^gamma|, less
+k1 times the bounded along-track error (ahead of its path point it slows down), within [0, top speed]. Each velocity
+(u, q, r) then follows its virtual value with gain k2 through the model's inverse, its damping fed forward at the
+virtual value (as backstepping's "feedforward": the true damping stays on the measured velocity), and the inputs are
+held within tau_max(u) and the thrust limit.
+
+Path parameter: the paper's eq. (3), gamma_ddot = -k_zeta (gamma_dot - v_d) + sigma' p_d^gamma with
+sigma = (p - p_d) / sqrt(1 + |p - p_d|^2), as backstepping's with delta = 0 (the fleet adds v_tilde).
+
+Gains. The theorem assumes the course follows the line of sight; a cascade (the rates with k2, the course with
+k_heading, the line of sight at U / lookahead) comes close to that when each loop is clearly slower than the one
+inside it (singular perturbations: Khalil, Nonlinear Systems, 3rd ed., Sec. 11.5). The defaults: k1, k2 and k_zeta
+as backstepping's, k_heading = k2 / 2, lookahead 8 m (5 lengths of a REMUS 100; U / lookahead = 0.125 1/s at 1 m/s,
+a quarter of k_heading). tests/test_line_of_sight.py holds a straight-line approach under the theorem's exponential
+bound once the course has turned. `lyapunov` is (rho - 1) + zeta^2 / 2 + (1 - cos e_r) + (1 - cos e_q), a measure of
+the errors, not a proven Lyapunov function.
+
+Fins. With vehicles.actuators' fins (fin_moment from the scenario's [vehicle] actuators) the law asks for no more
+than they give, but the vehicle model of eqs. (1)-(2) with a REMUS 100's added masses is unstable in sway-yaw when
+running straight (the Munk moment, unopposed by the hull's and fins' lift, which the model leaves out): at 1 m/s its
+unstable pole, 1.3 1/s, is faster than the fins' 1 s servo, and a loop must be faster than the unstable pole it
+stabilises (Stein, "Respect the unstable", IEEE Control Systems Magazine 23(4), 2003; tests/test_actuators.py).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Annotated
+
+from annotated_types import Ge, Gt, Le
+
+from vehicles.dynamics import Accelerations, PathVectors
+from vehicles.geometry import Float3
+from vehicles.params import VehicleParams
+from vehicles.path_following import ControlOutput, Current, drag, saturated
+from vehicles.vehicle_model import VehicleModel
+
+# m/s: below this speed the sideslip and climb angles fade out (the angle of a velocity of a few cm/s is noise:
+# at rest the vehicle steers its heading, not its course)
+_CALM = 0.1
+
+
+@dataclass(frozen=True, slots=True)
+class LineOfSight:
+    """The law of the module docstring (entry point `line_of_sight`). lookahead [m]; k1 [m/s]; k2, k_heading,
+    k_zeta [1/s]; fin_moment [N m / (m/s)^2]: the fins' largest moment per (m/s)^2 (L d_max: vehicles.actuators;
+    None: the preset's constant max_torque alone bounds the moments); margin: the share of the moment available that
+    the virtual rates may take against damping (the rest turns the vehicle)."""
+
+    lookahead: Annotated[float, Gt(0)] = 8.0
+    k1: Annotated[float, Gt(0)] = 0.5
+    k2: Annotated[float, Gt(0)] = 1.0
+    k_heading: Annotated[float, Gt(0)] = 0.5
+    k_zeta: Annotated[float, Gt(0)] = 1.0
+    fin_moment: Annotated[float, Gt(0)] | None = None
+    margin: Annotated[float, Gt(0), Le(1)] = 0.5
+    min_speed: Annotated[float, Ge(0)] = 0.0
+
+    def control(
+        self, model: VehicleModel, params: VehicleParams, s: Sequence[float], path: PathVectors, gamma: float,
+        gamma_dot: float, v_d: float, current: Current | None,
+    ) -> ControlOutput:  # fmt: skip
+        p_d, p_g, _ = path
+        error = (s[0] - p_d[0], s[1] - p_d[1], s[2] - p_d[2])
+        rho = math.sqrt(1.0 + error[0] * error[0] + error[1] * error[1] + error[2] * error[2])
+        along = (error[0] * p_g[0] + error[1] * p_g[1] + error[2] * p_g[2]) / rho
+        zeta = gamma_dot - v_d
+        drift = model.drift(s, params)
+        e_r, e_q, turning, u_path = self._guidance(s, path, error, gamma_dot, current)
+        tau = self._inputs(params, s, drift, (e_r, e_q), turning, u_path * v_d - self.k1 * along / max(u_path, 1e-9))
+        lyapunov = (rho - 1.0) + 0.5 * zeta * zeta + (1.0 - math.cos(e_r)) + (1.0 - math.cos(e_q))
+        return ControlOutput(tau, -self.k_zeta * zeta + along, lyapunov, drift)
+
+    def _guidance(
+        self, s: Sequence[float], path: PathVectors, error: Float3, gamma_dot: float, current: Current | None
+    ) -> tuple[float, float, Float3, float]:
+        """(course and climb errors [rad]: from the direction the vehicle moves over ground to the line of sight,
+        the path tangent's angular velocity in body axes [rad/s], |p_d^gamma| [m per unit of gamma])."""
+        _, p_g, p_gg = path
+        speed = math.sqrt(p_g[0] * p_g[0] + p_g[1] * p_g[1] + p_g[2] * p_g[2])
+        a = self.lookahead / max(speed, 1e-9)  # on the tangent, not the path: a point on a curve ahead cuts inside it
+        to_target = (a * p_g[0] - error[0], a * p_g[1] - error[1], a * p_g[2] - error[2])
+        dx, dy, dz = _in_body(s, to_target)
+        spin = gamma_dot / max(speed * speed, 1e-18)  # the tangent turns at (p_g x p_gg) gamma_dot / |p_g|^2
+        turning = _in_body(s, (spin * (p_g[1] * p_gg[2] - p_g[2] * p_gg[1]),
+                               spin * (p_g[2] * p_gg[0] - p_g[0] * p_gg[2]),
+                               spin * (p_g[0] * p_gg[1] - p_g[1] * p_gg[0])))  # fmt: skip
+        u, v, w = _over_ground(s, current)
+        moving = min(1.0, math.sqrt(u * u + v * v + w * w) / _CALM)
+        course = math.atan2(dy, dx) - moving * math.atan2(v, u)
+        climb = math.atan2(dz, math.hypot(dx, dy)) - moving * math.atan2(w, math.hypot(u, v))
+        return course, climb, turning, speed
+
+    def _inputs(
+        self, prm: VehicleParams, s: Sequence[float], drift: Accelerations, errors: tuple[float, float],
+        turning: Float3, u_wanted: float,
+    ) -> Float3:  # fmt: skip
+        """(tau_u, tau_q, tau_r): each of u, q, r led to its virtual value with gain k2, within the limits."""
+        u, q, r = s[12], s[16], s[17]
+        (du, _, _), (_, dq, dr) = drift
+        limit = self.torque_limit(prm, u)
+        lin, quad = prm.angular_linear_damping, prm.angular_quadratic_damping
+        # in pitch the moment the drift holds other than damping (restoring, Coriolis) takes its share first
+        held_q = abs(prm.inertia[1] * dq + (lin[1] + quad[1] * abs(q)) * q)
+        q_max = _rate_within(lin[1], quad[1], self.margin * limit - held_q)
+        q_v = _within(turning[1] - self.k_heading * errors[1], q_max)  # a positive q pitches the nose down
+        r_v = _within(turning[2] + self.k_heading * errors[0], _rate_within(lin[2], quad[2], self.margin * limit))
+        u_v = min(max(u_wanted, self.min_speed), top_speed(prm))
+        k2 = self.k2
+        tau = (
+            prm.mass[0] * (-k2 * (u - u_v) - du) + drag(prm.linear_damping[0], prm.quadratic_damping[0], u_v, u),
+            prm.inertia[1] * (-k2 * (q - q_v) - dq) + drag(lin[1], quad[1], q_v, q),
+            prm.inertia[2] * (-k2 * (r - r_v) - dr) + drag(lin[2], quad[2], r_v, r),
+        )
+        return _held(saturated(prm, *tau), limit)
+
+    def torque_limit(self, prm: VehicleParams, u: float) -> float:
+        """The largest pitch or yaw moment at surge speed u [N m]: the preset's, or the fins' if smaller."""
+        if self.fin_moment is None:
+            return prm.max_torque
+        return min(prm.max_torque, self.fin_moment * u * u)
+
+
+def _over_ground(s: Sequence[float], current: Current | None) -> Float3:
+    """The body velocity over ground: through the water, plus the current where the vehicle knows or estimates it."""
+    if current is None:
+        return s[12], s[13], s[14]
+    c = current[0]
+    return s[12] + c[0], s[13] + c[1], s[14] + c[2]
+
+
+def top_speed(prm: VehicleParams) -> float:
+    """The surge speed full thrust holds against the surge damping [m/s]."""
+    return _rate_within(prm.linear_damping[0], prm.quadratic_damping[0], prm.max_surge_force)
+
+
+def _rate_within(linear: float, quadratic: float, moment: float) -> float:
+    """The rate x >= 0 with (linear + quadratic x) x = moment (0 if moment <= 0): what that much effort holds."""
+    if moment <= 0.0:
+        return 0.0
+    if quadratic <= 0.0:
+        return moment / linear if linear > 0.0 else math.inf
+    return (-linear + math.sqrt(linear * linear + 4.0 * quadratic * moment)) / (2.0 * quadratic)
+
+
+def _held(tau: Float3, limit: float) -> Float3:
+    return tau[0], _within(tau[1], limit), _within(tau[2], limit)
+
+
+def _within(x: float, limit: float) -> float:
+    return limit if x > limit else -limit if x < -limit else x
+
+
+def _in_body(s: Sequence[float], w: Float3) -> Float3:
+    """R' w for the lifted state's rotation (row-major, body to inertial)."""
+    r11, r12, r13, r21, r22, r23, r31, r32, r33 = s[3:12]
+    return (
+        r11 * w[0] + r21 * w[1] + r31 * w[2],
+        r12 * w[0] + r22 * w[1] + r32 * w[2],
+        r13 * w[0] + r23 * w[1] + r33 * w[2],
+    )
