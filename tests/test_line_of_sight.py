@@ -25,12 +25,12 @@ REMUS = PRESETS["remus100"]
 
 
 def fly(law: LineOfSight, path: Path, x0: np.ndarray, seconds: float, planar: bool, gamma0: float = 0.0):
-    """One vehicle alone (no coordination input) at dt 0.05 s: (t, lifted state, tau) per step."""
+    """One vehicle alone (no coordination input) at dt 0.05 s: (t, state, tau, p - p_d, gamma_dot) per step."""
     cfg = VehicleConfig(1, PLANAR if planar else SPATIAL, REMUS, path, law, CoordinationGains(v_r=1.0))
     state, out = VehicleState(0.0, x0, gamma0, 1.0), []
     for _ in range(round(seconds / 0.05)):
         state, tel = step(cfg, state, 0.05, neighbours=[])
-        out.append((tel.t, tel.x, np.asarray(tel.tau), np.asarray(tel.error)))
+        out.append((tel.t, tel.x, np.asarray(tel.tau), np.asarray(tel.error), tel.gamma_dot))
     return out
 
 
@@ -89,13 +89,17 @@ def test_the_course_not_the_heading_holds_a_buoyant_vehicle_on_its_depth():
 
 def test_it_holds_a_circle_closely_at_a_low_speed():
     """Circle of 15 m at 0.47 m/s (the circles example's inner path): the sideslip in the turn is compensated, the
-    turn rate fed forward: the error settles within 0.1 m (0.45 m when the sideslip angle was underestimated)."""
+    turn rate fed forward: the error settles within 0.1 m (0.45 m when the sideslip angle was underestimated), and
+    gamma_dot at v_d."""
     circle = Circle(15.0, 200.0, 0.0, (0.0, 0.0, 0.0))
     p0 = np.asarray(circle.evaluate(0.0)[0])
     x0 = PLANAR.pack(p0[:2] + np.array([3.0, 0.0]), rotation_2d(math.pi / 2), np.zeros(2), np.zeros(1))
     log = fly(LineOfSight(), circle, x0, 200.0, planar=True)
     settled = np.array([np.linalg.norm(row[3]) for row in log[-1000:]])
     assert settled.max() < 0.1
+    # and its path point runs at v_d (1): the surge asked for moves it along the tangent over ground at the path's
+    # speed despite its sideslip, so the fleet's consensus is at v_r (1e-3 off when it asked for that speed in surge)
+    assert max(abs(row[4] - 1.0) for row in log[-1000:]) < 1e-4
 
 
 def test_the_fins_of_the_scenario_reach_the_controller():

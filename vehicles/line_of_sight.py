@@ -21,11 +21,13 @@ Rates within what the fins hold. The virtual yaw and pitch rates are the path's 
 angular velocity in body axes, a feed-forward) plus k_heading times the error, each within the rate whose damping
 takes the share `margin` of the moment available at the present speed, tau_max(u) = min(max_torque, fin_moment u^2)
 (minus, in pitch, the restoring moment being held). A slower vehicle turns more gently instead of asking for a moment
-it does not have; at rest it asks for none and thrusts first. The speed wanted is the path's, v_d |p_d^gamma|, less
-k1 times the bounded along-track error (ahead of its path point it slows down), within [0, top speed]. Each velocity
-(u, q, r) then follows its virtual value with gain k2 through the model's inverse, its damping fed forward at the
-virtual value (as backstepping's "feedforward": the true damping stays on the measured velocity), and the inputs are
-held within tau_max(u) and the thrust limit.
+it does not have; at rest it asks for none and thrusts first. The speed wanted along the path's tangent, over
+ground, is the path's, v_d |p_d^gamma|, less k1 times the bounded along-track error (ahead of its path point it slows
+down); the surge that gives it with the sway, heave and current the vehicle has (in a turn it slips sideways: a surge
+of v_d |p_d^gamma| would leave gamma_dot short of v_d, and the fleet's consensus off v_r), within [0, top speed]. Each
+velocity (u, q, r) then follows its virtual value with gain k2 through the model's inverse, its damping fed forward
+at the virtual value (as backstepping's "feedforward": the true damping stays on the measured velocity), and the
+inputs are held within tau_max(u) and the thrust limit.
 
 Path parameter: the paper's eq. (3), gamma_ddot = -k_zeta (gamma_dot - v_d) + sigma' p_d^gamma with
 sigma = (p - p_d) / sqrt(1 + |p - p_d|^2), as backstepping's with delta = 0 (the fleet adds v_tilde).
@@ -92,7 +94,8 @@ class LineOfSight:
         zeta = gamma_dot - v_d
         drift = model.drift(s, params)
         e_r, e_q, turning, u_path = self._guidance(s, path, error, gamma_dot, current)
-        tau = self._inputs(params, s, drift, (e_r, e_q), turning, u_path * v_d - self.k1 * along / max(u_path, 1e-9))
+        wanted = _surge_for(s, p_g, u_path * v_d - self.k1 * along / max(u_path, 1e-9), current)
+        tau = self._inputs(params, s, drift, (e_r, e_q), turning, wanted)
         lyapunov = (rho - 1.0) + 0.5 * zeta * zeta + (1.0 - math.cos(e_r)) + (1.0 - math.cos(e_q))
         return ControlOutput(tau, -self.k_zeta * zeta + along, lyapunov, drift)
 
@@ -144,6 +147,16 @@ class LineOfSight:
         if self.fin_moment is None:
             return prm.max_torque
         return min(prm.max_torque, self.fin_moment * u * u)
+
+
+def _surge_for(s: Sequence[float], p_g: Float3, along_speed: float, current: Current | None) -> float:
+    """The surge speed through the water [m/s] that moves the vehicle along its path's tangent at along_speed over
+    ground, its sway, heave and the current as they are; with the tangent more than 60 deg off its axis, as if it were
+    60 deg off (the course is still turning toward the line of sight)."""
+    norm = math.sqrt(p_g[0] * p_g[0] + p_g[1] * p_g[1] + p_g[2] * p_g[2])
+    tx, ty, tz = _in_body(s, (p_g[0] / max(norm, 1e-9), p_g[1] / max(norm, 1e-9), p_g[2] / max(norm, 1e-9)))
+    u, v, w = _over_ground(s, current)
+    return (along_speed - ty * v - tz * w) / max(tx, 0.5) - (u - s[12])
 
 
 def _over_ground(s: Sequence[float], current: Current | None) -> Float3:
