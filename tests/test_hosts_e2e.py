@@ -18,8 +18,8 @@ import pytest
 from supervisor.config.scenario import parse_scenario
 from supervisor.engine.cosim import BusOptions, run_zenoh
 from supervisor.engine.inprocess import RunResult, run_inprocess
-from supervisor.engine.processes import ProcessGroup
 from supervisor.engine.progress import Progress
+from supervisor.processes import ProcessGroup
 from tests.conftest import CONFIGS, shortened
 from tests.procs import processes_with, start_cpf, wait_for_no_processes, wait_for_progress, wait_until
 from tests.test_faults_e2e import EVERY_KIND, assert_balanced, read_run, records

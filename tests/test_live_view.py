@@ -5,6 +5,7 @@ run goes on; the run ends cleanly whether the client stays or leaves; a replay s
 from __future__ import annotations
 
 import contextlib
+import os
 import re
 import signal
 import socket
@@ -31,7 +32,7 @@ from supervisor.record.scene.foxglove_schemas import (
 from supervisor.record.scene.live import LiveScene
 from tests.conftest import CONFIGS, shortened
 from tests.foxglove_client import CLOSE_WAIT, FoxgloveClient, Received
-from tests.procs import CPF, cpf
+from tests.procs import CPF, cpf, processes_with
 
 pytestmark = pytest.mark.e2e
 LIVE_LINE = re.compile(r"live view on ws://127\.0\.0\.1:(\d+) \(Foxglove: Open connection -> Foxglove WebSocket\)")
@@ -306,6 +307,35 @@ def test_the_view_closes_each_connection_with_a_code_as_it_stops(finished: bool,
             assert client.close_code == code
     finally:
         view.stop()
+
+
+def test_the_relay_serves_from_a_process_of_its_own_that_ends_with_the_view() -> None:
+    """Its own interpreter (the engine's thread does not hold its lock: supervisor.record.relay_process), its own
+    session, gone once the view has stopped; and the view serves through it meanwhile."""
+    view = LiveView(0)
+    try:
+        (relay,) = _relays()
+        assert os.getsid(relay) == relay
+        with FoxgloveClient.open(view.port, {TRANSFORMS_TOPIC}) as client:
+            view.finish()
+            view.stop()
+            assert client.receive() is None and client.close_code == 1000
+    finally:
+        view.stop()
+    assert _relays() == []
+
+
+def _relays() -> list[int]:
+    """This process's live relays."""
+    return [p for p, _ in processes_with("supervisor.record.live_relay") if _parent(p) == os.getpid()]
+
+
+def _parent(pid: int) -> int:
+    try:
+        status = Path(f"/proc/{pid}/status").read_text()
+    except OSError:
+        return 0
+    return int(next(line.split()[1] for line in status.splitlines() if line.startswith("PPid:")))
 
 
 def test_the_transforms_place_a_fleet_frame_at_the_centroid_for_the_camera(inprocess_log: Path) -> None:

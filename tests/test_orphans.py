@@ -19,7 +19,7 @@ from pathlib import Path
 import pytest
 
 from comms.bus.bus import free_port
-from supervisor.engine.processes import ProcessGroup
+from supervisor.processes import ProcessGroup
 from tests.conftest import shortened
 from tests.procs import (
     CPF,
@@ -102,7 +102,7 @@ def test_sigkill_of_the_supervisor_during_start_up_leaves_no_child_after_2_s(
 
 HOLDER = """
 import sys, threading
-from supervisor.engine.processes import ProcessGroup
+from supervisor.processes import ProcessGroup
 group = ProcessGroup()
 spawner = threading.Thread(target=group.spawn, args=("vehicle 1", sys.argv[1:]))  # not the main thread:
 spawner.start()  # no parent-death signal for this child, its lifeline alone
@@ -173,3 +173,38 @@ def test_a_child_that_ends_early_says_why_through_the_launcher() -> None:
         child.process.wait(timeout=60)
         assert child.how_it_ended() == "exit code 1: boom"
         assert child.process.pid in group.pids()
+
+
+def _status(pid: int, field: str) -> str:
+    try:
+        status = Path(f"/proc/{pid}/status").read_text()
+    except OSError:
+        return ""
+    return next((line.split()[1] for line in status.splitlines() if line.startswith(f"{field}:")), "")
+
+
+def _parent(pid: int) -> int:
+    return int(_status(pid, "PPid") or 0)
+
+
+def _running(pid: int) -> bool:
+    """Neither gone nor a zombie waiting to be reaped."""
+    return _status(pid, "State") not in ("", "Z")
+
+
+def test_sigkill_of_the_supervisor_ends_the_live_views_relay_within_2_s(tmp_path: Path, paper_text: str) -> None:
+    """The live view's relay is a child process (supervisor.record.relay_process), the in-process engine's only one:
+    it too ends with its lifeline."""
+    scenario = tmp_path / "live.toml"
+    scenario.write_text(shortened(paper_text, 20000.0))
+    run = start_cpf(["run", str(scenario), "--out", "live.mcap", "--live", "0"], tmp_path)
+    try:
+        relays = lambda: [p for p, _ in processes_with("supervisor.record.live_relay") if _parent(p) == run.pid]  # noqa: E731
+        assert wait_until(lambda: bool(relays())), "no relay process"
+        (relay,) = relays()
+        assert os.getsid(relay) == relay  # its own session
+        run.send_signal(signal.SIGKILL)
+        run.communicate(timeout=10)
+    finally:
+        run.kill()
+    assert wait_until(lambda: not _running(relay), timeout=GONE_WITHIN), "the relay outlived cpf"

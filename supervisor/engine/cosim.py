@@ -43,11 +43,11 @@ from supervisor.engine.clock import Clock
 from supervisor.engine.inprocess import RunResult
 from supervisor.engine.intake import Intake
 from supervisor.engine.launch import START_TIMEOUT, BusOptions, Launch, local, reachable
-from supervisor.engine.processes import ProcessGroup
 from supervisor.engine.progress import Progress
 from supervisor.engine.realtime_timing import RealtimeTiming
 from supervisor.engine.startup import Hellos, ask_hello
 from supervisor.engine.supervisor import Supervisor
+from supervisor.processes import ProcessGroup
 from supervisor.record.meta import RunMeta
 from supervisor.record.recorder import LiveSink, Recorder
 

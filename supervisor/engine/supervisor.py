@@ -22,11 +22,11 @@ from supervisor.engine.clock import Clock
 from supervisor.engine.hosting import cores, default_per_process, groups, host_name, hosted_ids, hosts_chosen
 from supervisor.engine.intake import Intake
 from supervisor.engine.launch import START_TIMEOUT, Launch
-from supervisor.engine.processes import Child, ProcessGroup
 from supervisor.engine.startup import REPORT_EVERY, Hellos, missing_names
 from supervisor.engine.windows import Reports
 from supervisor.errors import SimulationError
 from supervisor.plan.faults import ProcessAction
+from supervisor.processes import Child, ProcessGroup
 from vehicles.host import CONTROL_ENV
 
 STOP_DEADLINE = 3.0  # s for the processes to leave after the stop message, before the supervisor's token goes

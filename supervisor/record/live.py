@@ -25,7 +25,7 @@ import orjson
 from comms.records.messages import FAULT_KEY, GRAPH_KEY, META_KEY
 from comms.records.schemas import schema_for
 from supervisor.errors import ScenarioError
-from supervisor.record.live_relay import Relay
+from supervisor.record.relay_process import RelayProcess
 from supervisor.record.scene.foxglove_schemas import (
     MESSAGE_ENCODING,
     PATHS_TOPIC,
@@ -95,7 +95,7 @@ class LiveView:
         self._look_again = 0.0  # s of simulated time
         self.served = 0  # messages handed to the server with a client subscribed
 
-    def _serve(self, port: int) -> tuple[foxglove.websocket.WebSocketServer, Relay]:
+    def _serve(self, port: int) -> tuple[foxglove.websocket.WebSocketServer, RelayProcess]:
         """foxglove-sdk's server on a free port, the relay on `port` in front of it (ScenarioError if not to be had)."""
         fox = self._foxglove
         try:
@@ -104,7 +104,7 @@ class LiveView:
         except RuntimeError as exc:  # FoxgloveError: no port to be had
             raise ScenarioError(f"--live: cannot serve on {HOST} ({exc})") from None
         try:
-            return server, Relay(HOST, port, server.port)
+            return server, RelayProcess(HOST, port, server.port)
         except OSError as exc:  # the port is taken, or not ours to bind
             server.stop()
             raise ScenarioError(f"--live: cannot serve on {HOST}:{port} ({exc.strerror or exc})") from None

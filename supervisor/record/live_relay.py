@@ -13,12 +13,20 @@ on a free port of the same host), for what that server does not do and Foxglove'
 
 A byte splice that rewrote the handshake's header would do the first, not the second: the close is a frame. Frames
 pass as they are (text as text, binary as binary, in order, uncompressed); the relay runs an asyncio loop on its own
-thread, from construction to `stop`."""
+thread, from construction to `stop`, in a process of its own (supervisor.record.relay_process: `main`): in the
+supervisor's process that thread waited for the interpreter lock the engine holds (benchmarks/bench_live.py).
+
+`python -m supervisor.record.live_relay BACKEND_URL`: the relay process. It serves on the listening socket it
+inherits (its descriptor in RELAY_SOCKET_ENV) and takes its orders, a line each, on the control pipe it inherits
+(RELAY_CONTROL_ENV): `closing CODE REASON`, then `stop`; the pipe's end (the supervisor gone) stops it too."""
 
 from __future__ import annotations
 
 import asyncio
 import logging
+import os
+import socket
+import sys
 import threading
 from collections.abc import Coroutine
 from typing import Any
@@ -29,30 +37,32 @@ from websockets.exceptions import ConnectionClosed, InvalidHandshake
 from websockets.frames import CloseCode
 from websockets.typing import Subprotocol
 
+from comms.bus import lifeline
+
 log = logging.getLogger(__name__)
 SDK_SUBPROTOCOL = Subprotocol("foxglove.sdk.v1")  # what foxglove-sdk's server answers to
 SUBPROTOCOLS = [SDK_SUBPROTOCOL, Subprotocol("foxglove.websocket.v1")]  # what the relay answers to, in preference
 DRAIN_WAIT = 5.0  # s for the connections to pass on what the stopped server sent, and close
 BACKEND_WAIT = 10.0  # s to connect to the server on the same host (a loaded machine), or to close a connection to it
+RELAY_SOCKET_ENV = "CPF_RELAY_SOCKET"  # the relay process's listening socket: its inherited descriptor
+RELAY_CONTROL_ENV = "CPF_RELAY_CONTROL"  # the relay process's control pipe: its inherited read end
 
 
 class Relay:
-    """Listening on host:port (0: a free port; `port` is the one it got) and relaying each connection to the server
-    at ws://host:backend_port. OSError if the port cannot be had."""
+    """Serving on the listening socket sock and relaying each connection to the server at backend (a ws:// URL)."""
 
-    def __init__(self, host: str, port: int, backend_port: int) -> None:
-        self._backend = f"ws://{host}:{backend_port}"
+    def __init__(self, sock: socket.socket, backend: str) -> None:
+        self._backend = backend
         self._closing: tuple[int, str] = (CloseCode.GOING_AWAY, "cpf stopped")  # see `closing`
         self._handlers: set[asyncio.Task[None]] = set()
         self._loop = asyncio.new_event_loop()
         self._thread = threading.Thread(target=self._loop.run_forever, name="cpf-live-relay", daemon=True)
         self._thread.start()
         try:
-            self._server: Server = self._run(self._listen(host, port))
+            self._server: Server = self._run(self._listen(sock))
         except BaseException:
             self._end_loop()
             raise
-        self.port: int = self._server.sockets[0].getsockname()[1]
 
     def closing(self, code: int, reason: str) -> None:
         """The close code and reason each connection gets once the server is gone (before stopping the server)."""
@@ -76,8 +86,8 @@ class Relay:
         self._thread.join()
         self._loop.close()
 
-    async def _listen(self, host: str, port: int) -> Server:
-        return await serve(self._relay, host, port, subprotocols=SUBPROTOCOLS, compression=None, max_size=None,
+    async def _listen(self, sock: socket.socket) -> Server:
+        return await serve(self._relay, sock=sock, subprotocols=SUBPROTOCOLS, compression=None, max_size=None,
                            ping_interval=None)  # fmt: skip
 
     async def _shutdown(self) -> None:
@@ -121,3 +131,26 @@ async def _pump(source: ServerConnection | ClientConnection, sink: ServerConnect
             await sink.send(frame)
     except ConnectionClosed:
         return
+
+
+def main(backend: str) -> None:
+    """The relay process: serve until told to stop, or until the supervisor is gone."""
+    logging.basicConfig(level=logging.WARNING, format="cpf live relay: %(message)s")
+    lifeline.watch("live relay")
+    sock = socket.socket(fileno=int(os.environ.pop(RELAY_SOCKET_ENV)))
+    relay = Relay(sock, backend)
+    try:
+        with os.fdopen(int(os.environ.pop(RELAY_CONTROL_ENV)), encoding="utf-8") as control:
+            for line in control:  # until `stop` or the pipe's end
+                order, _, rest = line.rstrip("\n").partition(" ")
+                if order == "stop":
+                    break
+                if order == "closing":
+                    code, _, reason = rest.partition(" ")
+                    relay.closing(int(code), reason)
+    finally:
+        relay.stop()
+
+
+if __name__ == "__main__":
+    main(sys.argv[1])

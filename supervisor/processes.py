@@ -35,7 +35,10 @@ class Child:
     control: int = -1  # the write end of its control pipe (a vehicle host's), -1 if none
 
     def tell(self, order: str) -> None:
-        """A line on its control pipe (vehicles.host reads it); none if it has ended (its vehicles' tokens say so)."""
+        """A line on its control pipe (vehicles.host reads it); none if it has ended (its vehicles' tokens say so) or
+        its pipe is closed."""
+        if self.control < 0:
+            return
         with contextlib.suppress(BrokenPipeError):
             os.write(self.control, f"{order}\n".encode())
 
