@@ -8,6 +8,7 @@ import math
 import numpy as np
 import pytest
 
+from supervisor.config.explain import what_would_run
 from supervisor.config.fleet import vehicle_config
 from supervisor.config.scenario import parse_scenario
 from tests.conftest import CONFIGS
@@ -124,3 +125,9 @@ def test_a_users_controller_with_a_fin_moment_field_gets_it_too():
     guarded = vehicle_config(parse_scenario(text, "fins.toml"), 1).controller
     assert isinstance(guarded, Guarded)
     assert guarded.inner.fin_moment == pytest.approx(6.15 * math.radians(13.6))
+
+
+def test_cpf_validate_says_the_tube_and_the_fins():
+    sets = ["path_following.controller=line_of_sight", "vehicle.actuators=remus100"]
+    said = what_would_run(parse_scenario((CONFIGS / "paper.toml").read_text(), "paper.toml", sets))
+    assert "Path following: line_of_sight, tube 1.2 m; remus100's fins and propeller." in said

@@ -9,7 +9,7 @@ from typing import Any
 from comms.records.wire import SIZE
 from supervisor.config.comms_schema import CommsSection, TransmitSection
 from supervisor.config.controller_choice import AUTO, controller_name, estimated_spread
-from supervisor.config.derived import steps_of
+from supervisor.config.derived import steps_of, tube_radius
 from supervisor.config.describe import describe_fault
 from supervisor.config.fleet import coupling_k
 from supervisor.config.medium import modem_params, sound_speed
@@ -40,13 +40,18 @@ def what_would_run(sc: Scenario) -> str:
 
 
 def _controller(sc: Scenario) -> str:
-    """The controller as it will run: auto's choice and why, and the tube's delta."""
+    """The controller as it will run: auto's choice and why, and the delta of the designs that have one (the tube
+    radius of those that do not); the actuators if not ideal."""
     pf, name = sc.path_following, controller_name(sc)
-    text = f"{name}, delta {_num(pf.delta)} m"
+    shifted = name in ("backstepping", "supervisory")  # the delta-shifted designs: |delta| makes their tube
+    text = f"{name}, delta {_num(pf.delta)} m" if shifted else f"{name}, tube {_num(tube_radius(sc))} m"
     if pf.controller == AUTO:
         spread = estimated_spread(sc)
         why = f"inertia or damping uncertain by up to +-{_num(100 * spread)} %" if spread else "the nominal plant"
         text += f" (auto: {why})"
+    actuators = sc.vehicle.actuators
+    if actuators != "ideal":
+        text += f"; {actuators if isinstance(actuators, str) else 'the scenario'}'s fins and propeller"
     return text
 
 
