@@ -18,6 +18,11 @@ log = logging.getLogger("cpf")
 
 
 def report(args: argparse.Namespace) -> int:
+    from supervisor.cli.outputs import made_directory
+    from supervisor.record.logfile import open_log
+
+    open_log(args.log).close()  # LogError for a missing log or another file, before anything is made
+    made_directory("--out", args.out or args.log.parent)
     from supervisor.analysis.report import write_report
 
     for path in write_report(args.log, args.out or args.log.parent):
@@ -49,6 +54,7 @@ def export(args: argparse.Namespace) -> int:
 
 
 def sweep(args: argparse.Namespace) -> int:
+    from supervisor.cli.outputs import made_directory
     from supervisor.cli.terminal import SweepBar
     from supervisor.tools.sweep import Cluster, parse_param, sweep
     from supervisor.tools.sweep_plot import plot_sweep
@@ -56,6 +62,7 @@ def sweep(args: argparse.Namespace) -> int:
     if args.cluster is not None and args.jobs is not None:  # the workers' threads say how many runs go at once
         raise ScenarioError(f"--jobs: local processes, not for a sweep on a --cluster, got {args.jobs}")
     params = [parse_param(text) for text in args.param]
+    made_directory("--out", args.out)
     cluster = None if args.cluster is None else Cluster(args.cluster, args.cluster_timeout)
     bar = SweepBar()
     try:
@@ -70,10 +77,11 @@ def sweep(args: argparse.Namespace) -> int:
 
 def resim(args: argparse.Namespace) -> int:
     from supervisor.analysis.summary import format_summary, summarize
+    from supervisor.cli.outputs import checked_file
     from supervisor.config.derived import intervals, tube_radius
     from supervisor.engine.resim import resimulate
 
-    out = args.out or args.log.with_name(f"{args.log.stem}.resim.mcap")
+    out = checked_file("--out", args.out or args.log.with_name(f"{args.log.stem}.resim.mcap"))
     sc, original, new, agreement = resimulate(args.log, args.set, out)
     rep, duration = sc.report, sc.scenario.duration
     tube = tube_radius(sc)
@@ -107,12 +115,13 @@ def replay(args: argparse.Namespace) -> int:
 
 
 def recover(args: argparse.Namespace) -> int:
+    from supervisor.cli.outputs import checked_file
     from supervisor.errors import RecoveryError
     from supervisor.record.recover import recover
 
     if not args.log.is_file():
         raise ScenarioError(f"{args.log}: no such log file")
-    out = args.out or args.log.with_name(f"{args.log.stem}.recovered.mcap")
+    out = checked_file("--out", args.out or args.log.with_name(f"{args.log.stem}.recovered.mcap"))
     try:
         report = recover(args.log, out)
     except (RecoveryError, OSError) as exc:
@@ -181,6 +190,7 @@ def presets(args: argparse.Namespace) -> int:
 
 
 def per(args: argparse.Namespace) -> int:
+    from supervisor.cli.outputs import checked_file
     from supervisor.tools.per_plot import Channel, modem_names, plot_per
 
     try:
@@ -188,5 +198,5 @@ def per(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise ScenarioError(str(exc)) from None
     channel = Channel(args.source_level, args.bytes, args.shadowing, args.rician_k, args.spreading, args.draws)
-    print(plot_per(names, channel, args.out))
+    print(plot_per(names, channel, checked_file("--out", args.out)))
     return 0

@@ -4,6 +4,7 @@ none in use by another run, none the same as another output or the scenario itse
 from __future__ import annotations
 
 import os
+import tempfile
 from pathlib import Path
 
 
@@ -18,7 +19,37 @@ def _writable_file(option: str, path: Path) -> list[str]:
         return [f"{option}: {ancestor} is a file, not a directory, got {path}"]
     if not os.access(ancestor, os.W_OK | os.X_OK) or (path.exists() and not os.access(path, os.W_OK)):
         return [f"{option}: not writable, got {path}"]
-    return []
+    problem = _cannot_open(path) if path.exists() else _cannot_create_in(ancestor)
+    return [] if problem is None else [f"{option}: not writable ({problem}), got {path}"]
+
+
+def _cannot_open(path: Path) -> str | None:
+    """Why an existing file cannot be opened for writing (None: it can): appending nothing leaves it as it was."""
+    try:
+        with path.open("ab"):
+            return None
+    except OSError as exc:
+        return exc.strerror or str(exc)
+
+
+def _cannot_create_in(directory: Path) -> str | None:
+    """Why nothing can be made in directory (None: something can), tried: os.access says yes to root on file
+    systems that refuse (sysfs, procfs) and on read-only mounts."""
+    try:
+        os.rmdir(tempfile.mkdtemp(prefix=".cpf-probe-", dir=directory))
+        return None
+    except OSError as exc:
+        return exc.strerror or str(exc)
+
+
+def checked_file(option: str, path: Path) -> Path:
+    """path, if it can be written as a file (before any work); ScenarioError '<option>: <problem>, got <path>'."""
+    from supervisor.errors import ScenarioError
+
+    problems = _writable_file(option, path)
+    if problems:
+        raise ScenarioError(problems[0])
+    return path
 
 
 def output_errors(scenario: Path, outputs: dict[str, Path | None]) -> list[str]:
@@ -52,5 +83,6 @@ def made_directory(option: str, path: Path) -> None:
         raise ScenarioError(f"{option}: a file is in the way, got {path}") from None
     except OSError as exc:
         raise ScenarioError(f"{option}: cannot make the directory ({exc.strerror or exc}), got {path}") from None
-    if not os.access(path, os.W_OK | os.X_OK):
-        raise ScenarioError(f"{option}: not writable, got {path}")
+    problem = _cannot_create_in(path)
+    if problem is not None:
+        raise ScenarioError(f"{option}: not writable ({problem}), got {path}")
