@@ -156,7 +156,8 @@ def _simulate(args: argparse.Namespace, scenario: Scenario, out: Path, live: Liv
     progress = Progress(scenario.scenario.duration, sys.stderr, enabled=not args.quiet, bar=bar)
     speed = 1.0 if args.speed is None else args.speed
     if args.engine == "inprocess":
-        return run_inprocess(scenario, str(args.scenario), text, out, seed, progress, args.foxglove, live)
+        paced = speed if args.clock == "realtime" else None
+        return run_inprocess(scenario, str(args.scenario), text, out, seed, progress, args.foxglove, live, paced)
     timeout = START_TIMEOUT if args.start_timeout is None else args.start_timeout
     changes = (tuple(args.set), tuple(args.fault))
     bus = BusOptions(args.listen, args.connect, args.remote, *changes, timeout, args.credentials_dir, args.zenoh_config)

@@ -12,6 +12,7 @@ it is measured against.
 from __future__ import annotations
 
 import logging
+import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -212,19 +213,26 @@ def run_inprocess(
     progress: Progress,
     scene: bool = True,
     live: LiveSink | None = None,
+    speed: float | None = None,
 ) -> RunResult:
     """Run the scenario, record every message to out (MCAP; None: only counted, for a sweep), and return what the
-    summary needs. scene: the log gets the run's Foxglove channels (record.scene); live: sees every record too."""
+    summary needs. scene: the log gets the run's Foxglove channels (record.scene); live: sees every record too.
+    speed: on the realtime clock, simulated s per wall s (each step waits for its wall time: a run to watch live);
+    None: the lockstep clock, as fast as it goes."""
     dt = scenario.scenario.step
     steps = steps_of(scenario)
     with Recorder(out, scene, live) if out is not None else Tally() as rec:
         rec.limit(scenario.scenario.duration)
-        meta = RunMeta.of(scenario, scenario_file, scenario_toml, seed, "inprocess", "lockstep")
+        clock = "lockstep" if speed is None else "realtime"
+        meta = RunMeta.of(scenario, scenario_file, scenario_toml, seed, "inprocess", clock)
         rec.write(META_KEY, 0.0, meta.to_message())
         rec.write(GRAPH_KEY, 0.0, Graph.of(0.0, scenario.graph.edges).to_message())
         run = _InProcessRun(scenario, rec, seed)
         progress.begin()
+        began = time.monotonic()
         for k in range(steps):
+            if speed is not None:  # step k starts at its wall time, k dt / speed after the first
+                time.sleep(max(0.0, began + k * dt / speed - time.monotonic()))
             run.step(k)
             progress.update((k + 1) * dt)
         run.finish(steps * dt)
