@@ -106,7 +106,8 @@ def test_help_shows_every_default_worth_showing():
         formatter = command._get_formatter()
         for action in command._actions:
             trivial = action.default in (None, False, [], (), argparse.SUPPRESS)
-            if not action.option_strings or trivial:
+            flag = isinstance(action, argparse._StoreTrueAction | argparse._StoreFalseAction)  # on or off: no default
+            if not action.option_strings or trivial or flag:
                 continue
             shown = formatter._expand_help(action) if action.help else ""
             if "default" not in shown or "%(" in shown:
@@ -119,6 +120,15 @@ def test_help_of_run_shows_the_speed_default(capsys):
         main(["run", "--help"])
     out = " ".join(capsys.readouterr().out.split())
     assert "simulated s per wall s (default: 1)" in out  # realtime only: None means "not given" (lockstep refuses it)
+
+
+def test_help_does_not_read_a_flags_own_default_as_the_feature_being_off(capsys):
+    """--no-foxglove's store_false default is True: "(default: True)" after "leave the Foxglove channels out of the
+    log" read as if the scene were left out by default (issue 28)."""
+    with pytest.raises(SystemExit):
+        main(["run", "--help"])
+    out = " ".join(capsys.readouterr().out.split())
+    assert "out of the log: ~10-15 % of an in-process run --listen" in out
 
 
 def test_validate_says_what_cpf_run_would_warn_about(capsys, caplog):

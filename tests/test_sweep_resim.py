@@ -28,6 +28,9 @@ def test_param_lists_and_ranges():
     for bad in ("comms.loss", "=1", "comms.loss=0:1:0", "comms.loss=0:1:x"):
         with pytest.raises(ScenarioError, match="--param"):
             parse_param(bad)
+    for half in ("0:0.5", "1:2:3:4"):  # a range without its step (or with too much): said so, not "not TOML"
+        with pytest.raises(ScenarioError, match=f"--param comms.loss: a range needs start:stop:step, got '{half}'"):
+            parse_param(f"comms.loss={half}")
 
 
 def test_grid_covers_every_combination_and_seed_with_stable_names():

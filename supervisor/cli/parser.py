@@ -98,7 +98,9 @@ class _Help(argparse.ArgumentDefaultsHelpFormatter):
 
     def _get_help_string(self, action: argparse.Action) -> str | None:
         text = action.help or ""
-        trivial = action.default is None or action.default is False or action.default in ([], ())
+        # a flag's own default says nothing (store_false's True read as "the thing is off by default")
+        flag = isinstance(action, argparse._StoreTrueAction | argparse._StoreFalseAction)
+        trivial = flag or action.default is None or action.default is False or action.default in ([], ())
         if not action.option_strings or trivial or action.default is argparse.SUPPRESS or "default" in text:
             return action.help
         return f"{text} (default: %(default)s)"

@@ -67,6 +67,9 @@ def parse_param(text: str) -> Param:
     key, sep, spec = text.partition("=")
     if not sep or not key.strip() or not spec.strip():
         raise ScenarioError(f"--param: expected KEY=v1,v2,... or KEY=start:stop:step, got {text!r}")
+    parts = spec.split(":")
+    if len(parts) != 3 and len(parts) > 1 and all(_NUMBER.match(part.strip()) for part in parts):
+        raise ScenarioError(f"--param {key}: a range needs start:stop:step, got {spec!r}")
     if spec.count(":") == 2:
         start, stop, step = (_value(part, text) for part in spec.split(":"))
         if not all(isinstance(v, int | float) for v in (start, stop, step)) or step <= 0:
@@ -76,6 +79,7 @@ def parse_param(text: str) -> Param:
     return Param(key.strip(), tuple(_value(part, text) for part in split_outside_brackets(spec)))
 
 
+_NUMBER = re.compile(r"^[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$")  # what a range's ends and step look like
 BARE_WORD = re.compile(r"^[A-Za-z_][\w.-]*(:[A-Za-z_][\w.]*)?$")  # a name (corrected, my_pkg.laws:Law): a string
 
 
