@@ -6,14 +6,21 @@ STAMP := $(VENV)/.installed
 SCENARIO ?= configs/paper.toml
 OUT ?= runs/paper
 
-.PHONY: run test bench lint typecheck unit clean docs readme study
+.PHONY: run test bench lint typecheck unit clean docs readme study lock
 
-# uv installs what pip would (the same packages and versions, checked with pip list) in 18 s instead of 75 s.
-$(STAMP): pyproject.toml
+# uv installs what pip would (the same packages and versions, checked with pip list) in 18 s instead of 75 s. The
+# versions are pinned in requirements.lock (every dependency, the dev tools too), so that two clones a month apart
+# install the same; `make lock` refreshes it to the newest pyproject.toml allows.
+$(STAMP): pyproject.toml requirements.lock
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip uv
-	$(BIN)/uv pip install --quiet --python $(BIN)/python -e '.[dev]'
+	$(BIN)/uv pip install --quiet --python $(BIN)/python -r requirements.lock
+	$(BIN)/uv pip install --quiet --python $(BIN)/python --no-deps -e .
 	touch $(STAMP)
+
+lock: $(STAMP)
+	$(BIN)/uv pip compile --quiet pyproject.toml --extra dev --universal --upgrade --custom-compile-command "make lock" \
+		-o requirements.lock
 
 run: $(STAMP)
 	mkdir -p $(OUT)

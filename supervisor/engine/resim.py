@@ -15,8 +15,11 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import logging
 import math
+import platform
 from collections.abc import Iterator, Sequence
+from importlib import metadata
 from pathlib import Path
 
 from comms.records.messages import META_KEY, Message, parse_rx, state_key, vehicle_of_key
@@ -36,6 +39,8 @@ from supervisor.record.meta import RunMeta
 from supervisor.record.recorder import Recorder
 from vehicles.runtime import NodeState
 from vehicles.step import step_records
+
+log_ = logging.getLogger("cpf")
 
 
 def _check_duration(log: Path, meta: RunMeta, sc: Scenario, overrides: Sequence[str]) -> None:
@@ -76,6 +81,20 @@ def _load(log: Path) -> tuple[RunMeta, dict[tuple[int, int], list[Heard]], list[
     return meta, heard, states
 
 
+def version_changes(recorded: dict[str, str]) -> list[str]:
+    """'name recorded -> installed' of each package the log's meta names whose installed version differs (another
+    numpy or Python may change the last bits of a re-simulation: requirements.lock pins what `make` installs)."""
+    changes = []
+    for name, then in sorted(recorded.items()):
+        try:
+            now = platform.python_version() if name == "python" else metadata.version(name)
+        except metadata.PackageNotFoundError:
+            now = "none"
+        if now != then:
+            changes.append(f"{name} {then} -> {now}")
+    return changes
+
+
 def scenario_of(meta: RunMeta, overrides: Sequence[str], source: str) -> Scenario:
     data = json.loads(json.dumps(meta.scenario))  # a deep copy to override
     for override in overrides:
@@ -111,6 +130,10 @@ def resimulate(log: Path, overrides: Sequence[str], out: Path) -> tuple[Scenario
     for override in overrides:
         check_override(log, override)  # before reading the log: a refusal costs nothing
     meta, heard, states = _load(log)
+    changes = version_changes(meta.versions)
+    if changes:
+        log_.warning("%s was recorded with other versions (%s): the re-simulation may differ in its last bits",
+                     log, ", ".join(changes))  # fmt: skip
     sc = scenario_of(meta, overrides, str(log))
     _check_duration(log, meta, sc, overrides)
     original, new = (SeriesBuilder(sc.vehicle_ids, steps_of(sc), sc.scenario.step) for _ in range(2))
