@@ -137,3 +137,20 @@ def test_validate_says_what_cpf_run_would_warn_about(capsys, caplog):
     assert code == 0, err
     warned = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
     assert any("faults[0].start: at or after the end of the run (100 s)" in line for line in warned), warned
+
+
+def test_validate_names_a_mixed_fleets_presets_and_what_the_plant_adds():
+    """Issue 28: a fleet of two presets read "4 vehicles (remus100, ...)", and the current, the model mismatch,
+    the navigation and the saturation were left out."""
+    from supervisor.config.explain import what_would_run
+    from supervisor.config.scenario import parse_scenario
+
+    text = (CONFIGS / "inline5.toml").read_text()
+    mixed = ['vehicles.1.preset="remus100_legacy"', 'vehicles.2.preset="remus100_legacy"']
+    said = what_would_run(parse_scenario(text, "inline5.toml", mixed))
+    assert "5 vehicles (3 remus100, 2 remus100_legacy, the 6-DOF model)" in said
+    assert "Plant: the nominal model in still water, exact navigation, coordination correction bounded" in said
+    study = (CONFIGS / "studies" / "robustness.toml").read_text()
+    said = " ".join(what_would_run(parse_scenario(study, "robustness.toml", [])).split())
+    assert "current (0.2, 0, 0) m/s, not known to the controllers" in said
+    assert "model mismatch (+-20 % in every group)" in said and "dead reckoning (DVL noise" in said

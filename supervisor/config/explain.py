@@ -3,6 +3,7 @@ channel, transmission and faults, with the numbers the scenario file leaves impl
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Iterable
 from typing import Any
 
@@ -13,7 +14,9 @@ from supervisor.config.derived import steps_of, tube_radius
 from supervisor.config.describe import describe_fault
 from supervisor.config.fleet import coupling_k
 from supervisor.config.medium import modem_params, sound_speed
+from supervisor.config.plant import spreads as plant_spreads
 from supervisor.config.scenario_schema import Scenario, VehicleSection
+from vehicles.uncertainty import GROUPS
 
 __all__ = ["what_would_run"]
 
@@ -23,11 +26,11 @@ def what_would_run(sc: Scenario) -> str:
     run = sc.scenario
     steps = steps_of(sc)
     model = "the 6-DOF model" if run.dimension == 3 else "the planar model"
-    vehicle = sc.vehicle.model or sc.vehicle.preset
     sentences = [
-        f"{run.name}: {len(sc.vehicles)} vehicles ({vehicle}{_overrides(sc)}, {model}) for "
+        f"{run.name}: {len(sc.vehicles)} vehicles ({_fleet(sc)}{_overrides(sc)}, {model}) for "
         f"{_num(run.duration)} s in {steps} steps of {_num(run.step)} s, seed {run.seed}",
         "paths: " + "; ".join(_vehicle(v) for v in sc.vehicles),
+        "plant: " + _plant(sc),
         "path following: " + _controller(sc),
         f"coordination: {sc.coordination.law} law, {_gain(sc)}, predictor {sc.coordination.predictor}, "
         f"v_r {_num(sc.coordination.v_r)} per s, over the graph {_edges(sc.graph.edges)}",
@@ -59,6 +62,48 @@ def _gain(sc: Scenario) -> str:
     """k as law (5) will run with it: fitted to the links if the schedule lowers it (stability.schedule)."""
     given, used = sc.coordination.k, coupling_k(sc)
     return f"k {_num(given)}" if used == given else f"k {_num(used)} (fitted to the links; {_num(given)} given)"
+
+
+def _fleet(sc: Scenario) -> str:
+    """The vehicle model, or each preset with how many vehicles fly it (a mixed fleet says so)."""
+    if sc.vehicle.model:
+        return sc.vehicle.model
+    presets = Counter(v.preset or sc.vehicle.preset for v in sc.vehicles)
+    if len(presets) == 1:
+        return next(iter(presets))
+    return ", ".join(f"{count} {name}" for name, count in sorted(presets.items()))
+
+
+def _plant(sc: Scenario) -> str:
+    """What the vehicles meet that the nominal model has not: current, mismatch, navigation, saturation."""
+    env, parts = sc.environment, []
+    if not env.still:
+        told = "known to the controllers" if env.current_known else "not known to the controllers"
+        kinds = [k for k, on in (("tide", env.tide is not None), ("shear", any(env.shear))) if on]
+        parts.append(f"current {_value(env.current)} m/s" + (f" with {' and '.join(kinds)}" if kinds else "") +
+                     f", {told}")  # fmt: skip
+    spreads = plant_spreads(sc)
+    if spreads:
+        by_size: dict[float, list[str]] = {}
+        for group, spread in spreads.items():
+            by_size.setdefault(spread, []).append(group)
+        every = len(spreads) == len(GROUPS) and len(by_size) == 1
+        sizes = "; ".join(
+            f"+-{_num(100 * s)} % in {'every group' if every else ', '.join(g)}" for s, g in by_size.items()
+        )
+        parts.append(f"model mismatch ({sizes})")
+    nav = sc.navigation
+    if nav is not None:
+        fixes = f"fixes every {_num(nav.fix_period)} s" if nav.fix_period else "no fixes"
+        parts.append(f"dead reckoning (DVL noise {_num(nav.dvl_noise)} m/s, {fixes})")
+    sat = sc.saturation
+    if sat.top_speed is not None:
+        parts.append(f"speed along the path held to {_value(sat.top_speed)}")
+    parts.append(f"coordination correction bounded ({_value(sat.correction)})" if sat.correction != "none"
+                 else "coordination correction unbounded")  # fmt: skip
+    if env.still and not spreads and nav is None:
+        parts.insert(0, "the nominal model in still water, exact navigation")
+    return ", ".join(parts)
 
 
 def _vehicle(v: VehicleSection) -> str:
