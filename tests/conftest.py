@@ -55,3 +55,25 @@ def run_meta(**fields: Any) -> RunMeta:
         "edges": (), "faults": (), "tube_radius": math.nan, "versions": {},
     }  # fmt: skip
     return RunMeta(**(base | fields))
+
+
+@pytest.fixture(scope="session")
+def every_kind_runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
+    """The paper scenario cut to 60 s, one fault of every kind (tests/test_faults_e2e.EVERY_KIND), vehicle loss
+    'continue', run by `cpf run` on each engine: {"scenario": its file, "args": the run's options, engine: (log, the
+    finished cpf run)}. test_faults_e2e and test_foxglove_log read the same two logs (once per xdist worker)."""
+    from tests.procs import cpf
+    from tests.test_faults_e2e import EVERY_KIND, fault_args
+
+    where = tmp_path_factory.mktemp("every_kind")
+    scenario = where / "s.toml"
+    scenario.write_text(shortened((CONFIGS / "paper.toml").read_text(), 60.0))
+    args = ["--set", "scenario.on_vehicle_loss=continue", *fault_args(EVERY_KIND)]
+    runs: dict[str, Any] = {"scenario": scenario, "args": args}
+    for engine in ("zenoh", "inprocess"):
+        out = where / f"{engine}.mcap"
+        runs[engine] = (
+            out,
+            cpf("run", str(scenario), "--engine", engine, *args, "--out", str(out), "--quiet", cwd=where),
+        )
+    return runs

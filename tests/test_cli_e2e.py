@@ -21,6 +21,9 @@ def cpf(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
 
 
 def test_run_then_report_a_shortened_paper_scenario(tmp_path, paper_text):
+    from supervisor.analysis.figures_nav import has_navigation
+    from supervisor.analysis.rundata import load_run
+
     scenario = tmp_path / "short.toml"
     scenario.write_text(shortened(paper_text, 170.0))
     done = cpf("run", str(scenario), "--engine", "inprocess", "--out", "out/run.mcap", "--quiet", cwd=tmp_path)
@@ -47,6 +50,10 @@ def test_run_then_report_a_shortened_paper_scenario(tmp_path, paper_text):
     for name in ("fig3_trajectories.png", "fig4_path_following_errors.png", "fig5_coordination_errors.png"):
         data = (tmp_path / "figs" / name).read_bytes()
         assert data.startswith(b"\x89PNG") and len(data) > 10_000
+    # A run without navigation: no navigation figure, no navigation metrics (tests/test_navigation.py has the other).
+    assert not (tmp_path / "figs" / "navigation_errors.png").exists()
+    assert "navigation" not in json.loads((tmp_path / "figs" / "metrics.json").read_text())
+    assert not has_navigation(load_run(tmp_path / "out/run.mcap"))
 
 
 def test_report_of_a_missing_log_is_a_one_line_error(tmp_path):

@@ -5,6 +5,7 @@ identity reaches the hello digest, the log's meta and `cpf info`; the built-ins 
 from __future__ import annotations
 
 import dataclasses
+import subprocess
 from pathlib import Path
 
 import pytest
@@ -34,24 +35,33 @@ def one_line(text: str) -> str:
     return lines[0]
 
 
+@pytest.fixture(scope="module")
+def damped(tmp_path_factory: pytest.TempPathFactory) -> dict[str, tuple[Path, subprocess.CompletedProcess[str]]]:
+    """The sample law with an option, 200 s of the paper scenario on each engine: (directory, cpf run) by engine.
+    Run once for the module: the tests below look at the same two runs from different sides."""
+    runs = {}
+    for engine in ("inprocess", "zenoh"):
+        where = tmp_path_factory.mktemp(engine)
+        law = (f"coordination.law={SAMPLES}:Damped", "coordination.law_options.gain=0.3")
+        runs[engine] = (where, run(where, *law, engine=engine))
+    return runs
+
+
 @pytest.mark.parametrize("engine", ["inprocess", "zenoh"])
-def test_a_law_by_import_path_runs_on_both_engines_with_its_options(tmp_path, engine):
-    done = run(tmp_path, f"coordination.law={SAMPLES}:Damped", "coordination.law_options.gain=0.3", engine=engine)
+def test_a_law_by_import_path_runs_on_both_engines_with_its_options(damped, engine):
+    where, done = damped[engine]
     assert done.returncode == 0, done.stderr
-    meta = next(m for topic, _, m in read_messages(tmp_path / "run.mcap") if topic == "cpf/run/meta")
+    meta = next(m for topic, _, m in read_messages(where / "run.mcap") if topic == "cpf/run/meta")
     assert meta["extensions"][0].startswith(f"law {SAMPLES}:Damped = {SAMPLES}:Damped (")
-    info = cpf("info", "run.mcap", cwd=tmp_path, env=ENV)
+    info = cpf("info", "run.mcap", cwd=where, env=ENV)
     assert f"extensions law {SAMPLES}:Damped" in info.stdout
 
 
-def test_the_engines_record_the_same_with_an_extension(tmp_path):
-    (tmp_path / "a").mkdir(), (tmp_path / "b").mkdir()
-    law = f"coordination.law={SAMPLES}:Damped"
-    for sub, engine in (("a", "inprocess"), ("b", "zenoh")):
-        assert run(tmp_path / sub, law, engine=engine).returncode == 0
+def test_the_engines_record_the_same_with_an_extension(damped):
+    assert all(done.returncode == 0 for _, done in damped.values())
     states = [
-        sorted((t, str(m)) for topic, t, m in read_messages(tmp_path / sub / "run.mcap") if topic.endswith("/state"))
-        for sub in ("a", "b")
+        sorted((t, str(m)) for topic, t, m in read_messages(damped[engine][0] / "run.mcap") if topic.endswith("/state"))
+        for engine in ("inprocess", "zenoh")
     ]
     assert states[0] == states[1] and len(states[0]) == 6000
 

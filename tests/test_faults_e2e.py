@@ -9,6 +9,7 @@ from __future__ import annotations
 import contextlib
 import json
 import signal
+import subprocess
 from collections import Counter
 from pathlib import Path
 
@@ -80,24 +81,34 @@ def assert_complete(path: Path) -> None:
     assert len(read_messages(path)) == summary.statistics.message_count
 
 
-def run_both(tmp_path: Path, scenario: Path, extra: list[str]) -> tuple[tuple, tuple]:
+def both_read(runs: dict[str, tuple[Path, subprocess.CompletedProcess[str]]]) -> tuple[tuple, tuple]:
+    """The Zenoh and in-process runs' (states, links, faults), once each run is checked: it ended well with a complete
+    log, and both said the same delivered-graph lambda_2."""
     results, lambda2 = [], []
     for engine in ("zenoh", "inprocess"):
-        done = cpf("run", str(scenario), "--engine", engine, *extra, "--out", f"{engine}.mcap", "--quiet", cwd=tmp_path)
+        log, done = runs[engine]
         assert done.returncode == 0, done.stderr
-        assert_complete(tmp_path / f"{engine}.mcap")
-        results.append(read_run(tmp_path / f"{engine}.mcap"))
+        assert_complete(log)
+        results.append(read_run(log))
         lambda2.append([line for line in done.stdout.splitlines() if line.startswith("delivered-graph lambda_2")])
     assert len(lambda2[0]) == 1 and lambda2[0] == lambda2[1]  # the supervisor's own books agree too
     return results[0], results[1]
 
 
-def test_every_kind_of_fault_gives_the_same_run_in_both_engines(tmp_path, paper_text):
-    scenario = tmp_path / "s.toml"
-    scenario.write_text(shortened(paper_text, 60.0))
-    zen, inp = run_both(tmp_path, scenario, ["--set", "scenario.on_vehicle_loss=continue", *fault_args(EVERY_KIND)])
+def run_both(tmp_path: Path, scenario: Path, extra: list[str]) -> tuple[tuple, tuple]:
+    runs = {}
+    for engine in ("zenoh", "inprocess"):
+        args = ["run", str(scenario), "--engine", engine, *extra, "--out", f"{engine}.mcap", "--quiet"]
+        runs[engine] = (tmp_path / f"{engine}.mcap", cpf(*args, cwd=tmp_path))
+    return both_read(runs)
+
+
+def test_every_kind_of_fault_gives_the_same_run_in_both_engines(every_kind_runs):
+    """The run is the session's (tests/conftest.py every_kind_runs): test_foxglove_log reads it too."""
+    scenario = every_kind_runs["scenario"]
+    zen, inp = both_read(every_kind_runs)
     assert zen == inp
-    assert records(tmp_path / "zenoh.mcap") == records(tmp_path / "inprocess.mcap")  # every record, not just states
+    assert records(every_kind_runs["zenoh"][0]) == records(every_kind_runs["inprocess"][0])  # every record
     states, links, faults = zen
     assert len(faults) == 2 * len(EVERY_KIND)
     causes = set().union(*links.values())

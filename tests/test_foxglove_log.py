@@ -19,9 +19,8 @@ from supervisor.record import logfile
 from supervisor.record.recorder import Recorder
 from supervisor.record.scene.foxglove_schemas import is_scene_topic, schema, schema_name
 from supervisor.record.scene_log import add_scene, scene_of_log
-from tests.conftest import CONFIGS, ROOT, shortened
+from tests.conftest import ROOT
 from tests.procs import cpf
-from tests.test_faults_e2e import EVERY_KIND, fault_args
 from tests.viewer_rules import viewer_problems
 
 pytestmark = pytest.mark.e2e
@@ -30,18 +29,20 @@ NAMES = {"foxglove.FrameTransforms", "foxglove.SceneUpdate", "foxglove.PosesInFr
 
 
 @pytest.fixture(scope="module")
-def logs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+def logs(every_kind_runs: dict[str, Any]) -> dict[str, Path]:
     """name -> the log of the paper scenario, 60 s, one fault of every kind, run by `cpf run` on the engine of that
-    name (and `bare`: in-process, --no-foxglove)."""
-    where = tmp_path_factory.mktemp("foxglove")
-    (where / "s.toml").write_text(shortened((CONFIGS / "paper.toml").read_text(), DURATION))
+    name (tests/conftest.py every_kind_runs, which test_faults_e2e reads too), and `bare`: the same in-process run
+    with --no-foxglove."""
     out = {}
-    for name, engine, extra in (("inprocess", "inprocess", []), ("zenoh", "zenoh", []),
-                                ("bare", "inprocess", ["--no-foxglove"])):  # fmt: skip
-        args = ["run", "s.toml", "--engine", engine, "--quiet", "--out", f"{name}.mcap", *fault_args(EVERY_KIND)]
-        done = cpf(*args, *extra, cwd=where)
+    for engine in ("inprocess", "zenoh"):
+        log, done = every_kind_runs[engine]
         assert done.returncode == 0, done.stderr
-        out[name] = where / f"{name}.mcap"
+        out[engine] = log
+    scenario = every_kind_runs["scenario"]
+    args = ["run", str(scenario), "--engine", "inprocess", "--quiet", *every_kind_runs["args"], "--no-foxglove"]
+    done = cpf(*args, "--out", "bare.mcap", cwd=scenario.parent)
+    assert done.returncode == 0, done.stderr
+    out["bare"] = scenario.parent / "bare.mcap"
     return out
 
 

@@ -201,22 +201,19 @@ def test_both_engines_give_identical_records_with_navigation_on(tmp_path, paper_
 
 
 def test_the_report_draws_the_navigation_figure_only_for_a_run_with_navigation(tmp_path, paper_text):
+    """A run with navigation; the report of one without (no figure, no metrics, has_navigation false) is checked on
+    the plain paper run of tests/test_cli_e2e.py, which draws its report anyway."""
     from supervisor.analysis.figures_nav import has_navigation
     from supervisor.analysis.rundata import load_run
 
-    for name, text in (("nav", shortened(paper_text, 12.0) + NAV), ("plain", shortened(paper_text, 12.0))):
-        scenario = _scenario(tmp_path, text)
-        short = ("--set", "report.transient=2.0")  # the metrics are taken after the transient
-        args = ("--engine", "inprocess", "--out", f"{name}.mcap", "--quiet", *short)
-        done = cpf("run", str(scenario), *args, cwd=tmp_path)
-        assert done.returncode == 0, done.stderr
-        report = cpf("report", f"{name}.mcap", "--out", name, cwd=tmp_path)
-        assert report.returncode == 0, report.stderr
-        assert (tmp_path / name / "navigation_errors.png").exists() == (name == "nav")
-        metrics = json.loads((tmp_path / name / "metrics.json").read_text())
-        assert ("navigation" in metrics) == (name == "nav")
-        run = load_run(tmp_path / f"{name}.mcap")
-        assert has_navigation(run) == (name == "nav")
+    scenario = _scenario(tmp_path, shortened(paper_text, 12.0) + NAV)
+    short = ("--set", "report.transient=2.0")  # the metrics are taken after the transient
+    done = cpf("run", str(scenario), "--engine", "inprocess", "--out", "nav.mcap", "--quiet", *short, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    report = cpf("report", "nav.mcap", "--out", "nav", cwd=tmp_path)
+    assert report.returncode == 0, report.stderr
+    assert (tmp_path / "nav" / "navigation_errors.png").exists()
+    assert has_navigation(load_run(tmp_path / "nav.mcap"))
     series = load_run(tmp_path / "nav.mcap").vehicles[1]
     assert series.nav_error is not None and series.nav_fix is not None
     assert 0.0 < float(series.nav_error.max()) < 10.0 and set(series.nav_fix.tolist()) >= {0, 1}

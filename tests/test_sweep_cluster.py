@@ -19,7 +19,7 @@ from distributed.diagnostics.plugin import SchedulerPlugin
 
 import supervisor.tools.sweep as sweep_module
 from comms.bus.bus import free_port
-from tests.conftest import shortened
+from tests.conftest import CONFIGS, shortened
 from tests.procs import cpf, start_cpf
 from tests.test_sweep_resim import read_rows
 
@@ -33,18 +33,24 @@ def local_cluster(workers: int = 1, processes: bool = False) -> LocalCluster:
     )  # fmt: skip
 
 
-@pytest.fixture
-def scenario(tmp_path: Path, paper_text: str) -> Path:
-    path = tmp_path / "s.toml"
-    path.write_text(shortened(paper_text, 10.0))
+def write_scenario(where: Path) -> Path:
+    path = where / "s.toml"
+    path.write_text(shortened((CONFIGS / "paper.toml").read_text(), 10.0))
     return path
 
 
 @pytest.fixture
-def local_rows(tmp_path: Path, scenario: Path) -> list[dict[str, str]]:
-    done = cpf("sweep", str(scenario), *GRID, "--jobs", "2", "--out", "local", cwd=tmp_path)
+def scenario(tmp_path: Path) -> Path:
+    return write_scenario(tmp_path)
+
+
+@pytest.fixture(scope="module")
+def local_rows(tmp_path_factory: pytest.TempPathFactory) -> list[dict[str, str]]:
+    """The grid's rows from a local sweep of the same scenario file (s.toml): one sweep for the module's tests."""
+    where = tmp_path_factory.mktemp("local")
+    done = cpf("sweep", str(write_scenario(where)), *GRID, "--jobs", "2", "--out", "local", cwd=where)
     assert done.returncode == 0, done.stderr
-    return read_rows(tmp_path / "local/results.csv")
+    return read_rows(where / "local/results.csv")
 
 
 class Runs:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import io
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -94,52 +95,58 @@ def test_a_bad_sweep_parameter_fails_before_running_anything(tmp_path, paper_tex
     assert not (tmp_path / "sw" / "runs").exists() or not list((tmp_path / "sw" / "runs").iterdir())
 
 
-def lossy_run(tmp_path: Path, extra: str = "") -> Path:
+@pytest.fixture(scope="module")
+def lossy_log(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A 60 s lossy paper run with a blackout and a killed vehicle, in process: run once, only read by the tests (each
+    resimulates it into a file of its own)."""
     text = shortened((CONFIGS / "paper.toml").read_text(), 60.0).replace(
-        "[[faults]]", f"[comms]\nloss = 0.3\n{extra}\n[comms.transmit]\nperiod = 0.5\n\n[[faults]]", 1
+        "[[faults]]", "[comms]\nloss = 0.3\n\n[comms.transmit]\nperiod = 0.5\n\n[[faults]]", 1
     )
     text += '\n[[faults]]\nkind = "blackout"\nstart = 20.0\nend = 25.0\n'
     # vehicle 3's process killed at 40 s and restarted at 42 s, from its last recorded state
     text += '\n[[faults]]\nkind = "vehicle_kill"\nvehicle = 3\nstart = 40.0\nend = 42.0\n'
     text = text.replace("seed = 0\n", 'seed = 0\non_vehicle_loss = "continue"\n', 1)
     scenario = parse_scenario(text, "lossy.toml")
-    out = tmp_path / "lossy.mcap"
+    out = tmp_path_factory.mktemp("lossy") / "lossy.mcap"
     run_inprocess(scenario, "lossy.toml", text, out, 3, Progress(60.0, io.StringIO(), enabled=False))
     return out
+
+
+@pytest.fixture(scope="module")
+def slower(lossy_log: Path, tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Any]:
+    """The lossy run resimulated with a tenth of its coupling gain: (its log, what resimulate returned)."""
+    out = tmp_path_factory.mktemp("slower") / "slow.mcap"
+    return out, resimulate(lossy_log, ["coordination.k=0.05"], out)
 
 
 def states(path: Path) -> dict:
     return {(m["vehicle"], m["k"]): m for topic, _, m in read_messages(path) if topic.endswith("/state")}
 
 
-def test_resimulating_with_no_change_reproduces_the_run_exactly(tmp_path):
-    log = lossy_run(tmp_path)
-    agreement = resimulate(log, [], tmp_path / "same.mcap")[3]
-    original, again = states(log), states(tmp_path / "same.mcap")
+def test_resimulating_with_no_change_reproduces_the_run_exactly(lossy_log, tmp_path):
+    agreement = resimulate(lossy_log, [], tmp_path / "same.mcap")[3]
+    original, again = states(lossy_log), states(tmp_path / "same.mcap")
     assert len(original) == 1800 - 20 and again == original  # vehicle 3 was down for 20 steps
     assert agreement.line() == "state records identical to the log's, bit for bit: 1780 of 1780"
 
 
-def test_resim_names_the_first_record_that_differs(tmp_path):
-    log = lossy_run(tmp_path)
-    agreement = resimulate(log, ["coordination.k=0.05"], tmp_path / "slow.mcap")[3]
+def test_resim_names_the_first_record_that_differs(slower):
+    agreement = slower[1][3]
     assert agreement.total == 1780 and agreement.equal < agreement.total
     assert agreement.first_difference is not None and agreement.first_difference[1] > 0.0
     assert agreement.line().startswith("state records identical to the log's: ")
 
 
-def test_resimulating_with_other_gains_hears_the_same_packets_and_acts_differently(tmp_path):
-    log = lossy_run(tmp_path)
-    _, original, new, _ = resimulate(log, ["coordination.k=0.05"], tmp_path / "slow.mcap")
-    ours = states(tmp_path / "slow.mcap")
-    assert ours.keys() == states(log).keys()
+def test_resimulating_with_other_gains_hears_the_same_packets_and_acts_differently(lossy_log, slower):
+    out, (_, original, new, _) = slower
+    ours = states(out)
+    assert ours.keys() == states(lossy_log).keys()
     final_spread = lambda series: float(series.gamma[-1].max() - series.gamma[-1].min())  # noqa: E731
     # Weaker coupling: slower agreement on the same packets (measured 12.0 against 1.42 at 60 s).
     assert final_spread(new) > 4 * final_spread(original)
 
 
-def test_resim_of_a_bad_override_is_a_one_line_error(tmp_path):
-    log = lossy_run(tmp_path)
-    done = cpf("resim", str(log), "--set", "coordination.k=-1", cwd=tmp_path)
+def test_resim_of_a_bad_override_is_a_one_line_error(lossy_log, tmp_path):
+    done = cpf("resim", str(lossy_log), "--set", "coordination.k=-1", cwd=tmp_path)
     assert done.returncode == 2
     assert len(done.stderr.strip().splitlines()) == 1 and "coordination.k" in done.stderr
