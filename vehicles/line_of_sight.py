@@ -56,6 +56,7 @@ from typing import Annotated
 
 from annotated_types import Ge, Gt, Le
 
+from numerics import atan2, cos
 from vehicles.dynamics import Accelerations, PathVectors
 from vehicles.geometry import Float3
 from vehicles.params import VehicleParams
@@ -96,7 +97,7 @@ class LineOfSight:
         e_r, e_q, turning, u_path = self._guidance(s, path, error, gamma_dot, current)
         wanted = _surge_for(s, p_g, u_path * v_d - self.k1 * along / max(u_path, 1e-9), current)
         tau = self._inputs(params, s, drift, (e_r, e_q), turning, wanted)
-        lyapunov = (rho - 1.0) + 0.5 * zeta * zeta + (1.0 - math.cos(e_r)) + (1.0 - math.cos(e_q))
+        lyapunov = (rho - 1.0) + 0.5 * zeta * zeta + (1.0 - cos(e_r)) + (1.0 - cos(e_q))
         return ControlOutput(tau, -self.k_zeta * zeta + along, lyapunov, drift)
 
     def _guidance(
@@ -115,8 +116,8 @@ class LineOfSight:
                                spin * (p_g[0] * p_gg[1] - p_g[1] * p_gg[0])))  # fmt: skip
         u, v, w = _over_ground(s, current)
         moving = min(1.0, math.sqrt(u * u + v * v + w * w) / _CALM)
-        course = math.atan2(dy, dx) - moving * math.atan2(v, u)
-        climb = math.atan2(dz, math.hypot(dx, dy)) - moving * math.atan2(w, math.hypot(u, v))
+        course = atan2(dy, dx) - moving * atan2(v, u)
+        climb = atan2(dz, math.sqrt(dx * dx + dy * dy)) - moving * atan2(w, math.sqrt(u * u + v * v))
         return course, climb, turning, speed
 
     def _inputs(
