@@ -16,7 +16,7 @@ from tests.conftest import CONFIGS
 
 from .test_state_report import RUN_META
 
-GRAPH = Graph(1.0, ((1, 2),)).to_message()
+GRAPH = Graph.of(1.0, ((1, 2),)).to_message()
 FAULT = FaultEvent(1.0, "speed_cap", "start", {"vehicle": 2}).to_message()
 STOP = Stop(1.0, "end of run").to_message()
 EVENTS: dict[str, Any] = {"t": 0.2, "k": 2, "events": [{"t": 0.1, "sender": 1, "receiver": 2, "seq": 3, "kind": "sent",
@@ -69,3 +69,13 @@ def test_the_run_meta_of_a_scenario_reads_back():
     meta = RunMeta.of(scenario, "configs/paper.toml", "", 7, "inprocess", "lockstep")
     assert RunMeta.from_message(meta.to_message()) == meta
     assert meta.to_message()["edges"] == [{"sender": i, "receiver": j} for i, j in scenario.graph.edges]
+
+
+def test_links_of_older_logs_read_as_today():
+    """Logs before the viewers' schemas (issue 25) have links as [sender, receiver] pairs: they read the same."""
+    assert Graph.from_message({"t": 1.0, "edges": [[1, 2], [2, 1]]}) == Graph.of(1.0, ((1, 2), (2, 1)))
+    older = {**META, "edges": [list(edge) for edge in RUN_META.edges]}
+    assert RunMeta.from_message(older) == RUN_META
+    for bad in ([[1, 2, 3]], [[1, "2"]], [[1, 2], {"sender": 1}]):  # not the older form either: the reason stands
+        with pytest.raises(ValueError, match=r"\$\.edges"):
+            Graph.from_message({"t": 1.0, "edges": bad})

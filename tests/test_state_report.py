@@ -17,7 +17,7 @@ from comms.records.messages import Hello, decode, encode, rx_message, state_key,
 from comms.records.network import Network
 from comms.records.receptions import Delivery, RxBatch
 from comms.records.records import Disturbances, LinkEvent, Reception, Transmission
-from comms.records.run import FaultEvent, Graph, Stop
+from comms.records.run import FaultEvent, Graph, Stop, links
 from comms.records.schemas import (
     FAULT,
     GRAPH,
@@ -98,8 +98,8 @@ def test_reading_a_transmission_is_the_inverse_of_writing_it(stamp):
 
 
 RUN_META = RunMeta("paper", "configs/paper.toml", "[scenario]\n", {"scenario": {"name": "paper"}}, 7, "zenoh",
-                   "lockstep", 0.1, 400.0, (1, 2, 3), ((1, 2), (2, 1)), ({"kind": "speed_cap", "vehicle": 2},), 1.2,
-                   {"cpf-cosim": "0.1"})  # fmt: skip
+                   "lockstep", 0.1, 400.0, (1, 2, 3), links(((1, 2), (2, 1))), ({"kind": "speed_cap", "vehicle": 2},),
+                   1.2, {"cpf-cosim": "0.1"})  # fmt: skip
 NETWORK = Network(((1, 2), (2, 3)), frozenset({(2, 1)}), {(1, 3): (0.25, 0.5)}, False, frozenset({3}))
 DELIVERY = Delivery(1, 4, 0.3, 0.31, 5.0, 1.0)
 # record -> (its schema, an example with every optional field set, one with none set, how to read a message)
@@ -117,21 +117,22 @@ RECORDS: dict[str, tuple[dict[str, Any], Any, Any, Callable[[Any], Any]]] = {
                    LinkEvent(1.25, 1, 2, 3, "sent"), LinkEvent.from_message),
     "hello": (HELLO, Hello("comms", "ab" * 32, {"comms": "cd" * 32}), Hello("comms", "ab" * 32, {}),
               Hello.from_message),
-    "graph": (GRAPH, Graph(150.0, ((1, 2), (2, 1))), Graph(0.0, ()), Graph.from_message),
+    "graph": (GRAPH, Graph.of(150.0, ((1, 2), (2, 1))), Graph(0.0, ()), Graph.from_message),
     "fault event": (FAULT, FaultEvent(150.0, "speed_cap", "start", {"vehicle": 2, "start": 150.0, "end": None}),
                     FaultEvent(250.0, "blackout", "end", {}), FaultEvent.from_message),
     "stop": (STOP, Stop(12.5, "end of run"), Stop(0.0, ""), Stop.from_message),
     "link events": (LINK_EVENTS, LinkEvents(0.2, 2, (LinkEvent(0.1, 1, 2, 3, "sent"),)), LinkEvents(0.2, 2, ()),
                     LinkEvents.from_message),
-    "run meta": (META, RUN_META, dataclasses.replace(RUN_META, vehicles=(), edges=(), faults=(), versions={}),
+    "run meta": (META, RUN_META, msgspec.structs.replace(RUN_META, vehicles=(), links=(), faults=(), versions={}),
                  RunMeta.from_message),
 }  # fmt: skip
 
 
 def wire_names(record: Any) -> set[str]:
     renamed = getattr(record, "WIRE_NAMES", {})
-    fields = msgspec.structs.fields(record) if issubclass(record, msgspec.Struct) else dataclasses.fields(record)
-    names = [f.name for f in fields]
+    if issubclass(record, msgspec.Struct):  # a struct's fields as its message names them
+        return {f.encode_name for f in msgspec.structs.fields(record)}
+    names = [f.name for f in dataclasses.fields(record)]
     return {renamed.get(name, name) for name in names}
 
 

@@ -7,6 +7,7 @@ Each raises ValueError naming the field for anything malformed: receivers count 
 from __future__ import annotations
 
 import math
+import re
 import sys
 from collections.abc import Sequence
 from typing import Annotated, Any, TypeVar
@@ -29,11 +30,19 @@ Real3 = tuple[Real, Real, Real]
 
 def read_as(message: object, kind: type[T]) -> T:
     """The record `kind` (a msgspec Struct: its message's only description) of a message, checked by its types;
-    ValueError naming the field for anything malformed (msgspec's words: "Expected `float`, got `str` - at `$.t`")."""
+    ValueError naming the field for anything malformed, in msgspec's words ("field 't': Expected `float`, got `str`
+    - at `$.t`")."""
     try:
         return msgspec.convert(message, kind)
     except msgspec.ValidationError as exc:
-        raise ValueError(str(exc)) from None
+        raise ValueError(_named(str(exc))) from None
+
+
+def _named(reason: str) -> str:
+    """msgspec's reason, led by the field of the message it is about (a missing one, or the top-level field its path
+    starts with), as the hand-written checks named it."""
+    found = re.search(r"missing required field `([^`]+)`", reason) or re.search(r"`\$\.(\w+)", reason)
+    return reason if found is None else f"field {found.group(1)!r}: {reason}"
 
 
 def converted(message: object, kind: type[T]) -> T | None:

@@ -31,6 +31,7 @@ from comms.records.messages import (
 )
 from comms.records.receptions import RxBatch
 from comms.records.records import LinkEvent
+from comms.records.run import FaultEvent, Graph, RunMeta, Stop
 from comms.records.state import StateReport
 
 Schema = dict[str, Any]
@@ -58,6 +59,9 @@ def _viewed(node: Schema, defs: dict[str, Schema]) -> Schema:
     if "anyOf" in node:
         return _one_of(node["anyOf"], defs)
     kind = node.get("type")
+    if kind == "object" and "properties" not in node:  # a map: of anything, or of values of one type
+        values = node.get("additionalProperties", {})
+        return FREE if values == {} else {**FREE, "additionalProperties": _viewed(values, defs)}
     if kind == "object":
         properties = {name: _viewed(field, defs) for name, field in node["properties"].items()}
         return {"type": "object", "properties": properties, "required": list(node.get("required", []))}
@@ -214,33 +218,10 @@ VEHICLE_DONE = _object(
     "cpf.VehicleDone",
     {"t": NUMBER, "k": INTEGER, "vehicle": INTEGER, "malformed": COUNTS},
 )
-META = _object(
-    "cpf.RunMeta",
-    {
-        "scenario_name": STRING,
-        "scenario_file": STRING,
-        "scenario_toml": STRING,
-        "scenario": FREE,
-        "seed": INTEGER,
-        "engine": STRING,
-        "clock": STRING,
-        "step": NUMBER,
-        "duration": NUMBER,
-        "vehicles": {"type": "array", "items": INTEGER},
-        "edges": _LINKS,
-        "faults": {"type": "array", "items": FREE},
-        "tube_radius": NUMBER,
-        "versions": FREE,
-        "extensions": {"type": "array", "items": {"type": "string"}},
-    },
-    optional=("extensions",),  # logs of cpf before extensions have none
-)
-FAULT = _object(
-    "cpf.FaultEvent",
-    {"t": NUMBER, "kind": STRING, "phase": {"type": "string", "enum": ["start", "end"]}, "detail": FREE},
-)
-GRAPH = _object("cpf.Graph", {"t": NUMBER, "edges": _LINKS})
-STOP = _object("cpf.Stop", {"t": NUMBER, "reason": STRING})  # "end of run", or why the run stopped early
+META = struct_schema(RunMeta, "cpf.RunMeta")
+FAULT = struct_schema(FaultEvent, "cpf.FaultEvent")
+GRAPH = struct_schema(Graph, "cpf.Graph")
+STOP = struct_schema(Stop, "cpf.Stop")  # "end of run", or why the run stopped early
 HELLO = _object(
     "cpf.Hello",  # a query's reply, not published: which scenario a process runs (sha256 hex, whole and per section)
     {"process": STRING, "digest": STRING, "sections": {**FREE, "additionalProperties": STRING}},
