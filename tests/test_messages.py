@@ -92,6 +92,8 @@ KEYWORDS = {
     "items",
     "minItems",
     "maxItems",
+    "minimum",
+    "maximum",
     "enum",
 }
 
@@ -123,6 +125,10 @@ def schema_errors(value: object, schema: Schema, where: str = "$") -> list[str]:
         if not any(_has_type(value, name) for name in names):
             return [f"{where}: {value!r} is not of type {names}"]
     errors: list[str] = []
+    if "minimum" in schema and value < schema["minimum"]:
+        errors.append(f"{where}: {value!r} is less than {schema['minimum']}")
+    if "maximum" in schema and value > schema["maximum"]:
+        errors.append(f"{where}: {value!r} is more than {schema['maximum']}")
     if "enum" in schema and not any(value == e and type(value) is type(e) for e in schema["enum"]):
         errors.append(f"{where}: {value!r} is not one of {schema['enum']}")
     if isinstance(value, dict):

@@ -17,8 +17,11 @@ from comms.records.messages import Hello, decode, encode, rx_message, state_key,
 from comms.records.network import Network
 from comms.records.receptions import Delivery, RxBatch
 from comms.records.records import Disturbances, LinkEvent, Reception, Transmission
+from comms.records.reports import CommsDone, CommsStats, LinkCounts, VehicleDone
 from comms.records.run import FaultEvent, Graph, Stop, links
 from comms.records.schemas import (
+    COMMS_DONE,
+    COMMS_STATS,
     FAULT,
     GRAPH,
     HELLO,
@@ -30,6 +33,7 @@ from comms.records.schemas import (
     STOP,
     TICK,
     TRANSMISSION,
+    VEHICLE_DONE,
     schema_for,
 )
 from comms.records.state import NeighbourAge, StateReport
@@ -102,6 +106,7 @@ RUN_META = RunMeta("paper", "configs/paper.toml", "[scenario]\n", {"scenario": {
                    1.2, {"cpf-cosim": "0.1"})  # fmt: skip
 NETWORK = Network(((1, 2), (2, 3)), frozenset({(2, 1)}), {(1, 3): (0.25, 0.5)}, False, frozenset({3}))
 DELIVERY = Delivery(1, 4, 0.3, 0.31, 5.0, 1.0)
+LINK_BOOKS = LinkCounts(1, 2, 30, 27, {"collision": 1, "loss": 2}, 0.25, 0.5)
 # record -> (its schema, an example with every optional field set, one with none set, how to read a message)
 RECORDS: dict[str, tuple[dict[str, Any], Any, Any, Callable[[Any], Any]]] = {
     "rx batch": (RECEPTIONS, RxBatch(0.4, 4, 2, (msgspec.structs.replace(DELIVERY, due=100.31),)),
@@ -123,6 +128,13 @@ RECORDS: dict[str, tuple[dict[str, Any], Any, Any, Callable[[Any], Any]]] = {
     "stop": (STOP, Stop(12.5, "end of run"), Stop(0.0, ""), Stop.from_message),
     "link events": (LINK_EVENTS, LinkEvents(0.2, 2, (LinkEvent(0.1, 1, 2, 3, "sent"),)), LinkEvents(0.2, 2, ()),
                     LinkEvents.from_message),
+    "comms stats": (COMMS_STATS, CommsStats(t=10.0, window=10.0, horizon=36.0, lambda2=1.0, links=(LINK_BOOKS,)),
+                    CommsStats(t=10.0, window=10.0, lambda2=0.0, links=()), CommsStats.from_message),
+    "link books": (COMMS_STATS["properties"]["links"]["items"], LINK_BOOKS, LinkCounts(1, 2, 0, 0, {}),
+                   LinkCounts.from_message),
+    "comms done": (COMMS_DONE, CommsDone(400.0, 4000, 123, 2), CommsDone(0.0, 0, 0, 0), CommsDone.from_message),
+    "vehicle done": (VEHICLE_DONE, VehicleDone(400.0, 4000, 2, {"cpf/clock/tick": 1}), VehicleDone(0.0, 0, 2, {}),
+                     lambda m: VehicleDone.from_message(m, 2)),
     "run meta": (META, RUN_META, msgspec.structs.replace(RUN_META, vehicles=(), links=(), faults=(), versions={}),
                  RunMeta.from_message),
 }  # fmt: skip

@@ -23,6 +23,8 @@ MAX_TIME = (2**32 - 1) / 1000.0  # s: the frame's u32 millisecond time stamp
 # The same checks as msgspec types (annotations on the records; mypy sees float and int), for `converted`.
 Finite = Annotated[float, msgspec.Meta(ge=-sys.float_info.max, le=sys.float_info.max)]  # NaN and inf fail both
 Finite3 = tuple[Finite, Finite, Finite]
+NonNegative = Annotated[float, msgspec.Meta(ge=0.0, le=sys.float_info.max)]  # a time, a delay
+Count = Annotated[int, msgspec.Meta(ge=0)]
 # A diagnostic: any float, or an integer within int64 (stricter than the checks' 2**63: such a message falls back).
 Real = Annotated[int, msgspec.Meta(ge=-(2**63) + 1, le=2**63 - 1)] | float
 Real3 = tuple[Real, Real, Real]
@@ -41,7 +43,7 @@ def read_as(message: object, kind: type[T]) -> T:
 def _named(reason: str) -> str:
     """msgspec's reason, led by the field of the message it is about (a missing one, or the top-level field its path
     starts with), as the hand-written checks named it."""
-    found = re.search(r"missing required field `([^`]+)`", reason) or re.search(r"`\$\.(\w+)", reason)
+    found = re.search(r"`\$\.(\w+)", reason) or re.search(r"missing required field `([^`]+)`", reason)
     return reason if found is None else f"field {found.group(1)!r}: {reason}"
 
 

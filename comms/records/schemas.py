@@ -31,6 +31,7 @@ from comms.records.messages import (
 )
 from comms.records.receptions import RxBatch
 from comms.records.records import LinkEvent
+from comms.records.reports import CommsDone, CommsStats, VehicleDone
 from comms.records.run import FaultEvent, Graph, RunMeta, Stop
 from comms.records.state import StateReport
 
@@ -189,35 +190,9 @@ TICK = _object(
         "longest",
     ),  # old logs lack realtime; the rest: the bus only
 )
-_LINK_BOOK = _object(
-    "cpf.LinkBook",
-    {
-        "sender": INTEGER,
-        "receiver": INTEGER,
-        "sent": INTEGER,
-        "delivered": INTEGER,
-        "dropped": COUNTS,
-        "mean_delay": NUMBER,
-        "max_delay": NUMBER,
-    },
-    optional=("mean_delay", "max_delay"),  # none delivered yet
-)
-COMMS_STATS = _object(
-    "cpf.CommsStats",
-    {
-        "t": NUMBER,
-        "window": NUMBER,
-        "horizon": NUMBER,  # s a delivery keeps its pair in the delivered graph lambda2 is of (absent in older logs)
-        "lambda2": NUMBER,
-        "links": {"type": "array", "items": _LINK_BOOK},
-    },
-    optional=("horizon",),
-)
-COMMS_DONE = _object("cpf.CommsDone", {"t": NUMBER, "k": INTEGER, "events": INTEGER, "malformed": INTEGER})
-VEHICLE_DONE = _object(
-    "cpf.VehicleDone",
-    {"t": NUMBER, "k": INTEGER, "vehicle": INTEGER, "malformed": COUNTS},
-)
+COMMS_STATS = struct_schema(CommsStats, "cpf.CommsStats")
+COMMS_DONE = struct_schema(CommsDone, "cpf.CommsDone")
+VEHICLE_DONE = struct_schema(VehicleDone, "cpf.VehicleDone")
 META = struct_schema(RunMeta, "cpf.RunMeta")
 FAULT = struct_schema(FaultEvent, "cpf.FaultEvent")
 GRAPH = struct_schema(Graph, "cpf.Graph")
