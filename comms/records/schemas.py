@@ -27,6 +27,7 @@ from comms.records.messages import (
     META_KEY,
     STOP_KEY,
     TICK_KEY,
+    Hello,
     vehicle_of_key,
 )
 from comms.records.receptions import RxBatch
@@ -197,10 +198,7 @@ META = struct_schema(RunMeta, "cpf.RunMeta")
 FAULT = struct_schema(FaultEvent, "cpf.FaultEvent")
 GRAPH = struct_schema(Graph, "cpf.Graph")
 STOP = struct_schema(Stop, "cpf.Stop")  # "end of run", or why the run stopped early
-HELLO = _object(
-    "cpf.Hello",  # a query's reply, not published: which scenario a process runs (sha256 hex, whole and per section)
-    {"process": STRING, "digest": STRING, "sections": {**FREE, "additionalProperties": STRING}},
-)
+HELLO = struct_schema(Hello, "cpf.Hello")  # a query's reply, not published: which scenario a process runs
 
 _BY_KEY = {
     META_KEY: META,
