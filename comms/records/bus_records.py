@@ -14,35 +14,21 @@ readings accept, the slow way accepts as the same records.
 
 from __future__ import annotations
 
-from typing import Annotated, Any
+from typing import Any
 
 import msgspec
 import orjson
 
-from comms.records.fields import Finite, Finite3
+from comms.records.fields import Finite
 from comms.records.receptions import RxBatch
-from comms.records.records import Float32, LinkEvent, Time
+from comms.records.records import LinkEvent, Transmission
 from comms.records.state import StateReport
-
-
-class TxWire(msgspec.Struct, kw_only=True):
-    """comms.records.records.Transmission as its message has it (the checks of its _TransmissionWire), in its message's
-    order; a missing stamp, or one equal to t, is t once read (what Transmission.to_message writes)."""
-
-    t: Time
-    stamp: Time | msgspec.UnsetType = msgspec.UNSET
-    sender: int
-    seq: Annotated[int, msgspec.Meta(ge=0)]
-    gamma: Float32
-    gamma_dot: Float32
-    position: Finite3
-    velocity: Finite3
 
 
 class PartsWire(msgspec.Struct):
     """What a step message carries besides its state (comms.records.messages.step_message): an earlier step's."""
 
-    tx: TxWire | None = None
+    tx: Transmission | None = None
     rx: RxBatch | None = None
 
 
@@ -65,7 +51,7 @@ class Step(msgspec.Struct):
     """One step of a vehicle's step message, read."""
 
     state: StateReport
-    tx: TxWire | None
+    tx: Transmission | None
     rx: RxBatch | None
 
 
@@ -90,13 +76,7 @@ def read_window(payload: bytes) -> tuple[list[Step], int | None] | None:
 
 def _step(payload: bytes | msgspec.Raw, parts: PartsWire) -> Step:
     """A step of the message (an earlier step's own earlier steps and next_tx are not read: split_window)."""
-    return Step(_STATE.decode(payload), _stamped(parts.tx), parts.rx)
-
-
-def _stamped(tx: TxWire | None) -> TxWire | None:
-    if tx is not None and (isinstance(tx.stamp, msgspec.UnsetType) or tx.stamp == tx.t):
-        tx.stamp = tx.t
-    return tx
+    return Step(_STATE.decode(payload), parts.tx, parts.rx)
 
 
 def read_events(payload: bytes) -> EventsWire | None:
@@ -107,7 +87,7 @@ def read_events(payload: bytes) -> EventsWire | None:
         return None
 
 
-def log_json(record: StateReport | TxWire | RxBatch | LinkEvent) -> bytes:
+def log_json(record: StateReport | Transmission | RxBatch | LinkEvent) -> bytes:
     """The record's log form: what orjson writes for its record's to_message() (supervisor.record.recorder)."""
     message: dict[str, Any] = msgspec.to_builtins(record)
     return orjson.dumps(message)

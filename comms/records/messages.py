@@ -245,7 +245,7 @@ def tick_message(
     final: bool,
     disturbed: dict[int, Disturbances] | None = None,
     network: Network | None = None,
-    alive: list[int] | None = None,
+    alive: list[int] | tuple[int, ...] | None = None,
     comms: bool = True,
     wall: float | None = None,
     speed: float = 1.0,
@@ -255,8 +255,7 @@ def tick_message(
     longest: int | None = None,
 ) -> Message:
     """The supervisor's clock (Tick.to_message; disturbed: only the vehicles with any fault acting)."""
-    tick = Tick(k, t, final, disturbed or {}, network, alive, comms, wall, speed, hold, until, span, longest)
-    return tick.to_message()
+    return Tick.of(k, t, final, disturbed, network, alive, comms, wall, speed, hold, until, span, longest).to_message()
 
 
 class Hello(msgspec.Struct, frozen=True):

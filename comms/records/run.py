@@ -16,7 +16,7 @@ from typing import Annotated, Any, Literal, Self, TypeVar
 
 import msgspec
 
-from comms.records.fields import Finite, Message, as_message, get, is_int, read_as
+from comms.records.fields import Finite, Message, as_message, is_int, read_as
 
 Edge = tuple[int, int]
 Phase = Literal["start", "end"]
@@ -168,21 +168,3 @@ class RunMeta(msgspec.Struct, frozen=True):
             if not isinstance(fault.get("kind"), str):
                 raise ValueError(f"field 'faults': item {n} names no kind (a string)")
         return self
-
-
-def links_message(edges: Iterable[Edge]) -> list[Message]:
-    """Directed links as a message has them: objects, which viewers can read (an array of arrays they cannot)."""
-    return [{"sender": i, "receiver": j} for i, j in edges]
-
-
-def edges_of(message: Message, name: str) -> tuple[Edge, ...]:
-    """The directed links of links_message (or, in logs before it, [sender, receiver] pairs) as vehicle-id pairs."""
-    return tuple(link_of(item, name) for item in get(message, name, list))
-
-
-def link_of(item: object, name: str) -> Edge:
-    """One link of a list: {"sender": i, "receiver": j}, or an older log's [i, j]."""
-    pair = [item.get("sender"), item.get("receiver")] if isinstance(item, dict) else item
-    if not (isinstance(pair, list) and len(pair) == 2 and is_int(pair[0]) and is_int(pair[1])):
-        raise ValueError(f"field {name!r} is not a list of links (sender and receiver vehicle ids)")
-    return pair[0], pair[1]

@@ -31,10 +31,11 @@ from comms.records.messages import (
     vehicle_of_key,
 )
 from comms.records.receptions import RxBatch
-from comms.records.records import LinkEvent
+from comms.records.records import LinkEvent, Transmission
 from comms.records.reports import CommsDone, CommsStats, VehicleDone
 from comms.records.run import FaultEvent, Graph, RunMeta, Stop
 from comms.records.state import StateReport
+from comms.records.tick import Tick
 
 Schema = dict[str, Any]
 DRAFT = "http://json-schema.org/draft-07/schema#"
@@ -46,13 +47,15 @@ FREE: Schema = {"type": "object", "properties": {}}  # any map (a viewer reads n
 COUNTS: Schema = {**FREE, "additionalProperties": INTEGER}  # a map of counts
 
 
-def struct_schema(kind: type, title: str) -> Schema:
+def struct_schema(kind: type, title: str, always: tuple[str, ...] = ()) -> Schema:
     """The JSON Schema of a struct's message (msgspec's, from the struct), in the subset viewers read: references
     inlined, an optional field (T | None = None, left out of the message when None) as T and not required, a number
     that may be an integer (comms.records.fields.Real) as a number, a fixed-length tuple as an array of its items'
-    type."""
+    type. always: optional fields (older messages may lack them) that the struct always writes, required."""
     raw = msgspec.json.schema(kind)
-    return {"$schema": DRAFT, "title": title, **_viewed(raw, raw.get("$defs", {}))}
+    schema: Schema = {"$schema": DRAFT, "title": title, **_viewed(raw, raw.get("$defs", {}))}
+    schema["required"] = [name for name in schema["properties"] if name in schema["required"] or name in always]
+    return schema
 
 
 def _viewed(node: Schema, defs: dict[str, Schema]) -> Schema:
@@ -127,70 +130,13 @@ def _object(title: str, properties: Schema, optional: tuple[str, ...] = ()) -> S
 
 
 STATE = struct_schema(StateReport, "cpf.VehicleState")
-TRANSMISSION = _object(
-    "cpf.Transmission",
-    {
-        "t": NUMBER,
-        "stamp": NUMBER,  # the data time the sender claims: t, unless its clock is skewed
-        "sender": INTEGER,
-        "seq": INTEGER,
-        "gamma": NUMBER,
-        "gamma_dot": NUMBER,
-        "position": _vector(3),
-        "velocity": _vector(3),
-    },
-)
+TRANSMISSION = struct_schema(Transmission, "cpf.Transmission", always=("stamp",))  # stamp: t unless skewed
 RECEPTIONS = struct_schema(RxBatch, "cpf.Receptions")
 LINK_EVENT = struct_schema(LinkEvent, "cpf.LinkEvent")
 LINK_EVENTS = _object(  # the bus's form of a step's link events (the log keeps one LINK_EVENT record each)
     "cpf.LinkEvents", {"t": NUMBER, "k": INTEGER, "events": {"type": "array", "items": LINK_EVENT}}
 )
-_DISTURBED = _object(
-    "cpf.DisturbedVehicle",
-    {"vehicle": INTEGER, "cap": NUMBER, "freeze": BOOLEAN, "offset": NUMBER, "skew": NUMBER},
-    optional=("cap",),  # no cap: left out
-)
-_LINK = _object("cpf.Link", {"sender": INTEGER, "receiver": INTEGER})  # directed (comms.records.run.links_message)
-_LINKS: Schema = {"type": "array", "items": _LINK}
-_DEGRADED = _object("cpf.DegradedLink", {"sender": INTEGER, "receiver": INTEGER, "loss": NUMBER, "delay": NUMBER})
-_NETWORK = _object(  # absent from a tick: the scenario's graph, no link faults
-    "cpf.Network",
-    {
-        "edges": _LINKS,
-        "down": _LINKS,
-        "degraded": {"type": "array", "items": _DEGRADED},
-        "blackout": BOOLEAN,
-        "silent": _integers(),
-    },
-)
-TICK = _object(
-    "cpf.Tick",
-    {
-        "t": NUMBER,
-        "k": INTEGER,
-        "final": BOOLEAN,
-        "vehicles": {"type": "array", "items": _DISTURBED},  # only vehicles with any fault acting
-        "network": _NETWORK,
-        "alive": _integers(),  # absent: every vehicle
-        "comms": BOOLEAN,
-        "wall": NUMBER,  # realtime: t on the wall clock (time.time()); absent: lockstep
-        "speed": NUMBER,  # realtime: simulated s per wall-clock s
-        "hold": BOOLEAN,  # a process is killed or restarted at the next tick
-        "until": INTEGER,  # on the bus only: a lockstep time window of steps k .. until-1 (the log: one per step)
-        "span": INTEGER,  # on the bus only: the broker issues the ticks of steps k .. span-1 itself
-        "longest": INTEGER,  # with span: the broker's windows of at most this many steps
-    },
-    optional=(
-        "network",
-        "alive",
-        "wall",
-        "speed",
-        "hold",
-        "until",
-        "span",
-        "longest",
-    ),  # old logs lack realtime; the rest: the bus only
-)
+TICK = struct_schema(Tick, "cpf.Tick")
 COMMS_STATS = struct_schema(CommsStats, "cpf.CommsStats")
 COMMS_DONE = struct_schema(CommsDone, "cpf.CommsDone")
 VEHICLE_DONE = struct_schema(VehicleDone, "cpf.VehicleDone")
