@@ -1,7 +1,7 @@
-"""msgspec reads the records of the bus first (comms.records.fields.converted), the hand-written checks only what it
-refuses: so msgspec must never accept a message the checks refuse, nor read one to another record. Each message here is
-a valid one with a field replaced (by any value a decoder could give: null, bools, integers of any size, floats with
-NaN and infinities, strings, lists, maps), a list item replaced or a field removed; both readings must agree."""
+"""msgspec reads the records of the bus (comms.records.fields.read_as): whatever a decoder gives, a record reads
+whole, writing back what it read, or is refused with a reason. Each message here is a valid one with a field
+replaced (by any value a decoder could give: null, bools, integers of any size, floats with NaN and infinities,
+strings, lists, maps), a list item replaced or a field removed."""
 
 from __future__ import annotations
 

@@ -1,15 +1,12 @@
 """A vehicle's step message and the broker's link events read straight from their msgpack payload into typed records,
 in one pass of msgspec in C, and each record's log form from them: the supervisor's intake reads ~18 records a step.
 
-The state and the link events are their records themselves (comms.records.state.StateReport,
-comms.records.records.LinkEvent, each its message's only description); the others are structs of the records'
-(comms.records.records.Transmission, comms.records.receptions.RxBatch) with the same msgspec checks
-(comms.records.fields.converted: the same annotations; held together by tests/test_bus_records.py), in the order of the
-record's `to_message`, so that the log form `log_json` is the bytes orjson writes for `to_message()`. What the types
-cannot say (a vehicle owning its key, a rotation, a speed) is the caller's to check, as `from_message` does. A payload
-msgspec refuses reads as None here: the caller then reads it the slow way (comms.records.messages.decode and the
-records' from_message), which says what is wrong or, in the few cases msgspec is stricter, accepts it; so what these
-readings accept, the slow way accepts as the same records.
+The parts are their records themselves, each its message's only description (comms.records.state.StateReport,
+comms.records.records.Transmission, comms.records.receptions.RxBatch, comms.records.events.LinkEvents), so that the
+log form `log_json` is the bytes orjson writes for `to_message()`. What the types cannot say (a vehicle owning its
+key, a rotation, a speed) is the caller's to check, as `from_message` does (each record's check()). A payload msgspec
+refuses reads as None here: the caller then reads it the slow way (comms.records.messages.decode and the records'
+from_message), which says what is wrong (an older log's form aside, the same types refuse the same messages).
 """
 
 from __future__ import annotations
@@ -19,7 +16,7 @@ from typing import Any
 import msgspec
 import orjson
 
-from comms.records.fields import Finite
+from comms.records.events import LinkEvents
 from comms.records.receptions import RxBatch
 from comms.records.records import LinkEvent, Transmission
 from comms.records.state import StateReport
@@ -39,14 +36,6 @@ class StepWire(PartsWire):
     earlier: list[msgspec.Raw] | None = None
 
 
-class EventsWire(msgspec.Struct):
-    """comms.records.events.LinkEvents as its message has it."""
-
-    t: Finite
-    k: int
-    events: list[LinkEvent]
-
-
 class Step(msgspec.Struct):
     """One step of a vehicle's step message, read."""
 
@@ -58,7 +47,7 @@ class Step(msgspec.Struct):
 _STATE = msgspec.msgpack.Decoder(StateReport)
 _STEP = msgspec.msgpack.Decoder(StepWire)
 _PARTS = msgspec.msgpack.Decoder(PartsWire)
-_EVENTS = msgspec.msgpack.Decoder(EventsWire)
+_EVENTS = msgspec.msgpack.Decoder(LinkEvents)
 _MSGSPEC_REFUSES = (msgspec.DecodeError, msgspec.ValidationError)
 
 
@@ -79,7 +68,7 @@ def _step(payload: bytes | msgspec.Raw, parts: PartsWire) -> Step:
     return Step(_STATE.decode(payload), parts.tx, parts.rx)
 
 
-def read_events(payload: bytes) -> EventsWire | None:
+def read_events(payload: bytes) -> LinkEvents | None:
     """The link events of a cpf/comms/events message, or None where msgspec refuses any of it (comms.records.events)."""
     try:
         return _EVENTS.decode(payload)

@@ -1,8 +1,9 @@
-"""The records comms carries between vehicles, the channel and the supervisor, as plain frozen dataclasses.
+"""The records comms carries between vehicles, the channel and the supervisor.
 
-They are the protocol's vocabulary: vehicles build and consume them, the channel and broker move them, the log keeps
-their wire form (a record's to_message / from_message where it has one,
-comms.records.messages otherwise). Nothing here knows how a vehicle works, so comms depends on no vehicle code.
+They are the protocol's vocabulary: vehicles build and consume them, the channel and broker move them. Those that
+travel as messages (Transmission, LinkEvent) are msgspec Structs, each its message's only description (to_message,
+from_message, the schema generated from it); the rest (Heard, Reception, Kinematics, ...) never leave a process.
+Nothing here knows how a vehicle works, so comms depends on no vehicle code.
 """
 
 from __future__ import annotations

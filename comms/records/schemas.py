@@ -1,12 +1,12 @@
 """JSON-Schemas of the messages on each key expression, for the MCAP channels and the live view (Foxglove and
 Lichtblick read them).
 
-A message described by a msgspec Struct has its schema generated from it (`struct_schema`: the state); the others'
-are written here, each describing one record's to_message (comms.*, supervisor.record.meta.RunMeta). Every schema is
-in the subset the viewers read (tests/viewer_rules.py, after Lichtblick's parseJsonSchema): an object's fields each of
-one type (no unions: an optional field is left out of the message, not null), arrays of numbers, strings, booleans or
-objects (no arrays of arrays), every enum typed. tests/test_state_report.py checks every record's fields against its
-schema, tests/test_messages.py every built message.
+Every message is described once, by a msgspec Struct (comms.records.*), and its schema is generated from it here
+(`struct_schema`). Every schema is in the subset the viewers read (tests/viewer_rules.py, after Lichtblick's
+parseJsonSchema): an object's fields each of one type (no unions: an optional field is left out of the message, not
+null), arrays of numbers, strings, booleans or objects (no arrays of arrays), every enum typed.
+tests/test_state_report.py checks every record's fields against its schema, tests/test_messages.py every built
+message, tests/test_viewer_schemas.py and tests/test_foxglove_log.py every record of a run.
 """
 
 from __future__ import annotations
@@ -16,6 +16,7 @@ from typing import Any
 
 import msgspec
 
+from comms.records.events import LinkEvents
 from comms.records.messages import (
     COMMS_DONE_KEY,
     COMMS_EVENT_KEY,
@@ -40,11 +41,7 @@ from comms.records.tick import Tick
 Schema = dict[str, Any]
 DRAFT = "http://json-schema.org/draft-07/schema#"
 NUMBER: Schema = {"type": "number"}
-INTEGER: Schema = {"type": "integer"}
-STRING: Schema = {"type": "string"}
-BOOLEAN: Schema = {"type": "boolean"}
 FREE: Schema = {"type": "object", "properties": {}}  # any map (a viewer reads none of its fields)
-COUNTS: Schema = {**FREE, "additionalProperties": INTEGER}  # a map of counts
 
 
 def struct_schema(kind: type, title: str, always: tuple[str, ...] = ()) -> Schema:
@@ -108,34 +105,11 @@ def _enum_type(values: list[Any]) -> str:
     raise ValueError(f"no viewer form for an enum of {values}")
 
 
-def _vector(n: int | None = None) -> Schema:
-    schema: Schema = {"type": "array", "items": NUMBER}
-    if n is not None:
-        schema["minItems"] = schema["maxItems"] = n
-    return schema
-
-
-def _integers(n: int | None = None) -> Schema:
-    return {**_vector(n), "items": INTEGER}
-
-
-def _object(title: str, properties: Schema, optional: tuple[str, ...] = ()) -> Schema:
-    return {
-        "$schema": DRAFT,
-        "title": title,
-        "type": "object",
-        "properties": properties,
-        "required": [name for name in properties if name not in optional],
-    }
-
-
 STATE = struct_schema(StateReport, "cpf.VehicleState")
 TRANSMISSION = struct_schema(Transmission, "cpf.Transmission", always=("stamp",))  # stamp: t unless skewed
 RECEPTIONS = struct_schema(RxBatch, "cpf.Receptions")
 LINK_EVENT = struct_schema(LinkEvent, "cpf.LinkEvent")
-LINK_EVENTS = _object(  # the bus's form of a step's link events (the log keeps one LINK_EVENT record each)
-    "cpf.LinkEvents", {"t": NUMBER, "k": INTEGER, "events": {"type": "array", "items": LINK_EVENT}}
-)
+LINK_EVENTS = struct_schema(LinkEvents, "cpf.LinkEvents")  # the bus's batch (the log keeps one LINK_EVENT each)
 TICK = struct_schema(Tick, "cpf.Tick")
 COMMS_STATS = struct_schema(CommsStats, "cpf.CommsStats")
 COMMS_DONE = struct_schema(CommsDone, "cpf.CommsDone")

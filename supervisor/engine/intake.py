@@ -19,7 +19,7 @@ from typing import TypeVar
 
 from comms.broker.windows import report_of
 from comms.bus.bus import Publishers, Received
-from comms.records.bus_records import EventsWire, Step, log_json, read_events, read_window
+from comms.records.bus_records import Step, log_json, read_events, read_window
 from comms.records.events import LinkEvents
 from comms.records.messages import (
     COMMS_DONE_KEY,
@@ -324,7 +324,7 @@ class Intake:
         self.books.add(booked)
         self._events_in(events.t)
 
-    def _typed_events(self, batch: EventsWire) -> None:
+    def _typed_events(self, batch: LinkEvents) -> None:
         """_events of a batch read by msgspec (every event read)."""
         self.bounds.time(batch.t, "the batch's")
         if not 0 <= batch.k <= self.bounds.steps:
