@@ -13,6 +13,7 @@ from hypothesis import settings
 
 from comms.bus.bus import Publishers
 from comms.records.messages import Message
+from comms.records.run import links
 from supervisor.record.meta import RunMeta
 
 # Property tests draw the same examples on every run (derandomize): a clean clone's `make test` fails because of a
@@ -54,7 +55,8 @@ def run_meta(**fields: Any) -> RunMeta:
         "seed": 0, "engine": "inprocess", "clock": "lockstep", "step": 1.0, "duration": 100.0, "vehicles": (),
         "edges": (), "faults": (), "tube_radius": math.nan, "versions": {},
     }  # fmt: skip
-    return RunMeta(**(base | fields))
+    given = base | fields
+    return RunMeta(**{name: value for name, value in given.items() if name != "edges"}, links=links(given["edges"]))
 
 
 @pytest.fixture(scope="session")

@@ -11,9 +11,9 @@ import sys
 import threading
 import time
 from collections.abc import Iterator
-from dataclasses import replace
 from pathlib import Path
 
+import msgspec
 import numpy as np
 import pytest
 import zenoh
@@ -300,7 +300,7 @@ def report(broker: Broker, fleet: Fleet, k: int, vehicles: tuple[int, ...] = IDS
     """The vehicles' states of step k, each with its transmission at t_k (numbered seq) unless seq is None."""
     for vid in vehicles:
         telemetry, model, sent = fleet[vid]
-        tx = tx_message(replace(sent, seq=seq, t=k * DT)) if seq is not None else None
+        tx = tx_message(msgspec.structs.replace(sent, seq=seq, t=k * DT, stamp=k * DT)) if seq is not None else None
         broker.take(state_key(vid), encode(step_message(state_message(telemetry, model, k, seq or 0), tx, None)))
 
 
@@ -382,9 +382,9 @@ def test_a_restarted_broker_handles_its_first_tick_at_once_and_submits_nothing(f
 
 def test_a_link_down_drops_what_is_sent_over_it_under_the_network_of_the_sending_step(fleet):
     broker, pubs = pure_broker()
-    tick(broker, 0, Network(PAPER_EDGES, down=frozenset({(1, 2)})))
+    tick(broker, 0, Network.of(PAPER_EDGES, down=frozenset({(1, 2)})))
     report(broker, fleet, 0, seq=1)
-    tick(broker, 1, Network(PAPER_EDGES, down=frozenset({(2, 1)})))  # applies to what is sent during step 1
+    tick(broker, 1, Network.of(PAPER_EDGES, down=frozenset({(2, 1)})))  # applies to what is sent during step 1
     assert broker.next_k == 2
     assert batches(pubs, 1) == {1: [2, 3], 2: [], 3: [1]}
     dropped = {("sent", 1, 2, 1, None), ("dropped", 1, 2, 1, "link_down")}
@@ -400,7 +400,7 @@ def test_a_link_down_drops_what_is_sent_over_it_under_the_network_of_the_sending
 
 def test_a_silent_modem_is_dropped_on_each_of_its_links(fleet):
     broker, pubs = pure_broker()
-    tick(broker, 0, Network(PAPER_EDGES, silent=frozenset({1})))
+    tick(broker, 0, Network.of(PAPER_EDGES, silent=frozenset({1})))
     report(broker, fleet, 0, seq=1)
     tick(broker, 1)
     assert batches(pubs, 1) == {1: [2, 3], 2: [], 3: []}  # the others still reach vehicle 1

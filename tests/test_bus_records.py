@@ -6,12 +6,10 @@ from_message) does."""
 from __future__ import annotations
 
 import copy
-import dataclasses
 import math
 import sys
-from typing import Any, get_type_hints
+from typing import Any
 
-import msgspec
 import orjson
 import pytest
 from hypothesis import HealthCheck, example, given, settings
@@ -19,10 +17,10 @@ from hypothesis import strategies as st
 
 from comms.bus.bus import Received
 from comms.records import bus_records
-from comms.records.bus_records import TxWire, log_json, read_events, read_window
+from comms.records.bus_records import log_json, read_events, read_window
 from comms.records.messages import COMMS_EVENTS_KEY, META_KEY, encode, state_key, step_message, window_message
 from comms.records.receptions import Delivery, RxBatch
-from comms.records.records import LinkEvent, Transmission, _TransmissionWire
+from comms.records.records import LinkEvent, Transmission
 from comms.records.state import NeighbourAge, StateReport
 from supervisor.config.scenario import parse_scenario
 from supervisor.engine import intake as intake_module
@@ -177,20 +175,6 @@ def test_good_messages_are_read_in_one_pass(monkeypatch: pytest.MonkeyPatch) -> 
     monkeypatch.setattr(intake_module, "decode", slow)
     records, malformed, states, *_ = taken([(state_key(2), encode(WINDOW)), (COMMS_EVENTS_KEY, encode(EVENTS))], True)
     assert malformed == {} and states == {1: {2}, 2: {2}} and len(records) == 2 + 2 + 1 + 3
-
-
-@pytest.mark.parametrize(("wire", "record"), [(TxWire, _TransmissionWire)])
-def test_the_structs_check_what_the_records_check(wire: type, record: type) -> None:
-    """The same fields with the same msgspec types (so the same checks; the records' order but the transmission's,
-    which is its message's order): the struct reads what comms.records.fields.converted reads as the record."""
-    ours = get_type_hints(wire, include_extras=True)
-    theirs = get_type_hints(record, include_extras=True)
-    if record is RxBatch:
-        ours.pop("receptions"), theirs.pop("receptions")
-    assert ours == theirs
-    names = [f.name for f in msgspec.structs.fields(wire)]
-    if dataclasses.is_dataclass(record):
-        assert names[: len(theirs) + 1] == [f.name for f in dataclasses.fields(record)]
 
 
 FLOATS = st.floats() | st.sampled_from(BOUNDARIES[5:])

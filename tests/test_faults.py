@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import pytest
 
+from comms.records.run import Link
 from supervisor.config.derived import active, intervals
 from supervisor.config.scenario import fault_table, parse_scenario
 from supervisor.errors import ScenarioError
@@ -36,10 +37,11 @@ def test_network_faults_shape_the_network_of_each_step():
     quiet = _network_at(sc, 5.0, DT)
     assert quiet.neighbours(1) == [2, 3] and not quiet.down and not quiet.degraded and not quiet.blackout
     busy = _network_at(sc, 16.0, DT)
-    assert busy.down == {(1, 2)}  # one direction only
+    assert busy.down == (Link(1, 2),)  # one direction only
     assert busy.impairment(1, 2).lost == "link_down" and busy.impairment(2, 1).lost is None
-    assert busy.degraded[(1, 3)] == (0.5, 0.3)
-    assert busy.degraded[(3, 1)] == pytest.approx((0.75, 0.3))  # two degradations compose: 1 - 0.5 * 0.5
+    assert (busy.impairment(1, 3).extra_loss, busy.impairment(1, 3).extra_delay) == (0.5, 0.3)
+    worse = busy.impairment(3, 1)
+    assert (worse.extra_loss, worse.extra_delay) == pytest.approx((0.75, 0.3))  # two compose: 1 - 0.5 * 0.5
     switched = _network_at(sc, 35.0, DT)
     assert switched.neighbours(1) == [2] and switched.neighbours(3) == [2]
     assert _network_at(sc, 40.0, DT).neighbours(1) == [2, 3]  # back to the scenario's graph

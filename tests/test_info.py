@@ -155,5 +155,5 @@ def test_a_meta_message_that_does_not_read_is_said_and_the_rest_described(tmp_pa
         writer.add_message(channel, 0, b'{"scenario_name": "x", "step": "fast"}', 0)
         writer.finish()
     text = describe(path)
-    assert "cpf/run/meta does not read (missing field 'scenario_file')" in text
+    assert "cpf/run/meta does not read (field 'step': Expected `float`, got `str` - at `$.step`)" in text
     assert "step fast" not in text and topic_counts(text) == {"cpf/run/meta": 1}

@@ -92,6 +92,8 @@ KEYWORDS = {
     "items",
     "minItems",
     "maxItems",
+    "minimum",
+    "maximum",
     "enum",
 }
 
@@ -123,6 +125,10 @@ def schema_errors(value: object, schema: Schema, where: str = "$") -> list[str]:
         if not any(_has_type(value, name) for name in names):
             return [f"{where}: {value!r} is not of type {names}"]
     errors: list[str] = []
+    if "minimum" in schema and value < schema["minimum"]:
+        errors.append(f"{where}: {value!r} is less than {schema['minimum']}")
+    if "maximum" in schema and value > schema["maximum"]:
+        errors.append(f"{where}: {value!r} is more than {schema['maximum']}")
     if "enum" in schema and not any(value == e and type(value) is type(e) for e in schema["enum"]):
         errors.append(f"{where}: {value!r} is not one of {schema['enum']}")
     if isinstance(value, dict):
@@ -314,7 +320,7 @@ def test_event_message_round_trips_and_validates(event):
     assert parse_event(wire(message)) == event
 
 
-FAULTY_NETWORK = Network(
+FAULTY_NETWORK = Network.of(
     ((1, 2), (1, 3), (2, 3)),
     frozenset({(1, 2), (3, 1)}),
     {(2, 1): (0.25, 0.5), (1, 3): (0.0, 1.0)},
@@ -322,8 +328,8 @@ FAULTY_NETWORK = Network(
     frozenset({3}),
 )
 TICKS = {
-    "plain": Tick(17, 1.7, False, {}, None, None, True),
-    "disturbed": Tick(
+    "plain": Tick.of(17, 1.7, False, {}, None, None, True),
+    "disturbed": Tick.of(
         17,
         1.7,
         False,
@@ -337,13 +343,13 @@ TICKS = {
         None,
         True,
     ),
-    "network": Tick(17, 1.7, False, {}, FAULTY_NETWORK, None, True),
-    "blackout": Tick(17, 1.7, False, {}, Network(((1, 2),), blackout=True), None, True),
-    "empty graph": Tick(17, 1.7, False, {}, Network(()), None, True),
-    "alive": Tick(17, 1.7, False, {}, None, [1, 3], True),
-    "none alive": Tick(17, 1.7, False, {}, None, [], True),
-    "comms down": Tick(17, 1.7, False, {}, None, [1, 2, 3], False),
-    "final": Tick(4000, 400.0, True, {2: Disturbances(0.5, True, 0.1, 0.2)}, FAULTY_NETWORK, [2, 1], False),
+    "network": Tick.of(17, 1.7, False, {}, FAULTY_NETWORK, None, True),
+    "blackout": Tick.of(17, 1.7, False, {}, Network.of(((1, 2),), blackout=True), None, True),
+    "empty graph": Tick.of(17, 1.7, False, {}, Network.of(()), None, True),
+    "alive": Tick.of(17, 1.7, False, {}, None, [1, 3], True),
+    "none alive": Tick.of(17, 1.7, False, {}, None, [], True),
+    "comms down": Tick.of(17, 1.7, False, {}, None, [1, 2, 3], False),
+    "final": Tick.of(4000, 400.0, True, {2: Disturbances(0.5, True, 0.1, 0.2)}, FAULTY_NETWORK, [2, 1], False),
 }
 
 

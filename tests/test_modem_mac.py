@@ -460,7 +460,7 @@ def test_link_stats_count_by_cause_with_delays():
             LinkEvent(0.0, 2, 1, 1, "dropped", reason="burst"),
         ]
     )
-    assert stats.books[(1, 2)].as_message(1, 2) == {
+    assert stats.books[(1, 2)].counts(1, 2).to_message() == {
         "sender": 1,
         "receiver": 2,
         "sent": 5,
@@ -469,8 +469,8 @@ def test_link_stats_count_by_cause_with_delays():
         "mean_delay": pytest.approx(0.4),
         "max_delay": 0.6,
     }
-    assert stats.books[(2, 1)].as_message(2, 1)["dropped"] == {"burst": 1}
-    assert "mean_delay" not in stats.books[(2, 1)].as_message(2, 1)  # none delivered: left out
+    assert stats.books[(2, 1)].counts(2, 1).to_message()["dropped"] == {"burst": 1}
+    assert "mean_delay" not in stats.books[(2, 1)].counts(2, 1).to_message()  # none delivered: left out
     links = stats.snapshot(6.0)["links"]
     assert isinstance(links, list)
     assert [(link["sender"], link["receiver"]) for link in links] == [(1, 2), (2, 1)]

@@ -11,6 +11,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
+import msgspec
 import numpy as np
 import pytest
 
@@ -331,7 +332,7 @@ def test_write_figures_without_faults_or_tube(tmp_path: Path) -> None:
     run = load_run(write_run(tmp_path / "run.mcap", [], [], comms=False))
     assert not run.links and not run.stats
     assert run.meta is not None
-    bare = RunData(replace(run.meta, tube_radius=math.nan), run.vehicles, [], run.edges)
+    bare = RunData(msgspec.structs.replace(run.meta, tube_radius=math.nan), run.vehicles, [], run.edges)
     check_pngs(write_figures(bare, tmp_path), tmp_path, [*PAPER_FIGURES, *COMMS_FIGURES])
 
 
@@ -475,7 +476,8 @@ def test_real_convergence_with_a_tighter_tolerance(
     assert real.run.meta is not None
     scenario = json.loads(json.dumps(real.run.meta.scenario))
     scenario["report"]["coordination_tolerance"] = 1.0
-    coord = run_metrics(replace(real.run, meta=replace(real.run.meta, scenario=scenario)))["coordination"]
+    meta = msgspec.structs.replace(real.run.meta, scenario=scenario)
+    coord = run_metrics(replace(real.run, meta=meta))["coordination"]
     t, error = coordination_series(logged)
     assert coord["convergence_time"] is None
     assert coord["reconvergence_time"] is not None and coord["reconvergence_time"] > LAST_FAULT_END + 1.0

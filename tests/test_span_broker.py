@@ -4,7 +4,7 @@ messages, ticks in them included, and the same link events); its windows come fr
 
 from __future__ import annotations
 
-from dataclasses import replace
+import msgspec
 
 from comms.records.messages import (
     COMMS_EVENTS_KEY,
@@ -25,7 +25,7 @@ def report(broker, fleet: Fleet, k: int, next_tx: int | None, seq: int | None) -
     """Every vehicle's step message of step k (a transmission numbered seq, unless None), saying next_tx."""
     for vid in IDS:
         telemetry, model, sent = fleet[vid]
-        tx = tx_wire(replace(sent, seq=seq, t=k * DT)) if seq is not None else None
+        tx = tx_wire(msgspec.structs.replace(sent, seq=seq, t=k * DT, stamp=k * DT)) if seq is not None else None
         message = step_message(state_message(telemetry, model, k, seq or 0), tx, None, next_tx)
         broker.take(state_key(vid), encode(message))
     broker.advance()

@@ -56,7 +56,7 @@ def transmission(
     if cfg.current is not None:  # the state's v is relative to the water (vehicles.current): over ground add v_c
         c = cfg.current.velocity(state.t, position[2])
         velocity = (velocity[0] + c[0], velocity[1] + c[1], velocity[2] + c[2])
-    stamp = state.t + dist.clock_offset if dist.clock_offset else None
+    stamp = state.t + dist.clock_offset if dist.clock_offset else state.t  # the data time a skewed clock claims
     gamma = told.gamma + dist.gamma_offset
     return Transmission(cfg.vehicle_id, seq, state.t, gamma, told.gamma_dot, position, velocity, stamp)
 

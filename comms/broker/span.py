@@ -13,7 +13,9 @@ lost) governs from its own step on, or from the first step the broker has still 
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
+
+import msgspec
 
 from comms.broker.windows import report_of, window_end
 from comms.records.tick import Tick
@@ -53,7 +55,9 @@ class Grants:
         end = window_end(k, grant.reach, alive, fresh, grant.longest)
         until = end if end > k + 1 else None
         t = grant.t if k == grant.k else k * self.dt
-        return replace(grant, k=k, t=t, hold=grant.hold and end == grant.reach, until=until, span=None, longest=None)
+        return msgspec.structs.replace(
+            grant, k=k, t=t, hold=grant.hold and end == grant.reach, until=until, span=None, longest=None
+        )
 
     def forget_before(self, k: int) -> None:
         """Grants whose span ended before step k."""

@@ -13,8 +13,10 @@ from collections import Counter, deque
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 
+from comms.records.fields import Message
 from comms.records.graph import algebraic_connectivity, laplacian
 from comms.records.records import LinkEvent
+from comms.records.reports import CommsStats, LinkCounts
 
 CONNECTED = 1e-9  # lambda_2 at or below this is 0 (disconnected): eigvalsh gives +-1e-17 there, never less than 4/n^2
 
@@ -43,12 +45,10 @@ class LinkBook:
         else:
             self.dropped[event.reason or "unknown"] += 1
 
-    def as_message(self, sender: int, receiver: int) -> dict[str, object]:
-        """comms.records.reports.LinkCounts' message; the delays only once a packet was delivered (left out, not
-        null)."""
-        delays = {"mean_delay": self.delay_sum / self.delivered, "max_delay": self.delay_max} if self.delivered else {}
-        return {"sender": sender, "receiver": receiver, "sent": self.sent, "delivered": self.delivered,
-                "dropped": dict(sorted(self.dropped.items())), **delays}  # fmt: skip
+    def counts(self, sender: int, receiver: int) -> LinkCounts:
+        """The books as a snapshot has them; the delays only once a packet was delivered."""
+        mean, most = (self.delay_sum / self.delivered, self.delay_max) if self.delivered else (None, None)
+        return LinkCounts(sender, receiver, self.sent, self.delivered, dict(sorted(self.dropped.items())), mean, most)
 
 
 class LinkStats:
@@ -86,12 +86,8 @@ class LinkStats:
             "dropped": sum(sum(b.dropped.values()) for b in books),
         }
 
-    def snapshot(self, t: float) -> dict[str, object]:
+    def snapshot(self, t: float) -> Message:
         """The message published on cpf/comms/stats: cumulative books per link, and lambda_2 now (over the horizon)."""
-        return {
-            "t": t,
-            "window": self.window,
-            "horizon": self.horizon,
-            "lambda2": self.delivered_connectivity(t),
-            "links": [book.as_message(s, r) for (s, r), book in sorted(self.books.items())],
-        }
+        links = tuple(book.counts(s, r) for (s, r), book in sorted(self.books.items()))
+        lambda2 = self.delivered_connectivity(t)
+        return CommsStats(t=t, window=self.window, horizon=self.horizon, lambda2=lambda2, links=links).to_message()

@@ -38,7 +38,7 @@ def intake_step(arrival: float, dt: float) -> int:
     return math.ceil((arrival - ARRIVAL_SLACK) / dt)
 
 
-INTACT = Network(())  # no link faults
+INTACT = Network.of(())  # no link faults
 MEMORY = 120.0  # s of past airtime kept for half-duplex and collision checks (far above any packet's duration)
 
 

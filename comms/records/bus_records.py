@@ -1,48 +1,31 @@
 """A vehicle's step message and the broker's link events read straight from their msgpack payload into typed records,
 in one pass of msgspec in C, and each record's log form from them: the supervisor's intake reads ~18 records a step.
 
-The state and the link events are their records themselves (comms.records.state.StateReport,
-comms.records.records.LinkEvent, each its message's only description); the others are structs of the records'
-(comms.records.records.Transmission, comms.records.receptions.RxBatch) with the same msgspec checks
-(comms.records.fields.converted: the same annotations; held together by tests/test_bus_records.py), in the order of the
-record's `to_message`, so that the log form `log_json` is the bytes orjson writes for `to_message()`. What the types
-cannot say (a vehicle owning its key, a rotation, a speed) is the caller's to check, as `from_message` does. A payload
-msgspec refuses reads as None here: the caller then reads it the slow way (comms.records.messages.decode and the
-records' from_message), which says what is wrong or, in the few cases msgspec is stricter, accepts it; so what these
-readings accept, the slow way accepts as the same records.
+The parts are their records themselves, each its message's only description (comms.records.state.StateReport,
+comms.records.records.Transmission, comms.records.receptions.RxBatch, comms.records.events.LinkEvents), so that the
+log form `log_json` is the bytes orjson writes for `to_message()`. What the types cannot say (a vehicle owning its
+key, a rotation, a speed) is the caller's to check, as `from_message` does (each record's check()). A payload msgspec
+refuses reads as None here: the caller then reads it the slow way (comms.records.messages.decode and the records'
+from_message), which says what is wrong (an older log's form aside, the same types refuse the same messages).
 """
 
 from __future__ import annotations
 
-from typing import Annotated, Any
+from typing import Any
 
 import msgspec
 import orjson
 
-from comms.records.fields import Finite, Finite3
+from comms.records.events import LinkEvents
 from comms.records.receptions import RxBatch
-from comms.records.records import Float32, LinkEvent, Time
+from comms.records.records import LinkEvent, Transmission
 from comms.records.state import StateReport
-
-
-class TxWire(msgspec.Struct, kw_only=True):
-    """comms.records.records.Transmission as its message has it (the checks of its _TransmissionWire), in its message's
-    order; a missing stamp, or one equal to t, is t once read (what Transmission.to_message writes)."""
-
-    t: Time
-    stamp: Time | msgspec.UnsetType = msgspec.UNSET
-    sender: int
-    seq: Annotated[int, msgspec.Meta(ge=0)]
-    gamma: Float32
-    gamma_dot: Float32
-    position: Finite3
-    velocity: Finite3
 
 
 class PartsWire(msgspec.Struct):
     """What a step message carries besides its state (comms.records.messages.step_message): an earlier step's."""
 
-    tx: TxWire | None = None
+    tx: Transmission | None = None
     rx: RxBatch | None = None
 
 
@@ -53,26 +36,18 @@ class StepWire(PartsWire):
     earlier: list[msgspec.Raw] | None = None
 
 
-class EventsWire(msgspec.Struct):
-    """comms.records.events.LinkEvents as its message has it."""
-
-    t: Finite
-    k: int
-    events: list[LinkEvent]
-
-
 class Step(msgspec.Struct):
     """One step of a vehicle's step message, read."""
 
     state: StateReport
-    tx: TxWire | None
+    tx: Transmission | None
     rx: RxBatch | None
 
 
 _STATE = msgspec.msgpack.Decoder(StateReport)
 _STEP = msgspec.msgpack.Decoder(StepWire)
 _PARTS = msgspec.msgpack.Decoder(PartsWire)
-_EVENTS = msgspec.msgpack.Decoder(EventsWire)
+_EVENTS = msgspec.msgpack.Decoder(LinkEvents)
 _MSGSPEC_REFUSES = (msgspec.DecodeError, msgspec.ValidationError)
 
 
@@ -90,16 +65,10 @@ def read_window(payload: bytes) -> tuple[list[Step], int | None] | None:
 
 def _step(payload: bytes | msgspec.Raw, parts: PartsWire) -> Step:
     """A step of the message (an earlier step's own earlier steps and next_tx are not read: split_window)."""
-    return Step(_STATE.decode(payload), _stamped(parts.tx), parts.rx)
+    return Step(_STATE.decode(payload), parts.tx, parts.rx)
 
 
-def _stamped(tx: TxWire | None) -> TxWire | None:
-    if tx is not None and (isinstance(tx.stamp, msgspec.UnsetType) or tx.stamp == tx.t):
-        tx.stamp = tx.t
-    return tx
-
-
-def read_events(payload: bytes) -> EventsWire | None:
+def read_events(payload: bytes) -> LinkEvents | None:
     """The link events of a cpf/comms/events message, or None where msgspec refuses any of it (comms.records.events)."""
     try:
         return _EVENTS.decode(payload)
@@ -107,7 +76,7 @@ def read_events(payload: bytes) -> EventsWire | None:
         return None
 
 
-def log_json(record: StateReport | TxWire | RxBatch | LinkEvent) -> bytes:
+def log_json(record: StateReport | Transmission | RxBatch | LinkEvent) -> bytes:
     """The record's log form: what orjson writes for its record's to_message() (supervisor.record.recorder)."""
     message: dict[str, Any] = msgspec.to_builtins(record)
     return orjson.dumps(message)

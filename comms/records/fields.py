@@ -1,5 +1,6 @@
-"""Checked reading of one field of a message: the checks every parser (comms.records.messages, comms.records.state)
-shares.
+"""Reading a message as the msgspec Struct that describes it (`read_as`) and writing it back (`as_message`), the
+checks as msgspec types the structs share (Finite, NonNegative, Count, ...), and the few checks a type cannot say
+(a rotation, a speed), which the structs' check() methods call.
 
 Each raises ValueError naming the field for anything malformed: receivers count and drop such messages.
 """
@@ -7,6 +8,7 @@ Each raises ValueError naming the field for anything malformed: receivers count 
 from __future__ import annotations
 
 import math
+import re
 import sys
 from collections.abc import Sequence
 from typing import Annotated, Any, TypeVar
@@ -19,34 +21,31 @@ MAX_SPEED = 100.0  # m/s: far above any AUV, far below the speed of sound
 MAX_FLOAT32 = 3.4e38  # what the frame's float32 fields hold
 MAX_TIME = (2**32 - 1) / 1000.0  # s: the frame's u32 millisecond time stamp
 
-# The same checks as msgspec types (annotations on the records; mypy sees float and int), for `converted`.
+# Checks as msgspec types (annotations on the records; mypy sees float and int).
 Finite = Annotated[float, msgspec.Meta(ge=-sys.float_info.max, le=sys.float_info.max)]  # NaN and inf fail both
 Finite3 = tuple[Finite, Finite, Finite]
-# A diagnostic: any float, or an integer within int64 (stricter than the checks' 2**63: such a message falls back).
+NonNegative = Annotated[float, msgspec.Meta(ge=0.0, le=sys.float_info.max)]  # a time, a delay
+Count = Annotated[int, msgspec.Meta(ge=0)]
+# A diagnostic: any float, or an integer within int64.
 Real = Annotated[int, msgspec.Meta(ge=-(2**63) + 1, le=2**63 - 1)] | float
 Real3 = tuple[Real, Real, Real]
 
 
 def read_as(message: object, kind: type[T]) -> T:
     """The record `kind` (a msgspec Struct: its message's only description) of a message, checked by its types;
-    ValueError naming the field for anything malformed (msgspec's words: "Expected `float`, got `str` - at `$.t`")."""
+    ValueError naming the field for anything malformed, in msgspec's words ("field 't': Expected `float`, got `str`
+    - at `$.t`")."""
     try:
         return msgspec.convert(message, kind)
     except msgspec.ValidationError as exc:
-        raise ValueError(str(exc)) from None
+        raise ValueError(_named(str(exc))) from None
 
 
-def converted(message: object, kind: type[T]) -> T | None:
-    """The record `kind` of a message, read and checked by msgspec in C (with what its types cannot say, 2-3x faster
-    than the checks below: benchmarks/bench_parse.py; it runs on every message of a run), or None where msgspec
-    refuses it: the caller then reads it with the checks below, which say what is wrong (or, in the few cases msgspec
-    is stricter, accept it). So msgspec must never accept what the checks refuse (tests/test_fast_reading.py): its
-    types are those checks, the rest is checked after it. One difference no message can show: msgspec takes a tuple
-    where the checks want a list, and no decoder gives one."""
-    try:
-        return msgspec.convert(message, kind)
-    except msgspec.ValidationError:
-        return None
+def _named(reason: str) -> str:
+    """msgspec's reason, led by the field of the message it is about (a missing one, or the top-level field its path
+    starts with), as the hand-written checks named it."""
+    found = re.search(r"`\$\.(\w+)", reason) or re.search(r"missing required field `([^`]+)`", reason)
+    return reason if found is None else f"field {found.group(1)!r}: {reason}"
 
 
 def get(message: Message, name: str, kind: type | tuple[type, ...]) -> Any:
@@ -60,51 +59,10 @@ def get(message: Message, name: str, kind: type | tuple[type, ...]) -> Any:
     return value
 
 
-def number(message: Message, name: str) -> float:
-    try:
-        value = float(get(message, name, (int, float)))
-    except OverflowError:
-        raise ValueError(f"field {name!r} is too large") from None
-    if not math.isfinite(value):
-        raise ValueError(f"field {name!r} is not finite")
-    return value
-
-
-def vector3(message: Message, name: str) -> tuple[float, float, float]:
-    value = get(message, name, list)
-    if len(value) != 3:
-        raise ValueError(f"field {name!r} has {len(value)} items, not 3")
-    items = {"x": value[0], "y": value[1], "z": value[2]}
-    return (number(items, "x"), number(items, "y"), number(items, "z"))
-
-
-def velocity(message: Message, name: str) -> tuple[float, float, float]:
-    """A velocity no vehicle could exceed: anything faster is a corrupt message (and would break acoustics)."""
-    return slow_enough(name, vector3(message, name))
-
-
 def slow_enough(name: str, value: tuple[float, float, float]) -> tuple[float, float, float]:
     if math.hypot(*value) > MAX_SPEED:
         raise ValueError(f"field {name!r} is faster than {MAX_SPEED:g} m/s")
     return value
-
-
-def carried(message: Message, name: str, low: float, high: float) -> float:
-    """A number the 15-byte modem frame can carry (comms.records.wire): anything else could not be sent."""
-    value = number(message, name)
-    if not low <= value <= high:
-        raise ValueError(f"field {name!r} is outside what the modem frame carries [{low:g}, {high:g}]")
-    return value
-
-
-def rotation(message: Message) -> list[float]:
-    """R (row-major) of a state message; R R' must be I to 1e-6."""
-    rotation = get(message, "rotation", list)
-    if len(rotation) != 9:
-        raise ValueError("field 'rotation' is not 9 numbers")
-    r = [number({"r": value}, "r") for value in rotation]
-    orthonormal(r)
-    return r
 
 
 def orthonormal(r: Sequence[float]) -> None:
@@ -124,13 +82,6 @@ def orthonormal(r: Sequence[float]) -> None:
 
 def is_int(value: object) -> bool:
     return isinstance(value, int) and not isinstance(value, bool)
-
-
-def nullable_number(message: Message, name: str) -> float | None:
-    """A finite number or null: the field must be there (null says something; absent is a malformed message)."""
-    if name not in message:
-        raise ValueError(f"missing field {name!r}")
-    return None if message[name] is None else number(message, name)
 
 
 def _number(value: object) -> float:

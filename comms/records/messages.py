@@ -9,12 +9,12 @@ index. Parsers (`parse_*`) raise ValueError for anything malformed: receivers co
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 from typing import Any
 
 import msgpack
+import msgspec
 
-from comms.records.fields import Message, is_int
+from comms.records.fields import Message, as_message, is_int, read_as
 from comms.records.fields import get as _get
 from comms.records.network import Network
 from comms.records.receptions import Delivery, RxBatch
@@ -245,7 +245,7 @@ def tick_message(
     final: bool,
     disturbed: dict[int, Disturbances] | None = None,
     network: Network | None = None,
-    alive: list[int] | None = None,
+    alive: list[int] | tuple[int, ...] | None = None,
     comms: bool = True,
     wall: float | None = None,
     speed: float = 1.0,
@@ -255,29 +255,25 @@ def tick_message(
     longest: int | None = None,
 ) -> Message:
     """The supervisor's clock (Tick.to_message; disturbed: only the vehicles with any fault acting)."""
-    tick = Tick(k, t, final, disturbed or {}, network, alive, comms, wall, speed, hold, until, span, longest)
-    return tick.to_message()
+    return Tick.of(k, t, final, disturbed, network, alive, comms, wall, speed, hold, until, span, longest).to_message()
 
 
-@dataclass(frozen=True, slots=True)
-class Hello:
-    """A process's answer on its hello key (schema comms.records.schemas.HELLO): the sha256 (hex) of the scenario it
-    runs, as validated (and of the run's seed where it uses it), as a whole and per top-level section, so a supervisor
-    can say what differs. It is a query's reply, never published or logged."""
+class Hello(msgspec.Struct, frozen=True):
+    """A process's answer on its hello key: the sha256 (hex) of the scenario it runs, as validated (and of the run's
+    seed where it uses it), as a whole and per top-level section, so a supervisor can say what differs. It is a
+    query's reply, never published or logged. The struct is its message's only description (message, checks and
+    schema comms.records.schemas.HELLO)."""
 
     process: str
     digest: str
-    sections: dict[str, str]
+    sections: dict[str, str]  # section name -> its digest
 
     def to_message(self) -> Message:
-        return {"process": self.process, "digest": self.digest, "sections": dict(self.sections)}
+        return as_message(self)
 
     @classmethod
-    def from_message(cls, message: Message) -> Hello:
-        sections = _get(message, "sections", dict)
-        if not all(isinstance(k, str) and isinstance(v, str) for k, v in sections.items()):
-            raise ValueError("field 'sections' is not a map of section name to digest")
-        return cls(_get(message, "process", str), _get(message, "digest", str), sections)
+    def from_message(cls, message: object) -> Hello:
+        return read_as(message, cls)
 
 
 # --- parsing what arrives -------------------------------------------------------------------------------------

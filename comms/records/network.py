@@ -1,17 +1,21 @@
 """The state of the network over one sync step, as the supervisor's fault schedule sets it.
 
 The graph in force (who hears whom), links that are down or degraded, a total blackout, silent modems. It travels in
-every clock tick, so the broker only ever enforces what the supervisor says.
+every clock tick, so the broker only ever enforces what the supervisor says. `Network` is a msgspec Struct, the
+message's only description (the tick's `network`: comms.records.tick); logs written before links were objects have
+[sender, receiver] pairs and [sender, receiver, loss, delay] lists, which read the same (`from_older_log`).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
 from functools import lru_cache
-from typing import Any
 
-from comms.records.fields import get, is_int, number
-from comms.records.run import edges_of, link_of, links_message
+import msgspec
+
+from comms.records.fields import Finite, Message, as_message, read_as
+from comms.records.run import Edge, Link, links, older_links, pairs
 
 
 @dataclass(frozen=True, slots=True)
@@ -23,60 +27,99 @@ class Impairment:
     extra_delay: float = 0.0
 
 
-@dataclass(frozen=True, slots=True)
-class Network:
-    edges: tuple[tuple[int, int], ...]
-    down: frozenset[tuple[int, int]] = frozenset()
-    degraded: dict[tuple[int, int], tuple[float, float]] = field(default_factory=dict)  # (loss, delay)
-    blackout: bool = False
-    silent: frozenset[int] = frozenset()
+class DegradedLink(msgspec.Struct, frozen=True, order=True):
+    """A directed link a fault degrades: loss added (a probability) and delay added (s)."""
+
+    sender: int
+    receiver: int
+    loss: Finite
+    delay: Finite
+
+
+class Network(msgspec.Struct, frozen=True):
+    """The graph in force (`edges`, as vehicle-id pairs; its links as the message has them) and the link faults:
+    links down, links degraded, a blackout, the silent modems. Built with `of` (sorted: two networks that act the
+    same are equal)."""
+
+    links: tuple[Link, ...] = msgspec.field(name="edges")
+    down: tuple[Link, ...]
+    degraded: tuple[DegradedLink, ...]
+    blackout: bool
+    silent: tuple[int, ...]
+
+    @classmethod
+    def of(
+        cls,
+        edges: Iterable[Edge],
+        down: Iterable[Edge] = (),
+        degraded: Mapping[Edge, tuple[float, float]] | None = None,
+        blackout: bool = False,
+        silent: Iterable[int] = (),
+    ) -> Network:
+        """degraded: (sender, receiver) -> (loss, delay)."""
+        worse = tuple(DegradedLink(s, r, loss, delay) for (s, r), (loss, delay) in sorted((degraded or {}).items()))
+        return cls(links(edges), links(sorted(set(down))), worse, blackout, tuple(sorted(set(silent))))
+
+    @property
+    def edges(self) -> tuple[Edge, ...]:
+        return pairs(self.links)
 
     def neighbours(self, vehicle: int) -> list[int]:
-        return list(_adjacency(self.edges).get(vehicle, ()))
+        return list(_adjacency(self.links).get(vehicle, ()))
 
     def impairment(self, sender: int, receiver: int) -> Impairment:
         if self.blackout:
             return Impairment("blackout")
-        if (sender, receiver) in self.down:
+        down, degraded = _faulty(self.down, self.degraded)
+        if (sender, receiver) in down:
             return Impairment("link_down")
-        loss, delay = self.degraded.get((sender, receiver), (0.0, 0.0))
+        loss, delay = degraded.get((sender, receiver), (0.0, 0.0))
         return Impairment(None, loss, delay)
 
-    def to_message(self) -> dict[str, Any]:
-        """The wire form inside a tick (schema comms.records.schemas.TICK's network)."""
-        degraded = [{"sender": s, "receiver": r, "loss": loss, "delay": delay}
-                    for (s, r), (loss, delay) in sorted(self.degraded.items())]  # fmt: skip
-        return {"edges": links_message(self.edges), "down": links_message(sorted(self.down)), "degraded": degraded,
-                "blackout": self.blackout, "silent": sorted(self.silent)}  # fmt: skip
+    def to_message(self) -> Message:
+        return as_message(self)
 
     @classmethod
-    def from_message(cls, net: object) -> Network:
-        """The inverse of to_message, checked: ValueError for anything malformed."""
-        if not isinstance(net, dict):
-            raise ValueError("field 'network' is not a map")
-        silent = net.get("silent")
-        if not isinstance(silent, list) or not all(is_int(v) for v in silent):
-            raise ValueError("field 'silent' is not a list of vehicle ids")
-        degraded = dict(_degraded(item) for item in get(net, "degraded", list))
-        return cls(edges_of(net, "edges"), frozenset(edges_of(net, "down")), degraded, get(net, "blackout", bool),
-                   frozenset(silent))  # fmt: skip
+    def from_message(cls, message: object) -> Network:
+        """The inverse of to_message, checked: ValueError naming the field for anything malformed."""
+        try:
+            return read_as(message, cls)
+        except ValueError:
+            older = from_older_log(message)
+            if older is None:
+                raise
+            return read_as(older, cls)
 
 
 @lru_cache(maxsize=256)
-def _adjacency(edges: tuple[tuple[int, int], ...]) -> dict[int, tuple[int, ...]]:
+def _adjacency(edges: tuple[Link, ...]) -> dict[int, tuple[int, ...]]:
     """Every vehicle's neighbours in a graph, sorted: asked of every vehicle at every step (by the vehicle and the
     broker) of a graph that changes only with a fault, so worked out once per graph."""
     out: dict[int, set[int]] = {}
-    for i, j in edges:
+    for link in edges:
+        i, j = link.sender, link.receiver
         out.setdefault(i, set()).add(j)
         out.setdefault(j, set()).add(i)
     return {v: tuple(sorted(js)) for v, js in out.items()}
 
 
-def _degraded(item: object) -> tuple[tuple[int, int], tuple[float, float]]:
-    """A degraded link: {"sender", "receiver", "loss", "delay"}, or an older log's [sender, receiver, loss, delay]."""
-    if isinstance(item, list) and len(item) == 4:
-        item = dict(zip(("sender", "receiver", "loss", "delay"), item, strict=True))
-    if not isinstance(item, dict):
-        raise ValueError("field 'degraded' is not a list of degraded links")
-    return link_of(item, "degraded"), (number(item, "loss"), number(item, "delay"))
+@lru_cache(maxsize=256)
+def _faulty(
+    down: tuple[Link, ...], degraded: tuple[DegradedLink, ...]
+) -> tuple[frozenset[Edge], dict[Edge, tuple[float, float]]]:
+    """The links down and the degraded ones' (loss, delay), looked up per packet: worked out once per network."""
+    return frozenset(pairs(down)), {(d.sender, d.receiver): (d.loss, d.delay) for d in degraded}
+
+
+DEGRADED_NAMES = ("sender", "receiver", "loss", "delay")
+
+
+def from_older_log(message: object) -> Message | None:
+    """A network of a log from before links were objects, in today's form; None for anything else."""
+    out = older_links(message, ("edges", "down"))
+    degraded = message.get("degraded") if isinstance(message, dict) else None
+    if isinstance(degraded, list) and degraded and all(isinstance(d, list) and len(d) == 4 for d in degraded):
+        assert isinstance(message, dict)
+        objects = [dict(zip(DEGRADED_NAMES, d, strict=True)) for d in degraded]
+        out = {**(out or message), "degraded": objects}
+    return out

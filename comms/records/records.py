@@ -1,8 +1,9 @@
-"""The records comms carries between vehicles, the channel and the supervisor, as plain frozen dataclasses.
+"""The records comms carries between vehicles, the channel and the supervisor.
 
-They are the protocol's vocabulary: vehicles build and consume them, the channel and broker move them, the log keeps
-their wire form (a record's to_message / from_message where it has one,
-comms.records.messages otherwise). Nothing here knows how a vehicle works, so comms depends on no vehicle code.
+They are the protocol's vocabulary: vehicles build and consume them, the channel and broker move them. Those that
+travel as messages (Transmission, LinkEvent) are msgspec Structs, each its message's only description (to_message,
+from_message, the schema generated from it); the rest (Heard, Reception, Kinematics, ...) never leave a process.
+Nothing here knows how a vehicle works, so comms depends on no vehicle code.
 """
 
 from __future__ import annotations
@@ -21,95 +22,55 @@ from comms.records.fields import (
     Finite3,
     Message,
     as_message,
-    carried,
-    converted,
-    get,
     read_as,
     slow_enough,
-    vector3,
-    velocity,
 )
 
 FloatArray = NDArray[np.float64]
-
-
-@dataclass(frozen=True, slots=True)
-class Transmission:
-    """A coordination message as it leaves a vehicle: its data and, for the channel emulator only, its kinematics."""
-
-    sender: int
-    seq: int
-    t: float  # transmission time (true simulation time), s
-    gamma: float
-    gamma_dot: float
-    position: tuple[float, float, float]  # inertial, m
-    velocity: tuple[float, float, float]  # inertial, m/s
-    stamp: float | None = None  # the time the message claims for its data; None: t (a skewed clock differs)
-
-    @property
-    def data_time(self) -> float:
-        return self.t if self.stamp is None else self.stamp
-
-    def to_message(self) -> Message:
-        """The wire form on a vehicle's tx key (schema comms.records.schemas.TRANSMISSION); stamp is always written."""
-        return {
-            "t": self.t,
-            "stamp": self.data_time,
-            "sender": self.sender,
-            "seq": self.seq,
-            "gamma": self.gamma,
-            "gamma_dot": self.gamma_dot,
-            "position": list(self.position),
-            "velocity": list(self.velocity),
-        }
-
-    @classmethod
-    def from_message(cls, message: Message, key_vehicle: int) -> Transmission:
-        """The inverse of to_message, checked: the sender must own the key it came on, and the modem frame must be
-        able to carry it. ValueError for anything malformed."""
-        wire = converted(message, _TransmissionWire)
-        if wire is None:
-            return cls.checked(message, key_vehicle)
-        if wire.sender != key_vehicle:
-            raise ValueError(f"sender {wire.sender} published on vehicle {key_vehicle}'s key")
-        stamp = None if isinstance(wire.stamp, msgspec.UnsetType) or wire.stamp == wire.t else wire.stamp
-        velocity = slow_enough("velocity", wire.velocity)
-        return cls(wire.sender, wire.seq, wire.t, wire.gamma, wire.gamma_dot, wire.position, velocity, stamp)
-
-    @classmethod
-    def checked(cls, message: Message, key_vehicle: int) -> Transmission:
-        """from_message by hand-written checks, field by field: what says why a message is malformed."""
-        sender = get(message, "sender", int)
-        if sender != key_vehicle:
-            raise ValueError(f"sender {sender} published on vehicle {key_vehicle}'s key")
-        seq = get(message, "seq", int)
-        if seq < 0:
-            raise ValueError("field 'seq' is negative")
-        t = carried(message, "t", 0.0, MAX_TIME)
-        stamp = carried(message, "stamp", 0.0, MAX_TIME) if "stamp" in message else t
-        return cls(
-            sender, seq, t, carried(message, "gamma", -MAX_FLOAT32, MAX_FLOAT32),
-            carried(message, "gamma_dot", -MAX_FLOAT32, MAX_FLOAT32), vector3(message, "position"),
-            velocity(message, "velocity"), None if stamp == t else stamp,
-        )  # fmt: skip
 
 
 Time = Annotated[float, msgspec.Meta(ge=0.0, le=MAX_TIME)]  # what the modem frame carries (comms.records.wire)
 Float32 = Annotated[float, msgspec.Meta(ge=-MAX_FLOAT32, le=MAX_FLOAT32)]
 
 
-class _TransmissionWire(msgspec.Struct, frozen=True):
-    """A transmission as its message has it (stamp always written, but old messages may lack it; null is refused),
-    with the checks of Transmission.checked as msgspec types (comms.records.fields.converted)."""
+class Transmission(msgspec.Struct, frozen=True):
+    """A coordination message as it leaves a vehicle: its data and, for the channel emulator only, its kinematics.
+    The message's only description (on a vehicle's tx key; its schema comms.records.schemas.TRANSMISSION is generated
+    from it): what the modem frame cannot carry is refused as it is read. stamp: the time the message claims for its
+    data, t unless the sender's clock is skewed; always written, t where a message (of an older sender) lacks it (a
+    copy with another t, msgspec.structs.replace, keeps the stamp: give both)."""
 
     sender: int
     seq: Annotated[int, msgspec.Meta(ge=0)]
-    t: Time
+    t: Time  # transmission time (true simulation time), s
     gamma: Float32
     gamma_dot: Float32
-    position: Finite3
-    velocity: Finite3
-    stamp: Time | msgspec.UnsetType = msgspec.UNSET
+    position: Finite3  # inertial, m
+    velocity: Finite3  # inertial, m/s
+    stamp: Time | msgspec.UnsetType = msgspec.UNSET  # null is refused
+
+    def __post_init__(self) -> None:
+        if isinstance(self.stamp, msgspec.UnsetType):
+            msgspec.structs.force_setattr(self, "stamp", self.t)
+
+    @property
+    def data_time(self) -> float:
+        return self.t if isinstance(self.stamp, msgspec.UnsetType) else self.stamp
+
+    def to_message(self) -> Message:
+        return as_message(self)
+
+    @classmethod
+    def from_message(cls, message: object, key_vehicle: int) -> Transmission:
+        """The inverse of to_message, checked: ValueError naming the field for anything malformed."""
+        return read_as(message, cls).check(key_vehicle)
+
+    def check(self, key_vehicle: int) -> Transmission:
+        """What the types cannot say: the sender owns the key it came on, its velocity is one no vehicle exceeds."""
+        if self.sender != key_vehicle:
+            raise ValueError(f"field 'sender': sender {self.sender} published on vehicle {key_vehicle}'s key")
+        slow_enough("velocity", self.velocity)
+        return self
 
 
 @dataclass(frozen=True, slots=True)

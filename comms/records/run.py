@@ -1,96 +1,170 @@
-"""The supervisor's announcements about the run on cpf/run/*: the communication graph in force (cpf/run/graph), a
-fault starting or ending (cpf/run/fault) and the stop (cpf/run/stop), each a record with its wire form and its
-checked reading side by side (schemas comms.records.schemas.GRAPH, FAULT, STOP).
+"""The supervisor's announcements about the run on cpf/run/*: the run's metadata (cpf/run/meta), the communication
+graph in force (cpf/run/graph), a fault starting or ending (cpf/run/fault) and the stop (cpf/run/stop). Each is a
+msgspec Struct, its message's only description: the message (`to_message`), its reading (`from_message`, ValueError
+naming the field for anything malformed) and its JSON Schema (comms.records.schemas, generated) come from it.
 
-`from_message` raises ValueError naming the field for anything malformed. The run's metadata (cpf/run/meta) is the
-supervisor's own record (supervisor.record.meta.RunMeta): it carries the scenario, which comms knows nothing of.
+Directed links are objects {sender, receiver} in a message (viewers read no arrays of arrays); logs written before
+that have [sender, receiver] pairs, which read the same (`older_links`). The run's metadata carries the scenario,
+which comms knows nothing of: here it is a free map; the supervisor builds it (supervisor.record.meta.RunMeta.of).
 """
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Iterable
-from dataclasses import dataclass
-from typing import Literal, cast
+from typing import Annotated, Any, Literal, Self, TypeVar
 
-from comms.records.fields import Message, get, is_int, number
+import msgspec
+
+from comms.records.fields import Finite, Message, as_message, is_int, read_as
 
 Edge = tuple[int, int]
-PHASES = ("start", "end")
 Phase = Literal["start", "end"]
+S = TypeVar("S", bound=msgspec.Struct)
 
 
-def links_message(edges: Iterable[Edge]) -> list[Message]:
-    """Directed links as a message has them: objects, which viewers can read (an array of arrays they cannot)."""
-    return [{"sender": i, "receiver": j} for i, j in edges]
+class Link(msgspec.Struct, frozen=True, order=True):
+    """A directed link as a message has it."""
+
+    sender: int
+    receiver: int
+
+    @property
+    def pair(self) -> Edge:
+        return self.sender, self.receiver
 
 
-def edges_of(message: Message, name: str) -> tuple[Edge, ...]:
-    """The directed links of links_message (or, in logs before it, [sender, receiver] pairs) as vehicle-id pairs."""
-    return tuple(link_of(item, name) for item in get(message, name, list))
+def links(edges: Iterable[Edge]) -> tuple[Link, ...]:
+    return tuple(Link(i, j) for i, j in edges)
 
 
-def link_of(item: object, name: str) -> Edge:
-    """One link of a list: {"sender": i, "receiver": j}, or an older log's [i, j]."""
-    pair = [item.get("sender"), item.get("receiver")] if isinstance(item, dict) else item
-    if not (isinstance(pair, list) and len(pair) == 2 and is_int(pair[0]) and is_int(pair[1])):
-        raise ValueError(f"field {name!r} is not a list of links (sender and receiver vehicle ids)")
-    return pair[0], pair[1]
+def pairs(items: Iterable[Link]) -> tuple[Edge, ...]:
+    return tuple((link.sender, link.receiver) for link in items)
 
 
-@dataclass(frozen=True, slots=True)
-class Graph:
-    """The communication graph in force from time t: its directed edges."""
+def read_struct(message: object, kind: type[S], names: tuple[str, ...]) -> S:
+    """The struct `kind` of a message whose fields `names` are lists of links, read in today's form or (an older log)
+    as [sender, receiver] pairs; ValueError naming the field for anything malformed."""
+    try:
+        return read_as(message, kind)
+    except ValueError:
+        older = older_links(message, names)
+        if older is None:
+            raise
+        return read_as(older, kind)
 
-    t: float
-    edges: tuple[Edge, ...]
+
+def older_links(message: object, names: tuple[str, ...]) -> Message | None:
+    """A message of a log from before links were objects, its links `names` in today's form; None for anything else
+    (a message in today's form, or malformed)."""
+    if not isinstance(message, dict):
+        return None
+    changed = {name: _objects(message.get(name)) for name in names}
+    if all(value is None for value in changed.values()):
+        return None
+    return {**message, **{name: value for name, value in changed.items() if value is not None}}
+
+
+def _objects(items: object) -> list[Message] | None:
+    if not (isinstance(items, list) and items and all(isinstance(item, list) for item in items)):
+        return None
+    if not all(len(pair) == 2 and is_int(pair[0]) and is_int(pair[1]) for pair in items):
+        return None
+    return [{"sender": i, "receiver": j} for i, j in items]
+
+
+class Graph(msgspec.Struct, frozen=True):
+    """The communication graph in force from time t: its directed links (`edges`: as vehicle-id pairs)."""
+
+    t: Finite
+    links: tuple[Link, ...] = msgspec.field(name="edges")
 
     @classmethod
     def of(cls, t: float, edges: Iterable[Edge]) -> Graph:
-        return cls(t, tuple((i, j) for i, j in edges))
+        return cls(t, links(edges))
+
+    @property
+    def edges(self) -> tuple[Edge, ...]:
+        return pairs(self.links)
 
     def to_message(self) -> Message:
-        return {"t": self.t, "edges": links_message(self.edges)}
+        return as_message(self)
 
     @classmethod
-    def from_message(cls, message: Message) -> Graph:
-        return cls(number(message, "t"), edges_of(message, "edges"))
+    def from_message(cls, message: object) -> Graph:
+        return read_struct(message, cls, ("edges",))
 
 
-@dataclass(frozen=True, slots=True)
-class FaultEvent:
+Detail = dict[str, Any]
+
+
+class FaultEvent(msgspec.Struct, frozen=True):
     """A fault starting or ending with the step at t: its kind and its scenario fields but the kind (detail: the
     vehicle or link it acts on, its numbers, its start and end)."""
 
-    t: float
+    t: Finite
     kind: str
     phase: Phase
-    detail: dict[str, object]
+    detail: Detail
 
     def to_message(self) -> Message:
-        return {"t": self.t, "kind": self.kind, "phase": self.phase, "detail": self.detail}
+        return as_message(self)
 
     @classmethod
-    def from_message(cls, message: Message) -> FaultEvent:
-        phase = get(message, "phase", str)
-        if phase not in PHASES:
-            raise ValueError(f"field 'phase' is {phase!r}, not one of {', '.join(PHASES)}")
-        detail = get(message, "detail", dict)
-        if not all(isinstance(name, str) for name in detail):
-            raise ValueError("field 'detail' has a key that is not a string")
-        return cls(number(message, "t"), get(message, "kind", str), cast(Phase, phase), detail)
+    def from_message(cls, message: object) -> FaultEvent:
+        return read_as(message, cls)
 
 
-@dataclass(frozen=True, slots=True)
-class Stop:
+class Stop(msgspec.Struct, frozen=True):
     """The supervisor's stop at time t: the reason is comms.records.messages.STOP_END when the run finished, else why it
     stopped early (e.g. a process refused)."""
 
-    t: float
+    t: Finite
     reason: str
 
     def to_message(self) -> Message:
-        return {"t": self.t, "reason": self.reason}
+        return as_message(self)
 
     @classmethod
-    def from_message(cls, message: Message) -> Stop:
-        return cls(number(message, "t"), get(message, "reason", str))
+    def from_message(cls, message: object) -> Stop:
+        return read_as(message, cls)
+
+
+class RunMeta(msgspec.Struct, frozen=True):
+    """What ran: the scenario (its name, file, text, and as validated with --set and --fault applied: enough to
+    re-run it), the seed, engine and clock, and the numbers readers need without validating the scenario again."""
+
+    scenario_name: str
+    scenario_file: str
+    scenario_toml: str
+    scenario: dict[str, Any]
+    seed: int
+    engine: str
+    clock: str
+    step: Annotated[float, msgspec.Meta(gt=0.0, le=sys.float_info.max)]  # s
+    duration: Finite
+    vehicles: tuple[int, ...]
+    links: tuple[Link, ...] = msgspec.field(name="edges")
+    faults: tuple[Detail, ...]  # each fault's scenario fields, its kind included
+    tube_radius: Finite
+    versions: dict[str, str]
+    extensions: tuple[str, ...] = ()  # what the scenario's extensions resolved to; absent in older logs
+
+    @property
+    def edges(self) -> tuple[Edge, ...]:
+        return pairs(self.links)
+
+    def to_message(self) -> Message:
+        return as_message(self)
+
+    @classmethod
+    def from_message(cls, message: object) -> Self:
+        """The metadata, checked: ValueError naming the field for anything malformed."""
+        return read_struct(message, cls, ("edges",)).check()
+
+    def check(self) -> Self:
+        """What the types cannot say: each fault names its kind."""
+        for n, fault in enumerate(self.faults):
+            if not isinstance(fault.get("kind"), str):
+                raise ValueError(f"field 'faults': item {n} names no kind (a string)")
+        return self

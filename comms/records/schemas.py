@@ -1,12 +1,12 @@
 """JSON-Schemas of the messages on each key expression, for the MCAP channels and the live view (Foxglove and
 Lichtblick read them).
 
-A message described by a msgspec Struct has its schema generated from it (`struct_schema`: the state); the others'
-are written here, each describing one record's to_message (comms.*, supervisor.record.meta.RunMeta). Every schema is
-in the subset the viewers read (tests/viewer_rules.py, after Lichtblick's parseJsonSchema): an object's fields each of
-one type (no unions: an optional field is left out of the message, not null), arrays of numbers, strings, booleans or
-objects (no arrays of arrays), every enum typed. tests/test_state_report.py checks every record's fields against its
-schema, tests/test_messages.py every built message.
+Every message is described once, by a msgspec Struct (comms.records.*), and its schema is generated from it here
+(`struct_schema`). Every schema is in the subset the viewers read (tests/viewer_rules.py, after Lichtblick's
+parseJsonSchema): an object's fields each of one type (no unions: an optional field is left out of the message, not
+null), arrays of numbers, strings, booleans or objects (no arrays of arrays), every enum typed.
+tests/test_state_report.py checks every record's fields against its schema, tests/test_messages.py every built
+message, tests/test_viewer_schemas.py and tests/test_foxglove_log.py every record of a run.
 """
 
 from __future__ import annotations
@@ -16,6 +16,7 @@ from typing import Any
 
 import msgspec
 
+from comms.records.events import LinkEvents
 from comms.records.messages import (
     COMMS_DONE_KEY,
     COMMS_EVENT_KEY,
@@ -27,29 +28,31 @@ from comms.records.messages import (
     META_KEY,
     STOP_KEY,
     TICK_KEY,
+    Hello,
     vehicle_of_key,
 )
 from comms.records.receptions import RxBatch
-from comms.records.records import LinkEvent
+from comms.records.records import LinkEvent, Transmission
+from comms.records.reports import CommsDone, CommsStats, VehicleDone
+from comms.records.run import FaultEvent, Graph, RunMeta, Stop
 from comms.records.state import StateReport
+from comms.records.tick import Tick
 
 Schema = dict[str, Any]
 DRAFT = "http://json-schema.org/draft-07/schema#"
 NUMBER: Schema = {"type": "number"}
-INTEGER: Schema = {"type": "integer"}
-STRING: Schema = {"type": "string"}
-BOOLEAN: Schema = {"type": "boolean"}
 FREE: Schema = {"type": "object", "properties": {}}  # any map (a viewer reads none of its fields)
-COUNTS: Schema = {**FREE, "additionalProperties": INTEGER}  # a map of counts
 
 
-def struct_schema(kind: type, title: str) -> Schema:
+def struct_schema(kind: type, title: str, always: tuple[str, ...] = ()) -> Schema:
     """The JSON Schema of a struct's message (msgspec's, from the struct), in the subset viewers read: references
     inlined, an optional field (T | None = None, left out of the message when None) as T and not required, a number
     that may be an integer (comms.records.fields.Real) as a number, a fixed-length tuple as an array of its items'
-    type."""
+    type. always: optional fields (older messages may lack them) that the struct always writes, required."""
     raw = msgspec.json.schema(kind)
-    return {"$schema": DRAFT, "title": title, **_viewed(raw, raw.get("$defs", {}))}
+    schema: Schema = {"$schema": DRAFT, "title": title, **_viewed(raw, raw.get("$defs", {}))}
+    schema["required"] = [name for name in schema["properties"] if name in schema["required"] or name in always]
+    return schema
 
 
 def _viewed(node: Schema, defs: dict[str, Schema]) -> Schema:
@@ -58,6 +61,9 @@ def _viewed(node: Schema, defs: dict[str, Schema]) -> Schema:
     if "anyOf" in node:
         return _one_of(node["anyOf"], defs)
     kind = node.get("type")
+    if kind == "object" and "properties" not in node:  # a map: of anything, or of values of one type
+        values = node.get("additionalProperties", {})
+        return FREE if values == {} else {**FREE, "additionalProperties": _viewed(values, defs)}
     if kind == "object":
         properties = {name: _viewed(field, defs) for name, field in node["properties"].items()}
         return {"type": "object", "properties": properties, "required": list(node.get("required", []))}
@@ -99,152 +105,20 @@ def _enum_type(values: list[Any]) -> str:
     raise ValueError(f"no viewer form for an enum of {values}")
 
 
-def _vector(n: int | None = None) -> Schema:
-    schema: Schema = {"type": "array", "items": NUMBER}
-    if n is not None:
-        schema["minItems"] = schema["maxItems"] = n
-    return schema
-
-
-def _integers(n: int | None = None) -> Schema:
-    return {**_vector(n), "items": INTEGER}
-
-
-def _object(title: str, properties: Schema, optional: tuple[str, ...] = ()) -> Schema:
-    return {
-        "$schema": DRAFT,
-        "title": title,
-        "type": "object",
-        "properties": properties,
-        "required": [name for name in properties if name not in optional],
-    }
-
-
 STATE = struct_schema(StateReport, "cpf.VehicleState")
-TRANSMISSION = _object(
-    "cpf.Transmission",
-    {
-        "t": NUMBER,
-        "stamp": NUMBER,  # the data time the sender claims: t, unless its clock is skewed
-        "sender": INTEGER,
-        "seq": INTEGER,
-        "gamma": NUMBER,
-        "gamma_dot": NUMBER,
-        "position": _vector(3),
-        "velocity": _vector(3),
-    },
-)
+TRANSMISSION = struct_schema(Transmission, "cpf.Transmission", always=("stamp",))  # stamp: t unless skewed
 RECEPTIONS = struct_schema(RxBatch, "cpf.Receptions")
 LINK_EVENT = struct_schema(LinkEvent, "cpf.LinkEvent")
-LINK_EVENTS = _object(  # the bus's form of a step's link events (the log keeps one LINK_EVENT record each)
-    "cpf.LinkEvents", {"t": NUMBER, "k": INTEGER, "events": {"type": "array", "items": LINK_EVENT}}
-)
-_DISTURBED = _object(
-    "cpf.DisturbedVehicle",
-    {"vehicle": INTEGER, "cap": NUMBER, "freeze": BOOLEAN, "offset": NUMBER, "skew": NUMBER},
-    optional=("cap",),  # no cap: left out
-)
-_LINK = _object("cpf.Link", {"sender": INTEGER, "receiver": INTEGER})  # directed (comms.records.run.links_message)
-_LINKS: Schema = {"type": "array", "items": _LINK}
-_DEGRADED = _object("cpf.DegradedLink", {"sender": INTEGER, "receiver": INTEGER, "loss": NUMBER, "delay": NUMBER})
-_NETWORK = _object(  # absent from a tick: the scenario's graph, no link faults
-    "cpf.Network",
-    {
-        "edges": _LINKS,
-        "down": _LINKS,
-        "degraded": {"type": "array", "items": _DEGRADED},
-        "blackout": BOOLEAN,
-        "silent": _integers(),
-    },
-)
-TICK = _object(
-    "cpf.Tick",
-    {
-        "t": NUMBER,
-        "k": INTEGER,
-        "final": BOOLEAN,
-        "vehicles": {"type": "array", "items": _DISTURBED},  # only vehicles with any fault acting
-        "network": _NETWORK,
-        "alive": _integers(),  # absent: every vehicle
-        "comms": BOOLEAN,
-        "wall": NUMBER,  # realtime: t on the wall clock (time.time()); absent: lockstep
-        "speed": NUMBER,  # realtime: simulated s per wall-clock s
-        "hold": BOOLEAN,  # a process is killed or restarted at the next tick
-        "until": INTEGER,  # on the bus only: a lockstep time window of steps k .. until-1 (the log: one per step)
-        "span": INTEGER,  # on the bus only: the broker issues the ticks of steps k .. span-1 itself
-        "longest": INTEGER,  # with span: the broker's windows of at most this many steps
-    },
-    optional=(
-        "network",
-        "alive",
-        "wall",
-        "speed",
-        "hold",
-        "until",
-        "span",
-        "longest",
-    ),  # old logs lack realtime; the rest: the bus only
-)
-_LINK_BOOK = _object(
-    "cpf.LinkBook",
-    {
-        "sender": INTEGER,
-        "receiver": INTEGER,
-        "sent": INTEGER,
-        "delivered": INTEGER,
-        "dropped": COUNTS,
-        "mean_delay": NUMBER,
-        "max_delay": NUMBER,
-    },
-    optional=("mean_delay", "max_delay"),  # none delivered yet
-)
-COMMS_STATS = _object(
-    "cpf.CommsStats",
-    {
-        "t": NUMBER,
-        "window": NUMBER,
-        "horizon": NUMBER,  # s a delivery keeps its pair in the delivered graph lambda2 is of (absent in older logs)
-        "lambda2": NUMBER,
-        "links": {"type": "array", "items": _LINK_BOOK},
-    },
-    optional=("horizon",),
-)
-COMMS_DONE = _object("cpf.CommsDone", {"t": NUMBER, "k": INTEGER, "events": INTEGER, "malformed": INTEGER})
-VEHICLE_DONE = _object(
-    "cpf.VehicleDone",
-    {"t": NUMBER, "k": INTEGER, "vehicle": INTEGER, "malformed": COUNTS},
-)
-META = _object(
-    "cpf.RunMeta",
-    {
-        "scenario_name": STRING,
-        "scenario_file": STRING,
-        "scenario_toml": STRING,
-        "scenario": FREE,
-        "seed": INTEGER,
-        "engine": STRING,
-        "clock": STRING,
-        "step": NUMBER,
-        "duration": NUMBER,
-        "vehicles": {"type": "array", "items": INTEGER},
-        "edges": _LINKS,
-        "faults": {"type": "array", "items": FREE},
-        "tube_radius": NUMBER,
-        "versions": FREE,
-        "extensions": {"type": "array", "items": {"type": "string"}},
-    },
-    optional=("extensions",),  # logs of cpf before extensions have none
-)
-FAULT = _object(
-    "cpf.FaultEvent",
-    {"t": NUMBER, "kind": STRING, "phase": {"type": "string", "enum": ["start", "end"]}, "detail": FREE},
-)
-GRAPH = _object("cpf.Graph", {"t": NUMBER, "edges": _LINKS})
-STOP = _object("cpf.Stop", {"t": NUMBER, "reason": STRING})  # "end of run", or why the run stopped early
-HELLO = _object(
-    "cpf.Hello",  # a query's reply, not published: which scenario a process runs (sha256 hex, whole and per section)
-    {"process": STRING, "digest": STRING, "sections": {**FREE, "additionalProperties": STRING}},
-)
+LINK_EVENTS = struct_schema(LinkEvents, "cpf.LinkEvents")  # the bus's batch (the log keeps one LINK_EVENT each)
+TICK = struct_schema(Tick, "cpf.Tick")
+COMMS_STATS = struct_schema(CommsStats, "cpf.CommsStats")
+COMMS_DONE = struct_schema(CommsDone, "cpf.CommsDone")
+VEHICLE_DONE = struct_schema(VehicleDone, "cpf.VehicleDone")
+META = struct_schema(RunMeta, "cpf.RunMeta")
+FAULT = struct_schema(FaultEvent, "cpf.FaultEvent")
+GRAPH = struct_schema(Graph, "cpf.Graph")
+STOP = struct_schema(Stop, "cpf.Stop")  # "end of run", or why the run stopped early
+HELLO = struct_schema(Hello, "cpf.Hello")  # a query's reply, not published: which scenario a process runs
 
 _BY_KEY = {
     META_KEY: META,

@@ -1,56 +1,57 @@
-"""The supervisor's clock tick: the record, its wire form and its checked reading, side by side.
+"""The supervisor's clock tick (cpf/clock/tick): one msgspec Struct, the message's only description.
 
-`Tick.to_message` gives the dict on cpf/clock/tick (schema comms.records.schemas.TICK); `from_message` is its inverse,
-checked (ValueError for anything malformed). What says nothing is left out of the message rather than null (viewers
-read no nulls): no network (the scenario's graph), no alive list (every vehicle), no wall time (lockstep), no cap;
-older logs' nulls read the same. Ticks in logs from before realtime delivery lack wall, speed and hold: they read as
-lockstep (None, 1.0, False), and write back with speed and hold spelt out.
+From it come the message (`to_message`), its checked reading (`from_message`: msgspec's types, then `check` for what
+a type cannot say; ValueError naming the field for anything malformed) and its JSON Schema (comms.records.schemas,
+generated). What says nothing is left out of the message rather than null (viewers read no nulls): no network (the
+scenario's graph), no alive list (every vehicle), no wall time (lockstep), no cap; older logs' nulls read the same.
+Ticks in logs from before realtime delivery lack speed and hold: they read as lockstep (1.0, False), and write back
+with speed and hold spelt out.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import ClassVar
+import sys
+from collections.abc import Mapping
+from typing import Annotated
 
-from comms.records.fields import Message, get, is_int, number
+import msgspec
+
+from comms.records.fields import Finite, Message, as_message, read_as
 from comms.records.network import Network
+from comms.records.network import from_older_log as older_network
 from comms.records.records import Disturbances
 
+Positive = Annotated[float, msgspec.Meta(gt=0.0, le=sys.float_info.max)]
 
-@dataclass(frozen=True, slots=True)
-class DisturbedVehicle:
+
+class DisturbedVehicle(msgspec.Struct, frozen=True, kw_only=True, omit_defaults=True):
     """One entry of a tick's `vehicles`: what faults do to one vehicle over the step
     (comms.records.records.Disturbances)."""
 
     vehicle: int
-    cap: float | None  # gamma_dot_cap
+    cap: Finite | None = None  # gamma_dot_cap; none: left out (older logs have null)
     freeze: bool  # gamma_freeze
-    offset: float  # gamma_offset
-    skew: float  # clock_offset, s
+    offset: Finite  # gamma_offset
+    skew: Finite  # clock_offset, s
 
     @classmethod
     def of(cls, vehicle: int, d: Disturbances) -> DisturbedVehicle:
-        return cls(vehicle, d.gamma_dot_cap, d.gamma_freeze, d.gamma_offset, d.clock_offset)
+        return cls(vehicle=vehicle, cap=d.gamma_dot_cap, freeze=d.gamma_freeze, offset=d.gamma_offset,
+                   skew=d.clock_offset)  # fmt: skip
 
     @property
     def disturbances(self) -> Disturbances:
         return Disturbances(self.cap, self.freeze, self.offset, self.skew)
 
     def to_message(self) -> Message:
-        cap = {} if self.cap is None else {"cap": self.cap}  # no cap: left out (older logs have null)
-        return {"vehicle": self.vehicle, **cap, "freeze": self.freeze, "offset": self.offset, "skew": self.skew}
+        return as_message(self)
 
     @classmethod
     def from_message(cls, item: object) -> DisturbedVehicle:
-        if not isinstance(item, dict):
-            raise ValueError("a vehicle entry is not a map")
-        cap = None if item.get("cap") is None else number(item, "cap")
-        return cls(get(item, "vehicle", int), cap, get(item, "freeze", bool), number(item, "offset"),
-                   number(item, "skew"))  # fmt: skip
+        return read_as(item, cls)
 
 
-@dataclass(frozen=True, slots=True)
-class Tick:
+class Tick(msgspec.Struct, frozen=True, kw_only=True, omit_defaults=True):
     """Step k starts at t. With it, what acts over the step: faults on vehicles (only those with any), the network
     (graph and link faults), the vehicles alive, whether the broker is up. Realtime runs also say when t is on the
     wall clock (time.time()) and how fast simulation time runs: wall + (t' - t) / speed. hold: a process is killed
@@ -59,23 +60,40 @@ class Tick:
     window k .. until-1, over which all of this holds and nothing crosses the bus (supervisor.engine.windows).
     span (lockstep, on the bus only): the tick grants the broker steps k .. span-1, over which all of this holds
     (nothing external changes): the broker issues their ticks itself, in time windows it works out from the
-    vehicles' reports (comms.broker.span), and hold then says the span's last step holds its packets."""
+    vehicles' reports (comms.broker.span), and hold then says the span's last step holds its packets. Built with
+    `of`."""
 
-    WIRE_NAMES: ClassVar[dict[str, str]] = {"disturbed": "vehicles"}  # field -> its name in the message
-
+    t: Finite
     k: int
-    t: float
     final: bool
-    disturbed: dict[int, Disturbances]
-    network: Network | None  # None: the scenario's graph, no link faults
-    alive: list[int] | None  # None: every vehicle
+    vehicles: tuple[DisturbedVehicle, ...]  # only vehicles with any fault acting, by id
+    network: Network | None = None  # None: the scenario's graph, no link faults
+    alive: tuple[int, ...] | None = None  # None: every vehicle
     comms: bool
-    wall: float | None = None  # realtime: the wall-clock time (time.time()) of t; None: lockstep
-    speed: float = 1.0  # realtime: simulated seconds per wall-clock second
-    hold: bool = False  # a process is killed or restarted at the next tick: this step's packets wait for it
+    wall: Finite | None = None  # realtime: the wall-clock time (time.time()) of t; None: lockstep
+    speed: Positive  # realtime: simulated seconds per wall-clock second (1.0 in lockstep)
+    hold: bool  # a process is killed or restarted at the next tick: this step's packets wait for it
     until: int | None = None  # lockstep time window: steps k .. until-1 run on this tick; None: step k alone
-    span: int | None = None  # lockstep: the broker issues the ticks of steps k .. span-1 itself (comms.broker.span)
-    longest: int | None = None  # with span: the broker's time windows of at most this many steps
+    span: int | None = None  # on the bus only: the broker issues the ticks of steps k .. span-1 itself
+    longest: Annotated[int, msgspec.Meta(ge=1)] | None = None  # with span: the broker's windows of at most this
+
+    @classmethod
+    def of(
+        cls, k: int, t: float, final: bool, disturbed: Mapping[int, Disturbances] | None = None,
+        network: Network | None = None, alive: list[int] | tuple[int, ...] | None = None, comms: bool = True,
+        wall: float | None = None, speed: float = 1.0, hold: bool = False, until: int | None = None,
+        span: int | None = None, longest: int | None = None,
+    ) -> Tick:  # fmt: skip
+        """disturbed: vehicle -> what faults do to it (only the vehicles with any fault acting)."""
+        vehicles = tuple(DisturbedVehicle.of(v, d) for v, d in sorted((disturbed or {}).items()))
+        return cls(t=t, k=k, final=final, vehicles=vehicles, network=network,
+                   alive=None if alive is None else tuple(alive), comms=comms, wall=wall, speed=speed, hold=hold,
+                   until=until, span=span, longest=longest)  # fmt: skip
+
+    @property
+    def disturbed(self) -> dict[int, Disturbances]:
+        """vehicle -> what faults do to it over the step (only the vehicles with any fault acting)."""
+        return {entry.vehicle: entry.disturbances for entry in self.vehicles}
 
     @property
     def end(self) -> int:
@@ -93,51 +111,35 @@ class Tick:
         return self.wall + (t - self.t) / self.speed
 
     def to_message(self) -> Message:
-        return {
-            "t": self.t,
-            "k": self.k,
-            "final": self.final,
-            "vehicles": [DisturbedVehicle.of(vid, d).to_message() for vid, d in sorted(self.disturbed.items())],
-            **({} if self.network is None else {"network": self.network.to_message()}),
-            **({} if self.alive is None else {"alive": self.alive}),
-            "comms": self.comms,
-            **({} if self.wall is None else {"wall": self.wall}),
-            "speed": self.speed,
-            "hold": self.hold,
-            **({} if self.until is None else {"until": self.until}),  # the log keeps one tick per step, without it
-            **({} if self.span is None else {"span": self.span}),  # on the bus only
-            **({} if self.longest is None else {"longest": self.longest}),
-        }
+        return as_message(self)
 
     @classmethod
-    def from_message(cls, message: Message) -> Tick:
-        entries = [DisturbedVehicle.from_message(item) for item in get(message, "vehicles", list)]
-        net = message.get("network")  # absent (null in older logs): the scenario's graph
-        alive = message.get("alive")  # absent (null in older logs): every vehicle
-        if alive is not None and not (isinstance(alive, list) and all(is_int(v) for v in alive)):
-            raise ValueError("field 'alive' is not a list of vehicle ids")
-        hold = get(message, "hold", bool) if "hold" in message else False
-        k = get(message, "k", int)
-        until = get(message, "until", int) if message.get("until") is not None else None
-        if until is not None and until <= k:
-            raise ValueError(f"field 'until' is not after step {k}, got {until}")
-        span = get(message, "span", int) if message.get("span") is not None else None
-        if span is not None and span <= k:
-            raise ValueError(f"field 'span' is not after step {k}, got {span}")
-        longest = get(message, "longest", int) if message.get("longest") is not None else None
-        if longest is not None and longest < 1:
-            raise ValueError(f"field 'longest' is not a positive number of steps, got {longest}")
-        return cls(
-            k, number(message, "t"), get(message, "final", bool),
-            {e.vehicle: e.disturbances for e in entries}, None if net is None else Network.from_message(net), alive,
-            get(message, "comms", bool), *_realtime(message), hold, until, span, longest,
-        )  # fmt: skip
+    def from_message(cls, message: object) -> Tick:
+        """The inverse of to_message, checked: ValueError naming the field for anything malformed."""
+        try:
+            tick = read_as(message, cls)
+        except ValueError:
+            older = _from_older_log(message)
+            if older is None:
+                raise
+            tick = read_as(older, cls)
+        return tick.check()
+
+    def check(self) -> Tick:
+        """What the types cannot say: a window or a span ends after its first step."""
+        for name, end in (("until", self.until), ("span", self.span)):
+            if end is not None and end <= self.k:
+                raise ValueError(f"field {name!r} is not after step {self.k}, got {end}")
+        return self
 
 
-def _realtime(message: Message) -> tuple[float | None, float]:
-    """(wall, speed) of a tick; absent in lockstep ticks and in logs older than realtime delivery."""
-    wall = None if message.get("wall") is None else number(message, "wall")
-    speed = number(message, "speed") if "speed" in message else 1.0
-    if speed <= 0.0:
-        raise ValueError("field 'speed' is not positive")
-    return wall, speed
+def _from_older_log(message: object) -> Message | None:
+    """A tick of an older log in today's form (lockstep where it says nothing of realtime; its network's links as
+    pairs), None for anything else."""
+    if not isinstance(message, dict):
+        return None
+    lockstep = {name: value for name, value in (("speed", 1.0), ("hold", False)) if name not in message}
+    network = older_network(message.get("network"))
+    if not lockstep and network is None:
+        return None
+    return {**message, **lockstep, **({} if network is None else {"network": network})}

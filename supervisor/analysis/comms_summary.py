@@ -9,8 +9,10 @@ or its heartbeat) leaves longer between its packets (supervisor.config.fleet.del
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass
 from typing import Any
+
+import msgspec
 
 from comms.broker.stats import clamp_lambda2
 from comms.records.reports import LinkCounts
@@ -19,9 +21,17 @@ BY_NO_KEY = "any key"  # a reader that reports one count, not by key (the broker
 
 
 @dataclass(frozen=True, slots=True)
-class LinkRow(LinkCounts):
-    """A link's books (the broker's record of them) and how old its receiver's estimate of the sender got."""
+class LinkRow:
+    """A link's books (the broker's record of them: comms.records.reports.LinkCounts, field for field) and how old
+    its receiver's estimate of the sender got."""
 
+    sender: int
+    receiver: int
+    sent: int
+    delivered: int
+    dropped: dict[str, int]
+    mean_delay: float | None
+    max_delay: float | None
     mean_age: float | None  # of the receiver's estimate of the sender, s
     max_age: float | None
 
@@ -48,9 +58,7 @@ def comms_summary(
         books = LinkCounts.from_message(link)
         age = ages.get((books.sender, books.receiver))
         mean_age, max_age = (age[0] / age[1] if age[1] else None, age[2]) if age else (None, None)
-        rows.append(
-            LinkRow(**{f.name: getattr(books, f.name) for f in fields(LinkCounts)}, mean_age=mean_age, max_age=max_age)
-        )
+        rows.append(LinkRow(**msgspec.structs.asdict(books), mean_age=mean_age, max_age=max_age))
     # The final snapshot's window may be partial; it still counts, it is what the end of the run delivered.
     lambdas = [clamp_lambda2(float(s["lambda2"])) for s in history]  # an older log may hold -1e-17 for 0
     window = float(final["window"]) if final and "window" in final else None

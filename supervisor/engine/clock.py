@@ -66,7 +66,7 @@ class Clock:
         self.pubs, self.mode, self.speed = pubs, mode, speed
         self.longest = 1 if mode == "realtime" else longest or LONGEST_WINDOW  # realtime paces a tick per step
         self.fleet = len(sc.vehicle_ids)
-        self.usual = Network(tuple((a, b) for a, b in sc.graph.edges))  # the scenario's graph, no link faults
+        self.usual = Network.of((a, b) for a, b in sc.graph.edges)  # the scenario's graph, no link faults
         self.lead = tick_lead(sc.scenario.step, speed)
         self.wall_start, self.epoch_start = time.monotonic(), time.time()  # pacing; the wall clock processes share
         self.begun = False

@@ -19,9 +19,8 @@ from typing import TypeVar
 
 from comms.broker.windows import report_of
 from comms.bus.bus import Publishers, Received
-from comms.records.bus_records import EventsWire, Step, TxWire, log_json, read_events, read_window
+from comms.records.bus_records import Step, log_json, read_events, read_window
 from comms.records.events import LinkEvents
-from comms.records.fields import slow_enough
 from comms.records.messages import (
     COMMS_DONE_KEY,
     COMMS_EVENT_KEY,
@@ -260,10 +259,8 @@ class Intake:
         self.rec.write_state(state_key(vid), state.t, log_json(state), state)
         self._book(state)
 
-    def _typed_tx(self, tx: TxWire, vid: int) -> TxWire:
-        if tx.sender != vid:
-            raise ValueError(f"sender {tx.sender} published on vehicle {vid}'s key")
-        slow_enough("velocity", tx.velocity)
+    def _typed_tx(self, tx: Transmission, vid: int) -> Transmission:
+        tx.check(vid)
         self.bounds.time(tx.t, "the transmission's")
         return tx
 
@@ -327,7 +324,7 @@ class Intake:
         self.books.add(booked)
         self._events_in(events.t)
 
-    def _typed_events(self, batch: EventsWire) -> None:
+    def _typed_events(self, batch: LinkEvents) -> None:
         """_events of a batch read by msgspec (every event read)."""
         self.bounds.time(batch.t, "the batch's")
         if not 0 <= batch.k <= self.bounds.steps:

@@ -22,6 +22,8 @@ from collections.abc import Iterator, Sequence
 from importlib import metadata
 from pathlib import Path
 
+import msgspec
+
 from comms.records.messages import META_KEY, Message, parse_rx, state_key, vehicle_of_key
 from comms.records.records import Heard
 from comms.records.state import StateReport
@@ -143,7 +145,7 @@ def resimulate(log: Path, overrides: Sequence[str], out: Path) -> tuple[Scenario
     equal, first = 0, None
     with Recorder(out) as rec:
         rec.limit(sc.scenario.duration)
-        meta = dataclasses.replace(meta, engine="resim", scenario=sc.model_dump(mode="json"))
+        meta = msgspec.structs.replace(meta, engine="resim", scenario=sc.model_dump(mode="json"))
         rec.write(META_KEY, 0.0, meta.to_message())
         for i, t, state, report in _restep(sc, heard, set(recorded), meta.seed):
             rec.write(state_key(i), t, state)

@@ -61,9 +61,9 @@ def _network_at(scenario: Scenario, t: float, dt: float) -> Network:
             elif isinstance(f, LinkDegradedFault):
                 loss, delay = degraded.get(link, (0.0, 0.0))
                 degraded[link] = (1 - (1 - loss) * (1 - f.extra_loss), delay + f.extra_delay)
-    return Network(
+    return Network.of(
         edges,
-        frozenset(down),
+        down,
         degraded,
         any(isinstance(f, BlackoutFault) for f in on),
         frozenset(f.vehicle for f in on if isinstance(f, ModemSilentFault)),
