@@ -29,7 +29,7 @@ GRID = ["--param", "comms.loss=0,0.5", "--seeds", "2"]  # 2 values x 2 seeds
 def local_cluster(workers: int = 1, processes: bool = False) -> LocalCluster:
     return LocalCluster(
         n_workers=workers, threads_per_worker=1, processes=processes, protocol="tcp", host="127.0.0.1",
-        scheduler_port=0, dashboard_address=None,
+        scheduler_port=0, dashboard_address=":0",  # None means the default, 8787: two workers of the suite collided
     )  # fmt: skip
 
 

@@ -54,7 +54,7 @@ def export(args: argparse.Namespace) -> int:
 
 
 def sweep(args: argparse.Namespace) -> int:
-    from supervisor.cli.outputs import made_directory
+    from supervisor.cli.outputs import checked_directory
     from supervisor.cli.terminal import SweepBar
     from supervisor.tools.sweep import Cluster, parse_param, sweep
     from supervisor.tools.sweep_plot import plot_sweep
@@ -62,7 +62,7 @@ def sweep(args: argparse.Namespace) -> int:
     if args.cluster is not None and args.jobs is not None:  # the workers' threads say how many runs go at once
         raise ScenarioError(f"--jobs: local processes, not for a sweep on a --cluster, got {args.jobs}")
     params = [parse_param(text) for text in args.param]
-    made_directory("--out", args.out)
+    checked_directory("--out", args.out)  # made once the sweep starts: an unreachable cluster leaves nothing
     cluster = None if args.cluster is None else Cluster(args.cluster, args.cluster_timeout)
     bar = SweepBar()
     try:

@@ -70,6 +70,24 @@ def output_errors(scenario: Path, outputs: dict[str, Path | None]) -> list[str]:
     return errors
 
 
+def checked_directory(option: str, path: Path) -> Path:
+    """path, if it is a directory that can be written or can be made (before any work, without making it: a command
+    that fails later leaves nothing); ScenarioError '<option>: <problem>, got <path>' otherwise."""
+    from supervisor.errors import ScenarioError
+
+    if path.exists() and not path.is_dir():
+        raise ScenarioError(f"{option}: not a directory, got {path}")
+    ancestor = path
+    while not ancestor.exists() and ancestor != ancestor.parent:
+        ancestor = ancestor.parent
+    if not ancestor.is_dir():
+        raise ScenarioError(f"{option}: {ancestor} is a file, not a directory, got {path}")
+    problem = _cannot_create_in(ancestor)
+    if problem is not None:
+        raise ScenarioError(f"{option}: cannot make the directory ({problem}), got {path}")
+    return path
+
+
 def made_directory(option: str, path: Path) -> None:
     """The directory path, made if missing (a command's output directory, before any work); ScenarioError
     '<option>: <problem>, got <path>' if it is a file, under one, or cannot be made or written."""
