@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 import re
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Annotated, Any, TypeVar
 
 import msgspec
@@ -39,6 +39,18 @@ def read_as(message: object, kind: type[T]) -> T:
         return msgspec.convert(message, kind)
     except msgspec.ValidationError as exc:
         raise ValueError(_named(str(exc))) from None
+
+
+def read_as_or_older(message: object, kind: type[T], older: Callable[[object], object | None]) -> T:
+    """read_as, and if the message does not read, its older log's form converted by `older` (None: not an older
+    form either: the first error stands)."""
+    try:
+        return read_as(message, kind)
+    except ValueError:
+        converted = older(message)
+        if converted is None:
+            raise
+        return read_as(converted, kind)
 
 
 def _named(reason: str) -> str:

@@ -19,7 +19,17 @@ from typing import Annotated
 import msgspec
 import numpy as np
 
-from comms.records.fields import Finite, Finite3, Message, Real, Real3, as_message, orthonormal, read_as, slow_enough
+from comms.records.fields import (
+    Finite,
+    Finite3,
+    Message,
+    Real,
+    Real3,
+    as_message,
+    orthonormal,
+    read_as_or_older,
+    slow_enough,
+)
 from comms.records.records import Kinematics
 
 Float3 = tuple[float, float, float]
@@ -91,14 +101,7 @@ class StateReport(msgspec.Struct, frozen=True, omit_defaults=True):
     def from_message(cls, message: object, key_vehicle: int) -> StateReport:
         """The report, checked; its vehicle must own the key it came on. ValueError for anything malformed, naming
         the field (msgspec's message: "Expected `float`, got `str` - at `$.gamma`")."""
-        try:
-            report = read_as(message, cls)
-        except ValueError:
-            older = _from_older_log(message)
-            if older is None:
-                raise
-            return cls.from_message(older, key_vehicle)
-        return report.check(key_vehicle)
+        return read_as_or_older(message, cls, _from_older_log).check(key_vehicle)
 
     def check(self, key_vehicle: int) -> StateReport:
         """What the types cannot say: the vehicle owns the key (ValueError otherwise), R is a rotation, the velocity

@@ -16,7 +16,7 @@ from typing import Annotated
 
 import msgspec
 
-from comms.records.fields import Finite, Message, as_message, read_as
+from comms.records.fields import Finite, Message, as_message, read_as, read_as_or_older
 from comms.records.network import Network
 from comms.records.network import from_older_log as older_network
 from comms.records.records import Disturbances
@@ -116,14 +116,7 @@ class Tick(msgspec.Struct, frozen=True, kw_only=True, omit_defaults=True):
     @classmethod
     def from_message(cls, message: object) -> Tick:
         """The inverse of to_message, checked: ValueError naming the field for anything malformed."""
-        try:
-            tick = read_as(message, cls)
-        except ValueError:
-            older = _from_older_log(message)
-            if older is None:
-                raise
-            tick = read_as(older, cls)
-        return tick.check()
+        return read_as_or_older(message, cls, _from_older_log).check()
 
     def check(self) -> Tick:
         """What the types cannot say: a window or a span ends after its first step."""
