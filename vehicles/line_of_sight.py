@@ -95,7 +95,7 @@ class LineOfSight:
         zeta = gamma_dot - v_d
         drift = model.drift(s, params)
         e_r, e_q, turning, u_path = self._guidance(s, path, error, gamma_dot, current)
-        wanted = _surge_for(s, p_g, u_path * v_d - self.k1 * along / max(u_path, 1e-9), current)
+        wanted = _surge_for(s, p_g, u_path, u_path * v_d - self.k1 * along / max(u_path, 1e-9), current)
         tau = self._inputs(params, s, drift, (e_r, e_q), turning, wanted)
         lyapunov = (rho - 1.0) + 0.5 * zeta * zeta + (1.0 - cos(e_r)) + (1.0 - cos(e_q))
         return ControlOutput(tau, -self.k_zeta * zeta + along, lyapunov, drift)
@@ -150,12 +150,12 @@ class LineOfSight:
         return min(prm.max_torque, self.fin_moment * u * u)
 
 
-def _surge_for(s: Sequence[float], p_g: Float3, along_speed: float, current: Current | None) -> float:
+def _surge_for(s: Sequence[float], p_g: Float3, norm: float, along_speed: float, current: Current | None) -> float:
     """The surge speed through the water [m/s] that moves the vehicle along its path's tangent at along_speed over
     ground, its sway, heave and the current as they are; with the tangent more than 60 deg off its axis, as if it were
     60 deg off (the course is still turning toward the line of sight)."""
-    norm = math.sqrt(p_g[0] * p_g[0] + p_g[1] * p_g[1] + p_g[2] * p_g[2])
-    tx, ty, tz = _in_body(s, (p_g[0] / max(norm, 1e-9), p_g[1] / max(norm, 1e-9), p_g[2] / max(norm, 1e-9)))
+    inv = 1.0 / max(norm, 1e-9)  # norm: |p_g|, which the guidance has computed
+    tx, ty, tz = _in_body(s, (p_g[0] * inv, p_g[1] * inv, p_g[2] * inv))
     u, v, w = _over_ground(s, current)
     return (along_speed - ty * v - tz * w) / max(tx, 0.5) - (u - s[12])
 
