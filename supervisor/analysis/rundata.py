@@ -189,10 +189,10 @@ def load_run(path: Path, also: Collector | None = None) -> RunData:
     """Read a run's MCAP into arrays; LogError (pointing to `cpf recover`) for a log cut short or damaged,
     ScenarioError naming the topic and the field for a record that does not read. also: handed the messages it
     wants in the same pass (one read of the log for both)."""
-    logfile.verify(path)  # damage anywhere refuses the log, also in chunks the report skips (its Foxglove scene)
     got = _Collected()
     wanted = _wanted if also is None else lambda topic: _wanted(topic) or also.wanted(topic)
-    for topic, _, message in logfile.messages(path, wanted):
+    # checked whole: damage anywhere refuses the log, also in chunks the report skips (its Foxglove scene)
+    for topic, _, message in logfile.read_checked(path, wanted):
         try:
             if _wanted(topic):
                 got.add(topic, message)

@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any, NamedTuple
 
+import msgspec
 from mcap.data_stream import ReadDataStream
 from mcap.opcode import Opcode
 from mcap.reader import McapReader, make_reader
@@ -28,12 +29,23 @@ from mcap.summary import Summary
 
 from supervisor.errors import LogError
 
-__all__ = ["LogError", "LogMessage", "RawLog", "RawMessage", "messages", "read_messages", "read_raw", "verify"]
+__all__ = [
+    "LogError",
+    "LogMessage",
+    "RawLog",
+    "RawMessage",
+    "messages",
+    "read_checked",
+    "read_messages",
+    "read_raw",
+    "verify",
+]
 
 MAGIC = b"\x89MCAP0\r\n"
 PREFIX = struct.Struct("<BQ")  # every record: opcode, length of what follows
 FOOTER = struct.Struct("<BQQQI")  # opcode, length, summary start, summary offset start, summary CRC
 MESSAGE_HEAD = struct.Struct("<HIQQ")  # a message record: channel id, sequence, log time, publish time; then data
+_JSON = msgspec.json.Decoder()
 
 
 class LogMessage(NamedTuple):
@@ -84,6 +96,32 @@ def messages(
 def read_messages(path: Path, wanted: Callable[[str], bool] | None = None) -> list[tuple[str, int, Any]]:
     """(topic, log time ns, message) of every (wanted) message in log-time order; LogError as `messages`."""
     return [(m.topic, m.log_time, m.message) for m in messages(path, wanted)]
+
+
+def read_checked(path: Path, wanted: Callable[[str], bool]) -> list[LogMessage]:
+    """The wanted messages in log-time order (equal times in the order written, as `messages` gives them) of a log
+    checked whole: its footer, its summary's CRC and every chunk's CRC, also in chunks holding no wanted topic.
+    One linear pass that decompresses each chunk once: `verify` then `messages` decompressed every chunk twice and
+    merged them in a heap of Python objects (11 s of a 14 s load of an 8-vehicle, 450 s run). LogError as both."""
+    out: list[LogMessage] = []
+    with open_log(path) as stream:
+        _strict_summary(path, reader_of(stream), stream)
+        channels: dict[int, Channel] = {}
+        taken: dict[int, bool] = {}  # channel id -> wanted: asked once per channel, not once per message
+        for offset, opcode, body in _top_records(stream):
+            if opcode in (Opcode.DATA_END, Opcode.FOOTER):
+                out.sort(key=lambda m: m.log_time)  # stable: equal times keep the order they were written in
+                return out
+            try:
+                records = _parsed(opcode, body, channels)
+            except Exception as exc:  # see messages
+                raise damaged(path, f"chunk at byte {offset}: {_reason(exc)}") from None
+            for c, t, data in records:
+                if taken.get(c) is None:
+                    taken[c] = wanted(channels[c].topic)
+                if taken[c]:
+                    out.append(LogMessage(channels[c].topic, t, _decoded(path, channels[c], data)))
+        raise damaged(path, f"a record at byte {offset} runs past the end of the file")
 
 
 def verify(path: Path) -> None:
@@ -147,6 +185,10 @@ def summary_whole(stream: IO[bytes]) -> bool:
 def _decoded(path: Path, channel: Channel, data: bytes) -> Any:
     if channel.message_encoding != "json":
         return None
+    try:  # msgspec reads JSON 2-3x faster; json also reads the NaN and Infinity an older writer may have left
+        return _JSON.decode(data)
+    except msgspec.DecodeError:
+        pass
     try:
         return json.loads(data)
     except ValueError as exc:
@@ -202,17 +244,17 @@ def reader_of(stream: IO[bytes]) -> McapReader:
 def scan(stream: IO[bytes], wanted: Callable[[str], bool]) -> RawLog:
     """Every complete top-level record from the start; stops at the first one cut short or damaged."""
     log = RawLog(complete=False)
-    topics: dict[int, str] = {}
+    channels: dict[int, Channel] = {}
     for _, opcode, body in _top_records(stream):
         if opcode in (Opcode.DATA_END, Opcode.FOOTER):
             log.complete = True  # a whole data section, with or without a summary after it
             break
         try:
-            records = _parsed(opcode, body, topics)
+            records = _parsed(opcode, body, channels)
         except Exception:  # see messages: the readable part ends here
             break
-        for topic, log_time, data in records:
-            log.take(topic, log_time, data, wanted)
+        for channel, log_time, data in records:
+            log.take(channels[channel].topic, log_time, data, wanted)
     log.messages.sort(key=lambda m: m.log_time)  # stable: equal times keep the order they were written in
     return log
 
@@ -229,9 +271,10 @@ def _top_records(stream: IO[bytes]) -> Iterable[tuple[int, int, bytes]]:
         offset += PREFIX.size + length
 
 
-def _parsed(opcode: int, body: bytes, topics: dict[int, str]) -> list[RawMessage]:
-    """The messages of one top-level record (a chunk: all of them, or an exception if it is damaged); channel
-    records found on the way are entered in topics."""
+def _parsed(opcode: int, body: bytes, channels: dict[int, Channel]) -> list[tuple[int, int, bytes]]:
+    """(channel id, log time, data) of the messages of one top-level record (a chunk: all of them, or an exception
+    if it is damaged, a message on a channel not yet described included); channel records found on the way are
+    entered in channels."""
     inner = _chunk_data(body) if opcode == Opcode.CHUNK else PREFIX.pack(opcode, len(body)) + body
     out = []
     offset = 0
@@ -242,10 +285,12 @@ def _parsed(opcode: int, body: bytes, topics: dict[int, str]) -> list[RawMessage
             raise ValueError("record runs past its chunk")
         if opcode == Opcode.CHANNEL:
             channel = Channel.read(ReadDataStream(io.BytesIO(inner[start:offset])))
-            topics[channel.id] = channel.topic
+            channels[channel.id] = channel
         elif opcode == Opcode.MESSAGE:
             channel_id, _, log_time, _ = MESSAGE_HEAD.unpack_from(inner, start)
-            out.append(RawMessage(topics[channel_id], log_time, inner[start + MESSAGE_HEAD.size : offset]))
+            if channel_id not in channels:
+                raise ValueError(f"a message on channel {channel_id}, which no channel record describes")
+            out.append((channel_id, log_time, inner[start + MESSAGE_HEAD.size : offset]))
     return out
 
 
