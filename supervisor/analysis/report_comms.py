@@ -14,6 +14,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
+from matplotlib.ticker import LogLocator
 
 from comms.broker.stats import clamp_lambda2
 from comms.records.graph import algebraic_connectivity, laplacian
@@ -147,6 +148,9 @@ def _log_if_skewed(ax: Axes, counts: Array) -> None:
     nonzero = counts[counts > 0]
     if nonzero.size and nonzero.max() > SKEWED_COUNTS * nonzero.min():
         ax.set_yscale("log")
+        # minor ticks at 2 and 5 only (labelled when the panel spans less than a decade): the default 2..9 cost
+        # about 60 % of this figure's drawing time (8 vehicles, 16 panels: 9.5 -> 3.5 s)
+        ax.yaxis.set_minor_locator(LogLocator(subs=(2.0, 5.0)))
         ax.set_ylabel("packets (log)")
     else:
         ax.set_ylabel("packets")
