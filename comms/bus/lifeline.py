@@ -46,7 +46,7 @@ def launcher(argv: list[str], parent_death_signal: bool) -> list[str]:
     return [sys.executable, "-I", "-S", os.path.abspath(__file__), parent, *argv]
 
 
-def _set_parent_death_signal(sig: int) -> bool:
+def set_parent_death_signal(sig: int) -> bool:
     """prctl(PR_SET_PDEATHSIG, sig) on Linux; False elsewhere or if the kernel refused."""
     if not sys.platform.startswith("linux"):
         return False
@@ -56,7 +56,7 @@ def _set_parent_death_signal(sig: int) -> bool:
 
 def _launch(parent: int, argv: list[str]) -> None:
     """The launcher's work: the parent-death signal (if asked for and available), then exec argv."""
-    if parent and _set_parent_death_signal(signal.SIGKILL) and os.getppid() != parent:
+    if parent and set_parent_death_signal(signal.SIGKILL) and os.getppid() != parent:
         os._exit(ORPHANED)  # the supervisor died before the prctl: the signal will never come
     os.environ[LIFELINE_ENV] = "0"
     os.execv(argv[0], argv)
@@ -92,7 +92,7 @@ def watch(name: str) -> Lifeline | None:
     if fd is None or not fd.isdigit():
         return None
     lifeline = Lifeline(int(fd), name)
-    _set_parent_death_signal(0)
+    set_parent_death_signal(0)
     return lifeline
 
 

@@ -15,6 +15,7 @@ from pathlib import Path
 
 from matplotlib.figure import Figure
 
+from supervisor.analysis.drawing import draw, workers
 from supervisor.analysis.figures import (  # colour, finish_time_axes, new_figure: for report_comms
     DPI,
     colour,
@@ -25,7 +26,6 @@ from supervisor.analysis.figures import (  # colour, finish_time_axes, new_figur
     fig_velocities,
     finish_time_axes,
     new_figure,
-    save,
 )
 from supervisor.analysis.rundata import AgeSeries, FaultInterval, LinkLog, RunData, VehicleSeries, load_run
 
@@ -62,7 +62,8 @@ def write_report(log: Path, out_dir: Path) -> list[Path]:
 def write_figures(run: RunData, out_dir: Path) -> list[Path]:
     """Render every figure of the run (figure_builders) into out_dir as PNG; returns the paths written."""
     out_dir.mkdir(parents=True, exist_ok=True)
-    return [save(build(run), out_dir / f"{name}.png") for name, build in figure_builders(run)]
+    figures = figure_builders(run)
+    return draw(run, figures, out_dir, workers(len(figures)))
 
 
 def figure_builders(run: RunData) -> list[tuple[str, Callable[[RunData], Figure]]]:

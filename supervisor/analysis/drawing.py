@@ -1,0 +1,90 @@
+"""Drawing a report's figures on every core.
+
+matplotlib draws one figure at a time on one core, and a report is many independent figures (an 8-vehicle run: 16,
+15 s of drawing against 4 s of reading its log), so `draw` hands them to worker processes forked from this one: a
+worker inherits the run in memory (nothing is copied through a pipe), builds its figures by name and saves them.
+The PNGs are the same bytes as those drawn one by one (tests/test_report.py).
+
+Forking is safe only in a process with no other thread (a lock another thread held would stay held in the child):
+with other threads alive (a notebook's kernel, a test runner's helpers), on one core, or for a few figures, they are
+drawn here one after the other. Workers ignore Ctrl-C (their parent ends the pool) and are killed by the kernel when
+their parent dies (comms.bus.lifeline's parent-death signal): nothing is left behind.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import multiprocessing
+import os
+import signal
+import threading
+from collections.abc import Callable, Iterator, Sequence
+from pathlib import Path
+
+from matplotlib.figure import Figure
+
+from comms.bus.lifeline import ORPHANED, set_parent_death_signal
+from supervisor.analysis.figures import save
+from supervisor.analysis.rundata import RunData
+
+__all__ = ["MIN_PARALLEL", "draw", "workers"]
+
+Builder = Callable[[RunData], Figure]
+MIN_PARALLEL = 4  # fewer figures than this are drawn here: a worker's start is not worth it
+
+# What a forked worker inherits: the run, its figures and where they go (set by `draw` just before the fork).
+_job: tuple[RunData, dict[str, Builder], Path] | None = None
+
+
+def workers(figures: int) -> int:
+    """How many processes draw `figures` figures: the cores this process may use, at most one per figure; 1 (here)
+    when forking is unsafe (another thread alive) or not worth it."""
+    if figures < MIN_PARALLEL or threading.active_count() > 1 or not hasattr(os, "fork"):
+        return 1
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+    return max(1, min(cores, figures))
+
+
+def draw(run: RunData, figures: Sequence[tuple[str, Builder]], out_dir: Path, processes: int) -> list[Path]:
+    """Each figure built and saved as out_dir/<name>.png, by `processes` forked workers (1: here); the paths in
+    the order of figures. A figure that fails raises here, as drawn in this process."""
+    if processes <= 1:
+        return [save(build(run), out_dir / f"{name}.png") for name, build in figures]
+    global _job
+    _job = (run, dict(figures), out_dir)
+    try:
+        context = multiprocessing.get_context("fork")
+        with _signals_held():  # a Ctrl-C while the pool starts would leave it half-made, outside the with below
+            pool = context.Pool(processes, initializer=_worker_start, initargs=(os.getpid(),))
+        with pool:
+            paths = pool.map(_draw_one, [name for name, _ in figures], chunksize=1)
+            pool.close()  # let the workers end by themselves; leaving the block terminates those that do not
+            pool.join()
+            return paths
+    finally:
+        _job = None
+
+
+@contextlib.contextmanager
+def _signals_held() -> Iterator[None]:
+    """SIGINT and SIGTERM held back (delivered on leaving), here and in the processes forked meanwhile."""
+    held = {signal.SIGINT, signal.SIGTERM}
+    before = signal.pthread_sigmask(signal.SIG_BLOCK, held)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, before)
+
+
+def _worker_start(parent: int) -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole group: the parent ends the pool
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # how the pool ends a worker; cpf's own handler raises in it
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})  # held by _signals_held
+    if set_parent_death_signal(signal.SIGKILL) and os.getppid() != parent:
+        os._exit(ORPHANED)  # the parent died before the prctl: the signal would never come
+
+
+def _draw_one(name: str) -> Path:
+    assert _job is not None, "a worker forked by draw inherits its job"
+    run, builders, out_dir = _job
+    return save(builders[name](run), out_dir / f"{name}.png")
