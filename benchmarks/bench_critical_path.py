@@ -5,7 +5,9 @@ own .venv to compare) and samples, every 50 ms from /proc, the CPU time of every
 (with the Zenoh router in it), the broker and each vehicle. Then the lean bus pattern with the same fleet
 (benchmarks.bench_bus_floor --lean: the broker's batch -> the vehicles' step messages -> the next batch, nothing
 else) for the floor a step could reach. Prints, best of --repeat by wall time, the run's stepping time per step
-against the floor and the CPU seconds per process, and writes benchmarks/results/critical_path.json.
+against the floor, the CPU seconds per process and each process's context switches per step (over all its
+threads: a regression in wake-ups or in runnable threads shows on any machine), and writes
+benchmarks/results/critical_path.json.
 """
 
 from __future__ import annotations
@@ -55,9 +57,27 @@ def _name(pid: int, root: int) -> str | None:
     return None
 
 
-def sample(root: int, expected: int, cpu: dict[str, float], stop: threading.Event) -> None:
-    """CPU s of the run's processes by name (the last sample of each: a process's CPU only grows); expected: how
-    many processes the run has (the supervisor, the broker, the vehicles)."""
+def switches(pid: int) -> dict[int, tuple[int, int]]:
+    """thread id -> (voluntary, involuntary) context switches, for every thread of the process (/proc/PID/status
+    counts the main thread only). Voluntary: a thread waited (a wake-up per message or timer); involuntary: the
+    scheduler took the core away (more runnable threads than cores)."""
+    counts = {}
+    for task in Path(f"/proc/{pid}/task").iterdir():
+        try:
+            status = (task / "status").read_text()
+        except OSError:
+            continue
+        fields = dict(line.split(":", 1) for line in status.splitlines() if "ctxt_switches" in line)
+        counts[int(task.name)] = (int(fields["voluntary_ctxt_switches"]), int(fields["nonvoluntary_ctxt_switches"]))
+    return counts
+
+
+def sample(
+    root: int, expected: int, cpu: dict[str, float], stop: threading.Event, ctx: dict[str, dict[int, tuple[int, int]]]
+) -> None:
+    """CPU s of the run's processes by name (the last sample of each: a process's CPU only grows), and in ctx the
+    context switches of each of their threads (the last sample of each thread: counts only grow);
+    expected: how many processes the run has (the supervisor, the broker, the vehicles)."""
     names: dict[int, str] = {}
     while not stop.wait(0.05):
         if len(names) < expected:  # until every child is there: /proc scans cost
@@ -72,16 +92,21 @@ def sample(root: int, expected: int, cpu: dict[str, float], stop: threading.Even
             except OSError:
                 continue
             cpu[name] = (int(stat[11]) + int(stat[12])) / TICKS
+            try:
+                ctx.setdefault(name, {}).update(switches(pid))
+            except OSError:
+                continue  # gone meanwhile
 
 
 def run_once(tree: Path, scenario: str, vehicles: int) -> dict[str, Any]:
     cpu: dict[str, float] = {}
+    ctx: dict[str, dict[int, tuple[int, int]]] = {}
     with tempfile.TemporaryDirectory() as tmp:
         argv = [str(tree / ".venv" / "bin" / "cpf"), "run", scenario, "--out", f"{tmp}/run.mcap", "--quiet"]
         start = time.perf_counter()
         proc = subprocess.Popen(argv, cwd=tree, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         stop = threading.Event()
-        sampler = threading.Thread(target=sample, args=(proc.pid, vehicles + 2, cpu, stop), daemon=True)
+        sampler = threading.Thread(target=sample, args=(proc.pid, vehicles + 2, cpu, stop, ctx), daemon=True)
         sampler.start()
         out, err = proc.communicate()
         wall = time.perf_counter() - start
@@ -90,7 +115,9 @@ def run_once(tree: Path, scenario: str, vehicles: int) -> dict[str, Any]:
     if proc.returncode != 0:
         raise SystemExit(f"{' '.join(argv)} failed ({proc.returncode}):\n{err[-2000:]}")
     stepping = STEPPING.search(out)
-    return {"wall_s": wall, "stepping_s": float(stepping.group(1)) if stepping else float("nan"), "cpu_s": cpu}
+    stepping_s = float(stepping.group(1)) if stepping else float("nan")
+    totals = {name: [sum(c[0] for c in t.values()), sum(c[1] for c in t.values()), len(t)] for name, t in ctx.items()}
+    return {"wall_s": wall, "stepping_s": stepping_s, "cpu_s": cpu, "switches": totals}
 
 
 def measure(tree: Path, repeat: int, scenario: str, steps: int, vehicles: int) -> dict[str, Any]:
@@ -104,10 +131,15 @@ def measure(tree: Path, repeat: int, scenario: str, steps: int, vehicles: int) -
 def summary(row: dict[str, Any]) -> str:
     best = row["best"]
     cpu = "  ".join(f"{name} {s:.2f}" for name, s in sorted(best["cpu_s"].items()))
+    per_step = "  ".join(
+        f"{name} {v / row['steps']:.1f}/{i / row['steps']:.1f} ({threads} threads)"
+        for name, (v, i, threads) in sorted(best["switches"].items())
+    )
     return (
         f"{row['tree']}: wall {best['wall_s']:.2f} s, stepping {best['stepping_s']:.2f} s = "
         f"{row['ms_per_step']:.2f} ms per step (lean bus floor {row['floor_ms_per_step']:.2f} ms)\n"
-        f"  CPU s per process: {cpu}  (total {sum(best['cpu_s'].values()):.2f})"
+        f"  CPU s per process: {cpu}  (total {sum(best['cpu_s'].values()):.2f})\n"
+        f"  context switches per step, voluntary/involuntary: {per_step}"
     )
 
 
