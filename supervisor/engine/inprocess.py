@@ -94,7 +94,7 @@ class _InProcessRun:
         for event in plan.events:
             self.rec.write(FAULT_KEY, t, event.to_message())
         for action in plan.actions:
-            self._act(action, t)
+            self._act(action, k, t)
         if plan.graph_changed:
             self.rec.write(GRAPH_KEY, t, Graph.of(t, plan.network.edges).to_message())
         heard = self._channel(k, t)
@@ -147,7 +147,7 @@ class _InProcessRun:
         self.last_state[i] = state
         self.where[i] = out.report.kinematics
 
-    def _act(self, action: ProcessAction, t: float) -> None:
+    def _act(self, action: ProcessAction, k: int, t: float) -> None:
         """A scheduled kill or restart, as the Zenoh engine carries it out (the schedule is the fault, not a loss:
         the run goes on whatever scenario.on_vehicle_loss says)."""
         vid = action.vehicle
@@ -162,7 +162,7 @@ class _InProcessRun:
         elif action.action == "kill":
             self._kill_vehicle(vid)
         else:
-            self.nodes[vid] = restarted_node(self.configs[vid], self.last_state[vid], self.nodes[vid].seq)
+            self.nodes[vid] = restarted_node(self.configs[vid], self.last_state[vid], self.nodes[vid].seq, k, self.dt)
             self.alive = sorted([*self.alive, vid])
             action.announce(t, float(self.last_state[vid]["t"]))
             return

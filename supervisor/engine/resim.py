@@ -171,7 +171,7 @@ def _restep(
         plan = schedule.plan(k)
         for i in (i for i in sc.vehicle_ids if (i, k) in stepped):
             if k > 0 and (i, k - 1) not in stepped:  # its process was restarted, as the engines do it
-                nodes[i] = restarted_node(configs[i], last_state[i], nodes[i].seq)
+                nodes[i] = restarted_node(configs[i], last_state[i], nodes[i].seq, k, dt)
             batch, neighbours = heard.get((i, k), []), plan.network.neighbours(i)
             nodes[i], out = step_records(
                 configs[i], radios[i], nodes[i], k, plan.t, dt, batch, neighbours, plan.disturbance(i)
