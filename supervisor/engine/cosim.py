@@ -186,7 +186,7 @@ def _drive(run: Supervisor, progress: Progress) -> None:
             ticks.record(run, k)
             run.wait_until(_all_stepped(run, k), f"every vehicle's state of step {k}", STEP_TIMEOUT)
             intake.states.pop(k, None)  # none if no vehicle is left to report
-            intake.window(k * dt)  # taken once the broker's events of step k are in
+            intake.window(k * dt, run.alive)  # taken once the broker's events of step k are in
             progress.update((k + 1) * dt)
         run.t = b * dt
         a, b = b, following if following is not None else ticks.issue(run, b)
@@ -203,5 +203,5 @@ def _finish(run: Supervisor) -> None:
     if run.comms_up:
         run.wait_until(run.intake.books_closed, "the broker's end-of-run report", STEP_TIMEOUT)
     run.intake.close_open(run.t, "end_of_run")
-    run.intake.window(run.t)
+    run.intake.window(run.t, run.alive)
     run.intake.close_windows()

@@ -98,7 +98,7 @@ class _InProcessRun:
         if plan.graph_changed:
             self.rec.write(GRAPH_KEY, t, Graph.of(t, plan.network.edges).to_message())
         heard = self._channel(k, t)
-        self.books.window(t)  # every delivery up to t is booked now
+        self.books.window(t, self.alive)  # every delivery up to t is booked now
         self.sent, self.where, self.network = [], {}, plan.network
         for i in self.alive:
             self._vehicle(i, plan, heard.get(i))
@@ -187,7 +187,7 @@ class _InProcessRun:
             self._record_events(self.broker.deliver(end, self.alive)[1] + self.broker.finish(end))
             self._record_snapshot(self.broker.snapshot_due(end, final=True))
         self._record_events(self.books.close_open(end, "end_of_run"))  # if the broker was down at the end
-        self.books.window(end)
+        self.books.window(end, self.alive)
 
     def _record_snapshot(self, snapshot: Message | None) -> None:
         """The broker's own statistics, as the broker process publishes them."""
