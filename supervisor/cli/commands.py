@@ -145,7 +145,7 @@ def validate(args: argparse.Namespace) -> int:
     scenario = load_scenario(args.scenario, args.set, args.fault)  # ScenarioError: every error, exit 2
     for warning in scenario_warnings(scenario):  # what cpf run would warn about, said here too
         log.warning("%s: %s", args.scenario, warning)
-    if (growth := _predicted_growth(scenario)) is not None:
+    if (growth := predicted_growth(scenario)) is not None:
         log.warning("%s: coordination is predicted to diverge (error growing at %.3g 1/s; cpf stability)",
                     args.scenario, growth)  # fmt: skip
     print(textwrap.fill(f"{args.scenario}: valid. {what_would_run(scenario)}", width=100, break_on_hyphens=False))
@@ -159,7 +159,7 @@ def plugins(args: argparse.Namespace) -> int:
     return 0
 
 
-def _predicted_growth(scenario: Scenario) -> float | None:
+def predicted_growth(scenario: Scenario) -> float | None:
     """The growth rate (1/s) of the coordination error if the stability analysis predicts divergence, else None
     (also when the loop is too large to analyse quickly)."""
     from supervisor.config.stability.margins import MAX_STATES, rate
