@@ -240,6 +240,17 @@ def test_a_sweep_where_no_run_resynchronises_plots_without_a_warning(tmp_path: P
     assert [t.get_text() for t in resync_ax.texts] == ["no run has a value"]
 
 
+def test_a_fault_free_sweep_draws_when_the_fleet_came_below_tolerance(tmp_path: Path, saved: dict[str, Figure]) -> None:
+    """No fault, so no run has a resync time; the middle panel draws sync_time (below tolerance to stay, from the
+    start), which results.csv has, instead of staying empty (issue 28)."""
+    rows = [{**r, "sync_time": 40.0 + 100.0 * r["comms.loss"]} for r in sweep_rows({0.0: 1.0, 0.1: 2.0}, None)]
+    plot_sweep(rows, [Param("comms.loss", (0.0, 0.1))], tmp_path)
+    panel = saved["sweep_comms_loss.png"].axes[1]
+    assert panel.get_title() == "Coordination below tolerance (to stay) at" and not panel.texts
+    median = next(line for line in panel.get_lines())
+    assert list(median.get_ydata()) == [40.0, 50.0]
+
+
 # --- real runs of the example scenarios ------------------------------------------------------------------------
 
 DATA = Path(__file__).resolve().parent / "data"
