@@ -27,7 +27,8 @@ def vehicle_starts(
     seed: int | None = None,
 ) -> tuple[VehicleStart, ...]:
     """The start of each vehicle of ids. gamma0: initial gammas already resolved (no search for "closest");
-    resume: the one vehicle of ids restarts from its last recorded state at start_step; seed: the run's (None: the
+    resume: the one vehicle of ids restarts at start_step where it coasted to from its last recorded state
+    (supervisor.config.fleet.restarted_node); seed: the run's (None: the
     scenario's), which navigation noise and a perturbed plant draw from."""
     run_seed = scenario.scenario.seed if seed is None else seed
     sections = section_digests(scenario, vehicle_seed(scenario, run_seed))  # once for all: the whole scenario

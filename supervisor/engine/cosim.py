@@ -4,9 +4,10 @@ The supervisor opens a Zenoh router on a free localhost port (or the given endpo
 process per vehicle, waits for their liveliness tokens, then drives the clock: tick k (carrying every fault in force
 over the step), wait for every live vehicle's state of step k, tick k+1, ... Lockstep runs as fast as the machine
 allows; realtime paces the ticks to the wall clock. Everything on the bus is recorded to MCAP. Scheduled process
-faults are carried out here (SIGKILL, restart from the last recorded state); a process that disappears is noticed
-through its liveliness token and, for a vehicle, handled by scenario.on_vehicle_loss. The router admits only the
-run's processes, each with credentials made for the run, and lets each do only its part (supervisor.engine.bus_access).
+faults are carried out here (SIGKILL, restart where the vehicle coasted to from its last recorded state); a process
+that disappears is noticed through its liveliness token and, for a vehicle, handled by scenario.on_vehicle_loss. The
+router admits only the run's processes, each with credentials made for the run, and lets each do only its part
+(supervisor.engine.bus_access).
 """
 
 from __future__ import annotations

@@ -4,7 +4,8 @@ It runs exactly the pipeline of the multi-process engine (vehicles.step.step_rec
 comms.broker.broker_core for the channel, messages built and parsed the same way, the plan of each step from the one
 supervisor.plan.schedule.Schedule), in one process
 and one thread. Process faults are emulated as the Zenoh engine performs them: a killed vehicle stops stepping (the run
-goes on: a scheduled kill is the fault, not a loss) and restarts from its last recorded state; a killed broker loses
+goes on: a scheduled kill is the fault, not a loss) and restarts where it coasted to from its last recorded state
+(vehicles.coast); a killed broker loses
 what it had in flight and restarts afresh. It is the reference the Zenoh engine must reproduce, and the speed floor
 it is measured against.
 """
