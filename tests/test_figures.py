@@ -110,6 +110,37 @@ def test_coordination_errors_are_pairs_for_a_small_fleet_and_one_line_per_vehicl
     assert len(data_lines(saved["fig5_coordination_errors.png"])) == 3
 
 
+def _errors(steady: float, bump_from: float | None = None) -> tuple[Any, Any]:
+    """Two pairs' errors: 40 decaying to an oscillation of `steady`, and a bump of 8 from bump_from on (a fault late
+    in the run), on the figures' time grid."""
+    t = np.arange(0.0, DURATION + STEP / 2, STEP)
+    base = 40.0 * np.exp(-t / 8.0) + steady * np.sin(t / 3.0)
+    if bump_from is not None:
+        base = base + np.where(t >= bump_from, 8.0 * np.sin(np.pi * (t - bump_from) / (DURATION - bump_from)), 0.0)
+    return t, np.column_stack([base, 0.5 * base])
+
+
+def test_the_coordination_scale_comes_from_the_data_and_shows_the_steady_state() -> None:
+    """A steady error of 1e-5 after a transient of 40: symlog, linear only within 1e-6, so the steady state shows
+    (a fixed band of 1e-3 flattened it to a line on zero); the same with a fault's bump over the last quarter (the
+    old rule, judging by the last quarter alone, went linear there and the steady state vanished); an error that
+    never settles below a tenth of its peak: linear (issue 28)."""
+    from supervisor.analysis.figures import symlog_threshold
+
+    assert symlog_threshold(*_errors(1e-5)) == pytest.approx(1e-6)
+    assert symlog_threshold(*_errors(1e-4, bump_from=150.0)) == pytest.approx(1e-5)
+    t, big = _errors(10.0)
+    assert symlog_threshold(t, big) is None
+
+
+def test_the_coordination_figure_says_its_scale(tmp_path: Path, saved: dict[str, Figure]) -> None:
+    write_figures(fleet(3), tmp_path)
+    ax = saved["fig5_coordination_errors.png"].axes[0]
+    assert ax.get_yscale() == "symlog"
+    linthresh = ax.yaxis.get_transform().linthresh  # type: ignore[attr-defined]
+    assert ax.get_ylabel().endswith(f"(symlog: linear within $\\pm${linthresh:g})")
+
+
 def _rgba(line: Any) -> Any:
     from matplotlib.colors import to_rgba
 
@@ -238,6 +269,17 @@ def test_a_sweep_where_no_run_resynchronises_plots_without_a_warning(tmp_path: P
     resync_ax = saved["sweep_comms_loss.png"].axes[1]
     assert not resync_ax.get_lines() and resync_ax.get_legend() is None
     assert [t.get_text() for t in resync_ax.texts] == ["no run has a value"]
+
+
+def test_a_fault_free_sweep_draws_when_the_fleet_came_below_tolerance(tmp_path: Path, saved: dict[str, Figure]) -> None:
+    """No fault, so no run has a resync time; the middle panel draws sync_time (below tolerance to stay, from the
+    start), which results.csv has, instead of staying empty (issue 28)."""
+    rows = [{**r, "sync_time": 40.0 + 100.0 * r["comms.loss"]} for r in sweep_rows({0.0: 1.0, 0.1: 2.0}, None)]
+    plot_sweep(rows, [Param("comms.loss", (0.0, 0.1))], tmp_path)
+    panel = saved["sweep_comms_loss.png"].axes[1]
+    assert panel.get_title() == "Coordination below tolerance (to stay) at" and not panel.texts
+    median = next(line for line in panel.get_lines())
+    assert np.asarray(median.get_ydata()).tolist() == [40.0, 50.0]
 
 
 # --- real runs of the example scenarios ------------------------------------------------------------------------

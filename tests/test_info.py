@@ -23,14 +23,15 @@ from supervisor.tools.info import LogError, describe, overview
 from tests.conftest import CONFIGS, shortened
 
 DURATION = 30.0
-OVERRIDES = ["faults.0.start=3", "faults.0.end=6"]
+OVERRIDES = ["faults.0.start=3", "faults.0.end=6", "vehicles.1.preset=remus100_legacy"]  # a mixed fleet
 EXTRA_FAULTS = ["kind=link_down,sender=1,receiver=2,start=4,end=5"]
 TOPIC_LINE = re.compile(r"^  (\S+)\s+(\d+)$")
 
 
 @pytest.fixture(scope="module")
 def log(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """paper.toml shortened to 30 s (a few chunks), its speed cap moved into the run, a link cut during it."""
+    """paper.toml shortened to 30 s (a few chunks), its speed cap moved into the run, a link cut during it, vehicle 2
+    on another preset."""
     text = shortened((CONFIGS / "paper.toml").read_text(), DURATION)
     scenario = parse_scenario(text, "configs/paper.toml", OVERRIDES, EXTRA_FAULTS)
     path = tmp_path_factory.mktemp("info") / "run.mcap"
@@ -67,7 +68,7 @@ def test_describe_a_run(log: Path) -> None:
         "scenario   paper (configs/paper.toml)",
         "engine     inprocess, clock lockstep, seed 7, step 0.1 s",
         "duration   30 s simulated (scenario); messages from t = 0 to 30 s",
-        "vehicles   1, 2, 3",
+        "vehicles   1 remus100_neutral, 2 remus100_legacy, 3 remus100_neutral",
         "graph      1-2, 1-3",
         "faults     speed_cap on [3, 6) s: vehicle 1 (gamma_dot_max 0.5)",
         "           link_down on [4, 5) s: link 1<->2",

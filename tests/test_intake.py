@@ -44,11 +44,12 @@ def test_a_window_waits_for_the_deliveries_of_its_step_that_come_after_its_state
     delivered = [LinkEvent(end - 0.05, s, 1, 7, "delivered", delay=0.05) for s in (2, 3)]
     with Recorder(tmp_path / "run.mcap") as rec:
         intake = Intake(sc, rec, None)
-        intake.window(end - sc.scenario.step)
-        intake.window(end)  # the step's states are in, its events not yet
+        alive = sc.vehicle_ids
+        intake.window(end - sc.scenario.step, alive)
+        intake.window(end, alive)  # the step's states are in, its events not yet
         assert intake.books.lambda2 == []
         intake.take(Received(COMMS_EVENTS_KEY, encode(LinkEvents(end, 100, tuple(delivered)).to_message())), end)
         assert intake.books.lambda2 == [{"t": end, "lambda2": pytest.approx(1.0)}]
-        intake.window(end + sc.scenario.step)
+        intake.window(end + sc.scenario.step, alive)
         intake.close_windows()  # the end of the run: nothing waits any longer
         assert not intake.windows

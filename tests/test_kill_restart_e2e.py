@@ -54,9 +54,17 @@ def test_a_scheduled_kill_with_a_restart_runs_through_under_abort_in_both_engine
     assert "on_vehicle_loss" not in text  # the default, abort
     outputs = {e: run(tmp_path, text, "kind=vehicle_kill,vehicle=3,start=8,end=12", e) for e in ENGINES}
     for engine, (stdout, stderr, log) in outputs.items():
+        # It glided on while its computer was down (vehicles.coast), slowing under its drag, instead of waiting
+        # where it was: its first state after the restart is ahead of its last, and slower.
+        before, after = state_at(log, 3, 79), state_at(log, 3, 120)
+        assert math.dist(before["position"], after["position"]) > 1.0, engine
+        assert math.hypot(*after["velocity"]) < math.hypot(*before["velocity"]), engine
         lines = stderr.splitlines()
         assert "cpf run: vehicle 3 killed at t = 8.0 s (scheduled vehicle_kill; restarted at t = 12.0 s)" in lines
-        restarted = "cpf run: vehicle 3 restarted at t = 12.0 s from its state of t = 7.9 s (scheduled vehicle_kill)"
+        restarted = (
+            "cpf run: vehicle 3 restarted at t = 12.0 s (scheduled vehicle_kill;"
+            " it coasted without control since its state of t = 7.9 s)"
+        )
         assert restarted in lines
         faults = [(m["kind"], m["phase"], m["t"]) for t, _, m in read_messages(log) if t == "cpf/run/fault"]
         assert faults == [("vehicle_kill", "start", 8.0), ("vehicle_kill", "end", 12.0)], engine
@@ -92,3 +100,8 @@ def test_report_metrics_while_a_vehicle_is_down_are_over_the_vehicles_alive(tmp_
     assert coordination["steady_state_error"] is not None
     assert all(p["max_coordination_error"] is not None for p in coordination["phases"])
     assert path["max_error_after_transient"] is not None and isinstance(path["inside_tube"], bool)
+
+
+def state_at(path: Path, vehicle: int, k: int) -> dict:
+    topic = f"cpf/vehicle/{vehicle}/state"
+    return next(m for t, _, m in read_messages(path) if t == topic and m["k"] == k)

@@ -29,6 +29,7 @@ from supervisor.config.scenario import parse_scenario
 from supervisor.config.scenario_schema import Scenario
 from supervisor.engine.inprocess import run_inprocess
 from supervisor.engine.progress import Progress
+from supervisor.record.recorder import read_messages
 from tests.conftest import run_meta
 
 PATH_GRAPH_6 = 2 * (1 - math.cos(math.pi / 6))  # lambda_2 of the path graph on six vertices
@@ -130,3 +131,20 @@ def test_the_lambda2_figure_says_over_what_the_graph_is_taken() -> None:
     title = fig_lambda2(run).axes[0].get_title()
     assert "per 10 s window (pairs that delivered in the last 36 s)" in title
     assert np.isclose(run_metrics(run)["lambda2"]["horizon"], 36.0)
+
+
+def test_lambda2_is_taken_over_the_vehicles_alive(tmp_path: Path) -> None:
+    """Vehicle 4 at the end of the line 1 - 2 - 3 - 4 is killed from 12 s to 35 s: the survivors 1 - 2 - 3 still hear
+    each other, so the windows ending at 20 and 30 s are connected (the path on three vertices: lambda_2 = 1), in the
+    supervisor's books and in the broker's snapshots alike; counting the dead vehicle said 'disconnected'."""
+    kill = '\n[[faults]]\nkind = "vehicle_kill"\nvehicle = 4\nstart = 12.0\nend = 35.0\n'
+    sc = scenario(tdma_fleet(slot=0.0, duration=40.0, n=4) + kill)
+    quiet = Progress(sc.scenario.duration, enabled=False)
+    result = run_inprocess(sc, "line4.toml", "", tmp_path / "run.mcap", 0, quiet, scene=False)
+    history = {float(h["t"]): float(h["lambda2"]) for h in result.stats_history}
+    assert history[20.0] == pytest.approx(1.0) and history[30.0] == pytest.approx(1.0)
+    assert history[10.0] == pytest.approx(2 * (1 - math.cos(math.pi / 4)))  # before the kill: the path on four
+    snapshots = {
+        m["t"]: m["lambda2"] for topic, _, m in read_messages(tmp_path / "run.mcap") if topic.endswith("stats")
+    }
+    assert snapshots[20.0] == pytest.approx(1.0) and snapshots[30.0] == pytest.approx(1.0)

@@ -142,14 +142,17 @@ def test_with_navigation_the_controller_sees_the_estimate_and_the_error_is_the_t
     assert after.vehicle.x.tolist() != after_plain.vehicle.x.tolist()  # and the vehicle moved on what it saw
 
 
-def test_a_restarted_node_resumes_its_filter_from_the_state_message(tmp_path, paper_text):
+def test_a_restarted_node_starts_its_filter_again_where_the_vehicle_coasted_to(tmp_path, paper_text):
+    """The filter's last estimate is of a place the vehicle has left while its computer was down (vehicles.coast):
+    the restarted filter starts again as at the run's start, around where the vehicle now is."""
     sc = load_scenario(_scenario(tmp_path, paper_text + NAV))
     cfg = vehicle_config(sc, 2)
     node = NodeState(initial_state(sc, cfg))
     for k in range(25):
         node, records = step_records(cfg, radio(sc, 2), node, k, k * 0.1, 0.1, [], [1], UNDISTURBED)
-    restarted = restarted_node(cfg, records.state, node.seq)
-    assert restarted.nav is not None and records.report.nav_estimate == restarted.nav.flat()
+    restarted = restarted_node(cfg, records.state, node.seq, 45, 0.1)
+    assert records.report.nav_estimate is not None and restarted.nav is None
+    assert restarted.vehicle.t == pytest.approx(4.5) and restarted.vehicle.x.tolist() != node.vehicle.x.tolist()
     assert StateReport.from_message(records.state, 2) == records.report  # the message reads as the report
 
 
@@ -191,13 +194,15 @@ def test_both_engines_give_identical_records_with_navigation_on(tmp_path, paper_
     zen, inp = runs["zenoh"], runs["inprocess"]
     assert len(zen) == (3 * 200 - (20 if kill else 0)) and zen == inp  # every record, to the bit
     assert {m["nav_fix"] for m in zen.values()} >= {0, 1}
-    if kill:  # the restarted vehicle's filter continues from its last recorded one, not afresh
+    if kill:  # the restarted vehicle's filter starts afresh where the vehicle coasted to, not from its old estimate
         before, after = zen[(3, 79)], zen[(3, 100)]
         cfg = vehicle_config(load_scenario(scenario), 3, seed=11)
-        node = restarted_node(cfg, before, 0)
-        assert cfg.navigation is not None and node.nav is not None
-        resumed = navigate(cfg.navigation, node.nav, cfg.model.lift(node.vehicle.x), 100, 0.1)
+        node = restarted_node(cfg, before, 0, 100, 0.1)
+        assert cfg.navigation is not None and node.nav is None
+        s = cfg.model.lift(node.vehicle.x)
+        resumed = navigate(cfg.navigation, initial(cfg.navigation, s), s, 100, 0.1)
         assert list(resumed.posterior.flat()) == after["nav_estimate"]
+        assert after["position"] != before["position"]  # it moved while down
 
 
 def test_the_report_draws_the_navigation_figure_only_for_a_run_with_navigation(tmp_path, paper_text):

@@ -31,22 +31,32 @@ end = 10.0
 """
 
 
-@pytest.mark.parametrize(("known", "controller"), [("true", "auto"), ("false", "auto"), ("false", "line_of_sight")])
-def test_both_engines_agree_with_current_and_mismatch_on_across_a_restart(tmp_path, paper_text, known, controller):
+@pytest.mark.parametrize(
+    ("known", "controller", "hosts"), [("true", "auto", "1"), ("false", "auto", "1"), ("false", "line_of_sight", "3")]
+)
+def test_both_engines_agree_with_current_and_mismatch_on_across_a_restart(
+    tmp_path, paper_text, known, controller, hosts
+):
     """auto: the adaptive supervisor (the plant is uncertain), with the current observer where the current is not
-    known; line_of_sight: vehicles.line_of_sight."""
+    known; line_of_sight: vehicles.line_of_sight, its three vehicles served by one vehicle host (the kill an order to
+    the host, the restart a process of its own). While it is down vehicle 3 coasts in the current (vehicles.coast),
+    in both engines alike."""
     text = shortened(paper_text, 20.0).replace("[vehicle]\n", "[vehicle]\nuncertainty = 0.2\n", 1)
     text = text.replace("[path_following]\n", f'[path_following]\ncontroller = "{controller}"\n', 1)
     assert "uncertainty = 0.2" in text and controller in text
     scenario = write_scenario(tmp_path, text + PLANT.format(known=known))
     runs = {}
     for engine in ("zenoh", "inprocess"):
-        done = cpf("run", str(scenario), "--engine", engine, "--out", f"{engine}.mcap", "--quiet", cwd=tmp_path)
+        hosting = ["--vehicles-per-process", hosts] if engine == "zenoh" else []
+        done = cpf(
+            "run", str(scenario), "--engine", engine, *hosting, "--out", f"{engine}.mcap", "--quiet", cwd=tmp_path
+        )
         assert done.returncode == 0, done.stderr
         runs[engine] = states(tmp_path / f"{engine}.mcap")
     zen, inp = runs["zenoh"], runs["inprocess"]
     assert zen == inp
     assert len(zen) == 3 * 200 - 20  # vehicle 3 was down for 2 s of 0.1 s steps
+    assert zen[(3, 100)]["position"] != zen[(3, 79)]["position"]  # it did not wait where it was for its restart
     nominal = write_scenario(tmp_path, shortened(paper_text, 20.0), "nominal.toml")
     done = cpf("run", str(nominal), "--engine", "inprocess", "--out", "nominal.mcap", "--quiet", cwd=tmp_path)
     assert done.returncode == 0, done.stderr

@@ -2,7 +2,9 @@
 
 Fed with the channel's link events, it keeps per link: packets sent, delivered, dropped by cause, and the mean and
 largest delay. Every window it computes lambda_2 of the undirected graph whose edges are the pairs that delivered at
-least one packet (either way) within the last `horizon` s: zero means the delivered graph was disconnected. The
+least one packet (either way) within the last `horizon` s, over the vehicles alive then (a killed vehicle is not part
+of the fleet while it is down: counting it would say "disconnected" of survivors that still hear each other): zero
+means the delivered graph was disconnected. The
 horizon is the window unless the caller gives a longer one: a vehicle that transmits once a TDMA frame longer than
 the window would otherwise leave its links out of most windows although they deliver every frame.
 """
@@ -10,7 +12,7 @@ the window would otherwise leave its links out of most windows although they del
 from __future__ import annotations
 
 from collections import Counter, deque
-from collections.abc import Iterable, Sequence
+from collections.abc import Collection, Iterable, Sequence
 from dataclasses import dataclass, field
 
 from comms.records.fields import Message
@@ -69,13 +71,15 @@ class LinkStats:
             if event.kind == "delivered":
                 self._recent.append((event.t, event.sender, event.receiver))
 
-    def delivered_connectivity(self, t: float) -> float:
-        """lambda_2 (>= 0) of the graph of pairs that delivered in (t - horizon, t]."""
+    def delivered_connectivity(self, t: float, alive: Collection[int] | None = None) -> float:
+        """lambda_2 (>= 0) of the graph of pairs that delivered in (t - horizon, t], over the vehicles alive at t
+        (None: every vehicle)."""
         while self._recent and self._recent[0][0] <= t - self.horizon:
             self._recent.popleft()
-        index = {v: i for i, v in enumerate(self.vehicles)}
+        vehicles = self.vehicles if alive is None else [v for v in self.vehicles if v in alive]
+        index = {v: i for i, v in enumerate(vehicles)}
         edges = {(index[s], index[r]) for at, s, r in self._recent if at <= t and s in index and r in index}
-        return clamp_lambda2(algebraic_connectivity(laplacian(len(self.vehicles), edges)))
+        return clamp_lambda2(algebraic_connectivity(laplacian(len(vehicles), edges)))
 
     def totals(self) -> dict[str, int]:
         """Packets sent, delivered and dropped over every link."""
@@ -86,8 +90,9 @@ class LinkStats:
             "dropped": sum(sum(b.dropped.values()) for b in books),
         }
 
-    def snapshot(self, t: float) -> Message:
-        """The message published on cpf/comms/stats: cumulative books per link, and lambda_2 now (over the horizon)."""
+    def snapshot(self, t: float, alive: Collection[int] | None = None) -> Message:
+        """The message published on cpf/comms/stats: cumulative books per link, and lambda_2 now (over the horizon,
+        over the vehicles alive; None: every vehicle)."""
         links = tuple(book.counts(s, r) for (s, r), book in sorted(self.books.items()))
-        lambda2 = self.delivered_connectivity(t)
+        lambda2 = self.delivered_connectivity(t, alive)
         return CommsStats(t=t, window=self.window, horizon=self.horizon, lambda2=lambda2, links=links).to_message()

@@ -10,8 +10,11 @@ Rules that decide what is drawn (each chosen by the data, never by the scenario'
 - Coordination errors (Fig. 5): up to PAIRWISE_MAX_VEHICLES vehicles, gamma_i - gamma_j for every pair as in the
   paper; more vehicles, each vehicle's gamma_i minus the mean gamma of the vehicles alive at that instant (NaN where
   a vehicle is down), with the fleet's spread max gamma - min gamma, the coordination error of the summary. The
-  axis is symlog when the errors of the final quarter are SYMLOG_DECADES decades below their peak (transient and
-  steady state both show), linear otherwise (symlog would turn every zero crossing into a wall).
+  scale comes from the data's range: its peak against its steady level (the 10th percentile of the largest error
+  at each instant over the second half of the run, or over its last tenth if lower; zeros left out).
+  SYMLOG_DECADES decades or more apart: symlog, linear only within the decade below the steady level, so the
+  steady-state error shows in decades beside the transient; closer: linear, on which both show. The axis label says
+  which (and the linear band).
 - Trajectories (Fig. 3): a planar run (scenario dimension 2), or one whose depth span is at most FLAT_RATIO of its
   horizontal span, is drawn top-down (x-y) only, with equal axes: a 3-D view would blow 0.2 m of depth up into
   dives. Any other run gets the 3-D view with equal scaling on all three axes beside the top-down view.
@@ -65,8 +68,7 @@ DPI = 120
 FAULT_COLOUR = "tab:red"
 FAULT_ALPHA = 0.15
 FAULT_HATCHES = ("", "//", "\\\\", "xx", "..")  # tells distinct fault labels apart under one colour
-SYMLOG_LINTHRESH = 1e-3
-SYMLOG_DECADES = 2  # coordination errors are drawn symlog only if they fall this many decades by the end
+SYMLOG_DECADES = 2  # coordination errors are drawn symlog only if their peak is this many decades above their level
 PAIRWISE_MAX_VEHICLES = 4  # 6 pairs: the paper's Fig. 5 shows 3; at 5 vehicles there would be 10 lines
 FLAT_RATIO = 0.1  # depth span / horizontal span at or below which the trajectories are drawn top-down only
 LEGEND_INSIDE_MAX = 6
@@ -283,7 +285,8 @@ def _per_vehicle(ax: Axes, run: RunData, column: Callable[[VehicleSeries], Array
 
 def fig_coordination_errors(run: RunData) -> Figure:
     """Fig. 5: pairwise gamma_i - gamma_j for small fleets, each vehicle's distance from the fleet's mean gamma for
-    larger ones (see the module docstring); symlog, so the transient and the steady state both show."""
+    larger ones (see the module docstring); the scale from the data's range, so the transient and the steady state
+    both show."""
     fig = new_figure(10.0, 5.5)
     ax = fig.add_subplot()
     t, gamma = aligned(run, lambda s: s.gamma)
@@ -294,23 +297,37 @@ def fig_coordination_errors(run: RunData) -> Figure:
         errors = _from_mean(ax, run, t, gamma)
         ylabel, what = r"$\gamma_i - \bar\gamma$ [-]", "Coordination: each vehicle against the fleet's mean"
     ax.axhline(0.0, color="k", lw=0.6)
-    if _converges(t, errors):
-        ax.set_yscale("symlog", linthresh=SYMLOG_LINTHRESH)
-        ylabel += " (symlog)"
+    linthresh = symlog_threshold(t, errors)
+    if linthresh is None:
+        ylabel += " (linear scale)"
+    else:
+        ax.set_yscale("symlog", linthresh=linthresh)
+        ylabel += f" (symlog: linear within $\\pm${linthresh:g})"
     finish_time_axes(ax, run, ylabel, f"{what}: {run.name}")
     return fig
 
 
-def _converges(t: Array, errors: Array) -> bool:
-    """Whether the errors of the final quarter of the run are at least SYMLOG_DECADES decades below their peak: a
-    symlog axis then shows the transient and the steady state both; otherwise it would only turn every crossing of
-    zero into a wall through the decades, and a linear axis reads better."""
-    finite = np.abs(errors[np.isfinite(errors)])
-    if not finite.size or not t.size:
-        return False
-    tail = np.abs(errors[t >= t[0] + 0.75 * (t[-1] - t[0])])
-    tail = tail[np.isfinite(tail)]
-    return bool(tail.size) and float(tail.max()) <= float(finite.max()) * 10.0**-SYMLOG_DECADES
+def symlog_threshold(t: Array, errors: Array) -> float | None:
+    """The symlog axis's linear band for these errors (one column per line, or one line), or None for a linear
+    axis: from the data's range, as the module docstring says."""
+    size = np.abs(errors).reshape(len(t), -1)
+    known = np.isfinite(size).any(axis=1)
+    if not known.any() or not t.size:
+        return None
+    spread = np.where(np.isfinite(size), size, 0.0).max(axis=1)[known]
+    peak = float(spread.max())
+    levels = []
+    for part in (0.5, 0.9):  # the second half (a fault late in the run still leaves it quiet stretches), the end
+        late = spread[t[known] >= t[0] + part * (t[-1] - t[0])]
+        late = late[late > 0.0]
+        if late.size:
+            levels.append(float(np.percentile(late, 10)))
+    if peak <= 0.0 or not levels:
+        return None
+    level = min(levels)
+    if peak < level * 10.0**SYMLOG_DECADES:
+        return None
+    return float(10.0 ** math.floor(math.log10(level)))
 
 
 def _pairwise(ax: Axes, run: RunData, t: Array, gamma: Array) -> Array:

@@ -6,13 +6,9 @@ from __future__ import annotations
 import argparse
 import logging
 import textwrap
-from typing import TYPE_CHECKING
 
 from supervisor.cli.terminal import EXIT_INTERRUPTED
 from supervisor.errors import ScenarioError
-
-if TYPE_CHECKING:
-    from supervisor.config.scenario_schema import Scenario
 
 log = logging.getLogger("cpf")
 
@@ -80,16 +76,24 @@ def resim(args: argparse.Namespace) -> int:
     from supervisor.cli.outputs import checked_file
     from supervisor.config.derived import intervals, tube_radius
     from supervisor.engine.resim import resimulate
+    from supervisor.engine.resim_loop import ClosedLoop
 
     out = checked_file("--out", args.out or args.log.with_name(f"{args.log.stem}.resim.mcap"))
-    sc, original, new, agreement = resimulate(args.log, args.set, out)
+    loop = ClosedLoop() if args.closed_loop else None
+    sc, original, new, agreement = resimulate(args.log, args.set, out, loop)
     rep, duration = sc.report, sc.scenario.duration
     tube = tube_radius(sc)
-    for title, series in (("as run", original), (f"re-simulated with {' '.join(args.set) or 'no change'}", new)):
+    how = "closed loop: the recorded channel, the re-simulated gammas" if loop else "open loop: the recorded gammas"
+    for title, series in (
+        ("as run", original),
+        (f"re-simulated ({how}) with {' '.join(args.set) or 'no change'}", new),
+    ):
         print(f"{title}:")
         print(
             format_summary(summarize(series, duration, intervals(sc), rep.transient, tube, rep.coordination_tolerance))
         )
+    if loop is not None and loop.unmatched:
+        print(f"{loop.unmatched} recorded receptions dropped: their sender did not transmit at that time any more")
     print(agreement.line())
     print(f"-> {out}")
     return 0
@@ -145,7 +149,9 @@ def validate(args: argparse.Namespace) -> int:
     scenario = load_scenario(args.scenario, args.set, args.fault)  # ScenarioError: every error, exit 2
     for warning in scenario_warnings(scenario):  # what cpf run would warn about, said here too
         log.warning("%s: %s", args.scenario, warning)
-    if (growth := _predicted_growth(scenario)) is not None:
+    from supervisor.config.stability.scenario import predicted_growth
+
+    if (growth := predicted_growth(scenario)) is not None:
         log.warning("%s: coordination is predicted to diverge (error growing at %.3g 1/s; cpf stability)",
                     args.scenario, growth)  # fmt: skip
     print(textwrap.fill(f"{args.scenario}: valid. {what_would_run(scenario)}", width=100, break_on_hyphens=False))
@@ -157,19 +163,6 @@ def plugins(args: argparse.Namespace) -> int:
 
     print(plugins_text())
     return 0
-
-
-def _predicted_growth(scenario: Scenario) -> float | None:
-    """The growth rate (1/s) of the coordination error if the stability analysis predicts divergence, else None
-    (also when the loop is too large to analyse quickly)."""
-    from supervisor.config.stability.margins import MAX_STATES, rate
-    from supervisor.config.stability.scenario import setting_of
-
-    setting = setting_of(scenario)
-    if setting.states() > MAX_STATES:
-        return None
-    growth = -rate(setting)
-    return growth if growth >= 0 else None
 
 
 def stability(args: argparse.Namespace) -> int:

@@ -290,13 +290,30 @@ def _add_log_commands(sub: Commands) -> None:
     )  # fmt: skip
     sweep.add_argument("--engine", choices=["inprocess", "zenoh"], default="inprocess", help="identical results")
     sweep.add_argument("--out", type=Path, required=True, help="directory: runs/, results.csv, plots")
-    resim = sub.add_parser("resim", help="re-run the vehicles against the receptions recorded in a log")
-    resim.add_argument("log", type=Path, help="MCAP file written by cpf run")
-    resim.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help=resim_settings.help_text())
-    resim.add_argument("--out", type=Path, default=None, help="MCAP file to write (default: <log>.resim.mcap)")
+    _add_resim(sub)
     info = sub.add_parser("info", help="what a recorded run is: scenario, engine, duration, faults, topics")
     info.add_argument("log", type=Path, help="MCAP file written by cpf run (one cut short too)")
     _add_replay_and_recover(sub)
+
+
+def _add_resim(sub: Commands) -> None:
+    resim = sub.add_parser(
+        "resim",
+        help="re-run the vehicles against the receptions recorded in a log",
+        description="Re-run every vehicle's closed loop against the receptions recorded in a log. By default open "
+        "loop across the fleet: each vehicle hears exactly what it heard in the run, its neighbours' gammas as they "
+        "were recorded, whatever the re-simulated neighbours now do. --closed-loop keeps the channel's decisions "
+        "(the same losses, collisions and delays) and carries the re-simulated senders' gammas.",
+    )
+    resim.add_argument("log", type=Path, help="MCAP file written by cpf run")
+    resim.add_argument(
+        "--closed-loop",
+        action="store_true",
+        help="the recorded receptions carry what the re-simulated senders sent at that time (a reception whose "
+        "sender no longer transmits then is dropped and counted); without it, the recorded gammas",
+    )
+    resim.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help=resim_settings.help_text())
+    resim.add_argument("--out", type=Path, default=None, help="MCAP file to write (default: <log>.resim.mcap)")
 
 
 def _add_replay_and_recover(sub: Commands) -> None:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import dataclasses
 import json
 import logging
 import os
@@ -21,6 +22,7 @@ if TYPE_CHECKING:
     from comms.broker.broker_start import BrokerStart
     from comms.bus.access import Credential
     from comms.bus.bus import Ending, Extras
+    from supervisor.analysis.divergence import Divergence
     from supervisor.config.scenario_schema import Scenario
     from supervisor.engine.inprocess import RunResult
     from supervisor.record.live import LiveView
@@ -177,8 +179,7 @@ def _input_lines(scenario: Scenario, result: RunResult) -> str | None:
 def _report_run(args: argparse.Namespace, scenario: Scenario, result: RunResult, out: Path) -> None:
     """The run's headline, summary per phase and per link (and realtime timing) on stdout; --metrics as JSON."""
     from supervisor.analysis.comms_summary import comms_summary, format_comms, format_malformed
-    from supervisor.analysis.input_limits import at_input_limits, input_limits_metrics
-    from supervisor.analysis.metrics import finite
+    from supervisor.analysis.divergence import divergence
     from supervisor.analysis.saturation_summary import at_limit, format_limits
     from supervisor.analysis.summary import format_summary, summarize
     from supervisor.config.derived import intervals, tube_radius
@@ -196,7 +197,13 @@ def _report_run(args: argparse.Namespace, scenario: Scenario, result: RunResult,
     )
     comms = comms_summary(result.link_stats, result.stats_history, result.estimate_ages)
     print(format_summary(summary))
-    for lines in (format_limits(at_limit(scenario, result.series), duration), _input_lines(scenario, result)):
+    diverged = divergence(result.series, scenario.coordination.v_r, rep.coordination_tolerance)
+    lines_after = (
+        _divergence_lines(args, scenario, diverged),
+        format_limits(at_limit(scenario, result.series), duration),
+        _input_lines(scenario, result),
+    )
+    for lines in lines_after:
         if lines is not None:
             print(lines)
     print(format_comms(comms))
@@ -206,14 +213,33 @@ def _report_run(args: argparse.Namespace, scenario: Scenario, result: RunResult,
     if malformed is not None:
         print(malformed)
     if args.metrics:
-        args.metrics.parent.mkdir(parents=True, exist_ok=True)
         metrics = {"coordination": summary.as_dict(), "comms": comms.as_dict(), "links": result.link_counts}
-        if result.realtime is not None:
-            metrics["realtime"] = result.realtime
-        if result.malformed is not None:
-            metrics["malformed"] = result.malformed  # reader -> key -> messages it dropped
-        metrics |= input_limits_metrics(at_input_limits(scenario, result.series))
-        args.metrics.write_text(json.dumps(finite(metrics), indent=2, allow_nan=False))
+        metrics["divergence"] = None if diverged is None else dataclasses.asdict(diverged)
+        _write_metrics(args.metrics, scenario, result, metrics)
+
+
+def _divergence_lines(args: argparse.Namespace, scenario: Scenario, found: Divergence | None) -> str | None:
+    """What the summary says of a diverged loop, with the stability analysis's verdict on the scenario (issue 23)."""
+    from supervisor.analysis.divergence import format_divergence
+    from supervisor.config.stability.scenario import predicted_change
+
+    if found is None:
+        return None
+    return format_divergence(found, scenario.coordination.v_r, predicted_change(scenario), str(args.scenario))
+
+
+def _write_metrics(path: Path, scenario: Scenario, result: RunResult, metrics: dict[str, object]) -> None:
+    """--metrics: the summary's numbers as JSON, with the realtime timing, the malformed messages, the inputs."""
+    from supervisor.analysis.input_limits import at_input_limits, input_limits_metrics
+    from supervisor.analysis.metrics import finite
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if result.realtime is not None:
+        metrics["realtime"] = result.realtime
+    if result.malformed is not None:
+        metrics["malformed"] = result.malformed  # reader -> key -> messages it dropped
+    metrics |= input_limits_metrics(at_input_limits(scenario, result.series))
+    path.write_text(json.dumps(finite(metrics), indent=2, allow_nan=False))
 
 
 def vehicle(args: argparse.Namespace) -> int:

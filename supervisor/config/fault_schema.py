@@ -83,10 +83,12 @@ class GraphSwitchFault(_Fault):
 
 
 class VehicleKillFault(_Fault):
-    """The vehicle's process is killed with SIGKILL at start and, if end is given, restarted then from its last
-    recorded state. The kill is the fault, not a loss: the run goes on without the vehicle (to its restart, or to
-    the end of the run without end) whatever scenario.on_vehicle_loss says, which is for deaths nobody scheduled.
-    Both the kill and the restart are announced and recorded (cpf/run/fault, start and end)."""
+    """The vehicle's process is killed with SIGKILL at start and, if end is given, restarted then. Meanwhile the
+    vehicle coasts: its plant with no control inputs, carried by its momentum and the current (vehicles.coast); the
+    restarted controller starts at the path point nearest to where it got to. The kill is the fault, not a loss:
+    the run goes on without the vehicle (to its restart, or to the end of the run without end) whatever
+    scenario.on_vehicle_loss says, which is for deaths nobody scheduled. Both the kill and the restart are announced
+    and recorded (cpf/run/fault, start and end)."""
 
     kind: Literal["vehicle_kill"]
     vehicle: VehicleId = Field(description="vehicle id")

@@ -45,12 +45,13 @@ from supervisor.config.scenario_schema import (
 from supervisor.config.vehicle_models import top_speed_of, vehicle_of
 from vehicles.actuators import Actuators
 from vehicles.agent import VehicleConfig, VehicleState
+from vehicles.coast import resumed
 from vehicles.coordination import CoordinationGains
 from vehicles.current_observer import CurrentObserver
 from vehicles.dynamics import PLANAR, SPATIAL, Model
 from vehicles.estimates import Predictor
 from vehicles.geometry import rotation_2d, rotation_from_rpy
-from vehicles.navigation import NavParams, NavState
+from vehicles.navigation import NavParams
 from vehicles.nearest import nearest_gamma
 from vehicles.path_following import PathFollowingController
 from vehicles.paths import Circle, Helix, Lawnmower, Line, Path
@@ -351,10 +352,12 @@ def restore_state(config: VehicleConfig, message: Message) -> VehicleState:
     return VehicleState(report.t, config.model.normalize(x), float(report.gamma), float(report.gamma_dot))
 
 
-def restarted_node(config: VehicleConfig, last_state: Message, seq: int) -> NodeState:
-    """A restarted vehicle process: its last recorded state (its navigation filter's too, which then starts from
-    its estimate of that state), its transmission count, and nothing else (no neighbour estimates, no
-    transmission-policy memory). Every engine and `cpf resim` restart a vehicle this way."""
-    nav = StateReport.from_message(last_state, config.vehicle_id).nav_estimate
-    filtered = None if nav is None or config.navigation is None else NavState.from_flat(nav)
-    return NodeState(restore_state(config, last_state), seq, nav=filtered)
+def restarted_node(config: VehicleConfig, last_state: Message, seq: int, step: int, dt: float) -> NodeState:
+    """A vehicle process restarted at sync step `step`: its vehicle coasted without inputs from its last recorded
+    state to then, and the controller started at the path point nearest to where it is (vehicles.coast); its
+    transmission count, and nothing else (no neighbour estimates, no transmission-policy memory; its navigation
+    filter starts again as at the run's start, around where the vehicle is: its old estimate is of a place the vehicle
+    has left). Every engine and `cpf resim` restart a vehicle this way."""
+    last = restore_state(config, last_state)
+    k = StateReport.from_message(last_state, config.vehicle_id).k
+    return NodeState(resumed(config, last, step - k, dt), seq)

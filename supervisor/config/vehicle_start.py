@@ -27,7 +27,8 @@ def vehicle_starts(
     seed: int | None = None,
 ) -> tuple[VehicleStart, ...]:
     """The start of each vehicle of ids. gamma0: initial gammas already resolved (no search for "closest");
-    resume: the one vehicle of ids restarts from its last recorded state at start_step; seed: the run's (None: the
+    resume: the one vehicle of ids restarts at start_step where it coasted to from its last recorded state
+    (supervisor.config.fleet.restarted_node); seed: the run's (None: the
     scenario's), which navigation noise and a perturbed plant draw from."""
     run_seed = scenario.scenario.seed if seed is None else seed
     sections = section_digests(scenario, vehicle_seed(scenario, run_seed))  # once for all: the whole scenario
@@ -36,7 +37,7 @@ def vehicle_starts(
     for vid in ids:
         cfg = vehicle_config(scenario, vid, run_seed)
         if resume is not None:
-            initial = restarted_node(cfg, *resume)
+            initial = restarted_node(cfg, *resume, start_step, dt)
         else:
             initial = NodeState(initial_state(_starting_at(scenario, vid, (gamma0 or {}).get(vid)), cfg))
         greeting = Hello(f"vehicle {vid}", whole, sections).to_message()

@@ -7,7 +7,7 @@ statistics afresh; the supervisor's books see the whole run. They close the pack
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Collection, Iterable
 from dataclasses import dataclass, field
 
 from comms.broker.stats import LinkStats
@@ -36,13 +36,14 @@ class LinkBooks:
         """The drops that close every packet still open (its broker is gone, or the run ended); add() them."""
         return [LinkEvent(t, s, r, seq, "dropped", reason=reason) for s, r, seq in sorted(self.open)]
 
-    def window(self, t: float) -> None:
+    def window(self, t: float, alive: Collection[int] | None = None) -> None:
         """Call once per step, once every delivery up to t is booked: records the delivered graph's lambda_2 at
-        every window boundary, over the stats' horizon (deliveries booked ahead of t do not count)."""
+        every window boundary, over the stats' horizon (deliveries booked ahead of t do not count) and over the
+        vehicles alive at t (None: every vehicle)."""
         if self._next_window is None:
             self._next_window = self.stats.window
         if t + 1e-9 >= self._next_window:
-            self.lambda2.append({"t": t, "lambda2": self.stats.delivered_connectivity(t)})
+            self.lambda2.append({"t": t, "lambda2": self.stats.delivered_connectivity(t, alive)})
             self._next_window += self.stats.window
 
     @property

@@ -4,9 +4,10 @@ The supervisor opens a Zenoh router on a free localhost port (or the given endpo
 process per vehicle, waits for their liveliness tokens, then drives the clock: tick k (carrying every fault in force
 over the step), wait for every live vehicle's state of step k, tick k+1, ... Lockstep runs as fast as the machine
 allows; realtime paces the ticks to the wall clock. Everything on the bus is recorded to MCAP. Scheduled process
-faults are carried out here (SIGKILL, restart from the last recorded state); a process that disappears is noticed
-through its liveliness token and, for a vehicle, handled by scenario.on_vehicle_loss. The router admits only the
-run's processes, each with credentials made for the run, and lets each do only its part (supervisor.engine.bus_access).
+faults are carried out here (SIGKILL, restart where the vehicle coasted to from its last recorded state); a process
+that disappears is noticed through its liveliness token and, for a vehicle, handled by scenario.on_vehicle_loss. The
+router admits only the run's processes, each with credentials made for the run, and lets each do only its part
+(supervisor.engine.bus_access).
 """
 
 from __future__ import annotations
@@ -186,7 +187,7 @@ def _drive(run: Supervisor, progress: Progress) -> None:
             ticks.record(run, k)
             run.wait_until(_all_stepped(run, k), f"every vehicle's state of step {k}", STEP_TIMEOUT)
             intake.states.pop(k, None)  # none if no vehicle is left to report
-            intake.window(k * dt)  # taken once the broker's events of step k are in
+            intake.window(k * dt, run.alive)  # taken once the broker's events of step k are in
             progress.update((k + 1) * dt)
         run.t = b * dt
         a, b = b, following if following is not None else ticks.issue(run, b)
@@ -203,5 +204,5 @@ def _finish(run: Supervisor) -> None:
     if run.comms_up:
         run.wait_until(run.intake.books_closed, "the broker's end-of-run report", STEP_TIMEOUT)
     run.intake.close_open(run.t, "end_of_run")
-    run.intake.window(run.t)
+    run.intake.window(run.t, run.alive)
     run.intake.close_windows()

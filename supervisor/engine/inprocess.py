@@ -4,7 +4,8 @@ It runs exactly the pipeline of the multi-process engine (vehicles.step.step_rec
 comms.broker.broker_core for the channel, messages built and parsed the same way, the plan of each step from the one
 supervisor.plan.schedule.Schedule), in one process
 and one thread. Process faults are emulated as the Zenoh engine performs them: a killed vehicle stops stepping (the run
-goes on: a scheduled kill is the fault, not a loss) and restarts from its last recorded state; a killed broker loses
+goes on: a scheduled kill is the fault, not a loss) and restarts where it coasted to from its last recorded state
+(vehicles.coast); a killed broker loses
 what it had in flight and restarts afresh. It is the reference the Zenoh engine must reproduce, and the speed floor
 it is measured against.
 """
@@ -94,11 +95,11 @@ class _InProcessRun:
         for event in plan.events:
             self.rec.write(FAULT_KEY, t, event.to_message())
         for action in plan.actions:
-            self._act(action, t)
+            self._act(action, k, t)
         if plan.graph_changed:
             self.rec.write(GRAPH_KEY, t, Graph.of(t, plan.network.edges).to_message())
         heard = self._channel(k, t)
-        self.books.window(t)  # every delivery up to t is booked now
+        self.books.window(t, self.alive)  # every delivery up to t is booked now
         self.sent, self.where, self.network = [], {}, plan.network
         for i in self.alive:
             self._vehicle(i, plan, heard.get(i))
@@ -147,7 +148,7 @@ class _InProcessRun:
         self.last_state[i] = state
         self.where[i] = out.report.kinematics
 
-    def _act(self, action: ProcessAction, t: float) -> None:
+    def _act(self, action: ProcessAction, k: int, t: float) -> None:
         """A scheduled kill or restart, as the Zenoh engine carries it out (the schedule is the fault, not a loss:
         the run goes on whatever scenario.on_vehicle_loss says)."""
         vid = action.vehicle
@@ -162,7 +163,7 @@ class _InProcessRun:
         elif action.action == "kill":
             self._kill_vehicle(vid)
         else:
-            self.nodes[vid] = restarted_node(self.configs[vid], self.last_state[vid], self.nodes[vid].seq)
+            self.nodes[vid] = restarted_node(self.configs[vid], self.last_state[vid], self.nodes[vid].seq, k, self.dt)
             self.alive = sorted([*self.alive, vid])
             action.announce(t, float(self.last_state[vid]["t"]))
             return
@@ -187,7 +188,7 @@ class _InProcessRun:
             self._record_events(self.broker.deliver(end, self.alive)[1] + self.broker.finish(end))
             self._record_snapshot(self.broker.snapshot_due(end, final=True))
         self._record_events(self.books.close_open(end, "end_of_run"))  # if the broker was down at the end
-        self.books.window(end)
+        self.books.window(end, self.alive)
 
     def _record_snapshot(self, snapshot: Message | None) -> None:
         """The broker's own statistics, as the broker process publishes them."""

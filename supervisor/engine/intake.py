@@ -13,7 +13,7 @@ from __future__ import annotations
 import logging
 import math
 from collections import Counter, deque
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from typing import TypeVar
 
@@ -109,7 +109,8 @@ class Intake:
         self.next_tx: dict[int, tuple[int, int]] = {}  # vehicle -> (latest step, first step it may transmit at)
         self.done: CommsDone | None = None  # the current broker's end-of-run report
         self.broker_events = 0  # link events published by the current broker
-        self.windows: deque[float] = deque()  # steps' times whose lambda_2 waits for their deliveries (window)
+        # steps' times, with the vehicles alive then, whose lambda_2 waits for their deliveries (window)
+        self.windows: deque[tuple[float, tuple[int, ...]]] = deque()
         self.events_t = -math.inf  # the latest link events message's time: every delivery up to it is booked
         self.malformed: Counter[str] = Counter()  # key -> messages the supervisor dropped
         self.reports: dict[str, dict[str, int]] = {}  # reader -> key -> messages it dropped (broker, vehicles)
@@ -177,12 +178,12 @@ class Intake:
         """The broker's end-of-run report is in, and every event it announced with it."""
         return self.done is not None and self.broker_events >= self.done.events
 
-    def window(self, t: float) -> None:
+    def window(self, t: float, alive: Sequence[int]) -> None:
         """A step at t is done: the books' window for it (LinkBooks.window) once every delivery up to t is booked.
         The broker publishes a step's link events after the batches the vehicles step on (off their critical path),
         so they may come after the step's states: the window waits for the first events message at or after t (a
         delivery comes in the message of its own step), or the end of the run (close_windows)."""
-        self.windows.append(t)
+        self.windows.append((t, tuple(alive)))
         self._run_windows()
 
     def close_windows(self) -> None:
@@ -191,8 +192,8 @@ class Intake:
         self._run_windows()
 
     def _run_windows(self) -> None:
-        while self.windows and self.windows[0] <= self.events_t + 1e-9:
-            self.books.window(self.windows.popleft())
+        while self.windows and self.windows[0][0] <= self.events_t + 1e-9:
+            self.books.window(*self.windows.popleft())
 
     def close_open(self, t: float, reason: str) -> None:
         """Close every packet still open in the books (its broker is gone, or the run ended), on the record."""

@@ -2,8 +2,11 @@
 
 `cpf resim RUN.mcap --set KEY=VALUE ...` asks what other gains (or predictors, policies, vehicle parameters) would
 have done with the very same packets: the channel is not simulated again, each vehicle hears at each step exactly
-what it heard in the run. Vehicles step only where they were alive in the run. With no --set, it reproduces the
-run's state stream exactly (the same pure functions on the same inputs); tests hold it to that.
+what it heard in the run. That is open loop across the fleet: the neighbours' gammas a vehicle hears are the ones
+recorded, not what the re-simulated neighbours now send. `--closed-loop` (supervisor.engine.resim_loop) keeps the
+channel's decisions (who heard which transmission, when) and carries the re-simulated senders' gammas instead.
+Vehicles step only where they were alive in the run. With no --set, either reproduces the run's state stream exactly
+(the same pure functions on the same inputs); tests hold it to that.
 
 So only what acts inside a vehicle can change (supervisor.engine.resim_settings.SETTINGS, also what `cpf resim --help`
 lists); a setting of the channel, the graph, the faults, the step, the seed or the fleet's shape would not act on the
@@ -33,6 +36,7 @@ from supervisor.config.derived import steps_of
 from supervisor.config.fleet import initial_state, radio, restarted_node, vehicle_config
 from supervisor.config.scenario import apply_override, validate_data
 from supervisor.config.scenario_schema import Scenario
+from supervisor.engine.resim_loop import ClosedLoop
 from supervisor.engine.resim_settings import check_override
 from supervisor.errors import ScenarioError
 from supervisor.plan.schedule import Schedule
@@ -126,9 +130,11 @@ def _canonical(message: Message) -> str:
     return json.dumps(message, sort_keys=True)
 
 
-def resimulate(log: Path, overrides: Sequence[str], out: Path) -> tuple[Scenario, Series, Series, Agreement]:
+def resimulate(
+    log: Path, overrides: Sequence[str], out: Path, loop: ClosedLoop | None = None
+) -> tuple[Scenario, Series, Series, Agreement]:
     """Re-run the log's vehicles with overrides; write their states to out. Returns (scenario, original, new, how
-    the new state records agree with the log's)."""
+    the new state records agree with the log's). loop: closed loop across the fleet (module docstring)."""
     for override in overrides:
         check_override(log, override)  # before reading the log: a refusal costs nothing
     meta, heard, states = _load(log)
@@ -147,7 +153,7 @@ def resimulate(log: Path, overrides: Sequence[str], out: Path) -> tuple[Scenario
         rec.limit(sc.scenario.duration)
         meta = msgspec.structs.replace(meta, engine="resim", scenario=sc.model_dump(mode="json"))
         rec.write(META_KEY, 0.0, meta.to_message())
-        for i, t, state, report in _restep(sc, heard, set(recorded), meta.seed):
+        for i, t, state, report in _restep(sc, heard, set(recorded), meta.seed, loop):
             rec.write(state_key(i), t, state)
             new.add(report)
             if recorded[(i, report.k)] == _canonical(state):
@@ -158,10 +164,12 @@ def resimulate(log: Path, overrides: Sequence[str], out: Path) -> tuple[Scenario
 
 
 def _restep(
-    sc: Scenario, heard: dict[tuple[int, int], list[Heard]], stepped: set[tuple[int, int]], seed: int
-) -> Iterator[tuple[int, float, Message, StateReport]]:
+    sc: Scenario, heard: dict[tuple[int, int], list[Heard]], stepped: set[tuple[int, int]], seed: int,
+    loop: ClosedLoop | None = None,
+) -> Iterator[tuple[int, float, Message, StateReport]]:  # fmt: skip
     """(vehicle, t, state message, its report) step by step, each vehicle stepped where it was in the run on what
-    it heard (seed: the run's, for the vehicles' navigation noise)."""
+    it heard (seed: the run's, for the vehicles' navigation noise); loop: closed loop, what it heard carrying what
+    the re-simulated senders sent (supervisor.engine.resim_loop), None: as recorded."""
     schedule, dt = Schedule(sc), sc.scenario.step
     configs = {i: vehicle_config(sc, i, seed) for i in sc.vehicle_ids}
     nodes = {i: NodeState(initial_state(sc, configs[i])) for i in sc.vehicle_ids}
@@ -171,10 +179,14 @@ def _restep(
         plan = schedule.plan(k)
         for i in (i for i in sc.vehicle_ids if (i, k) in stepped):
             if k > 0 and (i, k - 1) not in stepped:  # its process was restarted, as the engines do it
-                nodes[i] = restarted_node(configs[i], last_state[i], nodes[i].seq)
+                nodes[i] = restarted_node(configs[i], last_state[i], nodes[i].seq, k, dt)
             batch, neighbours = heard.get((i, k), []), plan.network.neighbours(i)
+            if loop is not None:
+                batch = loop.heard(batch)
             nodes[i], out = step_records(
                 configs[i], radios[i], nodes[i], k, plan.t, dt, batch, neighbours, plan.disturbance(i)
             )
+            if loop is not None:
+                loop.transmitted(out.transmission)
             last_state[i] = out.state
             yield i, plan.t, out.state, out.report

@@ -105,8 +105,11 @@ class ProcessAction:
             then = "the run goes on without it" if self.until is None else f"restarted at t = {self.until:.1f} s"
             log.warning("%s killed at t = %.1f s (scheduled %s; %s)", self.name, t, self.kind, then)
         else:
-            since = "" if resumed_from is None else f" from its state of t = {resumed_from:.1f} s"
-            log.warning("%s restarted at t = %.1f s%s (scheduled %s)", self.name, t, since, self.kind)
+            # The vehicle coasted on from its last recorded state (vehicles.coast): say since when.
+            since = ""
+            if resumed_from is not None:
+                since = f"; it coasted without control since its state of t = {resumed_from:.1f} s"
+            log.warning("%s restarted at t = %.1f s (scheduled %s%s)", self.name, t, self.kind, since)
 
 
 def _process_actions(faults: Sequence[FaultSpec], t: float, dt: float) -> list[ProcessAction]:

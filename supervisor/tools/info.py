@@ -119,12 +119,31 @@ def _run_lines(meta: RunMeta | str, log: RawLog) -> list[str]:
         *(f"{'extensions' if i == 0 else '':<11}{text}" for i, text in enumerate(meta.extensions)),
         f"duration   {seconds(meta.duration)} s simulated (scenario); messages from t = "
         f"{seconds(_ns(log.first_time))} to {seconds(_ns(log.last_time))} s",
-        f"vehicles   {', '.join(str(v) for v in meta.vehicles) or '-'}",
+        f"vehicles   {_vehicles(meta)}",
         f"graph      {', '.join(f'{i}-{j}' for i, j in meta.edges) or '-'}",
         f"faults     {faults[0]}",
         *(f"           {line}" for line in faults[1:]),
         *_plant_lines(meta),
     ]
+
+
+def _vehicles(meta: RunMeta) -> str:
+    """Each vehicle with the model or preset it flew ("1, 2, 3 (each remus100)" when all fly the same), from the
+    scenario the log holds; the bare ids for a log whose scenario this version does not read."""
+    from pydantic import ValidationError
+
+    from supervisor.config.scenario_schema import Scenario
+    from supervisor.config.vehicle_models import model_name_of
+
+    ids = ", ".join(str(v) for v in meta.vehicles) or "-"
+    try:
+        scenario = Scenario.model_validate(meta.scenario)
+        names = [model_name_of(scenario, v) for v in meta.vehicles]
+    except (ValidationError, StopIteration):  # another version's scenario, or ids it does not hold
+        return ids
+    if len(set(names)) == 1:
+        return f"{ids} (each {names[0]})"
+    return ", ".join(f"{v} {name}" for v, name in zip(meta.vehicles, names, strict=True))
 
 
 def _plant_lines(meta: RunMeta) -> list[str]:

@@ -1,5 +1,6 @@
-"""Summary plots of a sweep: steady-state coordination error, time back below tolerance and packets against each
-swept parameter, the line the median across seeds and the band the 10-90 % spread.
+"""Summary plots of a sweep: steady-state coordination error, time back below tolerance after the last fault (or,
+without faults, below it to stay from the start) and packets against each swept parameter, the line the median
+across seeds and the band the 10-90 % spread.
 
 A parameter given a single value is not swept: it gets no plot of its own, and the plots of the others name it in
 their title. Every other combination of the other parameters is one line per panel. A log axis always spans at
@@ -44,11 +45,12 @@ def _figure(rows: Sequence[dict[str, Any]], param: Param, others: list[Param], f
     fig = Figure(figsize=(17, 5), layout="constrained")
     error_ax, resync_ax, packet_ax = fig.subplots(1, 3)
     combos = list(product(*[[(p.key, v) for v in p.values] for p in others]))
+    column, what, title = _settling(rows)
     for combo, c in zip(combos, distinct_colours(len(combos)), strict=True):
         chosen = [r for r in rows if all(r.get(k) == v for k, v in combo)]
         label = ", ".join(f"{k.split('.')[-1]}={v}" for k, v in combo)
         _band(error_ax, chosen, param, "steady_coordination_error", label or "steady state", c, log=True)
-        _band(resync_ax, chosen, param, "resync_time", label or "after the last fault", c)
+        _band(resync_ax, chosen, param, column, label or what, c)
         _band(packet_ax, chosen, param, "sent", f"sent {label}".strip(), c)
         _band(packet_ax, chosen, param, "delivered", f"delivered {label}".strip(), c, dashed=True)
     seeds = len({r["seed"] for r in rows})
@@ -56,7 +58,7 @@ def _figure(rows: Sequence[dict[str, Any]], param: Param, others: list[Param], f
     error_ax.set_ylabel(f"max|gamma_i - gamma_j|, final {STEADY_STATE_WINDOW:.0f} s")
     error_ax.set_title(f"Steady-state coordination error ({seeds} seeds: median, 10-90 %)")
     resync_ax.set_ylabel("s (never: not drawn)")
-    resync_ax.set_title("Coordination back below tolerance at")
+    resync_ax.set_title(title)
     packet_ax.set_ylabel("packets (all directed links)")
     packet_ax.set_title("Packets sent (solid) and delivered (dashed)")
     for ax in (error_ax, resync_ax, packet_ax):
@@ -64,6 +66,15 @@ def _figure(rows: Sequence[dict[str, Any]], param: Param, others: list[Param], f
     if fixed:
         fig.suptitle(f"fixed: {fixed}")
     return fig
+
+
+def _settling(rows: Sequence[dict[str, Any]]) -> tuple[str, str, str]:
+    """The column of the middle panel, its line's label and its title: when the coordination error came back below
+    the tolerance after the last fault (resync_time), or, when no run has one (no fault: every phase is the first),
+    when it first came below it to stay (sync_time)."""
+    if any(r.get("resync_time") is not None for r in rows):
+        return "resync_time", "after the last fault", "Coordination back below tolerance at"
+    return "sync_time", "from the start", "Coordination below tolerance (to stay) at"
 
 
 def _finish(ax: Axes, param: Param) -> None:

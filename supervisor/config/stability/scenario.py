@@ -106,3 +106,21 @@ def describe(verdict: Verdict, scenario: Scenario) -> str:
     ))  # fmt: skip
     return (f"{head}, with {how} (linearised sampled loop, perfect path following). With the other settings as "
             f"they are, it converges with {margins}.")  # fmt: skip
+
+
+def predicted_growth(scenario: Scenario) -> float | None:
+    """The growth rate (1/s) of the coordination error if the stability analysis predicts divergence, else None
+    (also when the loop is too large to analyse quickly)."""
+    growth = predicted_change(scenario)
+    return growth if growth is not None and growth >= 0 else None
+
+
+def predicted_change(scenario: Scenario) -> float | None:
+    """The coordination error's predicted growth rate (1/s; negative: it decays), None when the loop is too large
+    to analyse quickly."""
+    from supervisor.config.stability.margins import MAX_STATES
+
+    setting = setting_of(scenario)
+    if setting.states() > MAX_STATES:
+        return None
+    return -rate(setting)

@@ -1,0 +1,90 @@
+"""A diverging run says so (issue 28): that the coordination loop diverged, since when, and what to look at (issue
+23's stability check), not only "OUTSIDE" and "never below" (supervisor.analysis.divergence)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from supervisor.analysis.divergence import divergence, format_divergence
+from supervisor.analysis.summary import Series
+from tests.conftest import CONFIGS
+
+DT = 0.1
+T = np.arange(0.0, 400.0, DT)
+
+
+def series(gamma: np.ndarray, gamma_dot: np.ndarray) -> Series:
+    return Series((1, 2, 3), T, gamma, gamma_dot, np.full_like(gamma, 0.5))
+
+
+def growing_from(onset: float, rate: float) -> Series:
+    """Three vehicles whose gammas oscillate apart at `rate` 1/s from `onset` on (tiny and steady before)."""
+    envelope = 1e-3 * np.exp(rate * np.clip(T - onset, 0.0, None))
+    wave = envelope * np.sin(2 * np.pi * T / 12.0)
+    offsets = np.stack([wave, -wave, 0.5 * wave], axis=1)
+    gamma = T[:, None] + offsets
+    gamma_dot = 1.0 + np.gradient(offsets, DT, axis=0)
+    return series(gamma, gamma_dot)
+
+
+def test_a_growing_oscillation_is_a_divergence_since_its_onset():
+    found = divergence(growing_from(150.0, 0.08), v_r=1.0, tolerance=0.01)
+    assert found is not None
+    assert 150.0 - 20.0 <= found.since <= 150.0 + 20.0  # the growth's start, to a window (20 s)
+    assert found.error_to > 1e3 * found.error_from and found.rate_off > 1.0
+    text = format_divergence(found, 1.0, 0.08, "paper.toml")
+    first, second = text.splitlines()
+    assert first.startswith(f"the coordination loop DIVERGED from about t = {found.since:.0f} s: its error grew from")
+    assert "away from v_r = 1" in first
+    assert second.startswith("look at: cpf stability paper.toml (docs/stability.md): it predicts this")
+
+
+@pytest.mark.parametrize(
+    "run",
+    [
+        "converging",  # the error decays
+        "lagging",  # a vehicle held at half speed to the end (a fault still on): the error grows, gamma_dot near v_r
+        "steady",  # a constant offset
+    ],
+)
+def test_a_run_that_did_not_diverge_is_not_called_diverged(run):
+    if run == "converging":
+        s = growing_from(0.0, -0.02)
+    elif run == "lagging":
+        rates = np.where(T[:, None] > 300.0, np.array([1.0, 0.5, 1.0]), 1.0)
+        s = series(np.cumsum(rates, axis=0) * DT, rates)
+    else:
+        s = series(T[:, None] + np.array([0.0, 0.2, 0.4]), np.ones((T.size, 3)))
+    assert divergence(s, v_r=1.0, tolerance=0.01) is None
+
+
+def test_what_to_look_at_follows_the_stability_verdict():
+    found = divergence(growing_from(150.0, 0.08), v_r=1.0, tolerance=0.01)
+    assert found is not None
+    converges = format_divergence(found, 1.0, -0.05, "s.toml").splitlines()[1]
+    assert "it predicts convergence with these links (decay 0.05 1/s)" in converges
+    assert "inputs at their limits" in converges
+    unknown = format_divergence(found, 1.0, None, "s.toml").splitlines()[1]
+    assert unknown == (
+        "look at: cpf stability s.toml (docs/stability.md): whether the loop converges with these links, "
+        "and what it tolerates"
+    )
+
+
+def test_cpf_run_says_that_a_diverging_loop_diverged_and_what_to_look_at(tmp_path):
+    """The paper's fleet with k = 1, first_order prediction and a message every 5 s (cpf stability: the error grows
+    at 0.08 1/s), 100 s in process; the paper run as it is (converging, fault and all) says nothing of the kind."""
+    from tests.conftest import shortened
+    from tests.procs import cpf
+
+    scenario = tmp_path / "paper.toml"
+    scenario.write_text(shortened((CONFIGS / "paper.toml").read_text(), 100.0))
+    unstable = ["comms.transmit.period=5", "coordination.predictor=first_order", "coordination.schedule=none"]
+    unstable += ["coordination.k=1.0", "saturation.correction=none", "faults=[]"]
+    sets = [arg for s in unstable for arg in ("--set", s)]
+    done = cpf("run", str(scenario), "--engine", "inprocess", "--quiet", "--no-foxglove", *sets, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.splitlines()
+    said = next(i for i, line in enumerate(lines) if line.startswith("the coordination loop DIVERGED from about t = "))
+    assert lines[said + 1].startswith(f"look at: cpf stability {scenario} (docs/stability.md): it predicts this")
