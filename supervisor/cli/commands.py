@@ -6,13 +6,9 @@ from __future__ import annotations
 import argparse
 import logging
 import textwrap
-from typing import TYPE_CHECKING
 
 from supervisor.cli.terminal import EXIT_INTERRUPTED
 from supervisor.errors import ScenarioError
-
-if TYPE_CHECKING:
-    from supervisor.config.scenario_schema import Scenario
 
 log = logging.getLogger("cpf")
 
@@ -145,9 +141,6 @@ def validate(args: argparse.Namespace) -> int:
     scenario = load_scenario(args.scenario, args.set, args.fault)  # ScenarioError: every error, exit 2
     for warning in scenario_warnings(scenario):  # what cpf run would warn about, said here too
         log.warning("%s: %s", args.scenario, warning)
-    if (growth := _predicted_growth(scenario)) is not None:
-        log.warning("%s: coordination is predicted to diverge (error growing at %.3g 1/s; cpf stability)",
-                    args.scenario, growth)  # fmt: skip
     print(textwrap.fill(f"{args.scenario}: valid. {what_would_run(scenario)}", width=100, break_on_hyphens=False))
     return 0
 
@@ -157,19 +150,6 @@ def plugins(args: argparse.Namespace) -> int:
 
     print(plugins_text())
     return 0
-
-
-def _predicted_growth(scenario: Scenario) -> float | None:
-    """The growth rate (1/s) of the coordination error if the stability analysis predicts divergence, else None
-    (also when the loop is too large to analyse quickly)."""
-    from supervisor.config.stability.margins import MAX_STATES, rate
-    from supervisor.config.stability.scenario import setting_of
-
-    setting = setting_of(scenario)
-    if setting.states() > MAX_STATES:
-        return None
-    growth = -rate(setting)
-    return growth if growth >= 0 else None
 
 
 def stability(args: argparse.Namespace) -> int:

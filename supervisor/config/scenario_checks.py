@@ -16,6 +16,7 @@ import numpy as np
 
 from supervisor.config.derived import active, end_of, first_step, graph_at, steps_of
 from supervisor.config.extension_checks import extension_errors, vehicle_model_errors
+from supervisor.config.feasibility_checks import feasibility_errors, feasibility_warnings
 from supervisor.config.plant import planar_current_errors
 from supervisor.config.scenario_schema import (
     LINK_FAULTS,
@@ -362,16 +363,20 @@ def cross_field_errors(sc: Scenario, rejected: frozenset[str] | set[str] = froze
     for sections, rule in RULES:
         if not sections & rejected:
             out += rule(sc)
+    if not out and not rejected:  # the channel's feasibility needs every section valid and consistent
+        out += feasibility_errors(sc)
     return out
 
 
 def scenario_warnings(sc: Scenario) -> list[str]:
     """What a valid scenario holds that will not happen, '<field>: <problem>, got <value>' each: faults that start
-    at or after the end of the run (a run shortened with --set scenario.duration=... is a fair thing to ask for)."""
+    at or after the end of the run (a run shortened with --set scenario.duration=... is a fair thing to ask for),
+    and a channel that loses much or a loop predicted to diverge (supervisor.config.feasibility_checks)."""
     steps, dt, end = steps_of(sc), sc.scenario.step, sc.scenario.duration
-    return [
+    late = [
         f"faults[{index}].start: at or after the end of the run ({end:g} s), the {fault.kind} fault never acts, "
         f"got {fault.start}"
         for index, fault in enumerate(sc.faults)
         if first_step(fault.start, dt) >= steps
     ]
+    return late + feasibility_warnings(sc)
