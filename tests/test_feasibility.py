@@ -5,6 +5,8 @@ names a link that delivered nothing."""
 
 from __future__ import annotations
 
+from typing import Any
+
 import pytest
 
 from supervisor.analysis.comms_summary import comms_summary, format_comms
@@ -40,7 +42,8 @@ def warnings_of(text: str, overrides: tuple[str, ...]) -> list[str]:
 )
 def test_synchronous_half_duplex_transmission_without_tdma_is_refused_with_its_fix(text, overrides):
     errors = errors_of(text, overrides)
-    assert len(errors) == 1 and errors[0].startswith("s.toml: comms.transmit: every vehicle transmits at the same instants")
+    assert len(errors) == 1
+    assert errors[0].startswith("s.toml: comms.transmit: every vehicle transmits at the same instants")
     assert "half_duplex" in errors[0] and "comms.tdma = { slot = " in errors[0] and 'policy = "event"' in errors[0]
 
 
@@ -98,7 +101,7 @@ def test_cpf_run_refuses_what_validate_refuses_and_names_the_fix(tmp_path, capsy
 
 
 def test_the_summary_names_the_links_that_delivered_nothing():
-    final = {"t": 30.0, "window": 10.0, "lambda2": 0.0, "links": [
+    final: dict[str, Any] = {"t": 30.0, "window": 10.0, "lambda2": 0.0, "links": [
         {"sender": 1, "receiver": 2, "sent": 300, "delivered": 0, "dropped": {"half_duplex": 290, "collision": 10}},
         {"sender": 2, "receiver": 1, "sent": 300, "delivered": 12, "dropped": {"half_duplex": 288}},
     ]}  # fmt: skip
