@@ -65,16 +65,20 @@ def _always_on_air(sc: Scenario) -> Iterator[str]:
     why = "it is always transmitting, so it hears nothing" if radio.half_duplex else (
         "each packet overlaps the sender's next at every receiver (collision)")  # fmt: skip
     if radio.half_duplex or radio.collisions:
-        yield (f"comms.transmit.period: a vehicle transmits every {_t(t.interval)} on {_modem(sc, t)}: {why}; "
-               f"no packet can arrive: give a period of at least {_t(2 * t.airtime)}, got {sc.comms.transmit.period}")
+        yield (
+            f"comms.transmit.period: a vehicle transmits every {_t(t.interval)} on {_modem(sc, t)}: {why}; "
+            f"no packet can arrive: give a period of at least {_t(2 * t.airtime)}, got {sc.comms.transmit.period}"
+        )
 
 
 def _on_air_warnings(sc: Scenario) -> Iterator[str]:
     radio, t = modem_params(sc), timing_of(sc)
     if 0 < t.interval < t.airtime and not (radio.half_duplex or radio.collisions):
-        yield (f"comms.transmit: a vehicle transmits every {_t(t.interval)} but a packet is {_t(t.airtime)} on air: "
-               f"no real modem sends faster than its airtime; give a period of at least {_t(t.airtime)}, "
-               f"got {sc.comms.transmit.period}")
+        yield (
+            f"comms.transmit: a vehicle transmits every {_t(t.interval)} but a packet is {_t(t.airtime)} on air: "
+            f"no real modem sends faster than its airtime; give a period of at least {_t(t.airtime)}, "
+            f"got {sc.comms.transmit.period}"
+        )
 
 
 def _dead_text(links: list[tuple[int, int, str]]) -> str:
@@ -89,20 +93,24 @@ def _synchronous_errors(sc: Scenario) -> Iterator[str]:
     if any(len(dead_links(sc, where)) < len(dead) for where in formation_positions(sc)):
         return
     t = timing_of(sc)
-    yield (f"comms.transmit: every vehicle transmits at the same instants (periodic every {_t(t.interval)}, no "
-           f"TDMA) on {_modem(sc, t)}, and on every link the packet meets the receiver's own transmission or "
-           f"another packet, at the start and all along the paths: no packet can arrive ({_dead_text(dead)}); "
-           f"give {_fix_slot(sc, t)} or transmit.policy = \"event\", got policy {sc.comms.transmit.policy!r}")
+    yield (
+        f"comms.transmit: every vehicle transmits at the same instants (periodic every {_t(t.interval)}, no "
+        f"TDMA) on {_modem(sc, t)}, and on every link the packet meets the receiver's own transmission or "
+        f"another packet, at the start and all along the paths: no packet can arrive ({_dead_text(dead)}); "
+        f'give {_fix_slot(sc, t)} or transmit.policy = "event", got policy {sc.comms.transmit.policy!r}'
+    )
 
 
 def _synchronous_warnings(sc: Scenario) -> Iterator[str]:
     dead = dead_links(sc, start_positions(sc))
     if dead:
         t = timing_of(sc)
-        yield (f"comms.transmit: every vehicle transmits at the same instants (periodic every {_t(t.interval)}, no "
-               f"TDMA) on {_modem(sc, t)}: at the start {len(dead)} of {len(directed_links(sc))} links deliver "
-               f"nothing: {_dead_text(dead)}; give {_fix_slot(sc, t)} or transmit.policy = \"event\", "
-               f"got policy {sc.comms.transmit.policy!r}")
+        yield (
+            f"comms.transmit: every vehicle transmits at the same instants (periodic every {_t(t.interval)}, no "
+            f"TDMA) on {_modem(sc, t)}: at the start {len(dead)} of {len(directed_links(sc))} links deliver "
+            f'nothing: {_dead_text(dead)}; give {_fix_slot(sc, t)} or transmit.policy = "event", '
+            f"got policy {sc.comms.transmit.policy!r}"
+        )
 
 
 def _slot(sc: Scenario) -> Iterator[str]:
@@ -111,8 +119,10 @@ def _slot(sc: Scenario) -> Iterator[str]:
     where = start_positions(sc)
     longest = max((flight(where[i], where[j], t.sound_speed) for i, j in directed_links(sc)), default=0.0)
     if tdma is not None and t.airtime > 0 and tdma.slot < t.airtime + longest:
-        yield (f"comms.tdma.slot: shorter than a packet's airtime {_t(t.airtime)} plus the longest flight at the "
-               f"start {_t(longest)}: packets spill into the next slot; give {_fix_slot(sc, t)}, got {tdma.slot}")
+        yield (
+            f"comms.tdma.slot: shorter than a packet's airtime {_t(t.airtime)} plus the longest flight at the "
+            f"start {_t(longest)}: packets spill into the next slot; give {_fix_slot(sc, t)}, got {tdma.slot}"
+        )
 
 
 def _late(sc: Scenario) -> Iterator[str]:
@@ -123,9 +133,11 @@ def _late(sc: Scenario) -> Iterator[str]:
     ]
     for key, value in delays:
         if value > DWARF * t.interval:
-            yield (f"{key}: {_t(value)} is {value / t.interval:.3g} transmit intervals ({_t(t.interval)}; a packet "
-                   f"is {_t(t.airtime)} on air): neighbours' estimates are that old when they arrive; "
-                   f"is it in seconds? got {value}")
+            yield (
+                f"{key}: {_t(value)} is {value / t.interval:.3g} transmit intervals ({_t(t.interval)}; a packet "
+                f"is {_t(t.airtime)} on air): neighbours' estimates are that old when they arrive; "
+                f"is it in seconds? got {value}"
+            )
 
 
 def _range(sc: Scenario) -> Iterator[str]:
@@ -138,15 +150,19 @@ def _range(sc: Scenario) -> Iterator[str]:
         if success is not None and success < OUT_OF_RANGE:
             far.append(f"{i}->{j} ({distance:.0f} m, {100 * success:.2g} %)")
     if far:
-        yield (f"comms.range: receivers out of range at the start, a packet arrives with the probability given: "
-               f"{', '.join(far)}; raise comms.range.source_level or start the vehicles closer, "
-               f"got type {sc.comms.range.type if sc.comms.range else None!r}")
+        yield (
+            f"comms.range: receivers out of range at the start, a packet arrives with the probability given: "
+            f"{', '.join(far)}; raise comms.range.source_level or start the vehicles closer, "
+            f"got type {sc.comms.range.type if sc.comms.range else None!r}"
+        )
 
 
 def _diverges(sc: Scenario) -> Iterator[str]:
     if (growth := predicted_growth(sc)) is not None:
-        yield (f"coordination: predicted to diverge (error growing at {growth:.3g} 1/s; cpf stability says which "
-               f"period, delay and loss it tolerates), got k {sc.coordination.k}")
+        yield (
+            f"coordination: predicted to diverge (error growing at {growth:.3g} 1/s; cpf stability says which "
+            f"period, delay and loss it tolerates), got k {sc.coordination.k}"
+        )
 
 
 def predicted_growth(scenario: Scenario) -> float | None:
