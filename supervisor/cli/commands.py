@@ -163,9 +163,16 @@ def stability(args: argparse.Namespace) -> int:
 
 
 def presets(args: argparse.Namespace) -> int:
-    from supervisor.config.presets_table import presets_text
+    from comms.channel.modem import PRESETS as MODEMS
+    from supervisor.config.presets_table import preset_text, presets_text
+    from vehicles.params import PRESETS
 
-    print(presets_text())
+    if args.name is None:
+        print(presets_text())
+    elif args.name in PRESETS or args.name in MODEMS:
+        print(preset_text(args.name))
+    else:
+        raise ScenarioError(f"cpf presets: no preset {args.name!r}, expected one of {sorted([*PRESETS, *MODEMS])}")
     return 0
 
 

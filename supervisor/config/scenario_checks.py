@@ -30,10 +30,12 @@ from supervisor.config.scenario_schema import (
     VehicleSection,
 )
 from supervisor.config.schema_base import MAX_SPEED, MAX_STEPS, MAX_TIME, Vec3
+from supervisor.config.unit_checks import unit_warnings
 from vehicles.params import PRESETS, VehicleParams
 from vehicles.paths import Path as PathLike
 
 Check = Callable[[Scenario], Iterator[str]]
+ONE_NUMBER = ("mass",)  # 3-vector parameters also read as one number (vehicle_models.as_read)
 STEP_TOLERANCE = 1e-6  # relative: how close to a whole number of steps a duration or slot must be
 
 
@@ -207,7 +209,7 @@ def _path_speed(sc: Scenario) -> Iterator[str]:
 
 def _overrides(sc: Scenario) -> Iterator[str]:
     """Each override ([vehicle] and each [[vehicles]] entry's) names a VehicleParams field and has the shape of its
-    preset's value: a number, or an array of 3 numbers."""
+    preset's value: a number, or an array of 3 numbers (mass either: the rigid body's, or M's diagonal)."""
     yield from _override_errors(sc.vehicle.preset, sc.vehicle.overrides, ["vehicle", "overrides"])
     for index, vehicle in enumerate(sc.vehicles):
         preset = vehicle.preset or sc.vehicle.preset
@@ -224,7 +226,7 @@ def _override_errors(preset: str, overrides: Mapping[str, float | Vec3], at: lis
             continue
         vector = isinstance(getattr(defaults, name), tuple)
         shown = list(value) if isinstance(value, tuple) else value
-        if vector != isinstance(value, tuple):
+        if vector != isinstance(value, tuple) and name not in ONE_NUMBER:
             shape = "an array of 3 numbers" if vector else "a number"
             yield f"{where}: must be {shape}, got {shown}"
             continue
@@ -379,4 +381,4 @@ def scenario_warnings(sc: Scenario) -> list[str]:
         for index, fault in enumerate(sc.faults)
         if first_step(fault.start, dt) >= steps
     ]
-    return late + feasibility_warnings(sc)
+    return late + unit_warnings(sc) + feasibility_warnings(sc)

@@ -142,7 +142,9 @@ class VehicleModelSection(StrictModel):
         default={},
         max_length=50,
         description=f"parameter = value, replacing the preset's; names: {', '.join(VehicleParams.__dataclass_fields__)}"
-        " (units: kg, kg m^2, N s/m, N s^2/m^2, N m s, N m s^2, N, m; 3 numbers for the diagonal ones)",
+        " (units: kg, kg m^2, N s/m, N s^2/m^2, N m s, N m s^2, N, m; 3 numbers for the diagonal ones; mass also as one"
+        " number: the rigid body's, as `cpf presets` shows it, added mass and trim kept; `cpf presets NAME` lists a"
+        " preset's values)",
     )
     uncertainty: Uncertainty = Field(default=0.0, description=UNCERTAINTY_DESCRIPTION, json_schema_extra=as_any_of)
     actuators: plant_schema.Actuation = Field(
