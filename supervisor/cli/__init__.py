@@ -59,9 +59,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     signal.signal(signal.SIGINT, interrupts.handle)
     try:
         return COMMANDS[args.command](args)
-    except BrokenPipeError:  # output piped into e.g. head, which stopped reading: not an error of ours
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        return EXIT_RUNTIME
+    except BrokenPipeError:  # output piped into e.g. head, which stopped reading: what it wanted, no error
+        return _reader_gone()
     except ScenarioError as exc:
         for line in exc.errors:  # every error found, one line each
             print(f"cpf: error: {line}", file=sys.stderr)
@@ -74,6 +73,18 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_INTERRUPTED
 
 
+def _reader_gone() -> int:
+    """The reader of our output left (SIGPIPE, which Python turns into BrokenPipeError): exit 0 without a word, as
+    a command in a pipe does; what is left to write goes to /dev/null, so the interpreter's last flush cannot fail."""
+    os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+    return 0
+
+
 def entry() -> None:
     """Console-script entry point."""
-    sys.exit(main())
+    code = main()
+    try:
+        sys.stdout.flush()  # here, not at the interpreter's exit: a reader gone is then exit 0, not 120
+    except BrokenPipeError:
+        code = _reader_gone() or code
+    sys.exit(code)
