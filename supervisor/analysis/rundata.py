@@ -192,7 +192,7 @@ def load_run(path: Path, also: Collector | None = None) -> RunData:
     logfile.verify(path)  # damage anywhere refuses the log, also in chunks the report skips (its Foxglove scene)
     got = _Collected()
     wanted = _wanted if also is None else lambda topic: _wanted(topic) or also.wanted(topic)
-    for topic, _, message in logfile.messages(path, wanted):
+    for topic, _, message in logfile.messages(path, wanted, verified=True):
         try:
             if _wanted(topic):
                 got.add(topic, message)

@@ -28,6 +28,9 @@ from mcap.summary import Summary
 
 from supervisor.errors import LogError
 
+KNOWN_OPCODES = frozenset(int(op) for op in Opcode)  # 0x00 is none: a zeroed record is damage
+USER_OPCODES = 0x80  # 0x80-0xff: records of an extension of MCAP, left alone
+
 __all__ = ["LogError", "LogMessage", "RawLog", "RawMessage", "messages", "read_messages", "read_raw", "verify"]
 
 MAGIC = b"\x89MCAP0\r\n"
@@ -57,11 +60,19 @@ def damaged(path: Path, what: str) -> LogError:
 
 
 def messages(
-    path: Path, wanted: Callable[[str], bool] | None = None, start: int | None = None, end: int | None = None
+    path: Path,
+    wanted: Callable[[str], bool] | None = None,
+    start: int | None = None,
+    end: int | None = None,
+    verified: bool = False,
 ) -> Iterator[LogMessage]:
     """The messages of the wanted topics with start <= log time <= end (ns), in log-time order (equal times in the
     order written), streamed chunk by chunk. LogError, before the first message, for a log that is missing, not an
-    MCAP or cut short; LogError where it is met for a damaged chunk or message."""
+    MCAP, cut short or damaged anywhere (verify: the reader alone skips a chunk zeroed whole, and a resim of such a
+    log ran on without its records, issue 29); LogError where it is met for a damaged message. verified: the caller
+    has verified the log (a second pass over every chunk is not needed)."""
+    if not verified:
+        verify(path)
     with open_log(path) as stream:
         stream.seek(0)  # the reader checks the magic where the stream stands
         reader = make_reader(stream, validate_crcs=True)
@@ -89,17 +100,28 @@ def read_messages(path: Path, wanted: Callable[[str], bool] | None = None) -> li
 def verify(path: Path) -> None:
     """LogError unless the log ends with its footer and every chunk in it decompresses to its size and CRC."""
     with open_log(path) as stream:
-        _strict_summary(path, reader_of(stream), stream)
+        summary = _strict_summary(path, reader_of(stream), stream)
+        indexed = {c.chunk_start_offset for c in summary.chunk_indexes} if summary is not None else set()
         offset = len(MAGIC)
         for offset, opcode, body in _top_records(stream):
             if opcode in (Opcode.DATA_END, Opcode.FOOTER):
+                _all_found(path, indexed)
                 return
+            if opcode not in KNOWN_OPCODES and opcode < USER_OPCODES:  # zeroed or overwritten where a record starts
+                raise damaged(path, f"no MCAP record at byte {offset} (opcode {opcode:#04x})")
+            indexed.discard(offset)
             if opcode == Opcode.CHUNK:
                 try:
                     _chunk_data(body)
                 except Exception as exc:  # see messages
                     raise damaged(path, f"chunk at byte {offset}: {_reason(exc)}") from None
         raise damaged(path, f"a record at byte {offset} runs past the end of the file")
+
+
+def _all_found(path: Path, indexed: set[int]) -> None:
+    """LogError if the index names a chunk the file does not hold where it says."""
+    if indexed:
+        raise damaged(path, f"the index names a chunk at byte {min(indexed)} that is not there")
 
 
 def open_log(path: Path) -> IO[bytes]:
