@@ -20,8 +20,12 @@ def report(args: argparse.Namespace) -> int:
     open_log(args.log).close()  # LogError for a missing log or another file, before anything is made
     made_directory("--out", args.out or args.log.parent)
     from supervisor.analysis.report import write_report
+    from supervisor.record.provenance import drawn_from
 
-    for path in write_report(args.log, args.out or args.log.parent):
+    paths = write_report(args.log, args.out or args.log.parent)
+    if (source := drawn_from(args.log)) is not None:
+        print(f"{args.log}: {source}")
+    for path in paths:
         print(path)
     return 0
 

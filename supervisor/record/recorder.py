@@ -229,6 +229,13 @@ class Recorder:
             raise self._cannot_write(exc) from None
         self._deadline = time.monotonic() + FLUSH_INTERVAL
 
+    def note(self, name: str, data: dict[str, str]) -> None:
+        """An MCAP metadata record (what the log is drawn from: supervisor.record.provenance)."""
+        try:
+            self._writer.add_metadata(name, data)
+        except OSError as exc:
+            raise self._cannot_write(exc) from None
+
     def _cannot_write(self, exc: OSError) -> LogWriteError:
         """One line for a log that cannot take more (ENOSPC: the disk full); the log is left as it stands, for
         `cpf recover`, and close() then writes nothing more (it would fail again, with a traceback per attempt)."""
