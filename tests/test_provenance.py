@@ -60,6 +60,7 @@ def test_a_resim_logs_report_says_what_changed_and_draws_no_empty_panel(log, tmp
     assert lines[0] == (
         f"{resim}: drawn from a re-simulation of {log} (--set coordination.k=0.3): states only, no channel records"
     )
+    assert metrics["drawn_from"] == lines[0].removeprefix(f"{resim}: ")
     assert not (tmp_path / "resim" / "comms_packets.png").exists()
     assert not (tmp_path / "resim" / "comms_delay_histogram.png").exists()
     assert (tmp_path / "resim" / "fig5_coordination_errors.png").exists()
