@@ -20,6 +20,10 @@ class SimulationError(CpfError):
     """Something failed while a run was under way. Exit code 1."""
 
 
+class LogWriteError(SimulationError):
+    """The log could not be written (the disk full, ...): exit code 1, one line; what was written is recoverable."""
+
+
 class LogError(ScenarioError):
     """A log that cannot be read: missing, not an MCAP, cut short or damaged (exit code 2)."""
 

@@ -213,3 +213,28 @@ def test_every_reader_refuses_a_log_whose_summary_is_damaged(
     """mcap does not check the summary's CRC: a damaged one gave wrong counts (exit 0) or a KeyError in info."""
     for path in summary_damaged_logs(log, tmp_path):
         assert_refused(command, path, tmp_path, capsys)
+
+
+def zeroed_logs(log: Path, where: Path) -> list[Path]:
+    """The log with each of its chunks in turn zeroed, the whole record (opcode, length, CRC, compression, data):
+    the footer and summary intact, the index pointing at nothing (issue 29)."""
+    data = log.read_bytes()
+    with log.open("rb") as stream:
+        summary = make_reader(stream).get_summary()
+    assert summary is not None and len(summary.chunk_indexes) >= 2
+    paths = []
+    for n, chunk in enumerate(sorted(summary.chunk_indexes, key=lambda c: c.chunk_start_offset)):
+        zeroed = bytearray(data)
+        zeroed[chunk.chunk_start_offset : chunk.chunk_start_offset + chunk.chunk_length] = bytes(chunk.chunk_length)
+        path = where / f"zeroed{n}.mcap"
+        path.write_bytes(bytes(zeroed))
+        paths.append(path)
+    return paths
+
+
+@pytest.mark.parametrize("command", sorted(COMMANDS))
+def test_every_reader_refuses_a_log_with_a_chunk_zeroed(
+    command: str, log: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    for path in zeroed_logs(log, tmp_path):
+        assert_refused(command, path, tmp_path, capsys)

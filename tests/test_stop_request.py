@@ -16,6 +16,7 @@ from supervisor.engine.progress import Progress
 def no_request(monkeypatch):
     monkeypatch.setattr(interrupts, "_requested", False)
     monkeypatch.setattr(interrupts, "_deferred", 0)
+    monkeypatch.setattr(interrupts, "_stopping", False)
 
 
 def test_outside_a_run_the_handler_raises_at_once():
@@ -45,5 +46,16 @@ def test_an_engine_entry_point_defers(monkeypatch):
     with pytest.raises(KeyboardInterrupt):
         run()
     assert seen == ["went on"]
-    with pytest.raises(KeyboardInterrupt):  # the run is over: raised at once again
+    interrupts.handle(signal.SIGINT, None)  # stopping: its cleanup is not interrupted again (issue 29)
+    interrupts.reset()  # the next command
+    with pytest.raises(KeyboardInterrupt):  # raised at once again
         interrupts.handle(signal.SIGINT, None)
+
+
+def test_a_second_signal_while_the_first_unwinds_is_not_raised_again():
+    """A double Ctrl-C during start-up: the second came inside the first one's cleanup (or the CLI's except) and
+    ended the process by the signal or with a traceback."""
+    with pytest.raises(KeyboardInterrupt):
+        interrupts.handle(signal.SIGINT, None)
+    interrupts.handle(signal.SIGINT, None)  # in the cleanup: recorded, not raised
+    interrupts.check()  # nor at a safe point of that cleanup

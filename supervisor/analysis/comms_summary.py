@@ -82,12 +82,30 @@ def format_comms(summary: CommsSummary) -> str:
             f"{r.sender}->{r.receiver:<5}{r.sent:>7}{r.delivered:>7}  {causes:<34}"
             f"{_pair(r.mean_delay, r.max_delay):>20}{_pair(r.mean_age, r.max_age):>19}"
         )
+    if (silent := _silent(summary.links)) is not None:
+        lines.append(silent)
     if summary.lambda2_min is not None and summary.lambda2_mean is not None:
         lines.append(
             f"delivered-graph lambda_2 over {summary.windows} windows{_counted(summary)}: "
             f"min {summary.lambda2_min:.3f}, mean {summary.lambda2_mean:.3f} (0 = disconnected)"
         )
     return "\n".join(lines)
+
+
+def _silent(links: Sequence[LinkRow]) -> str | None:
+    """One line naming the links that carried packets and delivered none, with the cause of most of their losses
+    (cpf validate says before a run which configurations can deliver nothing, and why)."""
+    silent = [r for r in links if r.sent and not r.delivered]
+    if not silent:
+        return None
+    causes: dict[str, int] = {}
+    for r in silent:
+        for cause, n in r.dropped.items():
+            causes[cause] = causes.get(cause, 0) + n
+    most = max(sorted(causes), key=lambda cause: causes[cause]) if causes else "none counted"
+    names = ", ".join(f"{r.sender}->{r.receiver}" for r in silent)
+    return (f"NOTHING DELIVERED on {len(silent)} of {len(links)} links ({names}), mostly lost to {most}: "
+            f"their receivers coordinated without them (cpf validate says why before a run)")  # fmt: skip
 
 
 def _counted(summary: CommsSummary) -> str:

@@ -38,6 +38,8 @@ from matplotlib.legend import Legend
 from matplotlib.lines import Line2D
 from numpy.typing import NDArray
 
+from supervisor.config.derived import gamma_unit, rate_label
+
 if TYPE_CHECKING:  # only for annotations: supervisor.analysis.report imports this module
     from pathlib import Path
 
@@ -372,10 +374,17 @@ def fig_velocities(run: RunData, series: VehicleSeries) -> Figure:
     return fig
 
 
+def path_specs(run: RunData) -> list[dict[str, Any]]:
+    """The vehicles' path specs as the run's scenario gave them (none for a log without one)."""
+    scenario = run.meta.scenario if run.meta is not None else {}
+    return [v["path"] for v in scenario.get("vehicles", []) if isinstance(v, dict) and isinstance(v.get("path"), dict)]
+
+
 def fig_gamma_dot(run: RunData) -> Figure:
     """Speed of each virtual target along its path."""
     fig = new_figure()
     ax = fig.add_subplot()
     _per_vehicle(ax, run, lambda s: s.gamma_dot)
-    finish_time_axes(ax, run, r"$\dot\gamma_i$ [1/s]", f"Path parameter rates: {run.name}")
+    unit = rate_label(gamma_unit(path_specs(run)))  # the paths' own: a line's gamma is metres, a helix's a number
+    finish_time_axes(ax, run, rf"$\dot\gamma_i$ [{unit}]", f"Path parameter rates: {run.name}")
     return fig

@@ -39,12 +39,14 @@ FigureBuilder = Callable[[RunData], Figure]
 
 
 def comms_figures(run: RunData) -> list[tuple[str, FigureBuilder]]:
-    """(file name, builder) of each channel figure; lambda_2 only if the log holds stats snapshots."""
-    figures: list[tuple[str, FigureBuilder]] = [
-        ("comms_packets.png", fig_packets),
-        ("comms_delay_histogram.png", fig_delays),
-        ("comms_estimate_age.png", fig_estimate_age),
-    ]
+    """(file name, builder) of each channel figure that has data: packets and delays only if the log holds link
+    events, ages only if it holds estimate ages, lambda_2 only if it holds stats snapshots (a resim log has states
+    alone: its empty panels were drawn all the same)."""
+    figures: list[tuple[str, FigureBuilder]] = []
+    if run.links:
+        figures += [("comms_packets.png", fig_packets), ("comms_delay_histogram.png", fig_delays)]
+    if run.estimate_ages:
+        figures.append(("comms_estimate_age.png", fig_estimate_age))
     if run.stats:
         figures.append(("comms_lambda2.png", fig_lambda2))
     return figures

@@ -55,13 +55,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     os.environ.setdefault(*BLAS_THREADS)
     args = _parser().parse_args(argv)
     logging.basicConfig(level=logging.WARNING, format=f"cpf {args.command}: %(message)s")
+    interrupts.reset()
     signal.signal(signal.SIGTERM, interrupts.handle)  # SIGTERM cleans up like Ctrl-C: children stopped, log closed
     signal.signal(signal.SIGINT, interrupts.handle)
     try:
         return COMMANDS[args.command](args)
-    except BrokenPipeError:  # output piped into e.g. head, which stopped reading: not an error of ours
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        return EXIT_RUNTIME
+    except BrokenPipeError:  # output piped into e.g. head, which stopped reading: what it wanted, no error
+        return _reader_gone()
     except ScenarioError as exc:
         for line in exc.errors:  # every error found, one line each
             print(f"cpf: error: {line}", file=sys.stderr)
@@ -74,6 +74,28 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_INTERRUPTED
 
 
+def _reader_gone() -> int:
+    """The reader of our output left (SIGPIPE, which Python turns into BrokenPipeError): exit 0 without a word, as
+    a command in a pipe does; what is left to write goes to /dev/null, so the interpreter's last flush cannot fail."""
+    os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+    return 0
+
+
 def entry() -> None:
     """Console-script entry point."""
-    sys.exit(main())
+    try:
+        code = main()
+    except KeyboardInterrupt:  # before main's handlers were in place, or between them: one line all the same
+        print("cpf: interrupted", file=sys.stderr)
+        code = EXIT_INTERRUPTED
+    if code == EXIT_INTERRUPTED:
+        # Said and done: a second Ctrl-C must not end the exit by the signal. Python's exit puts SIG_DFL back for
+        # every signal with a handler of ours (not for one ignored), and its exit waits for the bus's threads: a
+        # press 50 ms after the first one killed the process (-2) in 12 of 16 tries (issue 29).
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, signal.SIG_IGN)
+    try:
+        sys.stdout.flush()  # here, not at the interpreter's exit: a reader gone is then exit 0, not 120
+    except BrokenPipeError:
+        code = _reader_gone() or code
+    sys.exit(code)

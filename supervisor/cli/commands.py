@@ -20,8 +20,12 @@ def report(args: argparse.Namespace) -> int:
     open_log(args.log).close()  # LogError for a missing log or another file, before anything is made
     made_directory("--out", args.out or args.log.parent)
     from supervisor.analysis.report import write_report
+    from supervisor.record.provenance import drawn_from
 
-    for path in write_report(args.log, args.out or args.log.parent):
+    paths = write_report(args.log, args.out or args.log.parent)
+    if (source := drawn_from(args.log)) is not None:
+        print(f"{args.log}: {source}")
+    for path in paths:
         print(path)
     return 0
 
@@ -149,11 +153,6 @@ def validate(args: argparse.Namespace) -> int:
     scenario = load_scenario(args.scenario, args.set, args.fault)  # ScenarioError: every error, exit 2
     for warning in scenario_warnings(scenario):  # what cpf run would warn about, said here too
         log.warning("%s: %s", args.scenario, warning)
-    from supervisor.config.stability.scenario import predicted_growth
-
-    if (growth := predicted_growth(scenario)) is not None:
-        log.warning("%s: coordination is predicted to diverge (error growing at %.3g 1/s; cpf stability)",
-                    args.scenario, growth)  # fmt: skip
     print(textwrap.fill(f"{args.scenario}: valid. {what_would_run(scenario)}", width=100, break_on_hyphens=False))
     return 0
 
@@ -176,9 +175,16 @@ def stability(args: argparse.Namespace) -> int:
 
 
 def presets(args: argparse.Namespace) -> int:
-    from supervisor.config.presets_table import presets_text
+    from comms.channel.modem import PRESETS as MODEMS
+    from supervisor.config.presets_table import preset_text, presets_text
+    from vehicles.params import PRESETS
 
-    print(presets_text())
+    if args.name is None:
+        print(presets_text())
+    elif args.name in PRESETS or args.name in MODEMS:
+        print(preset_text(args.name))
+    else:
+        raise ScenarioError(f"cpf presets: no preset {args.name!r}, expected one of {sorted([*PRESETS, *MODEMS])}")
     return 0
 
 

@@ -359,7 +359,10 @@ def _add_learning_commands(sub: Commands) -> None:
     check.add_argument("scenario", type=Path, help="scenario file (TOML)")
     check.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override a value (repeatable)")
     check.add_argument("--fault", action="append", default=[], metavar="SPEC", help="add a fault (repeatable)")
-    sub.add_parser("presets", help="the vehicle and modem presets a scenario can name, with their key numbers")
+    presets = sub.add_parser(
+        "presets", help="the vehicle and modem presets a scenario can name, with their key numbers"
+    )
+    presets.add_argument("name", nargs="?", help="one preset (vehicle or modem): every parameter it sets, with units")
     sub.add_parser(
         "plugins",
         help="the coordination laws, predictors, transmission policies, controllers and vehicle models installed "

@@ -1,5 +1,5 @@
 """Numbers that follow from a scenario, each computed in one place: the number of steps, when a fault acts on the
-step grid, the graph in force, the tube radius.
+step grid, the graph in force, the tube radius, the unit of gamma.
 
 Faults take effect at sync-step boundaries: a fault on [start, end) acts during every step [t, t + dt) with
 start <= t < end, to within half a step, so that times given in a scenario land on the step grid robustly.
@@ -8,6 +8,8 @@ start <= t < end, to within half a step, so that times given in a scenario land 
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Mapping
+from typing import Any
 
 from supervisor.config.scenario_schema import BrokerKillFault, FaultSpec, GraphSwitchFault, Scenario
 
@@ -56,3 +58,28 @@ def graph_at(scenario: Scenario, t: float, dt: float) -> tuple[tuple[int, int], 
     switches = [f for f in scenario.faults if isinstance(f, GraphSwitchFault) and active(f, t, dt)]
     edges = max(switches, key=lambda f: f.start).edges if switches else scenario.graph.edges
     return tuple((int(i), int(j)) for i, j in edges)
+
+
+def gamma_unit(paths: Iterable[Mapping[str, Any]]) -> str | None:
+    """The unit of gamma the paths (their specs, as the scenario file gives them) share: "" where gamma is a number
+    (a helix or circle: revolutions in units of 1/period), "m" where it is metres of path (a line of unit velocity, a
+    lawnmower of scale 1), "k m" for k metres; None if they do not share one (a mixed fleet, or none given)."""
+    units = {_unit(path) for path in paths}
+    return units.pop() if len(units) == 1 else None
+
+
+def _unit(path: Mapping[str, Any]) -> str:
+    if path.get("type") == "line":
+        metres = math.sqrt(sum(float(c) ** 2 for c in path.get("velocity", (1.0, 0.0, 0.0))))
+    elif path.get("type") == "lawnmower":
+        metres = float(path.get("scale", 1.0))
+    else:
+        return ""
+    return "m" if metres == 1.0 else f"{metres:g} m"
+
+
+def rate_label(unit: str | None) -> str:
+    """The unit of gamma_dot for an axis: 1/s, m/s, (2 m)/s, or the unit of gamma per s when the paths differ."""
+    if unit is None:
+        return "unit of gamma per s"
+    return "1/s" if unit == "" else f"{unit}/s" if unit == "m" else f"({unit})/s"

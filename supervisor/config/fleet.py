@@ -178,7 +178,7 @@ def _section(scenario: Scenario, vehicle_id: int) -> VehicleSection:
     return next(v for v in scenario.vehicles if v.id == vehicle_id)
 
 
-def _range_model(scenario: Scenario, radio_modem: ModemParams) -> LossModel | None:
+def range_model(scenario: Scenario, radio_modem: ModemParams) -> LossModel | None:
     spec = scenario.comms.range
     if isinstance(spec, LinkBudgetSection):
         return _builtin(
@@ -237,7 +237,7 @@ def channel_params(scenario: Scenario, with_named: bool = True) -> ChannelParams
     supervisor.config.extension_checks)."""
     c = scenario.comms
     radio_modem = modem_params(scenario)
-    ranged, named = _range_model(scenario, radio_modem), named_loss_model(scenario) if with_named else None
+    ranged, named = range_model(scenario, radio_modem), named_loss_model(scenario) if with_named else None
     links = {
         (link.sender, link.receiver): LinkParams(
             _loss_model(ranged, c.loss if link.loss is None else link.loss, link.burst or c.burst, named),

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import fields
 
 from comms.channel.modem import PRESETS as MODEMS
 from comms.channel.modem import ModemParams
@@ -16,7 +17,7 @@ from comms.records.wire import SIZE
 from vehicles.actuators import remus100
 from vehicles.params import GRAVITY, PRESETS, VehicleParams
 
-__all__ = ["presets_text", "top_speed"]
+__all__ = ["preset_text", "presets_text", "top_speed"]
 _FINS = remus100(PRESETS["remus100"].max_surge_force)
 
 VEHICLE_HEAD = (
@@ -88,3 +89,40 @@ def presets_text() -> str:
             f"  airtime: preamble + bits / bitrate of one cpf message ({SIZE} B, padded to whole frames).",
         ]
     )
+
+
+VEHICLE_UNITS = {
+    "mass": "kg, M's diagonal: rigid body + added mass", "inertia": "kg m^2, J's diagonal with added inertia",
+    "linear_damping": "N s/m", "quadratic_damping": "N s^2/m^2", "angular_linear_damping": "N m s",
+    "angular_quadratic_damping": "N m s^2", "weight": "N", "buoyancy": "N", "center_of_buoyancy": "m, body axes",
+    "max_surge_force": "N", "max_torque": "N m",
+}  # fmt: skip
+MODEM_UNITS = {
+    "bitrate": "bit/s", "preamble": "s", "frame_bytes": "B", "max_bytes": "B", "frequency_khz": "kHz",
+    "bandwidth_hz": "Hz",
+}  # fmt: skip
+
+
+def preset_text(name: str) -> str:
+    """Every parameter of one vehicle or modem preset, with its unit (KeyError: no preset of that name)."""
+    if name in PRESETS:
+        params: VehicleParams | ModemParams = PRESETS[name]
+        units, kind = VEHICLE_UNITS, "vehicle preset ([vehicle] preset; any of these in [vehicle] overrides)"
+        extra = [f"  rigid-body mass {PRESETS[name].weight / GRAVITY:g} kg (overrides: mass = one number sets it)",
+                 f"  top speed {top_speed(PRESETS[name]):.3g} m/s"]  # fmt: skip
+    else:
+        params, units, kind = MODEMS[name], MODEM_UNITS, "modem preset ([comms] modem)"
+        extra = [f"  airtime of one cpf message ({SIZE} B) {MODEMS[name].airtime(SIZE):.4g} s"]
+    lines = [f"{name}: {kind}"]
+    for field in fields(params):
+        value = getattr(params, field.name)
+        shown = ", ".join(f"{v:g}" for v in value) if isinstance(value, tuple) else _shown(value)
+        unit = f" [{units[field.name]}]" if field.name in units else ""
+        lines.append(f"  {field.name} = {shown}{unit}")
+    return "\n".join([*lines, *extra])
+
+
+def _shown(value: object) -> str:
+    if isinstance(value, bool) or value is None or isinstance(value, str):
+        return {True: "true", False: "false", None: "none (unlimited)"}.get(value, str(value))  # type: ignore[arg-type]
+    return f"{value:g}"

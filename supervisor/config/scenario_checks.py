@@ -16,6 +16,7 @@ import numpy as np
 
 from supervisor.config.derived import active, end_of, first_step, graph_at, steps_of
 from supervisor.config.extension_checks import extension_errors, vehicle_model_errors
+from supervisor.config.feasibility_checks import feasibility_errors, feasibility_warnings
 from supervisor.config.plant import planar_current_errors
 from supervisor.config.scenario_schema import (
     LINK_FAULTS,
@@ -29,10 +30,12 @@ from supervisor.config.scenario_schema import (
     VehicleSection,
 )
 from supervisor.config.schema_base import MAX_SPEED, MAX_STEPS, MAX_TIME, Vec3
+from supervisor.config.unit_checks import unit_warnings
 from vehicles.params import PRESETS, VehicleParams
 from vehicles.paths import Path as PathLike
 
 Check = Callable[[Scenario], Iterator[str]]
+ONE_NUMBER = ("mass",)  # 3-vector parameters also read as one number (vehicle_models.as_read)
 STEP_TOLERANCE = 1e-6  # relative: how close to a whole number of steps a duration or slot must be
 
 
@@ -206,7 +209,7 @@ def _path_speed(sc: Scenario) -> Iterator[str]:
 
 def _overrides(sc: Scenario) -> Iterator[str]:
     """Each override ([vehicle] and each [[vehicles]] entry's) names a VehicleParams field and has the shape of its
-    preset's value: a number, or an array of 3 numbers."""
+    preset's value: a number, or an array of 3 numbers (mass either: the rigid body's, or M's diagonal)."""
     yield from _override_errors(sc.vehicle.preset, sc.vehicle.overrides, ["vehicle", "overrides"])
     for index, vehicle in enumerate(sc.vehicles):
         preset = vehicle.preset or sc.vehicle.preset
@@ -223,7 +226,7 @@ def _override_errors(preset: str, overrides: Mapping[str, float | Vec3], at: lis
             continue
         vector = isinstance(getattr(defaults, name), tuple)
         shown = list(value) if isinstance(value, tuple) else value
-        if vector != isinstance(value, tuple):
+        if vector != isinstance(value, tuple) and name not in ONE_NUMBER:
             shape = "an array of 3 numbers" if vector else "a number"
             yield f"{where}: must be {shape}, got {shown}"
             continue
@@ -362,16 +365,20 @@ def cross_field_errors(sc: Scenario, rejected: frozenset[str] | set[str] = froze
     for sections, rule in RULES:
         if not sections & rejected:
             out += rule(sc)
+    if not out and not rejected:  # the channel's feasibility needs every section valid and consistent
+        out += feasibility_errors(sc)
     return out
 
 
 def scenario_warnings(sc: Scenario) -> list[str]:
     """What a valid scenario holds that will not happen, '<field>: <problem>, got <value>' each: faults that start
-    at or after the end of the run (a run shortened with --set scenario.duration=... is a fair thing to ask for)."""
+    at or after the end of the run (a run shortened with --set scenario.duration=... is a fair thing to ask for),
+    and a channel that loses much or a loop predicted to diverge (supervisor.config.feasibility_checks)."""
     steps, dt, end = steps_of(sc), sc.scenario.step, sc.scenario.duration
-    return [
+    late = [
         f"faults[{index}].start: at or after the end of the run ({end:g} s), the {fault.kind} fault never acts, "
         f"got {fault.start}"
         for index, fault in enumerate(sc.faults)
         if first_step(fault.start, dt) >= steps
     ]
+    return late + unit_warnings(sc) + feasibility_warnings(sc)

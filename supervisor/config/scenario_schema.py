@@ -142,7 +142,9 @@ class VehicleModelSection(StrictModel):
         default={},
         max_length=50,
         description=f"parameter = value, replacing the preset's; names: {', '.join(VehicleParams.__dataclass_fields__)}"
-        " (units: kg, kg m^2, N s/m, N s^2/m^2, N m s, N m s^2, N, m; 3 numbers for the diagonal ones)",
+        " (units: kg, kg m^2, N s/m, N s^2/m^2, N m s, N m s^2, N, m; 3 numbers for the diagonal ones; mass also as one"
+        " number: the rigid body's, as `cpf presets` shows it, added mass and trim kept; `cpf presets NAME` lists a"
+        " preset's values)",
     )
     uncertainty: Uncertainty = Field(default=0.0, description=UNCERTAINTY_DESCRIPTION, json_schema_extra=as_any_of)
     actuators: plant_schema.Actuation = Field(
@@ -200,11 +202,13 @@ class CoordinationSection(StrictModel):
         default="corrected",
         description="the coordination law: corrected (law (5) on the speed error gamma_dot - v_r, settles at v_r), "
         "literal (law (5) as printed, settles at k_zeta v_r / (k_zeta + k2)), saturated (a bounded correction from "
-        "the gamma disagreement alone, Rego et al. 2019), an installed extension's name (`cpf plugins`), or "
+        "the gamma disagreement alone, Rego et al. 2019), wmsr (law (5) resilient to F lying neighbours, LeBlanc et "
+        "al. 2013; the graph must be (2F + 1)-robust: docs/resilience.md), an installed extension's name "
+        "(`cpf plugins`), or "
         "package.module:Name",
     )
     law_options: dict[str, Any] = Field(
-        default_factory=dict, description="the law's own options (its fields; saturated: k_c, width)"
+        default_factory=dict, description="the law's own options (its fields; saturated: k_c, width; wmsr: f)"
     )
     k: Float = Field(
         default=0.2, gt=0, le=MAX_GAIN, description="K = diag(k): gain on the disagreement with neighbours, 1/s"

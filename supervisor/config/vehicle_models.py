@@ -14,7 +14,7 @@ from typing import Any
 from supervisor.config.extensions import extension
 from supervisor.config.presets_table import top_speed
 from supervisor.config.scenario_schema import Scenario, VehicleSection
-from vehicles.params import VehicleParams
+from vehicles.params import GRAVITY, PRESETS, VehicleParams
 from vehicles.vehicle_model import VehicleModel
 
 
@@ -36,7 +36,26 @@ def model_options_of(scenario: Scenario, vehicle_id: int) -> dict[str, Any]:
     """Its options: [vehicle] model_options, or a preset's overrides ([vehicle]'s, then its entry's)."""
     if scenario.vehicle.model is not None:
         return dict(scenario.vehicle.model_options)
-    return {**scenario.vehicle.overrides, **_entry(scenario, vehicle_id).overrides}
+    given = {**scenario.vehicle.overrides, **_entry(scenario, vehicle_id).overrides}
+    return as_read(preset_of(scenario, vehicle_id), given)
+
+
+def as_read(preset: str, overrides: dict[str, Any]) -> dict[str, Any]:
+    """Overrides as users read them: `mass = 40.0` is the rigid body's mass (what `cpf presets` shows), the diagonal
+    of M then that plus the preset's added mass on each axis, its weight m g, and its buoyancy moved with the weight
+    so that the preset's trim (W - B) holds; 3 numbers are M's diagonal as they stand."""
+    mass = overrides.get("mass")
+    if not isinstance(mass, int | float) or preset not in PRESETS:
+        return overrides
+    base = PRESETS[preset]
+    rigid = base.weight / GRAVITY
+    weight = overrides.get("weight", mass * GRAVITY)
+    return {
+        "buoyancy": base.buoyancy + (weight - base.weight),
+        **overrides,
+        "mass": tuple(mass + (axis - rigid) for axis in base.mass),
+        "weight": weight,
+    }
 
 
 def vehicle_of(scenario: Scenario, vehicle_id: int) -> VehicleModel:

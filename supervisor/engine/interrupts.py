@@ -21,14 +21,30 @@ R = TypeVar("R")
 
 _requested = False
 _deferred = 0
+_stopping = False  # a KeyboardInterrupt has been raised: the process is stopping, its cleanup is not interrupted
 
 
 def handle(signum: int, frame: FrameType | None) -> None:
-    """The handler the CLI installs for SIGINT and SIGTERM."""
+    """The handler the CLI installs for SIGINT and SIGTERM. A second signal while the first one's KeyboardInterrupt
+    unwinds (a double Ctrl-C during start-up: children being stopped, the log closed) is not raised again: raised
+    inside the cleanup, or inside the CLI's own `except KeyboardInterrupt`, it ended the process by the signal (-2)
+    or with a traceback instead of one line and exit 130 (issue 29)."""
     global _requested
     _requested = True
-    if not _deferred:
-        raise KeyboardInterrupt
+    if not _deferred and not _stopping:
+        _interrupt()
+
+
+def reset() -> None:
+    """A command starts: no request, not stopping (the CLI's main, once per command)."""
+    global _requested, _stopping
+    _requested, _stopping = False, False
+
+
+def _interrupt() -> None:
+    global _requested, _stopping
+    _requested, _stopping = False, True
+    raise KeyboardInterrupt
 
 
 @contextlib.contextmanager
@@ -55,7 +71,5 @@ def deferring(run: Callable[P, R]) -> Callable[P, R]:
 
 def check() -> None:
     """A safe point: KeyboardInterrupt if a stop was asked for (once: cleanup after it is not interrupted again)."""
-    global _requested
-    if _requested:
-        _requested = False
-        raise KeyboardInterrupt
+    if _requested and not _stopping:
+        _interrupt()

@@ -42,6 +42,7 @@ from supervisor.errors import ScenarioError
 from supervisor.plan.schedule import Schedule
 from supervisor.record.logfile import messages
 from supervisor.record.meta import RunMeta
+from supervisor.record.provenance import RESIM
 from supervisor.record.recorder import Recorder
 from vehicles.runtime import NodeState
 from vehicles.step import step_records
@@ -153,6 +154,7 @@ def resimulate(
         rec.limit(sc.scenario.duration)
         meta = msgspec.structs.replace(meta, engine="resim", scenario=sc.model_dump(mode="json"))
         rec.write(META_KEY, 0.0, meta.to_message())
+        rec.note(RESIM, {"source": str(log), "set": " ".join(f"--set {o}" for o in overrides)})  # for cpf report
         for i, t, state, report in _restep(sc, heard, set(recorded), meta.seed, loop):
             rec.write(state_key(i), t, state)
             new.add(report)

@@ -29,6 +29,9 @@ from mcap.summary import Summary
 
 from supervisor.errors import LogError
 
+KNOWN_OPCODES = frozenset(int(op) for op in Opcode)  # 0x00 is none: a zeroed record is damage
+USER_OPCODES = 0x80  # 0x80-0xff: records of an extension of MCAP, left alone
+
 __all__ = [
     "LogError",
     "LogMessage",
@@ -69,11 +72,19 @@ def damaged(path: Path, what: str) -> LogError:
 
 
 def messages(
-    path: Path, wanted: Callable[[str], bool] | None = None, start: int | None = None, end: int | None = None
+    path: Path,
+    wanted: Callable[[str], bool] | None = None,
+    start: int | None = None,
+    end: int | None = None,
+    verified: bool = False,
 ) -> Iterator[LogMessage]:
     """The messages of the wanted topics with start <= log time <= end (ns), in log-time order (equal times in the
     order written), streamed chunk by chunk. LogError, before the first message, for a log that is missing, not an
-    MCAP or cut short; LogError where it is met for a damaged chunk or message."""
+    MCAP, cut short or damaged anywhere (verify: the reader alone skips a chunk zeroed whole, and a resim of such a
+    log ran on without its records, issue 29); LogError where it is met for a damaged message. verified: the caller
+    has verified the log (a second pass over every chunk is not needed)."""
+    if not verified:
+        verify(path)
     with open_log(path) as stream:
         stream.seek(0)  # the reader checks the magic where the stream stands
         reader = make_reader(stream, validate_crcs=True)
@@ -100,44 +111,63 @@ def read_messages(path: Path, wanted: Callable[[str], bool] | None = None) -> li
 
 def read_checked(path: Path, wanted: Callable[[str], bool]) -> list[LogMessage]:
     """The wanted messages in log-time order (equal times in the order written, as `messages` gives them) of a log
-    checked whole: its footer, its summary's CRC and every chunk's CRC, also in chunks holding no wanted topic.
-    One linear pass that decompresses each chunk once: `verify` then `messages` decompressed every chunk twice and
-    merged them in a heap of Python objects (11 s of a 14 s load of an 8-vehicle, 450 s run). LogError as both."""
+    checked whole as `verify` checks it, also in chunks holding no wanted topic. One linear pass that decompresses
+    each chunk once: `verify` then `messages` decompressed every chunk twice and merged them in a heap of Python
+    objects (11 s of a 14 s load of an 8-vehicle, 450 s run). LogError as both."""
     out: list[LogMessage] = []
+    channels: dict[int, Channel] = {}
+    taken: dict[int, bool] = {}  # channel id -> wanted: asked once per channel, not once per message
     with open_log(path) as stream:
-        _strict_summary(path, reader_of(stream), stream)
-        channels: dict[int, Channel] = {}
-        taken: dict[int, bool] = {}  # channel id -> wanted: asked once per channel, not once per message
-        for offset, opcode, body in _top_records(stream):
-            if opcode in (Opcode.DATA_END, Opcode.FOOTER):
-                out.sort(key=lambda m: m.log_time)  # stable: equal times keep the order they were written in
-                return out
+        for offset, records in _checked(path, stream):
             try:
-                records = _parsed(opcode, body, channels)
+                found = _records_in(records, channels)
             except Exception as exc:  # see messages
-                raise damaged(path, f"chunk at byte {offset}: {_reason(exc)}") from None
-            for c, t, data in records:
+                raise damaged(path, f"records at byte {offset}: {_reason(exc)}") from None
+            for c, t, data in found:
                 if taken.get(c) is None:
                     taken[c] = wanted(channels[c].topic)
                 if taken[c]:
                     out.append(LogMessage(channels[c].topic, t, _decoded(path, channels[c], data)))
-        raise damaged(path, f"a record at byte {offset} runs past the end of the file")
+    out.sort(key=lambda m: m.log_time)  # stable: equal times keep the order they were written in
+    return out
 
 
 def verify(path: Path) -> None:
-    """LogError unless the log ends with its footer and every chunk in it decompresses to its size and CRC."""
+    """LogError unless the log ends with its footer, every record of its data section starts with a known opcode,
+    every chunk in it decompresses to its size and CRC and every chunk its index names is where it says."""
     with open_log(path) as stream:
-        _strict_summary(path, reader_of(stream), stream)
-        offset = len(MAGIC)
-        for offset, opcode, body in _top_records(stream):
-            if opcode in (Opcode.DATA_END, Opcode.FOOTER):
-                return
-            if opcode == Opcode.CHUNK:
-                try:
-                    _chunk_data(body)
-                except Exception as exc:  # see messages
-                    raise damaged(path, f"chunk at byte {offset}: {_reason(exc)}") from None
-        raise damaged(path, f"a record at byte {offset} runs past the end of the file")
+        for _ in _checked(path, stream):
+            pass
+
+
+def _checked(path: Path, stream: IO[bytes]) -> Iterator[tuple[int, bytes]]:
+    """(offset, its records) of each top-level record of the data section, checked as `verify` says: a chunk's
+    records decompressed, any other record as it stands; LogError at the first damage."""
+    summary = _strict_summary(path, reader_of(stream), stream)
+    indexed = {c.chunk_start_offset for c in summary.chunk_indexes} if summary is not None else set()
+    offset = len(MAGIC)
+    for offset, opcode, body in _top_records(stream):
+        if opcode in (Opcode.DATA_END, Opcode.FOOTER):
+            _all_found(path, indexed)
+            return
+        if opcode not in KNOWN_OPCODES and opcode < USER_OPCODES:  # zeroed or overwritten where a record starts
+            raise damaged(path, f"no MCAP record at byte {offset} (opcode {opcode:#04x})")
+        indexed.discard(offset)
+        if opcode != Opcode.CHUNK:
+            yield offset, PREFIX.pack(opcode, len(body)) + body
+            continue
+        try:
+            records = _chunk_data(body)
+        except Exception as exc:  # see messages
+            raise damaged(path, f"chunk at byte {offset}: {_reason(exc)}") from None
+        yield offset, records
+    raise damaged(path, f"a record at byte {offset} runs past the end of the file")
+
+
+def _all_found(path: Path, indexed: set[int]) -> None:
+    """LogError if the index names a chunk the file does not hold where it says."""
+    if indexed:
+        raise damaged(path, f"the index names a chunk at byte {min(indexed)} that is not there")
 
 
 def open_log(path: Path) -> IO[bytes]:
@@ -273,9 +303,13 @@ def _top_records(stream: IO[bytes]) -> Iterable[tuple[int, int, bytes]]:
 
 def _parsed(opcode: int, body: bytes, channels: dict[int, Channel]) -> list[tuple[int, int, bytes]]:
     """(channel id, log time, data) of the messages of one top-level record (a chunk: all of them, or an exception
-    if it is damaged, a message on a channel not yet described included); channel records found on the way are
-    entered in channels."""
-    inner = _chunk_data(body) if opcode == Opcode.CHUNK else PREFIX.pack(opcode, len(body)) + body
+    if it is damaged); channel records found on the way are entered in channels."""
+    return _records_in(_chunk_data(body) if opcode == Opcode.CHUNK else PREFIX.pack(opcode, len(body)) + body, channels)
+
+
+def _records_in(inner: bytes, channels: dict[int, Channel]) -> list[tuple[int, int, bytes]]:
+    """(channel id, log time, data) of the messages in a run of records (a chunk's, decompressed); channel records
+    are entered in channels; an exception for a record cut short or a message on a channel not yet described."""
     out = []
     offset = 0
     while offset < len(inner):

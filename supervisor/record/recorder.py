@@ -13,6 +13,8 @@ the writer, counted (`refused`) and named in one warning when the recorder close
 
 from __future__ import annotations
 
+import contextlib
+import errno
 import fcntl
 import json
 import logging
@@ -32,7 +34,7 @@ from comms.records.messages import Message
 from comms.records.records import LinkEvent
 from comms.records.schemas import schema_for
 from comms.records.state import StateReport
-from supervisor.errors import ScenarioError
+from supervisor.errors import LogWriteError, ScenarioError
 from supervisor.record.fast_mcap import FastWriter
 from supervisor.record.scene.foxglove_schemas import MESSAGE_ENCODING, SCHEMA_ENCODING, schema_data, schema_name
 from supervisor.record.scene.scene import FleetScene
@@ -118,6 +120,7 @@ class Recorder:
         self.scene_count = 0
         self.horizon = LAST_NS / 1e9  # s: the latest time recorded (limit() sets the run's)
         self.refused: Counter[tuple[str, str]] = Counter()  # (key, why) of the messages not recorded
+        self.failed = False  # the file could not be written (the disk full): close() writes nothing more
         self.flush()  # magic and header on disk: even a run killed at once leaves a recoverable (empty) MCAP
 
     def _channel(self, key: str) -> int:
@@ -188,12 +191,13 @@ class Recorder:
     def _add(self, key: str, t: float, data: bytes) -> None:
         channel = self._channels.get(key)
         self._sequence += 1
-        self._writer.add(
-            channel if channel is not None else self._channel(key),
-            seconds_to_ns(float(t)),
-            data,
-            self._sequence % SEQUENCES,
-        )
+        try:
+            self._writer.add(
+                channel if channel is not None else self._channel(key), seconds_to_ns(float(t)), data,
+                self._sequence % SEQUENCES,
+            )  # fmt: skip
+        except OSError as exc:  # a chunk full: written now
+            raise self._cannot_write(exc) from None
         self.count += 1
         if time.monotonic() >= self._deadline:
             self.flush()
@@ -219,10 +223,30 @@ class Recorder:
         Writer.flush (public API of mcap, here 1.6.0) writes a chunk only if it holds a message: flushing an idle
         recorder costs nothing.
         """
-        self._writer.flush()
+        try:
+            self._writer.flush()
+        except OSError as exc:
+            raise self._cannot_write(exc) from None
         self._deadline = time.monotonic() + FLUSH_INTERVAL
 
+    def note(self, name: str, data: dict[str, str]) -> None:
+        """An MCAP metadata record (what the log is drawn from: supervisor.record.provenance)."""
+        try:
+            self._writer.add_metadata(name, data)
+        except OSError as exc:
+            raise self._cannot_write(exc) from None
+
+    def _cannot_write(self, exc: OSError) -> LogWriteError:
+        """One line for a log that cannot take more (ENOSPC: the disk full); the log is left as it stands, for
+        `cpf recover`, and close() then writes nothing more (it would fail again, with a traceback per attempt)."""
+        self.failed = True
+        why = "no space left on device" if exc.errno == errno.ENOSPC else f"cannot write ({exc.strerror or exc})"
+        return LogWriteError(f"{why} writing {self.path}; `cpf recover {self.path}` keeps what was written")
+
     def close(self) -> None:
+        if self.failed:
+            self._abandon()
+            return
         if not self._stream.closed:
             live, self.live = self.live, None  # the log's scene is the log's: the live view has its own
             try:
@@ -236,6 +260,13 @@ class Recorder:
                 live.finish()
             if self.refused:
                 log.warning("%s: %d message(s) not recorded: %s", self.path, self.refused.total(), self._refusals())
+
+    def _abandon(self) -> None:
+        """Close a log that could not be written without writing more: the flush of its buffer fails again and is
+        let go (the file then holds whole chunks up to the failure, what cpf recover reads); the file is closed
+        whatever the flush did (io's close closes the descriptor even when its flush raises)."""
+        with contextlib.suppress(OSError, ValueError):
+            self._stream.close()
 
     def _write_scene(self) -> None:
         """The run's Foxglove scene, built from every record written, after them (MCAP readers order by log time)."""

@@ -27,6 +27,7 @@ from mcap.records import Attachment, Channel, Chunk, DataEnd, Footer, Header, Mc
 from mcap.writer import CompressionType, Writer
 
 from supervisor.errors import CorruptRecord, RecoveryError
+from supervisor.record.provenance import RECOVERED
 from supervisor.record.records import (
     MAGIC,
     PREFIX,
@@ -258,6 +259,7 @@ def recover(src: Path, dst: Path) -> RecoveryReport:
             with partial.open("wb") as out:
                 writer = Writer(out, compression=CompressionType.ZSTD)
                 report = _copy(src, source, writer)
+                writer.add_metadata(RECOVERED, {"source": str(src), "kept": report.describe()})  # for cpf report
                 writer.finish()
             partial.replace(dst)
         finally:

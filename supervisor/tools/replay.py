@@ -271,7 +271,9 @@ def _records(
     playable: dict[str, bool] = {}
     begin, until = None if start is None else seconds_to_ns(start), None if end is None else seconds_to_ns(end)
     # The log's Foxglove scene (record.scene) is its view of the run: no run publishes it on the bus.
-    for topic, stamp, message in messages(path, lambda topic: scene or not is_scene_topic(topic), begin, until):
+    for topic, stamp, message in messages(
+        path, lambda topic: scene or not is_scene_topic(topic), begin, until, verified=True
+    ):
         if topic not in playable:
             playable[topic] = _playable(topic)
         yield topic, stamp, message if playable[topic] and isinstance(message, dict) else None
@@ -283,11 +285,11 @@ def _bus_records(
     """The window's records in the form a live run publishes them (supervisor.tools.replay_bus), after what a subscriber
     needs first when the window starts late (latest meta and graph, faults in force), stamped at its start. Records
     not to be published are counted as skipped. feed: where each record goes, in its log form (and the log's scene)."""
-    meta = next((m for _, _, m in messages(path, lambda topic: topic == META_KEY)), None)
+    meta = next((m for _, _, m in messages(path, lambda topic: topic == META_KEY, verified=True)), None)
     start = window[0]
     if start is not None and start > 0:
         begin = seconds_to_ns(start)
-        before = messages(path, lambda topic: topic in LATCHED or topic == PATHS_TOPIC, None, begin - 1)
+        before = messages(path, lambda topic: topic in LATCHED or topic == PATHS_TOPIC, None, begin - 1, verified=True)
         for topic, _, message in _latched(before, feed):
             if feed is not None:
                 feed.hold((topic, begin, message))
