@@ -9,7 +9,7 @@ import logging
 import os
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from supervisor.cli.outputs import output_errors
 from supervisor.cli.parser import START_TIMEOUT
@@ -177,8 +177,6 @@ def _input_lines(scenario: Scenario, result: RunResult) -> str | None:
 def _report_run(args: argparse.Namespace, scenario: Scenario, result: RunResult, out: Path) -> None:
     """The run's headline, summary per phase and per link (and realtime timing) on stdout; --metrics as JSON."""
     from supervisor.analysis.comms_summary import comms_summary, format_comms, format_malformed
-    from supervisor.analysis.input_limits import at_input_limits, input_limits_metrics
-    from supervisor.analysis.metrics import finite
     from supervisor.analysis.saturation_summary import at_limit, format_limits
     from supervisor.analysis.summary import format_summary, summarize
     from supervisor.config.derived import intervals, tube_radius
@@ -200,20 +198,30 @@ def _report_run(args: argparse.Namespace, scenario: Scenario, result: RunResult,
         if lines is not None:
             print(lines)
     print(format_comms(comms))
-    if result.realtime is not None:
-        print(format_timing(result.realtime))
-    malformed = format_malformed(result.malformed or {})
-    if malformed is not None:
-        print(malformed)
+    for line in (
+        format_timing(result.realtime) if result.realtime is not None else None,
+        format_malformed(result.malformed or {}, result.drop_causes or {}),
+    ):
+        if line is not None:
+            print(line)
     if args.metrics:
-        args.metrics.parent.mkdir(parents=True, exist_ok=True)
-        metrics = {"coordination": summary.as_dict(), "comms": comms.as_dict(), "links": result.link_counts}
-        if result.realtime is not None:
-            metrics["realtime"] = result.realtime
-        if result.malformed is not None:
-            metrics["malformed"] = result.malformed  # reader -> key -> messages it dropped
-        metrics |= input_limits_metrics(at_input_limits(scenario, result.series))
-        args.metrics.write_text(json.dumps(finite(metrics), indent=2, allow_nan=False))
+        _write_metrics(args.metrics, scenario, result, {"coordination": summary.as_dict(), "comms": comms.as_dict()})
+
+
+def _write_metrics(path: Path, scenario: Scenario, result: RunResult, metrics: dict[str, Any]) -> None:
+    """--metrics: the summary's numbers (metrics), the links' counts, the drops, the inputs at their limits."""
+    from supervisor.analysis.input_limits import at_input_limits, input_limits_metrics
+    from supervisor.analysis.metrics import finite
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    metrics["links"] = result.link_counts
+    if result.realtime is not None:
+        metrics["realtime"] = result.realtime
+    if result.malformed is not None:
+        metrics["malformed"] = result.malformed  # reader -> key -> messages it dropped
+        metrics["dropped_by_cause"] = result.drop_causes or {}  # reader -> cause -> messages it dropped
+    metrics |= input_limits_metrics(at_input_limits(scenario, result.series))
+    path.write_text(json.dumps(finite(metrics), indent=2, allow_nan=False))
 
 
 def vehicle(args: argparse.Namespace) -> int:

@@ -92,6 +92,7 @@ def run_zenoh(
     return RunResult(  # rec.count once the log is closed: the stop message and the vehicles' reports come last
         builder.series(), wall, rec.count, books.counts, books.stats.snapshot(run.t), books.lambda2, builder.ages,
         stepping, timing.as_dict() if timing is not None else None, run.intake.counts(), rec.scene_count,
+        run.intake.causes(),
     )  # fmt: skip
 
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import logging
 import math
-from collections import Counter, deque
+from collections import deque
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import TypeVar
@@ -20,6 +20,7 @@ from typing import TypeVar
 from comms.broker.windows import report_of
 from comms.bus.bus import Publishers, Received
 from comms.records.bus_records import Step, log_json, read_events, read_window
+from comms.records.drops import Drops
 from comms.records.events import LinkEvents
 from comms.records.messages import (
     COMMS_DONE_KEY,
@@ -41,6 +42,7 @@ from comms.records.receptions import RxBatch
 from comms.records.records import LinkEvent, Transmission
 from comms.records.reports import CommsDone, CommsStats, VehicleDone
 from comms.records.state import StateReport
+from comms.records.stream import in_stream
 from supervisor.analysis.comms_summary import BY_NO_KEY
 from supervisor.analysis.series import SeriesBuilder
 from supervisor.config.derived import steps_of
@@ -107,12 +109,15 @@ class Intake:
         self.last_report: dict[int, StateReport] = {}  # a restarted vehicle resumes from it (last_state)
         self.last_seq: dict[int, int] = {}  # ... and numbers its transmissions on from this
         self.next_tx: dict[int, tuple[int, int]] = {}  # vehicle -> (latest step, first step it may transmit at)
+        self.taken: dict[int, int] = {}  # vehicle -> its latest step taken: each step once, in order (in_stream)
         self.done: CommsDone | None = None  # the current broker's end-of-run report
         self.broker_events = 0  # link events published by the current broker
         self.windows: deque[float] = deque()  # steps' times whose lambda_2 waits for their deliveries (window)
         self.events_t = -math.inf  # the latest link events message's time: every delivery up to it is booked
-        self.malformed: Counter[str] = Counter()  # key -> messages the supervisor dropped
+        self.drops = Drops(log, SUPERVISOR, logging.DEBUG)  # what the supervisor dropped, by key and by cause
+        self.malformed = self.drops.by_key  # key -> messages the supervisor dropped
         self.reports: dict[str, dict[str, int]] = {}  # reader -> key -> messages it dropped (broker, vehicles)
+        self.report_causes: dict[str, dict[str, int]] = {}  # reader -> cause -> messages it dropped
 
     def take(self, item: Received, t: float) -> None:
         """One message from the bus (t: the supervisor's time, unused: every message recorded carries its own).
@@ -120,9 +125,8 @@ class Intake:
         try:
             if self.timing is not None or not self._typed(item.key, item.payload):
                 self._take(item.key, decode(item.payload))
-        except ValueError as exc:
-            self.malformed[item.key] += 1
-            log.debug("dropped a malformed message on %s: %s", item.key, exc)
+        except (ValueError, RecursionError) as exc:  # RecursionError: never past the bounded reader, counted if so
+            self.drops.drop(item.key, exc)
 
     def _take(self, key: str, message: Message) -> None:
         owned = vehicle_of_key(key)
@@ -205,6 +209,10 @@ class Intake:
         """reader -> key -> malformed messages it dropped: the supervisor's own, and every report that came in."""
         return {SUPERVISOR: dict(sorted(self.malformed.items())), **dict(sorted(self.reports.items()))}
 
+    def causes(self) -> dict[str, dict[str, int]]:
+        """reader -> cause -> messages it dropped (comms.records.drops): the supervisor's own, and the reports'."""
+        return {SUPERVISOR: dict(sorted(self.drops.by_cause.items())), **dict(sorted(self.report_causes.items()))}
+
     def _window(self, vid: int, message: Message) -> None:
         """A vehicle's step message, of one step or of a lockstep time window: each step's records, in order, as
         one step at a time writes them; and the first step at which it may transmit next (the clock's windows)."""
@@ -226,6 +234,7 @@ class Intake:
         raw, tx, rx = split_step(message)
         state = StateReport.from_message(raw, vid)
         self.bounds.step(state.k, state.t)
+        self._in_stream(state)
         for held in state.estimate_age:
             self.bounds.vehicle(held.vehicle)
         transmission = self._part(tx_key(vid), lambda: self._tx(tx, vid)) if tx is not None else None
@@ -247,6 +256,7 @@ class Intake:
         _step's, in _step's order), and the records written in their log form straight from the typed ones."""
         state = step.state.check(vid)
         self.bounds.step(state.k, state.t)
+        self._in_stream(state)
         for held in state.estimate_age:
             self.bounds.vehicle(held.vehicle)
         tx, rx = step.tx, step.rx
@@ -259,6 +269,12 @@ class Intake:
         self.rec.write_state(state_key(vid), state.t, log_json(state), state)
         self._book(state)
 
+    def _in_stream(self, state: StateReport) -> None:
+        """ValueError (dropped) unless the state is its vehicle's next step (comms.records.stream): no replay is
+        recorded."""
+        in_stream(state.k, self.taken.get(state.vehicle), None)
+        self.taken[state.vehicle] = state.k
+
     def _typed_tx(self, tx: Transmission, vid: int) -> Transmission:
         tx.check(vid)
         self.bounds.time(tx.t, "the transmission's")
@@ -269,8 +285,7 @@ class Intake:
         try:
             return read()
         except ValueError as exc:
-            self.malformed[key] += 1
-            log.debug("dropped a malformed part of a step message on %s: %s", key, exc)
+            self.drops.drop(key, exc, "part of a step message")
             return None
 
     def _tx(self, message: Message, vid: int) -> Transmission:
@@ -315,9 +330,8 @@ class Intake:
         if not 0 <= events.k <= self.bounds.steps:
             raise ValueError("the batch's step is outside the run")
         self.broker_events += len(events.events) + len(unread)
-        if unread:  # a key gets an entry only for what was dropped on it
-            self.malformed[COMMS_EVENTS_KEY] += len(unread)
-            log.debug("dropped %d link events that do not read: %s", len(unread), unread)
+        for exc in unread:  # a key gets an entry only for what was dropped on it
+            self.drops.drop(COMMS_EVENTS_KEY, exc, "link event")
         booked = self._checked_events(events.events)
         for event in booked:
             self.rec.write(COMMS_EVENT_KEY, event.t, event_message(event))
@@ -348,8 +362,7 @@ class Intake:
             try:
                 booked.append(self._event(event))
             except ValueError as exc:
-                self.malformed[COMMS_EVENTS_KEY] += 1
-                log.debug("dropped a malformed link event: %s", exc)
+                self.drops.drop(COMMS_EVENTS_KEY, exc, "link event")
         return booked
 
     def _event(self, event: LinkEvent) -> LinkEvent:
@@ -372,6 +385,7 @@ class Intake:
         self.rec.write(COMMS_DONE_KEY, done.t, done.to_message())
         self.done = done
         self.reports[BROKER] = {BY_NO_KEY: done.malformed}
+        self.report_causes[BROKER] = dict(done.causes)
 
     def _vehicle_done(self, vid: int, message: Message) -> None:
         self.bounds.vehicle(vid)
@@ -379,3 +393,4 @@ class Intake:
         self.bounds.time(done.t, "the report's")
         self.rec.write(vehicle_done_key(vid), done.t, done.to_message())
         self.reports[f"vehicle {vid}"] = done.malformed
+        self.report_causes[f"vehicle {vid}"] = dict(done.causes)
