@@ -62,6 +62,7 @@ class _Books:
     published: int = 0
     drops: Drops = field(default_factory=lambda: Drops(log, "comms"))  # what the broker dropped, by key and cause
     taken: dict[int, int] = field(default_factory=dict)  # vehicle -> its latest step taken in
+    last: dict[int, StateReport] = field(default_factory=dict)  # vehicle -> its latest state taken in
 
     @property
     def malformed(self) -> int:
@@ -101,11 +102,19 @@ class Broker:
                 report = StateReport.from_message(message, owned[0])
                 # each step once, in order; one beyond the next tick would be held forever
                 in_stream(report.k, self.books.taken.get(report.vehicle), self.latest_tick + 2, self.submitted)
+                self._plausible(report)
                 self.books.taken[report.vehicle] = report.k
                 self.books.states.setdefault(report.k, {})[report.vehicle] = (report, self._tx(message, owned[0]))
                 self.grants.report(report.vehicle, report.k, _next_tx(message))
         except (ValueError, RecursionError) as exc:  # RecursionError: never past the bounded reader, counted if so
             self.books.drops.drop(key, exc)
+
+    def _plausible(self, report: StateReport) -> None:
+        """ValueError (dropped: implausible) for a state beyond its vehicle's bounds: it never reaches the channel."""
+        bounds = self.core.plausible.get(report.vehicle)
+        if bounds is not None:
+            bounds.check(report, self.books.last.get(report.vehicle), self.dt)
+        self.books.last[report.vehicle] = report
 
     def _tx(self, message: dict[str, object], vehicle: int) -> Transmission | None:
         """The transmission a step message carries; a malformed one is counted and dropped, the state still counts."""

@@ -13,6 +13,8 @@ STALE = "stale step"  # a step the reader is already past (its transmissions in 
 BEYOND_WINDOW = "beyond the window"  # a step the clock has not granted yet
 NOT_FINITE = "not finite"  # NaN or inf where a number must be one (comms.records.fields.Finite)
 IMPLAUSIBLE = "implausible"  # beyond what the vehicle's own model and the step allow (supervisor.config.plausibility)
+FAULTY = "faulty vehicle"  # anything more from a vehicle whose state was not finite or implausible: it is lost
+VEHICLE_FAULTS = (NOT_FINITE, IMPLAUSIBLE)  # causes that make a vehicle's state its fault (on_vehicle_loss decides)
 
 
 def in_stream(k: int, taken: int | None, granted: int | None, past: int | None = None) -> None:

@@ -14,11 +14,11 @@ import logging
 import math
 from collections import deque
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass
 from typing import TypeVar
 
 from comms.broker.windows import report_of
 from comms.bus.bus import Publishers, Received
+from comms.records.bounded import cause_of, dropped
 from comms.records.bus_records import Step, log_json, read_events, read_window
 from comms.records.drops import Drops
 from comms.records.events import LinkEvents
@@ -42,58 +42,22 @@ from comms.records.receptions import RxBatch
 from comms.records.records import LinkEvent, Transmission
 from comms.records.reports import CommsDone, CommsStats, VehicleDone
 from comms.records.state import StateReport
-from comms.records.stream import in_stream
+from comms.records.stream import FAULTY, VEHICLE_FAULTS, in_stream
 from supervisor.analysis.comms_summary import BY_NO_KEY
 from supervisor.analysis.series import SeriesBuilder
 from supervisor.config.derived import steps_of
 from supervisor.config.fleet import link_stats
-from supervisor.config.scenario_schema import GraphSwitchFault, Scenario
+from supervisor.config.plausibility import plausibility
+from supervisor.config.scenario_schema import Scenario
 from supervisor.engine.books import LinkBooks
 from supervisor.engine.realtime_timing import RealtimeTiming
-from supervisor.record.recorder import TIME_MARGIN, Recorder
+from supervisor.engine.run_bounds import RunBounds
+from supervisor.record.recorder import Recorder
 
 log = logging.getLogger("cpf.engine")
 T = TypeVar("T")
 SUPERVISOR = "supervisor"
 BROKER = "broker"
-
-
-@dataclass(frozen=True, slots=True)
-class RunBounds:
-    """What a message must fit: the fleet, the links any graph of the run has, the steps and their times."""
-
-    vehicles: frozenset[int]
-    links: frozenset[tuple[int, int]]
-    steps: int
-    dt: float
-    end: float  # s: the latest time a message may carry (the run's end, and the recorder's margin)
-
-    @classmethod
-    def of(cls, sc: Scenario) -> RunBounds:
-        graphs = [sc.graph.edges, *(f.edges for f in sc.faults if isinstance(f, GraphSwitchFault))]
-        links = {(int(i), int(j)) for edges in graphs for i, j in edges}
-        steps = steps_of(sc)
-        both = links | {(j, i) for i, j in links}
-        return cls(frozenset(sc.vehicle_ids), frozenset(both), steps, sc.scenario.step, steps * sc.scenario.step)
-
-    def time(self, t: float, what: str) -> None:
-        if not 0.0 <= t <= self.end + TIME_MARGIN:
-            raise ValueError(f"{what} t = {t:g} s is outside the run (0 to {self.end:g} s)")
-
-    def step(self, k: int, t: float) -> None:
-        """A vehicle's step k, at t = k dt (up to rounding): the supervisor's ticks say so."""
-        if not 0 <= k < self.steps:
-            raise ValueError(f"step {k} is outside the run (0 to {self.steps - 1})")
-        if abs(t - k * self.dt) > 1e-9 * max(1.0, k * self.dt):
-            raise ValueError(f"t = {t:g} s is not the time of step {k} ({k * self.dt:g} s)")
-
-    def vehicle(self, vid: int) -> None:
-        if vid not in self.vehicles:
-            raise ValueError(f"no vehicle {vid} in the run")
-
-    def link(self, sender: int, receiver: int) -> None:
-        if (sender, receiver) not in self.links:
-            raise ValueError(f"no link {sender}->{receiver} in any graph of the run")
 
 
 class Intake:
@@ -110,6 +74,9 @@ class Intake:
         self.last_seq: dict[int, int] = {}  # ... and numbers its transmissions on from this
         self.next_tx: dict[int, tuple[int, int]] = {}  # vehicle -> (latest step, first step it may transmit at)
         self.taken: dict[int, int] = {}  # vehicle -> its latest step taken: each step once, in order (in_stream)
+        self.plausible = plausibility(sc)  # vehicle -> its bounds (comms.records.plausible)
+        self.faulty: dict[int, str] = {}  # vehicle -> why its state was its fault (not finite, implausible)
+        self.faults_told: set[int] = set()  # ... those the supervisor has acted on
         self.done: CommsDone | None = None  # the current broker's end-of-run report
         self.broker_events = 0  # link events published by the current broker
         self.windows: deque[float] = deque()  # steps' times whose lambda_2 waits for their deliveries (window)
@@ -127,6 +94,27 @@ class Intake:
                 self._take(item.key, decode(item.payload))
         except (ValueError, RecursionError) as exc:  # RecursionError: never past the bounded reader, counted if so
             self.drops.drop(item.key, exc)
+            owned = vehicle_of_key(item.key)
+            if owned is not None and owned[1] == "state" and cause_of(exc) in VEHICLE_FAULTS:
+                self.faulty.setdefault(owned[0], f"{cause_of(exc)}: {exc}")
+
+    def new_faults(self) -> list[tuple[int, str]]:
+        """(vehicle, why) of each vehicle whose state was its fault since the last call: the run decides
+        (scenario.on_vehicle_loss)."""
+        new = [(vid, why) for vid, why in self.faulty.items() if vid not in self.faults_told]
+        self.faults_told.update(vid for vid, _ in new)
+        return new
+
+    def waiting_for(self, k: int, alive: list[int]) -> str:
+        """What a stall waits for: each vehicle whose state of step k is missing, and why its latest message on its
+        state key was dropped, if one was."""
+        missing = [v for v in alive if v not in self.states.get(k, ())]
+        said = [f"vehicle {v}" + self._last_drop(v) for v in missing]
+        return f"the state of step {k} of {', '.join(said) if said else 'every vehicle'}"
+
+    def _last_drop(self, vid: int) -> str:
+        why = self.drops.last.get(state_key(vid))
+        return "" if why is None else f" (its latest message was dropped: {why})"
 
     def _take(self, key: str, message: Message) -> None:
         owned = vehicle_of_key(key)
@@ -270,10 +258,16 @@ class Intake:
         self._book(state)
 
     def _in_stream(self, state: StateReport) -> None:
-        """ValueError (dropped) unless the state is its vehicle's next step (comms.records.stream): no replay is
-        recorded."""
-        in_stream(state.k, self.taken.get(state.vehicle), None)
-        self.taken[state.vehicle] = state.k
+        """ValueError (dropped) unless the state is its vehicle's next step (comms.records.stream: no replay is
+        recorded) and plausible (comms.records.plausible), from a vehicle not yet found faulty."""
+        vid = state.vehicle
+        if vid in self.faulty:
+            raise dropped(FAULTY, f"vehicle {vid} sent a state that was its fault before ({self.faulty[vid]})")
+        in_stream(state.k, self.taken.get(vid), None)
+        bounds = self.plausible.get(vid)
+        if bounds is not None:
+            bounds.check(state, self.last_report.get(vid), self.bounds.dt)
+        self.taken[vid] = state.k
 
     def _typed_tx(self, tx: Transmission, vid: int) -> Transmission:
         tx.check(vid)

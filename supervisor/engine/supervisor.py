@@ -112,6 +112,17 @@ class Supervisor:
                 if ended is not None:
                     self._lost(ended.name, ended.how_it_ended() or "")
             self.pump(min(0.2, max(0.0, end - now)))
+            for vid, why in self.intake.new_faults():
+                self._faulty(vid, why)
+
+    def _faulty(self, vid: int, why: str) -> None:
+        """A vehicle sent a state that is its fault (not finite, implausible: dropped and counted): lost, as a dead
+        process is, if the scenario goes on without a lost vehicle; else the run stops, naming it."""
+        if vid not in self.alive:
+            return
+        if self.sc.scenario.on_vehicle_loss == "abort":
+            raise SimulationError(f"vehicle {vid} sent a state the run cannot use at t = {self.t:.1f} s ({why})")
+        self._lost(f"vehicle {vid}", f"it sent a state the run cannot use: {why}")
 
     def _liveliness(self, change: str) -> None:
         sign, key = change[0], change[1:]
