@@ -10,6 +10,7 @@ fatal: the run reports the counts at its end, with those the broker and the vehi
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import math
 from collections import deque
@@ -96,7 +97,15 @@ class Intake:
             self.drops.drop(item.key, exc)
             owned = vehicle_of_key(item.key)
             if owned is not None and owned[1] == "state" and cause_of(exc) in VEHICLE_FAULTS:
-                self.faulty.setdefault(owned[0], f"{cause_of(exc)}: {exc}")
+                self._fault(owned[0], item.payload, exc)
+
+    def _fault(self, vid: int, payload: bytes, exc: BaseException) -> None:
+        """A state not finite or implausible is its vehicle's fault if it was its next step (a copy of an older
+        one, from whoever holds its credential, is only a replay: counted and dropped)."""
+        with contextlib.suppress(ValueError):
+            k = decode(payload).get("k")
+            if isinstance(k, int) and self.taken.get(vid, -1) < k < self.bounds.steps:
+                self.faulty.setdefault(vid, f"{cause_of(exc)}: {exc}")
 
     def new_faults(self) -> list[tuple[int, str]]:
         """(vehicle, why) of each vehicle whose state was its fault since the last call: the run decides
