@@ -21,9 +21,9 @@ def in_stream(k: int, taken: int | None, granted: int | None, past: int | None =
     """ValueError (dropped) unless step k comes after the vehicle's latest taken step (taken; None: none yet), after
     the step the reader is past (past; None: nothing), and before the first step the clock has not granted (granted;
     None: not known to this reader)."""
+    if taken is not None and k <= taken:  # first: a replay is named as such by every reader
+        raise dropped(REPLAYED, f"step {k} is not after step {taken}, already taken from this vehicle")
     if past is not None and k <= past:
         raise dropped(STALE, f"step {k} is not after step {past}, already past")
-    if taken is not None and k <= taken:
-        raise dropped(REPLAYED, f"step {k} is not after step {taken}, already taken from this vehicle")
     if granted is not None and k >= granted:
         raise dropped(BEYOND_WINDOW, f"step {k} is beyond the steps granted (up to {granted - 1})")
