@@ -116,3 +116,11 @@ def test_no_legitimate_run_comes_near_the_bounds(config: Path, tmp_path: Path) -
             half[now.vehicle].check(now, previous.get(now.vehicle), sc.scenario.step)
             previous[now.vehicle] = now
     assert previous and all(math.isfinite(r.gamma) for r in previous.values())
+
+
+def test_a_state_beyond_the_steps_the_clock_granted_is_dropped() -> None:
+    taking, rec = intake()
+    taking.granted = 2  # the clock granted steps 0 and 1
+    taking.take(Received(state_key(2), encode(state(1))), 0.0)
+    taking.take(Received(state_key(2), encode(state(2))), 0.0)
+    assert taking.drops.by_cause == {BEYOND_WINDOW: 1} and len(rec.records) == 1

@@ -76,6 +76,7 @@ class Intake:
         self.next_tx: dict[int, tuple[int, int]] = {}  # vehicle -> (latest step, first step it may transmit at)
         self.taken: dict[int, int] = {}  # vehicle -> its latest step taken: each step once, in order (in_stream)
         self.plausible = plausibility(sc)  # vehicle -> its bounds (comms.records.plausible)
+        self.granted: int | None = None  # the first step the clock has not granted yet (None: none granted)
         self.faulty: dict[int, str] = {}  # vehicle -> why its state was its fault (not finite, implausible)
         self.faults_told: set[int] = set()  # ... those the supervisor has acted on
         self.done: CommsDone | None = None  # the current broker's end-of-run report
@@ -272,7 +273,7 @@ class Intake:
         vid = state.vehicle
         if vid in self.faulty:
             raise dropped(FAULTY, f"vehicle {vid} sent a state that was its fault before ({self.faulty[vid]})")
-        in_stream(state.k, self.taken.get(vid), None)
+        in_stream(state.k, self.taken.get(vid), self.granted)
         bounds = self.plausible.get(vid)
         if bounds is not None:
             bounds.check(state, self.last_report.get(vid), self.bounds.dt)

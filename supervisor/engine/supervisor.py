@@ -83,6 +83,9 @@ class Supervisor:
     def publish(self, key: str, t: float, message: Message) -> None:
         self.intake.publish(self.pubs, key, t, message)
 
+    def grant(self, reach: int) -> None:
+        self.intake.granted = max(self.intake.granted or 0, reach)
+
     def record(self, key: str, t: float, message: Message) -> None:
         """On the record only: what the log keeps of a message that went on the bus in another form."""
         self.intake.rec.write(key, t, message)
