@@ -170,3 +170,16 @@ def test_brief_cuts_any_value_short() -> None:
     for _ in range(5000):
         deep = [deep]
     assert len(brief(deep)) < 40 and len(brief("x" * 10**6)) < 60
+
+
+def test_a_garbage_hello_reply_is_refused_as_such_not_as_no_answer() -> None:
+    """'no answer on its hello key' although an answer came (issue 29): the refusal says what came."""
+    from supervisor.engine.startup import check_hello
+    from supervisor.errors import ScenarioError
+
+    try:
+        read_hello(b"\x91" * 100 + b"\x01")
+    except ValueError as exc:
+        refused = exc
+    with pytest.raises(ScenarioError, match=r"vehicle 2 answered on its hello key with what is not a hello \(too deep"):
+        check_hello("vehicle 2", {}, refused)
