@@ -124,3 +124,16 @@ def test_a_state_beyond_the_steps_the_clock_granted_is_dropped() -> None:
     taking.take(Received(state_key(2), encode(state(1))), 0.0)
     taking.take(Received(state_key(2), encode(state(2))), 0.0)
     assert taking.drops.by_cause == {BEYOND_WINDOW: 1} and len(rec.records) == 1
+
+
+def test_a_plausible_state_carrying_an_absurd_transmission_loses_the_transmission() -> None:
+    """gamma 1e30 in the transmission only (issue 29: 'its tx too'): the neighbours never hear it; the state counts."""
+    tx = {"sender": 2, "seq": 1, "t": 0.0, "gamma": 1e30, "gamma_dot": 0.98, "position": [1.0, -2.0, 3.0],
+          "velocity": [1.2, 0.1, 0.0]}  # fmt: skip
+    taking, rec = intake()
+    taking.take(Received(state_key(2), encode({**state(0), "tx": tx})), 0.0)
+    assert taking.drops.by_key == {"cpf/vehicle/2/tx": 1} and taking.drops.by_cause == {IMPLAUSIBLE: 1}
+    assert [r[0] for r in rec.records] == [state_key(2)]
+    broker = Broker(broker_start(SCENARIO, 0).core, SCENARIO.vehicle_ids, RecordingPublishers(), DT)
+    broker.take(state_key(2), encode({**state(0), "tx": tx}))
+    assert broker.books.drops.by_cause == {IMPLAUSIBLE: 1} and broker.books.states[0][2][1] is None

@@ -104,7 +104,7 @@ class Broker:
                 in_stream(report.k, self.books.taken.get(report.vehicle), self.latest_tick + 2, self.submitted)
                 self._plausible(report)
                 self.books.taken[report.vehicle] = report.k
-                self.books.states.setdefault(report.k, {})[report.vehicle] = (report, self._tx(message, owned[0]))
+                self.books.states.setdefault(report.k, {})[report.vehicle] = (report, self._tx(message, report))
                 self.grants.report(report.vehicle, report.k, _next_tx(message))
         except (ValueError, RecursionError) as exc:  # RecursionError: never past the bounded reader, counted if so
             self.books.drops.drop(key, exc)
@@ -116,15 +116,19 @@ class Broker:
             bounds.check(report, self.books.last.get(report.vehicle), self.dt)
         self.books.last[report.vehicle] = report
 
-    def _tx(self, message: dict[str, object], vehicle: int) -> Transmission | None:
+    def _tx(self, message: dict[str, object], report: StateReport) -> Transmission | None:
         """The transmission a step message carries; a malformed one is counted and dropped, the state still counts."""
-        tx = message.get("tx")
+        tx, vehicle = message.get("tx"), report.vehicle
         if tx is None:
             return None
         try:
             if not isinstance(tx, dict):
                 raise ValueError("field 'tx' is not a map")
-            return parse_tx(tx, vehicle)
+            transmission = parse_tx(tx, vehicle)
+            bounds = self.core.plausible.get(vehicle)
+            if bounds is not None:
+                bounds.check_tx(transmission, report, self.dt)
+            return transmission
         except ValueError as exc:
             self.books.drops.drop(tx_key(vehicle), exc, "transmission")
             return None

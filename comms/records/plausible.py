@@ -12,6 +12,7 @@ import math
 from dataclasses import dataclass
 
 from comms.records.bounded import dropped
+from comms.records.records import Transmission
 from comms.records.state import StateReport
 from comms.records.stream import IMPLAUSIBLE
 
@@ -42,6 +43,17 @@ class Plausible:
             _refuse(report, f"moved {moved:.3g} m in {elapsed:.3g} s (at most {self.ground_speed:.3g} m/s)")
         if abs(report.gamma - previous.gamma) > self.gamma_dot * elapsed + SLACK:
             _refuse(report, f"gamma went {previous.gamma:.6g} -> {report.gamma:.3g} in {elapsed:.3g} s")
+
+    def check_tx(self, tx: Transmission, report: StateReport, dt: float) -> None:
+        """ValueError (dropped: implausible) for a transmission beyond the bounds, or further from the state of its
+        step than a step allows (its data goes to the neighbours: a plausible state must not carry an absurd one)."""
+        if (
+            abs(tx.gamma_dot) > self.gamma_dot
+            or abs(tx.gamma - report.gamma) > self.gamma_dot * dt + SLACK
+            or math.hypot(*tx.velocity) > self.ground_speed
+            or math.dist(tx.position, report.position) > self.ground_speed * dt + SLACK
+        ):
+            _refuse(report, f"its transmission (gamma {tx.gamma:.3g}, gamma_dot {tx.gamma_dot:.3g}) is not its state's")
 
 
 def _refuse(report: StateReport, why: str) -> None:

@@ -235,7 +235,7 @@ class Intake:
         self._in_stream(state)
         for held in state.estimate_age:
             self.bounds.vehicle(held.vehicle)
-        transmission = self._part(tx_key(vid), lambda: self._tx(tx, vid)) if tx is not None else None
+        transmission = self._part(tx_key(vid), lambda: self._tx(tx, vid, state)) if tx is not None else None
         batch = self._part(rx_key(vid), lambda: self._rx(rx, vid)) if rx is not None else None
         message = state.to_message()
         rx_message = batch.to_message() if batch is not None else None
@@ -258,7 +258,7 @@ class Intake:
         for held in state.estimate_age:
             self.bounds.vehicle(held.vehicle)
         tx, rx = step.tx, step.rx
-        transmission = self._part(tx_key(vid), lambda: self._typed_tx(tx, vid)) if tx is not None else None
+        transmission = self._part(tx_key(vid), lambda: self._typed_tx(tx, vid, state)) if tx is not None else None
         batch = self._part(rx_key(vid), lambda: self._fitting_rx(rx, vid)) if rx is not None else None
         if batch is not None:
             self.rec.write_json(rx_key(vid), batch.t, log_json(batch))
@@ -279,9 +279,10 @@ class Intake:
             bounds.check(state, self.last_report.get(vid), self.bounds.dt)
         self.taken[vid] = state.k
 
-    def _typed_tx(self, tx: Transmission, vid: int) -> Transmission:
+    def _typed_tx(self, tx: Transmission, vid: int, state: StateReport) -> Transmission:
         tx.check(vid)
         self.bounds.time(tx.t, "the transmission's")
+        self.plausible[vid].check_tx(tx, state, self.bounds.dt)  # (vid: the state's, one of the run's: plausible)
         return tx
 
     def _part(self, key: str, read: Callable[[], T]) -> T | None:
@@ -292,10 +293,8 @@ class Intake:
             self.drops.drop(key, exc, "part of a step message")
             return None
 
-    def _tx(self, message: Message, vid: int) -> Transmission:
-        tx = Transmission.from_message(message, vid)
-        self.bounds.time(tx.t, "the transmission's")
-        return tx
+    def _tx(self, message: Message, vid: int, state: StateReport) -> Transmission:
+        return self._typed_tx(Transmission.from_message(message, vid), vid, state)
 
     def _rx(self, message: Message, vid: int) -> RxBatch:
         return self._fitting_rx(RxBatch.from_message(message), vid)
