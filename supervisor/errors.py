@@ -5,14 +5,24 @@ class CpfError(Exception):
     """Root of every error cpf-cosim raises on purpose."""
 
 
+SHOWN_ERRORS = 20  # errors told one line each; the others counted (a fleet of 10,000 gave 29,234 lines)
+
+
+def shown(errors: list[str]) -> list[str]:
+    """The first SHOWN_ERRORS errors, and a line counting the rest if any."""
+    rest = len(errors) - SHOWN_ERRORS
+    return errors if rest <= 0 else [*errors[:SHOWN_ERRORS], f"... and {rest} more ({len(errors)} errors in all)"]
+
+
 class ScenarioError(CpfError):
     """The scenario (file or command-line override) is invalid: set-up never started. Exit code 2.
 
-    errors: every error found, one line each (the message is these lines; the first is the usual one-line error).
+    errors: every error found, one line each (the message is the first SHOWN_ERRORS of these lines and a count of the
+    others; the first is the usual one-line error).
     """
 
     def __init__(self, message: str, errors: list[str] | None = None) -> None:
-        super().__init__(message)
+        super().__init__("\n".join(shown(errors)) if errors else message)
         self.errors: list[str] = list(errors) if errors else str(message).splitlines()
 
 

@@ -6,6 +6,7 @@ Three vehicles over 100 s (1 s steps); vehicle 3 is down on [40, 60) s, the phas
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -122,3 +123,19 @@ def test_a_fleet_that_never_settles_is_said_in_words() -> None:
     assert "coordination error never below 0.01 to the end of the first phase" in text
     assert "coordination error never below 0.01 to the end of the last phase" in text
     assert "never s" not in text
+
+
+@pytest.mark.parametrize("huge", [1e30, -1e300, math.inf, 123456.789])
+def test_the_summarys_columns_stay_aligned_whatever_the_values(huge: float) -> None:
+    """gamma and gamma_dot of 1e30 ran the columns together ('whole run 0-60 1e+30 9.62e+2998107965...', issue 29)."""
+    from supervisor.analysis.summary import PhaseStats, Summary
+
+    phase = PhaseStats("whole run", 0.0, 60.0, huge, huge, huge, (huge, 0.497, math.nan))
+    lines = format_summary(Summary((phase, phase), 0.5, 0.1, None, None, 0.01)).splitlines()
+    header, rows = lines[0], lines[1:3]
+    edges = [22, 36, 48, 60, 75]  # where each column ends (phase, span, max, end, path)
+    for row in rows:
+        for start, end in itertools.pairwise([0, *edges]):
+            assert row[end - 1] != " " or start == 0, (row, header)  # right-aligned: a value ends at its column's end
+            assert row[start] == " " or start == 0, (row, header)  # ... and leaves a space before it
+        assert len(row.split()) == 2 + 1 + 3 + 3  # 'whole run', span, three numbers, three rates

@@ -110,3 +110,30 @@ def test_cpf_run_prints_every_error_and_starts_nothing(tmp_path: Path) -> None:
         f"cpf: error: {bad}: scenario.step: must divide duration (400.0) into whole steps (1333.33 of them), got 0.3",
     ]
     assert not (tmp_path / "never.mcap").exists()
+
+
+def test_a_thousand_errors_print_the_first_twenty_and_a_count(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A fleet of 10,000 vehicles printed 29,234 error lines (issue 31): the first SHOWN_ERRORS, then how many more."""
+    from supervisor.cli import main
+    from supervisor.errors import SHOWN_ERRORS
+
+    vehicles = "".join(
+        f"[[vehicles]]\nid = {i}\nposition = [0.0, {i}.0, -10.0]\n"
+        f'path = {{ type = "line", start = [0.0, {i}.0, -10.0], velocity = [1.0, 0.0, 0.0] }}\n'
+        for i in range(1, 601)
+    )
+    edges = ", ".join(f"[{i}, {i + 1}]" for i in range(1, 600))
+    path = tmp_path / "fleet.toml"
+    path.write_text(f'[scenario]\nname = "fleet"\nduration = 1.0\nstep = 0.1\n[graph]\nedges = [{edges}]\n{vehicles}')
+    with pytest.raises(ScenarioError) as refused:
+        load_scenario(path)
+    found = len(refused.value.errors)
+    assert found > 600 and len(str(refused.value).splitlines()) == SHOWN_ERRORS + 1
+    assert main(["run", str(path), "--engine", "inprocess", "--out", str(tmp_path / "r.mcap")]) == 2
+    lines = capsys.readouterr().err.splitlines()
+    assert (
+        len(lines) == SHOWN_ERRORS + 1
+        and lines[-1] == f"cpf: error: ... and {found - SHOWN_ERRORS} more ({found} errors in all)"
+    )

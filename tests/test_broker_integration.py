@@ -212,7 +212,8 @@ def test_broker_relays_to_graph_neighbours_and_survives_malformed_messages(tmp_p
             for link, event in delivered.items():
                 assert event["t"] == arrivals[link] and event.get("delay") == pytest.approx(arrivals[link])
 
-            # three malformed messages: garbage, a transmission on another vehicle's key, a state without position
+            # three malformed messages: garbage, a transmission on another vehicle's key (its state taken), a state
+            # without position; then vehicle 2's step 1 again (a replay: dropped, counted)
             put_raw(session, state_key(2), b"\xc1 this is not msgpack")
             pubs.put(state_key(2), step_message(states[2] | {"k": 1, "tx_seq": 0}, sent[3], None))  # another's packet
             pubs.put(state_key(1), {k: v for k, v in states[1].items() if k != "position"} | {"k": 1})
@@ -230,7 +231,8 @@ def test_broker_relays_to_graph_neighbours_and_survives_malformed_messages(tmp_p
             pubs.put(TICK_KEY, tick_message(3, 0.3, True))
             done = listener.next(COMMS_DONE_KEY)
             assert_valid(done, COMMS_DONE_KEY)
-            assert done == {"t": 0.3, "k": 3, "events": 8, "malformed": 3}
+            causes = {"malformed": 2, "replayed step": 1, "undecodable": 1}
+            assert done == {"t": 0.3, "k": 3, "events": 8, "malformed": 4, "causes": causes}
             assert listener.pending(COMMS_EVENTS_KEY) == 0  # nothing was left in flight
             # link statistics: only the final snapshot (a run shorter than one window), books balanced
             stats = listener.next(COMMS_STATS_KEY)
@@ -247,7 +249,7 @@ def test_broker_relays_to_graph_neighbours_and_survives_malformed_messages(tmp_p
             pubs.put(STOP_KEY, {"t": 0.3, "reason": "end of test"})
             assert exit_code(proc, log) == 0
     text = log.read_text()
-    assert text.count("dropped a malformed message") == 2 and text.count("dropped a malformed transmission") == 1
+    assert text.count("dropped a message") == 3 and text.count("dropped a transmission") == 1
 
 
 def test_broker_exits_by_itself_when_the_supervisor_disappears(tmp_path):

@@ -24,13 +24,18 @@ REPORT = StateReport(
 
 
 def test_a_state_is_booked_only_when_it_reads_as_a_state(tmp_path: Path) -> None:
-    """A state the record refuses (a position that is not finite) is on the record but not booked as stepped."""
+    """A state the record refuses (a position that is not finite) is not booked as stepped; as its vehicle's next
+    step, it is the vehicle's fault (issue 29): what follows from it is dropped, and the run decides
+    (scenario.on_vehicle_loss); a state that reads is booked."""
     sc = parse_scenario((CONFIGS / "paper.toml").read_text())
     with Recorder(tmp_path / "run.mcap") as rec:
         intake = Intake(sc, rec, None)
         broken = {**REPORT.to_message(), "position": [math.nan, 0.0, 0.0]}
         intake.take(Received(state_key(1), encode(step_message(broken, None, None))), 0.1)
-        assert intake.states == {} and intake.last_seq == {}
+        assert intake.states == {} and intake.last_seq == {} and list(intake.faulty) == [1]
+        intake.take(Received(state_key(1), encode(step_message(REPORT.to_message(), None, None))), 0.1)
+        assert intake.states == {} and intake.drops.by_cause == {"not finite": 1, "faulty vehicle": 1}
+        intake = Intake(sc, rec, None)
         intake.take(Received(state_key(1), encode(step_message(REPORT.to_message(), None, None))), 0.1)
         assert intake.states == {1: {1}} and intake.last_seq == {1: 6}
 

@@ -562,3 +562,20 @@ def test_a_stats_snapshot_that_does_not_read_is_one_line_naming_its_field(tmp_pa
     with pytest.raises(ScenarioError, match=r"run\.mcap: cpf/comms/stats: .*'window'") as caught:
         run_metrics(load_run(path))
     assert len(str(caught.value).splitlines()) == 1
+
+
+def test_a_record_the_report_cannot_use_is_named_and_skipped(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+    """A NaN gamma an older cpf logged as null refused the whole log ("field 'gamma' has type NoneType", issue 31):
+    the report names the record and goes on without it."""
+    path = tmp_path / "run.mcap"
+    with Recorder(path) as recorder:
+        recorder.write(META_KEY, 0.0, meta([]))
+        for k in range(STEPS):
+            for vehicle in VEHICLES:
+                message = state(vehicle, k * STEP)
+                recorder.write(state_key(vehicle), k * STEP, {**message, "gamma": None} if k == 7 else message)
+    run = load_run(path)
+    assert [run.vehicles[v].t.size for v in VEHICLES] == [STEPS - 1] * 3
+    said = [r.getMessage() for r in caplog.records]
+    assert any("cpf/vehicle/2/state" in line and "'gamma'" in line for line in said), said
+    assert any("3 records skipped" in line for line in said), said

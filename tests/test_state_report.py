@@ -12,6 +12,7 @@ from typing import Any
 import msgspec
 import pytest
 
+from comms.records.bounded import cause_of
 from comms.records.events import LinkEvents
 from comms.records.messages import Hello, decode, encode, rx_message, state_key, step_message, tick_message
 from comms.records.network import Network
@@ -37,6 +38,7 @@ from comms.records.schemas import (
     schema_for,
 )
 from comms.records.state import NeighbourAge, StateReport
+from comms.records.stream import NOT_FINITE
 from comms.records.tick import DisturbedVehicle, Tick
 from supervisor.record.meta import RunMeta
 from vehicles.dynamics import PLANAR, SPATIAL
@@ -80,12 +82,25 @@ def test_a_vehicle_state_message_reads_back_to_the_same_message(model):
     assert StateReport.from_message(step_message(message, None, None), 4) == report
 
 
-def test_the_diagnostics_need_not_be_finite_but_the_kinematics_must():
-    """A diverging controller's Lyapunov value is still reported; a position the channel cannot use is not."""
-    diverged = msgspec.structs.replace(REPORT, lyapunov=math.inf, tau=(math.nan, 0.0)).to_message()
-    assert StateReport.from_message(diverged, 3).lyapunov == math.inf
-    with pytest.raises(ValueError, match=r"position\[0\]"):
-        StateReport.from_message({**diverged, "position": [math.nan, 0.0, 0.0]}, 3)
+@pytest.mark.parametrize(
+    "field", ["gamma", "gamma_dot", "lyapunov", "correction", "tau", "error", "estimate_age", "position", "velocity"]
+)
+@pytest.mark.parametrize("value", [math.nan, math.inf, -math.inf], ids=["nan", "inf", "-inf"])
+def test_a_state_with_a_non_finite_number_anywhere_is_dropped_as_not_finite(field: str, value: float) -> None:
+    """A NaN or an infinity, in a diagnostic as in the kinematics, is dropped with its cause (issue 31): the log
+    could only write it as null, and no neighbour or figure could use it."""
+    message = REPORT.to_message()
+    held = message[field]
+    message[field] = (
+        [{**held[0], "age": value}]
+        if field == "estimate_age"
+        else [value, *held[1:]]
+        if isinstance(held, list)
+        else value
+    )
+    with pytest.raises(ValueError, match=field) as refused:
+        StateReport.from_message(message, 3)
+    assert cause_of(refused.value) == NOT_FINITE
 
 
 def test_the_transmission_schema_describes_exactly_the_fields_of_the_record():
@@ -133,9 +148,10 @@ RECORDS: dict[str, tuple[dict[str, Any], Any, Any, Callable[[Any], Any]]] = {
                     CommsStats(t=10.0, window=10.0, lambda2=0.0, links=()), CommsStats.from_message),
     "link books": (COMMS_STATS["properties"]["links"]["items"], LINK_BOOKS, LinkCounts(1, 2, 0, 0, {}),
                    LinkCounts.from_message),
-    "comms done": (COMMS_DONE, CommsDone(400.0, 4000, 123, 2), CommsDone(0.0, 0, 0, 0), CommsDone.from_message),
-    "vehicle done": (VEHICLE_DONE, VehicleDone(400.0, 4000, 2, {"cpf/clock/tick": 1}), VehicleDone(0.0, 0, 2, {}),
-                     lambda m: VehicleDone.from_message(m, 2)),
+    "comms done": (COMMS_DONE, CommsDone(400.0, 4000, 123, 2, {"replayed step": 2}), CommsDone(0.0, 0, 0, 0),
+                   CommsDone.from_message),
+    "vehicle done": (VEHICLE_DONE, VehicleDone(400.0, 4000, 2, {"cpf/clock/tick": 1}, {"undecodable": 1}),
+                     VehicleDone(0.0, 0, 2, {}), lambda m: VehicleDone.from_message(m, 2)),
     "run meta": (META, RUN_META, msgspec.structs.replace(RUN_META, vehicles=(), links=(), faults=(), versions={}),
                  RunMeta.from_message),
 }  # fmt: skip

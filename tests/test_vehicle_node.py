@@ -135,4 +135,4 @@ def test_a_realtime_batch_with_one_malformed_delivery_is_dropped_whole(clock: Fa
     message = rx_message(VID, 1, 0.05, [reception(0.04), reception(0.05)], lambda t: clock.now)
     del message["receptions"][1]["due"]
     serve_one(node, rx_key(VID), encode(message))
-    assert node.pending.live == [] and node.pending.malformed.total() == 1
+    assert node.pending.live == [] and node.pending.drops.total == 1

@@ -102,6 +102,9 @@ class Run:
     def carry_out(self, action: object, k: int) -> None:
         pass
 
+    def grant(self, reach: int) -> None:
+        self.granted = reach
+
 
 def clock(mode: str = "lockstep", longest: int | None = None) -> tuple[Clock, RecordingPublishers]:
     pubs = RecordingPublishers()

@@ -14,12 +14,12 @@ from __future__ import annotations
 
 import logging
 import time
-from collections import Counter
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 from comms.bus.bus import Ending, Extras, Publishers, Timed, serve
 from comms.channel.channel import intake_step
+from comms.records.drops import Drops
 from comms.records.messages import (
     COMMS_STEP_KEY,
     Message,
@@ -63,7 +63,7 @@ class _Pending:
     start_at: dict[int, float] = field(default_factory=dict)  # realtime: when to begin each step (wall clock)
     batches: dict[int, tuple[list[Heard], Message | None]] = field(default_factory=dict)  # by step
     live: list[_Live] = field(default_factory=list)  # realtime: receptions held until their step
-    malformed: Counter[str] = field(default_factory=Counter)  # key -> messages dropped
+    drops: Drops = field(default_factory=lambda: Drops(log, "vehicle"))  # what it dropped, by key and by cause
 
     def ready(self, k: int) -> bool:
         return k in self.ticks
@@ -137,7 +137,9 @@ class _Vehicle:
     def final_report(self) -> tuple[str, Message]:
         """Its end-of-run report (comms.bus.bus.serve publishes it on the stop message): what it dropped, by key."""
         vid = self.cfg.vehicle_id
-        report = VehicleDone(self.k * self.dt, self.k, vid, dict(sorted(self.pending.malformed.items())))
+        drops = self.pending.drops
+        by_key, by_cause = dict(sorted(drops.by_key.items())), dict(sorted(drops.by_cause.items()))
+        report = VehicleDone(self.k * self.dt, self.k, vid, by_key, by_cause)
         return vehicle_done_key(vid), report.to_message()
 
     def on_time(self) -> None:
@@ -190,9 +192,8 @@ def _take(key: str, payload: bytes, vid: int, pending: _Pending, dt: float, now:
                     pending.batches[k] = ([] if batch is None else RxBatch.from_message(batch).heard, batch)
         elif key == rx_key(vid):
             _file_rx(message, pending, dt, now())
-    except ValueError as exc:
-        pending.malformed[key] += 1
-        log.warning("vehicle %d: dropped a malformed message on %s: %s", vid, key, exc)
+    except (ValueError, RecursionError) as exc:  # RecursionError: never past the bounded reader, counted if so
+        pending.drops.drop(key, exc)
 
 
 def _file_rx(message: Message, pending: _Pending, dt: float, now: float) -> None:

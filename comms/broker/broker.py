@@ -23,6 +23,7 @@ from comms.broker.broker_core import BrokerCore
 from comms.broker.span import Grants
 from comms.bus.bus import Extras, Handler, Publishers, serve
 from comms.channel.channel import ARRIVAL_SLACK, intake_step
+from comms.records.drops import Drops
 from comms.records.events import LinkEvents
 from comms.records.messages import (
     COMMS_ALIVE,
@@ -40,11 +41,13 @@ from comms.records.messages import (
     parse_tx,
     rx_key,
     rx_message,
+    tx_key,
     vehicle_of_key,
 )
 from comms.records.records import Kinematics, LinkEvent, Reception, Transmission
 from comms.records.reports import CommsDone
 from comms.records.state import StateReport
+from comms.records.stream import in_stream
 
 log = logging.getLogger(__name__)
 
@@ -57,7 +60,14 @@ class _Books:
     raw_ticks: dict[int, dict[str, object]] = field(default_factory=dict)  # as received: forwarded to the vehicles
     states: dict[int, dict[int, tuple[StateReport, Transmission | None]]] = field(default_factory=dict)
     published: int = 0
-    malformed: int = 0
+    drops: Drops = field(default_factory=lambda: Drops(log, "comms"))  # what the broker dropped, by key and cause
+    taken: dict[int, int] = field(default_factory=dict)  # vehicle -> its latest step taken in
+    last: dict[int, StateReport] = field(default_factory=dict)  # vehicle -> its latest state taken in
+
+    @property
+    def malformed(self) -> int:
+        """Messages (and transmissions) dropped, whatever the cause."""
+        return self.drops.total
 
 
 class Broker:
@@ -90,27 +100,37 @@ class Broker:
                 self.latest_tick = max(self.latest_tick, tick.reach - 1)  # a window's (a span's) last step
             elif owned is not None and owned[1] == "state":
                 report = StateReport.from_message(message, owned[0])
-                if report.k > self.latest_tick + 1:  # a vehicle steps on a tick: kept, it would be held forever
-                    raise ValueError(f"step {report.k} is ahead of the clock (latest tick {self.latest_tick})")
-                if report.k > self.submitted:  # a late duplicate of a step already in the water is dropped
-                    self.books.states.setdefault(report.k, {})[report.vehicle] = (report, self._tx(message, owned[0]))
-                    self.grants.report(report.vehicle, report.k, _next_tx(message))
-        except ValueError as exc:
-            self.books.malformed += 1
-            log.warning("comms: dropped a malformed message on %s: %s", key, exc)
+                # each step once, in order; one beyond the next tick would be held forever
+                in_stream(report.k, self.books.taken.get(report.vehicle), self.latest_tick + 2, self.submitted)
+                self._plausible(report)
+                self.books.taken[report.vehicle] = report.k
+                self.books.states.setdefault(report.k, {})[report.vehicle] = (report, self._tx(message, report))
+                self.grants.report(report.vehicle, report.k, _next_tx(message))
+        except (ValueError, RecursionError) as exc:  # RecursionError: never past the bounded reader, counted if so
+            self.books.drops.drop(key, exc)
 
-    def _tx(self, message: dict[str, object], vehicle: int) -> Transmission | None:
+    def _plausible(self, report: StateReport) -> None:
+        """ValueError (dropped: implausible) for a state beyond its vehicle's bounds: it never reaches the channel."""
+        bounds = self.core.plausible.get(report.vehicle)
+        if bounds is not None:
+            bounds.check(report, self.books.last.get(report.vehicle), self.dt)
+        self.books.last[report.vehicle] = report
+
+    def _tx(self, message: dict[str, object], report: StateReport) -> Transmission | None:
         """The transmission a step message carries; a malformed one is counted and dropped, the state still counts."""
-        tx = message.get("tx")
+        tx, vehicle = message.get("tx"), report.vehicle
         if tx is None:
             return None
         try:
             if not isinstance(tx, dict):
                 raise ValueError("field 'tx' is not a map")
-            return parse_tx(tx, vehicle)
+            transmission = parse_tx(tx, vehicle)
+            bounds = self.core.plausible.get(vehicle)
+            if bounds is not None:
+                bounds.check_tx(transmission, report, self.dt)
+            return transmission
         except ValueError as exc:
-            self.books.malformed += 1
-            log.warning("comms: dropped a malformed transmission of vehicle %d: %s", vehicle, exc)
+            self.books.drops.drop(tx_key(vehicle), exc, "transmission")
             return None
 
     def advance(self) -> bool:
@@ -197,7 +217,8 @@ class Broker:
             self.unpublished += self.core.finish(tick.t)
             self._publish_events(tick)
             self._publish_stats(tick.t, final=True)
-            done = CommsDone(tick.t, tick.k, self.books.published, self.books.malformed)
+            drops = self.books.drops
+            done = CommsDone(tick.t, tick.k, self.books.published, drops.total, dict(sorted(drops.by_cause.items())))
             self.publishers.put(COMMS_DONE_KEY, done.to_message())
             return
         if tick.wall is not None:  # realtime: late deliveries go out as such; the batches message is the tick

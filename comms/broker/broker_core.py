@@ -9,12 +9,13 @@ statistics are kept all along and snapshotted every stats window.
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from comms.broker.stats import LinkStats
 from comms.channel.channel import Channel
 from comms.records.messages import Message
 from comms.records.network import Network
+from comms.records.plausible import Plausible
 from comms.records.records import Kinematics, LinkEvent, Reception, Transmission
 from comms.records.wire import decode_coordination, encode_coordination
 
@@ -24,6 +25,7 @@ class BrokerCore:
     channel: Channel
     neighbours: dict[int, list[int]]  # the current graph: who hears whom
     stats: LinkStats
+    plausible: dict[int, Plausible] = field(default_factory=dict)  # each vehicle's bounds (comms.records.plausible)
     _next_snapshot: float | None = None  # the first snapshot after one full window
     _alive: tuple[int, ...] | None = None  # the vehicles alive at the latest delivery (None: none yet, every one)
 

@@ -16,6 +16,7 @@ from typing import Any
 import msgspec
 import orjson
 
+from comms.records.bounded import MAX_BYTES
 from comms.records.events import LinkEvents
 from comms.records.receptions import RxBatch
 from comms.records.records import LinkEvent, Transmission
@@ -48,12 +49,18 @@ _STATE = msgspec.msgpack.Decoder(StateReport)
 _STEP = msgspec.msgpack.Decoder(StepWire)
 _PARTS = msgspec.msgpack.Decoder(PartsWire)
 _EVENTS = msgspec.msgpack.Decoder(LinkEvents)
-_MSGSPEC_REFUSES = (msgspec.DecodeError, msgspec.ValidationError)
+# What msgspec raises for a payload it will not read; RecursionError: its skipping of a deep value it does not keep
+# (an unknown field, an earlier step) counts its depth against the interpreter's limit. The bounded reader then
+# reads the payload again and names the cause (comms.records.bounded).
+_MSGSPEC_REFUSES = (msgspec.DecodeError, msgspec.ValidationError, RecursionError)
 
 
 def read_window(payload: bytes) -> tuple[list[Step], int | None] | None:
     """(the steps of a vehicle's step message, in order, the last its own; its next_tx) or None where msgspec
-    refuses any of it (then every part is read the slow way: comms.records.messages.split_window and split_step)."""
+    refuses any of it, or it is larger than the bounded reader takes (then every part is read the slow way:
+    comms.records.messages.split_window and split_step)."""
+    if len(payload) > MAX_BYTES:
+        return None
     try:
         last = _STEP.decode(payload)
         steps = [_step(raw, _PARTS.decode(raw)) for raw in last.earlier or ()]
@@ -70,6 +77,8 @@ def _step(payload: bytes | msgspec.Raw, parts: PartsWire) -> Step:
 
 def read_events(payload: bytes) -> LinkEvents | None:
     """The link events of a cpf/comms/events message, or None where msgspec refuses any of it (comms.records.events)."""
+    if len(payload) > MAX_BYTES:
+        return None
     try:
         return _EVENTS.decode(payload)
     except _MSGSPEC_REFUSES:

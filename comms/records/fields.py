@@ -15,6 +15,9 @@ from typing import Annotated, Any, TypeVar
 
 import msgspec
 
+from comms.records.bounded import MALFORMED, dropped
+from comms.records.stream import NOT_FINITE
+
 Message = dict[str, Any]
 T = TypeVar("T")
 MAX_SPEED = 100.0  # m/s: far above any AUV, far below the speed of sound
@@ -38,7 +41,16 @@ def read_as(message: object, kind: type[T]) -> T:
     try:
         return msgspec.convert(message, kind)
     except msgspec.ValidationError as exc:
-        raise ValueError(_named(str(exc))) from None
+        reason = _named(str(exc))
+        raise dropped(NOT_FINITE if _not_finite(message, reason) else MALFORMED, reason) from None
+
+
+def _not_finite(message: object, reason: str) -> bool:
+    """Whether the top-level field msgspec's reason is about holds a NaN or an infinity (a Finite field refused)."""
+    found = re.match(r"field '(\w+)'", reason)
+    value = message.get(found.group(1)) if found is not None and isinstance(message, dict) else None
+    values = value if isinstance(value, list) else [value]
+    return any(isinstance(v, float) and not math.isfinite(v) for v in values)
 
 
 def read_as_or_older(message: object, kind: type[T], older: Callable[[object], object | None]) -> T:

@@ -14,6 +14,7 @@ from typing import Any
 import msgpack
 import msgspec
 
+from comms.records.bounded import MALFORMED, brief, dropped, read_bytes
 from comms.records.fields import Message, as_message, is_int, read_as
 from comms.records.fields import get as _get
 from comms.records.network import Network
@@ -87,18 +88,12 @@ def encode(message: Message | list[Any]) -> bytes:
     return data
 
 
-def _unpack(data: bytes, what: str) -> Any:
-    try:
-        return msgpack.unpackb(data, raw=False, strict_map_key=False)
-    except Exception as exc:  # msgpack raises several unrelated types for garbage
-        raise ValueError(f"undecodable {what}: {exc}") from exc
-
-
 def decode(data: bytes) -> Message:
-    """Inverse of encode; raises ValueError for anything that is not a msgpack map."""
-    message = _unpack(data, "message")
+    """Inverse of encode, through the one bounded reader (comms.records.bounded.read_bytes); raises ValueError (a
+    dropped: naming its cause) for anything that is not a msgpack map of bounded size and depth."""
+    message = read_bytes(data, "message")
     if not isinstance(message, dict):
-        raise ValueError(f"message is a {type(message).__name__}, not a map")
+        raise dropped(MALFORMED, f"message is a {type(message).__name__}, not a map")
     return message
 
 
@@ -176,9 +171,9 @@ encode_list = encode  # a vehicle's receptions, packed on their own inside the b
 
 def decode_list(data: bytes) -> list[Any]:
     """Inverse of encode_list; ValueError for anything that is not a msgpack array."""
-    items = _unpack(data, "receptions")
+    items = read_bytes(data, "packed receptions")
     if not isinstance(items, list):
-        raise ValueError("packed receptions are not a list")
+        raise dropped(MALFORMED, "packed receptions are not a list")
     return items
 
 
@@ -230,7 +225,7 @@ def split_window(message: Message) -> tuple[list[Message], int | None]:
         raise ValueError("field 'earlier' is not a list of step messages")
     next_tx = message.get("next_tx")
     if next_tx is not None and not is_int(next_tx):
-        raise ValueError(f"field 'next_tx' is not a step, got {next_tx!r}")
+        raise ValueError(f"field 'next_tx' is not a step, got {brief(next_tx)}")
     return [*(earlier or []), message], next_tx
 
 

@@ -20,7 +20,7 @@ MAX_KEYS = 64  # keys a report may count malformed messages on: a reader subscri
 CountsByKey = Annotated[dict[str, Count], msgspec.Meta(max_length=MAX_KEYS)]  # key -> a count
 
 
-class CommsDone(msgspec.Struct, frozen=True):
+class CommsDone(msgspec.Struct, frozen=True, omit_defaults=True):
     """The broker's end-of-run report: the events it published over the run, and the malformed messages it
     dropped."""
 
@@ -28,6 +28,7 @@ class CommsDone(msgspec.Struct, frozen=True):
     k: Count
     events: Count
     malformed: Count
+    causes: CountsByKey = {}  # cause -> messages dropped (comms.records.drops; absent in older logs)
 
     def to_message(self) -> Message:
         return as_message(self)
@@ -74,7 +75,7 @@ class CommsStats(msgspec.Struct, frozen=True, omit_defaults=True, kw_only=True):
         return read_as(message, cls)
 
 
-class VehicleDone(msgspec.Struct, frozen=True):
+class VehicleDone(msgspec.Struct, frozen=True, omit_defaults=True):
     """A vehicle's end-of-run report on its own done key: the malformed messages it dropped, by the key they came on.
     Sent once it has run its last step."""
 
@@ -82,6 +83,7 @@ class VehicleDone(msgspec.Struct, frozen=True):
     k: Count
     vehicle: int
     malformed: CountsByKey
+    causes: CountsByKey = {}  # cause -> messages dropped (comms.records.drops; absent in older logs)
 
     def to_message(self) -> Message:
         return as_message(self)

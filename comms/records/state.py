@@ -19,6 +19,7 @@ from typing import Annotated
 import msgspec
 import numpy as np
 
+from comms.records.bounded import dropped
 from comms.records.fields import (
     Finite,
     Finite3,
@@ -31,6 +32,7 @@ from comms.records.fields import (
     slow_enough,
 )
 from comms.records.records import Kinematics
+from comms.records.stream import NOT_FINITE
 
 Float3 = tuple[float, float, float]
 Rotation = Annotated[tuple[Finite, ...], msgspec.Meta(min_length=9, max_length=9)]  # R row-major
@@ -110,7 +112,22 @@ class StateReport(msgspec.Struct, frozen=True, omit_defaults=True):
             raise ValueError(f"vehicle {self.vehicle} published on vehicle {key_vehicle}'s key")
         orthonormal(self.rotation)
         slow_enough("velocity", self.velocity)
+        self._finite()
         return self
+
+    def _finite(self) -> None:
+        """ValueError (dropped: not finite) for a NaN or an infinity in a diagnostic (the fields typed Finite refuse
+        them as they are read): a value the log could only write as null, and no neighbour or figure could use."""
+        for name in ("gamma", "gamma_dot", "correction", "lyapunov", "step_lateness"):
+            value = getattr(self, name)
+            if value is not None and not math.isfinite(value):
+                raise dropped(NOT_FINITE, f"field {name!r} is {value}")
+        for name in ("error", "tau", "rx_lateness", "nav_estimate", "current_estimate"):
+            values = getattr(self, name)
+            if values is not None and not all(map(math.isfinite, values)):
+                raise dropped(NOT_FINITE, f"field {name!r} holds a NaN or an infinity")
+        if not all(math.isfinite(held.age) for held in self.estimate_age):
+            raise dropped(NOT_FINITE, "field 'estimate_age' holds a NaN or an infinity")
 
 
 def _from_older_log(message: object) -> Message | None:

@@ -122,14 +122,19 @@ def _pair(a: float | None, b: float | None) -> str:
     return "-" if a is None or b is None else f"{a:.2f} / {b:.2f}"
 
 
-def format_malformed(counts: Mapping[str, Mapping[str, int]]) -> str | None:
-    """One line of the malformed messages every reader of the bus counted and dropped (reader -> key -> count), or
-    None if none did: 'bus: N malformed messages dropped (supervisor: 3 on cpf/vehicle/2/state, broker: 0, ...)'."""
+def format_malformed(
+    counts: Mapping[str, Mapping[str, int]], causes: Mapping[str, Mapping[str, int]] | None = None
+) -> str | None:
+    """One line of the messages every reader of the bus counted and dropped (reader -> key -> count, and reader ->
+    cause -> count), or None if none did: 'bus: N messages dropped (supervisor: 3 on cpf/vehicle/2/state [2 replayed
+    step, 1 too deep], broker: 0, ...)'."""
     total = sum(sum(by_key.values()) for by_key in counts.values())
     if not total:
         return None
     readers = []
     for reader, by_key in counts.items():
         keyed = [f"{n} on {key}" for key, n in sorted(by_key.items()) if n and key != BY_NO_KEY]
-        readers.append(f"{reader}: {', '.join(keyed) if keyed else sum(by_key.values())}")
-    return f"bus: {total} malformed message{'s' if total != 1 else ''} dropped ({', '.join(readers)})"
+        why = [f"{n} {cause}" for cause, n in sorted((causes or {}).get(reader, {}).items()) if n]
+        reasons = f" [{', '.join(why)}]" if why else ""
+        readers.append(f"{reader}: {', '.join(keyed) if keyed else sum(by_key.values())}{reasons}")
+    return f"bus: {total} message{'s' if total != 1 else ''} dropped ({', '.join(readers)})"

@@ -21,9 +21,9 @@ from comms.records.records import LinkEvent
 from comms.records.reports import CommsStats
 from comms.records.run import FaultEvent, Graph
 from comms.records.state import StateReport
-from supervisor.errors import ScenarioError
 from supervisor.record import logfile
 from supervisor.record.meta import RunMeta
+from supervisor.record.unusable import Unusable
 
 Array: TypeAlias = NDArray[np.float64]
 Edge: TypeAlias = tuple[int, int]
@@ -187,9 +187,9 @@ class Collector(Protocol):
 
 def load_run(path: Path, also: Collector | None = None) -> RunData:
     """Read a run's MCAP into arrays; LogError (pointing to `cpf recover`) for a log cut short or damaged,
-    ScenarioError naming the topic and the field for a record that does not read. also: handed the messages it
+    a record that does not read named (a warning) and skipped (supervisor.record.unusable). also: handed the messages it
     wants in the same pass (one read of the log for both)."""
-    got = _Collected()
+    got, unusable = _Collected(), Unusable(path)
     wanted = _wanted if also is None else lambda topic: _wanted(topic) or also.wanted(topic)
     # checked whole: damage anywhere refuses the log, also in chunks the report skips (its Foxglove scene)
     for topic, _, message in logfile.read_checked(path, wanted):
@@ -198,8 +198,9 @@ def load_run(path: Path, also: Collector | None = None) -> RunData:
                 got.add(topic, message)
             if also is not None and also.wanted(topic):
                 also.add(topic, message)
-        except ValueError as exc:
-            raise ScenarioError(f"{path}: {topic}: {exc}") from None
+        except ValueError as exc:  # named and skipped: one record a reading cannot use is not the whole log
+            unusable.skip(topic, exc)
+    unusable.close()
     vehicles = {v: _series(v, got.states[v]) for v in sorted(got.states)}
     start, end = _time_range(vehicles, got.meta)
     events = got.fault_events

@@ -157,11 +157,11 @@ def format_summary(summary: Summary) -> str:
     ]
     for p in summary.phases:
         span = f"{p.start:.0f}-{p.end:.0f}"
-        rates = " ".join(_number(v, ".3f") for v in p.mean_gamma_dot)  # "-": the vehicle was down all the phase
-        path = _number(p.max_path_error, ".3f")  # "-": within the transient
+        rates = " ".join(_number(v, ".3f", 9) for v in p.mean_gamma_dot)  # "-": the vehicle was down all the phase
+        path = _number(p.max_path_error, ".3f", 14)  # "-": within the transient
         lines.append(
-            f"{p.name:<22}{span:>14}{_number(p.max_coordination_error, '.4g'):>12}"
-            f"{_number(p.final_coordination_error, '.3g'):>12}{path:>15}  {rates}"
+            f"{p.name:<22}{span:>14}{_number(p.max_coordination_error, '.4g', 11):>12}"
+            f"{_number(p.final_coordination_error, '.3g', 11):>12}{path:>15}  {rates}"
         )
     worst = summary.max_path_error_after_transient
     if math.isnan(worst):  # nothing to judge
@@ -186,6 +186,10 @@ def _settled(again: str, time: float | None, tolerance: float, phase: str) -> st
     return f"coordination error below {tolerance:g}{again} from t = {time:.1f} s ({phase})"
 
 
-def _number(value: float, spec: str) -> str:
-    """value formatted, or "-" for NaN (nothing to say: no vehicle, or no pair of vehicles, alive)."""
-    return "-" if math.isnan(value) else format(value, spec)
+def _number(value: float, spec: str, width: int) -> str:
+    """value formatted, or "-" for NaN (nothing to say: no vehicle, or no pair of vehicles, alive); in three
+    significant digits where spec would be wider than its column (1e30 with 3 decimals: the columns stay aligned)."""
+    if math.isnan(value):
+        return "-"
+    text = format(value, spec)
+    return text if len(text) <= width else format(value, ".3g")

@@ -20,7 +20,7 @@ from supervisor.cli.parser import _parser
 from supervisor.cli.run import _option_errors
 from supervisor.cli.terminal import EXIT_INPUT, EXIT_INTERRUPTED, EXIT_RUNTIME
 from supervisor.engine import interrupts
-from supervisor.errors import CpfError, ScenarioError
+from supervisor.errors import CpfError, ScenarioError, shown
 
 __all__ = ["EXIT_INPUT", "EXIT_INTERRUPTED", "EXIT_RUNTIME", "_option_errors", "_parser", "entry", "main"]
 
@@ -63,7 +63,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BrokenPipeError:  # output piped into e.g. head, which stopped reading: what it wanted, no error
         return _reader_gone()
     except ScenarioError as exc:
-        for line in exc.errors:  # every error found, one line each
+        for line in shown(exc.errors):  # every error found, one line each, up to SHOWN_ERRORS and a count
             print(f"cpf: error: {line}", file=sys.stderr)
         return EXIT_INPUT
     except (CpfError, ConnectionError, FloatingPointError) as exc:  # FloatingPointError: a vehicle diverged

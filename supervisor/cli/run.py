@@ -10,7 +10,7 @@ import logging
 import os
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from supervisor.cli.outputs import output_errors
 from supervisor.cli.parser import START_TIMEOUT
@@ -207,13 +207,14 @@ def _report_run(args: argparse.Namespace, scenario: Scenario, result: RunResult,
         if lines is not None:
             print(lines)
     print(format_comms(comms))
-    if result.realtime is not None:
-        print(format_timing(result.realtime))
-    malformed = format_malformed(result.malformed or {})
-    if malformed is not None:
-        print(malformed)
+    for line in (
+        format_timing(result.realtime) if result.realtime is not None else None,
+        format_malformed(result.malformed or {}, result.drop_causes or {}),
+    ):
+        if line is not None:
+            print(line)
     if args.metrics:
-        metrics = {"coordination": summary.as_dict(), "comms": comms.as_dict(), "links": result.link_counts}
+        metrics: dict[str, Any] = {"coordination": summary.as_dict(), "comms": comms.as_dict()}
         metrics["divergence"] = None if diverged is None else dataclasses.asdict(diverged)
         _write_metrics(args.metrics, scenario, result, metrics)
 
@@ -228,16 +229,19 @@ def _divergence_lines(args: argparse.Namespace, scenario: Scenario, found: Diver
     return format_divergence(found, scenario.coordination.v_r, predicted_change(scenario), str(args.scenario))
 
 
-def _write_metrics(path: Path, scenario: Scenario, result: RunResult, metrics: dict[str, object]) -> None:
-    """--metrics: the summary's numbers as JSON, with the realtime timing, the malformed messages, the inputs."""
+def _write_metrics(path: Path, scenario: Scenario, result: RunResult, metrics: dict[str, Any]) -> None:
+    """--metrics: the summary's numbers (metrics), the links' counts, the drops, the inputs at their limits, the
+    realtime timing."""
     from supervisor.analysis.input_limits import at_input_limits, input_limits_metrics
     from supervisor.analysis.metrics import finite
 
     path.parent.mkdir(parents=True, exist_ok=True)
+    metrics["links"] = result.link_counts
     if result.realtime is not None:
         metrics["realtime"] = result.realtime
     if result.malformed is not None:
         metrics["malformed"] = result.malformed  # reader -> key -> messages it dropped
+        metrics["dropped_by_cause"] = result.drop_causes or {}  # reader -> cause -> messages it dropped
     metrics |= input_limits_metrics(at_input_limits(scenario, result.series))
     path.write_text(json.dumps(finite(metrics), indent=2, allow_nan=False))
 

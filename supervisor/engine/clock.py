@@ -56,6 +56,9 @@ class Driven(Protocol):
 
     def carry_out(self, action: ProcessAction, k: int) -> None: ...
 
+    def grant(self, reach: int) -> None:
+        """The steps before reach are granted on the bus: a vehicle's state of a later step does not fit the run."""
+
 
 class Clock:
     """Issues the ticks of one run: lockstep (as fast as the states come) or realtime (paced to the wall clock)."""
@@ -142,6 +145,7 @@ class Clock:
         template = tick_message(k, k * self.schedule.dt, False, disturbed, spelt, alive, run.comms_up, None,
                                 self.speed, hold, None, reach, self.longest)  # fmt: skip
         self.spans = [(a, b, m) if (a, b) != (plan.k, reach) else (a, b, template) for a, b, m in self.spans]
+        run.grant(reach)
         self.pubs.put(TICK_KEY, template)
 
     def record(self, run: Driven, k: int) -> None:
@@ -184,6 +188,7 @@ class Clock:
         final, comms, until = plan.final, run.comms_up, end if end > plan.k + 1 else None
         self.issued = tick_message(plan.k, plan.t, final, disturbed, spelt, alive, comms, wall, self.speed, hold, until)
         self.issued_end = end
+        run.grant(end)
         if until is None:
             run.publish(TICK_KEY, plan.t, self.issued)
         else:

@@ -93,6 +93,7 @@ def run_zenoh(
     return RunResult(  # rec.count once the log is closed: the stop message and the vehicles' reports come last
         builder.series(), wall, rec.count, books.counts, books.stats.snapshot(run.t), books.lambda2, builder.ages,
         stepping, timing.as_dict() if timing is not None else None, run.intake.counts(), rec.scene_count,
+        run.intake.causes(),
     )  # fmt: skip
 
 
@@ -185,7 +186,8 @@ def _drive(run: Supervisor, progress: Progress) -> None:
                 following = ticks.issue(run, b, ahead=True)
             run.t = k * dt
             ticks.record(run, k)
-            run.wait_until(_all_stepped(run, k), f"every vehicle's state of step {k}", STEP_TIMEOUT)
+            waiting = lambda k=k: intake.waiting_for(k, run.alive)  # noqa: E731  # said if it stalls: who, and why
+            run.wait_until(_all_stepped(run, k), waiting, STEP_TIMEOUT)
             intake.states.pop(k, None)  # none if no vehicle is left to report
             intake.window(k * dt, run.alive)  # taken once the broker's events of step k are in
             progress.update((k + 1) * dt)

@@ -67,6 +67,7 @@ class RunResult:
     realtime: dict[str, Any] | None = None  # realtime runs: how well they kept to the wall clock (realtime_timing)
     malformed: dict[str, dict[str, int]] | None = None  # zenoh: reader -> key -> malformed messages it dropped
     scene_messages: int = 0  # the log's Foxglove scene (record.scene), apart from the run's messages
+    drop_causes: dict[str, dict[str, int]] | None = None  # zenoh: reader -> cause -> messages it dropped
 
 
 class _InProcessRun:

@@ -10,16 +10,18 @@ fatal: the run reports the counts at its end, with those the broker and the vehi
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import math
-from collections import Counter, deque
+from collections import deque
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass
 from typing import TypeVar
 
 from comms.broker.windows import report_of
 from comms.bus.bus import Publishers, Received
+from comms.records.bounded import cause_of, dropped
 from comms.records.bus_records import Step, log_json, read_events, read_window
+from comms.records.drops import Drops
 from comms.records.events import LinkEvents
 from comms.records.messages import (
     COMMS_DONE_KEY,
@@ -41,57 +43,22 @@ from comms.records.receptions import RxBatch
 from comms.records.records import LinkEvent, Transmission
 from comms.records.reports import CommsDone, CommsStats, VehicleDone
 from comms.records.state import StateReport
+from comms.records.stream import FAULTY, VEHICLE_FAULTS, in_stream
 from supervisor.analysis.comms_summary import BY_NO_KEY
 from supervisor.analysis.series import SeriesBuilder
 from supervisor.config.derived import steps_of
 from supervisor.config.fleet import link_stats
-from supervisor.config.scenario_schema import GraphSwitchFault, Scenario
+from supervisor.config.plausibility import plausibility
+from supervisor.config.scenario_schema import Scenario
 from supervisor.engine.books import LinkBooks
 from supervisor.engine.realtime_timing import RealtimeTiming
-from supervisor.record.recorder import TIME_MARGIN, Recorder
+from supervisor.engine.run_bounds import RunBounds
+from supervisor.record.recorder import Recorder
 
 log = logging.getLogger("cpf.engine")
 T = TypeVar("T")
 SUPERVISOR = "supervisor"
 BROKER = "broker"
-
-
-@dataclass(frozen=True, slots=True)
-class RunBounds:
-    """What a message must fit: the fleet, the links any graph of the run has, the steps and their times."""
-
-    vehicles: frozenset[int]
-    links: frozenset[tuple[int, int]]
-    steps: int
-    dt: float
-    end: float  # s: the latest time a message may carry (the run's end, and the recorder's margin)
-
-    @classmethod
-    def of(cls, sc: Scenario) -> RunBounds:
-        graphs = [sc.graph.edges, *(f.edges for f in sc.faults if isinstance(f, GraphSwitchFault))]
-        links = {(int(i), int(j)) for edges in graphs for i, j in edges}
-        steps = steps_of(sc)
-        both = links | {(j, i) for i, j in links}
-        return cls(frozenset(sc.vehicle_ids), frozenset(both), steps, sc.scenario.step, steps * sc.scenario.step)
-
-    def time(self, t: float, what: str) -> None:
-        if not 0.0 <= t <= self.end + TIME_MARGIN:
-            raise ValueError(f"{what} t = {t:g} s is outside the run (0 to {self.end:g} s)")
-
-    def step(self, k: int, t: float) -> None:
-        """A vehicle's step k, at t = k dt (up to rounding): the supervisor's ticks say so."""
-        if not 0 <= k < self.steps:
-            raise ValueError(f"step {k} is outside the run (0 to {self.steps - 1})")
-        if abs(t - k * self.dt) > 1e-9 * max(1.0, k * self.dt):
-            raise ValueError(f"t = {t:g} s is not the time of step {k} ({k * self.dt:g} s)")
-
-    def vehicle(self, vid: int) -> None:
-        if vid not in self.vehicles:
-            raise ValueError(f"no vehicle {vid} in the run")
-
-    def link(self, sender: int, receiver: int) -> None:
-        if (sender, receiver) not in self.links:
-            raise ValueError(f"no link {sender}->{receiver} in any graph of the run")
 
 
 class Intake:
@@ -107,13 +74,20 @@ class Intake:
         self.last_report: dict[int, StateReport] = {}  # a restarted vehicle resumes from it (last_state)
         self.last_seq: dict[int, int] = {}  # ... and numbers its transmissions on from this
         self.next_tx: dict[int, tuple[int, int]] = {}  # vehicle -> (latest step, first step it may transmit at)
+        self.taken: dict[int, int] = {}  # vehicle -> its latest step taken: each step once, in order (in_stream)
+        self.plausible = plausibility(sc)  # vehicle -> its bounds (comms.records.plausible)
+        self.granted: int | None = None  # the first step the clock has not granted yet (None: none granted)
+        self.faulty: dict[int, str] = {}  # vehicle -> why its state was its fault (not finite, implausible)
+        self.faults_told: set[int] = set()  # ... those the supervisor has acted on
         self.done: CommsDone | None = None  # the current broker's end-of-run report
         self.broker_events = 0  # link events published by the current broker
         # steps' times, with the vehicles alive then, whose lambda_2 waits for their deliveries (window)
         self.windows: deque[tuple[float, tuple[int, ...]]] = deque()
         self.events_t = -math.inf  # the latest link events message's time: every delivery up to it is booked
-        self.malformed: Counter[str] = Counter()  # key -> messages the supervisor dropped
+        self.drops = Drops(log, SUPERVISOR, logging.DEBUG)  # what the supervisor dropped, by key and by cause
+        self.malformed = self.drops.by_key  # key -> messages the supervisor dropped
         self.reports: dict[str, dict[str, int]] = {}  # reader -> key -> messages it dropped (broker, vehicles)
+        self.report_causes: dict[str, dict[str, int]] = {}  # reader -> cause -> messages it dropped
 
     def take(self, item: Received, t: float) -> None:
         """One message from the bus (t: the supervisor's time, unused: every message recorded carries its own).
@@ -121,9 +95,37 @@ class Intake:
         try:
             if self.timing is not None or not self._typed(item.key, item.payload):
                 self._take(item.key, decode(item.payload))
-        except ValueError as exc:
-            self.malformed[item.key] += 1
-            log.debug("dropped a malformed message on %s: %s", item.key, exc)
+        except (ValueError, RecursionError) as exc:  # RecursionError: never past the bounded reader, counted if so
+            self.drops.drop(item.key, exc)
+            owned = vehicle_of_key(item.key)
+            if owned is not None and owned[1] == "state" and cause_of(exc) in VEHICLE_FAULTS:
+                self._fault(owned[0], item.payload, exc)
+
+    def _fault(self, vid: int, payload: bytes, exc: BaseException) -> None:
+        """A state not finite or implausible is its vehicle's fault if it was its next step (a copy of an older
+        one, from whoever holds its credential, is only a replay: counted and dropped)."""
+        with contextlib.suppress(ValueError):
+            k = decode(payload).get("k")
+            if isinstance(k, int) and self.taken.get(vid, -1) < k < self.bounds.steps:
+                self.faulty.setdefault(vid, f"{cause_of(exc)}: {exc}")
+
+    def new_faults(self) -> list[tuple[int, str]]:
+        """(vehicle, why) of each vehicle whose state was its fault since the last call: the run decides
+        (scenario.on_vehicle_loss)."""
+        new = [(vid, why) for vid, why in self.faulty.items() if vid not in self.faults_told]
+        self.faults_told.update(vid for vid, _ in new)
+        return new
+
+    def waiting_for(self, k: int, alive: list[int]) -> str:
+        """What a stall waits for: each vehicle whose state of step k is missing, and why its latest message on its
+        state key was dropped, if one was."""
+        missing = [v for v in alive if v not in self.states.get(k, ())]
+        said = [f"vehicle {v}" + self._last_drop(v) for v in missing]
+        return f"the state of step {k} of {', '.join(said) if said else 'every vehicle'}"
+
+    def _last_drop(self, vid: int) -> str:
+        why = self.drops.last.get(state_key(vid))
+        return "" if why is None else f" (its latest message was dropped: {why})"
 
     def _take(self, key: str, message: Message) -> None:
         owned = vehicle_of_key(key)
@@ -206,6 +208,10 @@ class Intake:
         """reader -> key -> malformed messages it dropped: the supervisor's own, and every report that came in."""
         return {SUPERVISOR: dict(sorted(self.malformed.items())), **dict(sorted(self.reports.items()))}
 
+    def causes(self) -> dict[str, dict[str, int]]:
+        """reader -> cause -> messages it dropped (comms.records.drops): the supervisor's own, and the reports'."""
+        return {SUPERVISOR: dict(sorted(self.drops.by_cause.items())), **dict(sorted(self.report_causes.items()))}
+
     def _window(self, vid: int, message: Message) -> None:
         """A vehicle's step message, of one step or of a lockstep time window: each step's records, in order, as
         one step at a time writes them; and the first step at which it may transmit next (the clock's windows)."""
@@ -227,9 +233,10 @@ class Intake:
         raw, tx, rx = split_step(message)
         state = StateReport.from_message(raw, vid)
         self.bounds.step(state.k, state.t)
+        self._in_stream(state)
         for held in state.estimate_age:
             self.bounds.vehicle(held.vehicle)
-        transmission = self._part(tx_key(vid), lambda: self._tx(tx, vid)) if tx is not None else None
+        transmission = self._part(tx_key(vid), lambda: self._tx(tx, vid, state)) if tx is not None else None
         batch = self._part(rx_key(vid), lambda: self._rx(rx, vid)) if rx is not None else None
         message = state.to_message()
         rx_message = batch.to_message() if batch is not None else None
@@ -248,10 +255,11 @@ class Intake:
         _step's, in _step's order), and the records written in their log form straight from the typed ones."""
         state = step.state.check(vid)
         self.bounds.step(state.k, state.t)
+        self._in_stream(state)
         for held in state.estimate_age:
             self.bounds.vehicle(held.vehicle)
         tx, rx = step.tx, step.rx
-        transmission = self._part(tx_key(vid), lambda: self._typed_tx(tx, vid)) if tx is not None else None
+        transmission = self._part(tx_key(vid), lambda: self._typed_tx(tx, vid, state)) if tx is not None else None
         batch = self._part(rx_key(vid), lambda: self._fitting_rx(rx, vid)) if rx is not None else None
         if batch is not None:
             self.rec.write_json(rx_key(vid), batch.t, log_json(batch))
@@ -260,9 +268,22 @@ class Intake:
         self.rec.write_state(state_key(vid), state.t, log_json(state), state)
         self._book(state)
 
-    def _typed_tx(self, tx: Transmission, vid: int) -> Transmission:
+    def _in_stream(self, state: StateReport) -> None:
+        """ValueError (dropped) unless the state is its vehicle's next step (comms.records.stream: no replay is
+        recorded) and plausible (comms.records.plausible), from a vehicle not yet found faulty."""
+        vid = state.vehicle
+        if vid in self.faulty:
+            raise dropped(FAULTY, f"vehicle {vid} sent a state that was its fault before ({self.faulty[vid]})")
+        in_stream(state.k, self.taken.get(vid), self.granted)
+        bounds = self.plausible.get(vid)
+        if bounds is not None:
+            bounds.check(state, self.last_report.get(vid), self.bounds.dt)
+        self.taken[vid] = state.k
+
+    def _typed_tx(self, tx: Transmission, vid: int, state: StateReport) -> Transmission:
         tx.check(vid)
         self.bounds.time(tx.t, "the transmission's")
+        self.plausible[vid].check_tx(tx, state, self.bounds.dt)  # (vid: the state's, one of the run's: plausible)
         return tx
 
     def _part(self, key: str, read: Callable[[], T]) -> T | None:
@@ -270,14 +291,11 @@ class Intake:
         try:
             return read()
         except ValueError as exc:
-            self.malformed[key] += 1
-            log.debug("dropped a malformed part of a step message on %s: %s", key, exc)
+            self.drops.drop(key, exc, "part of a step message")
             return None
 
-    def _tx(self, message: Message, vid: int) -> Transmission:
-        tx = Transmission.from_message(message, vid)
-        self.bounds.time(tx.t, "the transmission's")
-        return tx
+    def _tx(self, message: Message, vid: int, state: StateReport) -> Transmission:
+        return self._typed_tx(Transmission.from_message(message, vid), vid, state)
 
     def _rx(self, message: Message, vid: int) -> RxBatch:
         return self._fitting_rx(RxBatch.from_message(message), vid)
@@ -316,9 +334,8 @@ class Intake:
         if not 0 <= events.k <= self.bounds.steps:
             raise ValueError("the batch's step is outside the run")
         self.broker_events += len(events.events) + len(unread)
-        if unread:  # a key gets an entry only for what was dropped on it
-            self.malformed[COMMS_EVENTS_KEY] += len(unread)
-            log.debug("dropped %d link events that do not read: %s", len(unread), unread)
+        for exc in unread:  # a key gets an entry only for what was dropped on it
+            self.drops.drop(COMMS_EVENTS_KEY, exc, "link event")
         booked = self._checked_events(events.events)
         for event in booked:
             self.rec.write(COMMS_EVENT_KEY, event.t, event_message(event))
@@ -349,8 +366,7 @@ class Intake:
             try:
                 booked.append(self._event(event))
             except ValueError as exc:
-                self.malformed[COMMS_EVENTS_KEY] += 1
-                log.debug("dropped a malformed link event: %s", exc)
+                self.drops.drop(COMMS_EVENTS_KEY, exc, "link event")
         return booked
 
     def _event(self, event: LinkEvent) -> LinkEvent:
@@ -373,6 +389,7 @@ class Intake:
         self.rec.write(COMMS_DONE_KEY, done.t, done.to_message())
         self.done = done
         self.reports[BROKER] = {BY_NO_KEY: done.malformed}
+        self.report_causes[BROKER] = dict(done.causes)
 
     def _vehicle_done(self, vid: int, message: Message) -> None:
         self.bounds.vehicle(vid)
@@ -380,3 +397,4 @@ class Intake:
         self.bounds.time(done.t, "the report's")
         self.rec.write(vehicle_done_key(vid), done.t, done.to_message())
         self.reports[f"vehicle {vid}"] = done.malformed
+        self.report_causes[f"vehicle {vid}"] = dict(done.causes)

@@ -44,6 +44,7 @@ from supervisor.record.logfile import messages
 from supervisor.record.meta import RunMeta
 from supervisor.record.provenance import RESIM
 from supervisor.record.recorder import Recorder
+from supervisor.record.unusable import Unusable
 from vehicles.runtime import NodeState
 from vehicles.step import step_records
 
@@ -71,6 +72,7 @@ def _load(log: Path) -> tuple[RunMeta, dict[tuple[int, int], list[Heard]], list[
     meta: RunMeta | None = None
     heard: dict[tuple[int, int], list[Heard]] = {}
     states: list[tuple[StateReport, Message]] = []
+    unusable = Unusable(log)
     for topic, _, message in messages(log):
         owned = vehicle_of_key(topic)
         try:
@@ -81,8 +83,9 @@ def _load(log: Path) -> tuple[RunMeta, dict[tuple[int, int], list[Heard]], list[
                 heard[(owned[0], k)] = batch
             elif owned is not None and owned[1] == "state":
                 states.append((StateReport.from_message(message, owned[0]), message))
-        except ValueError as exc:  # a log cpf wrote reads back; anything else is not one to re-simulate from
-            raise ScenarioError(f"{log}: {topic}: {exc}") from None
+        except ValueError as exc:  # named and skipped: the re-simulation goes on without that record
+            unusable.skip(topic, exc)
+    unusable.close()
     if meta is None:
         raise ScenarioError(f"{log}: no run metadata with the scenario in it (written by an older cpf?)")
     return meta, heard, states

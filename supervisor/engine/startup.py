@@ -3,12 +3,12 @@ alive runs the supervisor's scenario (its hello, comms.records.messages.Hello, a
 
 from __future__ import annotations
 
-import contextlib
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import zenoh
 
+from comms.records.bounded import cause_of
 from comms.records.messages import COMMS_ALIVE, Hello, decode, hello_key
 from supervisor.config.scenario_digest import difference, section_digests, vehicle_seed
 from supervisor.config.scenario_schema import Scenario
@@ -31,17 +31,33 @@ def missing_names(names: list[str], remote: tuple[int, ...]) -> str:
     return ", ".join(parts[:-1]) + (" and " if len(parts) > 1 else "") + parts[-1] if parts else "nothing"
 
 
-def ask_hello(session: zenoh.Session, alive_key: str, timeout: float = HELLO_TIMEOUT) -> Hello | None:
-    """The hello of the process holding alive_key; None if it does not answer (or answers nonsense)."""
+Answer = Hello | ValueError | None  # a process's hello, why its answer does not read, or None: no answer at all
+
+
+def ask_hello(session: zenoh.Session, alive_key: str, timeout: float = HELLO_TIMEOUT) -> Answer:
+    """The hello of the process holding alive_key; a ValueError (comms.records.bounded.dropped) if its answers do not
+    read (the last one's, naming its cause), None if it does not answer."""
+    refused: ValueError | None = None
     for reply in session.get(hello_key(alive_key), timeout=timeout):
         if reply.ok is not None:
-            with contextlib.suppress(ValueError):
-                return Hello.from_message(decode(reply.ok.payload.to_bytes()))
-    return None
+            try:
+                return read_hello(reply.ok.payload.to_bytes())
+            except ValueError as exc:  # every refusal of the readers names its cause (comms.records.bounded)
+                refused = exc
+    return refused
 
 
-def check_hello(name: str, expected: dict[str, str], got: Hello | None) -> None:
+def read_hello(payload: bytes) -> Hello:
+    """A hello reply, read through the bounded reader; ValueError (naming its cause) for anything that is not one."""
+    return Hello.from_message(decode(payload))
+
+
+def check_hello(name: str, expected: dict[str, str], got: Answer) -> None:
     """ScenarioError unless the process runs the expected scenario (exit 2: it was started with other input)."""
+    if isinstance(got, ValueError):
+        raise ScenarioError(
+            f"{name} answered on its hello key with what is not a hello ({cause_of(got)}: {got}); refused"
+        )
     if got is None:
         raise ScenarioError(
             f"{name} did not say which scenario it runs (no answer on its hello key): it is not a cpf process of "
@@ -58,10 +74,10 @@ class Hellos:
     seed), and how to ask a process for its hello by its liveliness key."""
 
     digests: dict[str, dict[str, str]]
-    ask: Callable[[str], Hello | None]
+    ask: Callable[[str], Answer]
 
     @classmethod
-    def of(cls, sc: Scenario, seed: int, ask: Callable[[str], Hello | None]) -> Hellos:
+    def of(cls, sc: Scenario, seed: int, ask: Callable[[str], Answer]) -> Hellos:
         return cls({"vehicle": section_digests(sc, vehicle_seed(sc, seed)), "comms": section_digests(sc, seed)}, ask)
 
     def check(self, key: str, name: str) -> None:

@@ -83,6 +83,9 @@ class Supervisor:
     def publish(self, key: str, t: float, message: Message) -> None:
         self.intake.publish(self.pubs, key, t, message)
 
+    def grant(self, reach: int) -> None:
+        self.intake.granted = max(self.intake.granted or 0, reach)
+
     def record(self, key: str, t: float, message: Message) -> None:
         """On the record only: what the log keeps of a message that went on the bus in another form."""
         self.intake.rec.write(key, t, message)
@@ -112,6 +115,17 @@ class Supervisor:
                 if ended is not None:
                     self._lost(ended.name, ended.how_it_ended() or "")
             self.pump(min(0.2, max(0.0, end - now)))
+            for vid, why in self.intake.new_faults():
+                self._faulty(vid, why)
+
+    def _faulty(self, vid: int, why: str) -> None:
+        """A vehicle sent a state that is its fault (not finite, implausible: dropped and counted): lost, as a dead
+        process is, if the scenario goes on without a lost vehicle; else the run stops, naming it."""
+        if vid not in self.alive:
+            return
+        if self.sc.scenario.on_vehicle_loss == "abort":
+            raise SimulationError(f"vehicle {vid} sent a state the run cannot use at t = {self.t:.1f} s ({why})")
+        self._lost(f"vehicle {vid}", f"it sent a state the run cannot use: {why}")
 
     def _liveliness(self, change: str) -> None:
         sign, key = change[0], change[1:]

@@ -27,6 +27,7 @@ from typing import Any, cast
 
 import zenoh
 
+from comms.records.bounded import brief
 from comms.records.messages import ROOT
 from supervisor.tools.replay_player import MAX_SPEED, Command, Done, Player, PlayerState, Publish, Verb, Wait
 
@@ -56,12 +57,15 @@ def parse_command(text: str) -> Command:
 
 
 def _verb(verb: Any) -> Verb:
-    if verb not in ARGUMENTS:
-        raise ValueError(f"unknown command {str(verb)[:40]!r}: expected one of {', '.join(ARGUMENTS)}")
+    if not isinstance(verb, str) or verb not in ARGUMENTS:
+        raise ValueError(f"unknown command {brief(verb)}: expected one of {', '.join(ARGUMENTS)}")
     return cast(Verb, verb)
 
 
 def _json_fields(text: str) -> dict[str, Any]:
+    """A JSON command's fields: one flat object, its nesting refused before the JSON reader recurses into it."""
+    if text.count("{") + text.count("[") > 1:
+        raise ValueError("a JSON command is one flat object of names and numbers")
     try:
         data = json.loads(text)
     except ValueError:
@@ -91,7 +95,7 @@ def _value(name: str, raw: Any) -> float:
     low, high = {"t": (0.0, math.inf), "dt": (-math.inf, math.inf), "x": (0.0, MAX_SPEED)}[name]
     if not (math.isfinite(value) and low <= value <= high):
         limits = {"t": "a log time >= 0 s", "dt": "a finite step in s", "x": f"a speed within 0-{MAX_SPEED:g}"}
-        raise ValueError(f"{name} must be {limits[name]}, got {str(raw)[:40]!r}")
+        raise ValueError(f"{name} must be {limits[name]}, got {brief(raw)}")
     return value
 
 

@@ -1,0 +1,60 @@
+"""Plausibility of a vehicle's state report against what its own model and the step allow: a speed no faster than
+its bound, a position and a gamma that move no further from the vehicle's previous step than their rates allow, a
+gamma_dot within its bound. The numbers come from the scenario, in one place (supervisor.config.plausibility, documented
+in docs/plausibility.md); this is their check, the same in the supervisor's intake and the broker. A state beyond them
+is a ValueError (comms.records.bounded.dropped) with the cause IMPLAUSIBLE: dropped before it reaches another vehicle
+or the log, and the vehicle's fault.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from comms.records.bounded import dropped
+from comms.records.records import Transmission
+from comms.records.state import StateReport
+from comms.records.stream import IMPLAUSIBLE
+
+SLACK = 1.0  # m (and units of gamma) a step's bounds allow on top of rate x time: rounding, a restart's resumption
+
+
+@dataclass(frozen=True, slots=True)
+class Plausible:
+    """One vehicle's bounds: speed through the water (m/s), speed over ground with the current (m/s), |gamma_dot|."""
+
+    speed: float
+    ground_speed: float
+    gamma_dot: float
+
+    def check(self, report: StateReport, previous: StateReport | None, dt: float) -> None:
+        """ValueError (dropped: implausible) for a state beyond the bounds, alone or against the vehicle's previous
+        step (previous: None for its first)."""
+        speed = math.hypot(*report.velocity)
+        if speed > self.speed:
+            _refuse(report, f"speed {speed:.3g} m/s above its {self.speed:.3g} m/s")
+        if abs(report.gamma_dot) > self.gamma_dot:
+            _refuse(report, f"gamma_dot {report.gamma_dot:.3g} beyond its {self.gamma_dot:.3g}")
+        if previous is None or report.k <= previous.k:
+            return
+        elapsed = (report.k - previous.k) * dt
+        moved = math.dist(report.position, previous.position)
+        if moved > self.ground_speed * elapsed + SLACK:
+            _refuse(report, f"moved {moved:.3g} m in {elapsed:.3g} s (at most {self.ground_speed:.3g} m/s)")
+        if abs(report.gamma - previous.gamma) > self.gamma_dot * elapsed + SLACK:
+            _refuse(report, f"gamma went {previous.gamma:.6g} -> {report.gamma:.3g} in {elapsed:.3g} s")
+
+    def check_tx(self, tx: Transmission, report: StateReport, dt: float) -> None:
+        """ValueError (dropped: implausible) for a transmission beyond the bounds, or further from the state of its
+        step than a step allows (its data goes to the neighbours: a plausible state must not carry an absurd one)."""
+        if (
+            abs(tx.gamma_dot) > self.gamma_dot
+            or abs(tx.gamma - report.gamma) > self.gamma_dot * dt + SLACK
+            or math.hypot(*tx.velocity) > self.ground_speed
+            or math.dist(tx.position, report.position) > self.ground_speed * dt + SLACK
+        ):
+            _refuse(report, f"its transmission (gamma {tx.gamma:.3g}, gamma_dot {tx.gamma_dot:.3g}) is not its state's")
+
+
+def _refuse(report: StateReport, why: str) -> None:
+    raise dropped(IMPLAUSIBLE, f"vehicle {report.vehicle}'s state of step {report.k}: {why}")
