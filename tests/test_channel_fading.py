@@ -69,6 +69,7 @@ def test_a_scenario_link_budget_takes_the_modems_frames_and_bitrate_unless_told_
         "[[vehicles]]\nid = 1\nposition = [0.0, 0.0, 0.0]\npath = { type = 'circle', radius = 20.0, period = 400.0 }\n"
         "[[vehicles]]\nid = 2\nposition = [5.0, 0.0, 0.0]\npath = { type = 'circle', radius = 15.0, period = 400.0 }\n"
         "[comms]\nmodem = 'whoi_micromodem_rate0'\nrange = { type = 'link_budget', source_level = 185.0 OLD }\n"
+        "[comms.tdma]\nslot = 4.0\n"  # a slot holds a packet (3.2 s on air): a channel that can deliver
     )
     new = channel_params(parse_scenario(text.replace(" OLD", ""), "x.toml")).loss
     old = channel_params(parse_scenario(text.replace(" OLD", ", bits = 'message', ebn0 = 'snr'"), "x.toml")).loss

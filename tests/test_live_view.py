@@ -32,7 +32,7 @@ from supervisor.record.scene.foxglove_schemas import (
 from supervisor.record.scene.live import LiveScene
 from tests.conftest import CONFIGS, shortened
 from tests.foxglove_client import CLOSE_WAIT, FoxgloveClient, Received
-from tests.procs import CPF, cpf, processes_with
+from tests.procs import CPF, cpf, processes_with, wait_until
 
 pytestmark = pytest.mark.e2e
 LIVE_LINE = re.compile(r"live view on ws://127\.0\.0\.1:(\d+) \(Foxglove: Open connection -> Foxglove WebSocket\)")
@@ -314,6 +314,7 @@ def test_the_relay_serves_from_a_process_of_its_own_that_ends_with_the_view() ->
     session, gone once the view has stopped; and the view serves through it meanwhile."""
     view = LiveView(0)
     try:
+        assert wait_until(lambda: len(_relays()) == 1, timeout=10), _relays()  # its command line once it is exec'd
         (relay,) = _relays()
         assert os.getsid(relay) == relay
         with FoxgloveClient.open(view.port, {TRANSFORMS_TOPIC}) as client:

@@ -181,10 +181,10 @@ BAD: dict[str, tuple[str, str, str | None]] = {
         "vehicle.overrides.masss",
         None,
     ),
-    "override a number for a vector": (
-        paper_with('preset = "remus100_neutral"', 'preset = "remus100_neutral"\noverrides = { mass = 40.0 }'),
+    "override a vector of the wrong length": (  # mass: one number (the rigid body's) or M's diagonal
+        paper_with('preset = "remus100_neutral"', 'preset = "remus100_neutral"\noverrides = { mass = [40.0, 41.0] }'),
         "vehicle.overrides.mass",
-        "40.0",
+        "[40.0, 41.0]",
     ),
     "override a vector for a number": (
         paper_with(

@@ -21,6 +21,7 @@ from comms.records.records import LinkEvent
 from comms.records.reports import CommsStats
 from comms.records.run import FaultEvent, Graph
 from comms.records.state import StateReport
+from supervisor.errors import ScenarioError
 from supervisor.record import logfile
 from supervisor.record.meta import RunMeta
 from supervisor.record.unusable import Unusable
@@ -186,9 +187,9 @@ class Collector(Protocol):
 
 
 def load_run(path: Path, also: Collector | None = None) -> RunData:
-    """Read a run's MCAP into arrays; LogError (pointing to `cpf recover`) for a log cut short or damaged,
-    a record that does not read named (a warning) and skipped (supervisor.record.unusable). also: handed the messages it
-    wants in the same pass (one read of the log for both)."""
+    """Read a run's MCAP into arrays; LogError (pointing to `cpf recover`) for a log cut short or damaged; a record
+    that does not read named (a warning) and skipped (supervisor.record.unusable), but a meta that does not read is a
+    ScenarioError naming the field. also: handed the messages it wants in the same pass (one read of the log)."""
     got, unusable = _Collected(), Unusable(path)
     wanted = _wanted if also is None else lambda topic: _wanted(topic) or also.wanted(topic)
     # checked whole: damage anywhere refuses the log, also in chunks the report skips (its Foxglove scene)
@@ -199,6 +200,8 @@ def load_run(path: Path, also: Collector | None = None) -> RunData:
             if also is not None and also.wanted(topic):
                 also.add(topic, message)
         except ValueError as exc:  # named and skipped: one record a reading cannot use is not the whole log
+            if topic == META_KEY:  # ... but the meta is: without it the run's duration, step and faults are unknown
+                raise ScenarioError(f"{path}: {topic}: {exc}") from None
             unusable.skip(topic, exc)
     unusable.close()
     vehicles = {v: _series(v, got.states[v]) for v in sorted(got.states)}

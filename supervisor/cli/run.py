@@ -188,35 +188,36 @@ def _report_run(args: argparse.Namespace, scenario: Scenario, result: RunResult,
     rep, duration = scenario.report, scenario.scenario.duration
     tube = tube_radius(scenario)
     summary = summarize(result.series, duration, intervals(scenario), rep.transient, tube, rep.coordination_tolerance)
-    factor = duration / max(result.stepping_time, 1e-9)
-    scene = f" (+{result.scene_messages} for Foxglove)" if result.scene_messages else ""
-    print(
-        f"{scenario.scenario.name}: {len(scenario.vehicles)} vehicles, {args.engine} engine, "
-        f"{duration:g} s simulated in {result.wall_time:.2f} s "
-        f"(stepping {result.stepping_time:.2f} s, {factor:.0f}x real time), {result.messages} messages{scene} -> {out}"
-    )
+    print(_headline(args, scenario, result, out))
     comms = comms_summary(result.link_stats, result.stats_history, result.estimate_ages)
-    print(format_summary(summary))
     diverged = divergence(result.series, scenario.coordination.v_r, rep.coordination_tolerance)
-    lines_after = (
+    lines = (
+        format_summary(summary),
         _divergence_lines(args, scenario, diverged),
         format_limits(at_limit(scenario, result.series), duration),
         _input_lines(scenario, result),
-    )
-    for lines in lines_after:
-        if lines is not None:
-            print(lines)
-    print(format_comms(comms))
-    for line in (
+        format_comms(comms),
         format_timing(result.realtime) if result.realtime is not None else None,
         format_malformed(result.malformed or {}, result.drop_causes or {}),
-    ):
+    )
+    for line in lines:
         if line is not None:
             print(line)
     if args.metrics:
         metrics: dict[str, Any] = {"coordination": summary.as_dict(), "comms": comms.as_dict()}
         metrics["divergence"] = None if diverged is None else dataclasses.asdict(diverged)
         _write_metrics(args.metrics, scenario, result, metrics)
+
+
+def _headline(args: argparse.Namespace, scenario: Scenario, result: RunResult, out: Path) -> str:
+    duration = scenario.scenario.duration
+    factor = duration / max(result.stepping_time, 1e-9)
+    scene = f" (+{result.scene_messages} for Foxglove)" if result.scene_messages else ""
+    return (
+        f"{scenario.scenario.name}: {len(scenario.vehicles)} vehicles, {args.engine} engine, "
+        f"{duration:g} s simulated in {result.wall_time:.2f} s "
+        f"(stepping {result.stepping_time:.2f} s, {factor:.0f}x real time), {result.messages} messages{scene} -> {out}"
+    )
 
 
 def _divergence_lines(args: argparse.Namespace, scenario: Scenario, found: Divergence | None) -> str | None:
