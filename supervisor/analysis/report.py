@@ -51,13 +51,14 @@ METRICS_FILE = "metrics.json"
 def write_report(log: Path, out_dir: Path) -> list[Path]:
     """Every figure of a recorded run and its metrics (metrics.json) into out_dir; returns the paths written."""
     from supervisor.analysis.metrics import run_metrics
-    from supervisor.analysis.tx_books import transmission_books
+    from supervisor.analysis.tx_books import BooksLog, books_of
     from supervisor.record.provenance import drawn_from
 
-    run = load_run(log)
+    on_the_books = BooksLog()
+    run = load_run(log, also=on_the_books)  # one pass over the log for both
     paths = write_figures(run, out_dir)
     metrics = out_dir / METRICS_FILE
-    books = {f"{i}->{j}": book.as_dict() for (i, j), book in transmission_books(log).items()}
+    books = {f"{i}->{j}": book.as_dict() for (i, j), book in books_of(on_the_books).items()}
     numbers = run_metrics(run) | {"transmissions": books}  # tx = sent + not_sent, per link (analysis.tx_books)
     numbers["drawn_from"] = drawn_from(log)  # a recovered or re-simulated log says so (record.provenance)
     metrics.write_text(json.dumps(numbers, indent=2, allow_nan=False) + "\n", encoding="utf-8")

@@ -44,8 +44,9 @@ class TxBook:
 
 
 @dataclass
-class _Log:
-    """What the books read from a log."""
+class BooksLog:
+    """What the books read from a log; also a reader of load_run's pass over it (supervisor.analysis.rundata's
+    Collector: `cpf report` reads its log once)."""
 
     step: float = 1.0
     base: set[Edge] = field(default_factory=set)
@@ -75,6 +76,16 @@ class _Log:
     def index(self, t: float) -> int:
         return round(t / self.step)
 
+    def wanted(self, topic: str) -> bool:
+        return _wanted(topic)
+
+    def add(self, topic: str, message: Any) -> None:
+        """take, with a record that does not read a ValueError (the Collector's contract: named and skipped)."""
+        try:
+            self.take(topic, message)
+        except (KeyError, TypeError, AttributeError) as exc:
+            raise ValueError(f"not a record the books can read ({type(exc).__name__}: {exc})") from None
+
 
 def _directed(edges: Iterable[Any]) -> set[Edge]:
     pairs = [(int(e["sender"]), int(e["receiver"])) if isinstance(e, dict) else (int(e[0]), int(e[1])) for e in edges]
@@ -89,15 +100,15 @@ def _wanted(topic: str) -> bool:
 
 def transmission_books(path: Path) -> dict[Edge, TxBook]:
     """(sender, receiver) -> its books, from the log at path (LogError if it is damaged)."""
-    from supervisor.record.logfile import messages
+    from supervisor.record.logfile import read_checked
 
-    log = _Log()
-    for topic, _, message in messages(path, _wanted):
+    log = BooksLog()
+    for topic, _, message in read_checked(path, _wanted):
         log.take(topic, message)
     return books_of(log)
 
 
-def books_of(log: _Log) -> dict[Edge, TxBook]:
+def books_of(log: BooksLog) -> dict[Edge, TxBook]:
     books: dict[Edge, TxBook] = {}
     times = [t for t, _ in sorted(log.graphs, key=lambda g: g[0])]
     graphs = [g for _, g in sorted(log.graphs, key=lambda g: g[0])] or [log.base]
@@ -113,7 +124,7 @@ def books_of(log: _Log) -> dict[Edge, TxBook]:
     return dict(sorted(books.items()))
 
 
-def _cause(log: _Log, sender: int, receiver: int, t: float, in_force: set[Edge]) -> str:
+def _cause(log: BooksLog, sender: int, receiver: int, t: float, in_force: set[Edge]) -> str:
     """Why a transmission of t never entered the channel on sender -> receiver. The broker takes step k's
     transmissions in at step k + 1, with the kinematics of the vehicles running at both."""
     k = log.index(t)
@@ -128,7 +139,7 @@ def _cause(log: _Log, sender: int, receiver: int, t: float, in_force: set[Edge])
     return "unaccounted"
 
 
-def _broker_down(log: _Log, t: float) -> bool:
+def _broker_down(log: BooksLog, t: float) -> bool:
     """Whether a broker_kill fault had stopped the broker at t (its start <= t < its end)."""
     down = False
     for phase, at in sorted(log.broker_down, key=lambda item: item[1]):
