@@ -14,7 +14,7 @@ from functools import lru_cache
 
 import msgspec
 
-from comms.records.fields import Finite, Message, as_message, read_as
+from comms.records.fields import Finite, Message, as_message, read_as_or_older
 from comms.records.run import Edge, Link, links, older_links, pairs
 
 
@@ -82,13 +82,7 @@ class Network(msgspec.Struct, frozen=True):
     @classmethod
     def from_message(cls, message: object) -> Network:
         """The inverse of to_message, checked: ValueError naming the field for anything malformed."""
-        try:
-            return read_as(message, cls)
-        except ValueError:
-            older = from_older_log(message)
-            if older is None:
-                raise
-            return read_as(older, cls)
+        return read_as_or_older(message, cls, from_older_log)
 
 
 @lru_cache(maxsize=256)
