@@ -23,6 +23,7 @@ inherits (its descriptor in RELAY_SOCKET_ENV) and takes its orders, a line each,
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import logging
 import os
 import socket
@@ -54,6 +55,10 @@ class Relay:
     def __init__(self, sock: socket.socket, backend: str) -> None:
         self._backend = backend
         self._closing: tuple[int, str] = (CloseCode.GOING_AWAY, "cpf stopped")  # see `closing`
+        # Set once the code is known (`closing` or `stop`). The order comes on the control pipe, read by another thread
+        # than the loop's, and the server's stop right after it can reach a connection first: without the wait, that
+        # connection closed with the default code (seen in CI: 1001 after `finish`).
+        self._told = asyncio.Event()
         self._handlers: set[asyncio.Task[None]] = set()
         self._loop = asyncio.new_event_loop()
         self._thread = threading.Thread(target=self._loop.run_forever, name="cpf-live-relay", daemon=True)
@@ -67,6 +72,7 @@ class Relay:
     def closing(self, code: int, reason: str) -> None:
         """The close code and reason each connection gets once the server is gone (before stopping the server)."""
         self._closing = (code, reason)
+        self._loop.call_soon_threadsafe(self._told.set)
 
     def stop(self) -> None:
         """No more connections; those open pass on what the server sent (it has stopped) and close with the code of
@@ -91,6 +97,7 @@ class Relay:
                            ping_interval=None)  # fmt: skip
 
     async def _shutdown(self) -> None:
+        self._told.set()  # no `closing`: the default code
         self._server.close(close_connections=False)  # the listening socket: no new connection
         if self._handlers:
             await asyncio.wait(set(self._handlers), timeout=DRAIN_WAIT)
@@ -111,6 +118,9 @@ class Relay:
         except (OSError, InvalidHandshake, TimeoutError) as exc:  # the server is gone, or going
             log.info("live view: no server for %s (%s)", client.remote_address, exc)
         finally:
+            if client.close_code is None:  # the server's side ended first: its code is the one stop will be given
+                with contextlib.suppress(TimeoutError):
+                    await asyncio.wait_for(self._told.wait(), DRAIN_WAIT)
             await client.close(*self._closing)  # nothing if the client closed: its close was answered
             self._handlers.discard(task)
 
