@@ -49,7 +49,7 @@ def _slowest(path: Path) -> float:
     period, straight = path.gamma_period, path.straight_beyond
     lo, hi = (0.0, period) if period is not None else straight if straight is not None else (0.0, 1.0)
     gammas = np.linspace(lo - 1.0, hi + 1.0, SAMPLES)
-    return max(1e-3, min(float(np.linalg.norm(path.evaluate(float(g))[1])) for g in gammas))
+    return max(1e-3, min(math.hypot(*path.evaluate_floats(float(g))[1]) for g in gammas))
 
 
 def _current_speed(sc: Scenario) -> float:

@@ -105,8 +105,14 @@ def messages(
 
 
 def read_messages(path: Path, wanted: Callable[[str], bool] | None = None) -> list[tuple[str, int, Any]]:
-    """(topic, log time ns, message) of every (wanted) message in log-time order; LogError as `messages`."""
-    return [(m.topic, m.log_time, m.message) for m in messages(path, wanted)]
+    """(topic, log time ns, message) of every (wanted) message in log-time order; LogError as `messages`. Read in
+    `read_checked`'s one pass (the same messages in the same order, tests/test_report_drawing.py): `messages` streams,
+    for a replay's seek, at twice the cost of a whole read (74k messages of the paper run: 2.9 against 1.6 s)."""
+    return [(m.topic, m.log_time, m.message) for m in read_checked(path, wanted or _every)]
+
+
+def _every(_: str) -> bool:
+    return True
 
 
 def read_checked(path: Path, wanted: Callable[[str], bool]) -> list[LogMessage]:

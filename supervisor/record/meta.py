@@ -6,6 +6,7 @@ it is built from a scenario, which the lower layers know nothing of (`RunMeta.of
 
 from __future__ import annotations
 
+import functools
 import platform
 from importlib import metadata
 
@@ -16,6 +17,7 @@ from supervisor.config.extension_checks import extension_identities
 from supervisor.config.scenario_schema import Scenario
 
 
+@functools.cache  # installed versions do not change within a process (a sweep builds many metas)
 def _version(package: str) -> str:
     try:
         return metadata.version(package)
