@@ -22,8 +22,8 @@ from typing import Any
 
 from benchmarks import ROOT, save
 from comms.bus.bus import Received
+from comms.records.events import EVENT_TOPICS, logged_events
 from comms.records.messages import (
-    COMMS_EVENT_KEY,
     COMMS_EVENTS_KEY,
     COMMS_STATS_KEY,
     encode,
@@ -56,8 +56,8 @@ def bus_messages(path: Path) -> list[Received]:
         owned = vehicle_of_key(topic)
         if owned is not None:
             parts.setdefault((round(ns / 1e9 / dt), owned[0]), {})[owned[1]] = message
-        elif topic == COMMS_EVENT_KEY:
-            events.setdefault(min(round(ns / 1e9 / dt), len(parts)), []).append(message)
+        elif topic in EVENT_TOPICS:
+            events.setdefault(min(round(ns / 1e9 / dt), len(parts)), []).extend(logged_events(topic, message))
         elif topic == COMMS_STATS_KEY:
             stats.append(Received(topic, encode(message)))
     out_messages: list[Received] = []
