@@ -59,7 +59,7 @@ def read_run(path: Path) -> tuple[dict, dict[tuple[int, int], Counter[str]], lis
     return states, links, faults
 
 
-COMPARED = ("/state", "/tx", "/rx", "cpf/comms/event", "cpf/run/fault", "cpf/run/graph")
+COMPARED = ("/state", "/tx", "/rx", "cpf/comms/event", "cpf/comms/events", "cpf/run/fault", "cpf/run/graph")
 
 
 def records(path: Path) -> dict[str, list[str]]:
