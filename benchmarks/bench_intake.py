@@ -66,6 +66,8 @@ def bus_messages(path: Path) -> list[Received]:
             out_messages.append(Received(COMMS_EVENTS_KEY, encode({"t": k * dt, "k": k, "events": events.pop(k)})))
         step = step_message(leaves["state"], leaves.get("tx"), leaves.get("rx"), k + 1)
         out_messages.append(Received(state_key(vid), encode(step)))
+    for k, left in sorted(events.items()):  # the end's (no state of its step): after the last states, as live
+        out_messages.append(Received(COMMS_EVENTS_KEY, encode({"t": k * dt, "k": k, "events": left})))
     return out_messages + stats
 
 
