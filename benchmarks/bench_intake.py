@@ -22,8 +22,8 @@ from typing import Any
 
 from benchmarks import ROOT, save
 from comms.bus.bus import Received
+from comms.records.events import EVENT_TOPICS, logged_events
 from comms.records.messages import (
-    COMMS_EVENT_KEY,
     COMMS_EVENTS_KEY,
     COMMS_STATS_KEY,
     encode,
@@ -56,8 +56,8 @@ def bus_messages(path: Path) -> list[Received]:
         owned = vehicle_of_key(topic)
         if owned is not None:
             parts.setdefault((round(ns / 1e9 / dt), owned[0]), {})[owned[1]] = message
-        elif topic == COMMS_EVENT_KEY:
-            events.setdefault(min(round(ns / 1e9 / dt), len(parts)), []).append(message)
+        elif topic in EVENT_TOPICS:
+            events.setdefault(min(round(ns / 1e9 / dt), len(parts)), []).extend(logged_events(topic, message))
         elif topic == COMMS_STATS_KEY:
             stats.append(Received(topic, encode(message)))
     out_messages: list[Received] = []
@@ -66,6 +66,8 @@ def bus_messages(path: Path) -> list[Received]:
             out_messages.append(Received(COMMS_EVENTS_KEY, encode({"t": k * dt, "k": k, "events": events.pop(k)})))
         step = step_message(leaves["state"], leaves.get("tx"), leaves.get("rx"), k + 1)
         out_messages.append(Received(state_key(vid), encode(step)))
+    for k, left in sorted(events.items()):  # the end's (no state of its step): after the last states, as live
+        out_messages.append(Received(COMMS_EVENTS_KEY, encode({"t": k * dt, "k": k, "events": left})))
     return out_messages + stats
 
 

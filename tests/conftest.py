@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import os
 import re
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
@@ -12,6 +13,7 @@ import pytest
 from hypothesis import settings
 
 from comms.bus.bus import Publishers
+from comms.records.events import logged_events
 from comms.records.messages import Message
 from comms.records.run import links
 from supervisor.record.meta import RunMeta
@@ -36,6 +38,12 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
 def shortened(text: str, duration: float) -> str:
     """A scenario text with its duration replaced."""
     return re.sub(r"(?m)^duration = .*$", f"duration = {duration}", text, count=1)
+
+
+def link_events(logged: Iterable[tuple[str, int, Any]]) -> list[Any]:
+    """Every link event of a log's records (read_messages), each at its own t, in log order: a step's batch
+    (cpf/comms/events) taken apart, an older log's single records (cpf/comms/event) as they are."""
+    return [event for topic, _, message in logged for event in logged_events(topic, message)]
 
 
 @pytest.fixture

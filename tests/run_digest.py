@@ -7,7 +7,9 @@ change results, and say so in the commit.
 
 A digest is the SHA-256 of every record of one kind (state, tx, rx, event, fault, graph, stats) in canonical form:
 sorted keys, floats as Python prints them (round-trip exact), ordered by log time and then by content (processes
-that write at the same simulated instant may reach the recorder in any order).
+that write at the same simulated instant may reach the recorder in any order). Link events count one by one, each at
+its own time, as the logs the fixture was made from kept them (a record each): a cpf/comms/events batch is taken
+apart (comms.records.events.logged_events), so the fixture holds whatever the batching.
 """
 
 from __future__ import annotations
@@ -19,7 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
-from supervisor.record.recorder import read_messages
+from comms.records.events import EVENT_TOPICS, logged_events
+from supervisor.record.recorder import read_messages, seconds_to_ns
 from tests.conftest import CONFIGS, shortened
 from tests.procs import cpf
 from tests.test_faults_e2e import random_schedule
@@ -50,6 +53,10 @@ def digest(log: Path) -> dict[str, str]:
     """kind -> 'count:sha256' of the log's records of that kind."""
     rows: dict[str, list[tuple[int, str]]] = {kind: [] for kind in KINDS}
     for topic, log_time, message in read_messages(log):
+        if topic in EVENT_TOPICS:  # one line per link event, as when the log kept one record each (at its own t)
+            for event in logged_events(topic, message):
+                rows["event"].append((seconds_to_ns(event["t"]), KINDS["event"] + json.dumps(event, sort_keys=True)))
+            continue
         kind = kind_of(topic)
         if kind is not None:
             rows[kind].append((log_time, topic + json.dumps(message, sort_keys=True)))

@@ -8,6 +8,7 @@ from __future__ import annotations
 import copy
 import math
 import sys
+from collections.abc import Iterable
 from typing import Any
 
 import orjson
@@ -106,9 +107,10 @@ class Capture:
         self.write_json(key, t, data)
         self.scene.take_state(report)
 
-    def write_event(self, key: str, t: float, data: bytes, event: LinkEvent) -> None:
+    def write_events(self, key: str, t: float, data: bytes, events: Iterable[LinkEvent]) -> None:
         self.write_json(key, t, data)
-        self.scene.take_event(event)
+        for event in events:
+            self.scene.take_event(event)
 
 
 def taken(items: list[tuple[str, bytes]], typed: bool) -> tuple[Any, ...]:
@@ -176,7 +178,8 @@ def test_good_messages_are_read_in_one_pass(monkeypatch: pytest.MonkeyPatch) -> 
 
     monkeypatch.setattr(intake_module, "decode", slow)
     records, malformed, states, *_ = taken([(state_key(2), encode(WINDOW)), (COMMS_EVENTS_KEY, encode(EVENTS))], True)
-    assert malformed == {} and states == {1: {2}, 2: {2}} and len(records) == 2 + 2 + 1 + 3
+    assert malformed == {} and states == {1: {2}, 2: {2}} and len(records) == 2 + 2 + 1 + 1  # the events: one batch
+    assert len(orjson.loads(records[-1][2])["events"]) == 3  # all of EVENTS
 
 
 # Finite numbers of any size: a NaN or an infinity is dropped as not finite (test_a_non_finite_state_is_dropped).

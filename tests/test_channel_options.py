@@ -18,14 +18,13 @@ import pytest
 from supervisor.config.scenario import parse_scenario
 from supervisor.errors import ScenarioError
 from supervisor.record.recorder import read_messages
-from tests.conftest import CONFIGS, shortened
+from tests.conftest import CONFIGS, link_events, shortened
 from tests.procs import cpf
 from tests.run_digest import digest
 
 SOURCE = "acoustic.toml"
 ACOUSTIC = (CONFIGS / "paper_acoustic.toml").read_text()
 RANGE = 'range = { type = "link_budget", source_level = 185.0 }'
-EVENTS = "cpf/comms/event"
 BURST = "burst = { mean_loss = 0.05, mean_burst = 2.0 }"
 
 
@@ -133,7 +132,7 @@ def test_both_engines_record_the_same_run_with_fading_capture_and_time_bursts(tm
 
 def _causes(log: Path) -> Counter[str]:
     """What became of each packet of a log: its link events' reasons (or kinds)."""
-    return Counter(m.get("reason") or m["kind"] for topic, _, m in read_messages(log) if topic == EVENTS)
+    return Counter(m.get("reason") or m["kind"] for m in link_events(read_messages(log)))
 
 
 @pytest.mark.e2e

@@ -23,7 +23,7 @@ from supervisor.config.scenario import load_scenario
 from supervisor.engine.cosim import BusOptions, run_zenoh
 from supervisor.engine.progress import Progress
 from supervisor.record.recorder import read_messages
-from tests.conftest import CONFIGS, ROOT, shortened
+from tests.conftest import CONFIGS, ROOT, link_events, shortened
 from tests.procs import cpf, kill_vehicle_process, processes_with, start_cpf, wait_for_progress
 
 pytestmark = pytest.mark.e2e
@@ -37,9 +37,8 @@ def states(path: Path) -> dict[tuple[int, int], dict]:
 
 def link_books(path: Path) -> dict[tuple[int, int], Counter[str]]:
     books: dict[tuple[int, int], Counter[str]] = {}
-    for topic, _, m in read_messages(path):
-        if topic == "cpf/comms/event":
-            books.setdefault((m["sender"], m["receiver"]), Counter())[m["kind"]] += 1
+    for m in link_events(read_messages(path)):
+        books.setdefault((m["sender"], m["receiver"]), Counter())[m["kind"]] += 1
     return books
 
 
@@ -79,7 +78,7 @@ def test_every_link_balances_and_the_mcap_reads_back(lossy):
     topics = {channel.topic for channel in summary.channels.values()}
     for vid in (1, 2, 3):
         assert {f"cpf/vehicle/{vid}/{leaf}" for leaf in ("state", "tx", "rx")} <= topics
-    assert {"cpf/run/meta", "cpf/run/graph", "cpf/clock/tick", "cpf/comms/event", "cpf/comms/done"} <= topics
+    assert {"cpf/run/meta", "cpf/run/graph", "cpf/clock/tick", "cpf/comms/events", "cpf/comms/done"} <= topics
     assert {channel.message_encoding for channel in summary.channels.values()} == {"json"}
     assert {schema.encoding for schema in summary.schemas.values()} == {"jsonschema"}
 
@@ -128,7 +127,7 @@ def test_realtime_clock_paces_the_run_holds_deliveries_to_their_arrival_and_chan
 
 
 def events(path: Path, kind: str) -> list[dict]:
-    return [m for topic, _, m in read_messages(path) if topic == "cpf/comms/event" and m["kind"] == kind]
+    return [m for m in link_events(read_messages(path)) if m["kind"] == kind]
 
 
 def test_bad_scenario_starts_nothing(tmp_path, paper_text):

@@ -20,8 +20,8 @@ from mcap.reader import make_reader
 
 from supervisor.config.fleet import restarted_node, vehicle_config
 from supervisor.config.scenario import load_scenario
-from supervisor.record.recorder import read_messages
-from tests.conftest import shortened
+from supervisor.record.recorder import read_messages, seconds_to_ns
+from tests.conftest import link_events, shortened
 from tests.procs import cpf, kill_vehicle_process, processes_with, start_cpf, wait_for_no_processes, wait_for_progress
 
 pytestmark = pytest.mark.e2e
@@ -48,23 +48,28 @@ def read_run(path: Path) -> tuple[dict, dict[tuple[int, int], Counter[str]], lis
     states: dict = {}
     links: dict[tuple[int, int], Counter[str]] = {}
     faults: list = []
-    for topic, _, m in read_messages(path):
+    logged = read_messages(path)
+    for m in link_events(logged):
+        links.setdefault((m["sender"], m["receiver"]), Counter())[m.get("reason") or m["kind"]] += 1
+    for topic, _, m in logged:
         if topic.endswith("/state"):
             states[(m["vehicle"], m["k"])] = m
-        elif topic == "cpf/comms/event":
-            links.setdefault((m["sender"], m["receiver"]), Counter())[m.get("reason") or m["kind"]] += 1
         elif topic == "cpf/run/fault":
             faults.append((m["kind"], m["phase"], m["t"]))
     return states, links, faults
 
 
-COMPARED = ("/state", "/tx", "/rx", "cpf/comms/event", "cpf/run/fault", "cpf/run/graph")
+COMPARED = ("/state", "/tx", "/rx", "cpf/comms/event", "cpf/comms/events", "cpf/run/fault", "cpf/run/graph")
 
 
 def records(path: Path) -> dict[str, list[str]]:
-    """Every record of the topics both engines must write alike, per topic, in a canonical order."""
+    """Every record of the topics both engines must write alike, per topic, in a canonical order; the link events
+    one by one, at their own times (however they are batched)."""
     out: dict[str, list[str]] = {}
-    for topic, stamp, m in read_messages(path):
+    logged = read_messages(path)
+    for m in link_events(logged):
+        out.setdefault("cpf/comms/event", []).append(json.dumps([seconds_to_ns(m["t"]), m], sort_keys=True))
+    for topic, stamp, m in logged:
         if topic.endswith(COMPARED):
             out.setdefault(topic, []).append(json.dumps([stamp, m], sort_keys=True))
     return {topic: sorted(items) for topic, items in out.items()}
@@ -270,7 +275,7 @@ def test_realtime_sends_no_packet_for_the_step_a_scheduled_kill_ends(tmp_path, p
     args = ["--set", "scenario.on_vehicle_loss=continue", "--fault", "kind=vehicle_kill,vehicle=3,start=3,end=4"]
     done = cpf("run", str(scenario), "--clock", "realtime", "--speed", "5", *args, "--out", "rt.mcap", cwd=tmp_path)
     assert done.returncode == 0, done.stderr
-    sent = {round(m["t"], 6) for topic, _, m in read_messages(tmp_path / "rt.mcap")
-            if topic == "cpf/comms/event" and m["kind"] == "sent" and m["sender"] == 3}  # fmt: skip
+    sent = {round(m["t"], 6) for m in link_events(read_messages(tmp_path / "rt.mcap"))
+            if m["kind"] == "sent" and m["sender"] == 3}  # fmt: skip
     assert 2.8 in sent and 2.9 not in sent  # it reported step 2.9 s, then was killed at 3 s before sending it
     assert 4.0 in sent  # and sent again once restarted

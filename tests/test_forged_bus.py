@@ -21,7 +21,6 @@ from hypothesis import strategies as st
 from comms.bus.bus import Received
 from comms.records.messages import (
     COMMS_DONE_KEY,
-    COMMS_EVENT_KEY,
     COMMS_EVENTS_KEY,
     COMMS_STATS_KEY,
     COMMS_STEP_KEY,
@@ -35,7 +34,7 @@ from comms.records.state import NeighbourAge, StateReport
 from supervisor.config.scenario import parse_scenario
 from supervisor.engine.intake import SUPERVISOR, Intake
 from supervisor.record.recorder import Recorder, read_messages
-from tests.conftest import CONFIGS
+from tests.conftest import CONFIGS, link_events
 from tests.run_digest import digest
 from tests.test_bus_access import WAIT, arrivals, client, read_credential, run_with_vehicle_2_by_hand, until
 
@@ -197,7 +196,7 @@ def test_a_run_attacked_on_a_vehicles_own_keys_counts_drops_and_says_so(tmp_path
     records = read_messages(tmp_path / "run.mcap")
     dones = [m["vehicle"] for topic, _, m in records if topic.endswith("/done") and topic != COMMS_DONE_KEY]
     assert sorted(dones) == [1, 2, 3]  # each vehicle's own report, none forged
-    assert not [r for r in records if r[0] == COMMS_EVENT_KEY and r[2]["t"] < 0]
+    assert not [event for event in link_events(records) if event["t"] < 0]
     assert digest(tmp_path / "run.mcap") == hand.undisturbed_digest()
 
 

@@ -21,7 +21,7 @@ from supervisor.record.scene.foxglove_schemas import is_scene_topic, schema, sch
 from supervisor.record.scene_log import add_scene, scene_of_log
 from tests.conftest import ROOT
 from tests.procs import cpf
-from tests.viewer_rules import viewer_problems
+from tests.viewer_rules import TopicSpan, high_frequency_topics, viewer_problems
 
 pytestmark = pytest.mark.e2e
 DURATION = 60.0
@@ -53,6 +53,25 @@ def scene_records(path: Path) -> list[tuple[str, int, bytes]]:
                 if is_scene_topic(ch.topic)]  # fmt: skip
 
 
+def topic_spans(path: Path) -> dict[str, TopicSpan]:
+    """Each topic's span as the log's summary and index give it to a viewer: its message count (the statistics),
+    its first and last log times, whether its channel has a schema."""
+    with path.open("rb") as stream:
+        reader = make_reader(stream)
+        summary = reader.get_summary()
+        assert summary is not None and summary.statistics is not None
+        times: dict[int, list[int]] = {}
+        for _, channel, message in reader.iter_messages(log_time_order=False):
+            seen = times.setdefault(channel.id, [message.log_time, message.log_time])
+            seen[0], seen[1] = min(seen[0], message.log_time), max(seen[1], message.log_time)
+    counts = summary.statistics.channel_message_counts
+    return {
+        channel.topic: TopicSpan(counts[c], times[c][0], times[c][1], channel.schema_id != 0)
+        for c, channel in summary.channels.items()
+        if counts.get(c)
+    }
+
+
 def closed(node: Any) -> Any:
     """A JSON schema that also refuses keys it does not name (Foxglove's allow them): a misspelt field, which
     Foxglove would silently ignore, fails validation."""
@@ -81,6 +100,17 @@ def test_the_log_has_foxglove_channels_with_foxglove_schemas_in_json(logs):
     counts = {summary.channels[c].topic: n for c, n in summary.statistics.channel_message_counts.items()}
     assert counts["foxglove/paths"] == 1
     assert counts["foxglove/scene"] == counts["foxglove/transforms"] == DURATION / 0.5  # published every 0.5 s
+
+
+@pytest.mark.parametrize("engine", ["inprocess", "zenoh"])
+def test_no_topic_is_one_the_viewer_calls_high_frequency(logs, engine):
+    """Lichtblick's "High frequency topics detected" alert (tests/viewer_rules.py): the link events, a record each,
+    came ~80 a second; a step's batch comes at most once a step (the paper run's 0.1 s)."""
+    spans = topic_spans(logs[engine])
+    assert high_frequency_topics(spans) == {}
+    events = spans["cpf/comms/events"]
+    assert events.schema and events.count > DURATION / 0.1 * 0.9  # a batch a step (none where no event)
+    assert "cpf/comms/event" not in spans
 
 
 @pytest.mark.parametrize("engine", ["inprocess", "zenoh"])
@@ -197,4 +227,4 @@ def test_every_cpf_record_validates_against_its_channels_schema_which_the_viewer
             if channel.topic in validators:
                 validators[channel.topic].validate(json.loads(message.data))
                 seen[channel.topic.rsplit("/", 1)[-1]] += 1
-    assert {"meta", "graph", "fault", "state", "tx", "rx", "event", "stats"} <= set(seen), seen  # zenoh: tick, stop too
+    assert {"meta", "graph", "fault", "state", "tx", "rx", "events", "stats"} <= set(seen), seen  # zenoh: tick, stop

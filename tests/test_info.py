@@ -59,7 +59,7 @@ def test_describe_a_run(log: Path) -> None:
     text = describe(log)
     counts = logged_counts(log)
     assert topic_counts(text) == counts
-    assert set(counts) >= {"cpf/run/meta", "cpf/comms/event", "cpf/comms/stats", "cpf/vehicle/3/state"}
+    assert set(counts) >= {"cpf/run/meta", "cpf/comms/events", "cpf/comms/stats", "cpf/vehicle/3/state"}
     size = log.stat().st_size
     assert text.splitlines()[0].startswith(f"{log}: ")
     assert f"({size} bytes), {sum(counts.values())} messages on {len(counts)} topics" in text

@@ -15,7 +15,7 @@ from supervisor.config.scenario import parse_scenario
 from supervisor.engine.inprocess import RunResult, run_inprocess
 from supervisor.engine.progress import Progress
 from supervisor.record.recorder import read_messages
-from tests.conftest import CONFIGS, shortened
+from tests.conftest import CONFIGS, link_events, shortened
 
 
 def run_text(text: str, out: Path) -> tuple[RunResult, Summary]:
@@ -161,10 +161,11 @@ def test_every_link_balances_with_every_cause_on_a_crowded_channel(tmp_path):
     run_text(acoustic_text(tdma=False), out)
     events: dict[tuple[int, int], Counter[str]] = {}
     final = None
-    for topic, _, m in read_messages(out):
-        if topic == "cpf/comms/event":
-            events.setdefault((m["sender"], m["receiver"]), Counter())[m.get("reason") or m["kind"]] += 1
-        elif topic == "cpf/comms/stats":
+    logged = read_messages(out)
+    for m in link_events(logged):
+        events.setdefault((m["sender"], m["receiver"]), Counter())[m.get("reason") or m["kind"]] += 1
+    for topic, _, m in logged:
+        if topic == "cpf/comms/stats":
             final = m
     assert final is not None
     causes = Counter[str]()
@@ -235,7 +236,7 @@ def test_a_run_without_a_log_counts_every_message_under_every_fault_kind(tmp_pat
     bare = run_inprocess(scenario, "test.toml", text, None, 7, quiet)
     messages = read_messages(out)
     topics = Counter(topic for topic, _, _ in messages)
-    reasons = Counter(m.get("reason") for topic, _, m in messages if topic == "cpf/comms/event")
+    reasons = Counter(m.get("reason") for m in link_events(messages))
     assert reasons["broker_down"] > 0 and reasons["end_of_run"] > 0 and topics["cpf/vehicle/1/rx"] > 0
     run_topics = sum(n for topic, n in topics.items() if not topic.startswith("foxglove/"))
     assert bare.messages == recorded.messages == run_topics and recorded.scene_messages > bare.scene_messages == 0

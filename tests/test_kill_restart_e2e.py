@@ -17,11 +17,11 @@ import pytest
 from supervisor.record.recorder import read_messages
 from tests.conftest import shortened
 from tests.procs import cpf, processes_with
+from tests.test_faults_e2e import records
 
 pytestmark = pytest.mark.e2e
 
 ENGINES = ("zenoh", "inprocess")
-COMPARED = ("/state", "/tx", "/rx", "cpf/comms/event", "cpf/run/fault", "cpf/run/graph")
 
 
 def run(tmp_path: Path, text: str, fault: str, engine: str) -> tuple[str, str, Path]:
@@ -35,14 +35,6 @@ def run(tmp_path: Path, text: str, fault: str, engine: str) -> tuple[str, str, P
     assert done.returncode == 0, done.stderr
     assert processes_with(str(scenario)) == []
     return done.stdout, done.stderr, out
-
-
-def records(path: Path) -> dict[str, list[str]]:
-    out: dict[str, list[str]] = {}
-    for topic, stamp, m in read_messages(path):
-        if topic.endswith(COMPARED):
-            out.setdefault(topic, []).append(json.dumps([stamp, m], sort_keys=True))
-    return {topic: sorted(items) for topic, items in out.items()}
 
 
 def steps_of(path: Path, vehicle: int) -> set[int]:

@@ -26,7 +26,7 @@ from supervisor.config.fleet import channel_params
 from supervisor.config.scenario import load_scenario
 from supervisor.config.scenario_digest import section_digests
 from supervisor.record.recorder import read_messages
-from tests.conftest import CONFIGS, shortened
+from tests.conftest import CONFIGS, link_events, shortened
 from tests.procs import cpf
 from tests.run_digest import digest
 from tests.samples.loss import Cutoff, Raises, ReturnsNumber, Slow
@@ -59,7 +59,7 @@ def test_a_user_loss_model_runs_the_paper_scenario_on_both_engines_with_the_same
         digests[engine] = digest(tmp_path / engine / "run.mcap")
     assert digests["inprocess"] == digests["zenoh"]
     log = tmp_path / "zenoh" / "run.mcap"
-    reasons = [m.get("reason") for topic, _, m in read_messages(log) if topic == "cpf/comms/event"]
+    reasons = [m.get("reason") for m in link_events(read_messages(log))]
     assert 0.1 < reasons.count("noise") / reasons.count(None) < 0.3  # its decisions, under its own reason (p = 0.2)
     meta = next(m for topic, _, m in read_messages(log) if topic == "cpf/run/meta")
     assert any(e.startswith(f"loss {SAMPLES}:Cutoff = {SAMPLES}:Cutoff (") for e in meta["extensions"])
@@ -248,7 +248,7 @@ def test_cpf_plugins_lists_the_loss_models(entry_points, tmp_path):
 def test_a_scenario_names_a_builtin_loss_model_by_entry_point(entry_points, tmp_path):
     done = run(tmp_path, "comms.loss_model=bernoulli", "comms.loss_model_options.p=0.3", env=entry_points)
     assert done.returncode == 0, done.stderr
-    events = [m for topic, _, m in read_messages(tmp_path / "run.mcap") if topic == "cpf/comms/event"]
+    events = link_events(read_messages(tmp_path / "run.mcap"))
     assert 0.2 < sum(m.get("reason") == "loss" for m in events) / sum(m["kind"] == "sent" for m in events) < 0.4
     assert sys.modules["comms.channel.loss"].Bernoulli is Bernoulli  # the entry point's class is this checkout's
 

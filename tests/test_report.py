@@ -15,6 +15,7 @@ import msgspec
 import numpy as np
 import pytest
 
+from comms.records.events import logged_events
 from comms.records.messages import COMMS_EVENT_KEY, COMMS_STATS_KEY, FAULT_KEY, GRAPH_KEY, META_KEY, state_key
 from supervisor.analysis.metrics import STEADY_STATE_WINDOW, run_metrics
 from supervisor.analysis.report import FaultInterval, RunData, load_run, write_figures, write_report
@@ -407,7 +408,7 @@ def test_real_report_files(real: RealRun) -> None:
 
 
 def test_real_packets_equal_the_logged_events(real: RealRun, logged: list[tuple[str, int, dict[str, Any]]]) -> None:
-    events = [m for topic, _, m in logged if topic == COMMS_EVENT_KEY]
+    events = [event for topic, _, m in logged for event in logged_events(topic, m)]
     books: dict[str, Counter[str]] = {}
     for e in events:
         book = books.setdefault(f"{e['sender']}->{e['receiver']}", Counter())

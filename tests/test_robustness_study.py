@@ -16,7 +16,7 @@ from supervisor.config.scenario import load_scenario
 from supervisor.engine.inprocess import run_inprocess
 from supervisor.engine.progress import Progress
 from supervisor.record.recorder import read_messages
-from tests.conftest import CONFIGS, shortened
+from tests.conftest import CONFIGS, link_events, shortened
 from tests.procs import cpf
 from tests.run_digest import digest
 
@@ -52,5 +52,5 @@ def test_the_study_scenario_gives_the_same_records_on_both_engines(tmp_path):
     zen, inp = digest(tmp_path / "zenoh.mcap"), digest(tmp_path / "inprocess.mcap")
     assert zen == inp
     assert int(zen["state"].split(":")[0]) == 3 * 300
-    events = [m for topic, _, m in read_messages(tmp_path / "inprocess.mcap") if topic == "cpf/comms/event"]
+    events = link_events(read_messages(tmp_path / "inprocess.mcap"))
     assert any(m.get("reason") == "range" for m in events)  # the fading link budget does lose packets

@@ -83,7 +83,8 @@ class Broker:
         self.submitted = start_step - 1  # the last step whose transmissions are in the water
         self.clock: Tick | None = None  # the latest tick handled: realtime deliveries are timed by it
         self.latest_tick = start_step - 1  # the latest tick taken in: no vehicle can step beyond it (and the next)
-        self.unpublished: list[LinkEvent] = []  # link events not yet published (one events message per tick)
+        self.unpublished: list[LinkEvent] = []  # link events not yet published (one events message per step)
+        self.stepped: list[LinkEvents] = []  # a window's earlier steps' events, each step's batch, not yet published
         self.grants = Grants(dt)  # lockstep spans: the ticks the broker issues itself (comms.broker.span)
 
     def take(self, key: str, payload: bytes) -> None:
@@ -228,12 +229,16 @@ class Broker:
         self._publish_stats(tick.t)
 
     def _handle_window(self, tick: Tick, raw: dict[str, object]) -> None:
-        """A lockstep tick of several steps: one batch per step, the statistics snapshotted at each step's time."""
+        """A lockstep tick of several steps: one batch per step, the statistics snapshotted at each step's time, the
+        link events a batch per step too."""
         batches = []
         for k in range(tick.k, tick.end):
             t = tick.t if k == tick.k else k * self.dt
             batches.append(self._deliver(t))
             self._publish_stats(t)
+            if self.unpublished:  # each step's events its own batch, as single steps publish them (the log keeps
+                self.stepped.append(LinkEvents(t, k, tuple(self.unpublished)))  # them so, whatever the windows)
+                self.unpublished = []
         self._step_out(tick, batches_message(raw, batches))
 
     def _step_out(self, tick: Tick, batches: Message) -> None:
@@ -283,10 +288,14 @@ class Broker:
             self.publishers.put(COMMS_STATS_KEY, snapshot)
 
     def _publish_events(self, tick: Tick) -> None:
+        """The events not yet published: a window's, step by step; then the rest, as the tick's step's."""
         if self.unpublished:
-            self.publishers.put(COMMS_EVENTS_KEY, LinkEvents(tick.t, tick.k, tuple(self.unpublished)).to_message())
-            self.books.published += len(self.unpublished)
+            self.stepped.append(LinkEvents(tick.t, tick.k, tuple(self.unpublished)))
             self.unpublished = []
+        for batch in self.stepped:
+            self.publishers.put(COMMS_EVENTS_KEY, batch.to_message())
+            self.books.published += len(batch.events)
+        self.stepped = []
 
 
 def _next_tx(message: dict[str, object]) -> int | None:

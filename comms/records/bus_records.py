@@ -85,7 +85,7 @@ def read_events(payload: bytes) -> LinkEvents | None:
         return None
 
 
-def log_json(record: StateReport | Transmission | RxBatch | LinkEvent) -> bytes:
+def log_json(record: StateReport | Transmission | RxBatch | LinkEvent | LinkEvents) -> bytes:
     """The record's log form: what orjson writes for its record's to_message() (supervisor.record.recorder)."""
     message: dict[str, Any] = msgspec.to_builtins(record)
     return orjson.dumps(message)

@@ -1,14 +1,35 @@
-"""The broker's link events of one step as the bus carries them (cpf/comms/events): one message a step, where the
-log keeps one cpf/comms/event record per event (comms.records.records.LinkEvent). A msgspec Struct, the message's only
-description: its message, its checked reading and its schema (comms.records.schemas.LINK_EVENTS) come from it.
+"""The broker's link events of one step as the bus carries them and the log keeps them (cpf/comms/events): one
+message a step. A msgspec Struct, the message's only description: its message, its checked reading and its schema
+(comms.records.schemas.LINK_EVENTS) come from it. Logs written by earlier versions kept one cpf/comms/event record per
+event (comms.records.records.LinkEvent): `logged_events` reads both forms, for every reader of a log.
 """
 
 from __future__ import annotations
 
+from typing import Any
+
 import msgspec
 
 from comms.records.fields import Finite, Message, as_message, read_as
+from comms.records.messages import COMMS_EVENT_KEY, COMMS_EVENTS_KEY
 from comms.records.records import LinkEvent
+
+# The log's topics that hold link events: a step's batch, and an older log's single event (one record per event made
+# ~80 records a second in the paper run, over the 60 Hz above which Lichtblick warns of "high frequency topics").
+EVENT_TOPICS = frozenset({COMMS_EVENTS_KEY, COMMS_EVENT_KEY})
+
+
+def logged_events(topic: str, message: object) -> list[Any]:
+    """The link events a log record holds, each in its message form (LinkEvent.to_message, its own t), in the order
+    written: a cpf/comms/events batch's events, an older log's cpf/comms/event record itself, nothing for any other
+    topic. Each reader reads them its way (LinkEvent.from_message, or by hand where every event counts for time).
+    ValueError for a batch whose events are no list."""
+    if topic == COMMS_EVENTS_KEY:
+        events = message.get("events") if isinstance(message, dict) else None
+        if not isinstance(events, list):
+            raise ValueError("field 'events' is not a list of link events")
+        return events
+    return [message] if topic == COMMS_EVENT_KEY else []
 
 
 class LinkEvents(msgspec.Struct, frozen=True):

@@ -118,9 +118,9 @@ class Reception:
 
 
 class LinkEvent(msgspec.Struct, frozen=True, omit_defaults=True):
-    """A packet's fate on one link: the message's only description (a cpf/comms/event log record, an item of a
-    cpf/comms/events batch; its schema comms.records.schemas.LINK_EVENT is generated from it). delay and reason are left
-    out of the message where they say nothing (older logs have them null)."""
+    """A packet's fate on one link: the message's only description (an item of a cpf/comms/events batch, or an
+    older log's cpf/comms/event record; its schema comms.records.schemas.LINK_EVENT is generated from it). delay and
+    reason are left out of the message where they say nothing (older logs have them null)."""
 
     t: Finite
     sender: int

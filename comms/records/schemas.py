@@ -109,7 +109,7 @@ STATE = struct_schema(StateReport, "cpf.VehicleState")
 TRANSMISSION = struct_schema(Transmission, "cpf.Transmission", always=("stamp",))  # stamp: t unless skewed
 RECEPTIONS = struct_schema(RxBatch, "cpf.Receptions")
 LINK_EVENT = struct_schema(LinkEvent, "cpf.LinkEvent")
-LINK_EVENTS = struct_schema(LinkEvents, "cpf.LinkEvents")  # the bus's batch (the log keeps one LINK_EVENT each)
+LINK_EVENTS = struct_schema(LinkEvents, "cpf.LinkEvents")  # a step's batch, on the bus and in the log
 TICK = struct_schema(Tick, "cpf.Tick")
 COMMS_STATS = struct_schema(CommsStats, "cpf.CommsStats")
 COMMS_DONE = struct_schema(CommsDone, "cpf.CommsDone")

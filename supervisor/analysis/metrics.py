@@ -16,7 +16,7 @@ Definitions (t: simulation time of the recorded vehicle states, s):
 - path following: the largest |p - p_d| after report.transient, the tube radius |delta| + report.tube_margin, and
   whether it stayed inside (None: no state after the transient).
 - gamma_dot at the end: each vehicle's last recorded gamma_dot.
-- packets: counted from the link events of the log (cpf/comms/event), which cover the whole run whichever broker
+- packets: counted from the link events of the log (cpf/comms/events), which cover the whole run whichever broker
   process emitted them (the broker's own stats restart with a restarted broker): per directed link and in total,
   sent, delivered, dropped, dropped by cause, still in flight (sent - delivered - dropped: 0 in a complete log), and
   the delivery delays.

@@ -94,7 +94,7 @@ def fig_packets(run: RunData) -> Figure:
     """Per directed link: cumulative packets sent, delivered and dropped over time."""
     fig, axes = _panels(len(run.links), f"Packets per directed link (cumulative): {run.name}", sharey=True)
     if not run.links:
-        _empty(axes[0], "no link events (cpf/comms/event) in this log")
+        _empty(axes[0], "no link events (cpf/comms/events) in this log")
         return fig
     for k, (ax, link) in enumerate(zip(axes, run.links.values(), strict=False)):
         for kind, (c, width) in KIND_STYLE.items():

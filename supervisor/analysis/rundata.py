@@ -16,7 +16,8 @@ from typing import Any, NamedTuple, Protocol, TypeAlias
 import numpy as np
 from numpy.typing import NDArray
 
-from comms.records.messages import COMMS_EVENT_KEY, COMMS_STATS_KEY, FAULT_KEY, GRAPH_KEY, META_KEY, vehicle_of_key
+from comms.records.events import EVENT_TOPICS, logged_events
+from comms.records.messages import COMMS_STATS_KEY, FAULT_KEY, GRAPH_KEY, META_KEY, vehicle_of_key
 from comms.records.records import LinkEvent
 from comms.records.reports import CommsStats
 from comms.records.run import FaultEvent, Graph
@@ -82,7 +83,7 @@ class AgeSeries(NamedTuple):
 
 @dataclass(frozen=True, eq=False)
 class LinkLog:
-    """Every cpf/comms/event of one directed link, in time order."""
+    """Every link event of one directed link (cpf/comms/events), in time order."""
 
     sender: int
     receiver: int
@@ -139,7 +140,7 @@ def _time_range(vehicles: dict[int, VehicleSeries], meta: RunMeta | None) -> tup
     return min(float(s.t[0]) for s in series), max(float(s.t[-1]) for s in series)
 
 
-RUN_TOPICS = frozenset({META_KEY, FAULT_KEY, GRAPH_KEY, COMMS_EVENT_KEY, COMMS_STATS_KEY})
+RUN_TOPICS = frozenset({META_KEY, FAULT_KEY, GRAPH_KEY, COMMS_STATS_KEY, *EVENT_TOPICS})
 
 
 def _wanted(topic: str) -> bool:
@@ -163,9 +164,9 @@ class _Collected:
         owned = vehicle_of_key(topic)
         if owned is not None:
             self.states.setdefault(owned[0], []).append(StateReport.from_message(message, owned[0]))
-        elif topic == COMMS_EVENT_KEY:
-            event = LinkEvent.from_message(message)
-            self.link_events.setdefault((event.sender, event.receiver), []).append(event)
+        elif topic in EVENT_TOPICS:  # every event read before any is kept: a record is taken whole or not at all
+            for event in [LinkEvent.from_message(item) for item in logged_events(topic, message)]:
+                self.link_events.setdefault((event.sender, event.receiver), []).append(event)
         elif topic == META_KEY:
             self.meta = RunMeta.from_message(message)
         elif topic == FAULT_KEY:

@@ -9,7 +9,7 @@ tables; docs/api.md lists their columns and units.
 
 - states: one row per vehicle and sync step (t, k, vehicle; position, velocity, error, tau, ... split per axis);
 - transmissions: one row per packet a vehicle transmitted; receptions: one per packet a vehicle took in;
-- link_events: one row per sent, delivered or dropped packet of a directed link (cpf/comms/event);
+- link_events: one row per sent, delivered or dropped packet of a directed link (cpf/comms/events);
 - faults: one row per fault starting or ending (its scenario fields in `detail`, JSON);
 - metrics: one row per phase of the run (analysis.metrics: the numbers of metrics.json and `cpf run`'s summary).
 """
@@ -26,7 +26,8 @@ from typing import Any
 import msgspec
 import pandas as pd
 
-from comms.records.messages import COMMS_EVENT_KEY, FAULT_KEY, vehicle_of_key
+from comms.records.events import EVENT_TOPICS, logged_events
+from comms.records.messages import FAULT_KEY, vehicle_of_key
 from comms.records.receptions import RxBatch
 from comms.records.records import LinkEvent, Transmission
 from comms.records.run import FaultEvent
@@ -65,15 +66,15 @@ class _Rows:
         owned = vehicle_of_key(topic)
         if owned is not None:
             self._vehicle(owned[0], owned[1], message)
-        elif topic == COMMS_EVENT_KEY:
-            e = LinkEvent.from_message(message)
-            self.link_events.append((e.t, e.sender, e.receiver, e.seq, e.kind, _nan(e.delay), e.reason))
+        elif topic in EVENT_TOPICS:  # every event read before any is kept: a record is taken whole or not at all
+            events = [LinkEvent.from_message(item) for item in logged_events(topic, message)]
+            self.link_events += [(e.t, e.sender, e.receiver, e.seq, e.kind, _nan(e.delay), e.reason) for e in events]
         elif topic == FAULT_KEY:
             self.faults.append(_fault_row(FaultEvent.from_message(message)))
 
     def wanted(self, topic: str) -> bool:
         owned = vehicle_of_key(topic)
-        return topic in (COMMS_EVENT_KEY, FAULT_KEY) if owned is None else owned[1] in ("state", "tx", "rx")
+        return (topic in EVENT_TOPICS or topic == FAULT_KEY) if owned is None else owned[1] in ("state", "tx", "rx")
 
     def _vehicle(self, vid: int, leaf: str, message: dict[str, Any]) -> None:
         if leaf == "state":

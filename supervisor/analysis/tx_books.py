@@ -21,8 +21,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from comms.records.events import EVENT_TOPICS, logged_events
 from comms.records.messages import (
-    COMMS_EVENT_KEY,
     FAULT_KEY,
     GRAPH_KEY,
     META_KEY,
@@ -30,6 +30,7 @@ from comms.records.messages import (
 )
 
 Edge = tuple[int, int]
+_RUN_TOPICS = EVENT_TOPICS | {GRAPH_KEY, FAULT_KEY, META_KEY}  # the books' records but the vehicles'
 CAUSES = ("sender_killed", "broker_down", "not_in_graph", "receiver_down", "unaccounted")
 
 
@@ -64,8 +65,9 @@ class BooksLog:
                 self.tx.append((vid, int(message["seq"]), float(message["t"])))
             elif leaf == "state":
                 self.alive.add((vid, self.index(float(message["t"]))))
-        elif topic == COMMS_EVENT_KEY and message.get("kind") == "sent":
-            self.sent.add((int(message["sender"]), int(message["receiver"]), int(message["seq"])))
+        elif topic in EVENT_TOPICS:
+            sent = [e for e in logged_events(topic, message) if e.get("kind") == "sent"]
+            self.sent.update((int(e["sender"]), int(e["receiver"]), int(e["seq"])) for e in sent)
         elif topic == GRAPH_KEY:
             self.graphs.append((float(message["t"]), _directed(message["edges"])))
         elif topic == FAULT_KEY and message.get("kind") == "broker_kill":
@@ -94,8 +96,7 @@ def _directed(edges: Iterable[Any]) -> set[Edge]:
 
 def _wanted(topic: str) -> bool:
     owned = vehicle_of_key(topic)
-    return owned[1] in ("tx", "state") if owned is not None else topic in (COMMS_EVENT_KEY, GRAPH_KEY, FAULT_KEY,
-                                                                          META_KEY)  # fmt: skip
+    return owned[1] in ("tx", "state") if owned is not None else topic in _RUN_TOPICS
 
 
 def transmission_books(path: Path) -> dict[Edge, TxBook]:

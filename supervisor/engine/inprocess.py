@@ -19,14 +19,14 @@ from pathlib import Path
 from typing import Any
 
 from comms.broker.broker_core import BrokerCore
+from comms.records.events import LinkEvents
 from comms.records.messages import (
-    COMMS_EVENT_KEY,
+    COMMS_EVENTS_KEY,
     COMMS_STATS_KEY,
     FAULT_KEY,
     GRAPH_KEY,
     META_KEY,
     Message,
-    event_message,
     rx_key,
     state_key,
     tx_key,
@@ -89,6 +89,7 @@ class _InProcessRun:
         self.sent: list[Transmission] = []
         self.where: dict[int, Kinematics] = {}
         self.network: Network | None = None  # in force when `sent` was transmitted
+        self.pending: list[LinkEvent] = []  # link events booked, not yet recorded (_flush_events)
 
     def step(self, k: int) -> None:
         plan = self.schedule.plan(k)
@@ -112,6 +113,7 @@ class _InProcessRun:
         self._submit(self.broker, t)
         batches, delivered = self.broker.deliver(t, self.alive)
         self._record_events(delivered)
+        self._flush_events(t, k)
         self._record_snapshot(self.broker.snapshot_due(t))
         out = {i: RxBatch.of(i, k, t, batches[i], None) for i in self.alive}
         if self.tally is not None:
@@ -156,6 +158,7 @@ class _InProcessRun:
         if action.target == "comms":
             if action.action == "kill" and self.broker is not None:
                 self._record_events(self.books.close_open(t, "broker_down"))
+                self._flush_events(t, k)
             # Restarted: a fresh broker, nothing of the past in flight or in its statistics.
             self.broker = None if action.action == "kill" else broker_core(self.sc, self.seed)
             self.sent, self.where = [], {}
@@ -187,8 +190,10 @@ class _InProcessRun:
         if self.broker is not None:
             self._submit(self.broker, end)
             self._record_events(self.broker.deliver(end, self.alive)[1] + self.broker.finish(end))
+            self._flush_events(end, round(end / self.dt))
             self._record_snapshot(self.broker.snapshot_due(end, final=True))
         self._record_events(self.books.close_open(end, "end_of_run"))  # if the broker was down at the end
+        self._flush_events(end, round(end / self.dt))
         self.books.window(end, self.alive)
 
     def _record_snapshot(self, snapshot: Message | None) -> None:
@@ -197,12 +202,20 @@ class _InProcessRun:
             self.rec.write(COMMS_STATS_KEY, float(snapshot["t"]), snapshot)
 
     def _record_events(self, events: list[LinkEvent]) -> None:
+        """Booked now; recorded with the others of their step by _flush_events."""
         self.books.add(events)
-        if self.tally is not None:
-            self.tally.skip(len(events))
+        self.pending += events
+
+    def _flush_events(self, t: float, k: int) -> None:
+        """The events since the last flush as the broker process publishes them and the Zenoh supervisor records
+        them: one cpf/comms/events batch of step k at its time t, each event with its own t (none: no record)."""
+        events, self.pending = self.pending, []
+        if not events:
             return
-        for event in events:
-            self.rec.write(COMMS_EVENT_KEY, event.t, event_message(event))
+        if self.tally is not None:
+            self.tally.skip(1)
+            return
+        self.rec.write(COMMS_EVENTS_KEY, t, LinkEvents(t, k, tuple(events)).to_message())
 
 
 @interrupts.deferring

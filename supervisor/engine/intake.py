@@ -25,12 +25,10 @@ from comms.records.drops import Drops
 from comms.records.events import LinkEvents
 from comms.records.messages import (
     COMMS_DONE_KEY,
-    COMMS_EVENT_KEY,
     COMMS_EVENTS_KEY,
     COMMS_STATS_KEY,
     Message,
     decode,
-    event_message,
     rx_key,
     split_step,
     split_window,
@@ -201,8 +199,8 @@ class Intake:
         """Close every packet still open in the books (its broker is gone, or the run ended), on the record."""
         events = self.books.close_open(t, reason)
         self.books.add(events)
-        for event in events:
-            self.rec.write(COMMS_EVENT_KEY, event.t, event_message(event))
+        if events:  # one batch at t, of its step (the in-process engine's too)
+            self.rec.write(COMMS_EVENTS_KEY, t, LinkEvents(t, round(t / self.bounds.dt), tuple(events)).to_message())
 
     def counts(self) -> dict[str, dict[str, int]]:
         """reader -> key -> malformed messages it dropped: the supervisor's own, and every report that came in."""
@@ -326,8 +324,8 @@ class Intake:
         return {vid: report.to_message() for vid, report in self.last_report.items()}
 
     def _events(self, batch: Message) -> None:
-        """A step's link events: one log record each. The batch counts as the broker announced it (its report
-        says how many it published); an event that does not read or fit is counted and dropped."""
+        """A step's link events: one log record (cpf/comms/events). The batch counts as the broker announced it (its
+        report says how many it published); an event that does not read or fit is counted and dropped."""
         unread: list[ValueError] = []
         events = LinkEvents.from_message(batch, unread)
         self.bounds.time(events.t, "the batch's")
@@ -336,9 +334,9 @@ class Intake:
         self.broker_events += len(events.events) + len(unread)
         for exc in unread:  # a key gets an entry only for what was dropped on it
             self.drops.drop(COMMS_EVENTS_KEY, exc, "link event")
-        booked = self._checked_events(events.events)
-        for event in booked:
-            self.rec.write(COMMS_EVENT_KEY, event.t, event_message(event))
+        booked = self._checked_events(events.events)  # one record, as the batch came but for the events dropped
+        if booked:
+            self.rec.write(COMMS_EVENTS_KEY, events.t, LinkEvents(events.t, events.k, tuple(booked)).to_message())
         self.books.add(booked)
         self._events_in(events.t)
 
@@ -349,8 +347,9 @@ class Intake:
             raise ValueError("the batch's step is outside the run")
         self.broker_events += len(batch.events)
         booked = self._checked_events(batch.events)
-        for event in booked:
-            self.rec.write_event(COMMS_EVENT_KEY, event.t, log_json(event), event)
+        if booked:
+            kept = LinkEvents(batch.t, batch.k, tuple(booked))
+            self.rec.write_events(COMMS_EVENTS_KEY, batch.t, log_json(kept), kept.events)
         self.books.add(booked)
         self._events_in(batch.t)
 

@@ -23,6 +23,7 @@ import numbers
 import os
 import time
 from collections import Counter
+from collections.abc import Iterable
 from pathlib import Path
 from types import TracebackType
 from typing import IO, Any, Protocol
@@ -171,14 +172,16 @@ class Recorder:
         if self.write_json(key, t, data) and self.scene is not None:
             self.scene.take_state(report)
 
-    def write_event(self, key: str, t: float, data: bytes, event: LinkEvent) -> None:
-        """write_json of a link event, fed to the scene as its record."""
+    def write_events(self, key: str, t: float, data: bytes, events: Iterable[LinkEvent]) -> None:
+        """write_json of a batch of link events (comms.records.events.LinkEvents), each fed to the scene as its
+        record."""
         if self.write_json(key, t, data) and self.scene is not None:
-            self.scene.take_event(event)
+            for event in events:
+                self.scene.take_event(event)
 
     def write_json(self, key: str, t: float, data: bytes) -> bool:
         """As write, for a message already in its log form (what write would make of it: orjson, JSON_OPTIONS), and
-        without feeding the scene (write_state and write_event feed it theirs; the other records it ignores)."""
+        without feeding the scene (write_state and write_events feed it theirs; the other records it ignores)."""
         why = None if type(t) is float and 0.0 <= t <= self.horizon and t < FAST_MAX else self._bad_time(t)
         if why is not None:
             self.refused[(key, why)] += 1

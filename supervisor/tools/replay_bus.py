@@ -1,13 +1,14 @@
 """The log's records turned back into what a live run puts on the bus, for `cpf replay` (supervisor/tools/replay.py).
 
 The log keeps some messages in another form than the bus carries them (README, "Key expressions and messages"): a
-vehicle's step message is split into its rx, tx and state records, a step's link events into one cpf/comms/event
-record each, and the broker's cpf/comms/step (tick and every vehicle's receptions) is not kept. `bus_form` undoes
-that, instant by instant of log time, so a subscriber written against a replay works on a live run and the reverse:
+vehicle's step message is split into its rx, tx and state records, and the broker's cpf/comms/step (tick and every
+vehicle's receptions) is not kept. `bus_form` undoes that, instant by instant of log time, so a subscriber written
+against a replay works on a live run and the reverse:
 
 - cpf/vehicle/<id>/state carries its `tx` and `rx` again (the step message), and the rx and tx records are not
   published on their own (a realtime run's broker does publish rx batches: those of a realtime log are);
-- link events go out as one cpf/comms/events message per step, at the next step instant after them, as the broker
+- a step's link events (cpf/comms/events) go out as logged, the bus's form; an older log's single cpf/comms/event
+  records go out as one cpf/comms/events message per step, at the next step instant after them, as the broker
   publishes them at the next tick;
 - after each (not final) cpf/clock/tick, cpf/comms/step with the tick and each vehicle's receptions of that step
   (realtime: none, the vehicles take in their own deliveries).
@@ -24,6 +25,7 @@ import math
 from collections.abc import Iterable, Iterator
 from typing import Any
 
+from comms.records.events import logged_events
 from comms.records.messages import (
     COMMS_EVENT_KEY,
     COMMS_EVENTS_KEY,
@@ -117,7 +119,7 @@ class _BusForm:
         if k is not None and not ticked:  # a log without ticks (the in-process engine): events at the step instant
             yield from self.flush_events(stamp)
         yield from self._vehicles(stamp, group)
-        self.events += [message for topic, _, message in group if topic == COMMS_EVENT_KEY]
+        self.events += [e for topic, _, m in group if topic == COMMS_EVENT_KEY for e in logged_events(topic, m)]
 
     def _broker(self, stamp: int, k: int, tick: Any, group: list[Record]) -> Iterator[Record]:
         yield from self.flush_events(stamp)

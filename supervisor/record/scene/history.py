@@ -15,7 +15,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from comms.records.messages import COMMS_EVENT_KEY, FAULT_KEY, GRAPH_KEY, META_KEY, vehicle_of_key
+from comms.records.events import EVENT_TOPICS, logged_events
+from comms.records.messages import FAULT_KEY, GRAPH_KEY, META_KEY, vehicle_of_key
 from comms.records.records import LinkEvent
 from comms.records.run import FaultEvent, Graph
 from comms.records.state import StateReport
@@ -69,8 +70,9 @@ class FleetHistory:
         owned = vehicle_of_key(topic)
         if owned is not None:
             return self._state if owned[1] == "state" else None
-        return {META_KEY: self._meta, COMMS_EVENT_KEY: self._event, FAULT_KEY: self._fault,
-                GRAPH_KEY: self._graph}.get(topic)  # fmt: skip
+        if topic in EVENT_TOPICS:
+            return self._events
+        return {META_KEY: self._meta, FAULT_KEY: self._fault, GRAPH_KEY: self._graph}.get(topic)
 
     def _meta(self, _: str, message: Any) -> None:
         if self.meta is None:
@@ -101,7 +103,17 @@ class FleetHistory:
         snapshot = Snapshot(p, report.rotation, report.gamma, target, report.gamma_dot, norm)
         self.states.setdefault(report.k, {})[report.vehicle] = snapshot
 
-    def _event(self, _: str, message: Any) -> None:
+    def _events(self, topic: str, message: Any) -> None:
+        """A record of link events: each at its own time (comms.records.events.logged_events)."""
+        try:
+            events = logged_events(topic, message)
+        except ValueError:
+            return
+        for event in events:
+            if isinstance(event, dict):
+                self._event(event)
+
+    def _event(self, message: Any) -> None:
         """A link event (comms.records.records.LinkEvent's wire form). Every event of a run passes here (32000 in the
         paper scenario): read by hand, for the fields kept, rather than through LinkEvent.from_message (3x the time)."""
         kind = message.get("kind")

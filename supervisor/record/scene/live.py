@@ -26,7 +26,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from comms.records.messages import COMMS_EVENT_KEY, vehicle_of_key
+from comms.records.events import EVENT_TOPICS
+from comms.records.messages import vehicle_of_key
 from supervisor.record.scene.foxglove_schemas import PATHS_TOPIC
 from supervisor.record.scene.geometry import path_points
 from supervisor.record.scene.history import FleetHistory
@@ -55,7 +56,7 @@ class LiveScene:
         """One record; the messages of the instants it completed (most records complete none)."""
         h = self.history
         h.take(topic, message)
-        if topic == COMMS_EVENT_KEY:
+        if topic in EVENT_TOPICS:
             return self._heard(message)
         if topic not in self._is_state:
             owned = vehicle_of_key(topic)
@@ -69,7 +70,8 @@ class LiveScene:
         return self._ready(final=False) if h.states else []
 
     def _heard(self, message: Any) -> list[SceneMessage]:
-        """A link event: the broker has reported up to its time; an instant waiting for that may now be out."""
+        """A step's link events (or an older log's single event): the broker has reported up to its time (the
+        batch's, its step's: every event in it is at or before it); an instant waiting for that may now be out."""
         t = message.get("t") if isinstance(message, dict) else None
         if not isinstance(t, float | int) or not t > self.heard or self.history.meta is None:
             return []
