@@ -19,6 +19,7 @@ import pytest
 from matplotlib.figure import Figure
 from matplotlib.text import Text
 
+from supervisor.analysis import report as report_module
 from supervisor.analysis.report import RunData, VehicleSeries, write_figures, write_report
 from supervisor.config.scenario import parse_scenario
 from supervisor.engine.inprocess import run_inprocess
@@ -58,7 +59,9 @@ def fleet(
 
 @contextmanager
 def saving() -> Iterator[dict[str, Figure]]:
-    """Every Figure saved within, by file name (the real savefig still writes the PNG)."""
+    """Every Figure saved within, by file name (the real savefig still writes the PNG). Drawn in this process: a
+    report forks workers to draw when this process has no other thread (supervisor.analysis.drawing), and a worker's
+    figures are not seen here (the first test of a fresh pytest worker met that)."""
     figures: dict[str, Figure] = {}
     original = Figure.savefig
 
@@ -68,6 +71,7 @@ def saving() -> Iterator[dict[str, Figure]]:
 
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(Figure, "savefig", record)
+        patch.setattr(report_module, "workers", lambda figures: 1)
         yield figures
 
 
