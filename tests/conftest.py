@@ -29,12 +29,6 @@ ROOT = Path(__file__).resolve().parent.parent
 CONFIGS = ROOT / "configs"
 
 
-def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
-    """Tests marked slow first (in collection order otherwise): the workers (pytest-xdist's worksteal) then end on
-    short tests together, where a 40 s test started last left the other core idle for up to 40 s."""
-    items.sort(key=lambda item: item.get_closest_marker("slow") is None)
-
-
 def shortened(text: str, duration: float) -> str:
     """A scenario text with its duration replaced."""
     return re.sub(r"(?m)^duration = .*$", f"duration = {duration}", text, count=1)

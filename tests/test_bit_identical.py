@@ -35,7 +35,6 @@ def test_the_fixture_covers_every_reference_run():
 
 
 @pytest.mark.parametrize("name", sorted(RUNS))
-@pytest.mark.slow
 def test_a_reference_run_records_what_it_recorded_before(tmp_path, name):
     text, extra = RUNS[name]
     assert run_and_digest(name, text, extra, tmp_path) == EXPECTED[name]

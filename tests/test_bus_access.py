@@ -268,7 +268,6 @@ def run_with_vehicle_2_by_hand(tmp_path: Path, paper_text: str, *options: str) -
 
 
 @pytest.mark.e2e
-@pytest.mark.slow
 def test_outsiders_and_a_vehicle_posing_as_others_leave_no_trace_in_a_run(tmp_path: Path, paper_text: str) -> None:
     """cpf run with vehicle 2 started by hand; while it runs, sessions without or with wrong credentials are
     refused, and one with vehicle 2's credential forges every other key of the run. The log holds none of it, and

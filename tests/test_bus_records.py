@@ -151,7 +151,6 @@ def same_either_way(items: list[tuple[str, bytes]]) -> None:
 @example({**STEP, "estimate_age": [{"vehicle": 7, "age": 0.5}]})
 @example({**STEP, "k": 3})
 @example({**WINDOW, "earlier": [{**WINDOW["earlier"][0], "k": 5}]})  # the earlier step recorded, then refused
-@pytest.mark.slow
 def test_a_step_message_is_taken_in_the_same_either_way(message: dict[str, Any]) -> None:
     same_either_way([(state_key(2), encode(message))])
 
@@ -165,7 +164,6 @@ def test_a_step_message_is_taken_in_the_same_either_way(message: dict[str, Any])
 @example({**EVENTS, "events": [{**EVENT, "seq": -1}, {**EVENT, "delay": -0.5}, {**EVENT, "t": 1e6}]})
 @example({**EVENTS, "k": 10**6})
 @example({**EVENTS, "t": -1.0})
-@pytest.mark.slow
 def test_link_events_are_taken_in_the_same_either_way(message: dict[str, Any]) -> None:
     same_either_way([(COMMS_EVENTS_KEY, encode(message))])
 

@@ -110,7 +110,6 @@ FADING = shortened(
 
 
 @pytest.mark.e2e
-@pytest.mark.slow
 def test_both_engines_record_the_same_run_with_fading_capture_and_time_bursts(tmp_path: Path) -> None:
     text = FADING
     assert "\nslot = " not in text and "[comms.transmit]" in text and "[[faults]]" in text

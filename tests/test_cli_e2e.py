@@ -21,7 +21,6 @@ def cpf(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
     return subprocess.run([str(CPF), *args], cwd=cwd, capture_output=True, text=True, timeout=300)
 
 
-@pytest.mark.slow
 def test_run_then_report_a_shortened_paper_scenario(tmp_path, paper_text):
     from supervisor.analysis.figures_nav import has_navigation
     from supervisor.analysis.rundata import load_run

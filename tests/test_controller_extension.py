@@ -48,7 +48,6 @@ def states(log: Path) -> list[tuple[int, str]]:
     return sorted((t, str(m)) for topic, t, m in read_messages(log) if topic.endswith("/state"))
 
 
-@pytest.mark.slow
 def test_a_controller_by_import_path_gives_the_same_records_on_both_engines(tmp_path):
     for sub, engine, options in (
         ("in", "inprocess", RETUNED),

@@ -59,7 +59,6 @@ def lossy(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     return {name: where / f"{name}.mcap" for name in "abc"}
 
 
-@pytest.mark.slow
 def test_same_seed_gives_identical_state_streams_over_a_lossy_channel(lossy):
     (a, books_a), (b, books_b), (_, books_c) = [(states(lossy[name]), link_books(lossy[name])) for name in "abc"]
     assert len(a) == 900 and a == b and books_a == books_b

@@ -59,7 +59,6 @@ def test_an_example_says_where_its_schema_is_and_is_commented(name):
 
 
 @pytest.mark.parametrize("name", sorted(SHORT))
-@pytest.mark.slow
 def test_an_example_runs_shortened_in_process(tmp_path, name):
     done = _run(tmp_path, name, "inprocess")
     assert done.returncode == 0, done.stderr

@@ -52,7 +52,6 @@ def configs_with_a_shorter_paper(tmp_path: Path) -> None:
 
 
 @pytest.mark.timeout(400)  # two paper runs and two four-run sweeps, as the tutorial has them: ~40 s on 2 cores
-@pytest.mark.slow
 def test_the_tutorials_commands_run_and_the_engines_agree(installed: Path, tmp_path: Path):
     env = {**os.environ, "PYTHONPATH": str(installed)}
     configs_with_a_shorter_paper(tmp_path)

@@ -48,7 +48,6 @@ def damped(tmp_path_factory: pytest.TempPathFactory) -> dict[str, tuple[Path, su
 
 
 @pytest.mark.parametrize("engine", ["inprocess", "zenoh"])
-@pytest.mark.slow
 def test_a_law_by_import_path_runs_on_both_engines_with_its_options(damped, engine):
     where, done = damped[engine]
     assert done.returncode == 0, done.stderr

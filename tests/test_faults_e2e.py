@@ -149,7 +149,6 @@ def test_a_restarted_vehicle_rejoins_where_it_coasted_to_from_its_last_recorded_
     assert ages[3] > 1.0 and ages[2] < 0.2  # its neighbour saw the link go quiet
 
 
-@pytest.mark.slow
 def test_an_unscheduled_death_is_noticed_and_survived_when_the_scenario_says_continue(tmp_path, paper_text):
     scenario = tmp_path / "s.toml"
     # Long enough to be still running when the kill comes (it follows the first progress line at once), short enough
@@ -215,7 +214,6 @@ def test_soak_random_fault_schedules(tmp_path, paper_text, seed):
     assert processes_with(str(scenario)) == []
 
 
-@pytest.mark.slow
 def test_sigkill_of_the_supervisor_loses_about_a_second_and_the_log_recovers(tmp_path, paper_text):
     scenario = tmp_path / "s.toml"
     scenario.write_text(paper_text)

@@ -307,7 +307,6 @@ def test_the_planar_paper_variant_is_drawn_top_down(tmp_path: Path) -> None:
     assert _axes_kinds(fig) == ["rectilinear"] and fig.axes[0].get_aspect() == 1.0
 
 
-@pytest.mark.slow
 def test_eight_circles_with_a_kill_plot_eight_vehicles_against_the_mean(tmp_path: Path) -> None:
     """Vehicle 5 killed on [20, 30) s: its line has a gap there, and nine lines in all."""
     faults = ("faults.0.start=5", "faults.0.end=10", "faults.1.start=20", "faults.1.end=30")

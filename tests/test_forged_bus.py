@@ -166,7 +166,6 @@ E2E_DONE = [encode({"t": -1.0}), encode({"t": 1e11, "k": 1, "vehicle": 2, "malfo
 
 @pytest.mark.integration
 @pytest.mark.e2e
-@pytest.mark.slow
 def test_a_run_attacked_on_a_vehicles_own_keys_counts_drops_and_says_so(tmp_path: Path, paper_text: str) -> None:
     """cpf run with vehicle 2 started by hand; a second session with vehicle 2's credential publishes malformed and
     wrong payloads on vehicle 2's state and done keys. The run ends normally, its records are those of the same

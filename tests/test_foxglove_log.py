@@ -175,7 +175,6 @@ def test_a_log_without_a_scene_gets_the_same_one_afterwards(logs, tmp_path):
     assert scene_records(tmp_path / "new.mcap") == scene_records(logs["zenoh"])
 
 
-@pytest.mark.slow
 def test_readers_of_cpf_records_still_read_the_log(logs, tmp_path):
     """cpf info, cpf report and the strict reader take the log with its Foxglove channels."""
     info = cpf("info", str(logs["zenoh"]), cwd=tmp_path)

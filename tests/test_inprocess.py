@@ -91,7 +91,6 @@ def test_literal_law_runs_the_fleet_at_half_the_reference_speed(tmp_path, paper_
     np.testing.assert_allclose(final, 0.5, atol=0.03)
 
 
-@pytest.mark.slow
 def test_inline_formation_converges_from_scattered_starts(tmp_path):
     result, summary = run_text((CONFIGS / "inline5.toml").read_text(), tmp_path / "inline.mcap")
     assert result.series.gamma.shape[1] == 5
@@ -126,7 +125,6 @@ def transmissions(path: Path) -> int:
     return sum(1 for topic, _, _ in read_messages(path) if topic.endswith("/tx"))
 
 
-@pytest.mark.slow
 def test_event_triggered_policy_matches_periodic_with_far_fewer_packets(tmp_path, paper_text):
     """Periodic every 1 s against event-triggered (h = 0.01, at most one message a second): the coordination
     errors stay within 0.01 of the periodic ones in every phase, with at least 45 % fewer packets (measured: 616 of

@@ -41,7 +41,6 @@ def steps_of(path: Path, vehicle: int) -> set[int]:
     return {m["k"] for topic, _, m in read_messages(path) if topic == f"cpf/vehicle/{vehicle}/state"}
 
 
-@pytest.mark.slow
 def test_a_scheduled_kill_with_a_restart_runs_through_under_abort_in_both_engines(tmp_path, paper_text):
     text = shortened(paper_text, 20.0)
     assert "on_vehicle_loss" not in text  # the default, abort
@@ -83,7 +82,6 @@ def test_a_scheduled_kill_without_restart_goes_on_without_the_vehicle_under_abor
     assert records(outputs["zenoh"][2]) == records(outputs["inprocess"][2])
 
 
-@pytest.mark.slow
 def test_report_metrics_while_a_vehicle_is_down_are_over_the_vehicles_alive(tmp_path, paper_text):
     """metrics.json of `cpf report` on a run that ends with a vehicle down: numbers, and the tube judged."""
     _, _, log = run(tmp_path, shortened(paper_text, 10.0), "kind=vehicle_kill,vehicle=2,start=6", "inprocess")

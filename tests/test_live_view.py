@@ -138,7 +138,6 @@ def test_link_events_overtaken_by_the_next_states_still_reach_their_instant(inpr
     assert_the_logs_scene(live_scene_of(reordered + held), inprocess_log)
 
 
-@pytest.mark.slow
 def test_a_client_watches_a_run_live_and_the_run_ends_cleanly_with_it_connected(tmp_path: Path) -> None:
     out = tmp_path / "run.mcap"
     args = ["run", str(scenario(tmp_path, 20)), "--clock", "realtime", "--speed", "10", "--fault", LINK_FAULT,
@@ -261,7 +260,6 @@ def test_either_name_of_the_protocol_is_accepted(offered: str) -> None:
         assert client.ws.subprotocol == offered and client.server_info["name"] == "cpf"
 
 
-@pytest.mark.slow
 def test_a_client_that_joins_late_gets_the_meta_the_graph_and_the_paths_at_once(inprocess_log: Path) -> None:
     """What a new subscriber needs, sent when it subscribes, whenever that is (latched): the run's meta and graph
     (from its start), the desired paths as last drawn, while the run goes on (no record comes in meanwhile)."""

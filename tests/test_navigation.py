@@ -181,7 +181,6 @@ def _nav_fields(run: dict[tuple[int, int], dict]) -> dict[tuple[int, int], tuple
 
 
 @pytest.mark.parametrize("kill", [False, True], ids=["plain", "restart"])
-@pytest.mark.slow
 def test_both_engines_give_identical_records_with_navigation_on(tmp_path, paper_text, kill):
     scenario = _scenario(tmp_path, shortened(paper_text, 20.0) + NAV)
     extra = ["--seed", "11"]
@@ -206,7 +205,6 @@ def test_both_engines_give_identical_records_with_navigation_on(tmp_path, paper_
         assert after["position"] != before["position"]  # it moved while down
 
 
-@pytest.mark.slow
 def test_the_report_draws_the_navigation_figure_only_for_a_run_with_navigation(tmp_path, paper_text):
     """A run with navigation; the report of one without (no figure, no metrics, has_navigation false) is checked on
     the plain paper run of tests/test_cli_e2e.py, which draws its report anyway."""

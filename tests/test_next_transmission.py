@@ -6,7 +6,6 @@ results), and not later either (windows as long as they can be)."""
 
 from __future__ import annotations
 
-import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -60,7 +59,6 @@ def cases(draw: st.DrawFn) -> tuple[Policy, Tdma | None, int, int, float, float 
 
 @settings(max_examples=3000, deadline=None)
 @given(cases())
-@pytest.mark.slow
 def test_no_step_before_the_bound_transmits_and_the_bound_does(case):
     policy, tdma, vid, k, dt, last, pending = case
     assert earliest_transmission(policy, tdma, vid, k, dt, last, pending) == first_transmission(*case)

@@ -34,7 +34,6 @@ end = 10.0
 @pytest.mark.parametrize(
     ("known", "controller", "hosts"), [("true", "auto", "1"), ("false", "auto", "1"), ("false", "line_of_sight", "3")]
 )
-@pytest.mark.slow
 def test_both_engines_agree_with_current_and_mismatch_on_across_a_restart(
     tmp_path, paper_text, known, controller, hosts
 ):

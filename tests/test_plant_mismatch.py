@@ -142,7 +142,6 @@ def test_cpf_info_lines_name_the_current_and_each_vehicles_drawn_plant():
 
 
 @pytest.mark.parametrize("seed", [0, 3])
-@pytest.mark.slow
 def test_at_60_percent_mismatch_the_supervisor_keeps_the_tube_where_backstepping_alone_does_not(seed):
     """Issue 24's acceptance on the seeds where backstepping alone left the tube (scripts/vehicle_robustness.py
     runs seeds 0-9): with every coefficient within +-60 %, the default controller (`auto`: the adaptive switching

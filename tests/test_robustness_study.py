@@ -10,7 +10,6 @@ import io
 from pathlib import Path
 
 import numpy as np
-import pytest
 
 from supervisor.config.scenario import load_scenario
 from supervisor.engine.inprocess import run_inprocess
@@ -42,7 +41,6 @@ def test_navigation_dead_reckons_the_velocity_over_ground_in_a_current(tmp_path)
     assert errors[1000:].max() < 3.0
 
 
-@pytest.mark.slow
 def test_the_study_scenario_gives_the_same_records_on_both_engines(tmp_path):
     scenario = tmp_path / "robustness.toml"
     scenario.write_text(shortened(STUDY.read_text(), 30.0))

@@ -138,7 +138,6 @@ FORMER = ["--set", "coordination.predictor=first_order", "--set", "coordination.
           "--set", "saturation.correction=none"]  # fmt: skip
 
 
-@pytest.mark.slow
 def test_the_survey_that_diverges_unsaturated_stays_bounded_with_a_top_speed(tmp_path):
     free = _survey(tmp_path, "free", FORMER)
     assert max(rate for rate, _ in free.values()) > 20.0  # gamma_dot runs away (1 is the reference)

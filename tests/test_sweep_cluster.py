@@ -119,7 +119,6 @@ def until_in(stream: IO[str], text: str) -> str:
     return seen
 
 
-@pytest.mark.slow
 def test_an_interrupted_cluster_sweep_resumes_with_only_the_missing_runs(tmp_path, scenario, local_rows, runs):
     args = ["sweep", str(scenario), *GRID, "--out", "dask"]
     runs.hold_from = 1  # the first run finishes, the second is held on the only worker thread
@@ -179,7 +178,6 @@ class KillFirstWorker(SchedulerPlugin):
             os.kill(self.killed, signal.SIGKILL)
 
 
-@pytest.mark.slow
 def test_a_run_whose_worker_dies_runs_again(tmp_path, scenario, local_rows):
     with local_cluster(processes=True) as cluster:
         killer = KillFirstWorker(cluster.scheduler)

@@ -48,7 +48,6 @@ def read_rows(path: Path) -> list[dict[str, str]]:
     return [{k: v for k, v in row.items() if k != "wall_s"} for row in rows]
 
 
-@pytest.mark.slow
 def test_a_sweep_writes_every_run_and_resumes_without_redoing(tmp_path, paper_text):
     scenario = tmp_path / "s.toml"
     scenario.write_text(shortened(paper_text, 30.0))
@@ -74,7 +73,6 @@ def test_a_sweep_writes_every_run_and_resumes_without_redoing(tmp_path, paper_te
     assert read_rows(tmp_path / "sw/results.csv") == rows  # and it came out the same
 
 
-@pytest.mark.slow
 def test_a_sweep_over_zenoh_gives_the_results_of_the_in_process_engine(tmp_path, paper_text):
     scenario = tmp_path / "s.toml"
     scenario.write_text(shortened(paper_text, 10.0))

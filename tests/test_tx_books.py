@@ -7,8 +7,6 @@ from __future__ import annotations
 import json
 from typing import Any
 
-import pytest
-
 from supervisor.analysis.report import write_report
 from supervisor.analysis.tx_books import TxBook, balanced, transmission_books
 from supervisor.record.logfile import read_messages
@@ -22,7 +20,6 @@ def _tx_records(log: Any) -> dict[int, int]:
     return counts
 
 
-@pytest.mark.slow
 def test_every_transmission_of_every_fault_kind_is_on_the_books_of_both_engines(every_kind_runs):
     books: dict[str, dict[tuple[int, int], TxBook]] = {}
     for engine in ("zenoh", "inprocess"):
@@ -46,7 +43,6 @@ def test_every_transmission_of_every_fault_kind_is_on_the_books_of_both_engines(
     assert inp[(2, 1)].not_sent["sender_killed"] == 1  # its last packet before the kill
 
 
-@pytest.mark.slow
 def test_the_report_writes_the_books(every_kind_runs, tmp_path):
     log, _ = every_kind_runs["inprocess"]
     write_report(log, tmp_path)

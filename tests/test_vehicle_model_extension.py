@@ -50,7 +50,6 @@ def states(log: Path) -> list[tuple[int, str]]:
     return sorted((t, str(m)) for topic, t, m in read_messages(log) if topic.endswith("/state"))
 
 
-@pytest.mark.slow
 def test_a_vehicle_model_by_import_path_gives_the_same_records_on_both_engines(tmp_path):
     runs = (("in", "inprocess", (HEAVY,)), ("zenoh", "zenoh", (HEAVY,)), ("builtin", "inprocess", ()))
     for sub, engine, options in runs:

@@ -92,7 +92,6 @@ def run(
 
 
 @pytest.mark.parametrize("name", list(CASES))
-@pytest.mark.slow
 def test_windows_record_what_one_step_at_a_time_records(tmp_path, monkeypatch, name):
     windowed, windowed_result, windows = run(tmp_path, name, "zenoh", None, monkeypatch)
     stepwise, stepwise_result, steps = run(tmp_path, name, "zenoh", 1, monkeypatch)
