@@ -57,7 +57,7 @@ def cases(draw: st.DrawFn) -> tuple[Policy, Tdma | None, int, int, float, float 
     return policy, tdma, vid, k, dt, last, draw(st.booleans()) and tdma is not None
 
 
-@settings(max_examples=3000, deadline=None)
+@settings(max_examples=1000, deadline=None)
 @given(cases())
 def test_no_step_before_the_bound_transmits_and_the_bound_does(case):
     policy, tdma, vid, k, dt, last, pending = case
