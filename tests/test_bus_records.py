@@ -130,7 +130,7 @@ def same_either_way(items: list[tuple[str, bytes]]) -> None:
     assert repr(taken(items, typed=True)) == repr(taken(items, typed=False))  # repr: NaN is not NaN, 'nan' is
 
 
-@settings(max_examples=500, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=250, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(altered(STEP) | altered(WINDOW))
 @example(STEP)
 @example(WINDOW)
@@ -155,7 +155,7 @@ def test_a_step_message_is_taken_in_the_same_either_way(message: dict[str, Any])
     same_either_way([(state_key(2), encode(message))])
 
 
-@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(altered(EVENTS))
 @example(EVENTS)
 @example({**EVENTS, "events": [{**EVENT, "delay": 1}]})  # an integer delay reads as a float either way
