@@ -30,7 +30,7 @@ CONTROLLERS = {  # the label in the table: the scenario changes that select it
 }
 CURRENTS = {  # 0.3 m/s each: the tide near its flood's middle, the shear over the 20 m the helices climb
     "steady": ["environment.current=[0.3, 0.0, 0.0]"],
-    "tidal": ["environment.tide={amplitude = [0.3, 0.0, 0.0], period = 44712.0, phase = 0.785}"],
+    "tidal": ["environment.tide={amplitude = [0.3, 0.0, 0.0], period = 44712.0, phase_rad = 0.785}"],
     "sheared": ["environment.shear=[0.015, 0.0]"],
 }
 TUBE = 1.2  # m: |delta| + the report's margin in configs/paper.toml

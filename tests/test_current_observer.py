@@ -111,7 +111,7 @@ def errors(overrides: list[str]) -> tuple[float, float, float]:
 
 CURRENTS = {
     "steady": ["environment.current=[0.3, 0.0, 0.0]"],
-    "tide": ["environment.tide={amplitude = [0.3, 0.0, 0.0], period = 44712.0, phase = 0.785}"],
+    "tide": ["environment.tide={amplitude = [0.3, 0.0, 0.0], period = 44712.0, phase_rad = 0.785}"],
     "shear": ["environment.shear=[0.015, 0.0]"],  # 0.3 m/s over 20 m: the helices climb 20 m in 400 s
 }
 

@@ -48,14 +48,16 @@ def scenario_text(name: str, vehicles: list[tuple[tuple[float, float, float], st
 
 
 def circles(n: int = 8, period: float = 400.0, phase: float = 0.0) -> str:
-    paths = [f'{{ type = "circle", radius = {20.0 + 5.0 * i}, period = {period}, phase = {phase} }}' for i in range(n)]
+    paths = [
+        f'{{ type = "circle", radius = {20.0 + 5.0 * i}, period = {period}, phase_rad = {phase} }}' for i in range(n)
+    ]
     return scenario_text("circles", [((22.0 + 5.0 * i, -3.0, 0.0), p) for i, p in enumerate(paths)])
 
 
 def helices(n: int = 6) -> str:
     # Climbs that differ, so a lap away is a different height for each: the nearest lap is not the same for all.
     paths = [
-        f'{{ type = "helix", radius = {15.0 + 5.0 * i}, climb = {0.001 * (i + 1)}, period = 400.0, phase = 1.0 }}'
+        f'{{ type = "helix", radius = {15.0 + 5.0 * i}, climb = {0.001 * (i + 1)}, period = 400.0, phase_rad = 1.0 }}'
         for i in range(n)
     ]
     return scenario_text("helices", [((2.0 + 5.0 * i, 20.0 + 5.0 * i, 1.0), p) for i, p in enumerate(paths)])
@@ -73,7 +75,7 @@ def lines(n: int = 5, speed: float = 0.5) -> str:
 
 
 def planar_circles() -> str:
-    paths = [f'{{ type = "circle", radius = {30.0 + 10.0 * i}, period = -300.0, phase = 2.0 }}' for i in range(4)]
+    paths = [f'{{ type = "circle", radius = {30.0 + 10.0 * i}, period = -300.0, phase_rad = 2.0 }}' for i in range(4)]
     return scenario_text("planar", [((0.0, -31.0 - 10.0 * i, 0.0), p) for i, p in enumerate(paths)], dimension=2)
 
 

@@ -21,7 +21,7 @@ current = [0.08, -0.05, 0.0]
 shear = [0.004, 0.002]
 shear_origin = -2.0
 current_known = {known}
-tide = {{ amplitude = [0.03, 0.02, 0.005], period = 60.0, phase = 0.4 }}
+tide = {{ amplitude = [0.03, 0.02, 0.005], period = 60.0, phase_rad = 0.4 }}
 
 [[faults]]
 kind = "vehicle_kill"

@@ -84,7 +84,7 @@ def test_paper_toml_holds_the_papers_values() -> None:
     assert [p.radius for p in helices] == [20.0, 15.0, 25.0]
     for p in helices:
         assert (p.climb, p.period, p.center) == (0.05, 400.0, (0.0, 0.0, 0.0))
-        assert p.phase == pytest.approx(-3.0 * math.pi / 4.0, abs=1e-15)
+        assert p.phase_rad == pytest.approx(-3.0 * math.pi / 4.0, abs=1e-15)
     assert sc.faults == (SpeedCapFault(kind="speed_cap", vehicle=1, start=150.0, end=250.0, gamma_dot_max=0.5),)
     assert sc.path_following.delta == -1.0 and sc.coordination.law == "corrected"
 
@@ -141,12 +141,16 @@ BAD: dict[str, tuple[str, str, str | None]] = {
     "negative radius": (paper_with("radius = 15.0", "radius = -15.0"), "vehicles[1].path.radius", "-15.0"),
     "zero period": (paper_with("period = 400.0", "period = 0.0"), "vehicles[0].path.period", "0.0"),
     "tiny period": (paper_with("period = 400.0", "period = 5e-324"), "vehicles[0].path.period", "5e-324"),
-    "infinite phase": (paper_with("phase = -2.356194490192345", "phase = -inf"), "vehicles[0].path.phase", "-inf"),
+    "infinite phase": (
+        paper_with("phase_rad = -2.356194490192345", "phase_rad = -inf"),
+        "vehicles[0].path.phase_rad",
+        "-inf",
+    ),
     "nan climb": (paper_with("climb = 0.05", "climb = nan"), "vehicles[0].path.climb", "nan"),
     "extra path key": (paper_with("climb = 0.05", "climb = 0.05, pitch = 2.0"), "vehicles[0].path.pitch", None),
     "lawnmower of too many legs": (
         paper_with(
-            'path = { type = "helix", radius = 15.0, climb = 0.05, period = 400.0, phase = -2.356194490192345 }',
+            'path = { type = "helix", radius = 15.0, climb = 0.05, period = 400.0, phase_rad = -2.356194490192345 }',
             'path = { type = "lawnmower", origin = [0, 0, 0], leg_length = 50, spacing = 5, legs = 2147483648 }',
         ),
         "vehicles[1].path.legs",
@@ -154,7 +158,7 @@ BAD: dict[str, tuple[str, str, str | None]] = {
     ),
     "line not moving": (
         paper_with(
-            'path = { type = "helix", radius = 25.0, climb = 0.05, period = 400.0, phase = -2.356194490192345 }',
+            'path = { type = "helix", radius = 25.0, climb = 0.05, period = 400.0, phase_rad = -2.356194490192345 }',
             'path = { type = "line", start = [0.0, 0.0, 0.0], velocity = [0.0, 0.0, 0.0] }',
         ),
         "vehicles[2].path.velocity",
@@ -279,7 +283,11 @@ E2E: dict[str, tuple[str, str, str]] = {
     "negative step": (paper_with("step = 0.1", "step = -0.1"), "scenario.step", "-0.1"),
     "spiral": (paper_with('type = "helix"', 'type = "spiral"'), "vehicles[0].path.type", "'spiral'"),
     "disconnected": (paper_with("edges = [[1, 2], [1, 3]]", "edges = [[1, 2]]"), "graph.edges", "[[1, 2]]"),
-    "infinite phase": (paper_with("phase = -2.356194490192345", "phase = inf"), "vehicles[0].path.phase", "inf"),
+    "infinite phase": (
+        paper_with("phase_rad = -2.356194490192345", "phase_rad = inf"),
+        "vehicles[0].path.phase_rad",
+        "inf",
+    ),
 }
 
 

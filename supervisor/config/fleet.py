@@ -62,13 +62,13 @@ from vehicles.transmission import Policy, Tdma
 
 def build_path(spec: PathSpec) -> Path:
     if isinstance(spec, HelixPath):
-        return Helix(spec.radius, spec.climb, spec.period, spec.phase, spec.center)
+        return Helix(spec.radius, spec.climb, spec.period, spec.phase_rad, spec.center)
     if isinstance(spec, CirclePath):
-        return Circle(spec.radius, spec.period, spec.phase, spec.center)
+        return Circle(spec.radius, spec.period, spec.phase_rad, spec.center)
     if isinstance(spec, LinePath):
         return Line(spec.start, spec.velocity)
     assert isinstance(spec, LawnmowerPath)
-    return Lawnmower(spec.origin, spec.leg_length, spec.spacing, spec.legs, spec.heading, spec.scale)
+    return Lawnmower(spec.origin, spec.leg_length, spec.spacing, spec.legs, spec.heading_rad, spec.scale)
 
 
 def model_of(scenario: Scenario) -> Model:

@@ -26,7 +26,7 @@ def current_of(scenario: Scenario) -> Current | None:
     tide = env.tide
     if tide is None:
         return Current(env.current, shear=env.shear, shear_origin=env.shear_origin)
-    return Current(env.current, tide.amplitude, tide.period, tide.phase, env.shear, env.shear_origin)
+    return Current(env.current, tide.amplitude, tide.period, tide.phase_rad, env.shear, env.shear_origin)
 
 
 def spreads(scenario: Scenario) -> dict[str, float]:

@@ -7,7 +7,7 @@ from typing import Annotated, Literal
 
 from pydantic import Discriminator, Field, JsonValue, Strict, Tag
 
-from supervisor.config.schema_base import MAX_ANGLE, MAX_TIME, Float, Length, StrictModel
+from supervisor.config.schema_base import MAX_TIME, Float, Length, RenamedKeys, StrictModel, radians
 from vehicles.params import PRESETS
 
 MAX_CURRENT = 5.0  # m/s: a component of the current; the strongest tidal races run at 4-5 m/s
@@ -20,12 +20,12 @@ Shear = Annotated[float, Strict(), Field(ge=-MAX_SHEAR, le=MAX_SHEAR)]
 Spread = Annotated[float, Strict(), Field(ge=0, le=MAX_SPREAD)]
 
 
-class TideSection(StrictModel):
-    """A tidal stream added to the current: amplitude sin(2 pi t / period + phase)."""
+class TideSection(RenamedKeys):
+    """A tidal stream added to the current: amplitude sin(2 pi t / period + phase_rad)."""
 
     amplitude: CurrentVector = Field(description="[ax, ay, az] of the tidal stream, m/s (inertial, z up)")
     period: Float = Field(gt=0, le=10 * MAX_TIME, description="s (the M2 tide: 44712 s = 12.42 h); positive")
-    phase: Float = Field(default=0.0, ge=-MAX_ANGLE, le=MAX_ANGLE, description="rad at t = 0")
+    phase_rad: Float = radians("phase", "rad at t = 0")
 
 
 class EnvironmentSection(StrictModel):

@@ -41,7 +41,6 @@ from supervisor.config.navigation_schema import NavigationSection
 from supervisor.config.plant_schema import UNCERTAINTY_DESCRIPTION, EnvironmentSection, Uncertainty, as_any_of
 from supervisor.config.saturation_schema import SaturationSection
 from supervisor.config.schema_base import (
-    MAX_ANGLE,
     MAX_COUNT,
     MAX_GAIN,
     MAX_GAMMA,
@@ -56,11 +55,13 @@ from supervisor.config.schema_base import (
     Int,
     Position,
     Rate,
+    RenamedKeys,
     Speed,
     StrictModel,
     Vec3,
     VehicleId,
     one_of,
+    radians,
 )
 from vehicles.params import PRESETS, VehicleParams
 
@@ -258,8 +259,8 @@ def _period(value: float) -> float:
     return value
 
 
-class HelixPath(StrictModel):
-    """p_d(gamma) = center + [radius cos(2 pi gamma / period + phase), radius sin(2 pi gamma / period + phase),
+class HelixPath(RenamedKeys):
+    """p_d(gamma) = center + [radius cos(2 pi gamma / period + phase_rad), radius sin(2 pi gamma / period + phase_rad),
     climb gamma]. gamma counts revolutions in units of 1/period: one turn per `period` units of gamma (with period =
     2 pi, gamma is the angle in rad); at gamma_dot = v_r a vehicle moves at v_r sqrt((2 pi radius / period)^2 +
     climb^2) m/s."""
@@ -268,13 +269,13 @@ class HelixPath(StrictModel):
     radius: Float = Field(gt=0, le=MAX_LENGTH, description="m")
     climb: Float = Field(ge=-MAX_LENGTH, le=MAX_LENGTH, description="m of height per unit of gamma (z up; 0: a circle)")
     period: Float = Field(ge=-MAX_GAMMA, le=MAX_GAMMA, description=PERIOD)
-    phase: Float = Field(default=0.0, ge=-MAX_ANGLE, le=MAX_ANGLE, description=PHASE)
+    phase_rad: Float = radians("phase", PHASE)
     center: Position = Field(default=(0.0, 0.0, 0.0), description="[x, y, z] of the axis at gamma = 0, m")
 
     _period_size = field_validator("period")(_period)
 
 
-class CirclePath(StrictModel):
+class CirclePath(RenamedKeys):
     """A horizontal circle at height center[2]: the helix with climb 0. gamma counts revolutions in units of
     1/period (with period = 2 pi, gamma is the angle in rad: vehicles on circles of different radii are abreast
     when their gammas agree, the paper's Fig. 2); at gamma_dot = v_r a vehicle moves at 2 pi radius v_r / period
@@ -283,7 +284,7 @@ class CirclePath(StrictModel):
     type: Literal["circle"]
     radius: Float = Field(gt=0, le=MAX_LENGTH, description="m")
     period: Float = Field(ge=-MAX_GAMMA, le=MAX_GAMMA, description=PERIOD)
-    phase: Float = Field(default=0.0, ge=-MAX_ANGLE, le=MAX_ANGLE, description=PHASE)
+    phase_rad: Float = radians("phase", PHASE)
     center: Position = Field(default=(0.0, 0.0, 0.0), description="[x, y, z] of the centre, m")
 
     _period_size = field_validator("period")(_period)
@@ -298,7 +299,7 @@ class LinePath(StrictModel):
     velocity: Position = Field(description="[x, y, z] m per unit of gamma; non-zero")
 
 
-class LawnmowerPath(StrictModel):
+class LawnmowerPath(RenamedKeys):
     """A survey pattern in the plane z = origin[2]: `legs` parallel legs joined by half-circle turns of radius
     spacing / 2, advancing to the left of the first leg. gamma = arc length / scale (scale = 1: gamma in metres of
     path, v_r in m/s); before gamma = 0 and after the last leg the path goes on straight."""
@@ -309,9 +310,7 @@ class LawnmowerPath(StrictModel):
     spacing: Float = Field(gt=0, le=MAX_LENGTH, description="distance between legs, m")
     # The path is built leg by leg when the scenario is checked: hence the bound.
     legs: Int = Field(ge=1, le=10_000, description="number of legs")
-    heading: Float = Field(
-        default=0.0, ge=-MAX_ANGLE, le=MAX_ANGLE, description="direction of the first leg, rad (from +x towards +y)"
-    )
+    heading_rad: Float = radians("heading", "direction of the first leg, rad (from +x towards +y)")
     scale: Float = Field(default=1.0, gt=0, le=MAX_LENGTH, description="m of path per unit of gamma")
 
 

@@ -9,9 +9,19 @@ Schema and the scenario reference show them.
 from __future__ import annotations
 
 from collections.abc import Iterable
-from typing import Annotated
+from typing import Annotated, Any
 
-from pydantic import BaseModel, ConfigDict, Field, JsonValue, Strict
+from pydantic import (
+    AliasChoices,
+    BaseModel,
+    ConfigDict,
+    Field,
+    JsonValue,
+    ModelWrapValidatorHandler,
+    PrivateAttr,
+    Strict,
+    model_validator,
+)
 
 from comms.records.fields import MAX_SPEED, MAX_TIME
 from comms.records.wire import MAX_VEHICLE_ID
@@ -60,3 +70,41 @@ class StrictModel(BaseModel):
     # Lax mode so that TOML arrays become tuples; the numbers themselves are strict (Float, Int).
     # TOML has nan and inf literals; no field of a scenario may take them.
     model_config = ConfigDict(extra="forbid", frozen=True, strict=False, allow_inf_nan=False)
+
+
+# Angle keys say their unit in their name (issue 30); the names before the rename are still read, and said.
+RENAMED = {"phase": "phase_rad", "heading": "heading_rad"}  # old name -> name
+
+
+def radians(old: str, description: str) -> Any:
+    """A Field for an angle in rad whose key was once `old` (still read: supervisor.config.unit_checks says so)."""
+    name = RENAMED[old]
+    return Field(
+        default=0.0,
+        ge=-MAX_ANGLE,
+        le=MAX_ANGLE,
+        description=f"{description}; `{old}` before, still read",
+        validation_alias=AliasChoices(name, old),
+    )
+
+
+class RenamedKeys(StrictModel):
+    """A model with an angle key renamed to say its unit: which old names the input used (`old_names`)."""
+
+    _old_names: tuple[str, ...] = PrivateAttr(default=())
+
+    @model_validator(mode="wrap")
+    @classmethod
+    def _note_old_names(cls, data: Any, handler: ModelWrapValidatorHandler[Any]) -> Any:
+        old = tuple(k for k in data if RENAMED.get(k) in cls.model_fields) if isinstance(data, dict) else ()
+        for key in old:
+            if RENAMED[key] in data:
+                raise ValueError(f"{key} is the old name of {RENAMED[key]}: give {RENAMED[key]} only")
+        model = handler(data)
+        if old and isinstance(model, RenamedKeys):
+            model._old_names = old
+        return model
+
+    @property
+    def old_names(self) -> tuple[str, ...]:
+        return self._old_names

@@ -1,9 +1,9 @@
 """Values that only make sense in another unit than their key's, said as warnings by `cpf validate` and `cpf run`.
 
-A scenario gives angles in rad unless the key's name says deg (the schema's rule: path `phase` and `heading` are rad,
-`attitude_rpy_deg` is deg). A radian key above one turn (2 pi) was almost surely written in degrees; a degree key
-whose values are all within one radian-turn, not whole and not zero, almost surely in radians. Times against the
-modem's airtime and the transmit period are supervisor.config.feasibility_checks's.
+Every angle key says its unit in its name (`phase_rad`, `heading_rad`, `attitude_rpy_deg`); the names before that
+(`phase`, `heading`) are still read as rad, and said. A radian key above one turn (2 pi) was almost surely written in
+degrees; a degree key whose values are all within one radian-turn, not whole and not zero, almost surely in radians.
+Times against the modem's airtime and the transmit period are supervisor.config.feasibility_checks's.
 """
 
 from __future__ import annotations
@@ -12,21 +12,30 @@ import math
 from collections.abc import Iterator
 
 from supervisor.config.scenario_schema import Scenario
-
-RADIAN_KEYS = ("phase", "heading")  # path keys in rad
+from supervisor.config.schema_base import RENAMED, RenamedKeys
 
 
 def unit_warnings(sc: Scenario) -> list[str]:
     return [*_radians(sc), *_degrees(sc)]
 
 
-def _radians(sc: Scenario) -> Iterator[str]:
+def _with_radians(sc: Scenario) -> Iterator[tuple[str, RenamedKeys]]:
+    """(where, table) of every table with a key in rad."""
     for index, vehicle in enumerate(sc.vehicles):
-        spec = vehicle.path.model_dump()
-        for key in RADIAN_KEYS:
-            value = spec.get(key)
+        if isinstance(vehicle.path, RenamedKeys):
+            yield f"vehicles[{index}].path", vehicle.path
+    if sc.environment.tide is not None:
+        yield "environment.tide", sc.environment.tide
+
+
+def _radians(sc: Scenario) -> Iterator[str]:
+    for where, table in _with_radians(sc):
+        for old in table.old_names:
+            yield f"{where}.{old}: read as {RENAMED[old]} (rad), its name now; write {RENAMED[old]}"
+        for key in RENAMED.values():
+            value = getattr(table, key, None)
             if isinstance(value, float) and abs(value) > 2 * math.pi:
-                yield (f"vehicles[{index}].path.{key}: in rad, and {value:g} rad is more than a turn: degrees? "
+                yield (f"{where}.{key}: in rad, and {value:g} rad is more than a turn: degrees? "
                        f"({value:g} deg is {math.radians(value):.6g} rad), got {value}")  # fmt: skip
 
 
