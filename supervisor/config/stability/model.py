@@ -16,7 +16,7 @@ speed. Messages: sender j samples (x_j, e_j) at its offset o_j in every period P
 its slot start under TDMA) and each of its neighbours receives it d s later; in flight it sits in a FIFO of buffers
 that advance with the predictor's dynamics, so a delivery copies the buffer into the receiver's hold. The state is
 [x (n), e (n), (xh, eh) per directed link, (xb, eb) per buffer of each sender]. Between events it flows with
-exp(A tau) (scipy.linalg.expm); events are linear maps; their product over [0, P) is the monodromy M.
+exp(A tau) (supervisor.config.stability.expm); events are linear maps; their product over [0, P) is the monodromy M.
 
 Every map leaves the consensus direction c (every x, xh, xb = 1, every rate 0) fixed: law (5) is neutral to a
 common shift of all gamma_i. `Layout.reduced` maps a matrix to the quotient by span(c) (M c = c for every map here, so

@@ -12,12 +12,15 @@ from __future__ import annotations
 from collections.abc import Iterator
 from dataclasses import dataclass
 from functools import cached_property
+from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.linalg import block_diag, expm
-from scipy.sparse.linalg import LinearOperator, eigs
 
+from supervisor.config.stability.expm import block_diag, expm
 from supervisor.config.stability.model import Loop, Matrix, Sampling
+
+if TYPE_CHECKING:
+    from scipy.sparse.linalg import LinearOperator
 
 
 @dataclass(frozen=True)
@@ -174,6 +177,8 @@ def _stages(layout: Layout, loss: float) -> list[tuple[Matrix, float]]:
 def second_moment(layout: Layout, loss: float) -> LinearOperator:
     """X -> E[M X M'] on the quotient by the consensus direction (vec(X) -> E[M kron M] vec(X)), applied as matrix
     products, never built as a Kronecker product."""
+    from scipy.sparse.linalg import LinearOperator  # here: only large loops with losses need ARPACK
+
     stages = _stages(layout, loss)
     size = layout.size - 1
 
@@ -195,6 +200,8 @@ def second_moment_radius(layout: Layout, loss: float) -> float:
         for m, p in _stages(layout, loss):
             g = (p * np.kron(m, m) + (1.0 - p) * np.eye(size)) @ g
         return spectral_radius(g)
+    from scipy.sparse.linalg import eigs
+
     values = eigs(second_moment(layout, loss), k=1, which="LM", return_eigenvectors=False, tol=1e-8, maxiter=5000)
     return float(np.max(np.abs(values)))
 
