@@ -119,13 +119,20 @@ class Supervisor:
                 self._faulty(vid, why)
 
     def _faulty(self, vid: int, why: str) -> None:
-        """A vehicle sent a state that is its fault (not finite, implausible: dropped and counted): lost, as a dead
-        process is, if the scenario goes on without a lost vehicle; else the run stops, naming it."""
+        """A vehicle sent a state that is its fault (not finite, implausible: dropped and counted): the run stops,
+        naming it, or, if the scenario goes on without a lost vehicle, its process is stopped (it would go on
+        transmitting and stepping) and the run goes on without it, as the in-process engine does."""
         if vid not in self.alive:
             return
         if self.sc.scenario.on_vehicle_loss == "abort":
             raise SimulationError(f"vehicle {vid} sent a state the run cannot use at t = {self.t:.1f} s ({why})")
-        self._lost(f"vehicle {vid}", f"it sent a state the run cannot use: {why}")
+        name, how = f"vehicle {vid}", f"it sent a state the run cannot use: {why}"
+        if self._process_of(name) is None:  # not this supervisor's to stop (a remote vehicle)
+            self._lost(name, how)
+            return
+        log.warning("%s lost at t = %.1f s (%s); going on without it", name, self.t, how)
+        self._kill(name)
+        self.clock.reissue(self)
 
     def _liveliness(self, change: str) -> None:
         sign, key = change[0], change[1:]

@@ -61,3 +61,15 @@ class Slow:
             while time.thread_time() < end:
                 pass
         return 0.0
+
+
+@dataclass(frozen=True)
+class LiesAbove:
+    """A vehicle that lies once its gamma passes `gamma`: its law asks for a rate of 1e6 (finite, so no guard of
+    its own stops it), its state then carries a gamma and gamma_dot far beyond what its vehicle can do. In the
+    paper scenario vehicle 2 starts ahead (gamma ~132 against ~82 and ~93), so it alone passes 133 in its first 20 s."""
+
+    gamma: float = 133.0
+
+    def correction(self, gamma: float, gamma_dot: float, neighbours: object, gains: CoordinationGains) -> float:
+        return 1e6 if gamma > self.gamma else 0.0
