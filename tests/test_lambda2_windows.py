@@ -133,11 +133,13 @@ def test_the_lambda2_figure_says_over_what_the_graph_is_taken() -> None:
     assert np.isclose(run_metrics(run)["lambda2"]["horizon"], 36.0)
 
 
-def test_lambda2_is_taken_over_the_vehicles_alive(tmp_path: Path) -> None:
+@pytest.mark.parametrize("restart", [35.0, 30.0])
+def test_lambda2_is_taken_over_the_vehicles_alive(tmp_path: Path, restart: float) -> None:
     """Vehicle 4 at the end of the line 1 - 2 - 3 - 4 is killed from 12 s to 35 s: the survivors 1 - 2 - 3 still hear
     each other, so the windows ending at 20 and 30 s are connected (the path on three vertices: lambda_2 = 1), in the
-    supervisor's books and in the broker's snapshots alike; counting the dead vehicle said 'disconnected'."""
-    kill = '\n[[faults]]\nkind = "vehicle_kill"\nvehicle = 4\nstart = 12.0\nend = 35.0\n'
+    supervisor's books and in the broker's snapshots alike; counting the dead vehicle said 'disconnected'. Restarted
+    at 30 s, the window's end, it is still out of that window: alive at its last step only, it could not deliver."""
+    kill = f'\n[[faults]]\nkind = "vehicle_kill"\nvehicle = 4\nstart = 12.0\nend = {restart}\n'
     sc = scenario(tdma_fleet(slot=0.0, duration=40.0, n=4) + kill)
     quiet = Progress(sc.scenario.duration, enabled=False)
     result = run_inprocess(sc, "line4.toml", "", tmp_path / "run.mcap", 0, quiet, scene=False)

@@ -27,7 +27,6 @@ class BrokerCore:
     stats: LinkStats
     plausible: dict[int, Plausible] = field(default_factory=dict)  # each vehicle's bounds (comms.records.plausible)
     _next_snapshot: float | None = None  # the first snapshot after one full window
-    _alive: tuple[int, ...] | None = None  # the vehicles alive at the latest delivery (None: none yet, every one)
 
     def submit(
         self,
@@ -55,7 +54,7 @@ class BrokerCore:
 
     def deliver(self, t: float, vehicles: Sequence[int]) -> tuple[dict[int, list[Reception]], list[LinkEvent]]:
         """Receptions due by t, per vehicle (every vehicle gets a batch, possibly empty)."""
-        self._alive = tuple(vehicles)
+        self.stats.note_alive(vehicles)
         receptions, events = self.channel.deliver(t)
         batches: dict[int, list[Reception]] = {i: [] for i in vehicles}
         for r in receptions:
@@ -70,14 +69,14 @@ class BrokerCore:
         return events
 
     def snapshot_due(self, t: float, final: bool = False) -> Message | None:
-        """The link statistics, once per window and at the end; lambda_2 over the vehicles alive at the latest
-        delivery (the tick's)."""
+        """The link statistics, once per window and at the end; lambda_2 over the vehicles alive at every delivery
+        of the window (each the tick's)."""
         if self._next_snapshot is None:
             self._next_snapshot = self.stats.window
         if not final and t + 1e-9 < self._next_snapshot:
             return None
         self._next_snapshot = t + self.stats.window
-        return self.stats.snapshot(t, self._alive)
+        return self.stats.snapshot(t, self.stats.window_alive())
 
     @property
     def counts(self) -> dict[str, int]:

@@ -2,9 +2,10 @@
 
 Fed with the channel's link events, it keeps per link: packets sent, delivered, dropped by cause, and the mean and
 largest delay. Every window it computes lambda_2 of the undirected graph whose edges are the pairs that delivered at
-least one packet (either way) within the last `horizon` s, over the vehicles alive then (a killed vehicle is not part
-of the fleet while it is down: counting it would say "disconnected" of survivors that still hear each other): zero
-means the delivered graph was disconnected. The
+least one packet (either way) within the last `horizon` s, over the vehicles alive at every step of the window (a
+killed vehicle is not part of the fleet while it is down: counting it would say "disconnected" of survivors that still
+hear each other, and one restarted at the window's end had no time to deliver): zero means the delivered graph was
+disconnected. The
 horizon is the window unless the caller gives a longer one: a vehicle that transmits once a TDMA frame longer than
 the window would otherwise leave its links out of most windows although they deliver every frame.
 """
@@ -60,6 +61,20 @@ class LinkStats:
         self.horizon = window if horizon is None else max(horizon, window)  # s a delivery keeps its pair connected
         self.books: dict[tuple[int, int], LinkBook] = {}
         self._recent: deque[tuple[float, int, int]] = deque()  # (arrival, sender, receiver) of deliveries
+        self._throughout: frozenset[int] | None = None  # alive at every step noted since the last window's end
+        self._latest: frozenset[int] | None = None
+
+    def note_alive(self, alive: Collection[int]) -> None:
+        """The vehicles alive at a step."""
+        now = frozenset(alive)
+        self._throughout = now if self._throughout is None else self._throughout & now
+        self._latest = now
+
+    def window_alive(self) -> frozenset[int] | None:
+        """The vehicles alive at every step noted in the window now ending (None: none noted, every vehicle); the
+        next window starts from those alive now."""
+        alive, self._throughout = self._throughout, self._latest
+        return alive
 
     def add(self, events: Iterable[LinkEvent]) -> None:
         books = self.books

@@ -39,11 +39,13 @@ class LinkBooks:
     def window(self, t: float, alive: Collection[int] | None = None) -> None:
         """Call once per step, once every delivery up to t is booked: records the delivered graph's lambda_2 at
         every window boundary, over the stats' horizon (deliveries booked ahead of t do not count) and over the
-        vehicles alive at t (None: every vehicle)."""
+        vehicles alive at every step of the window (alive: those at t; None: every vehicle)."""
+        if alive is not None:
+            self.stats.note_alive(alive)
         if self._next_window is None:
             self._next_window = self.stats.window
         if t + 1e-9 >= self._next_window:
-            self.lambda2.append({"t": t, "lambda2": self.stats.delivered_connectivity(t, alive)})
+            self.lambda2.append({"t": t, "lambda2": self.stats.delivered_connectivity(t, self.stats.window_alive())})
             self._next_window += self.stats.window
 
     @property
