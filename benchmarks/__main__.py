@@ -12,11 +12,14 @@
 6. ready: how soon a vehicle process is ready (its liveliness token at the router) after its spawn;
 7. live: what `cpf run --live 0` costs with nobody connected, each engine (issue 17: <= 10 %), and how late a
    client sees the scene (benchmarks.bench_live);
-8. targets: issue 15's cases as whole `cpf run` / `cpf sweep` commands, both engines side by side
+8. report: `cpf report` of an 8-vehicle, 450 s run as a user waits for it (issue 28: under 10 s;
+   benchmarks.bench_report, which also times another checkout's alternately with --old);
+9. targets: issue 15's cases as whole `cpf run` / `cpf sweep` commands, both engines side by side
    (benchmarks.bench_targets; --targets picks the cases, "none" skips them).
 Each part is also a module of its own (benchmarks.bench_engines, bench_scaling, bench_realtime, bench_bus_floor,
-bench_parse, bench_ready, bench_live, bench_targets); benchmarks.bench_side_by_side compares this tree with another
-checkout; bench_record, bench_intake and bench_critical_path are diagnostics with no target of their own.
+bench_parse, bench_ready, bench_live, bench_report, bench_targets); benchmarks.bench_side_by_side compares this
+tree with another checkout; bench_record, bench_intake and bench_critical_path are diagnostics with no target of
+their own.
 Results go to benchmarks/results/*.json; the targets are printed next to the numbers. Speed is checked here, never
 in tests.
 """
@@ -33,6 +36,7 @@ from benchmarks import (
     bench_parse,
     bench_ready,
     bench_realtime,
+    bench_report,
     bench_scaling,
     bench_targets,
     save,
@@ -71,11 +75,14 @@ def main() -> None:
     print(bench_ready.summary(ready), flush=True)
     live = bench_live.measure(args.repeat)
     print(bench_live.summary(live), flush=True)
+    report = bench_report.measure(args.repeat, None)
+    print(bench_report.summary(report), flush=True)
     targets = [] if args.targets == "none" else bench_targets.run(args.targets.split(","), args.repeat, 100)
 
     everything = {"engines": engines, "scaling": scaling, "realtime": realtime, "bus_floor": floor, "parse": parse}
     everything["ready"] = ready
     everything["live"] = live
+    everything["report"] = report
     everything["targets"] = targets
     print(f"written: {save('all', everything)}")
 

@@ -57,7 +57,10 @@ def draw(run: RunData, figures: Sequence[tuple[str, Builder]], out_dir: Path, pr
         with _signals_held():  # a Ctrl-C while the pool starts would leave it half-made, outside the with below
             pool = context.Pool(processes, initializer=_worker_start, initargs=(os.getpid(),))
         with pool:
-            paths = pool.map(_draw_one, [name for name, _ in figures], chunksize=1)
+            # Last first: a report's last figures are the channel's, of a panel per link and the slowest (an
+            # 8-vehicle run: 1-2 s each against 0.3 s); begun first, the workers end together.
+            names = [name for name, _ in reversed(figures)]
+            paths = pool.map(_draw_one, names, chunksize=1)[::-1]
             pool.close()  # let the workers end by themselves; leaving the block terminates those that do not
             pool.join()
             return paths

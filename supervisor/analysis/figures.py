@@ -38,6 +38,7 @@ from matplotlib.legend import Legend
 from matplotlib.lines import Line2D
 from numpy.typing import NDArray
 
+from supervisor.analysis.panels import panel_grid
 from supervisor.config.derived import gamma_unit, rate_label
 
 if TYPE_CHECKING:  # only for annotations: supervisor.analysis.report imports this module
@@ -362,15 +363,14 @@ def _from_mean(ax: Axes, run: RunData, t: Array, gamma: Array) -> Array:
 
 def fig_velocities(run: RunData, series: VehicleSeries) -> Figure:
     """Figs. 6-8: surge u, sway v and heave w of one vehicle, stacked."""
-    fig = new_figure(9.0, 7.0)
-    axes = fig.subplots(3, 1, sharex=True)
+    title = f"Linear velocities of AUV {series.vehicle} (body frame): {run.name}"
+    fig, axes = panel_grid(9.0, 7.0, 3, 1, title, titled=False)
     names = (("u", "surge"), ("v", "sway"), ("w", "heave"))
     for k, (ax, (symbol, name)) in enumerate(zip(axes, names, strict=True)):
         ax.plot(series.t, series.velocity[:, k], color=colour(k), label=f"{symbol} ({name})")
         finish_time_axes(ax, run, f"{symbol} [m/s]")
         if k < 2:
             ax.set_xlabel("")
-    fig.suptitle(f"Linear velocities of AUV {series.vehicle} (body frame): {run.name}")
     return fig
 
 

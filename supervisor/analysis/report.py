@@ -27,7 +27,16 @@ from supervisor.analysis.figures import (  # colour, finish_time_axes, new_figur
     finish_time_axes,
     new_figure,
 )
-from supervisor.analysis.rundata import AgeSeries, FaultInterval, LinkLog, RunData, VehicleSeries, load_run
+from supervisor.analysis.rundata import (
+    AgeSeries,
+    FaultInterval,
+    LinkLog,
+    RunData,
+    VehicleSeries,
+    load_run,
+    read_for_report,
+)
+from supervisor.analysis.tx_books import BooksLog, books_of
 
 __all__ = [
     "DPI",
@@ -48,14 +57,13 @@ __all__ = [
 METRICS_FILE = "metrics.json"
 
 
-def write_report(log: Path, out_dir: Path) -> list[Path]:
-    """Every figure of a recorded run and its metrics (metrics.json) into out_dir; returns the paths written."""
+def write_report(log: Path, out_dir: Path, read: tuple[RunData, BooksLog] | None = None) -> list[Path]:
+    """Every figure of a recorded run and its metrics (metrics.json) into out_dir; returns the paths written.
+    read: what read_for_report(log) gives, if already read (cpf report reads it aside while this module loads)."""
     from supervisor.analysis.metrics import run_metrics
-    from supervisor.analysis.tx_books import BooksLog, books_of
     from supervisor.record.provenance import drawn_from
 
-    on_the_books = BooksLog()
-    run = load_run(log, also=on_the_books)  # one pass over the log for both
+    run, on_the_books = read if read is not None else read_for_report(log)
     paths = write_figures(run, out_dir)
     metrics = out_dir / METRICS_FILE
     books = {f"{i}->{j}": book.as_dict() for (i, j), book in books_of(on_the_books).items()}

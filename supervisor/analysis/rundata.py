@@ -11,7 +11,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, NamedTuple, Protocol, TypeAlias
+from typing import TYPE_CHECKING, Any, NamedTuple, Protocol, TypeAlias
 
 import numpy as np
 from numpy.typing import NDArray
@@ -26,6 +26,9 @@ from supervisor.errors import ScenarioError
 from supervisor.record import logfile
 from supervisor.record.meta import RunMeta
 from supervisor.record.unusable import Unusable
+
+if TYPE_CHECKING:
+    from supervisor.analysis.tx_books import BooksLog
 
 Array: TypeAlias = NDArray[np.float64]
 Edge: TypeAlias = tuple[int, int]
@@ -185,6 +188,15 @@ class Collector(Protocol):
     def wanted(self, topic: str) -> bool: ...
 
     def add(self, topic: str, message: dict[str, Any]) -> None: ...
+
+
+def read_for_report(path: Path) -> tuple[RunData, BooksLog]:
+    """The run and its transmission books (supervisor.analysis.tx_books), in one pass over the log: what cpf report
+    reads."""
+    from supervisor.analysis.tx_books import BooksLog
+
+    books = BooksLog()
+    return load_run(path, also=books), books
 
 
 def load_run(path: Path, also: Collector | None = None) -> RunData:

@@ -19,10 +19,14 @@ def report(args: argparse.Namespace) -> int:
 
     open_log(args.log).close()  # LogError for a missing log or another file, before anything is made
     made_directory("--out", args.out or args.log.parent)
-    from supervisor.analysis.report import write_report
-    from supervisor.record.provenance import drawn_from
+    from supervisor.analysis.aside import aside
+    from supervisor.analysis.rundata import read_for_report
 
-    paths = write_report(args.log, args.out or args.log.parent)
+    with aside(read_for_report, args.log) as reading:  # the log read in a child while matplotlib loads here
+        from supervisor.analysis.report import write_report
+        from supervisor.record.provenance import drawn_from
+
+        paths = write_report(args.log, args.out or args.log.parent, reading.result())
     if (source := drawn_from(args.log)) is not None:
         print(f"{args.log}: {source}")
     for path in paths:
