@@ -67,8 +67,8 @@ typecheck: $(STAMP)
 test: $(STAMP)
 	$(MAKE) --no-print-directory -j 3 lint typecheck pytest
 
-# Two workers (pytest-xdist): a serial suite keeps about one of the two cores busy (its e2e runs wait on their
-# processes), so a second worker takes the idle one; worksteal balances the long tests between them.
+# Two workers (pytest-xdist), one per core: the suite is CPU-bound (its e2e runs' processes included, both cores
+# are busy with two workers; three gave no gain); worksteal balances the long tests between them.
 pytest: $(STAMP)
 	$(BIN)/pytest -n 2 --dist worksteal --durations=30
 
