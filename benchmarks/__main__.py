@@ -27,6 +27,8 @@ in tests.
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
+from typing import Any
 
 from benchmarks import (
     ROOT,
@@ -69,22 +71,25 @@ def main() -> None:
     for row in floor:
         print(bench_bus_floor.summary(row), flush=True)
 
+    everything = {"engines": engines, "scaling": scaling, "realtime": realtime, "bus_floor": floor}
+    everything |= commands(paper, args.repeat)
+    everything["targets"] = (
+        [] if args.targets == "none" else bench_targets.run(args.targets.split(","), args.repeat, 100)
+    )
+    print(f"written: {save('all', everything)}")
+
+
+def commands(paper: Path, repeat: int) -> dict[str, Any]:
+    """Parsing, a vehicle's readiness, the live view's cost and cpf report, each printed as measured."""
     parse = bench_parse.measure(paper)
     print(bench_parse.summary(parse), flush=True)
     ready = bench_ready.measure(5)
     print(bench_ready.summary(ready), flush=True)
-    live = bench_live.measure(args.repeat)
+    live = bench_live.measure(repeat)
     print(bench_live.summary(live), flush=True)
-    report = bench_report.measure(args.repeat, None)
+    report = bench_report.measure(repeat, None)
     print(bench_report.summary(report), flush=True)
-    targets = [] if args.targets == "none" else bench_targets.run(args.targets.split(","), args.repeat, 100)
-
-    everything = {"engines": engines, "scaling": scaling, "realtime": realtime, "bus_floor": floor, "parse": parse}
-    everything["ready"] = ready
-    everything["live"] = live
-    everything["report"] = report
-    everything["targets"] = targets
-    print(f"written: {save('all', everything)}")
+    return {"parse": parse, "ready": ready, "live": live, "report": report}
 
 
 if __name__ == "__main__":

@@ -19,7 +19,6 @@ from pathlib import Path
 from typing import Any
 
 from comms.broker.broker_core import BrokerCore
-from comms.records.bounded import cause_of
 from comms.records.events import LinkEvents
 from comms.records.messages import (
     COMMS_EVENTS_KEY,
@@ -36,12 +35,10 @@ from comms.records.network import Network
 from comms.records.receptions import RxBatch
 from comms.records.records import Kinematics, LinkEvent, Transmission
 from comms.records.run import Graph
-from comms.records.state import StateReport
 from supervisor.analysis.series import SeriesBuilder
 from supervisor.analysis.summary import Series
 from supervisor.config.derived import steps_of
 from supervisor.config.fleet import broker_core, initial_state, link_stats, radio, restarted_node, vehicle_config
-from supervisor.config.plausibility import plausibility
 from supervisor.config.scenario_schema import Scenario
 from supervisor.engine import interrupts
 from supervisor.engine.books import LinkBooks
@@ -89,8 +86,6 @@ class _InProcessRun:
         self.books = LinkBooks(link_stats(scenario))
         self.builder = SeriesBuilder(ids, steps_of(scenario), self.dt)
         self.last_state: dict[int, Message] = {}
-        self.plausible = plausibility(scenario)  # what the Zenoh engine's intake and broker check: the same here
-        self.last_report: dict[int, StateReport] = {}
         self.sent: list[Transmission] = []
         self.where: dict[int, Kinematics] = {}
         self.network: Network | None = None  # in force when `sent` was transmitted
@@ -147,11 +142,6 @@ class _InProcessRun:
         except FloatingPointError as exc:  # its closed loop diverged: lost, as the Zenoh engine loses its process
             self._lose(i, t, str(exc))
             return
-        try:
-            self._check(i, out.report, out.transmission)
-        except ValueError as exc:  # its fault, dropped before the log and the channel, as the Zenoh engine's intake
-            self._faulty(i, t, f"{cause_of(exc)}: {exc}")
-            return
         if out.transmission is not None and out.tx is not None:
             self.rec.write(tx_key(i), t, out.tx)
             self.sent.append(out.transmission)
@@ -182,20 +172,6 @@ class _InProcessRun:
             action.announce(t, float(self.last_state[vid]["t"]))
             return
         action.announce(t)
-
-    def _check(self, vid: int, report: StateReport, sent: Transmission | None) -> None:
-        """ValueError for a state, or its transmission, beyond the vehicle's bounds (comms.records.plausible)."""
-        self.plausible[vid].check(report, self.last_report.get(vid), self.dt)
-        if sent is not None:
-            self.plausible[vid].check_tx(sent, report, self.dt)
-        self.last_report[vid] = report
-
-    def _faulty(self, vid: int, t: float, why: str) -> None:
-        """A vehicle whose state is its fault: the run stops naming it, or goes on without it (as the Zenoh engine's
-        supervisor does, which stops its process)."""
-        if self.sc.scenario.on_vehicle_loss == "abort":
-            raise SimulationError(f"vehicle {vid} sent a state the run cannot use at t = {t:.1f} s ({why})")
-        self._lose(vid, t, f"it sent a state the run cannot use: {why}")
 
     def _lose(self, vid: int, t: float, how: str) -> None:
         """A vehicle that cannot go on (not a scheduled kill): stop the run, or go on without it if the scenario
