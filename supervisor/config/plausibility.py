@@ -2,10 +2,10 @@
 supervisor's intake and the broker drop a state beyond them as the vehicle's fault (docs/plausibility.md).
 
 From physics, generous: the speed bound is SPEED_MARGIN times the vehicle's own top speed (its preset's full thrust
-against its surge damping; MAX_SPEED where its model has none); over ground, the current's strongest on top; gamma_dot
-at most GAMMA_DOT_MARGIN times what that speed gives along the slowest stretch of its path (|p_d'(gamma)| there), plus
-the coordination's reference rate. No legitimate run comes near them (every config in configs/, both engines:
-tests/test_plausibility.py); a vehicle that sends 1e30 is far beyond.
+against its surge damping; MAX_SPEED where its model has none), or its initial speed if more; over ground, the
+current's strongest on top; gamma_dot at most GAMMA_DOT_MARGIN times what that speed gives along the slowest stretch
+of its path (|p_d'(gamma)| there), plus the coordination's reference rate. No legitimate run comes near them (every
+config in configs/, both engines: tests/test_plausibility.py); a vehicle that sends 1e30 is far beyond.
 """
 
 from __future__ import annotations
@@ -36,8 +36,9 @@ def plausibility(sc: Scenario) -> dict[int, Plausible]:
 
 def _bounds(sc: Scenario, vid: int, current: float) -> Plausible:
     top = top_speed(params_of(sc, vid))
-    speed = min(SPEED_MARGIN * top, MAX_SPEED) if math.isfinite(top) else MAX_SPEED
     section = next(v for v in sc.vehicles if v.id == vid)
+    speed = min(SPEED_MARGIN * top, MAX_SPEED) if math.isfinite(top) else MAX_SPEED
+    speed = max(speed, math.hypot(*section.velocity))  # a start faster than that (the schema allows 8.7 m/s) slows
     slowest = _slowest(build_path(section.path))
     rate = GAMMA_DOT_MARGIN * (speed + current) / slowest + abs(sc.coordination.v_r)
     return Plausible(speed, speed + current, rate)
