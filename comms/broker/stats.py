@@ -5,9 +5,8 @@ largest delay. Every window it computes lambda_2 of the undirected graph whose e
 least one packet (either way) within the last `horizon` s, over the vehicles alive at every step of the window (a
 killed vehicle is not part of the fleet while it is down: counting it would say "disconnected" of survivors that still
 hear each other, and one restarted at the window's end had no time to deliver): zero means the delivered graph was
-disconnected. The
-horizon is the window unless the caller gives a longer one: a vehicle that transmits once a TDMA frame longer than
-the window would otherwise leave its links out of most windows although they deliver every frame.
+disconnected. The horizon is the window unless the caller gives a longer one: a vehicle that transmits once a TDMA
+frame longer than the window would otherwise leave its links out of most windows although they deliver every frame.
 """
 
 from __future__ import annotations

@@ -120,8 +120,8 @@ class Supervisor:
 
     def _faulty(self, vid: int, why: str) -> None:
         """A vehicle sent a state that is its fault (not finite, implausible: dropped and counted): the run stops,
-        naming it, or, if the scenario goes on without a lost vehicle, its process is stopped (it would go on
-        transmitting and stepping) and the run goes on without it, as the in-process engine does."""
+        naming it, or, if the scenario goes on without a lost vehicle, its process is stopped (it would go on stepping
+        and transmitting, each message dropped) and the run goes on without it."""
         if vid not in self.alive:
             return
         if self.sc.scenario.on_vehicle_loss == "abort":
