@@ -88,3 +88,21 @@ def test_cpf_run_says_that_a_diverging_loop_diverged_and_what_to_look_at(tmp_pat
     lines = done.stdout.splitlines()
     said = next(i for i, line in enumerate(lines) if line.startswith("the coordination loop DIVERGED from about t = "))
     assert lines[said + 1].startswith(f"look at: cpf stability {scenario} (docs/stability.md): it predicts this")
+
+
+def test_on_the_zenoh_engine_the_bounds_stop_a_diverging_loop_and_say_it_may_be_one(tmp_path):
+    """The same fleet over Zenoh: the intake's plausibility bounds (comms.records.plausible) stop the run once a
+    path parameter's rate leaves what the vehicle can follow, and the line says that a diverging loop does that, not
+    only a vehicle that lies (it said 'implausible' alone)."""
+    from tests.conftest import shortened
+    from tests.procs import cpf
+
+    scenario = tmp_path / "paper.toml"
+    scenario.write_text(shortened((CONFIGS / "paper.toml").read_text(), 100.0))
+    unstable = ["comms.transmit.period=5", "coordination.predictor=first_order", "coordination.schedule=none"]
+    unstable += ["coordination.k=1.0", "saturation.correction=none", "faults=[]"]
+    sets = [arg for s in unstable for arg in ("--set", s)]
+    done = cpf("run", str(scenario), "--quiet", "--no-foxglove", "--out", "r.mcap", *sets, cwd=tmp_path)
+    errors = [line for line in done.stderr.splitlines() if line.startswith("cpf: error")]
+    assert done.returncode == 1 and len(errors) == 1, done.stderr
+    assert "implausible" in errors[0] and "its coordination loop diverged or it lies" in errors[0], errors

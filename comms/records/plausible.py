@@ -17,6 +17,9 @@ from comms.records.state import StateReport
 from comms.records.stream import IMPLAUSIBLE
 
 SLACK = 1.0  # m (and units of gamma) a step's bounds allow on top of rate x time: rounding, a restart's resumption
+# A path parameter beyond its bounds is what a coordination loop that really diverges sends too (the in-process
+# engine, which checks no bounds, runs on and reports it as diverged): the reason says both.
+DIVERGED_OR_LIES = "; its coordination loop diverged or it lies: `cpf stability` says whether the loop converges"
 
 
 @dataclass(frozen=True, slots=True)
@@ -34,7 +37,7 @@ class Plausible:
         if speed > self.speed:
             _refuse(report, f"speed {speed:.3g} m/s above its {self.speed:.3g} m/s")
         if abs(report.gamma_dot) > self.gamma_dot:
-            _refuse(report, f"gamma_dot {report.gamma_dot:.3g} beyond its {self.gamma_dot:.3g}")
+            _refuse(report, f"gamma_dot {report.gamma_dot:.3g} beyond its {self.gamma_dot:.3g}{DIVERGED_OR_LIES}")
         if previous is None or report.k <= previous.k:
             return
         elapsed = (report.k - previous.k) * dt
@@ -42,7 +45,9 @@ class Plausible:
         if moved > self.ground_speed * elapsed + SLACK:
             _refuse(report, f"moved {moved:.3g} m in {elapsed:.3g} s (at most {self.ground_speed:.3g} m/s)")
         if abs(report.gamma - previous.gamma) > self.gamma_dot * elapsed + SLACK:
-            _refuse(report, f"gamma went {previous.gamma:.6g} -> {report.gamma:.3g} in {elapsed:.3g} s")
+            _refuse(
+                report, f"gamma went {previous.gamma:.6g} -> {report.gamma:.3g} in {elapsed:.3g} s{DIVERGED_OR_LIES}"
+            )
 
     def check_tx(self, tx: Transmission, report: StateReport, dt: float) -> None:
         """ValueError (dropped: implausible) for a transmission beyond the bounds, or further from the state of its
