@@ -8,9 +8,11 @@ import os
 import signal
 import threading
 from pathlib import Path
+from typing import Any
 
 import pytest
 
+from supervisor.analysis import aside as aside_module
 from supervisor.analysis.aside import aside
 from supervisor.analysis.rundata import read_for_report
 from supervisor.cli import main
@@ -68,14 +70,22 @@ def test_with_another_thread_alive_the_call_is_made_here() -> None:
         helper.join()
 
 
-def test_cpf_report_reads_aside_what_it_reads_here(tmp_path: Path) -> None:
+def test_cpf_report_reads_aside_what_it_reads_here(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     scenario = tmp_path / "s.toml"
     scenario.write_text(shortened((CONFIGS / "paper.toml").read_text(), 30.0))
     assert (
         cpf("run", str(scenario), "--engine", "inprocess", "--out", "r.mcap", "--quiet", cwd=tmp_path).returncode == 0
     )
-    done = cpf("report", "r.mcap", "--out", "aside", cwd=tmp_path)
-    assert done.returncode == 0, done.stderr
+    calls = []
+    real = aside_module.aside
+
+    def spy(call: Any, *args: Any) -> Any:
+        calls.append((call, args))
+        return real(call, *args)
+
+    monkeypatch.setattr(aside_module, "aside", spy)
+    assert main(["report", str(tmp_path / "r.mcap"), "--out", str(tmp_path / "aside")]) == 0
+    assert calls == [(read_for_report, (tmp_path / "r.mcap",))]  # the log read aside, by the report's own reader
     here = tmp_path / "here"
     from supervisor.analysis.report import write_report
 

@@ -3,6 +3,9 @@
 
 from __future__ import annotations
 
+import subprocess
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -72,18 +75,27 @@ def test_what_to_look_at_follows_the_stability_verdict():
     )
 
 
-def test_cpf_run_says_that_a_diverging_loop_diverged_and_what_to_look_at(tmp_path):
-    """The paper's fleet with k = 1, first_order prediction and a message every 5 s (cpf stability: the error grows
-    at 0.08 1/s), 100 s in process; the paper run as it is (converging, fault and all) says nothing of the kind."""
+# The paper's fleet with k = 1, first_order prediction and a message every 5 s (cpf stability: the error grows at
+# 0.08 1/s), without the correction's bound.
+UNSTABLE = ["comms.transmit.period=5", "coordination.predictor=first_order", "coordination.schedule=none",
+            "coordination.k=1.0", "saturation.correction=none", "faults=[]"]  # fmt: skip
+
+
+def run_unstable(tmp_path: Path, *args: str) -> tuple[Path, subprocess.CompletedProcess[str]]:
+    """cpf run of the UNSTABLE paper fleet for 100 s: the scenario file and what the command did."""
     from tests.conftest import shortened
     from tests.procs import cpf
 
     scenario = tmp_path / "paper.toml"
     scenario.write_text(shortened((CONFIGS / "paper.toml").read_text(), 100.0))
-    unstable = ["comms.transmit.period=5", "coordination.predictor=first_order", "coordination.schedule=none"]
-    unstable += ["coordination.k=1.0", "saturation.correction=none", "faults=[]"]
-    sets = [arg for s in unstable for arg in ("--set", s)]
-    done = cpf("run", str(scenario), "--engine", "inprocess", "--quiet", "--no-foxglove", *sets, cwd=tmp_path)
+    sets = [arg for s in UNSTABLE for arg in ("--set", s)]
+    return scenario, cpf("run", str(scenario), "--quiet", "--no-foxglove", *args, *sets, cwd=tmp_path)
+
+
+def test_cpf_run_says_that_a_diverging_loop_diverged_and_what_to_look_at(tmp_path):
+    """The UNSTABLE fleet, 100 s in process; the paper run as it is (converging, fault and all) says nothing of the
+    kind."""
+    scenario, done = run_unstable(tmp_path, "--engine", "inprocess")
     assert done.returncode == 0, done.stderr
     lines = done.stdout.splitlines()
     said = next(i for i, line in enumerate(lines) if line.startswith("the coordination loop DIVERGED from about t = "))
@@ -91,18 +103,10 @@ def test_cpf_run_says_that_a_diverging_loop_diverged_and_what_to_look_at(tmp_pat
 
 
 def test_on_the_zenoh_engine_the_bounds_stop_a_diverging_loop_and_say_it_may_be_one(tmp_path):
-    """The same fleet over Zenoh: the intake's plausibility bounds (comms.records.plausible) stop the run once a
+    """The UNSTABLE fleet over Zenoh: the intake's plausibility bounds (comms.records.plausible) stop the run once a
     path parameter's rate leaves what the vehicle can follow, and the line says that a diverging loop does that, not
     only a vehicle that lies (it said 'implausible' alone)."""
-    from tests.conftest import shortened
-    from tests.procs import cpf
-
-    scenario = tmp_path / "paper.toml"
-    scenario.write_text(shortened((CONFIGS / "paper.toml").read_text(), 100.0))
-    unstable = ["comms.transmit.period=5", "coordination.predictor=first_order", "coordination.schedule=none"]
-    unstable += ["coordination.k=1.0", "saturation.correction=none", "faults=[]"]
-    sets = [arg for s in unstable for arg in ("--set", s)]
-    done = cpf("run", str(scenario), "--quiet", "--no-foxglove", "--out", "r.mcap", *sets, cwd=tmp_path)
+    _, done = run_unstable(tmp_path, "--out", "r.mcap")
     errors = [line for line in done.stderr.splitlines() if line.startswith("cpf: error")]
     assert done.returncode == 1 and len(errors) == 1, done.stderr
     assert "implausible" in errors[0] and "its coordination loop diverged or it lies" in errors[0], errors

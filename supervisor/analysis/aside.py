@@ -23,7 +23,6 @@ from typing import Any, Generic, TypeVar
 from comms.bus.lifeline import ORPHANED, set_parent_death_signal
 
 T = TypeVar("T")
-CHUNK = 1 << 20
 
 
 class Pending(Generic[T]):
@@ -41,16 +40,14 @@ class Pending(Generic[T]):
 
     def _collect(self) -> tuple[bool, Any]:
         assert self.fd is not None and self.pid is not None
-        parts = []
         with os.fdopen(self.fd, "rb", closefd=True) as pipe:
             self.fd = None
-            while chunk := pipe.read(CHUNK):
-                parts.append(chunk)
+            payload = pipe.read()  # to the end: the child has written and closed, or died
         _, status = os.waitpid(self.pid, 0)
         self.pid = None
-        if not parts:
+        if not payload:
             return False, RuntimeError(f"the child process reading aside ended with no result (status {status})")
-        ok, value = pickle.loads(b"".join(parts))
+        ok, value = pickle.loads(payload)
         return bool(ok), value
 
     def stop(self) -> None:

@@ -187,13 +187,14 @@ class _InProcessRun:
         self.sent = [tx for tx in self.sent if tx.sender != vid]  # it died before its modem could send them
 
     def finish(self, end: float) -> None:
+        k = round(end / self.dt)  # the end's step: its events' batch
         if self.broker is not None:
             self._submit(self.broker, end)
             self._record_events(self.broker.deliver(end, self.alive)[1] + self.broker.finish(end))
-            self._flush_events(end, round(end / self.dt))
+            self._flush_events(end, k)
             self._record_snapshot(self.broker.snapshot_due(end, final=True))
         self._record_events(self.books.close_open(end, "end_of_run"))  # if the broker was down at the end
-        self._flush_events(end, round(end / self.dt))
+        self._flush_events(end, k)
         self.books.window(end, self.alive)
 
     def _record_snapshot(self, snapshot: Message | None) -> None:
