@@ -84,13 +84,19 @@ def test_it_cannot_fly_the_paper_helices_which_keep_ideal_actuators():
     assert max(real[500:]) > 3.0
 
 
-def test_running_straight_the_models_remus_is_unstable_faster_than_its_fin_servo():
+@pytest.mark.parametrize(("preset", "pole"), [("remus100_neutral", 1.30), ("remus100", 0.395)])
+def test_running_straight_the_remus_is_unstable_and_only_its_lift_makes_the_pole_slower_than_its_fin_servo(
+    preset, pole
+):
     """Why no controller flies eqs. (1)-(2) with these fins (vehicles/line_of_sight.py): linearised about a straight
-    run at 1 m/s, the sway-yaw pair of the REMUS 100 model (its drift, numerically differentiated) has an unstable
-    pole, the Munk moment (M_22 - M_11) u v unopposed by the hull's and fins' lift the model leaves out; it is faster
-    than the fins' servo (1 / 1 s), and a loop must be faster than the unstable pole it stabilises (Stein, IEEE
-    Control Systems Magazine 23(4), 2003)."""
-    model, prm, h = Auv(dimension=2), PRESETS["remus100"], 1e-6
+    run at 1 m/s, the sway-yaw pair of the paper's model with a REMUS 100's masses (remus100_neutral; its drift,
+    numerically differentiated) has an unstable pole, the Munk moment (M_22 - M_11) u v unopposed by the hull's and
+    fins' lift the model leaves out, faster than the fins' servo (1 / 1 s); a loop must be faster than the unstable
+    pole it stabilises (Stein, IEEE Control Systems Magazine 23(4), 2003). With Prestero's lift (remus100) the pair
+    is still unstable, as a torpedo hull with small fins is, but slower than the servo. The poles follow from the
+    coefficients in closed form: det [[(-d_v + Y_uv u) / m_v - s, (Y_ur - m_u) u / m_v], [(N_uv + m_u - m_v) u / J,
+    (-d_r + N_ur u) / J - s]] = 0 (0.395 1/s with lift, 1.30 without)."""
+    model, prm, h = Auv(dimension=2), PRESETS[preset], 1e-6
     straight = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0]
 
     def rates(v: float, r: float) -> tuple[float, float]:
@@ -102,13 +108,20 @@ def test_running_straight_the_models_remus_is_unstable_faster_than_its_fin_servo
         np.subtract(rates(0.0, h), rates(0.0, -h)) / (2 * h),
     ]
     fastest = max(np.linalg.eigvals(np.column_stack(columns)).real)
-    assert fastest > 1.0 / FINS.fin_time_constant  # 1.3 1/s
+    assert fastest == pytest.approx(pole, abs=0.005)
+    (m_u, m_v, _), j = prm.mass, prm.inertia[2]
+    closed = [
+        [(-prm.linear_damping[1] + prm.lift_uv) / m_v, (prm.lift_ur - m_u) / m_v],
+        [(prm.lift_moment_uv + m_u - m_v) / j, (-prm.angular_linear_damping[2] + prm.lift_moment_ur) / j],
+    ]
+    assert fastest == pytest.approx(max(np.linalg.eigvals(np.array(closed)).real), abs=1e-4)  # v|v| at h: 2e-6
+    assert (fastest > 1.0 / FINS.fin_time_constant) == (prm.lift_moment_uv == 0.0)
 
 
 @pytest.mark.parametrize(
     ("setting", "message"),
     [
-        ('vehicle.actuators="fins"', "vehicle.actuators: must be 'ideal' or 'remus100', got 'fins'"),
+        ('vehicle.actuators="fins"', "vehicle.actuators: must be 'preset', 'ideal' or 'remus100', got 'fins'"),
         (
             "vehicle.actuators={max_deflection_deg = 0}",
             "vehicle.actuators.max_deflection_deg: must be greater than 0, got 0",

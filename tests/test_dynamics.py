@@ -11,9 +11,9 @@ import pytest
 from comms.records.records import FloatArray
 from vehicles.dynamics import PLANAR, SPATIAL, Model
 from vehicles.geometry import orthonormalize, reorthonormalized, roll_pitch_yaw, rotation_2d, rotation_from_rpy
-from vehicles.params import PRESETS, VehicleParams
+from vehicles.params import PRESETS, VehicleParams, without_lift
 
-REMUS = PRESETS["remus100"]
+REMUS = without_lift(PRESETS["remus100"])  # eq. (2) as the paper has it (the lift: tests/test_lift.py)
 NEUTRAL = replace(REMUS, buoyancy=REMUS.weight)
 
 

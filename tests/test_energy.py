@@ -23,13 +23,13 @@ from vehicles.agent import VehicleConfig, VehicleState, step
 from vehicles.coordination import CoordinationGains
 from vehicles.dynamics import PLANAR, SPATIAL, Model, PathVectors
 from vehicles.geometry import rotation_2d, rotation_from_rpy
-from vehicles.params import PRESETS, VehicleParams
+from vehicles.params import PRESETS, VehicleParams, without_lift
 from vehicles.path_following import ControlOutput, Current
 from vehicles.paths import Line
 from vehicles.vehicle_model import VehicleModel
 
 FREE = replace(
-    PRESETS["remus100"],
+    without_lift(PRESETS["remus100"]),  # lift, like damping, is a hydrodynamic force: off
     linear_damping=(0.0, 0.0, 0.0),
     quadratic_damping=(0.0, 0.0, 0.0),
     angular_linear_damping=(0.0, 0.0, 0.0),

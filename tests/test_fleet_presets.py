@@ -15,7 +15,7 @@ from supervisor.config.presets_table import top_speed
 from supervisor.config.scenario import parse_scenario
 from supervisor.errors import ScenarioError
 from tests.conftest import CONFIGS
-from vehicles.params import GRAVITY, PRESETS, VehicleParams
+from vehicles.params import GRAVITY, PRESETS, VehicleParams, without_lift
 
 PAPER = (CONFIGS / "paper.toml").read_text()
 
@@ -44,10 +44,10 @@ def test_remus100_has_prestero_drag_and_its_published_top_speed():
     assert top_speed(p) == pytest.approx(2.5)  # Fossen's remus100: 2.5 m/s
 
 
-def test_remus100_neutral_is_remus100_trimmed_to_zero_net_buoyancy():
+def test_remus100_neutral_is_remus100_trimmed_to_zero_net_buoyancy_without_lift():
     neutral, buoyant = PRESETS["remus100_neutral"], PRESETS["remus100"]
     assert neutral.buoyancy == neutral.weight
-    assert dataclasses.replace(neutral, buoyancy=buoyant.buoyancy) == buoyant
+    assert dataclasses.replace(neutral, buoyancy=buoyant.buoyancy) == without_lift(buoyant)  # the paper's model
 
 
 def test_remus100_legacy_keeps_the_old_numbers_to_the_bit():

@@ -98,7 +98,30 @@ def spatial_drift(s: Sequence[float], prm: VehicleParams) -> Accelerations:
     g1 -= (sv * a3 - hw * a2) + (q * h3 - r * h2)
     g2 -= (hw * a1 - u * a3) + (r * h1 - p * h3)
     g3 -= (u * a2 - sv * a1) + (p * h2 - q * h1)
+    if prm.lift_uv or prm.lift_ur or prm.lift_moment_uv or prm.lift_moment_ur:
+        y, z, m, n = lift_terms(u, sv, hw, q, r, prm)
+        f2, f3, g2, g3 = f2 + y, f3 + z, g2 + m, g3 + n
     return (f1 / m1, f2 / m2, f3 / m3), (g1 / j1, g2 / j2, g3 / j3)
+
+
+def lift_terms(
+    u: float, v: float, w: float, q: float, r: float, prm: VehicleParams
+) -> tuple[float, float, float, float]:
+    """Sway and heave forces, pitch and yaw moments of the hull's and fins' lift (Y, Z, M, N) [N, N m].
+
+    Prestero (MIT/WHOI MS thesis, 2001, sec. 3.6-3.7): the hull and the fins at x_f meet the flow at the angle of
+    attack v/u (w/u), plus r x_f / u (-q x_f / u) at the fins, and lift against it, Y = Y_uv u v + Y_ur u r. For an
+    axisymmetric hull the vertical plane mirrors it in this frame (z up, y to port): Z = Z_uw u w + Z_uq u q with
+    Z_uw = Y_uv, Z_uq = -Y_ur, and M = M_uw u w + M_uq u q with M_uw = -N_uv, M_uq = N_ur (a fin at x_f < 0 gives
+    N_uv = -c x_f > 0, which turns the nose into the flow: weathercock stability; N_ur = M_uq = -c x_f^2 < 0
+    damps the rates). All four vanish at rest, as lift does."""
+    y_uv, y_ur, n_uv, n_ur = prm.lift_uv, prm.lift_ur, prm.lift_moment_uv, prm.lift_moment_ur
+    return (
+        u * (y_uv * v + y_ur * r),
+        u * (y_uv * w - y_ur * q),
+        u * (n_ur * q - n_uv * w),
+        u * (n_uv * v + n_ur * r),
+    )
 
 
 def planar_drift(s: Sequence[float], prm: VehicleParams) -> Accelerations:
@@ -109,7 +132,9 @@ def planar_drift(s: Sequence[float], prm: VehicleParams) -> Accelerations:
     u_dot = (m_v * sway * r - (lin[0] + quad[0] * abs(u)) * u) / m_u
     v_dot = (-m_u * u * r - (lin[1] + quad[1] * abs(sway)) * sway) / m_v
     damping_r = prm.angular_linear_damping[2] + prm.angular_quadratic_damping[2] * abs(r)
-    r_dot = ((m_u - m_v) * u * sway - damping_r * r) / prm.inertia[2]
+    y, _, _, n = lift_terms(u, sway, 0.0, 0.0, r, prm)
+    v_dot += y / m_v
+    r_dot = ((m_u - m_v) * u * sway - damping_r * r + n) / prm.inertia[2]
     return (u_dot, v_dot, 0.0), (0.0, 0.0, r_dot)
 
 

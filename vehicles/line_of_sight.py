@@ -20,8 +20,10 @@ e' = -U e / sqrt(lookahead^2 + e^2): USGES (the paper cited, Theorem 1), |e(t)| 
 Rates within what the fins hold. The virtual yaw and pitch rates are the path's own turning rate (its tangent's
 angular velocity in body axes, a feed-forward) plus k_heading times the error, each within the rate whose damping
 takes the share `margin` of the moment available at the present speed, tau_max(u) = min(max_torque, fin_moment u^2)
-(minus, in pitch, the restoring moment being held). A slower vehicle turns more gently instead of asking for a moment
-it does not have; at rest it asks for none and thrusts first. The speed wanted along the path's tangent, over
+(in pitch, of what is left of it after the moment being held: restoring, Munk, lift; a buoyant REMUS holding
+depth at 1 m/s needs more than half its fins, and a share of nothing would leave its depth error uncorrected). A
+slower vehicle turns more gently instead of asking for a moment it does not have; at rest it asks for none and
+thrusts first. The speed wanted along the path's tangent, over
 ground, is the path's, v_d |p_d^gamma|, less k1 times the bounded along-track error (ahead of its path point it slows
 down); the surge that gives it with the sway, heave and current the vehicle has (in a turn it slips sideways: a surge
 of v_d |p_d^gamma| would leave gamma_dot short of v_d, and the fleet's consensus off v_r), within [0, top speed]. Each
@@ -41,10 +43,11 @@ bound once the course has turned. `lyapunov` is (rho - 1) + zeta^2 / 2 + (1 - co
 the errors, not a proven Lyapunov function.
 
 Fins. With vehicles.actuators' fins (fin_moment from the scenario's [vehicle] actuators) the law asks for no more
-than they give, but the vehicle model of eqs. (1)-(2) with a REMUS 100's added masses is unstable in sway-yaw when
-running straight (the Munk moment, unopposed by the hull's and fins' lift, which the model leaves out): at 1 m/s its
-unstable pole, 1.3 1/s, is faster than the fins' 1 s servo, and a loop must be faster than the unstable pole it
-stabilises (Stein, "Respect the unstable", IEEE Control Systems Magazine 23(4), 2003; tests/test_actuators.py).
+than they give. The vehicle must have the hull's and fins' lift (the remus100 preset: vehicles.params.LIFT): without
+it, eqs. (1)-(2) with a REMUS 100's added masses are unstable in sway-yaw when running straight (the Munk moment,
+unopposed): at 1 m/s the unstable pole, 1.3 1/s, is faster than the fins' 1 s servo, and a loop must be faster than
+the unstable pole it stabilises (Stein, "Respect the unstable", IEEE Control Systems Magazine 23(4), 2003); with
+the lift it is 0.39 1/s (tests/test_actuators.py), and the fins hold it (tests/test_lift.py).
 """
 
 from __future__ import annotations
@@ -131,7 +134,7 @@ class LineOfSight:
         lin, quad = prm.angular_linear_damping, prm.angular_quadratic_damping
         # in pitch the moment the drift holds other than damping (restoring, Coriolis) takes its share first
         held_q = abs(prm.inertia[1] * dq + (lin[1] + quad[1] * abs(q)) * q)
-        q_max = _rate_within(lin[1], quad[1], self.margin * limit - held_q)
+        q_max = _rate_within(lin[1], quad[1], self.margin * (limit - held_q))
         q_v = _within(turning[1] - self.k_heading * errors[1], q_max)  # a positive q pitches the nose down
         r_v = _within(turning[2] + self.k_heading * errors[0], _rate_within(lin[2], quad[2], self.margin * limit))
         u_v = min(max(u_wanted, self.min_speed), top_speed(prm))

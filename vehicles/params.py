@@ -26,6 +26,12 @@ class VehicleParams:
     center_of_buoyancy: tuple[float, float, float]  # r_B relative to the centre of mass, body axes, m
     max_surge_force: float  # |tau_u| limit, N
     max_torque: float  # |tau_q|, |tau_r| limit, N m
+    # Hull and fin lift (vehicles.dynamics.lift_terms; 0: the paper's model, which has none). Prestero's notation for
+    # the axisymmetric hull, the lift part only (the added-mass, Munk, part comes from the masses above):
+    lift_uv: float = 0.0  # Y_uv = Z_uw: sway (heave) force per u v (u w), kg/m
+    lift_ur: float = 0.0  # Y_ur = -Z_uq: sway (heave) force per u r (u q), kg/rad
+    lift_moment_uv: float = 0.0  # N_uv = -M_uw: yaw (pitch) moment per u v (u w), kg
+    lift_moment_ur: float = 0.0  # N_ur = M_uq: yaw (pitch) moment per u r (u q), kg m/rad
 
 
 # REMUS 100 numbers and where they come from. Sources: T. Prestero, "Verification of a six-degree of freedom
@@ -43,14 +49,29 @@ _TOP_SPEED = 2.5  # m/s (Fossen, remus100.py: 2.5 m/s at 1525 rpm)
 _BUOYANT = 3.3  # N, B - W (Hall and Anstee: B = W + 0.75 lbf)
 _CB_ABOVE_CG = 0.0196  # m (Prestero's z_g)
 
+# Hull and fin lift, from Prestero's combined coefficients (his Table 4.x, as transcribed with his added masses in
+# D. Sgarioto's REMUS coefficient file for Hall and Anstee, DSTO 2011): Y_uv = -28.6 kg/m, Y_ur = 5.22 kg/rad,
+# N_uv = -24.0 kg, N_ur = -2.0 kg m/rad. Each combines lift with an added-mass (Munk) part, which eqs. (1)-(2) already
+# carry through the masses: Y_ur_a = X_udot, N_uv_a = Y_vdot - X_udot, N_ur_a = Y_rdot, with X_udot = -0.93 kg,
+# Y_vdot = -35.5 kg, Y_rdot = 1.93 kg m. The lift is what is left.
+_X_UDOT, _Y_VDOT, _Y_RDOT = -0.93, -35.5, 1.93
+LIFT = {
+    "lift_uv": -28.6,  # Y_uv: no added-mass part
+    "lift_ur": 5.22 - _X_UDOT,  # 6.15
+    "lift_moment_uv": -24.0 - (_Y_VDOT - _X_UDOT),  # 10.57
+    "lift_moment_ur": -2.0 - _Y_RDOT,  # -3.93
+}
 
-def _remus100(buoyancy_excess: float = _BUOYANT) -> VehicleParams:
+
+def _remus100(buoyancy_excess: float = _BUOYANT, lift: bool = True) -> VehicleParams:
     """REMUS 100 with its drag to Prestero (2001): surge X_u|u| = 1.62 kg/m, sway and heave 131 kg/m (Prestero's
     Z_w|w|; his table gives Y_v|v| = 1310 for the same hull, taken as a misprint), pitch M_q|q| = 188 kg m^2, yaw
     N_r|r| = 94 kg m^2; masses, inertias, added masses and linear damping of Fossen's consistent set (the numbers in
     the comment above). Not sourced, chosen: roll damping (0.56 N m s, no quadratic term); the thrust limit, set so
     that full thrust holds the published 2.5 m/s top speed against this surge damping (about 14.1 N); the torque
-    limit 20 N m. buoyancy_excess: B - W in N (3.3 N as published: slightly buoyant)."""
+    limit 20 N m. buoyancy_excess: B - W in N (3.3 N as published: slightly buoyant). lift: the hull's and fins' lift
+    (LIFT, Prestero), which the paper's model leaves out; without it the fins cannot hold the vehicle straight
+    (vehicles.actuators)."""
     weight = _RIGID_MASS * GRAVITY
     lin, quad = _LINEAR_DAMPING[0], 1.62
     return VehicleParams(
@@ -65,15 +86,16 @@ def _remus100(buoyancy_excess: float = _BUOYANT) -> VehicleParams:
         center_of_buoyancy=(0.0, 0.0, _CB_ABOVE_CG),  # CG below CB: roll and pitch statically stable
         max_surge_force=lin * _TOP_SPEED + quad * _TOP_SPEED * _TOP_SPEED,
         max_torque=20.0,
+        **(LIFT if lift else {}),
     )
 
 
 def _remus100_neutral() -> VehicleParams:
-    """REMUS 100 (as `remus100`) trimmed neutrally buoyant, B = W. Sourced: everything `remus100` sources. Chosen:
-    the trim (a REMUS is ballasted at sea to a small excess buoyancy, 3.3 N in Hall and Anstee; zero is our choice,
-    so that it flies a climbing helix at a small angle of attack). The stand-in for the paper's Sirene, whose
-    coefficients are not public."""
-    return _remus100(buoyancy_excess=0.0)
+    """REMUS 100 (as `remus100`) trimmed neutrally buoyant, B = W, in the paper's model: no lift (eqs. (1)-(2)).
+    Sourced: everything `remus100` sources. Chosen: the trim (a REMUS is ballasted at sea to a small excess buoyancy,
+    3.3 N in Hall and Anstee; zero is our choice, so that it flies a climbing helix at a small angle of attack). The
+    stand-in for the paper's Sirene, whose coefficients are not public, with the paper's idealised inputs."""
+    return _remus100(buoyancy_excess=0.0, lift=False)
 
 
 def _remus100_legacy() -> VehicleParams:
@@ -101,6 +123,11 @@ PRESETS: dict[str, VehicleParams] = {
     "remus100_neutral": _remus100_neutral(),
     "remus100_legacy": _remus100_legacy(),
 }
+
+
+def without_lift(params: VehicleParams) -> VehicleParams:
+    """The same vehicle in the paper's model, eqs. (1)-(2): no hull or fin lift."""
+    return replace(params, lift_uv=0.0, lift_ur=0.0, lift_moment_uv=0.0, lift_moment_ur=0.0)
 
 
 def preset(name: str, **overrides: object) -> VehicleParams:

@@ -63,13 +63,18 @@ class Auv:
     center_of_buoyancy: tuple[float, float, float] = _REMUS.center_of_buoyancy
     max_surge_force: float = _REMUS.max_surge_force
     max_torque: float = _REMUS.max_torque
+    lift_uv: float = _REMUS.lift_uv
+    lift_ur: float = _REMUS.lift_ur
+    lift_moment_uv: float = _REMUS.lift_moment_uv
+    lift_moment_ur: float = _REMUS.lift_moment_ur
     dimension: int = 3  # the scenario's: 3, or 2 (planar)
 
     def parameters(self) -> VehicleParams:
         return VehicleParams(
             self.mass, self.inertia, self.linear_damping, self.quadratic_damping, self.angular_linear_damping,
             self.angular_quadratic_damping, self.weight, self.buoyancy, self.center_of_buoyancy,
-            self.max_surge_force, self.max_torque,
+            self.max_surge_force, self.max_torque, self.lift_uv, self.lift_ur, self.lift_moment_uv,
+            self.lift_moment_ur,
         )  # fmt: skip
 
     def drift(self, s: Sequence[float], params: VehicleParams) -> Accelerations:
@@ -79,7 +84,7 @@ class Auv:
 
 @dataclass(frozen=True)
 class Remus100(Auv):
-    """The remus100 preset (vehicles.params: REMUS 100, Prestero's drag): entry point `remus100`."""
+    """The remus100 preset (vehicles.params: REMUS 100, Prestero's drag and lift): entry point `remus100`."""
 
 
 _NEUTRAL, _LEGACY = PRESETS["remus100_neutral"], PRESETS["remus100_legacy"]
@@ -90,6 +95,10 @@ class Remus100Neutral(Auv):
     """The remus100_neutral preset (REMUS 100 trimmed neutrally buoyant, B = W): entry point `remus100_neutral`."""
 
     buoyancy: float = _NEUTRAL.buoyancy
+    lift_uv: float = 0.0  # the paper's model: no lift
+    lift_ur: float = 0.0
+    lift_moment_uv: float = 0.0
+    lift_moment_ur: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -99,3 +108,7 @@ class Remus100Legacy(Auv):
     quadratic_damping: tuple[float, float, float] = _LEGACY.quadratic_damping
     angular_quadratic_damping: tuple[float, float, float] = _LEGACY.angular_quadratic_damping
     max_surge_force: float = _LEGACY.max_surge_force
+    lift_uv: float = 0.0
+    lift_ur: float = 0.0
+    lift_moment_uv: float = 0.0
+    lift_moment_ur: float = 0.0

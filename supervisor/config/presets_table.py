@@ -75,12 +75,14 @@ def presets_text() -> str:
             *vehicles,
             "  mass: rigid body (W / g); M11/M22: surge / sway with added mass; W - B < 0: buoyant;",
             "  top speed: steady surge at full thrust against the model's surge damping.",
-            "  Actuators are ideal by default (the paper's model: the force and torques as asked, within these",
-            "  limits; the paper's example keeps them). [vehicle] actuators = \"remus100\" puts a REMUS 100's fins",
-            f"  and propeller between (vehicles/actuators.py): fin moment {_FINS.fin_lift:g} u^2 d, |d| <= "
-            f"{math.degrees(_FINS.max_deflection):g} deg ({_FINS.torque_limit(1.0):.2f} N m at 1 m/s),",
-            f"  lags of {_FINS.fin_time_constant:g} s (fins) and {_FINS.thruster_time_constant:g} s (propeller); the "
-            "built-in controllers cannot fly with them yet (README, Robust vehicles).",
+            "  remus100 is a REMUS 100 as at sea: Prestero's hull and fin lift, and its fins and propeller",
+            f"  (vehicles/actuators.py): fin moment {_FINS.fin_lift:g} u^2 d, |d| <= "
+            f"{math.degrees(_FINS.max_deflection):g} deg ({_FINS.torque_limit(1.0):.2f} N m at 1 m/s), lags of "
+            f"{_FINS.fin_time_constant:g} s (fins)",
+            f"  and {_FINS.thruster_time_constant:g} s (propeller); its default controller is line_of_sight. "
+            "remus100_neutral and remus100_legacy",
+            "  are the paper's model (eqs. (1)-(2): no lift) with ideal actuators, the force and torques as asked",
+            "  within these limits; the paper's example keeps them. [vehicle] actuators sets either.",
             "",
             "Modem presets ([comms] modem = NAME; bitrate, preamble, frame_bytes, half_duplex, collisions can be",
             "changed in [comms]; the source level is the link budget's:",
@@ -95,7 +97,8 @@ VEHICLE_UNITS = {
     "mass": "kg, M's diagonal: rigid body + added mass", "inertia": "kg m^2, J's diagonal with added inertia",
     "linear_damping": "N s/m", "quadratic_damping": "N s^2/m^2", "angular_linear_damping": "N m s",
     "angular_quadratic_damping": "N m s^2", "weight": "N", "buoyancy": "N", "center_of_buoyancy": "m, body axes",
-    "max_surge_force": "N", "max_torque": "N m",
+    "max_surge_force": "N", "max_torque": "N m", "lift_uv": "kg/m, Y_uv = Z_uw", "lift_ur": "kg/rad, Y_ur = -Z_uq",
+    "lift_moment_uv": "kg, N_uv = -M_uw", "lift_moment_ur": "kg m/rad, N_ur = M_uq",
 }  # fmt: skip
 MODEM_UNITS = {
     "bitrate": "bit/s", "preamble": "s", "frame_bytes": "B", "max_bytes": "B", "frequency_khz": "kHz",

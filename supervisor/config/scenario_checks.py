@@ -162,6 +162,10 @@ PARAMETER_RANGES: dict[str, tuple[float, float]] = {
     "center_of_buoyancy": (-10.0, 10.0),
     "max_surge_force": (0.0, 1e6),
     "max_torque": (0.0, 1e6),
+    "lift_uv": (-1e6, 0.0),  # lift opposes the flow across the hull
+    "lift_ur": (-1e6, 1e6),
+    "lift_moment_uv": (-1e6, 1e6),
+    "lift_moment_ur": (-1e6, 0.0),  # fin lift damps the rates
 }
 
 
