@@ -47,6 +47,7 @@ def _honest_spread(law: str) -> float:
     text = shortened((CONFIGS / "inline5.toml").read_text(), DURATION)
     text = re.sub(r"(?m)^edges = .*$", f"edges = {COMPLETE5}", text, count=1)
     sets = [f"coordination.law={law}", "faults=[]", *(f"vehicles.{i}.gamma0=0.0" for i in range(5))]
+    sets.append("vehicle.actuators=ideal")  # the law's test: inputs whose coordination closes the start in 100 s
     liar = [f"kind=gamma_offset,vehicle=5,offset=5.0,start=20,end={DURATION}"]
     scenario = parse_scenario(text, "inline5.toml", sets, liar)
     result = run_inprocess(scenario, "inline5.toml", text, None, 0, Progress(DURATION, io.StringIO(), enabled=False))

@@ -1,7 +1,10 @@
 """Which path-following controller a scenario's vehicles steer with, and its options.
 
-`path_following.controller = "auto"` (the default) picks by what the scenario says the controller cannot know:
-where the plant's inertia or damping may differ from the model (`vehicle.uncertainty` on any of their groups), the
+`path_following.controller = "auto"` (the default) picks by what the scenario says the controller cannot do or know:
+where the vehicle has fins and a propeller (`vehicle.actuators`, or its preset's: vehicles.actuators), whose moment
+falls with the square of the speed, the line-of-sight law that asks only for what they give (vehicles.line_of_sight:
+the other designs ask for more, and the vehicle leaves its tube by tens to hundreds of metres, measured in issue 24);
+else where the plant's inertia or damping may differ from the model (`vehicle.uncertainty` on any of their groups), the
 adaptive switching supervisor (vehicles.supervisory, the controller the paper's Lemma 1 rests on: Aguiar & Hespanha,
 IEEE TAC 52(8), 2007) with its parameter set as wide as the uncertainty declared; else the backstepping design, which
 the supervisor reduces to on a nominal plant (its nominal candidate is exact there: the same results, at less cost).
@@ -12,7 +15,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from supervisor.config.plant import spreads
+from supervisor.config.plant import actuation, spreads
 from supervisor.config.scenario_schema import Scenario
 
 AUTO = "auto"
@@ -32,6 +35,8 @@ def controller_name(sc: Scenario) -> str:
     name = sc.path_following.controller
     if name != AUTO:
         return name
+    if actuation(sc) != "ideal":
+        return "line_of_sight"
     return "supervisory" if estimated_spread(sc) > 0 else "backstepping"
 
 
@@ -42,6 +47,8 @@ def controller_options(sc: Scenario) -> dict[str, Any]:
     gains = {"delta": pf.delta, "k1": pf.k1, "k2": pf.k2, "k_zeta": pf.k_zeta, "damping": pf.damping}
     if name == "backstepping":
         return gains
+    if pf.controller == AUTO and name == "line_of_sight":  # its own guidance; the gains it shares are the section's
+        return {"k1": pf.k1, "k2": pf.k2, "k_zeta": pf.k_zeta}
     if pf.controller == AUTO:
         return {**gains, "spread": estimated_spread(sc)}
     return dict(pf.controller_options)

@@ -14,6 +14,7 @@ from supervisor.config.derived import steps_of, tube_radius
 from supervisor.config.describe import describe_fault
 from supervisor.config.fleet import coupling_k
 from supervisor.config.medium import modem_params, sound_speed
+from supervisor.config.plant import actuation
 from supervisor.config.plant import spreads as plant_spreads
 from supervisor.config.scenario_schema import Scenario, VehicleSection
 from vehicles.uncertainty import GROUPS
@@ -51,8 +52,8 @@ def _controller(sc: Scenario) -> str:
     if pf.controller == AUTO:
         spread = estimated_spread(sc)
         why = f"inertia or damping uncertain by up to +-{_num(100 * spread)} %" if spread else "the nominal plant"
-        text += f" (auto: {why})"
-    actuators = sc.vehicle.actuators
+        text += f" (auto: {'fins whose moment falls with the speed' if name == 'line_of_sight' else why})"
+    actuators = actuation(sc)
     if actuators != "ideal":
         text += f"; {actuators if isinstance(actuators, str) else 'the scenario'}'s fins and propeller"
     return text

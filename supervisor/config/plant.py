@@ -36,10 +36,25 @@ def spreads(scenario: Scenario) -> dict[str, float]:
     return {group: spread for group, spread in table.items() if spread > 0}
 
 
-def actuators_of(scenario: Scenario, params: VehicleParams) -> Actuators | None:
-    """The fleet's actuators ([vehicle] actuators) for a vehicle with these nominal parameters (its propeller's
-    thrust is their max_surge_force); None: ideal."""
+# The actuators a preset comes with: the REMUS 100 as at sea has its fins and propeller (and the lift that lets them
+# steer it: vehicles.params); the paper's model keeps its idealised inputs.
+PRESET_ACTUATORS = {"remus100": "remus100"}
+
+
+def actuation(scenario: Scenario) -> str | ActuatorTable:
+    """[vehicle] actuators as given, or the fleet's preset's ("preset"; "ideal" for another vehicle model)."""
     given = scenario.vehicle.actuators
+    if given != "preset":
+        return given
+    if scenario.vehicle.model is not None:
+        return "ideal"
+    return PRESET_ACTUATORS.get(scenario.vehicle.preset, "ideal")
+
+
+def actuators_of(scenario: Scenario, params: VehicleParams) -> Actuators | None:
+    """The fleet's actuators (actuation) for a vehicle with these nominal parameters (its propeller's thrust is
+    their max_surge_force); None: ideal."""
+    given = actuation(scenario)
     if given == "ideal":
         return None
     if given == "remus100":

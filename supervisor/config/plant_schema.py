@@ -115,13 +115,14 @@ def _name_or_table(value: object) -> str:
 
 
 Actuation = Annotated[
-    Annotated[Literal["ideal", "remus100"], Tag("name")] | Annotated[ActuatorTable, Tag("table")],
+    Annotated[Literal["preset", "ideal", "remus100"], Tag("name")] | Annotated[ActuatorTable, Tag("table")],
     Discriminator(_name_or_table),
 ]
 ACTUATORS = (  # [vehicle] actuators' description
     "what turns the controller's force and torques into motion: ideal (the paper's model: the inputs as asked, within "
     "the preset's limits), remus100 (a REMUS 100's fins and propeller from sources: vehicles/actuators.py), or a "
-    "table of their parameters"
+    "table of their parameters; preset: the preset's ([vehicle] preset: remus100's for remus100, ideal for the "
+    "others and for another vehicle model)"
 )
 
 

@@ -149,7 +149,7 @@ class VehicleModelSection(StrictModel):
     )
     uncertainty: Uncertainty = Field(default=0.0, description=UNCERTAINTY_DESCRIPTION, json_schema_extra=as_any_of)
     actuators: plant_schema.Actuation = Field(
-        default="ideal", description=plant_schema.ACTUATORS, json_schema_extra=as_any_of
+        default="preset", description=plant_schema.ACTUATORS, json_schema_extra=as_any_of
     )
     model: ExtensionName | None = Field(
         default=None, description="another vehicle model for the whole fleet, instead of the preset: an installed "
