@@ -91,11 +91,10 @@ def test_literal_law_runs_the_fleet_at_half_the_reference_speed(tmp_path, paper_
     np.testing.assert_allclose(final, 0.5, atol=0.03)
 
 
-@pytest.mark.parametrize(("actuators", "final"), [("ideal", 0.01), ("preset", 0.2)])
-def test_inline_formation_converges_from_scattered_starts(tmp_path, actuators, final):
+@pytest.mark.parametrize("actuators", ["ideal", "preset"])
+def test_inline_formation_converges_from_scattered_starts(tmp_path, actuators):
     """The REMUS 100s of inline5 converge, in their tube, with ideal inputs (backstepping) and on their own fins
-    (line_of_sight: slower to coordinate, the spread of the gammas halving every 40 s at the end against 19 s for
-    law (5)'s slowest mode, s^2 + (k_zeta + k2 + k lambda_2) s + k2 k lambda_2 = 0)."""
+    (line_of_sight; with the fleet's v_d fed forward instead of its path point's gamma_dot it ended at 0.16)."""
     text = (
         (CONFIGS / "inline5.toml")
         .read_text()
@@ -104,7 +103,7 @@ def test_inline_formation_converges_from_scattered_starts(tmp_path, actuators, f
     result, summary = run_text(text, tmp_path / "inline.mcap")
     assert result.series.gamma.shape[1] == 5
     assert summary.phases[0].max_coordination_error > 20.0  # they really start scattered
-    assert summary.phases[0].final_coordination_error < final
+    assert summary.phases[0].final_coordination_error < 0.01
     assert summary.max_path_error_after_transient <= summary.tube_radius
 
 
