@@ -23,13 +23,13 @@ takes the share `margin` of the moment available at the present speed, tau_max(u
 (in pitch, of what is left of it after the moment being held: restoring, Munk, lift; a buoyant REMUS holding
 depth at 1 m/s needs more than half its fins, and a share of nothing would leave its depth error uncorrected). A
 slower vehicle turns more gently instead of asking for a moment it does not have; at rest it asks for none and
-thrusts first. The speed wanted along the path's tangent, over
-ground, is its path point's, gamma_dot |p_d^gamma|, less k1 times the bounded along-track error (ahead of its path
-point it slows down). The path point's own speed, not the fleet's v_d: a vehicle whose gamma the coordination speeds
-up would otherwise lag until its along-track error paid for the difference, and eq. (3) would hold its gamma back by
-as much (inline5 on fins: coordination error 0.42 at 400 s with v_d, 4e-4 with gamma_dot); the surge that gives it with the sway, heave and current the vehicle has (in a turn it slips sideways: a surge
-of gamma_dot |p_d^gamma| would leave the vehicle short of its path point, and the fleet's consensus off v_r), within
-[0, top speed]. Each
+thrusts first. The speed wanted along the path's tangent, over ground, is its path point's, gamma_dot |p_d^gamma|,
+less k1 times the bounded along-track error (ahead of its path point it slows down). The path point's own speed, not
+the fleet's v_d: a vehicle whose gamma the coordination speeds up would otherwise lag until its along-track error
+paid for the difference, and eq. (3) would hold its gamma back by as much (inline5 on fins: coordination error 0.42
+at 400 s with v_d, 4e-4 with gamma_dot). The surge that gives it with the sway, heave and current the vehicle has
+(in a turn it slips sideways: a surge of gamma_dot |p_d^gamma| would leave the vehicle short of its path point, and
+the fleet's consensus off v_r), within [0, top speed]. Each
 velocity (u, q, r) then follows its virtual value with gain k2 through the model's inverse, its damping fed forward
 at the virtual value (as backstepping's "feedforward": the true damping stays on the measured velocity), and the
 inputs are held within tau_max(u) and the thrust limit.
