@@ -107,7 +107,7 @@ def test_with_its_lift_the_remus_flies_a_line_on_its_fins_and_without_it_cannot(
     line inside the 1.2 m tube after 100 s; the same vehicle without lift (remus100_neutral is the paper's model)
     leaves it: the Munk moment, unopposed, is more than its fins hold. Holding depth, buoyant, takes the fins'
     pitch moment beyond the line-of-sight law's margin at this speed: its pitch rate keeps a share of what is left
-    (vehicles.line_of_sight), so the line is held to 10 cm (none left: 0.45 m at 200 s and growing)."""
+    (vehicles.line_of_sight), so the line is held to 10 cm (none left: 0.40 m off at 200 s)."""
     with_lift = _fly_a_line("remus100", 1.0, 200.0)
     without = _fly_a_line("remus100_neutral", 1.0, 200.0)
     assert max(with_lift[1000:]) < 0.1

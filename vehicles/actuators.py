@@ -87,7 +87,8 @@ def _within(x: float, limit: float) -> float:
 def remus100(max_thrust: float) -> Actuators:
     """The REMUS 100's: fin lift and deflection limit from Prestero (MIT/WHOI MS thesis, 2001; M_uu_delta_s =
     6.15 kg/rad as transcribed in public code, and +-13.6 deg); the fin servo's and the propeller's time constants
-    from Fossen's PythonVehicleSimulator remus100.py (T_delta = T_n = 1 s); max_thrust [N]: the vehicle's (the
+    from Fossen's PythonVehicleSimulator remus100.py (T_delta = 0.1 s, T_n = 1 s; its earlier versions had T_delta =
+    1 s, which on the remus100 preset leaves a sway limit cycle of +-0.01 m/s); max_thrust [N]: the vehicle's (the
     preset's max_surge_force holds the published 2.5 m/s top speed). No fin rate is published: none is imposed
     beyond the servo's lag."""
-    return Actuators(6.15, math.radians(13.6), 1.0, 1.0, max_thrust)
+    return Actuators(6.15, math.radians(13.6), 0.1, 1.0, max_thrust)

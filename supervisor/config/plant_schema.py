@@ -104,7 +104,7 @@ class ActuatorTable(StrictModel):
 
     fin_lift: Float = Field(default=6.15, gt=0, le=1e4, description="fin moment per (m/s)^2 and rad, N m s^2/(m^2 rad)")
     max_deflection_deg: Float = Field(default=13.6, gt=0, le=60, description="fin deflection limit, deg")
-    fin_time_constant: Float = Field(default=1.0, gt=0, le=100, description="fin servo's time constant, s")
+    fin_time_constant: Float = Field(default=0.1, gt=0, le=100, description="fin servo's time constant, s")
     thruster_time_constant: Float = Field(default=1.0, gt=0, le=100, description="propeller's time constant, s")
     max_rate_deg: Float | None = Field(default=None, gt=0, le=1000, description="fin rate limit, deg/s (absent: none)")
 
