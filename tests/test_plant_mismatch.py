@@ -16,7 +16,7 @@ from supervisor.errors import ScenarioError
 from tests.conftest import CONFIGS
 from vehicles.agent import step
 from vehicles.params import PRESETS
-from vehicles.uncertainty import GROUPS, perturbed
+from vehicles.uncertainty import GROUPS, LIFT_FIELDS, factors, perturbed
 
 REMUS = PRESETS["remus100"]
 PAPER = (CONFIGS / "paper.toml").read_text()
@@ -29,8 +29,9 @@ def scenario(*sets: str):
 def ratios(plant, nominal) -> list[float]:
     """plant / nominal for every coefficient the draw touches (net weight W - B as one)."""
     out = []
-    for name in (g for g in GROUPS if g not in ("buoyancy", "net_weight")):
+    for name in (g for g in GROUPS if g not in ("buoyancy", "net_weight", "lift")):
         out += [a / b for a, b in zip(getattr(plant, name), getattr(nominal, name), strict=True) if b != 0]
+    out += [getattr(plant, name) / getattr(nominal, name) for name in LIFT_FIELDS]
     out.append(plant.buoyancy / nominal.buoyancy)
     out.append((plant.weight - plant.buoyancy) / (nominal.weight - nominal.buoyancy))
     return out
@@ -161,3 +162,17 @@ def test_at_60_percent_mismatch_the_supervisor_keeps_the_tube_where_backstepping
     if seed == 0:
         cancelled = simulate(parse_scenario(text, "paper.toml", [*mismatch, *alone, "path_following.damping=cancel"]))
         assert cancelled.last > 0.5 and cancelled.path_error > 2.0, cancelled
+
+
+def test_the_lift_draws_come_after_the_others_so_older_plants_are_drawn_the_same():
+    """The lift group was added after plants had been drawn and recorded: every other group's factors are the first
+    27 numbers of the vehicle's stream, as they were, and the lift's the next four."""
+    rng = np.random.default_rng([11, 3, 0x706C616E74])
+    stream = rng.uniform(-1.0, 1.0, size=31)
+    before = np.random.default_rng([11, 3, 0x706C616E74]).uniform(-1.0, 1.0, size=27)  # the draw without the lift
+    np.testing.assert_array_equal(stream[:27], before)
+    e = factors(11, 3)
+    for i, group in enumerate(GROUPS[:-1]):
+        size = 1 if group in ("buoyancy", "net_weight") else 3
+        assert e[group] == tuple(stream[3 * i : 3 * i + size])
+    assert e["lift"] == tuple(stream[27:31])

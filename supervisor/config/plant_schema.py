@@ -73,6 +73,7 @@ class UncertaintyTable(StrictModel):
     buoyancy: Spread = Field(default=0.0, description="B, and with it the righting moment")
     net_weight: Spread = Field(default=0.0, description="W - B (of the net weight, not of W)")
     center_of_buoyancy: Spread = Field(default=0.0, description="each component of r_B")
+    lift: Spread = Field(default=0.0, description="hull and fin lift: each of Y_uv, Y_ur, N_uv, N_ur (0 stays 0)")
 
 
 def _number_or_table(value: object) -> str:
