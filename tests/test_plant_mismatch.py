@@ -15,8 +15,8 @@ from supervisor.config.scenario import parse_scenario
 from supervisor.errors import ScenarioError
 from tests.conftest import CONFIGS
 from vehicles.agent import step
-from vehicles.params import PRESETS
-from vehicles.uncertainty import GROUPS, LIFT_FIELDS, factors, perturbed
+from vehicles.params import LIFT_FIELDS, PRESETS
+from vehicles.uncertainty import GROUPS, factors, perturbed
 
 REMUS = PRESETS["remus100"]
 PAPER = (CONFIGS / "paper.toml").read_text()

@@ -34,7 +34,7 @@ import numpy as np
 
 from comms.records.records import FloatArray
 from vehicles.geometry import Float3, reorthonormalized
-from vehicles.params import VehicleParams
+from vehicles.params import VehicleParams, has_lift
 
 Accelerations = tuple[Float3, Float3]  # (v_dot, omega_dot), body frame
 LIFTED_SIZE = 18  # p (3), R (9, row-major), v (3), omega (3): the spatial layout, for both models
@@ -98,7 +98,7 @@ def spatial_drift(s: Sequence[float], prm: VehicleParams) -> Accelerations:
     g1 -= (sv * a3 - hw * a2) + (q * h3 - r * h2)
     g2 -= (hw * a1 - u * a3) + (r * h1 - p * h3)
     g3 -= (u * a2 - sv * a1) + (p * h2 - q * h1)
-    if prm.lift_uv or prm.lift_ur or prm.lift_moment_uv or prm.lift_moment_ur:
+    if has_lift(prm):
         y, z, m, n = lift_terms(u, sv, hw, q, r, prm)
         f2, f3, g2, g3 = f2 + y, f3 + z, g2 + m, g3 + n
     return (f1 / m1, f2 / m2, f3 / m3), (g1 / j1, g2 / j2, g3 / j3)
@@ -132,9 +132,10 @@ def planar_drift(s: Sequence[float], prm: VehicleParams) -> Accelerations:
     u_dot = (m_v * sway * r - (lin[0] + quad[0] * abs(u)) * u) / m_u
     v_dot = (-m_u * u * r - (lin[1] + quad[1] * abs(sway)) * sway) / m_v
     damping_r = prm.angular_linear_damping[2] + prm.angular_quadratic_damping[2] * abs(r)
-    y, _, _, n = lift_terms(u, sway, 0.0, 0.0, r, prm)
-    v_dot += y / m_v
-    r_dot = ((m_u - m_v) * u * sway - damping_r * r + n) / prm.inertia[2]
+    r_dot = ((m_u - m_v) * u * sway - damping_r * r) / prm.inertia[2]
+    if has_lift(prm):
+        y, _, _, n = lift_terms(u, sway, 0.0, 0.0, r, prm)
+        v_dot, r_dot = v_dot + y / m_v, r_dot + n / prm.inertia[2]
     return (u_dot, v_dot, 0.0), (0.0, 0.0, r_dot)
 
 

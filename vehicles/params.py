@@ -34,6 +34,9 @@ class VehicleParams:
     lift_moment_ur: float = 0.0  # N_ur = M_uq: yaw (pitch) moment per u r (u q), kg m/rad
 
 
+LIFT_FIELDS = ("lift_uv", "lift_ur", "lift_moment_uv", "lift_moment_ur")  # VehicleParams' lift coefficients
+
+
 # REMUS 100 numbers and where they come from. Sources: T. Prestero, "Verification of a six-degree of freedom
 # simulation model for the REMUS autonomous underwater vehicle", MIT/WHOI MS thesis, 2001 (its coefficient tables as
 # transcribed in public code: X_u|u| = -1.62 kg/m, Z_w|w| = -131 kg/m, M_q|q| = -188 kg m^2, N_r|r| = -94 kg m^2,
@@ -125,9 +128,14 @@ PRESETS: dict[str, VehicleParams] = {
 }
 
 
+def has_lift(params: VehicleParams) -> bool:
+    """Whether the vehicle has hull or fin lift (the paper's model has none: its drift skips the terms)."""
+    return bool(params.lift_uv or params.lift_ur or params.lift_moment_uv or params.lift_moment_ur)
+
+
 def without_lift(params: VehicleParams) -> VehicleParams:
     """The same vehicle in the paper's model, eqs. (1)-(2): no hull or fin lift."""
-    return replace(params, lift_uv=0.0, lift_ur=0.0, lift_moment_uv=0.0, lift_moment_ur=0.0)
+    return replace(params, **dict.fromkeys(LIFT_FIELDS, 0.0))  # type: ignore[arg-type]
 
 
 def preset(name: str, **overrides: object) -> VehicleParams:

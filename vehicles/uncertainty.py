@@ -20,14 +20,13 @@ from dataclasses import replace
 
 import numpy as np
 
-from vehicles.params import VehicleParams
+from vehicles.params import LIFT_FIELDS, VehicleParams
 
 # The groups a spread may be given for, in the order their factors are drawn (3 each unless scalar).
 GROUPS = (
     "mass", "inertia", "linear_damping", "quadratic_damping", "angular_linear_damping", "angular_quadratic_damping",
     "buoyancy", "net_weight", "center_of_buoyancy", "lift",
 )  # fmt: skip
-LIFT_FIELDS = ("lift_uv", "lift_ur", "lift_moment_uv", "lift_moment_ur")  # the lift group's coefficients
 _SIZE = {"buoyancy": 1, "net_weight": 1, "lift": len(LIFT_FIELDS)}  # coefficients per group (3 unless given)
 _STREAM = 0x706C616E74  # "plant": keeps this stream apart from any other drawn from the same seed and vehicle
 

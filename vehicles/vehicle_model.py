@@ -95,10 +95,10 @@ class Remus100Neutral(Auv):
     """The remus100_neutral preset (REMUS 100 trimmed neutrally buoyant, B = W): entry point `remus100_neutral`."""
 
     buoyancy: float = _NEUTRAL.buoyancy
-    lift_uv: float = 0.0  # the paper's model: no lift
-    lift_ur: float = 0.0
-    lift_moment_uv: float = 0.0
-    lift_moment_ur: float = 0.0
+    lift_uv: float = _NEUTRAL.lift_uv  # the paper's model: no lift
+    lift_ur: float = _NEUTRAL.lift_ur
+    lift_moment_uv: float = _NEUTRAL.lift_moment_uv
+    lift_moment_ur: float = _NEUTRAL.lift_moment_ur
 
 
 @dataclass(frozen=True)
@@ -108,7 +108,7 @@ class Remus100Legacy(Auv):
     quadratic_damping: tuple[float, float, float] = _LEGACY.quadratic_damping
     angular_quadratic_damping: tuple[float, float, float] = _LEGACY.angular_quadratic_damping
     max_surge_force: float = _LEGACY.max_surge_force
-    lift_uv: float = 0.0
-    lift_ur: float = 0.0
-    lift_moment_uv: float = 0.0
-    lift_moment_ur: float = 0.0
+    lift_uv: float = _LEGACY.lift_uv
+    lift_ur: float = _LEGACY.lift_ur
+    lift_moment_uv: float = _LEGACY.lift_moment_uv
+    lift_moment_ur: float = _LEGACY.lift_moment_ur

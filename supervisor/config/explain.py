@@ -50,13 +50,19 @@ def _controller(sc: Scenario) -> str:
     shifted = name in ("backstepping", "supervisory")  # the delta-shifted designs: |delta| makes their tube
     text = f"{name}, delta {_num(pf.delta)} m" if shifted else f"{name}, tube {_num(tube_radius(sc))} m"
     if pf.controller == AUTO:
-        spread = estimated_spread(sc)
-        why = f"inertia or damping uncertain by up to +-{_num(100 * spread)} %" if spread else "the nominal plant"
-        text += f" (auto: {'fins whose moment falls with the speed' if name == 'line_of_sight' else why})"
+        text += f" (auto: {_why(sc, name)})"
     actuators = actuation(sc)
     if actuators != "ideal":
         text += f"; {actuators if isinstance(actuators, str) else 'the scenario'}'s fins and propeller"
     return text
+
+
+def _why(sc: Scenario, name: str) -> str:
+    """Why auto chose name (supervisor.config.controller_choice)."""
+    if name == "line_of_sight":
+        return "fins whose moment falls with the speed"
+    spread = estimated_spread(sc)
+    return f"inertia or damping uncertain by up to +-{_num(100 * spread)} %" if spread else "the nominal plant"
 
 
 def _gain(sc: Scenario) -> str:
