@@ -5,13 +5,12 @@ from __future__ import annotations
 
 import dataclasses
 
-import numpy as np
 import pytest
 
-from supervisor.config.fleet import initial_state, vehicle_config
+from supervisor.config.fleet import vehicle_config
 from supervisor.config.scenario import parse_scenario
+from tests.fly_a_line import fly_a_line
 from vehicles.actuators import remus100
-from vehicles.agent import step
 from vehicles.dynamics import lift_terms, planar_drift, spatial_drift
 from vehicles.params import PRESETS
 
@@ -68,48 +67,14 @@ def test_the_drift_adds_the_lift_in_both_models():
     assert (pv1 - pv0, pr1 - pr0) == pytest.approx((y / REMUS.mass[1], n / REMUS.inertia[2]), rel=1e-12)
 
 
-def _fly_a_line(preset: str, speed: float, seconds: float) -> list[float]:
-    """One vehicle from 6 m off a straight line, heading 60 deg off it, with the preset's own actuators and the
-    default controller; its path error at each step."""
-    text = f"""
-[scenario]
-name = "lift"
-duration = {seconds}
-step = 0.1
-[vehicle]
-preset = "{preset}"
-actuators = "remus100"
-[coordination]
-v_r = {speed}
-[graph]
-edges = [[1, 2]]
-[[vehicles]]
-id = 1
-position = [0.0, 6.0, -10.0]
-attitude_rpy_deg = [0.0, 0.0, -60.0]
-path = {{ type = "line", start = [0.0, 0.0, -10.0], velocity = [1.0, 0.0, 0.0] }}
-[[vehicles]]
-id = 2
-position = [0.0, 50.0, -10.0]
-path = {{ type = "line", start = [0.0, 50.0, -10.0], velocity = [1.0, 0.0, 0.0] }}
-"""
-    sc = parse_scenario(text, "lift.toml")
-    cfg = vehicle_config(sc, 1)
-    state, errors = initial_state(sc, cfg), []
-    for _ in range(round(seconds / 0.1)):
-        state, tel = step(cfg, state, 0.1, [])
-        errors.append(float(np.linalg.norm(tel.error)))
-    return errors
-
-
 def test_with_its_lift_the_remus_flies_a_line_on_its_fins_and_without_it_cannot():
     """At 1 m/s, the remus100 preset (buoyant, with lift) on a REMUS 100's fins under the default controller holds a
     line inside the 1.2 m tube after 100 s; the same vehicle without lift (remus100_neutral is the paper's model)
     leaves it: the Munk moment, unopposed, is more than its fins hold. Holding depth, buoyant, takes the fins'
     pitch moment beyond the line-of-sight law's margin at this speed: its pitch rate keeps a share of what is left
     (vehicles.line_of_sight), so the line is held to 10 cm (none left: 0.40 m off at 200 s)."""
-    with_lift = _fly_a_line("remus100", 1.0, 200.0)
-    without = _fly_a_line("remus100_neutral", 1.0, 200.0)
+    with_lift = fly_a_line(1.0, 200.0, preset="remus100")
+    without = fly_a_line(1.0, 200.0, preset="remus100_neutral")
     assert max(with_lift[1000:]) < 0.1
     assert max(without[1000:]) > 10.0
 

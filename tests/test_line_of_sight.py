@@ -12,6 +12,7 @@ from supervisor.config.explain import what_would_run
 from supervisor.config.fleet import vehicle_config
 from supervisor.config.scenario import parse_scenario
 from tests.conftest import CONFIGS
+from tests.fly_a_line import fly_a_line
 from vehicles.agent import VehicleConfig, VehicleState, step
 from vehicles.coordination import CoordinationGains
 from vehicles.dynamics import PLANAR, SPATIAL
@@ -131,3 +132,14 @@ def test_cpf_validate_says_the_tube_and_the_fins():
     sets = ["path_following.controller=line_of_sight", "vehicle.actuators=remus100"]
     said = what_would_run(parse_scenario((CONFIGS / "paper.toml").read_text(), "paper.toml", sets))
     assert "Path following: line_of_sight, tube 1.2 m; remus100's fins and propeller." in said
+
+
+def test_against_a_moment_beyond_its_fins_it_asks_for_the_rate_the_moment_helps_toward():
+    """Vehicle 5 of seed 3 under vehicle.uncertainty.center_of_buoyancy = 0.2 stands 20 % stiffer in pitch than its
+    model. A symmetric bound on the pitch rate (a share of what the fins give beyond the moment held, whichever way
+    it acts) left it no rate once the restoring moment outgrew its fins, though that moment turned it the way it
+    had to go: from its start in inline5 it held its nose down with full fin and dived 525 m. Bounded per direction
+    (more along the held moment, less against it) it holds the line to 0.1 m."""
+    plant = {"seed": 3, "uncertainty": "{ center_of_buoyancy = 0.2 }", "vehicle_id": 5}
+    errors = fly_a_line(1.0, 300.0, start=(25.0, 8.0, -9.0, 180.0), **plant)
+    assert max(errors[1500:]) < 0.1

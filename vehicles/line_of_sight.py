@@ -18,21 +18,33 @@ e' = -U e / sqrt(lookahead^2 + e^2): USGES (the paper cited, Theorem 1), |e(t)| 
 + e0^2)).
 
 Rates within what the fins hold. The virtual yaw and pitch rates are the path's own turning rate (its tangent's
-angular velocity in body axes, a feed-forward) plus k_heading times the error, each within the rate whose damping
-takes the share `margin` of the moment available at the present speed, tau_max(u) = min(max_torque, fin_moment u^2)
-(in pitch, of what is left of it after the moment being held: restoring, Munk, lift; a buoyant REMUS holding
-depth at 1 m/s needs more than half its fins, and a share of nothing would leave its depth error uncorrected). A
-slower vehicle turns more gently instead of asking for a moment it does not have; at rest it asks for none and
-thrusts first. The speed wanted along the path's tangent, over ground, is its path point's, gamma_dot |p_d^gamma|,
-less k1 times the bounded along-track error (ahead of its path point it slows down). The path point's own speed, not
-the fleet's v_d: a vehicle whose gamma the coordination speeds up would otherwise lag until its along-track error
-paid for the difference, and eq. (3) would hold its gamma back by as much (inline5 on fins: coordination error 0.42
-at 400 s with v_d, 4e-4 with gamma_dot). The surge that gives it with the sway, heave and current the vehicle has
-(in a turn it slips sideways: a surge of gamma_dot |p_d^gamma| would leave the vehicle short of its path point, and
-the fleet's consensus off v_r), within [0, top speed]. Each
-velocity (u, q, r) then follows its virtual value with gain k2 through the model's inverse, its damping fed forward
-at the virtual value (as backstepping's "feedforward": the true damping stays on the measured velocity), and the
-inputs are held within tau_max(u) and the thrust limit.
+angular velocity in body axes, a feed-forward) plus k_heading times the error, each within the rates whose damping
+takes the share `margin` of what the fins give at the present speed, tau_max(u) = min(max_torque, fin_moment u^2),
+beyond the moment held M (restoring, Munk, lift, and the disturbance estimate below): up to the rate whose damping
+is margin (tau_max + M) along M, and margin (tau_max - M) against it. A buoyant REMUS holding depth at 1 m/s needs
+more than half its fins; a bound the same both ways (a share of tau_max - |M|) leaves it no rate once M outgrows the
+fins, even where M turns it the way it must go, and a REMUS 20 % stiffer in pitch than its model then held its nose
+down with full fin and dived 525 m (tests/test_line_of_sight.py). Against an M the fins cannot match the bound is 0:
+the law spends the whole fin against it. A slower vehicle turns more gently instead of asking for a moment it does
+not have; at rest it asks for none and thrusts first. The speed wanted along the path's tangent, over ground, is its
+path point's, gamma_dot |p_d^gamma|, less k1 times the bounded along-track error (ahead of its path point it slows
+down). The path point's own speed, not the fleet's v_d: a vehicle whose gamma the coordination speeds up would
+otherwise lag until its along-track error paid for the difference, and eq. (3) would hold its gamma back by as much
+(inline5 on fins: coordination error 0.42 at 400 s with v_d, 4e-4 with gamma_dot). The surge that gives it with the
+sway, heave and current the vehicle has (in a turn it slips sideways: a surge of gamma_dot |p_d^gamma| would leave
+the vehicle short of its path point, and the fleet's consensus off v_r), within [0, top speed]. Each velocity (u, q,
+r) then follows its virtual value with gain k2 through the model's inverse, its damping fed forward at the virtual
+value (as backstepping's "feedforward": the true damping stays on the measured velocity), less the disturbance
+estimate, and the inputs are held within tau_max(u) and the thrust limit.
+
+Disturbance observer (vehicles.disturbance_observer; its memory, vehicles.path_following.AdaptiveController). The
+inverse is the nominal model's; on a plant that differs from it the proportional rate loop settles off its virtual
+rate by the mismatch over k2 J, and where the fins are nearly spent that offset is the whole rate they allow (a
+REMUS with 20 % more heave mass than its model: 11 m off a line at 1.5 m/s without it, 0.01 m with it:
+tests/test_disturbance_observer.py). The observer estimates the mismatch on u, q and r at the rate `observer`
+(None: k2, as fast as the loop it serves; 0: off, and the law has no memory), and the inputs take it away. What no
+controller can do it does not do either: where a plant's trim needs more moment than its fins give at the path's
+speed (vehicles.trim), the vehicle leaves its path, and `cpf validate` says so.
 
 Path parameter: the paper's eq. (3), gamma_ddot = -k_zeta (gamma_dot - v_d) + sigma' p_d^gamma with
 sigma = (p - p_d) / sqrt(1 + |p - p_d|^2), as backstepping's with delta = 0 (the fleet adds v_tilde).
@@ -63,10 +75,11 @@ from typing import Annotated
 from annotated_types import Ge, Gt, Le
 
 from numerics import atan2, cos
+from vehicles.disturbance_observer import Disturbance, filtered, measured
 from vehicles.dynamics import Accelerations, PathVectors
 from vehicles.geometry import Float3
 from vehicles.params import VehicleParams
-from vehicles.path_following import ControlOutput, Current, drag, saturated
+from vehicles.path_following import ControlOutput, Current, Stage, drag, saturated
 from vehicles.vehicle_model import VehicleModel
 
 # m/s: below this speed the sideslip and climb angles fade out (the angle of a velocity of a few cm/s is noise:
@@ -79,7 +92,8 @@ class LineOfSight:
     """The law of the module docstring (entry point `line_of_sight`). lookahead [m]; k1 [m/s]; k2, k_heading,
     k_zeta [1/s]; fin_moment [N m / (m/s)^2]: the fins' largest moment per (m/s)^2 (L d_max: vehicles.actuators;
     None: the preset's constant max_torque alone bounds the moments); margin: the share of the moment available that
-    the virtual rates may take against damping (the rest turns the vehicle)."""
+    the virtual rates may take against damping (the rest turns the vehicle); min_speed [m/s]: the least surge it
+    asks for; observer [1/s]: the disturbance observer's rate (None: k2; 0: none)."""
 
     lookahead: Annotated[float, Gt(0)] = 8.0
     k1: Annotated[float, Gt(0)] = 0.5
@@ -89,11 +103,36 @@ class LineOfSight:
     fin_moment: Annotated[float, Gt(0)] | None = None
     margin: Annotated[float, Gt(0), Le(1)] = 0.5
     min_speed: Annotated[float, Ge(0)] = 0.0
+    observer: Annotated[float, Ge(0)] | None = None
+
+    @property
+    def adaptive(self) -> bool:
+        """Whether it has a memory (vehicles.path_following.is_adaptive): its disturbance estimate, unless off."""
+        return self.observer != 0.0
+
+    def start(self, model: VehicleModel, params: VehicleParams, s: Sequence[float]) -> Disturbance:
+        return Disturbance()
+
+    def update(
+        self, memory: object, model: VehicleModel, params: VehicleParams, stages: Sequence[Stage],
+        after: Sequence[float], dt: float,
+    ) -> Disturbance:  # fmt: skip
+        assert isinstance(memory, Disturbance)
+        rate = self.k2 if self.observer is None else self.observer
+        return filtered(memory, measured(model, params, stages, after, dt), rate, dt)
 
     def control(
         self, model: VehicleModel, params: VehicleParams, s: Sequence[float], path: PathVectors, gamma: float,
         gamma_dot: float, v_d: float, current: Current | None,
     ) -> ControlOutput:  # fmt: skip
+        """Without a memory: no disturbance estimated."""
+        return self.control_with(Disturbance(), model, params, s, path, gamma, gamma_dot, v_d, current)
+
+    def control_with(
+        self, memory: object, model: VehicleModel, params: VehicleParams, s: Sequence[float], path: PathVectors,
+        gamma: float, gamma_dot: float, v_d: float, current: Current | None,
+    ) -> ControlOutput:  # fmt: skip
+        assert isinstance(memory, Disturbance)
         p_d, p_g, _ = path
         error = (s[0] - p_d[0], s[1] - p_d[1], s[2] - p_d[2])
         rho = math.sqrt(1.0 + error[0] * error[0] + error[1] * error[1] + error[2] * error[2])
@@ -102,7 +141,7 @@ class LineOfSight:
         drift = model.drift(s, params)
         e_r, e_q, turning, u_path = self._guidance(s, path, error, gamma_dot, current)
         wanted = _surge_for(s, p_g, u_path, u_path * gamma_dot - self.k1 * along / max(u_path, 1e-9), current)
-        tau = self._inputs(params, s, drift, (e_r, e_q), turning, wanted)
+        tau = self._inputs(params, s, drift, memory.inputs, (e_r, e_q), turning, wanted)
         lyapunov = (rho - 1.0) + 0.5 * zeta * zeta + (1.0 - cos(e_r)) + (1.0 - cos(e_q))
         return ControlOutput(tau, -self.k_zeta * zeta + along, lyapunov, drift)
 
@@ -127,27 +166,38 @@ class LineOfSight:
         return course, climb, turning, speed
 
     def _inputs(
-        self, prm: VehicleParams, s: Sequence[float], drift: Accelerations, errors: tuple[float, float],
+        self, prm: VehicleParams, s: Sequence[float], drift: Accelerations, d: Float3, errors: tuple[float, float],
         turning: Float3, u_wanted: float,
     ) -> Float3:  # fmt: skip
-        """(tau_u, tau_q, tau_r): each of u, q, r led to its virtual value with gain k2, within the limits."""
+        """(tau_u, tau_q, tau_r): each of u, q, r led to its virtual value with gain k2, within the limits; d: the
+        disturbance estimate, which the inputs take away."""
         u, q, r = s[12], s[16], s[17]
         (du, _, _), (_, dq, dr) = drift
         limit = self.torque_limit(prm, u)
         lin, quad = prm.angular_linear_damping, prm.angular_quadratic_damping
-        # in pitch the moment the drift holds other than damping (restoring, Coriolis) takes its share first
-        held_q = abs(prm.inertia[1] * dq + (lin[1] + quad[1] * abs(q)) * q)
-        q_max = _rate_within(lin[1], quad[1], self.margin * (limit - held_q))
-        q_v = _within(turning[1] - self.k_heading * errors[1], q_max)  # a positive q pitches the nose down
-        r_v = _within(turning[2] + self.k_heading * errors[0], _rate_within(lin[2], quad[2], self.margin * limit))
+        # the moment held other than damping (restoring, Munk, lift, what the observer found) shifts the rates the
+        # fins can hold: more along it, less against it
+        held_q = prm.inertia[1] * dq + (lin[1] + quad[1] * abs(q)) * q + d[1]
+        held_r = prm.inertia[2] * dr + (lin[2] + quad[2] * abs(r)) * r + d[2]
+        q_v = _between(turning[1] - self.k_heading * errors[1], *self._rates(lin[1], quad[1], limit, held_q))
+        r_v = _between(turning[2] + self.k_heading * errors[0], *self._rates(lin[2], quad[2], limit, held_r))
         u_v = min(max(u_wanted, self.min_speed), top_speed(prm))
         k2 = self.k2
         tau = (
-            prm.mass[0] * (-k2 * (u - u_v) - du) + drag(prm.linear_damping[0], prm.quadratic_damping[0], u_v, u),
-            prm.inertia[1] * (-k2 * (q - q_v) - dq) + drag(lin[1], quad[1], q_v, q),
-            prm.inertia[2] * (-k2 * (r - r_v) - dr) + drag(lin[2], quad[2], r_v, r),
+            prm.mass[0] * (-k2 * (u - u_v) - du) + drag(prm.linear_damping[0], prm.quadratic_damping[0], u_v, u) - d[0],
+            prm.inertia[1] * (-k2 * (q - q_v) - dq) + drag(lin[1], quad[1], q_v, q) - d[1],
+            prm.inertia[2] * (-k2 * (r - r_v) - dr) + drag(lin[2], quad[2], r_v, r) - d[2],
         )
         return _held(saturated(prm, *tau), limit)
+
+    def _rates(self, linear: float, quadratic: float, limit: float, held: float) -> tuple[float, float]:
+        """The lowest and highest virtual rates [rad/s] whose damping takes the share `margin` of what the fins give
+        beyond the moment held against that direction (held > 0 turns the rate up: it adds to the fins going up and
+        takes from them going down). Against a held moment the fins cannot match the bound is 0: the law asks for
+        the rate to stop, which spends the whole fin against it."""
+        up = _rate_within(linear, quadratic, self.margin * (limit + held))
+        down = _rate_within(linear, quadratic, self.margin * (limit - held))
+        return -down, up
 
     def torque_limit(self, prm: VehicleParams, u: float) -> float:
         """The largest pitch or yaw moment at surge speed u [N m]: the preset's, or the fins' if smaller."""
@@ -190,6 +240,10 @@ def _rate_within(linear: float, quadratic: float, moment: float) -> float:
 
 def _held(tau: Float3, limit: float) -> Float3:
     return tau[0], _within(tau[1], limit), _within(tau[2], limit)
+
+
+def _between(x: float, low: float, high: float) -> float:
+    return high if x > high else low if x < low else x
 
 
 def _within(x: float, limit: float) -> float:
