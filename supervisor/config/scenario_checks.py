@@ -14,6 +14,7 @@ from collections.abc import Callable, Iterable, Iterator, Mapping
 
 import numpy as np
 
+from supervisor.config.authority_checks import authority_warnings
 from supervisor.config.derived import active, end_of, first_step, graph_at, steps_of
 from supervisor.config.extension_checks import extension_errors, vehicle_model_errors
 from supervisor.config.feasibility_checks import feasibility_errors, feasibility_warnings
@@ -377,7 +378,8 @@ def cross_field_errors(sc: Scenario, rejected: frozenset[str] | set[str] = froze
 def scenario_warnings(sc: Scenario) -> list[str]:
     """What a valid scenario holds that will not happen, '<field>: <problem>, got <value>' each: faults that start
     at or after the end of the run (a run shortened with --set scenario.duration=... is a fair thing to ask for),
-    and a channel that loses much or a loop predicted to diverge (supervisor.config.feasibility_checks)."""
+    a channel that loses much or a loop predicted to diverge (supervisor.config.feasibility_checks), and a path a
+    vehicle's fins cannot hold it on (supervisor.config.authority_checks)."""
     steps, dt, end = steps_of(sc), sc.scenario.step, sc.scenario.duration
     late = [
         f"faults[{index}].start: at or after the end of the run ({end:g} s), the {fault.kind} fault never acts, "
@@ -385,4 +387,4 @@ def scenario_warnings(sc: Scenario) -> list[str]:
         for index, fault in enumerate(sc.faults)
         if first_step(fault.start, dt) >= steps
     ]
-    return late + unit_warnings(sc) + feasibility_warnings(sc)
+    return late + unit_warnings(sc) + feasibility_warnings(sc) + authority_warnings(sc)

@@ -1,0 +1,61 @@
+"""vehicles.trim, the pitch moment a steady line takes, against the physics and against the simulator: a vehicle
+whose fins give less than its trim needs leaves its line whatever its controller does, and one just faster holds it;
+`cpf validate` says which."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from supervisor.config.scenario import parse_scenario
+from supervisor.config.scenario_checks import scenario_warnings
+from tests.fly_a_line import fly_a_line, scenario_text
+from vehicles.actuators import remus100
+from vehicles.params import PRESETS
+from vehicles.trim import pitch_moment
+from vehicles.uncertainty import perturbed
+from vehicles.vehicle_model import Remus100, Remus100Neutral
+
+REMUS, MODEL = PRESETS["remus100"], Remus100()
+FINS = remus100(REMUS.max_surge_force).fin_moment  # N m per (m/s)^2
+HEAVY = {"seed": 3, "uncertainty": "{ mass = 0.2 }", "vehicle_id": 4}  # heave mass +20 %: a Munk moment 40 % larger
+
+
+def test_a_neutral_vehicle_without_lift_flies_level_with_no_moment():
+    """B = W and no lift: the trim is at zero angle of attack, where neither the Munk nor the restoring moment acts."""
+    assert pitch_moment(Remus100Neutral(), PRESETS["remus100_neutral"], 1.0) == pytest.approx(0.0, abs=1e-12)
+
+
+def test_the_buoyant_remus_holds_its_depth_on_a_share_of_its_fins_that_falls_with_speed():
+    """At 1 m/s the preset needs 0.94 N m of its fins' 1.46; u w is fixed by the net buoyancy, so the moment grows
+    less than the fins' u^2 and the share falls."""
+    shares = [abs(pitch_moment(MODEL, REMUS, u) or math.inf) / (FINS * u * u) for u in (1.0, 1.5, 2.0)]
+    assert shares[0] == pytest.approx(0.94 / 1.46, abs=0.01)
+    assert shares == sorted(shares, reverse=True)
+
+
+def _least_speed() -> float:
+    plant = perturbed(REMUS, {"mass": 0.2}, 3, 4)
+    speeds = [1.0 + 0.01 * k for k in range(150)]
+    return next(u for u in speeds if abs(pitch_moment(MODEL, plant, u) or math.inf) <= FINS * u * u)
+
+
+def test_below_the_trims_least_speed_the_vehicle_leaves_its_line_and_above_it_holds():
+    """The heavier vehicle's trim needs more than its fins below 1.40 m/s. Flown by the default controller (with
+    its disturbance observer), 10 % slower it sinks off its line; 10 % faster it holds it to 0.1 m."""
+    least = _least_speed()
+    assert least == pytest.approx(1.40, abs=0.01)
+    slow = fly_a_line(0.9 * least, 300.0, **HEAVY)
+    fast = fly_a_line(1.1 * least, 300.0, **HEAVY)
+    assert min(slow[1500:]) > 5.0
+    assert max(fast[1500:]) < 0.1
+
+
+def test_validate_says_which_vehicle_its_fins_cannot_hold_and_from_what_speed_they_do():
+    slow = scenario_warnings(parse_scenario(scenario_text(1.0, 10.0, **HEAVY), "heavy.toml"))  # type: ignore[arg-type]
+    fast = scenario_warnings(parse_scenario(scenario_text(1.5, 10.0, **HEAVY), "heavy.toml"))  # type: ignore[arg-type]
+    (warning,) = [w for w in slow if "pitch moment" in w]
+    assert warning.startswith("coordination.v_r: vehicle 4 (its plant as drawn")
+    assert "2.26 N m" in warning and "1.46 N m" in warning and "from 1.40 m/s" in warning
+    assert not [w for w in fast if "pitch moment" in w]

@@ -1,0 +1,65 @@
+"""Steady flight along a straight line: the pitch moment a vehicle must hold to fly it, which its fins may not give.
+
+A vehicle that is not neutrally buoyant flies a line at an angle of attack: the hull's lift (vehicles.params: the
+lift terms) carries its net buoyancy. At that angle the Munk moment (m_w - m_u) u w turns it away from the flow, and
+what the lift's own moment and the restoring moment do not hold the fins must. u w is fixed by the net buoyancy, so
+that moment barely falls with the speed while the fins' moment grows with its square (vehicles.actuators): below some
+speed no controller can hold the line. On the remus100 preset at 1 m/s it takes 0.94 N m of the fins' 1.46; a heave
+added mass 20 % above the model's takes 2.27 N m, and that vehicle sinks away from a level path whatever its
+controller does (tests/test_trim.py runs it both sides of the boundary).
+
+The trim: pitch theta (nose up), speed U through the water along a line climbing at chi, no roll, yaw or rates. The
+body velocity is u = U cos(chi - theta), w = U sin(chi - theta), and theta is the root of the heave equation
+w_dot = 0 nearest chi (the smallest angle of attack). The surge force and the pitch moment that hold it are what the
+drift leaves in the u and q rows: tau_u = -m_u u_dot, tau_q = -J_q q_dot. A vertical plane only: a turn's sway and
+yaw, a current and the fins' own lift force are not in it.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numerics import cos, sin
+from vehicles.params import VehicleParams
+from vehicles.vehicle_model import VehicleModel
+
+_ATTACK = math.radians(45.0)  # the widest angle of attack looked at
+_SCAN = 90  # intervals the root is bracketed over
+_HALVINGS = 60
+
+
+def pitch_moment(model: VehicleModel, params: VehicleParams, speed: float, climb: float = 0.0) -> float | None:
+    """The pitch moment [N m] that holds steady flight at `speed` [m/s] through the water along a line climbing at
+    `climb` [rad] (module docstring); None if no trim lies within 45 deg of attack."""
+    pitch = _trim_pitch(model, params, speed, climb)
+    if pitch is None:
+        return None
+    return -params.inertia[1] * model.drift(_state(pitch, speed, climb), params)[1][1]
+
+
+def _trim_pitch(model: VehicleModel, params: VehicleParams, speed: float, climb: float) -> float | None:
+    def heave(theta: float) -> float:
+        return model.drift(_state(theta, speed, climb), params)[0][2]
+
+    grid = [climb + _ATTACK * (2.0 * i / _SCAN - 1.0) for i in range(_SCAN + 1)]
+    values = [heave(t) for t in grid]
+    brackets = [(a, b, fa) for a, b, fa, fb in zip(grid, grid[1:], values, values[1:], strict=False) if fa * fb <= 0]
+    if not brackets:
+        return None
+    a, b, fa = min(brackets, key=lambda br: abs(0.5 * (br[0] + br[1]) - climb))
+    for _ in range(_HALVINGS):
+        mid = 0.5 * (a + b)
+        fm = heave(mid)
+        if fa * fm <= 0:
+            b = mid
+        else:
+            a, fa = mid, fm
+    return 0.5 * (a + b)
+
+
+def _state(theta: float, speed: float, climb: float) -> list[float]:
+    """The lifted state (position 0) pitched theta nose up, moving at speed along the line climbing at climb."""
+    c, s = cos(theta), sin(theta)
+    attack = climb - theta
+    u, w = speed * cos(attack), speed * sin(attack)
+    return [0.0, 0.0, 0.0, c, 0.0, -s, 0.0, 1.0, 0.0, s, 0.0, c, u, 0.0, w, 0.0, 0.0, 0.0]
