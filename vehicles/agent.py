@@ -155,10 +155,10 @@ def _closed_loop(
     gamma_ddot = out.gamma_ddot + v_tilde  # eq. (3): the controller's part, then the coordination's
     if limits is not None:
         gamma_ddot = hold(gamma_ddot, gamma_dot, *limits)  # held at a limit: no wind-up
-    # The controller's drift is of the state it sees, with its nominal parameters: the plant's own when it sees the
-    # truth of a nominal plant (no current: plant_rates is then the plain kinematics), else the plant computes its own
-    # (an adaptive controller's parameters are its estimates, not the plant's).
-    own = out.drift if cfg.plant is None and held is None and adaptive is None else None
+    # The controller's drift is of the state it sees, with its nominal parameters (ControlOutput.drift: None where it
+    # computed it with others, as the supervisor with its estimates): the plant's own when it sees the truth of a
+    # nominal plant (no current: plant_rates is then the plain kinematics), else the plant computes its own.
+    own = out.drift if cfg.plant is None and held is None else None
     applied, actuator_rates = _actuated(cfg, z, out.tau)
     xdot = plant_rates(vehicle, cfg.plant or cfg.params, cfg.current, t, z, own, applied)
     p_d = point[0]

@@ -119,7 +119,8 @@ class Supervisory:
         gamma: float, gamma_dot: float, v_d: float, current: Current | None,
     ) -> ControlOutput:  # fmt: skip
         assert isinstance(memory, SupervisorMemory)
-        return law(memory.candidate, model, memory.params, s, path, gamma_dot, v_d, current)[0]
+        out = law(memory.candidate, model, memory.params, s, path, gamma_dot, v_d, current)[0]
+        return out if memory.params is params else out._replace(drift=None)  # its drift is the nominal model's only
 
     def update(
         self, memory: object, model: VehicleModel, params: VehicleParams, stages: Sequence[Stage],
