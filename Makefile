@@ -44,12 +44,14 @@ readme: $(STAMP)
 # The robustness study (README, "Robustness study"): each effect alone, fix-period and current sweeps; ~12 min of
 # CPU on 2 cores with 4 seeds. Output in runs/study/ (results.csv, table.md, study_*.png). Then coordination on
 # slow links (README, "Coordination on slow links"): real_links.md, period_loss.csv, period_loss_map.png, ~6 min.
-# Then robust vehicles (README, "Robust vehicles"): mismatch.md, mismatch.csv, current.md, 10 seeds, ~5 min.
+# Then robust vehicles (README, "Robust vehicles"): mismatch.md, mismatch.csv, current.md, 10 seeds, ~5 min; and
+# the REMUS on its fins: fins.md, fins.csv, ~7 min.
 SEEDS ?= 4
 study: $(STAMP)
 	$(BIN)/python scripts/robustness_study.py --seeds $(SEEDS) --jobs 2 --out runs/study
 	$(BIN)/python scripts/real_links_study.py --jobs 2 --out runs/study
 	$(BIN)/python scripts/vehicle_robustness.py --seeds 10 --jobs 2 --out runs/study
+	$(BIN)/python scripts/fins_robustness.py --seeds 10 --jobs 2 --out runs/study
 
 bench: $(STAMP)
 	$(BIN)/python -m benchmarks
