@@ -27,10 +27,9 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from numerics import exp
-from vehicles.dynamics import with_inputs
 from vehicles.geometry import Float3
 from vehicles.params import VehicleParams
-from vehicles.path_following import STAGE_WEIGHTS, Stage
+from vehicles.path_following import Stage, stage_mean
 from vehicles.vehicle_model import VehicleModel
 
 NONE: Float3 = (0.0, 0.0, 0.0)
@@ -48,15 +47,12 @@ def measured(
 ) -> Float3:  # fmt: skip
     """d over a step [N, N m, N m]: M times the accelerations of u, q and r the step shows, less the nominal model's
     with the inputs the vehicle got, both averaged as RK4 averages its stages."""
-    du = dq = dr = 0.0
-    for w, (s, tau) in zip(STAGE_WEIGHTS, stages, strict=True):
-        (a_u, _, _), (_, a_q, a_r) = with_inputs(model.drift(s, params), tau, params)
-        du, dq, dr = du + w * a_u, dq + w * a_q, dr + w * a_r
+    mean = stage_mean(model, params, stages)
     before = stages[0][0]
     return (
-        params.mass[0] * ((after[12] - before[12]) / dt - du),
-        params.inertia[1] * ((after[16] - before[16]) / dt - dq),
-        params.inertia[2] * ((after[17] - before[17]) / dt - dr),
+        params.mass[0] * ((after[12] - before[12]) / dt - mean[0]),
+        params.inertia[1] * ((after[16] - before[16]) / dt - mean[4]),
+        params.inertia[2] * ((after[17] - before[17]) / dt - mean[5]),
     )
 
 

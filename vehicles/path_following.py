@@ -41,7 +41,7 @@ from typing import Annotated, Literal, NamedTuple, Protocol, runtime_checkable
 from annotated_types import Gt
 
 from comms.records.records import FloatArray
-from vehicles.dynamics import Accelerations, Model, PathVectors
+from vehicles.dynamics import Accelerations, Model, PathVectors, with_inputs
 from vehicles.geometry import Float3
 from vehicles.params import VehicleParams
 from vehicles.paths import Path
@@ -50,6 +50,16 @@ from vehicles.vehicle_model import Auv, VehicleModel
 Current = tuple[Float3, Float3]  # (c, c_dot): the ocean current in body axes, m/s, and its derivative, m/s^2
 Stage = tuple[Sequence[float], Float3]  # an RK4 stage as the controller steered at it: (the lifted state seen, tau)
 STAGE_WEIGHTS = (1 / 6, 1 / 3, 1 / 3, 1 / 6)  # how classical RK4 averages its four stages' rates over a step
+
+
+def stage_mean(model: VehicleModel, params: VehicleParams, stages: Sequence[Stage]) -> list[float]:
+    """The model's accelerations (u, v, w, p, q, r rows) with each stage's inputs, averaged as RK4 averages its
+    stages: on a plant with these parameters, exactly (nu(t + dt) - nu(t)) / dt."""
+    mean = [0.0] * 6
+    for w, (s, tau) in zip(STAGE_WEIGHTS, stages, strict=True):
+        linear, angular = with_inputs(model.drift(s, params), tau, params)
+        mean = [m + w * a for m, a in zip(mean, (*linear, *angular), strict=True)]
+    return mean
 
 
 class ControlOutput(NamedTuple):

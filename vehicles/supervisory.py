@@ -52,7 +52,7 @@ from numerics import exp
 from vehicles.dynamics import PathVectors, with_inputs
 from vehicles.geometry import Float3
 from vehicles.params import VehicleParams
-from vehicles.path_following import STAGE_WEIGHTS, Backstepping, ControlOutput, Current, Stage, law
+from vehicles.path_following import STAGE_WEIGHTS, Backstepping, ControlOutput, Current, Stage, law, stage_mean
 from vehicles.vehicle_model import VehicleModel
 
 ROWS = 6  # u, v, w, p, q, r
@@ -178,9 +178,7 @@ def _predicted(
     """Each candidate's mean acceleration over the step (candidates, 6): the parameters in use (chosen) averaged
     over the stages as RK4 averages them, plus each candidate's difference from them at the step's mean state."""
     tau = _mean_inputs(stages)
-    exact = [0.0] * ROWS
-    for w, (s, t) in zip(STAGE_WEIGHTS, stages, strict=True):
-        exact = [e + w * a for e, a in zip(exact, _accelerations(model, chosen, s, t), strict=True)]
+    exact = stage_mean(model, chosen, stages)
     mid = [0.5 * (a + b) for a, b in zip(stages[0][0], after, strict=True)]
     base = _accelerations(model, chosen, mid, tau)
     shift = np.array([e - b for e, b in zip(exact, base, strict=True)])
