@@ -18,14 +18,15 @@ yaw, a current and the fins' own lift force are not in it.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 from numerics import cos, sin
 from vehicles.params import VehicleParams
 from vehicles.vehicle_model import VehicleModel
 
 _ATTACK = math.radians(45.0)  # the widest angle of attack looked at
-_SCAN = 90  # intervals the root is bracketed over
-_HALVINGS = 60
+_SCAN = 45  # intervals of 1 deg each side the root is bracketed over
+_HALVINGS = 40  # to 1e-12 of a degree
 
 
 def pitch_moment(model: VehicleModel, params: VehicleParams, speed: float, climb: float = 0.0) -> float | None:
@@ -41,15 +42,21 @@ def _trim_pitch(model: VehicleModel, params: VehicleParams, speed: float, climb:
     def heave(theta: float) -> float:
         return model.drift(_state(theta, speed, climb), params)[0][2]
 
-    grid = [climb + _ATTACK * (2.0 * i / _SCAN - 1.0) for i in range(_SCAN + 1)]
-    values = [heave(t) for t in grid]
-    brackets = [(a, b, fa) for a, b, fa, fb in zip(grid, grid[1:], values, values[1:], strict=False) if fa * fb <= 0]
-    if not brackets:
-        return None
-    a, b, fa = min(brackets, key=lambda br: abs(0.5 * (br[0] + br[1]) - climb))
+    step = _ATTACK / _SCAN
+    for k in range(_SCAN):  # outward from no angle of attack, a side each: the first root met is the smallest angle
+        for lo in (climb + k * step, climb - (k + 1) * step):
+            hi = lo + step
+            f_lo, f_hi = heave(lo), heave(hi)
+            if f_lo * f_hi <= 0.0:
+                return _bisected(heave, lo, hi, f_lo)
+    return None
+
+
+def _bisected(f: Callable[[float], float], a: float, b: float, fa: float) -> float:
+    """The root of f in [a, b] (f(a) = fa and f(b) of opposite signs or zero), to _HALVINGS halvings."""
     for _ in range(_HALVINGS):
         mid = 0.5 * (a + b)
-        fm = heave(mid)
+        fm = f(mid)
         if fa * fm <= 0:
             b = mid
         else:

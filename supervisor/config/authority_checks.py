@@ -11,23 +11,26 @@ speed, at which it would hold. A 3-D run with fins only; the trim leaves out tur
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from numerics import asin
-from supervisor.config.fleet import build_path, initial_gamma
+from supervisor.config.fleet import build_path
 from supervisor.config.plant import actuators_of, plant_of
 from supervisor.config.presets_table import top_speed
 from supervisor.config.scenario_schema import Scenario
 from supervisor.config.vehicle_models import params_of, vehicle_of
 from vehicles.params import VehicleParams
+from vehicles.paths import Path
 from vehicles.trim import pitch_moment
 from vehicles.vehicle_model import VehicleModel
 
 SAMPLES = 16  # gammas along the run at which each path is trimmed
 _FASTER = 0.05  # m/s: the step of the search for the least speed that holds
+_TRIMS: dict[tuple[object, VehicleParams, float, float], float | None] = {}  # _moment's (models compare by value)
+_KEPT = 4096  # trims _TRIMS holds at most
 _FASTEST = 10.0  # m/s: where that search gives up for a vehicle with no top speed
 
 
@@ -91,18 +94,42 @@ def _needs(
     """(moment needed / fins' moment, fins' moment, speed, climb, moment) at the sampled points of vid's path."""
     section = next(v for v in sc.vehicles if v.id == vid)
     path, v_r = build_path(section.path), sc.coordination.v_r
-    start = initial_gamma(sc, vid)
-    for gamma in np.linspace(start, start + v_r * sc.scenario.duration, SAMPLES):
+    for gamma in _gammas(path, section.gamma0, v_r * sc.scenario.duration):
         tangent = path.evaluate_floats(float(gamma))[1]
         norm = math.sqrt(sum(x * x for x in tangent))
         speed = abs(v_r) * norm
         if speed <= 0.0:
             continue
         climb = asin(max(-1.0, min(1.0, math.copysign(tangent[2], v_r) / norm)))
-        moment = pitch_moment(model, plant, speed, climb)
+        moment = _moment(model, plant, speed, climb)
         fin = min(plant.max_torque, fin_moment * speed * speed)
         if moment is not None:
             yield abs(moment) / max(fin, 1e-12), fin, speed, climb, moment
+
+
+def _gammas(path: Path, gamma0: float | str, run: float) -> Sequence[float]:
+    """Where a path is trimmed: over a period of a periodic one, else over the run from its gamma0 (0 for "closest":
+    the nearest point's search costs more than the check, and a path that is not periodic is straight or nearly
+    so near its start)."""
+    period = path.gamma_period
+    if period is not None:
+        return [float(g) for g in np.linspace(0.0, period, SAMPLES)]
+    start = gamma0 if isinstance(gamma0, float | int) else 0.0
+    return [float(g) for g in np.linspace(start, start + run, SAMPLES)]
+
+
+def _moment(model: VehicleModel, plant: VehicleParams, speed: float, climb: float) -> float | None:
+    """pitch_moment, once per fleet: vehicles of one model and plant on parallel paths need the same trim."""
+    key = (model, plant, speed, climb)
+    try:
+        known = key in _TRIMS
+    except TypeError:  # someone else's model that does not hash
+        return pitch_moment(model, plant, speed, climb)
+    if not known:
+        if len(_TRIMS) >= _KEPT:  # a long sweep in one process: start again rather than grow
+            _TRIMS.clear()
+        _TRIMS[key] = pitch_moment(model, plant, speed, climb)
+    return _TRIMS[key]
 
 
 def _least_speed(
@@ -111,7 +138,7 @@ def _least_speed(
     """The least speed above `speed`, in steps of _FASTER up to top, whose trim the fins hold."""
     for k in range(1, int((min(top, _FASTEST) - speed) / _FASTER) + 1):
         u = speed + k * _FASTER
-        moment = pitch_moment(model, plant, u, climb)
+        moment = _moment(model, plant, u, climb)
         if moment is not None and abs(moment) <= min(plant.max_torque, fin_moment * u * u):
             return u
     return None
