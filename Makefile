@@ -45,7 +45,7 @@ readme: $(STAMP)
 # CPU on 2 cores with 4 seeds. Output in runs/study/ (results.csv, table.md, study_*.png). Then coordination on
 # slow links (README, "Coordination on slow links"): real_links.md, period_loss.csv, period_loss_map.png, ~6 min.
 # Then robust vehicles (README, "Robust vehicles"): mismatch.md, mismatch.csv, current.md, 10 seeds, ~5 min; and
-# the REMUS on its fins: fins.md, fins.csv, ~7 min.
+# the REMUS on its fins: fins.md, fins.csv, ~8 min.
 SEEDS ?= 4
 study: $(STAMP)
 	$(BIN)/python scripts/robustness_study.py --seeds $(SEEDS) --jobs 2 --out runs/study

@@ -3,7 +3,7 @@ preset's fins and the default controller (line_of_sight with its disturbance obs
 plant drawn within +-uncertainty of the model's, at the paths' 1 m/s and at 1.5 m/s, seeds 0-9.
 
 `python scripts/fins_robustness.py [--speeds 1.0,1.5] [--seeds N] [--jobs N] [--out DIR]` (`make study` runs it):
-DIR/fins.md (the table) and DIR/fins.csv (one row per vehicle and run). Each run is in process (`cpf.run`); ~7 min
+DIR/fins.md (the table) and DIR/fins.csv (one row per vehicle and run). Each run is in process (`cpf.run`); ~8 min
 on 2 cores for the 60 runs.
 
 Per run: each vehicle's largest path error after the transient (120 s) against the tube (1.2 m), the coordination

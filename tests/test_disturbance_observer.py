@@ -57,10 +57,10 @@ def test_the_estimate_follows_a_constant_disturbance_as_a_first_order_filter():
 
 
 def test_with_the_observer_a_remus_heavier_in_heave_than_its_model_holds_a_line_the_model_alone_cannot():
-    """Vehicle 4 of seed 3 under vehicle.uncertainty.mass = 0.2 has a heave mass 20 % above the model's: a Munk
-    moment 40 % larger. At 1.5 m/s its fins can hold its depth (tests/test_trim.py), but the rate loop through the
-    nominal inverse settles short of the pitch rate the guidance asks for: 11 m off. With the observer (the default)
-    it holds the line to 0.1 m."""
+    """Vehicle 4 of seed 3 under vehicle.uncertainty.mass = 0.2 has a heave mass 20 % above the model's and a
+    surge mass 15 % below: a Munk term 59 % larger. At 1.5 m/s its fins can hold its depth (tests/test_trim.py), but
+    the rate loop through the nominal inverse settles short of the pitch rate the guidance asks for: 11 m off. With
+    the observer (the default) it holds the line to 0.1 m."""
     plant = {"seed": 3, "uncertainty": "{ mass = 0.2 }", "vehicle_id": 4}
     with_observer = fly_a_line(1.5, 300.0, **plant)
     without = fly_a_line(1.5, 300.0, options="{ observer = 0.0 }", **plant)

@@ -20,7 +20,7 @@ from vehicles.vehicle_model import Remus100, Remus100Neutral
 
 REMUS, MODEL = PRESETS["remus100"], Remus100()
 FINS = remus100(REMUS.max_surge_force).fin_moment  # N m per (m/s)^2
-HEAVY = {"seed": 3, "uncertainty": "{ mass = 0.2 }", "vehicle_id": 4}  # heave mass +20 %: a Munk moment 40 % larger
+HEAVY = {"seed": 3, "uncertainty": "{ mass = 0.2 }", "vehicle_id": 4}  # heave mass +20 %, surge -15 %: Munk term +59 %
 
 
 def test_a_neutral_vehicle_without_lift_flies_level_with_no_moment():
@@ -31,15 +31,19 @@ def test_a_neutral_vehicle_without_lift_flies_level_with_no_moment():
 def test_the_buoyant_remus_holds_its_depth_on_a_share_of_its_fins_that_falls_with_speed():
     """At 1 m/s the preset needs 0.94 N m of its fins' 1.46; u w is fixed by the net buoyancy, so the moment grows
     less than the fins' u^2 and the share falls."""
-    shares = [abs(pitch_moment(MODEL, REMUS, u) or math.inf) / (FINS * u * u) for u in (1.0, 1.5, 2.0)]
+    moments = [pitch_moment(MODEL, REMUS, u) for u in (1.0, 1.5, 2.0)]
+    shares = [abs(m) / (FINS * u * u) for m, u in zip(moments, (1.0, 1.5, 2.0), strict=True) if m is not None]
     assert shares[0] == pytest.approx(0.94 / 1.46, abs=0.01)
     assert shares == sorted(shares, reverse=True)
 
 
 def _least_speed() -> float:
     plant = perturbed(REMUS, {"mass": 0.2}, 3, 4)
-    speeds = [1.0 + 0.01 * k for k in range(150)]
-    return next(u for u in speeds if abs(pitch_moment(MODEL, plant, u) or math.inf) <= FINS * u * u)
+    for u in (1.0 + 0.01 * k for k in range(150)):
+        moment = pitch_moment(MODEL, plant, u)
+        if moment is not None and abs(moment) <= FINS * u * u:
+            return u
+    raise AssertionError("no trim the fins hold up to 2.5 m/s")
 
 
 def test_below_the_trims_least_speed_the_vehicle_leaves_its_line_and_above_it_holds():
@@ -58,7 +62,7 @@ def test_validate_says_which_vehicle_its_fins_cannot_hold_and_from_what_speed_th
     fast = scenario_warnings(parse_scenario(scenario_text(1.5, 10.0, **HEAVY), "heavy.toml"))  # type: ignore[arg-type]
     (warning,) = [w for w in slow if "pitch moment" in w]
     assert warning.startswith("coordination.v_r: vehicle 4 (its plant as drawn")
-    assert "2.26 N m" in warning and "1.46 N m" in warning and "from 1.40 m/s" in warning
+    assert "2.26 N m" in warning and "1.45 N m" in warning and "from 1.40 m/s, v_r 1.4;" in warning
     assert not [w for w in fast if "pitch moment" in w]
 
 
@@ -66,7 +70,21 @@ def test_the_slow_examples_kept_on_ideal_inputs_are_the_ones_validate_says_fins_
     """circles.toml and the paper fly slower than a REMUS's fins hold them (their files say so: on fins circles ends
     9.8 m off); put on the fins, validate says it for them, and for inline5 at its 1 m/s it says nothing."""
     fins = ["vehicle.preset=remus100", "vehicle.actuators=remus100"]
-    for name, warned in (("examples/circles.toml", True), ("paper.toml", True), ("inline5.toml", False)):
+    cases = (("examples/circles.toml", "(level)"), ("paper.toml", "(climbing"), ("inline5.toml", None))
+    for name, slope in cases:
         path = CONFIGS / name
-        warnings = scenario_warnings(parse_scenario(path.read_text(), str(path), fins))
-        assert any("pitch moment" in w for w in warnings) == warned, name
+        warnings = [w for w in scenario_warnings(parse_scenario(path.read_text(), str(path), fins)) if "fins" in w]
+        assert bool(warnings) == (slope is not None), name
+        assert all(slope is not None and slope in w for w in warnings), name
+
+
+def test_a_descending_path_is_trimmed_descending():
+    """The helix ring descends (climb < 0) at 0.42 m/s: its trim needs 1.05 N m where a climb as steep would
+    need 0.51; the check must take the path's own sign, not v_r's."""
+    path = CONFIGS / "examples" / "helix_ring_30s.toml"
+    fins = ["vehicle.preset=remus100", "vehicle.actuators=remus100"]
+    first = next(w for w in scenario_warnings(parse_scenario(path.read_text(), str(path), fins)) if "fins" in w)
+    assert "vehicle 1 needs a pitch moment of 1.05 N m to fly its path at 0.42 m/s (descending 3 deg)" in first
+    assert pitch_moment(MODEL, REMUS, 0.42, math.radians(3.0)) != pytest.approx(
+        pitch_moment(MODEL, REMUS, 0.42, math.radians(-3.0)), abs=0.1
+    )

@@ -3,10 +3,11 @@
 A vehicle that is not neutrally buoyant flies a line at an angle of attack: the hull's lift (vehicles.params: the
 lift terms) carries its net buoyancy. At that angle the Munk moment (m_w - m_u) u w turns it away from the flow, and
 what the lift's own moment and the restoring moment do not hold the fins must. u w is fixed by the net buoyancy, so
-that moment barely falls with the speed while the fins' moment grows with its square (vehicles.actuators): below some
-speed no controller can hold the line. On the remus100 preset at 1 m/s it takes 0.94 N m of the fins' 1.46; a heave
-added mass 20 % above the model's takes 2.27 N m, and that vehicle sinks away from a level path whatever its
-controller does (tests/test_trim.py runs it both sides of the boundary).
+that moment grows with the speed more slowly than the fins' moment, which grows with its square (vehicles.actuators):
+below some speed no controller can hold the line. On the remus100 preset at 1 m/s it takes 0.94 N m of the fins'
+1.46 (1.41 of 3.28 at 1.5 m/s). Vehicle 4 of seed 3 under vehicle.uncertainty.mass = 0.2 (a heave mass 20 % above
+the model's and a surge mass 15 % below: a Munk term 59 % larger) takes 2.26 N m at 1 m/s and sinks away from a
+level path whatever its controller does (tests/test_trim.py flies it both sides of the boundary).
 
 The trim: pitch theta (nose up), speed U through the water along a line climbing at chi, no roll, yaw or rates. The
 body velocity is u = U cos(chi - theta), w = U sin(chi - theta), and theta is the root of the heave equation
@@ -19,6 +20,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from typing import NamedTuple
 
 from numerics import cos, sin
 from vehicles.params import VehicleParams
@@ -29,13 +31,27 @@ _SCAN = 45  # intervals of 1 deg each side the root is bracketed over
 _HALVINGS = 40  # to 1e-12 of a degree
 
 
-def pitch_moment(model: VehicleModel, params: VehicleParams, speed: float, climb: float = 0.0) -> float | None:
-    """The pitch moment [N m] that holds steady flight at `speed` [m/s] through the water along a line climbing at
-    `climb` [rad] (module docstring); None if no trim lies within 45 deg of attack."""
+class Trim(NamedTuple):
+    """Steady flight along a line: the pitch moment that holds it [N m] and the surge speed u [m/s] it has then."""
+
+    moment: float
+    surge: float
+
+
+def trim(model: VehicleModel, params: VehicleParams, speed: float, climb: float = 0.0) -> Trim | None:
+    """Steady flight at `speed` [m/s] through the water along a line climbing at `climb` [rad] (module docstring);
+    None if no trim lies within 45 deg of attack."""
     pitch = _trim_pitch(model, params, speed, climb)
     if pitch is None:
         return None
-    return -params.inertia[1] * model.drift(_state(pitch, speed, climb), params)[1][1]
+    state = _state(pitch, speed, climb)
+    return Trim(-params.inertia[1] * model.drift(state, params)[1][1], state[12])
+
+
+def pitch_moment(model: VehicleModel, params: VehicleParams, speed: float, climb: float = 0.0) -> float | None:
+    """The pitch moment [N m] of `trim` (None: no trim within 45 deg of attack)."""
+    found = trim(model, params, speed, climb)
+    return None if found is None else found.moment
 
 
 def _trim_pitch(model: VehicleModel, params: VehicleParams, speed: float, climb: float) -> float | None:

@@ -24,12 +24,13 @@ from supervisor.config.scenario_schema import Scenario
 from supervisor.config.vehicle_models import params_of, vehicle_of
 from vehicles.params import VehicleParams
 from vehicles.paths import Path
-from vehicles.trim import pitch_moment
+from vehicles.trim import trim
 from vehicles.vehicle_model import VehicleModel
 
 SAMPLES = 16  # gammas along the run at which each path is trimmed
 _FASTER = 0.05  # m/s: the step of the search for the least speed that holds
-_TRIMS: dict[tuple[object, VehicleParams, float, float], float | None] = {}  # _moment's (models compare by value)
+Float2 = tuple[float, float]
+_TRIMS: dict[tuple[object, VehicleParams, float, float, float], Float2] = {}  # _held's (models compare by value)
 _KEPT = 4096  # trims _TRIMS holds at most
 _FASTEST = 10.0  # m/s: where that search gives up for a vehicle with no top speed
 
@@ -59,6 +60,7 @@ class Need:
     speed: float  # m/s
     climb: float  # rad
     least_speed: float | None  # m/s: the least speed, up to its top speed, at which they hold it (None: none)
+    norm: float  # |p_d'| there, m per unit of gamma: the least speed is least_speed / norm in v_r
     drawn: bool  # the plant is the vehicle's drawn one (vehicle.uncertainty)
 
 
@@ -70,28 +72,45 @@ def _worst(sc: Scenario, vid: int) -> Need | None:
     plant = plant_of(sc, vid) or nominal
     model = vehicle_of(sc, vid)
     try:
-        ratio, fin, speed, climb, moment = max(_needs(sc, vid, model, plant, fins.fin_moment), key=lambda n: n[0])
-        least = None if ratio <= 1.0 else _least_speed(model, plant, fins.fin_moment, speed, climb, top_speed(plant))
+        needs = list(_needs(sc, vid, model, plant, fins.fin_moment))
+        if not needs:
+            return None
+        moment, fin, speed, climb, norm = max(needs, key=lambda n: n[0] / max(n[1], 1e-12))
+        least = None
+        if moment > fin:
+            least = _least_speed(model, plant, fins.fin_moment, speed, climb, top_speed(plant))
     except (ValueError, ArithmeticError, TypeError, RuntimeError):  # someone else's model: the run reports it
         return None
-    return Need(abs(moment), fin, speed, climb, least, plant is not nominal)
+    return Need(moment, fin, speed, climb, least, norm, plant is not nominal)
 
 
 def _said(sc: Scenario, vid: int, need: Need) -> str:
     drawn = " (its plant as drawn: vehicle.uncertainty)" if need.drawn else ""
     least = need.least_speed
-    faster = f"it holds from {least:.2f} m/s" if least is not None else "no speed up to its top speed holds it"
+    faster = (
+        f"it holds from {least:.2f} m/s, v_r {least / need.norm:.3g}"
+        if least is not None
+        else "no speed up to its top speed holds it"
+    )
+    what = (
+        f"needs a pitch moment of {need.moment:.2f} N m"
+        if math.isfinite(need.moment)
+        else "finds no trim within 45 deg of attack"
+    )
+    degrees = round(math.degrees(need.climb))
+    slope = "level" if degrees == 0 else f"climbing {degrees} deg" if degrees > 0 else f"descending {-degrees} deg"
     return (
-        f"coordination.v_r: vehicle {vid}{drawn} needs a pitch moment of {need.moment:.2f} N m to fly its path at "
-        f"{need.speed:.2f} m/s (climbing {math.degrees(need.climb):.0f} deg) and its fins give {need.fins:.2f} N m "
-        f"there, so it will leave its path ({faster}; vehicles/trim.py), got {sc.coordination.v_r:g}"
+        f"coordination.v_r: vehicle {vid}{drawn} {what} to fly its path at {need.speed:.2f} m/s ({slope}) and its "
+        f"fins give {need.fins:.2f} N m there, so it will leave its path ({faster}; vehicles/trim.py), got "
+        f"{sc.coordination.v_r:g}"
     )
 
 
 def _needs(
     sc: Scenario, vid: int, model: VehicleModel, plant: VehicleParams, fin_moment: float
 ) -> Iterator[tuple[float, float, float, float, float]]:  # fmt: skip
-    """(moment needed / fins' moment, fins' moment, speed, climb, moment) at the sampled points of vid's path."""
+    """(moment needed [N m] (inf: no trim), the fins' moment at the trim's surge speed, speed along the path,
+    climb, |p_d'|) at the sampled points of vid's path."""
     section = next(v for v in sc.vehicles if v.id == vid)
     path, v_r = build_path(section.path), sc.coordination.v_r
     for gamma in _gammas(path, section.gamma0, v_r * sc.scenario.duration):
@@ -100,11 +119,8 @@ def _needs(
         speed = abs(v_r) * norm
         if speed <= 0.0:
             continue
-        climb = asin(max(-1.0, min(1.0, math.copysign(tangent[2], v_r) / norm)))
-        moment = _moment(model, plant, speed, climb)
-        fin = min(plant.max_torque, fin_moment * speed * speed)
-        if moment is not None:
-            yield abs(moment) / max(fin, 1e-12), fin, speed, climb, moment
+        climb = asin(max(-1.0, min(1.0, math.copysign(1.0, v_r) * tangent[2] / norm)))  # the way it is flown
+        yield (*_held(model, plant, fin_moment, speed, climb), speed, climb, norm)
 
 
 def _gammas(path: Path, gamma0: float | str, run: float) -> Sequence[float]:
@@ -118,18 +134,26 @@ def _gammas(path: Path, gamma0: float | str, run: float) -> Sequence[float]:
     return [float(g) for g in np.linspace(start, start + run, SAMPLES)]
 
 
-def _moment(model: VehicleModel, plant: VehicleParams, speed: float, climb: float) -> float | None:
-    """pitch_moment, once per fleet: vehicles of one model and plant on parallel paths need the same trim."""
-    key = (model, plant, speed, climb)
+def _held(model: VehicleModel, plant: VehicleParams, fin_moment: float, speed: float, climb: float) -> Float2:
+    """(the pitch moment the trim needs [N m], inf if there is none; the fins' moment at its surge speed [N m]),
+    once per fleet: vehicles of one model and plant on parallel paths need the same trim."""
+    key = (model, plant, fin_moment, speed, climb)
     try:
         known = key in _TRIMS
     except TypeError:  # someone else's model that does not hash
-        return pitch_moment(model, plant, speed, climb)
+        return _trimmed(model, plant, fin_moment, speed, climb)
     if not known:
         if len(_TRIMS) >= _KEPT:  # a long sweep in one process: start again rather than grow
             _TRIMS.clear()
-        _TRIMS[key] = pitch_moment(model, plant, speed, climb)
+        _TRIMS[key] = _trimmed(model, plant, fin_moment, speed, climb)
     return _TRIMS[key]
+
+
+def _trimmed(model: VehicleModel, plant: VehicleParams, fin_moment: float, speed: float, climb: float) -> Float2:
+    found = trim(model, plant, speed, climb)
+    if found is None:
+        return math.inf, min(plant.max_torque, fin_moment * speed * speed)
+    return abs(found.moment), min(plant.max_torque, fin_moment * found.surge * found.surge)
 
 
 def _least_speed(
@@ -138,7 +162,7 @@ def _least_speed(
     """The least speed above `speed`, in steps of _FASTER up to top, whose trim the fins hold."""
     for k in range(1, int((min(top, _FASTEST) - speed) / _FASTER) + 1):
         u = speed + k * _FASTER
-        moment = _moment(model, plant, u, climb)
-        if moment is not None and abs(moment) <= min(plant.max_torque, fin_moment * u * u):
+        moment, fins = _held(model, plant, fin_moment, u, climb)
+        if moment <= fins:
             return u
     return None
