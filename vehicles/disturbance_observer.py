@@ -26,7 +26,7 @@ from dataclasses import dataclass
 from numerics import exp
 from vehicles.geometry import Float3
 from vehicles.params import VehicleParams
-from vehicles.path_following import Stage, stage_mean
+from vehicles.path_following import Stage, stage_mean, step_mean
 from vehicles.vehicle_model import VehicleModel
 
 NONE: Float3 = (0.0, 0.0, 0.0)
@@ -44,12 +44,11 @@ def measured(
 ) -> Float3:  # fmt: skip
     """d over a step [N, N m, N m]: M times the accelerations of u, q and r the step shows, less the nominal model's
     with the inputs the vehicle got, both averaged as RK4 averages its stages."""
-    mean = stage_mean(model, params, stages)
-    before = stages[0][0]
+    model_mean, seen = stage_mean(model, params, stages), step_mean(stages[0][0], after, dt)
     return (
-        params.mass[0] * ((after[12] - before[12]) / dt - mean[0]),
-        params.inertia[1] * ((after[16] - before[16]) / dt - mean[4]),
-        params.inertia[2] * ((after[17] - before[17]) / dt - mean[5]),
+        params.mass[0] * (seen[0] - model_mean[0]),
+        params.inertia[1] * (seen[4] - model_mean[4]),
+        params.inertia[2] * (seen[5] - model_mean[5]),
     )
 
 

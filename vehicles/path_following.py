@@ -54,12 +54,22 @@ STAGE_WEIGHTS = (1 / 6, 1 / 3, 1 / 3, 1 / 6)  # how classical RK4 averages its f
 
 def stage_mean(model: VehicleModel, params: VehicleParams, stages: Sequence[Stage]) -> list[float]:
     """The model's accelerations (u, v, w, p, q, r rows) with each stage's inputs, averaged as RK4 averages its
-    stages: on a plant with these parameters, exactly (nu(t + dt) - nu(t)) / dt."""
+    stages: on a plant with these parameters, exactly step_mean over the step."""
     mean = [0.0] * 6
     for w, (s, tau) in zip(STAGE_WEIGHTS, stages, strict=True):
-        linear, angular = with_inputs(model.drift(s, params), tau, params)
-        mean = [m + w * a for m, a in zip(mean, (*linear, *angular), strict=True)]
+        mean = [m + w * a for m, a in zip(mean, accelerations(model, params, s, tau), strict=True)]
     return mean
+
+
+def step_mean(before: Sequence[float], after: Sequence[float], dt: float) -> list[float]:
+    """The accelerations (u, v, w, p, q, r rows) a step of dt shows: (nu(t + dt) - nu(t)) / dt."""
+    return [(a - b) / dt for a, b in zip(after[12:18], before[12:18], strict=True)]
+
+
+def accelerations(model: VehicleModel, params: VehicleParams, s: Sequence[float], tau: Float3) -> tuple[float, ...]:
+    """The model's accelerations (u, v, w, p, q, r rows) at the lifted state s with inputs tau."""
+    linear, angular = with_inputs(model.drift(s, params), tau, params)
+    return (*linear, *angular)
 
 
 class ControlOutput(NamedTuple):

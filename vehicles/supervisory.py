@@ -49,10 +49,20 @@ from annotated_types import Ge, Gt, Lt
 
 from comms.records.records import FloatArray
 from numerics import exp
-from vehicles.dynamics import PathVectors, with_inputs
+from vehicles.dynamics import PathVectors
 from vehicles.geometry import Float3
 from vehicles.params import VehicleParams
-from vehicles.path_following import STAGE_WEIGHTS, Backstepping, ControlOutput, Current, Stage, law, stage_mean
+from vehicles.path_following import (
+    STAGE_WEIGHTS,
+    Backstepping,
+    ControlOutput,
+    Current,
+    Stage,
+    accelerations,
+    law,
+    stage_mean,
+    step_mean,
+)
 from vehicles.vehicle_model import VehicleModel
 
 ROWS = 6  # u, v, w, p, q, r
@@ -180,14 +190,9 @@ def _predicted(
     tau = _mean_inputs(stages)
     exact = stage_mean(model, chosen, stages)
     mid = [0.5 * (a + b) for a, b in zip(stages[0][0], after, strict=True)]
-    base = _accelerations(model, chosen, mid, tau)
+    base = accelerations(model, chosen, mid, tau)
     shift = np.array([e - b for e, b in zip(exact, base, strict=True)])
-    return np.array([_accelerations(model, p, mid, tau) for p in candidates]) + shift
-
-
-def _accelerations(model: VehicleModel, params: VehicleParams, s: Sequence[float], tau: Float3) -> Sequence[float]:
-    linear, angular = with_inputs(model.drift(s, params), tau, params)
-    return (*linear, *angular)
+    return np.array([accelerations(model, p, mid, tau) for p in candidates]) + shift
 
 
 def _mean_inputs(stages: Sequence[Stage]) -> Float3:
@@ -198,7 +203,7 @@ def _mean_inputs(stages: Sequence[Stage]) -> Float3:
 
 def _measured(before: Sequence[float], after: Sequence[float], dt: float) -> FloatArray:
     """The accelerations the vehicle saw over the step, (6,)."""
-    return (np.array(after[12:18]) - np.array(before[12:18])) / dt
+    return np.array(step_mean(before, after, dt))
 
 
 def _switched(
