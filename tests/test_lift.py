@@ -3,8 +3,6 @@ numbers against their source, its signs against the physics, and what it changes
 
 from __future__ import annotations
 
-import dataclasses
-
 import pytest
 
 from supervisor.config.fleet import vehicle_config
@@ -12,7 +10,7 @@ from supervisor.config.scenario import parse_scenario
 from tests.fly_a_line import fly_a_line
 from vehicles.actuators import remus100
 from vehicles.dynamics import lift_terms, planar_drift, spatial_drift
-from vehicles.params import PRESETS
+from vehicles.params import PRESETS, without_lift
 
 REMUS = PRESETS["remus100"]
 FIN_LIFT_FORCE = 9.64  # Prestero's Y_uu_delta_r = -Z_uu_delta_s, kg/(m rad): the fins' lift per (m/s)^2 and rad
@@ -53,7 +51,7 @@ def _straight(u: float, v: float = 0.0, w: float = 0.0, q: float = 0.0, r: float
 def test_the_drift_adds_the_lift_in_both_models():
     """The spatial and planar drifts of the preset differ from the lift-free ones by the lift, divided by the
     masses and inertias."""
-    bare = dataclasses.replace(REMUS, lift_uv=0.0, lift_ur=0.0, lift_moment_uv=0.0, lift_moment_ur=0.0)
+    bare = without_lift(REMUS)
     s = _straight(1.2, 0.05, -0.03, 0.02, 0.1)
     y, z, m, n = lift_terms(1.2, 0.05, -0.03, 0.02, 0.1, REMUS)
     (_, v1, w1), (_, q1, r1) = spatial_drift(s, REMUS)

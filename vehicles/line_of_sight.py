@@ -40,14 +40,14 @@ estimate, and the inputs are held within tau_max(u) and the thrust limit.
 Disturbance observer (vehicles.disturbance_observer; its memory, vehicles.path_following.AdaptiveController). The
 inverse is the nominal model's; on a plant that differs from it the proportional rate loop settles off its virtual
 rate by the mismatch over k2 J, and where the fins are nearly spent that offset is the whole rate they allow (a
-REMUS with 20 % more heave mass and 15 % less surge mass than its model: 11 m off a line at 1.5 m/s without it,
-0.01 m with it: tests/test_disturbance_observer.py). The observer estimates the mismatch on u, q and r at the rate
+REMUS with 20 % more heave mass and 15 % less surge mass than its model: 11 m off a line at 1.5 m/s without it, 0.01
+m with it: tests/test_disturbance_observer.py). The observer estimates the mismatch on u, q and r at the rate
 `observer` (None: k2, as fast as the loop it serves; 0: off, and the law has no memory), and the inputs take it
 away. The estimate's own error is multiplied each step by 1 - (1 - exp(-observer dt)) J / J_plant: it converges at
 any rate while the plant's inertia is more than half the model's, and below that only while observer dt stays under
-about 1.6 (at +-60 %); the default rate keeps it far from that. What no
-controller can do it does not do either: where a plant's trim needs more moment than its fins give at the path's
-speed (vehicles.trim), the vehicle leaves its path, and `cpf validate` says so.
+about 1.6 (at +-60 %); the default rate keeps it far from that. What no controller can do it does not do either:
+where a plant's trim needs more moment than its fins give at the path's speed (vehicles.trim), the vehicle leaves
+its path, and `cpf validate` says so.
 
 Path parameter: the paper's eq. (3), gamma_ddot = -k_zeta (gamma_dot - v_d) + sigma' p_d^gamma with
 sigma = (p - p_d) / sqrt(1 + |p - p_d|^2), as backstepping's with delta = 0 (the fleet adds v_tilde).

@@ -22,6 +22,7 @@ from supervisor.config.plant import actuators_of, plant_of
 from supervisor.config.presets_table import top_speed
 from supervisor.config.scenario_schema import Scenario
 from supervisor.config.vehicle_models import params_of, vehicle_of
+from vehicles.actuators import Actuators
 from vehicles.params import VehicleParams
 from vehicles.paths import Path
 from vehicles.trim import trim
@@ -30,7 +31,7 @@ from vehicles.vehicle_model import VehicleModel
 SAMPLES = 16  # gammas along the run at which each path is trimmed
 _FASTER = 0.05  # m/s: the step of the search for the least speed that holds
 Float2 = tuple[float, float]
-_TRIMS: dict[tuple[object, VehicleParams, float, float, float], Float2] = {}  # _held's (models compare by value)
+_TRIMS: dict[tuple[object, VehicleParams, Actuators, float, float], Float2] = {}  # _held's (models compare by value)
 _KEPT = 4096  # trims _TRIMS holds at most
 _FASTEST = 10.0  # m/s: where that search gives up for a vehicle with no top speed
 
@@ -72,13 +73,13 @@ def _worst(sc: Scenario, vid: int) -> Need | None:
     plant = plant_of(sc, vid) or nominal
     model = vehicle_of(sc, vid)
     try:
-        needs = list(_needs(sc, vid, model, plant, fins.fin_moment))
+        needs = list(_needs(sc, vid, model, plant, fins))
         if not needs:
             return None
         moment, fin, speed, climb, norm = max(needs, key=lambda n: n[0] / max(n[1], 1e-12))
         least = None
         if moment > fin:
-            least = _least_speed(model, plant, fins.fin_moment, speed, climb, top_speed(plant))
+            least = _least_speed(model, plant, fins, speed, climb, top_speed(plant))
     except (ValueError, ArithmeticError, TypeError, RuntimeError):  # someone else's model: the run reports it
         return None
     return Need(moment, fin, speed, climb, least, norm, plant is not nominal)
@@ -107,7 +108,7 @@ def _said(sc: Scenario, vid: int, need: Need) -> str:
 
 
 def _needs(
-    sc: Scenario, vid: int, model: VehicleModel, plant: VehicleParams, fin_moment: float
+    sc: Scenario, vid: int, model: VehicleModel, plant: VehicleParams, fins: Actuators
 ) -> Iterator[tuple[float, float, float, float, float]]:  # fmt: skip
     """(moment needed [N m] (inf: no trim), the fins' moment at the trim's surge speed, speed along the path,
     climb, |p_d'|) at the sampled points of vid's path."""
@@ -120,7 +121,7 @@ def _needs(
         if speed <= 0.0:
             continue
         climb = asin(max(-1.0, min(1.0, math.copysign(1.0, v_r) * tangent[2] / norm)))  # the way it is flown
-        yield (*_held(model, plant, fin_moment, speed, climb), speed, climb, norm)
+        yield (*_held(model, plant, fins, speed, climb), speed, climb, norm)
 
 
 def _gammas(path: Path, gamma0: float | str, run: float) -> Sequence[float]:
@@ -134,35 +135,36 @@ def _gammas(path: Path, gamma0: float | str, run: float) -> Sequence[float]:
     return [float(g) for g in np.linspace(start, start + run, SAMPLES)]
 
 
-def _held(model: VehicleModel, plant: VehicleParams, fin_moment: float, speed: float, climb: float) -> Float2:
+def _held(model: VehicleModel, plant: VehicleParams, fins: Actuators, speed: float, climb: float) -> Float2:
     """(the pitch moment the trim needs [N m], inf if there is none; the fins' moment at its surge speed [N m]),
     once per fleet: vehicles of one model and plant on parallel paths need the same trim."""
-    key = (model, plant, fin_moment, speed, climb)
+    key = (model, plant, fins, speed, climb)
     try:
         known = key in _TRIMS
     except TypeError:  # someone else's model that does not hash
-        return _trimmed(model, plant, fin_moment, speed, climb)
+        return _trimmed(model, plant, fins, speed, climb)
     if not known:
         if len(_TRIMS) >= _KEPT:  # a long sweep in one process: start again rather than grow
             _TRIMS.clear()
-        _TRIMS[key] = _trimmed(model, plant, fin_moment, speed, climb)
+        _TRIMS[key] = _trimmed(model, plant, fins, speed, climb)
     return _TRIMS[key]
 
 
-def _trimmed(model: VehicleModel, plant: VehicleParams, fin_moment: float, speed: float, climb: float) -> Float2:
+def _trimmed(model: VehicleModel, plant: VehicleParams, fins: Actuators, speed: float, climb: float) -> Float2:
+    """(the trim's moment, inf if none; the fins' moment at its surge speed, within the vehicle's torque limit)."""
     found = trim(model, plant, speed, climb)
     if found is None:
-        return math.inf, min(plant.max_torque, fin_moment * speed * speed)
-    return abs(found.moment), min(plant.max_torque, fin_moment * found.surge * found.surge)
+        return math.inf, min(plant.max_torque, fins.torque_limit(speed))
+    return abs(found.moment), min(plant.max_torque, fins.torque_limit(found.surge))
 
 
 def _least_speed(
-    model: VehicleModel, plant: VehicleParams, fin_moment: float, speed: float, climb: float, top: float
+    model: VehicleModel, plant: VehicleParams, fins: Actuators, speed: float, climb: float, top: float
 ) -> float | None:  # fmt: skip
     """The least speed above `speed`, in steps of _FASTER up to top, whose trim the fins hold."""
     for k in range(1, int((min(top, _FASTEST) - speed) / _FASTER) + 1):
         u = speed + k * _FASTER
-        moment, fins = _held(model, plant, fin_moment, u, climb)
-        if moment <= fins:
+        moment, held = _held(model, plant, fins, u, climb)
+        if moment <= held:
             return u
     return None
