@@ -102,9 +102,13 @@ def test_realtime_clock_paces_the_run_holds_deliveries_to_their_arrival_and_chan
     assert len(lateness) == len(heard)
     began = [m.pop("step_lateness") for m in real_states.values()]
     assert min(began) >= 0.0  # a tick goes out ahead, but no vehicle begins a step before its time
-    in_time = [m for m in events(tmp_path / "rt.mcap", "delivered") if m["t"] <= 3.9 + 1e-9]  # a step took it in
-    delivered = {(m["sender"], m["receiver"], m["seq"]) for m in in_time}
-    assert {(r["sender"], int(topic.split("/")[2]), r["seq"]) for topic, m in rx for r in m["receptions"]} == delivered
+    # Every reception was a delivery, and every delivery a later step could take in was taken in. One due in the last
+    # step (3.9 s) that the wall clock brings after that step began has no step left to take it (seen once under
+    # load in a full `make test`: vehicle 1 missed seq 39 from 2 and 3), so the last step's may be missing.
+    received = {(r["sender"], int(topic.split("/")[2]), r["seq"]) for topic, m in rx for r in m["receptions"]}
+    delivered = [m for m in events(tmp_path / "rt.mcap", "delivered") if m["t"] <= 3.9 + 1e-9]
+    assert received <= {(m["sender"], m["receiver"], m["seq"]) for m in delivered}
+    assert {(m["sender"], m["receiver"], m["seq"]) for m in delivered if m["t"] <= 3.8 + 1e-9} <= received
 
     # the same run as lockstep up to the first reception the wall clock made a vehicle take in a step late
     # Each as the step it was due in: the records differ from that step on (a state records what was taken in at its
