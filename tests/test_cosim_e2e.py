@@ -115,7 +115,6 @@ def test_realtime_clock_paces_the_run_holds_deliveries_to_their_arrival_and_chan
     # step), not from the step it came in.
     late_steps = [intake_step(r["arrival"], 0.1) for _, m in rx for r in m["receptions"]
                   if m["k"] > intake_step(r["arrival"], 0.1)]  # fmt: skip
-    assert len(late_steps) <= 0.05 * len(heard)  # a step late is the exception, or little would be compared below
     assert "realtime: delivery error p50 " in real.stdout  # the run says how it kept to the wall clock
     assert f"; {len(late_steps)} of {len(heard)} receptions taken in a step late; steps began " in real.stdout
     timing = json.loads((tmp_path / "rt.json").read_text())["realtime"]
@@ -127,6 +126,11 @@ def test_realtime_clock_paces_the_run_holds_deliveries_to_their_arrival_and_chan
         key: m for key, m in lockstep.items() if key[1] < first_late
     }
     assert len(real_states) == len(lockstep)
+    # and from it on too, however many came a step late (a loaded machine makes more): each vehicle's records are the
+    # pure functions of what it took in at each step, so re-stepping them on the recorded receptions gives them again
+    again = cpf("resim", "rt.mcap", "--out", "again.mcap", cwd=tmp_path)
+    assert again.returncode == 0, again.stderr
+    assert f"state records identical to the log's, bit for bit: {len(lockstep)} of {len(lockstep)}" in again.stdout
 
 
 def events(path: Path, kind: str) -> list[dict]:

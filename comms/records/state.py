@@ -46,6 +46,11 @@ class NeighbourAge(msgspec.Struct, frozen=True):
     age: Real  # s: t minus the time stamp of the data held
 
 
+# What the wall clock did to a realtime run, measured on the way: no pure function of the vehicle's inputs gives it, so
+# a re-simulation (supervisor.engine.resim) compares everything else.
+WALL_CLOCK_FIELDS = ("rx_lateness", "step_lateness")
+
+
 class StateReport(msgspec.Struct, frozen=True, omit_defaults=True):
     """What a vehicle says about itself at step k. position, rotation (R row-major, body to inertial) and velocity
     (body frame) place it in 3-D (a planar vehicle is embedded); tx_seq: its transmission of step k, or 0."""

@@ -6,7 +6,8 @@ what it heard in the run. That is open loop across the fleet: the neighbours' ga
 recorded, not what the re-simulated neighbours now send. `--closed-loop` (supervisor.engine.resim_loop) keeps the
 channel's decisions (who heard which transmission, when) and carries the re-simulated senders' gammas instead.
 Vehicles step only where they were alive in the run. With no --set, either reproduces the run's state stream exactly
-(the same pure functions on the same inputs); tests hold it to that.
+(the same pure functions on the same inputs; of a realtime run, all but the lateness the wall clock measured); tests
+hold it to that.
 
 So only what acts inside a vehicle can change (supervisor.engine.resim_settings.SETTINGS, also what `cpf resim --help`
 lists); a setting of the channel, the graph, the faults, the step, the seed or the fleet's shape would not act on the
@@ -29,7 +30,7 @@ import msgspec
 
 from comms.records.messages import META_KEY, Message, parse_rx, state_key, vehicle_of_key
 from comms.records.records import Heard
-from comms.records.state import StateReport
+from comms.records.state import WALL_CLOCK_FIELDS, StateReport
 from supervisor.analysis.series import SeriesBuilder
 from supervisor.analysis.summary import Series
 from supervisor.config.derived import steps_of
@@ -114,7 +115,7 @@ def scenario_of(meta: RunMeta, overrides: Sequence[str], source: str) -> Scenari
 
 @dataclasses.dataclass(frozen=True, slots=True)
 class Agreement:
-    """How the re-simulated state records compare with the log's, to the bit (their JSON text)."""
+    """How the re-simulated state records compare with the log's, to the bit (their JSON text, see _canonical)."""
 
     equal: int
     total: int
@@ -131,7 +132,9 @@ class Agreement:
 
 
 def _canonical(message: Message) -> str:
-    return json.dumps(message, sort_keys=True)
+    """The record's JSON text, without what the wall clock measured (a realtime run's lateness): re-stepping gives
+    the rest bit for bit, and that lateness never."""
+    return json.dumps({k: v for k, v in message.items() if k not in WALL_CLOCK_FIELDS}, sort_keys=True)
 
 
 def resimulate(
