@@ -21,7 +21,16 @@ from typing import Any, Protocol, runtime_checkable
 import zenoh
 
 from comms.bus.lifeline import watch
-from comms.records.messages import STOP_END, STOP_KEY, SUPERVISOR_ALIVE, Message, decode, encode, hello_key
+from comms.records.messages import (
+    ROOT,
+    STOP_END,
+    STOP_KEY,
+    SUPERVISOR_ALIVE,
+    Message,
+    decode,
+    encode,
+    hello_key,
+)
 from comms.records.run import Stop
 
 log = logging.getLogger(__name__)
@@ -205,6 +214,21 @@ class Publishers:
         publisher.put(encode(message))
 
 
+FLUSH_KEY = f"{ROOT}/flush"  # nobody answers on it: the query's way there and back is what counts
+FLUSH_TIMEOUT = 5.0  # s: the router answers at once; more means it is gone, and then nothing is left to wait for
+
+
+def flush(session: zenoh.Session) -> None:
+    """Return once the router has routed everything this client session put before the call.
+
+    Closing a client session right after its last puts lost some of them: in 1,500 trials of 50 puts then close on
+    Zenoh 1.10, 40 lost their tail (tests/test_bus_flush.py). A query goes the same way as the puts, on their
+    priority and in order behind them, and the router's final answer to it comes back after it has routed them.
+    A router session has no one to ask: there it returns at once."""
+    for _ in session.get(FLUSH_KEY, express=True, timeout=FLUSH_TIMEOUT):
+        pass
+
+
 def decode_or_none(payload: bytes) -> Message | None:
     """A decoded message, or None for one that does not decode (the caller counts it)."""
     try:
@@ -259,6 +283,7 @@ def serve(
         alive = session.liveliness().declare_token(token)
         publishers = Publishers(session)
         _loop(name, inbox, make_handler(publishers), publishers, cut)
+        flush(session)  # the final report (bus._stopped) is on its way before the token goes
         alive.undeclare()
         if answer is not None:
             answer.undeclare()

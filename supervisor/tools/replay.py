@@ -38,7 +38,7 @@ from typing import TYPE_CHECKING
 
 import zenoh
 
-from comms.bus.bus import Extras, Publishers, free_port, open_session, site_config
+from comms.bus.bus import Extras, Publishers, flush, free_port, open_session, site_config
 from comms.records.messages import ALIVE_PREFIX, FAULT_KEY, GRAPH_KEY, META_KEY, Message
 from supervisor.errors import ScenarioError
 from supervisor.record.logfile import LogMessage, messages, open_log, reader_of, verify
@@ -194,6 +194,7 @@ def _serve(
             if steer is not None:
                 steering.enter_context(steer(control))
             _play(control, Publishers(session), report, progress, feed)
+            flush(session)  # a client's last messages have reached its router before the session closes
             queryable.undeclare()
     except KeyboardInterrupt:
         report.interrupted = True
