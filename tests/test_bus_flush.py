@@ -48,4 +48,3 @@ def test_every_put_before_a_flush_arrives_though_the_session_closes_right_after(
             else:
                 assert arrived == list(range(PUTS))
     assert lost == []
-
