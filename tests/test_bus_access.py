@@ -26,7 +26,7 @@ import pytest
 import zenoh
 
 from comms.bus.access import ENV, Credential, client_config, read_credential
-from comms.bus.bus import Extras, free_port, open_session
+from comms.bus.bus import Extras, answer_flushes, flush, free_port, open_session
 from comms.records.messages import (
     COMMS_ALIVE,
     COMMS_DONE_KEY,
@@ -169,6 +169,15 @@ def test_a_vehicle_credential_cannot_hold_another_vehicles_token_or_answer_for_i
             answers = {alive: len(list(session.get(hello_key(alive), timeout=WAIT))) for alive in
                        (vehicle_alive_key(3), COMMS_ALIVE, vehicle_alive_key(2))}  # fmt: skip
             assert answers == {vehicle_alive_key(3): 0, COMMS_ALIVE: 0, vehicle_alive_key(2): 1}
+
+
+def test_every_child_credential_may_ask_the_supervisor_to_flush_before_it_closes(endpoint: str) -> None:
+    """Under default deny the query went nowhere and flush returned at once, guaranteeing nothing (comms.bus.bus)."""
+    with router(endpoint) as (session, access):
+        answer_flushes(session)
+        for name in ("vehicle 1", "vehicle 2", "vehicle 3", "comms broker"):
+            with client(endpoint, read_credential(access.credential_path(name))) as child:
+                assert flush(child) == 1, name
 
 
 # --- what each process may listen to --------------------------------------------------------------------------

@@ -15,7 +15,7 @@ from typing import Any
 import pytest
 import zenoh
 
-from comms.bus.bus import free_port, open_session
+from comms.bus.bus import answer_flushes, free_port, open_session
 from comms.records.messages import META_KEY, ROOT, Message, decode
 from supervisor.config.scenario import parse_scenario
 from supervisor.engine.inprocess import run_inprocess
@@ -106,10 +106,13 @@ class Collector:
 
 @contextlib.contextmanager
 def router() -> Iterator[tuple[str, Collector]]:
-    """The test's side: a router on a free localhost port with its subscriber declared before anyone connects."""
+    """The test's side: a router on a free localhost port with its subscriber declared before anyone connects; it
+    answers flushes, so a replay's last messages are not lost at its close (comms.bus.bus.flush)."""
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     with open_session("router", listen=[endpoint]) as session:
+        answering = answer_flushes(session)
         yield endpoint, Collector(session)
+        answering.undeclare()
 
 
 def by_topic(messages: list[tuple[str, Message]]) -> dict[str, list[Message]]:

@@ -26,6 +26,7 @@ from comms.records.messages import (
     COMMS_EVENTS_KEY,
     COMMS_STATS_KEY,
     COMMS_STEP_KEY,
+    FLUSH_KEY,
     ROOT,
     STOP_KEY,
     SUPERVISOR_ALIVE,
@@ -163,12 +164,14 @@ def _listens(keys: tuple[str, ...]) -> list[Right]:
 
 def _process(alive: str) -> list[Right]:
     """What every child does: its own liveliness token and hello queryable (answering the supervisor's question),
-    watching the supervisor's token, and the stop message."""
+    watching the supervisor's token, the stop message, and asking the supervisor to flush."""
     hello = hello_key(alive)
     return [
         Right("ingress", ("liveliness_token",), (alive,)),
         Right("ingress", ("declare_queryable", "reply"), (hello,)),
         Right("egress", ("query",), (hello,)),
+        Right("ingress", ("query",), (FLUSH_KEY,)),  # its last messages are in before it closes (comms.bus.bus.flush)
+        Right("egress", ("declare_queryable", "reply"), (FLUSH_KEY,)),
         Right("ingress", ("declare_liveliness_subscriber", "liveliness_query"), (SUPERVISOR_ALIVE,)),
         Right("egress", ("liveliness_token",), (SUPERVISOR_ALIVE,)),
         *_listens((STOP_KEY,)),

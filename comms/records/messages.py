@@ -28,6 +28,7 @@ META_KEY = f"{ROOT}/run/meta"
 FAULT_KEY = f"{ROOT}/run/fault"
 GRAPH_KEY = f"{ROOT}/run/graph"
 STOP_KEY = f"{ROOT}/run/stop"
+FLUSH_KEY = f"{ROOT}/run/flush"  # queryable: a client's last messages are in before it closes (comms.bus.bus.flush)
 TICK_KEY = f"{ROOT}/clock/tick"
 COMMS_EVENT_KEY = f"{ROOT}/comms/event"  # logs of earlier versions: one record per link event (still read)
 COMMS_EVENTS_KEY = f"{ROOT}/comms/events"  # bus and log: the link events of one step (comms.records.events.LinkEvents)

@@ -21,7 +21,7 @@ from pathlib import Path
 import zenoh
 
 from comms.bus.access import done_key_pattern
-from comms.bus.bus import Inbox, Publishers, free_port, open_session
+from comms.bus.bus import Inbox, Publishers, answer_flushes, free_port, open_session
 from comms.records.messages import (
     ALIVE_PREFIX,
     COMMS_DONE_KEY,
@@ -123,6 +123,7 @@ def _supervisor(
         tempfile.TemporaryDirectory(prefix="cpf-run-") as private_dir,
     ):
         inbox = _inbox(session)
+        flushes = answer_flushes(session)  # the children's last messages are in before they go (comms.bus.bus.flush)
         token = session.liveliness().declare_token(SUPERVISOR_ALIVE)
         pubs = Publishers(session)
         hellos = Hellos.of(sc, seed, lambda key: ask_hello(session, key))
@@ -140,6 +141,7 @@ def _supervisor(
                 run.publish(STOP_KEY, run.t, Stop(run.t, reason).to_message())
                 run.wind_down()
             token.undeclare()
+            flushes.undeclare()
 
 
 def _inbox(session: zenoh.Session) -> Inbox:
