@@ -194,7 +194,7 @@ def _serve(
             if steer is not None:
                 steering.enter_context(steer(control))
             _play(control, Publishers(session), report, progress, feed)
-            flush(session)  # a client's last messages have reached its router before the session closes
+            flush(session)  # read by whoever answers flushes before the session closes (comms.bus.bus.flush)
             queryable.undeclare()
     except KeyboardInterrupt:
         report.interrupted = True
