@@ -15,11 +15,12 @@
 8. report: `cpf report` of an 8-vehicle, 450 s run as a user waits for it (issue 28: under 10 s;
    benchmarks.bench_report, which also times another checkout's alternately with --old);
 9. targets: issue 15's cases as whole `cpf run` / `cpf sweep` commands, both engines side by side
-   (benchmarks.bench_targets; --targets picks the cases, "none" skips them).
+   (benchmarks.bench_targets; --targets picks the cases, "none" skips them);
+10. critical path: the Zenoh paper run's stepping per step against the lean bus floor measured right after it, and
+   each process's CPU, threads and context switches per step (benchmarks.bench_critical_path; issue 26).
 Each part is also a module of its own (benchmarks.bench_engines, bench_scaling, bench_realtime, bench_bus_floor,
-bench_parse, bench_ready, bench_live, bench_report, bench_targets); benchmarks.bench_side_by_side compares this
-tree with another checkout; bench_record, bench_intake and bench_critical_path are diagnostics with no target of
-their own.
+bench_parse, bench_ready, bench_live, bench_report, bench_targets, bench_critical_path); benchmarks.bench_side_by_side
+compares this tree with another checkout; bench_record and bench_intake are diagnostics with no target of their own.
 Results go to benchmarks/results/*.json; the targets are printed next to the numbers. Speed is checked here, never
 in tests.
 """
@@ -33,6 +34,7 @@ from typing import Any
 from benchmarks import (
     ROOT,
     bench_bus_floor,
+    bench_critical_path,
     bench_engines,
     bench_live,
     bench_parse,
@@ -71,7 +73,13 @@ def main() -> None:
     for row in floor:
         print(bench_bus_floor.summary(row), flush=True)
 
+    # Issue 26: each process's CPU and context switches per step beside the lean bus floor of the same run, so that a
+    # machine (or a change) that makes the engine costlier than its bus shows as such, not only as a slower wall time.
+    critical = bench_critical_path.measure(ROOT, args.repeat, "configs/paper.toml", 4000, 3)
+    print(bench_critical_path.summary(critical), flush=True)
+
     everything = {"engines": engines, "scaling": scaling, "realtime": realtime, "bus_floor": floor}
+    everything["critical_path"] = critical
     everything |= commands(paper, args.repeat)
     everything["targets"] = (
         [] if args.targets == "none" else bench_targets.run(args.targets.split(","), args.repeat, 100)

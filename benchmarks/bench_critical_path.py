@@ -137,7 +137,8 @@ def summary(row: dict[str, Any]) -> str:
     )
     return (
         f"{row['tree']}: wall {best['wall_s']:.2f} s, stepping {best['stepping_s']:.2f} s = "
-        f"{row['ms_per_step']:.2f} ms per step (lean bus floor {row['floor_ms_per_step']:.2f} ms)\n"
+        f"{row['ms_per_step']:.2f} ms per step (lean bus floor {row['floor_ms_per_step']:.2f} ms: "
+        f"{row['ms_per_step'] / row['floor_ms_per_step']:.2f}x it; issue 26's target <= 1.5x)\n"
         f"  CPU s per process: {cpu}  (total {sum(best['cpu_s'].values()):.2f})\n"
         f"  context switches per step, voluntary/involuntary: {per_step}"
     )
