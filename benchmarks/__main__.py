@@ -75,7 +75,7 @@ def main() -> None:
 
     # Issue 26: each process's CPU and context switches per step beside the lean bus floor of the same run, so that a
     # machine (or a change) that makes the engine costlier than its bus shows as such, not only as a slower wall time.
-    critical = bench_critical_path.measure(ROOT, args.repeat, "configs/paper.toml", 4000, 3)
+    critical = bench_critical_path.measure_paper(ROOT, args.repeat)
     print(bench_critical_path.summary(critical), flush=True)
 
     everything = {"engines": engines, "scaling": scaling, "realtime": realtime, "bus_floor": floor}

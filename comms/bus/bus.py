@@ -228,10 +228,11 @@ def flush(session: zenoh.Session) -> int:
     that closing this session cannot lose it.
 
     Closing a client session right after its last puts lost some of them for good: in 1,500 trials of 50 puts then
-    close on Zenoh 1.10, 40 lost their tail (tests/test_bus_flush.py). The query goes the way the puts went, on
-    their priority and behind them, so an answer means they were read first. Read, not yet handed over: zenoh-python
-    runs each subscriber's Python callback on a thread of its own, so they may still be on their way to it. Without
-    an answerer (a router not of ours) the query has nowhere to go and this returns at once: no guarantee there.
+    close on Zenoh 1.10, 40 lost their tail (measured without flush; tests/test_bus_flush.py holds it with). The
+    query goes the way the puts went, on their priority and behind them, so an answer means they were read first.
+    Read, not yet handed over: zenoh-python runs each subscriber's Python callback on a thread of its own, so they
+    may still be on their way to it. Without an answerer (a router not of ours) the query has nowhere to go and this
+    returns at once: no guarantee there.
     Returns how many answered."""
     replies = session.get(FLUSH_KEY, target=zenoh.QueryTarget.ALL, express=True, timeout=FLUSH_TIMEOUT)
     return sum(1 for reply in replies if reply.ok is not None)
