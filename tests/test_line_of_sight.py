@@ -144,3 +144,5 @@ def test_against_a_moment_beyond_its_fins_it_asks_for_the_rate_the_moment_helps_
     plant = {"seed": 3, "uncertainty": "{ center_of_buoyancy = 0.2 }", "vehicle_id": 5}
     errors = fly_a_line(1.0, 300.0, start=(25.0, 8.0, -9.0, 180.0), **plant)
     assert max(errors[1500:]) < 0.1
+    alone = fly_a_line(1.0, 300.0, start=(25.0, 8.0, -9.0, 180.0), options="{ observer = 0.0 }", **plant)
+    assert max(alone[1500:]) < 0.2  # the bound's own doing: no observer helps

@@ -32,6 +32,7 @@ def test_the_buoyant_remus_holds_its_depth_on_a_share_of_its_fins_that_falls_wit
     """At 1 m/s the preset needs 0.94 N m of its fins' 1.46; u w is fixed by the net buoyancy, so the moment grows
     less than the fins' u^2 and the share falls."""
     moments = [pitch_moment(MODEL, REMUS, u) for u in (1.0, 1.5, 2.0)]
+    assert None not in moments and moments[:2] == pytest.approx([-0.94, -1.41], abs=0.01)  # vehicles/trim.py's numbers
     shares = [abs(m) / (FINS * u * u) for m, u in zip(moments, (1.0, 1.5, 2.0), strict=True) if m is not None]
     assert shares[0] == pytest.approx(0.94 / 1.46, abs=0.01)
     assert shares == sorted(shares, reverse=True)

@@ -2,14 +2,14 @@
 
 A controller that inverts its nominal model (M nu_dot = f(nu) + tau) on a plant that differs from it (mass, inertia,
 damping, restoring, lift; a current that changes) meets a lumped input it does not know, d = M nu_dot - f(nu) - tau,
-with M and f the nominal ones. With it unknown, a proportional rate loop settles where k2 M (nu - nu_v) equals d: on
-a REMUS 100 on its fins, a heave mass 20 % above nominal and a surge mass 15 % below (a Munk term 59 % larger) leave
-the pitch rate 0.02 rad/s off the rate the guidance asks for, the whole rate a nearly saturated fin allows, and the
-vehicle holds its pitch while it sinks away from its path (inline5, seed 3: 70 m). The disturbance observer
-(Ohnishi's; Chen, Yang, Guo & Li, "Disturbance-observer-based control and related methods: an overview", IEEE Trans.
-Ind. Electron. 63(2), 2016, Sec. II) low-passes the measured d, d_hat' = lambda (d - d_hat), and the controller
-subtracts d_hat from its inputs, so for a d that changes slowly against lambda the loop behaves as on the nominal
-plant (d_hat -> d exponentially, at the rate lambda, for a constant d).
+with M and f the nominal ones. With it unknown, a proportional rate loop settles where k2 M (nu - nu_v) equals d: on a
+REMUS 100 on its fins, a heave mass 20 % above nominal and a surge mass 15 % below (a Munk term 59 % larger) leave the
+pitch rate 0.02 rad/s off the rate the guidance asks for, the whole rate a nearly saturated fin allows, and the vehicle
+holds its pitch while it sinks away from its path (inline5, seed 3: 70 m, measured before this observer). The
+disturbance observer (Ohnishi's; Chen, Yang, Guo & Li, "Disturbance-observer-based control and related methods: an
+overview", IEEE Trans. Ind. Electron. 63(2), 2016, Sec. II) low-passes the measured d, d_hat' = lambda (d - d_hat), and
+the controller subtracts d_hat from its inputs, so for a d that changes slowly against lambda the loop behaves as on the
+nominal plant (d_hat -> d exponentially, at the rate lambda, for a constant d).
 
 d is computed once per step from the RK4 stages the vehicle steered at, as vehicles.supervisory's estimators do:
 M (nu(t + dt) - nu(t)) / dt, which RK4 makes the weighted mean of the stages' accelerations, less the nominal
@@ -37,6 +37,9 @@ class Disturbance:
     """The estimate d_hat on (u, q, r) [N, N m, N m]: what the plant adds to the nominal model's inputs."""
 
     inputs: Float3 = NONE
+
+
+NO_DISTURBANCE = Disturbance()  # frozen: one for every controller that estimates none (observer = 0), not one a stage
 
 
 def measured(

@@ -17,37 +17,37 @@ straight line, a constant speed U and a course that follows the line of sight, t
 e' = -U e / sqrt(lookahead^2 + e^2): USGES (the paper cited, Theorem 1), |e(t)| <= |e0| exp(-U t / sqrt(lookahead^2
 + e0^2)).
 
-Rates within what the fins hold. The virtual yaw and pitch rates are the path's own turning rate (its tangent's
-angular velocity in body axes, a feed-forward) plus k_heading times the error, each within the rates whose damping
-takes the share `margin` of what the fins give at the present speed, tau_max(u) = min(max_torque, fin_moment u^2),
-beyond the moment held M (restoring, Munk, lift, and the disturbance estimate below): up to the rate whose damping
-is margin (tau_max + M) along M, and margin (tau_max - M) against it. A buoyant REMUS holding depth at 1 m/s needs
-more than half its fins; a bound the same both ways (a share of tau_max - |M|) leaves it no rate once M outgrows the
-fins, even where M turns it the way it must go, and a REMUS 20 % stiffer in pitch than its model then held its nose
-down with full fin and dived 525 m (tests/test_line_of_sight.py). Against an M the fins cannot match the bound is 0:
-the law spends the whole fin against it. A slower vehicle turns more gently instead of asking for a moment it does
-not have; at rest it asks for none and thrusts first. The speed wanted along the path's tangent, over ground, is its
-path point's, gamma_dot |p_d^gamma|, less k1 times the bounded along-track error (ahead of its path point it slows
-down). The path point's own speed, not the fleet's v_d: a vehicle whose gamma the coordination speeds up would
-otherwise lag until its along-track error paid for the difference, and eq. (3) would hold its gamma back by as much
-(inline5 on fins: coordination error 0.42 at 400 s with v_d, 4e-4 with gamma_dot). The surge that gives it with the
-sway, heave and current the vehicle has (in a turn it slips sideways: a surge of gamma_dot |p_d^gamma| would leave
-the vehicle short of its path point, and the fleet's consensus off v_r), within [0, top speed]. Each velocity (u, q,
-r) then follows its virtual value with gain k2 through the model's inverse, its damping fed forward at the virtual
-value (as backstepping's "feedforward": the true damping stays on the measured velocity), less the disturbance
-estimate, and the inputs are held within tau_max(u) and the thrust limit.
+Rates within what the fins hold. The virtual yaw and pitch rates are the path's own turning rate (its tangent's angular
+velocity in body axes, a feed-forward) plus k_heading times the error, each within the rates whose damping takes the
+share `margin` of what the fins give at the present speed, tau_max(u) = min(max_torque, fin_moment u^2), beyond the
+moment held M (restoring, Munk, lift, and the disturbance estimate below): up to the rate whose damping is margin
+(tau_max + M) along M, and margin (tau_max - M) against it. A buoyant REMUS holding depth at 1 m/s needs more than half
+its fins; a bound the same both ways (a share of tau_max - |M|) leaves it no rate once M outgrows the fins, even where M
+turns it the way it must go, and a REMUS 20 % stiffer in pitch than its model then held its nose down with full fin and
+dived 525 m (measured on 330787d; tests/test_line_of_sight.py flies it now). Against an M the fins cannot match the
+bound is 0: the law spends the whole fin against it. A slower vehicle turns more gently instead of asking for a moment
+it does not have; at rest it asks for none and thrusts first. The speed wanted along the path's tangent, over ground, is
+its path point's, gamma_dot |p_d^gamma|, less k1 times the bounded along-track error (ahead of its path point it slows
+down). The path point's own speed, not the fleet's v_d: a vehicle whose gamma the coordination speeds up would otherwise
+lag until its along-track error paid for the difference, and eq. (3) would hold its gamma back by as much (inline5 on
+fins: coordination error 0.42 at 400 s with v_d, 4e-4 with gamma_dot). The surge that gives it with the sway, heave and
+current the vehicle has (in a turn it slips sideways: a surge of gamma_dot |p_d^gamma| would leave the vehicle short of
+its path point, and the fleet's consensus off v_r), within [0, top speed]. Each velocity (u, q, r) then follows its
+virtual value with gain k2 through the model's inverse, its damping fed forward at the virtual value (as backstepping's
+"feedforward": the true damping stays on the measured velocity), less the disturbance estimate, and the inputs are held
+within tau_max(u) and the thrust limit.
 
 Disturbance observer (vehicles.disturbance_observer; its memory, vehicles.path_following.AdaptiveController). The
-inverse is the nominal model's; on a plant that differs from it the proportional rate loop settles off its virtual
-rate by the mismatch over k2 J, and where the fins are nearly spent that offset is the whole rate they allow (a
-REMUS with 20 % more heave mass and 15 % less surge mass than its model: 11 m off a line at 1.5 m/s without it, 0.01
-m with it: tests/test_disturbance_observer.py). The observer estimates the mismatch on u, q and r at the rate
-`observer` (None: k2, as fast as the loop it serves; 0: off, and the law has no memory), and the inputs take it
-away. The estimate's own error is multiplied each step by 1 - (1 - exp(-observer dt)) J / J_plant: it converges at
-any rate while the plant's inertia is more than half the model's, and below that only while observer dt stays under
-about 1.6 (at +-60 %); the default rate keeps it far from that. What no controller can do it does not do either:
-where a plant's trim needs more moment than its fins give at the path's speed (vehicles.trim), the vehicle leaves
-its path, and `cpf validate` says so.
+inverse is the nominal model's; on a plant that differs from it the proportional rate loop settles off its virtual rate
+by the mismatch over k2 J, and where the fins are nearly spent that offset is the whole rate they allow (a REMUS with 20
+% more heave mass and 15 % less surge mass than its model: 11 m off a line at 1.5 m/s without it, 0.01 m with it:
+tests/test_disturbance_observer.py). The observer estimates the mismatch on u, q and r at the rate `observer` (None: k2,
+as fast as the loop it serves; 0: off, and the law has no memory), and the inputs take it away. The estimate's own error
+is multiplied each step by 1 - (1 - exp(-observer dt)) J / J_plant: it converges at any rate while the plant's inertia
+is more than half the model's, and below that only while observer dt stays under about 1.6 (at +-60 %; derived from that
+multiplier, not tested); the default rate keeps it far from that. What no controller can do it does not do either: where
+a plant's trim needs more moment than its fins give at the path's speed (vehicles.trim), the vehicle leaves its path,
+and `cpf validate` says so.
 
 Path parameter: the paper's eq. (3), gamma_ddot = -k_zeta (gamma_dot - v_d) + sigma' p_d^gamma with
 sigma = (p - p_d) / sqrt(1 + |p - p_d|^2), as backstepping's with delta = 0 (the fleet adds v_tilde).
@@ -78,11 +78,12 @@ from typing import Annotated
 from annotated_types import Ge, Gt, Le
 
 from numerics import atan2, cos
-from vehicles.disturbance_observer import Disturbance, filtered, measured
+from vehicles.disturbance_observer import NO_DISTURBANCE, Disturbance, filtered, measured
 from vehicles.dynamics import Accelerations, PathVectors
 from vehicles.geometry import Float3
 from vehicles.params import VehicleParams
 from vehicles.path_following import ControlOutput, Current, Stage, drag, saturated
+from vehicles.saturation import clamp
 from vehicles.vehicle_model import VehicleModel
 
 # m/s: below this speed the sideslip and climb angles fade out (the angle of a velocity of a few cm/s is noise:
@@ -114,7 +115,7 @@ class LineOfSight:
         return self.observer != 0.0
 
     def start(self, model: VehicleModel, params: VehicleParams, s: Sequence[float]) -> Disturbance:
-        return Disturbance()
+        return NO_DISTURBANCE
 
     def update(
         self, memory: object, model: VehicleModel, params: VehicleParams, stages: Sequence[Stage],
@@ -129,7 +130,7 @@ class LineOfSight:
         gamma_dot: float, v_d: float, current: Current | None,
     ) -> ControlOutput:  # fmt: skip
         """Without a memory: no disturbance estimated."""
-        return self.control_with(Disturbance(), model, params, s, path, gamma, gamma_dot, v_d, current)
+        return self.control_with(NO_DISTURBANCE, model, params, s, path, gamma, gamma_dot, v_d, current)
 
     def control_with(
         self, memory: object, model: VehicleModel, params: VehicleParams, s: Sequence[float], path: PathVectors,
@@ -182,8 +183,8 @@ class LineOfSight:
         # fins can hold: more along it, less against it
         held_q = prm.inertia[1] * dq + (lin[1] + quad[1] * abs(q)) * q + d[1]
         held_r = prm.inertia[2] * dr + (lin[2] + quad[2] * abs(r)) * r + d[2]
-        q_v = _between(turning[1] - self.k_heading * errors[1], *self._rates(lin[1], quad[1], limit, held_q))
-        r_v = _between(turning[2] + self.k_heading * errors[0], *self._rates(lin[2], quad[2], limit, held_r))
+        q_v = clamp(turning[1] - self.k_heading * errors[1], *self._rates(lin[1], quad[1], limit, held_q))
+        r_v = clamp(turning[2] + self.k_heading * errors[0], *self._rates(lin[2], quad[2], limit, held_r))
         u_v = min(max(u_wanted, self.min_speed), top_speed(prm))
         k2 = self.k2
         tau = (
@@ -243,10 +244,6 @@ def _rate_within(linear: float, quadratic: float, moment: float) -> float:
 
 def _held(tau: Float3, limit: float) -> Float3:
     return tau[0], _within(tau[1], limit), _within(tau[2], limit)
-
-
-def _between(x: float, low: float, high: float) -> float:
-    return high if x > high else low if x < low else x
 
 
 def _within(x: float, limit: float) -> float:

@@ -21,10 +21,11 @@ from supervisor.config.fleet import build_path
 from supervisor.config.plant import actuators_of, plant_of
 from supervisor.config.presets_table import top_speed
 from supervisor.config.scenario_schema import Scenario
-from supervisor.config.vehicle_models import params_of, vehicle_of
+from supervisor.config.vehicle_models import vehicle_of
 from vehicles.actuators import Actuators
 from vehicles.params import VehicleParams
 from vehicles.paths import Path
+from vehicles.saturation import clamp
 from vehicles.trim import trim
 from vehicles.vehicle_model import VehicleModel
 
@@ -66,12 +67,12 @@ class Need:
 
 
 def _worst(sc: Scenario, vid: int) -> Need | None:
-    nominal = params_of(sc, vid)
+    model = vehicle_of(sc, vid)
+    nominal = model.parameters()
     fins = actuators_of(sc, nominal)
     if fins is None:
         return None
     plant = plant_of(sc, vid) or nominal
-    model = vehicle_of(sc, vid)
     try:
         needs = list(_needs(sc, vid, model, plant, fins))
         if not needs:
@@ -120,7 +121,7 @@ def _needs(
         speed = abs(v_r) * norm
         if speed <= 0.0:
             continue
-        climb = asin(max(-1.0, min(1.0, math.copysign(1.0, v_r) * tangent[2] / norm)))  # the way it is flown
+        climb = asin(clamp(math.copysign(1.0, v_r) * tangent[2] / norm, -1.0, 1.0))  # the way it is flown
         yield (*_held(model, plant, fins, speed, climb), speed, climb, norm)
 
 
@@ -129,10 +130,9 @@ def _gammas(path: Path, gamma0: float | str, run: float) -> Sequence[float]:
     the nearest point's search costs more than the check, and a path that is not periodic is straight or nearly
     so near its start)."""
     period = path.gamma_period
-    if period is not None:
-        return [float(g) for g in np.linspace(0.0, period, SAMPLES)]
     start = gamma0 if isinstance(gamma0, float | int) else 0.0
-    return [float(g) for g in np.linspace(start, start + run, SAMPLES)]
+    first, last = (0.0, period) if period is not None else (start, start + run)
+    return [float(g) for g in np.linspace(first, last, SAMPLES)]
 
 
 def _held(model: VehicleModel, plant: VehicleParams, fins: Actuators, speed: float, climb: float) -> Float2:
