@@ -46,10 +46,10 @@ def _name(pid: int, root: int) -> str | None:
     if pid == root:
         return "supervisor"
     try:
-        argv = (Path(f"/proc/{pid}") / "cmdline").read_bytes().split(b"\0")
+        cmdline = (Path(f"/proc/{pid}") / "cmdline").read_bytes()
     except OSError:
         return None
-    words = [a.decode(errors="replace") for a in argv]
+    words = cmdline.replace(b"\0", b" ").decode(errors="replace").split()  # a forked child's title: one string
     if "comms" in words:
         return "broker"
     if "vehicle" in words and "--id" in words:

@@ -13,6 +13,7 @@ kernel closes it when this process ends) and, on Linux, a parent-death signal th
 from __future__ import annotations
 
 import contextlib
+import logging
 import os
 import signal
 import subprocess
@@ -25,12 +26,17 @@ from types import TracebackType
 from typing import IO
 
 from comms.bus import lifeline
+from supervisor import forked
+
+FORK_SERVER_TIMEOUT = 30.0  # s for the fork server to import what a child needs (~0.4 s of CPU)
+log = logging.getLogger(__name__)
+Process = subprocess.Popen[bytes] | forked.ForkedProcess
 
 
 @dataclass
 class Child:
     name: str
-    process: subprocess.Popen[bytes]
+    process: Process
     stderr: IO[bytes]
     control: int = -1  # the write end of its control pipe (a vehicle host's), -1 if none
 
@@ -79,13 +85,21 @@ class ProcessGroup:
         self,
         env_of: Callable[[str], Mapping[str, str]] | None = None,
         fds_of: Callable[[str], tuple[int, ...]] | None = None,
+        fork: str | None = None,
     ) -> None:
         """env_of: what a child, by name, gets in its environment besides ours; fds_of: the file descriptors it
-        inherits (its credential: never on its command line, which every user of the machine can read)."""
+        inherits (its credential: never on its command line, which every user of the machine can read). fork: the
+        `cpf` children are forked from a fork server (supervisor.cli.fork_server), started with the first of them,
+        where the platform allows, with this text (the run's scenario file) on its command line; any other child,
+        or every child if the server cannot start, is spawned."""
         self._env_of = env_of
         self._fds_of = fds_of
         self.children: list[Child] = []
         self._gone: list[Child] = []  # ended and accounted for
+        self._fork = fork is not None and forked.available()
+        self._label = fork or ""
+        self._server: forked.ForkServer | None = None
+        self._server_child: Child | None = None  # the fork server's own process, not a child the run needs
         # The lifeline: children get the read end as stdin; the write end is only ever here (os.pipe's fds are not
         # inherited, and Popen closes every other fd in the child), so its closing tells them this process is gone.
         self._lifeline_read, self._lifeline_write = os.pipe()
@@ -95,24 +109,15 @@ class ProcessGroup:
         parent, so it is asked for only from the main thread (the lifeline alone covers a child spawned elsewhere
         once it runs comms.bus.bus.serve). control_env: give it a control pipe (Child.tell), its read end's descriptor
         in that environment variable."""
-        stderr = tempfile.TemporaryFile(prefix="cpf-" + name.replace(",", "-").replace(" ", "-") + "-")  # noqa: SIM115 - closed in stop()
-        from_main = threading.current_thread() is threading.main_thread()
-        env = {**os.environ, **self._env_of(name)} if self._env_of is not None else None
+        stderr = _stderr_file(name)
+        env = {**os.environ, **self._env_of(name)} if self._env_of is not None else dict(os.environ)
         fds = self._fds_of(name) if self._fds_of is not None else ()
         read, write = os.pipe() if control_env is not None else (-1, -1)
         if control_env is not None:
-            env = {**(env or os.environ), control_env: str(read)}
+            env[control_env] = str(read)
             fds = (*fds, read)
         try:
-            process = subprocess.Popen(
-                lifeline.launcher(argv, parent_death_signal=from_main),
-                stdin=self._lifeline_read,
-                stdout=subprocess.DEVNULL,
-                stderr=stderr,
-                start_new_session=True,
-                env=env,
-                pass_fds=fds,
-            )
+            process = self._start(argv, env, fds, stderr)
         except BaseException:
             if write >= 0:
                 os.close(write)
@@ -123,6 +128,46 @@ class ProcessGroup:
         child = Child(name, process, stderr, write)
         self.children.append(child)
         return child
+
+    def _start(self, argv: list[str], env: dict[str, str], fds: tuple[int, ...], stderr: IO[bytes]) -> Process:
+        """Forked, if this group forks and argv is a `cpf` command line, else spawned."""
+        args = forked.cli_args(argv) if self._fork else None
+        server = self._fork_server() if args is not None else None
+        if server is not None and args is not None:
+            try:
+                return server.fork(args, env, (self._lifeline_read, stderr.fileno()), fds)
+            except OSError as exc:  # killed, say: this child and the next are spawned
+                log.warning("cannot fork %s (%s): spawning it", " ".join(args[:1]), exc)
+                self._fork = False
+        return self._popen(argv, env, fds, stderr)
+
+    def _popen(self, argv: list[str], env: Mapping[str, str], fds: tuple[int, ...], stderr: IO[bytes]) -> Process:
+        from_main = threading.current_thread() is threading.main_thread()
+        return subprocess.Popen(
+            lifeline.launcher(argv, parent_death_signal=from_main),
+            stdin=self._lifeline_read,
+            stdout=subprocess.DEVNULL,
+            stderr=stderr,
+            start_new_session=True,
+            env=env,
+            pass_fds=fds,
+        )
+
+    def _fork_server(self) -> forked.ForkServer | None:
+        """The fork server, started on first use; None (and spawning from then on) if it cannot start."""
+        if self._server is None and self._fork:
+            stderr = _stderr_file("fork-server")
+            spawn = lambda argv, env, fds: self._popen(argv, env, fds, stderr)  # noqa: E731
+            try:
+                self._server = forked.ForkServer(spawn, self._label, FORK_SERVER_TIMEOUT)
+            except OSError as exc:
+                log.warning("no fork server (%s): spawning every process", exc)
+                self._fork = False
+            finally:
+                self._server_child = Child("fork server", self._server.process, stderr) if self._server else None
+                if self._server is None:
+                    stderr.close()
+        return self._server
 
     def first_ended(self) -> Child | None:
         """A child that has exited (before being told to, if asked during a run)."""
@@ -139,7 +184,16 @@ class ProcessGroup:
         return next((c for c in self.children if c.name == name), None)
 
     def pids(self) -> list[int]:
-        return [c.process.pid for c in self.children]
+        """Every process of the group, the fork server's included."""
+        return [c.process.pid for c in self._all()]
+
+    @property
+    def fork_server(self) -> int | None:
+        """The fork server's pid, once one runs."""
+        return self._server_child.process.pid if self._server_child is not None else None
+
+    def _all(self) -> list[Child]:
+        return self.children + ([self._server_child] if self._server_child is not None else [])
 
     def stop(self, deadline: float = 3.0) -> None:
         """Cut the lifeline (children still serving stop by themselves), wait up to deadline for children to exit,
@@ -147,13 +201,15 @@ class ProcessGroup:
         self._cut_lifeline()
         self._wait_all(deadline)
         for sig in (signal.SIGTERM, signal.SIGKILL):
-            alive = [c for c in self.children if c.process.poll() is None]
+            alive = [c for c in self._all() if c.process.poll() is None]
             if not alive:
                 break
             for child in alive:
                 _signal_group(child.process.pid, sig)
             self._wait_all(deadline)
-        for child in self.children + self._gone:
+        if self._server is not None:
+            self._server.close()
+        for child in self._all() + self._gone:
             child.stderr.close()
             child.close_control()
 
@@ -165,7 +221,7 @@ class ProcessGroup:
 
     def _wait_all(self, deadline: float) -> None:
         end = time.monotonic() + deadline
-        for child in self.children:
+        for child in self._all():
             with contextlib.suppress(subprocess.TimeoutExpired):
                 child.process.wait(timeout=max(0.0, end - time.monotonic()))
 
@@ -176,6 +232,10 @@ class ProcessGroup:
         self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
     ) -> None:
         self.stop()
+
+
+def _stderr_file(name: str) -> IO[bytes]:
+    return tempfile.TemporaryFile(prefix="cpf-" + name.replace(",", "-").replace(" ", "-") + "-")
 
 
 def _signal_group(pid: int, sig: signal.Signals) -> None:

@@ -3,7 +3,8 @@ start-up (SIGKILL, so the supervisor cleans up nothing itself), and with a child
 comes up (its lifeline alone ends it). A vehicle started by hand is not a launched child: its stdin is not watched.
 A launched child that ends early still says why (its stderr file has no name, so a killed supervisor leaves none).
 
-    cpf run --(spawn: launcher, then python -m supervisor.cli)--> broker, vehicle 1..3
+    cpf run --(spawn: launcher, then python -m supervisor.cli.fork_server --run <scenario>)--> fork server
+        --(fork: python -m supervisor.cli, its command line set)--> broker, vehicle 1..3
         stdin of each = read end of a pipe whose write end only cpf holds (comms.bus.lifeline)
 """
 
@@ -35,6 +36,7 @@ from tests.procs import (
 pytestmark = pytest.mark.e2e
 GONE_WITHIN = 2.0  # s after the supervisor's death (issue 14)
 CHILDREN = 4  # the paper scenario: the broker and three vehicles
+PROCESSES = CHILDREN + 1  # and the fork server they are forked from (supervisor.cli.fork_server)
 
 Children = list[tuple[int, str]]
 
@@ -59,9 +61,10 @@ def _sockets(pid: int) -> int:
 # Instants of start-up, each a condition on the run's children (they only grow more true while the run starts).
 INSTANTS: dict[str, Callable[[Children], bool]] = {
     "cpf just started": lambda children: True,
-    "the broker spawned": lambda children: len(children) >= 1,
-    "two children spawned": lambda children: len(children) >= 2,
-    "every child spawned": lambda children: len(children) >= CHILDREN,
+    "the fork server spawned": lambda children: len(children) >= 1,
+    "the broker forked": lambda children: len(children) >= 2,
+    "two children forked": lambda children: len(children) >= 3,
+    "every child spawned": lambda children: len(children) >= PROCESSES,
     "the broker's interpreter runs": lambda children: bool(_broker(children)),
     "every child's interpreter runs": lambda children: sum(_python(c) for _, c in children) >= CHILDREN,
     # more than one thread: the imports are under way (numpy's threads) or the child serves (the lifeline's)
@@ -69,7 +72,9 @@ INSTANTS: dict[str, Callable[[Children], bool]] = {
     "every child's threads started": lambda children: (
         sum(_python(c) and threads(p) > 1 for p, c in children) >= CHILDREN
     ),
-    "every child on the bus (a socket open)": lambda children: sum(_sockets(p) > 0 for p, _ in children) >= CHILDREN,
+    "every child on the bus (a socket open)": lambda children: (
+        sum(_python(c) and _sockets(p) > 0 for p, c in children) >= CHILDREN
+    ),
 }
 
 

@@ -3,94 +3,17 @@
 from __future__ import annotations
 
 import argparse
-import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import NoReturn, TypeAlias
 
+from supervisor.cli import arg_types
 from supervisor.engine import resim_settings  # light: the table only, for the help text
 from supervisor.errors import ScenarioError
 
 START_TIMEOUT = 60.0  # s: cpf run's default --start-timeout
 LIVE_PORT = 8765  # --live without a port: Foxglove's default for a WebSocket connection (record.live.DEFAULT_PORT)
 Commands: TypeAlias = "argparse._SubParsersAction[argparse.ArgumentParser]"  # a string: not subscriptable at run time
-
-
-def _number(text: str) -> float:
-    """A finite number: inf and nan (which float() takes) are refused."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not math.isfinite(value):
-        raise argparse.ArgumentTypeError(f"must be finite, got {text}")
-    return value
-
-
-def _within(low: float, high: float) -> Callable[[str], float]:
-    """A number in [low, high]."""
-
-    def check(text: str) -> float:
-        value = _number(text)
-        if not low <= value <= high:
-            raise argparse.ArgumentTypeError(f"must be within [{low:g}, {high:g}], got {text}")
-        return value
-
-    return check
-
-
-def _positive(text: str) -> float:
-    value = _number(text)
-    if not value > 0:
-        raise argparse.ArgumentTypeError(f"must be > 0, got {text}")
-    return value
-
-
-def _whole(low: int, high: int) -> Callable[[str], int]:
-    """A whole number in [low, high]."""
-
-    def check(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected a whole number, got {text[:60]!r}") from None
-        if not low <= value <= high:
-            raise argparse.ArgumentTypeError(f"must be within [{low}, {high}], got {text[:60]}")
-        return value
-
-    return check
-
-
-_seed = _whole(0, 2**64 - 1)  # what the scenario's seed takes (numpy's generators take any, the log's JSON 64 bits)
-_step_number = _whole(0, 2**63 - 1)
-_pace = _within(0.0, 1e6)  # replay: 0 is as fast as possible
-_speed = _within(1e-3, 1e6)  # realtime pace: simulated s per wall s (inf would never wait, a tiny one never tick)
-
-
-def _ids(text: str) -> tuple[int, ...]:
-    try:
-        return tuple(int(part) for part in text.split(",") if part)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected comma-separated vehicle ids, got {text!r}") from None
-
-
-def _gamma0(text: str) -> tuple[int | None, float]:
-    """ID=GAMMA, or GAMMA alone (the process's one vehicle)."""
-    vid, _, value = text.rpartition("=")
-    if not vid:
-        return None, _number(value)
-    return _whole(1, 255)(vid), _number(value)
-
-
-def _per_process(text: str) -> int:
-    """--vehicles-per-process: a whole number >= 1."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number of vehicles, got {text[:60]!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1 (1: one process per vehicle), got {text[:60]}")
-    return value
 
 
 class _Help(argparse.ArgumentDefaultsHelpFormatter):
@@ -140,19 +63,15 @@ def _add_run(sub: Commands) -> None:
     run.add_argument("--engine", choices=["zenoh", "inprocess"], default="zenoh", help="default: zenoh")
     run.add_argument("--clock", choices=["lockstep", "realtime"], default="lockstep", help="default: lockstep")
     run.add_argument(
-        "--speed", type=_speed, default=None, help="realtime clock only: simulated s per wall s (default: 1)"
+        "--speed", type=arg_types.speed, default=None, help="realtime clock only: simulated s per wall s (default: 1)"
     )
     run.add_argument(
-        "--max-window", type=_whole(1, 2**63 - 1), default=None, metavar="STEPS",
+        "--max-window", type=arg_types.whole(1, 2**63 - 1), default=None, metavar="STEPS",
         help="zenoh engine, lockstep: at most this many steps per time window without the bus (1: a bus round trip "
         "per step, as before windows; default: 100, or fewer while a vehicle may transmit or something changes)",
     )  # fmt: skip
-    run.add_argument(
-        "--vehicles-per-process", type=_per_process, default=None, metavar="M",
-        help="zenoh engine: vehicles served by each vehicle process (1: one process per vehicle; default: 1 while "
-        "the fleet is at most twice the cores, else one host per core)",
-    )  # fmt: skip
-    run.add_argument("--seed", type=_seed, default=None, help="random seed (default: the scenario's)")
+    _add_run_processes(run)
+    run.add_argument("--seed", type=arg_types.seed, default=None, help="random seed (default: the scenario's)")
     run.add_argument("--out", type=Path, default=None, help="MCAP file to write (default: runs/<name>.mcap)")
     run.add_argument("--metrics", type=Path, default=None, help="also write the summary as JSON here")
     run.add_argument(
@@ -161,19 +80,35 @@ def _add_run(sub: Commands) -> None:
     )  # fmt: skip
     run.add_argument("--listen", default=None, help="Zenoh endpoint for the supervisor's router")
     run.add_argument("--connect", default=None, help="join this Zenoh router instead of running one")
-    run.add_argument("--remote", type=_ids, default=(), help="vehicle ids started by hand elsewhere (not spawned)")
+    run.add_argument(
+        "--remote", type=arg_types.ids, default=(), help="vehicle ids started by hand elsewhere (not spawned)"
+    )
     run.add_argument(
         "--credentials-dir", type=Path, default=None, metavar="DIR",
         help="write the --remote vehicles' credential files here (vehicle-N.json), for cpf vehicle --credentials",
     )  # fmt: skip
     _add_zenoh_config(run)
-    run.add_argument(
-        "--start-timeout", type=_positive, default=None, metavar="S",
-        help=f"zenoh engine: s to wait for every process to come alive (default: {START_TIMEOUT:g})",
-    )  # fmt: skip
     _add_live(run, "watch the run in Foxglove as it runs")
     run.add_argument("--quiet", action="store_true", help="no progress line")
     _add_scenario_changes(run)
+
+
+def _add_run_processes(run: argparse.ArgumentParser) -> None:
+    """The zenoh engine's processes: vehicles per process, how they start, how long they may take."""
+    run.add_argument(
+        "--vehicles-per-process", type=arg_types.per_process, default=None, metavar="M",
+        help="zenoh engine: vehicles served by each vehicle process (1: one process per vehicle; default: 1 while "
+        "the fleet is at most twice the cores, else one host per core)",
+    )  # fmt: skip
+    run.add_argument(
+        "--start", choices=["fork", "spawn"], default=None,
+        help="zenoh engine: processes forked from one that imported what they need (Linux; the default there), or "
+        "spawned, each a fresh interpreter",
+    )  # fmt: skip
+    run.add_argument(
+        "--start-timeout", type=arg_types.positive, default=None, metavar="S",
+        help=f"zenoh engine: s to wait for every process to come alive (default: {START_TIMEOUT:g})",
+    )  # fmt: skip
 
 
 def _add_scenario_changes(command: argparse.ArgumentParser) -> None:
@@ -210,7 +145,7 @@ def _add_processes(sub: Commands) -> None:
     )
     vehicle.add_argument("scenario", type=Path)
     vehicle.add_argument(
-        "--id", type=_whole(1, 255), action="append", required=True,
+        "--id", type=arg_types.whole(1, 255), action="append", required=True,
         help="vehicle id in the scenario (repeatable: one process serves them all, each on its own Zenoh session)",
     )  # fmt: skip
     vehicle.add_argument("--connect", required=True, help="Zenoh endpoint of the run's router")
@@ -221,12 +156,14 @@ def _add_processes(sub: Commands) -> None:
     )  # fmt: skip
     _add_zenoh_config(vehicle)
     _add_scenario_changes(vehicle)
-    vehicle.add_argument("--seed", type=_seed, default=None, help="the run's seed (default: the scenario's)")
+    vehicle.add_argument("--seed", type=arg_types.seed, default=None, help="the run's seed (default: the scenario's)")
     vehicle.add_argument("--resume", type=Path, default=None, help="a recorded state message to restart from")
-    vehicle.add_argument("--start-step", type=_step_number, default=0, help="the sync step to resume at")
-    vehicle.add_argument("--resume-seq", type=_step_number, default=0, help="the last transmission's sequence number")
+    vehicle.add_argument("--start-step", type=arg_types.step_number, default=0, help="the sync step to resume at")
     vehicle.add_argument(
-        "--gamma0", type=_gamma0, action="append", default=[], metavar="[ID=]GAMMA",
+        "--resume-seq", type=arg_types.step_number, default=0, help="the last transmission's sequence number"
+    )
+    vehicle.add_argument(
+        "--gamma0", type=arg_types.gamma0, action="append", default=[], metavar="[ID=]GAMMA",
         help="the initial gamma of vehicle ID (of the one --id without ID=), when the supervisor resolved 'closest'",
     )  # fmt: skip
     _add_plan(vehicle, "each --id", "--set, --fault, --gamma0, --resume and --start-step")
@@ -236,12 +173,12 @@ def _add_processes(sub: Commands) -> None:
 def _add_broker(sub: Commands) -> None:
     comms = sub.add_parser("comms", help="run the acoustic-link broker (the supervisor starts it)")
     comms.add_argument("scenario", type=Path)
-    comms.add_argument("--seed", type=_seed, default=None)
+    comms.add_argument("--seed", type=arg_types.seed, default=None)
     comms.add_argument("--connect", required=True, help="Zenoh endpoint of the run's router")
     _add_credentials(comms)
     _add_scenario_changes(comms)
     comms.add_argument(
-        "--start-step", type=_step_number, default=0, help="the sync step to resume at (after a restart)"
+        "--start-step", type=arg_types.step_number, default=0, help="the sync step to resume at (after a restart)"
     )
     _add_plan(comms, "the channel", "--seed, --set and --fault")
 
@@ -257,7 +194,7 @@ def _add_plan(command: argparse.ArgumentParser, served: str, unread: str) -> Non
 
 def _add_live(command: argparse.ArgumentParser, what: str) -> None:
     command.add_argument(
-        "--live", type=_whole(0, 65535), nargs="?", const=LIVE_PORT, default=None, metavar="PORT",
+        "--live", type=arg_types.whole(0, 65535), nargs="?", const=LIVE_PORT, default=None, metavar="PORT",
         help=f"{what}: serve Foxglove's WebSocket protocol on 127.0.0.1:PORT (default {LIVE_PORT}; 0: a free port, "
         "printed); in Foxglove: Open connection -> Foxglove WebSocket",
     )  # fmt: skip
@@ -275,17 +212,17 @@ def _add_log_commands(sub: Commands) -> None:
         help="KEY=v1,v2,... or KEY=start:stop:step, e.g. comms.loss=0:0.8:0.1 (repeatable: a grid)",
     )  # fmt: skip
     sweep.add_argument(
-        "--seeds", type=_whole(1, 10**6), default=10, help="runs per parameter combination, seeds 0..N-1"
+        "--seeds", type=arg_types.whole(1, 10**6), default=10, help="runs per parameter combination, seeds 0..N-1"
     )
     sweep.add_argument(
-        "--jobs", type=_whole(1, 256), default=None, help="runs at once, one local process each (default 2)"
+        "--jobs", type=arg_types.whole(1, 256), default=None, help="runs at once, one local process each (default 2)"
     )
     sweep.add_argument(
         "--cluster", default=None, metavar="ADDRESS",
         help="send the runs to this Dask scheduler (tcp://host:8786) instead; its workers need cpf-cosim installed",
     )  # fmt: skip
     sweep.add_argument(
-        "--cluster-timeout", type=_within(0.1, 1e6), default=30.0, metavar="S",
+        "--cluster-timeout", type=arg_types.within(0.1, 1e6), default=30.0, metavar="S",
         help="s to wait for the scheduler to answer, and for a worker while the cluster has none (default 30)",
     )  # fmt: skip
     sweep.add_argument("--engine", choices=["inprocess", "zenoh"], default="inprocess", help="identical results")
@@ -325,14 +262,20 @@ def _add_replay_and_recover(sub: Commands) -> None:
         "pause/resume, + faster, - slower, left/right seek 10 s, q quit.",
     )
     again.add_argument("log", type=Path, help="MCAP file written by cpf run")
-    again.add_argument("--speed", type=_pace, default=1.0, help="simulated s per wall s (0: as fast as possible)")
-    again.add_argument("--start", type=_number, default=None, help="from this simulation time in s (inclusive)")
-    again.add_argument("--end", type=_number, default=None, help="up to this simulation time in s (inclusive)")
+    again.add_argument(
+        "--speed", type=arg_types.pace, default=1.0, help="simulated s per wall s (0: as fast as possible)"
+    )
+    again.add_argument(
+        "--start", type=arg_types.number, default=None, help="from this simulation time in s (inclusive)"
+    )
+    again.add_argument("--end", type=arg_types.number, default=None, help="up to this simulation time in s (inclusive)")
     again.add_argument("--loop", action="store_true", help="replay the window again and again until Ctrl-C")
     where = again.add_mutually_exclusive_group()
     where.add_argument("--listen", default=None, help="endpoint of the replayer's router (default: a free local port)")
     where.add_argument("--connect", default=None, help="join this Zenoh router as a client instead of running one")
-    again.add_argument("--delay", type=_pace, default=None, metavar="S", help="start S s after opening, not on Enter")
+    again.add_argument(
+        "--delay", type=arg_types.pace, default=None, metavar="S", help="start S s after opening, not on Enter"
+    )
     _add_live(again, "watch the replay in Foxglove (the log's scene, or one built from its records)")
     again.add_argument("--quiet", action="store_true", help="no progress line")
     _add_zenoh_config(again)
@@ -383,16 +326,22 @@ def _add_per(sub: Commands) -> None:
         help="modem preset (repeatable; default: every preset with a bitrate)",
     )  # fmt: skip
     for flag, kind, default, metavar, text in (
-        ("--source-level", _within(0.0, 300.0), 185.0, "DB", "source level, dB re 1 uPa at 1 m"),
-        ("--bytes", _whole(1, 65536), 15, "B", "packet size before padding to the modem's frames"),
-        ("--shadowing", _within(0.0, 30.0), 4.0, "DB", "log-normal shadowing, standard deviation in dB (0: none)"),
+        ("--source-level", arg_types.within(0.0, 300.0), 185.0, "DB", "source level, dB re 1 uPa at 1 m"),
+        ("--bytes", arg_types.whole(1, 65536), 15, "B", "packet size before padding to the modem's frames"),
+        (
+            "--shadowing",
+            arg_types.within(0.0, 30.0),
+            4.0,
+            "DB",
+            "log-normal shadowing, standard deviation in dB (0: none)",
+        ),
         ("--rician-k", _k_factor, 1.0, "K", "fast fading: Rician K factor, 0 for Rayleigh, 'none' for no fast fading"),
-        ("--spreading", _within(1.0, 2.0), 1.5, "K", "spreading exponent"),
-        ("--draws", _whole(10, 1_000_000), 2000, "N", "packets drawn per marked range (the dots)"),
+        ("--spreading", arg_types.within(1.0, 2.0), 1.5, "K", "spreading exponent"),
+        ("--draws", arg_types.whole(10, 1_000_000), 2000, "N", "packets drawn per marked range (the dots)"),
     ):
         per.add_argument(flag, type=kind, default=default, metavar=metavar, help=text)
     per.add_argument("--out", type=Path, default=Path("per.png"), help="PNG file to write")
 
 
 def _k_factor(text: str) -> float | None:
-    return None if text.strip().lower() == "none" else _within(0.0, 1000.0)(text)
+    return None if text.strip().lower() == "none" else arg_types.within(0.0, 1000.0)(text)

@@ -45,6 +45,7 @@ def _option_errors(args: argparse.Namespace, scenario: Scenario) -> list[str]:
         given = {"--remote": args.remote or None, "--listen": args.listen, "--connect": args.connect}
         given |= {"--start-timeout": args.start_timeout, "--credentials-dir": args.credentials_dir}
         given |= {"--zenoh-config": args.zenoh_config, "--vehicles-per-process": args.vehicles_per_process}
+        given |= {"--start": args.start}
         errors += [
             f"{option}: only the zenoh engine has processes to place (--engine inprocess runs one), got {value}"
             for option, value in given.items()
@@ -164,6 +165,7 @@ def _simulate(args: argparse.Namespace, scenario: Scenario, out: Path, live: Liv
     changes = (tuple(args.set), tuple(args.fault))
     bus = BusOptions(args.listen, args.connect, args.remote, *changes, timeout, args.credentials_dir, args.zenoh_config)
     bus.per_process = args.vehicles_per_process
+    bus.fork = args.start != "spawn"
     logging.getLogger("cpf.engine").setLevel(logging.INFO)  # "waiting for ...": --quiet or not
     how = (args.clock, speed, bus, progress, args.max_window)
     return run_zenoh(scenario, args.scenario, text, out, seed, *how, scene=args.foxglove, live=live)

@@ -119,7 +119,7 @@ def _supervisor(
     with (
         run_access(sc, bus, endpoint) as access,
         open_session(mode, listen, connect, access.router) as session,
-        ProcessGroup(access.env_of, access.fds_of) as procs,
+        ProcessGroup(access.env_of, access.fds_of, fork=str(path) if bus.fork else None) as procs,
         tempfile.TemporaryDirectory(prefix="cpf-run-") as private_dir,
     ):
         inbox = _inbox(session)

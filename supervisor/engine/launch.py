@@ -40,6 +40,7 @@ class BusOptions:
         self.credentials_dir = credentials_dir  # where the --remote vehicles' credential files are written
         self.zenoh_config = zenoh_config  # the site's Zenoh config file, under cpf's settings, every process's
         self.per_process: int | None = None  # vehicles per vehicle process (None: supervisor.engine.hosting's default)
+        self.fork = True  # children forked from a fork server where the platform allows (supervisor.cli.fork_server)
 
 
 @dataclass(frozen=True, slots=True)

@@ -1,0 +1,157 @@
+"""The supervisor's side of the fork server (supervisor.cli.fork_server): start it, ask it for children, know how they
+end.
+
+A forked child is the fork server's child, not ours, so `ForkedProcess` stands in for its subprocess.Popen: its pid,
+its pidfd (sent by the server, which opened it before it could reap the child: no pid reuse can fool it), and its
+exit status from the server's messages. Should the server be gone (killed), a child's end is still seen on its
+pidfd, its status then unknown (LOST).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import select
+import socket
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Callable, Mapping
+from typing import Any
+
+CLI = ("-m", "supervisor.cli")  # the command lines the server can fork: `python [-P] -m supervisor.cli ...`
+LOST = 255  # the exit code of a child whose status went with a killed fork server
+STATUS_WAIT = 1.0  # s for the server's word on a child its pidfd says has ended
+SOCKET_ENV = "CPF_FORK_SERVER_SOCKET"  # the descriptor of the fork server's end of the socket
+MAX_MESSAGE = 1 << 20  # bytes: a request carries the child's whole environment
+MAX_FDS = 64
+
+
+def available() -> bool:
+    """Forking needs Linux's pidfds (5.3) and descriptor passing."""
+    return sys.platform.startswith("linux") and hasattr(os, "pidfd_open") and hasattr(socket, "send_fds")
+
+
+def cli_args(argv: list[str]) -> list[str] | None:
+    """What follows `-m supervisor.cli` in a child's command line run by this interpreter; None for another."""
+    if not argv or argv[0] != sys.executable:
+        return None
+    for at in range(1, len(argv) - 1):
+        if tuple(argv[at : at + 2]) == CLI:
+            return argv[at + 2 :] if all(a == "-P" for a in argv[1:at]) else None
+    return None
+
+
+class ForkServer:
+    """The client: Popen-like handles for children forked by the server, which `spawn` (a ProcessGroup's, with the
+    lifeline as stdin) started."""
+
+    def __init__(
+        self, spawn: Callable[[list[str], Mapping[str, str], tuple[int, ...]], Any], label: str, timeout: float
+    ) -> None:
+        """spawn(argv, env, fds): start the server process as a child (its handle is kept as .process); label: on
+        its command line, `--run <label>` (the scenario file: what ps, and tests, find a run's processes by);
+        timeout: s for it to say it is ready."""
+        mine, theirs = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
+        try:
+            env = {**os.environ, SOCKET_ENV: str(theirs.fileno())}
+            argv = [sys.executable, "-P", "-m", "supervisor.cli.fork_server", "--run", label]
+            self.process = spawn(argv, env, (theirs.fileno(),))
+        finally:
+            theirs.close()
+        self.sock = mine
+        self.gone = False
+        self._lock = threading.RLock()
+        self._status: dict[int, int] = {}
+        self._ready(timeout)
+
+    def _ready(self, timeout: float) -> None:
+        end = time.monotonic() + timeout
+        while time.monotonic() < end and self.process.poll() is None:
+            if select.select([self.sock], [], [], 0.05)[0]:
+                if self.sock.recv(MAX_MESSAGE) == b'"ready"':
+                    return
+                break
+        self.close()
+        raise OSError("the fork server did not start")
+
+    def fork(
+        self, args: list[str], env: Mapping[str, str], stdio: tuple[int, int], fds: tuple[int, ...]
+    ) -> ForkedProcess:
+        """A child running `cpf <args>` with stdin and stderr (stdio) and fds at their numbers; OSError if the
+        server is gone or refused."""
+        title = " ".join([sys.executable, "-P", *CLI, *args])  # the command line a spawned child would show
+        request = {"argv": args, "title": title, "env": dict(env), "cwd": os.getcwd(), "targets": list(fds)}
+        with self._lock:
+            if self.gone:
+                raise OSError("the fork server is gone")
+            socket.send_fds(self.sock, [json.dumps(request).encode()], [*stdio, *fds])
+            while True:
+                message, received = self._receive(None)
+                if message is None:
+                    raise OSError("the fork server is gone")
+                if "pid" in message:
+                    return ForkedProcess(message["pid"], received[0], self)
+                if "error" in message:
+                    raise OSError(f"the fork server refused: {message['error']}")
+
+    def status(self, pid: int, timeout: float) -> int | None:
+        """The wait status of child pid, reading the server's messages for up to timeout s; None if not heard."""
+        end = time.monotonic() + timeout
+        with self._lock:
+            while pid not in self._status and not self.gone and time.monotonic() < end:
+                self._receive(max(0.0, end - time.monotonic()))
+            return self._status.pop(pid, None)
+
+    def _receive(self, timeout: float | None) -> tuple[dict[str, Any] | None, list[int]]:
+        """One message (an exit is recorded on the way), or None if none came in timeout s or the server is gone."""
+        if self.gone or not select.select([self.sock], [], [], timeout)[0]:
+            return None, []
+        try:
+            data, fds, _, _ = socket.recv_fds(self.sock, MAX_MESSAGE, MAX_FDS)
+        except OSError:
+            data, fds = b"", []
+        if not data:
+            self.gone = True
+            return None, []
+        message = json.loads(data)
+        if "exit" in message:
+            self._status[message["exit"]] = message["status"]
+        return message, fds
+
+    def close(self) -> None:
+        with self._lock:
+            self.gone = True
+            self.sock.close()
+
+
+class ForkedProcess:
+    """What ProcessGroup needs of a subprocess.Popen, for a forked child."""
+
+    def __init__(self, pid: int, pidfd: int, server: ForkServer) -> None:
+        self.pid, self._pidfd, self._server = pid, pidfd, server
+        self.returncode: int | None = None
+
+    def poll(self) -> int | None:
+        if self.returncode is None and self._ended(0.0):
+            self._settle()
+        return self.returncode
+
+    def wait(self, timeout: float | None = None) -> int:
+        if self.returncode is None:
+            if not self._ended(timeout):
+                raise subprocess.TimeoutExpired(["forked", str(self.pid)], timeout or 0.0)
+            self._settle()
+        assert self.returncode is not None
+        return self.returncode
+
+    def _ended(self, timeout: float | None) -> bool:
+        return bool(select.select([self._pidfd], [], [], timeout)[0])
+
+    def _settle(self) -> None:
+        status = self._server.status(self.pid, STATUS_WAIT)
+        self.returncode = LOST if status is None else os.waitstatus_to_exitcode(status)
+        with contextlib.suppress(OSError):
+            os.close(self._pidfd)
