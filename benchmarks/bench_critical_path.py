@@ -29,6 +29,16 @@ TICKS = os.sysconf("SC_CLK_TCK")
 STEPPING = re.compile(r"stepping ([0-9.]+) s")
 
 
+def _descendants(root: int) -> list[int]:
+    """Every process below root: its children and theirs (the run's processes are forked by its fork server)."""
+    tree, found, todo = _children(), [], [root]
+    while todo:
+        below = tree.get(todo.pop(), [])
+        found += below
+        todo += below
+    return found
+
+
 def _children() -> dict[int, list[int]]:
     """ppid -> pids of every process on the machine."""
     tree: dict[int, list[int]] = {}
@@ -50,6 +60,8 @@ def _name(pid: int, root: int) -> str | None:
     except OSError:
         return None
     words = cmdline.replace(b"\0", b" ").decode(errors="replace").split()  # a forked child's title: one string
+    if "supervisor.cli.fork_server" in words:
+        return "fork server"
     if "comms" in words:
         return "broker"
     if "vehicle" in words and "--id" in words:
@@ -77,11 +89,11 @@ def sample(
 ) -> None:
     """CPU s of the run's processes by name (the last sample of each: a process's CPU only grows), and in ctx the
     context switches of each of their threads (the last sample of each thread: counts only grow);
-    expected: how many processes the run has (the supervisor, the broker, the vehicles)."""
+    expected: how many processes the run has (the supervisor, the fork server, the broker, the vehicles)."""
     names: dict[int, str] = {}
     while not stop.wait(0.05):
         if len(names) < expected:  # until every child is there: /proc scans cost
-            for pid in _children().get(root, []):
+            for pid in _descendants(root):
                 name = _name(pid, root)
                 if name is not None:
                     names[pid] = name
@@ -106,7 +118,7 @@ def run_once(tree: Path, scenario: str, vehicles: int) -> dict[str, Any]:
         start = time.perf_counter()
         proc = subprocess.Popen(argv, cwd=tree, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         stop = threading.Event()
-        sampler = threading.Thread(target=sample, args=(proc.pid, vehicles + 2, cpu, stop, ctx), daemon=True)
+        sampler = threading.Thread(target=sample, args=(proc.pid, vehicles + 3, cpu, stop, ctx), daemon=True)
         sampler.start()
         out, err = proc.communicate()
         wall = time.perf_counter() - start

@@ -13,6 +13,7 @@ import contextlib
 import json
 import os
 import select
+import signal
 import socket
 import subprocess
 import sys
@@ -75,6 +76,9 @@ class ForkServer:
                     return
                 break
         self.close()
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(self.process.pid, signal.SIGKILL)  # its own session: its group is its pid
+        self.process.wait()
         raise OSError("the fork server did not start")
 
     def fork(

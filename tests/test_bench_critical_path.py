@@ -12,7 +12,7 @@ from benchmarks.bench_critical_path import run_once, summary
 from tests.conftest import CONFIGS, ROOT, shortened
 
 pytestmark = pytest.mark.e2e
-PROCESSES = {"supervisor", "broker", "vehicle 1", "vehicle 2", "vehicle 3"}
+PROCESSES = {"supervisor", "fork server", "broker", "vehicle 1", "vehicle 2", "vehicle 3"}
 
 
 def test_a_sampled_run_names_every_process_with_its_cpu_and_switches(tmp_path: Path) -> None:
@@ -20,6 +20,8 @@ def test_a_sampled_run_names_every_process_with_its_cpu_and_switches(tmp_path: P
     scenario.write_text(shortened((CONFIGS / "paper.toml").read_text(), 3.0))
     run = run_once(ROOT, str(scenario), 3)
     assert set(run["cpu_s"]) == PROCESSES and set(run["switches"]) == PROCESSES
-    assert all(voluntary > 0 and threads > 1 for voluntary, _, threads in run["switches"].values())
+    switches = dict(run["switches"])
+    assert switches.pop("fork server")[2] == 1  # no thread of its own: a fork copies only the forking one
+    assert all(voluntary > 0 and threads > 1 for voluntary, _, threads in switches.values())
     row = {"tree": "here", "steps": 30, "best": run, "ms_per_step": 2.0, "floor_ms_per_step": 1.0}
     assert "(lean bus floor 1.00 ms: 2.00x it; issue 26's target <= 1.5x)" in summary(row)

@@ -312,16 +312,25 @@ def handed_out_privately(marker: str) -> None:
         assert time.monotonic() < end, children  # the broker, vehicles 1 and 3 (vehicle 2 is started by hand)
         time.sleep(0.05)
     for pid in children:
-        environ = dict(
-            item.split("=", 1) for item in Path(f"/proc/{pid}/environ").read_text().split("\0") if "=" in item
-        )
-        path = Path(environ[ENV].replace("/proc/self/", f"/proc/{pid}/"))
+        path = _credential_of(pid)
         if hasattr(os, "memfd_create"):
             assert os.readlink(path).startswith("/memfd:cpf-"), os.readlink(path)  # no file on any disk
         else:
             assert path.stat().st_mode & 0o777 == 0o600 and path.parent.stat().st_mode & 0o777 == 0o700
         password = read_credential(path).password
         assert not [cmd for _, cmd in processes_with(password)]
+
+
+def _credential_of(pid: int) -> Path:
+    """Where the child's credential is: on Linux the one memory file it holds (a forked child's environment is set
+    in the process, after its start, so /proc/<pid>/environ shows the fork server's), elsewhere the file its
+    environment names."""
+    if hasattr(os, "memfd_create"):
+        fds = [Path(f"/proc/{pid}/fd/{fd}") for fd in os.listdir(f"/proc/{pid}/fd")]
+        (held,) = [fd for fd in fds if os.readlink(fd).startswith("/memfd:cpf-")]
+        return held
+    environ = dict(item.split("=", 1) for item in Path(f"/proc/{pid}/environ").read_text().split("\0") if "=" in item)
+    return Path(environ[ENV].replace("/proc/self/", f"/proc/{pid}/"))
 
 
 # --- options ------------------------------------------------------------------------------------------------------

@@ -16,6 +16,7 @@ from pathlib import Path
 import pytest
 
 from comms.bus.bus import free_port
+from supervisor import processes
 from supervisor.forked import LOST, cli_args
 from supervisor.processes import ProcessGroup
 from tests.conftest import shortened
@@ -178,3 +179,17 @@ def test_a_childs_end_is_seen_though_its_fork_server_is_gone(tmp_path: Path, pap
         assert isinstance(later.process, subprocess.Popen)
         assert wait_until(lambda: _watching(later.process.pid))
     assert processes_with(str(scenario)) == []
+
+
+def test_a_fork_server_that_cannot_start_leaves_the_children_spawned(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    """No time to say it is ready: the server is stopped, said so, and the child spawned as before."""
+    monkeypatch.setattr(processes, "FORK_SERVER_TIMEOUT", 0.0)
+    with ProcessGroup(fork="label") as group:
+        child = group.spawn("validate", [sys.executable, "-P", "-m", "supervisor.cli", "validate", "nowhere.toml"])
+        assert isinstance(child.process, subprocess.Popen)
+        assert child.process.wait(timeout=60) == 2
+        assert group.fork_server is None
+    assert "no fork server (the fork server did not start): spawning every process" in caplog.text
+    assert processes_with("supervisor.cli.fork_server --run label") == []
