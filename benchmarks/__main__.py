@@ -17,9 +17,11 @@
 9. targets: issue 15's cases as whole `cpf run` / `cpf sweep` commands, both engines side by side
    (benchmarks.bench_targets; --targets picks the cases, "none" skips them);
 10. critical path: the Zenoh paper run's stepping per step against the lean bus floor measured right after it, and
-   each process's CPU, threads and context switches per step (benchmarks.bench_critical_path; issue 26).
+   each process's CPU, threads and context switches per step (benchmarks.bench_critical_path; issue 26);
+11. start-up: 10 and 50 AUVs one process each, forked from the fork server and spawned, alternating: start-up,
+   stepping rate, peak memory per vehicle process (benchmarks.bench_startup; issue 26).
 Each part is also a module of its own (benchmarks.bench_engines, bench_scaling, bench_realtime, bench_bus_floor,
-bench_parse, bench_ready, bench_live, bench_report, bench_targets, bench_critical_path); benchmarks.bench_side_by_side
+bench_parse, bench_ready, bench_live, bench_report, bench_targets, bench_critical_path, bench_startup); benchmarks.bench_side_by_side
 compares this tree with another checkout; bench_record and bench_intake are diagnostics with no target of their own.
 Results go to benchmarks/results/*.json; the targets are printed next to the numbers. Speed is checked here, never
 in tests.
@@ -42,6 +44,7 @@ from benchmarks import (
     bench_realtime,
     bench_report,
     bench_scaling,
+    bench_startup,
     bench_targets,
     save,
 )
@@ -78,8 +81,12 @@ def main() -> None:
     critical = bench_critical_path.measure_paper(ROOT, args.repeat)
     print(bench_critical_path.summary(critical), flush=True)
 
+    startup = [bench_startup.measure(n, args.scaling_duration, args.repeat) for n in (10, 50)]
+    for row in startup:
+        print(bench_startup.summary(row), flush=True)
+
     everything = {"engines": engines, "scaling": scaling, "realtime": realtime, "bus_floor": floor}
-    everything["critical_path"] = critical
+    everything |= {"critical_path": critical, "startup": startup}
     everything |= commands(paper, args.repeat)
     everything["targets"] = (
         [] if args.targets == "none" else bench_targets.run(args.targets.split(","), args.repeat, 100)

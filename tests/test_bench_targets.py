@@ -3,7 +3,7 @@ benchmark itself is run by `make bench`, never in tests)."""
 
 from __future__ import annotations
 
-from benchmarks import bench_ready
+from benchmarks import bench_ready, bench_startup
 from benchmarks.bench_targets import CASES, scenario_text
 from supervisor.config.scenario import parse_scenario
 
@@ -18,7 +18,17 @@ def test_every_case_is_a_valid_scenario_of_its_size_and_message_rate() -> None:
 
 
 def test_the_readiness_benchmark_sees_a_vehicle_come_alive() -> None:
-    """Smoke run of benchmarks/bench_ready.py: one start, timed to its liveliness token (the number is the
-    benchmark's, never asserted here)."""
+    """Smoke run of benchmarks/bench_ready.py: one start spawned, one forked, each timed to its liveliness token (the
+    numbers are the benchmark's, never asserted here)."""
     row = bench_ready.measure(1)
-    assert len(row["ready_s_all"]) == 1 and row["ready_s_best"] > 0
+    for how in ("spawn", "fork"):
+        assert len(row[f"{how}_ready_s_all"]) == 1 and row[f"{how}_ready_s_best"] > 0
+    assert "forked" in bench_ready.summary(row)
+
+
+def test_the_startup_benchmark_starts_a_fleet_forked_and_spawned() -> None:
+    """Smoke run of benchmarks/bench_startup.py: 3 AUVs, 1 s, once each way."""
+    row = bench_startup.measure(3, 1.0, 1)
+    for how in ("fork", "spawn"):
+        assert row[how]["startup_s"]["best"] > 0 and row[how]["peak_rss_mb"]["best"] > 0
+    assert "fork start-up" in bench_startup.summary(row)
