@@ -21,10 +21,10 @@
 11. start-up: 10 and 50 AUVs one process each, forked from the fork server and spawned, alternating: start-up,
    stepping rate, peak memory per vehicle process (benchmarks.bench_startup; issue 26).
 Each part is also a module of its own (benchmarks.bench_engines, bench_scaling, bench_realtime, bench_bus_floor,
-bench_parse, bench_ready, bench_live, bench_report, bench_targets, bench_critical_path, bench_startup); benchmarks.bench_side_by_side
-compares this tree with another checkout; bench_record and bench_intake are diagnostics with no target of their own.
-Results go to benchmarks/results/*.json; the targets are printed next to the numbers. Speed is checked here, never
-in tests.
+bench_parse, bench_ready, bench_live, bench_report, bench_targets, bench_critical_path, bench_startup);
+benchmarks.bench_side_by_side compares this tree with another checkout; bench_record and bench_intake are
+diagnostics with no target of their own. Results go to benchmarks/results/*.json; the targets are printed next to
+the numbers. Speed is checked here, never in tests.
 """
 
 from __future__ import annotations
