@@ -50,35 +50,42 @@ def measure(repeat: int) -> dict[str, Any]:
     write_private(plan, vehicle_starts(load_scenario(ROOT / "configs/paper.toml", (), ()), [1]))
     argv = [sys.executable, "-P", "-m", "supervisor.cli", "vehicle", str(ROOT / "configs/paper.toml"), "--id", "1"]
     argv += ["--plan", str(plan), "--connect", endpoint]
-    times: dict[str, list[float]] = {"spawn": [], "fork": []}
     group = ProcessGroup(fork="bench-ready")
     try:
         start = time.perf_counter()
         group.spawn("first", [*argv[:4], "validate", str(ROOT / "configs/paper.toml")]).process.wait()
-        server_start = time.perf_counter() - start  # the fork server's start, with its first child's request
-        for _ in range(repeat):
-            for how in times:
-                came.clear()
-                went.clear()
-                start = time.perf_counter()
-                kill = _start(how, argv, group)
-                try:
-                    if not came.wait(TIMEOUT):
-                        raise SystemExit(f"the vehicle process ({how}) was not ready within {TIMEOUT:g} s")
-                    times[how].append(time.perf_counter() - start)
-                finally:
-                    kill()
-                went.wait(TIMEOUT)  # its token gone: the next start is not seen as this one
+        row: dict[str, Any] = {"fork_server_start_s": time.perf_counter() - start}  # with its first child's request
+        times = _starts(repeat, lambda how: _start(how, argv, group), came, went)
     finally:
         group.stop()
         subscriber.undeclare()
         session.close()
         private.cleanup()
-    row: dict[str, Any] = {"fork_server_start_s": server_start}
     for how, values in times.items():
         row |= {f"{how}_ready_s_best": min(values), f"{how}_ready_s_spread": max(values) - min(values)}
         row[f"{how}_ready_s_all"] = values
     return row
+
+
+def _starts(
+    repeat: int, start_one: Callable[[str], Callable[[], Any]], came: threading.Event, went: threading.Event
+) -> dict[str, list[float]]:
+    """repeat starts each way, alternating: s from the request to the token's arrival."""
+    times: dict[str, list[float]] = {"spawn": [], "fork": []}
+    for _ in range(repeat):
+        for how in times:
+            came.clear()
+            went.clear()
+            start = time.perf_counter()
+            kill = start_one(how)
+            try:
+                if not came.wait(TIMEOUT):
+                    raise SystemExit(f"the vehicle process ({how}) was not ready within {TIMEOUT:g} s")
+                times[how].append(time.perf_counter() - start)
+            finally:
+                kill()
+            went.wait(TIMEOUT)  # its token gone: the next start is not seen as this one
+    return times
 
 
 def _start(how: str, argv: list[str], group: ProcessGroup) -> Callable[[], Any]:

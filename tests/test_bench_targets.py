@@ -29,6 +29,6 @@ def test_the_readiness_benchmark_sees_a_vehicle_come_alive() -> None:
 def test_the_startup_benchmark_starts_a_fleet_forked_and_spawned() -> None:
     """Smoke run of benchmarks/bench_startup.py: 3 AUVs, 1 s, once each way."""
     row = bench_startup.measure(3, 1.0, 1)
-    for how in ("fork", "spawn"):
-        assert row[how]["startup_s"]["best"] > 0 and row[how]["peak_rss_mb"]["best"] > 0
+    for how in ("fork", "spawn"):  # (memory is sampled every 0.2 s: a run this short may end unsampled)
+        assert row[how]["startup_s"]["best"] > 0 and row[how]["real_time_factor"]["best"] > 0
     assert "fork start-up" in bench_startup.summary(row)

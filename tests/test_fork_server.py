@@ -173,7 +173,7 @@ def test_a_childs_end_is_seen_though_its_fork_server_is_gone(tmp_path: Path, pap
         assert wait_until(lambda: _watching(child.process.pid))
         os.kill(_server(group), signal.SIGKILL)
         assert child.process.poll() is None  # it serves on
-        os.killpg(child.process.pid, signal.SIGTERM)
+        os.killpg(child.process.pid, signal.SIGKILL)  # (SIGTERM waits for Zenoh's connect to give up: 30 s)
         assert child.process.wait(timeout=30) == LOST
         later = group.spawn("vehicle 1", argv)  # no server to fork it: spawned
         assert isinstance(later.process, subprocess.Popen)
