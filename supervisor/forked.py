@@ -66,20 +66,22 @@ class ForkServer:
         self.gone = False
         self._lock = threading.RLock()
         self._status: dict[int, int] = {}
-        self._ready(timeout)
+        try:
+            if not self._ready(timeout):
+                raise OSError("the fork server did not start")
+        except BaseException:  # Ctrl-C while it starts too: not left running
+            self.close()
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(self.process.pid, signal.SIGKILL)  # its own session: its group is its pid
+            self.process.wait()
+            raise
 
-    def _ready(self, timeout: float) -> None:
+    def _ready(self, timeout: float) -> bool:
         end = time.monotonic() + timeout
         while time.monotonic() < end and self.process.poll() is None:
             if _readable(self.sock.fileno(), 0.05):
-                if self.sock.recv(MAX_MESSAGE) == b'"ready"':
-                    return
-                break
-        self.close()
-        with contextlib.suppress(ProcessLookupError):
-            os.killpg(self.process.pid, signal.SIGKILL)  # its own session: its group is its pid
-        self.process.wait()
-        raise OSError("the fork server did not start")
+                return self.sock.recv(MAX_MESSAGE) == b'"ready"'
+        return False
 
     def fork(
         self, args: list[str], env: Mapping[str, str], stdio: tuple[int, int], fds: tuple[int, ...]
