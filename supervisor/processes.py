@@ -8,6 +8,10 @@ has no name (unlinked at once), so a supervisor that is killed leaves none behin
 No child outlives the supervisor by more than about a second, whenever and however it ends: every child is started
 through comms.bus.lifeline's launcher, with the read end of a pipe as its stdin (the write end stays here, and the
 kernel closes it when this process ends) and, on Linux, a parent-death signal that covers the child's start-up.
+A group that forks (the Zenoh engine's, on Linux) starts its `cpf` children from a fork server instead
+(supervisor.forked, supervisor.cli.fork_server): the same session, stdin, stderr and descriptors, the fork server
+itself a child started as above, each forked child's parent-death signal the fork server's until it watches its
+lifeline.
 """
 
 from __future__ import annotations
