@@ -61,7 +61,8 @@ def _name(pid: int, root: int) -> str | None:
         return None
     words = cmdline.replace(b"\0", b" ").decode(errors="replace").split()  # a forked child's title: one string
     if "supervisor.cli.fork_server" in words:
-        return "fork server"
+        # cpf's own child; a child it has just forked shows its command line too, until it sets its own title
+        return "fork server" if pid in _children().get(root, []) else None
     if "comms" in words:
         return "broker"
     if "vehicle" in words and "--id" in words:

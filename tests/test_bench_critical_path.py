@@ -4,11 +4,14 @@ timing is asserted here)."""
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
 
-from benchmarks.bench_critical_path import run_once, summary
+from benchmarks.bench_critical_path import _name, run_once, summary
 from tests.conftest import CONFIGS, ROOT, shortened
 
 pytestmark = pytest.mark.e2e
@@ -25,3 +28,15 @@ def test_a_sampled_run_names_every_process_with_its_cpu_and_switches(tmp_path: P
     assert all(voluntary > 0 and threads > 1 for voluntary, _, threads in switches.values())
     row = {"tree": "here", "steps": 30, "best": run, "ms_per_step": 2.0, "floor_ms_per_step": 1.0}
     assert "(lean bus floor 1.00 ms: 2.00x it; issue 26's target <= 1.5x)" in summary(row)
+
+
+def test_only_cpfs_own_child_is_named_the_fork_server() -> None:
+    """A child the fork server has just forked shows the server's command line until it sets its own title: sampled
+    then, it was counted as the fork server (2 threads, in 1 of 3 fresh-clone runs). Only cpf's own child is."""
+    argv = [sys.executable, "-c", "import sys; sys.stdin.read()", "-m", "supervisor.cli.fork_server", "--run", "x"]
+    with subprocess.Popen(argv, stdin=subprocess.PIPE) as lookalike:
+        try:
+            assert _name(lookalike.pid, os.getpid()) == "fork server"  # our child: the fork server of "our" run
+            assert _name(lookalike.pid, os.getppid()) is None  # a grandchild of that cpf: a child not yet titled
+        finally:
+            lookalike.kill()
