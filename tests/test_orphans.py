@@ -43,7 +43,7 @@ Children = list[tuple[int, str]]
 
 def _python(cmd: str) -> bool:
     """The child's own interpreter runs (past the launcher that sets up its lifeline)."""
-    return "supervisor.cli" in cmd and "lifeline" not in cmd
+    return "supervisor.cli " in cmd and "lifeline" not in cmd  # not the fork server (supervisor.cli.fork_server)
 
 
 def _broker(children: Children) -> list[int]:
