@@ -55,6 +55,14 @@ def processes_with(marker: str) -> list[tuple[int, str]]:
     return found
 
 
+def watching_lifeline(pid: int) -> bool:
+    """A thread of the process waits in the kernel's pipe read (the lifeline's: nothing else of a child does)."""
+    try:
+        return any("pipe" in (task / "wchan").read_text() for task in Path(f"/proc/{pid}/task").iterdir())
+    except OSError:
+        return False
+
+
 def threads(pid: int) -> int:
     """How many threads the process has (0 once it is gone)."""
     try:

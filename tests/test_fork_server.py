@@ -27,6 +27,7 @@ from tests.procs import (
     wait_for_no_processes,
     wait_for_progress,
     wait_until,
+    watching_lifeline,
 )
 from tests.test_faults_e2e import read_run
 
@@ -60,27 +61,35 @@ def _cmdline(pid: int) -> str:
         return ""
 
 
-def _watching(pid: int) -> bool:
-    """A thread of the process waits in the kernel's pipe read: the lifeline's."""
-    try:
-        return any("pipe" in (task / "wchan").read_text() for task in Path(f"/proc/{pid}/task").iterdir())
-    except OSError:
-        return False
+def _stuck_vehicle(scenario: Path, text: str) -> tuple[Path, list[str]]:
+    """The scenario written, and the command line of its vehicle 1 joining a router that never comes (it waits in
+    Zenoh's connect until its lifeline ends it)."""
+    scenario.write_text(text)
+    nowhere = f"tcp/127.0.0.1:{free_port()}"
+    return scenario, [
+        sys.executable,
+        "-P",
+        "-m",
+        "supervisor.cli",
+        "vehicle",
+        str(scenario),
+        "--id",
+        "1",
+        "--connect",
+        nowhere,
+    ]
 
 
 def test_a_forked_child_has_its_own_session_command_line_and_lifeline(tmp_path: Path, paper_text: str) -> None:
     """A vehicle joining a router that never comes: it waits in Zenoh's connect, watching its lifeline, until the
     group stops it (the lifeline cut: it ends by itself)."""
-    scenario = tmp_path / "forked.toml"
-    scenario.write_text(paper_text)
-    nowhere = f"tcp/127.0.0.1:{free_port()}"
-    argv = [sys.executable, "-P", "-m", "supervisor.cli", "vehicle", str(scenario), "--id", "1", "--connect", nowhere]
+    scenario, argv = _stuck_vehicle(tmp_path / "forked.toml", paper_text)
     with ProcessGroup(fork=str(scenario)) as group:
         child = group.spawn("vehicle 1", argv)
         pid = child.process.pid
         server = _server(group)
         assert f"--run {scenario}" in _cmdline(server)
-        assert wait_until(lambda: _watching(pid)), "the forked vehicle never watched its lifeline"
+        assert wait_until(lambda: watching_lifeline(pid)), "the forked vehicle never watched its lifeline"
         assert wait_until(lambda: _cmdline(pid).split() == argv)  # ps sees its command, not the fork server's
         assert os.getsid(pid) == pid  # its own session: a Ctrl-C at the terminal does not reach it
         assert _parent(pid) == server
@@ -120,6 +129,7 @@ def test_a_run_forked_records_what_a_run_spawned_records(tmp_path: Path, paper_t
     for start in ("fork", "spawn"):
         done = cpf("run", str(scenario), "--start", start, "--out", f"{start}.mcap", "--quiet", cwd=tmp_path)
         assert done.returncode == 0, done.stderr
+        assert "spawning" not in done.stderr  # forked, not fallen back to spawning (supervisor.processes says so)
         runs[start] = read_run(tmp_path / f"{start}.mcap")
     assert runs["fork"] == runs["spawn"]
     assert len(runs["fork"][0]) == 3 * 300
@@ -164,20 +174,17 @@ def test_sigkill_of_the_fork_server_during_start_up_leaves_nothing_behind(tmp_pa
 
 def test_a_childs_end_is_seen_though_its_fork_server_is_gone(tmp_path: Path, paper_text: str) -> None:
     """Its pidfd says it ended; its exit status went with the server (LOST)."""
-    scenario = tmp_path / "orphaned.toml"
-    scenario.write_text(paper_text)
-    nowhere = f"tcp/127.0.0.1:{free_port()}"
-    argv = [sys.executable, "-P", "-m", "supervisor.cli", "vehicle", str(scenario), "--id", "1", "--connect", nowhere]
+    scenario, argv = _stuck_vehicle(tmp_path / "orphaned.toml", paper_text)
     with ProcessGroup(fork=str(scenario)) as group:
         child = group.spawn("vehicle 1", argv)
-        assert wait_until(lambda: _watching(child.process.pid))
+        assert wait_until(lambda: watching_lifeline(child.process.pid))
         os.kill(_server(group), signal.SIGKILL)
         assert child.process.poll() is None  # it serves on
         os.killpg(child.process.pid, signal.SIGKILL)  # (SIGTERM waits for Zenoh's connect to give up: 30 s)
         assert child.process.wait(timeout=30) == LOST
         later = group.spawn("vehicle 1", argv)  # no server to fork it: spawned
         assert isinstance(later.process, subprocess.Popen)
-        assert wait_until(lambda: _watching(later.process.pid))
+        assert wait_until(lambda: watching_lifeline(later.process.pid))
     assert processes_with(str(scenario)) == []
 
 

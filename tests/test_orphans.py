@@ -31,6 +31,7 @@ from tests.procs import (
     wait_for_no_processes,
     wait_for_progress,
     wait_until,
+    watching_lifeline,
 )
 
 pytestmark = pytest.mark.e2e
@@ -131,20 +132,12 @@ def test_a_child_stuck_joining_a_router_that_never_comes_ends_with_its_lifeline(
     try:
         assert holder.stdout is not None
         child = int(holder.stdout.readline())
-        assert wait_until(lambda: _watching(child)), "the vehicle never watched its lifeline"
+        assert wait_until(lambda: watching_lifeline(child)), "the vehicle never watched its lifeline"
         holder.send_signal(signal.SIGKILL)
         holder.communicate(timeout=10)
     finally:
         holder.kill()
     assert wait_for_no_processes(str(scenario), timeout=GONE_WITHIN) == []
-
-
-def _watching(pid: int) -> bool:
-    """A thread of the process waits in the kernel's pipe read (the lifeline's: nothing else of a child does)."""
-    try:
-        return any("pipe" in (task / "wchan").read_text() for task in Path(f"/proc/{pid}/task").iterdir())
-    except OSError:
-        return False
 
 
 def test_a_vehicle_started_by_hand_with_stdin_at_end_of_file_serves_its_run(tmp_path: Path, paper_text: str) -> None:

@@ -154,9 +154,7 @@ class _Server:
 def _read(fd: int) -> bytes:
     try:
         return os.read(fd, 4096)
-    except BlockingIOError:
-        return b""
-    except OSError:
+    except OSError:  # nothing to read (non-blocking), or not readable: both as nothing
         return b""
 
 
