@@ -13,6 +13,7 @@ import pytest
 
 from benchmarks.bench_critical_path import _name, run_once, summary
 from tests.conftest import CONFIGS, ROOT, shortened
+from tests.procs import wait_until
 
 pytestmark = pytest.mark.e2e
 PROCESSES = {"supervisor", "fork server", "broker", "vehicle 1", "vehicle 2", "vehicle 3"}
@@ -35,7 +36,8 @@ def test_only_cpfs_own_child_is_named_the_fork_server() -> None:
     then, it was counted as the fork server (2 threads, in 1 of 3 fresh-clone runs). Only cpf's own child is."""
     argv = [sys.executable, "-c", "import sys; sys.stdin.read()", "-m", "supervisor.cli.fork_server", "--run", "x"]
     with subprocess.Popen(argv, stdin=subprocess.PIPE) as lookalike:
-        try:
+        try:  # (until it has exec'd, its command line is this process's)
+            assert wait_until(lambda: b"fork_server" in Path(f"/proc/{lookalike.pid}/cmdline").read_bytes())
             assert _name(lookalike.pid, os.getpid()) == "fork server"  # our child: the fork server of "our" run
             assert _name(lookalike.pid, os.getppid()) is None  # a grandchild of that cpf: a child not yet titled
         finally:
