@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import heapq
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -198,6 +198,38 @@ class Channel:
                 events.append(LinkEvent(arrival, sender, j, seq, "dropped", reason=reason))
         self._forget(t - MEMORY)
         return out, events
+
+    def ahead(self, times: Sequence[float]) -> list[list[Reception]]:
+        """What deliver(t) would hand out at each of times in turn (ascending), if nothing were transmitted
+        meanwhile; the channel is left as it is (channel lookahead: comms.broker.lookahead). Delivery draws nothing
+        at random and forgets only airtimes long past, so this is deliver's answer."""
+        waiting = sorted(self._in_flight, key=lambda item: item[:4])  # the heap's pop order
+        out: list[list[Reception]] = []
+        i = 0
+        for t in times:
+            due: list[Reception] = []
+            while i < len(waiting) and waiting[i][0] <= t + ARRIVAL_SLACK:
+                _, _, _, j, there, reception, _ = waiting[i]
+                if self._spoiled(j, there) is None:
+                    due.append(reception)
+                i += 1
+            out.append(due)
+        return out
+
+    def first_spoilable(self, t: float) -> float | None:
+        """The earliest arrival after t (an intake after t's) of a packet in flight that a transmission made at t or
+        later could still spoil (half duplex at its receiver, a collision there); None if none could (neither is
+        modelled, or nothing is in flight)."""
+        modem = self.params.modem
+        if not (modem.half_duplex or modem.collisions):
+            return None
+        later = [item[0] for item in self._in_flight if item[0] > t + ARRIVAL_SLACK]
+        return min(later, default=None)
+
+    def least_delay(self, size_bytes: int) -> float:
+        """A lower bound on any packet's delay, transmission to arrival: its airtime (the time of flight, jitter and
+        extra delays can all be zero)."""
+        return self.params.modem.airtime(self.params.packet_bytes or size_bytes)
 
     def _spoiled(self, j: int, there: _Airtime) -> str | None:
         """Why a packet could not be received at j, if it could not."""
