@@ -5,15 +5,19 @@ messages, ticks in them included, and the same link events); its windows come fr
 from __future__ import annotations
 
 import msgspec
+import pytest
 
 from comms.records.messages import (
     COMMS_EVENTS_KEY,
+    COMMS_STATS_KEY,
     COMMS_STEP_KEY,
     TICK_KEY,
     encode,
+    parse_window,
     state_key,
     step_message,
     tick_message,
+    window_message,
 )
 from comms.records.messages import tx_message as tx_wire
 from tests.test_broker_integration import DT, IDS, Fleet, fleet, pure_broker, state_message  # noqa: F401
@@ -65,3 +69,75 @@ def test_inside_a_span_the_broker_grants_windows_up_to_the_next_transmission(fle
     assert broker.next_k == STEPS  # and waits for the supervisor's next grant
     report(broker, fleet, STEPS - 1, 50, seq=None)
     assert broker.next_k == STEPS
+
+
+# A slow link: 15-byte packets at 60 bit/s take 2 s (20 steps) on the air; the ideal modem's, neither half duplex
+# nor collisions unless said. (The scenario's policy only passes validation: the test's vehicles send every step.)
+SLOW = ("comms.bitrate=60",)
+COLLIDING = (*SLOW, "comms.collisions=true", "comms.transmit.policy=event")
+LONG = 45
+
+
+def received(pubs, vehicles=IDS) -> dict[tuple[int, int], dict]:
+    """Every step's reception batch handed out, by (step, vehicle), whatever the windows."""
+    out = {}
+    for message in published(pubs, COMMS_STEP_KEY):
+        for vid in vehicles:
+            for batch in parse_window(message, vid, DT)[1] or []:
+                out[batch["k"], vid] = batch
+    return out
+
+
+def stepped(fleet: Fleet, overrides: tuple[str, ...]):  # noqa: F811
+    """The supervisor's ticks one step at a time, every vehicle transmitting at every step."""
+    broker, pubs = pure_broker(overrides=overrides)
+    for k in range(LONG):
+        broker.take(TICK_KEY, encode(tick_message(k, k * DT, False)))
+        broker.advance()
+        report(broker, fleet, k, k + 1, seq=k + 1)
+    return pubs
+
+
+def spanned(fleet: Fleet, overrides: tuple[str, ...]):  # noqa: F811
+    """One span the broker runs, its windows run past the transmissions as far as the channel allows; the vehicles
+    answer each window with one message of its steps, transmitting at every step."""
+    broker, pubs = pure_broker(overrides=overrides)
+    broker.take(TICK_KEY, encode(tick_message(0, 0.0, False, span=LONG, longest=100)))
+    broker.advance()
+    windows: list[tuple[int, int]] = []
+    while broker.next_k < LONG or len(windows) < len(published(pubs, COMMS_STEP_KEY)):
+        tick = published(pubs, COMMS_STEP_KEY)[len(windows)]["tick"]
+        a, b = tick["k"], tick.get("until") or tick["k"] + 1
+        windows.append((a, b))
+        for vid in IDS:
+            telemetry, model, sent = fleet[vid]
+            steps = []
+            for k in range(a, b):
+                tx = tx_wire(msgspec.structs.replace(sent, seq=k + 1, t=k * DT, stamp=k * DT))
+                steps.append(step_message(state_message(telemetry, model, k, k + 1), tx, None))
+            broker.take(state_key(vid), encode(window_message(steps, b)))
+        broker.advance()
+    return pubs, windows
+
+
+@pytest.mark.parametrize(
+    ("overrides", "expected"),
+    [
+        (SLOW, [(0, 20), (20, 40), (40, 45)]),  # nothing sent arrives within 2 s, nothing can be spoiled
+        # collisions: from step 20 on a packet arrives at every step, and one sent then could spoil
+        # it: windows of one step, as without lookahead
+        (COLLIDING, [(0, 20), *((k, k + 1) for k in range(20, LONG))]),
+    ],
+    ids=["delay only", "collisions"],
+)
+def test_windows_run_past_transmissions_and_hand_out_what_stepping_does(fleet: Fleet, overrides, expected) -> None:  # noqa: F811
+    """Channel lookahead (comms.broker.lookahead): the same receptions at every step, the same link events and link
+    statistics, as the supervisor's ticks one step at a time."""
+    one_by_one = stepped(fleet, overrides)
+    pubs, windows = spanned(fleet, overrides)
+    assert windows == expected
+    assert received(pubs) == received(one_by_one)
+    assert any(batch["receptions"] for batch in received(pubs).values()) == (overrides != COLLIDING)
+    for key in (COMMS_EVENTS_KEY, COMMS_STATS_KEY):
+        assert published(pubs, key) == published(one_by_one, key)
+    assert published(pubs, COMMS_EVENTS_KEY)

@@ -2,8 +2,10 @@
 the Zenoh engine forced to one step per window (a bus round trip per step, as before windows) and the in-process
 engine, on every transmission policy (periodic slower than the step, event-triggered with a minimum interval and a
 heartbeat, every step held for its TDMA slot), an acoustic channel whose packets take several steps, and faults of
-every kind with a vehicle killed and restarted and the broker killed and restarted. The windows are really taken:
-the clock's ticks on the bus are counted (a spy on Clock._publish)."""
+every kind with a vehicle killed and restarted and the broker killed and restarted; and slow links whose packets
+take longer than the fleet waits between transmissions, where windows run past the transmissions (channel
+lookahead, comms.broker.lookahead), with and without collisions. The windows are really taken: the clock's ticks on
+the bus and the vehicles' window messages are counted (spies on Clock._publish and the intake)."""
 
 from __future__ import annotations
 
@@ -27,6 +29,7 @@ from tests.test_faults_e2e import EVERY_KIND, assert_balanced, read_run, records
 pytestmark = pytest.mark.e2e
 
 PERIODIC = ["comms.transmit.period=1.0"]
+SLOW = ["comms.bitrate=60"]
 CASES: dict[str, tuple[str, float, list[str], list[str]]] = {  # name -> (scenario, duration, --set, --fault)
     "periodic, every fault kind": (
         "paper.toml", 60.0, [*PERIODIC, "scenario.on_vehicle_loss=continue", "faults.0.start=3", "faults.0.end=9"],
@@ -39,11 +42,33 @@ CASES: dict[str, tuple[str, float, list[str], list[str]]] = {  # name -> (scenar
         [],
     ),
     "tdma": ("paper.toml", 30.0, ["comms.tdma.slot=0.4", "faults.0.start=10", "faults.0.end=20"], []),
+    # channel lookahead (comms.broker.lookahead): 2 s on the air per packet (15 B at 60 bit/s), no collisions, so
+    # a window runs past the fleet's transmissions for up to 2 s
+    "slow links, every step": ("paper.toml", 30.0, [*SLOW, "faults.0.start=10", "faults.0.end=20"], []),
+    "slow links, every fault kind": (
+        "paper.toml", 60.0,
+        [*SLOW, "comms.transmit.period=0.5", "scenario.on_vehicle_loss=continue", "faults.0.start=3",
+         "faults.0.end=9"],
+        EVERY_KIND,
+    ),
+    "slow links, collisions": (
+        "paper.toml", 40.0,
+        [*SLOW, "comms.collisions=true", "comms.half_duplex=true", "comms.transmit.policy=event",
+         "comms.transmit.min_interval=0.3", "faults.0.start=10", "faults.0.end=20"],
+        [],
+    ),
+    "slow links, tdma": (
+        "paper.toml", 40.0, [*SLOW, "comms.tdma.slot=2.2", "comms.half_duplex=true", "faults.0.start=10",
+                             "faults.0.end=20"], [],
+    ),
     "acoustic, killed vehicle": (
         "paper_acoustic.toml", 40.0, ["comms.transmit.period=2.0", "scenario.on_vehicle_loss=continue"],
         ["kind=vehicle_kill,vehicle=2,start=13.3,end=17.1", "kind=broker_kill,start=25,end=26.5"],
     ),
 }  # fmt: skip
+
+# Whose windows, without lookahead, stop at transmissions at most 5 steps apart (TDMA's slots are longer).
+PAST_TRANSMISSIONS = ("slow links, every step", "slow links, every fault kind", "slow links, collisions")
 
 
 def run(
@@ -105,3 +130,5 @@ def test_windows_record_what_one_step_at_a_time_records(tmp_path, monkeypatch, n
     n = round(CASES[name][1] / 0.1)
     assert set(steps) == {1} and len(steps) >= 2 * n + 1  # every tick, every vehicle's every step
     assert sum(windows) >= 2 * n and len(windows) < 0.9 * len(steps)  # many steps ran without the bus
+    if name in PAST_TRANSMISSIONS:  # windows ran past transmissions: without lookahead none is over 5 steps
+        assert max(windows) >= 15

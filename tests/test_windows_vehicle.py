@@ -1,6 +1,6 @@
 """A vehicle over a time window (vehicles.node, no Zenoh): it steps the window's steps on its own, with each step's
 receptions, and reports them in one message that splits back into what single steps report; it says when it may
-transmit next; and it refuses to transmit inside a window (the clock's promise broken)."""
+transmit next; and it refuses to transmit before the step it said (the promise the windows count on, broken)."""
 
 from __future__ import annotations
 
@@ -66,8 +66,25 @@ def test_a_window_reports_what_single_steps_report():
     assert steps[10]["tx"] is not None and all(m["tx"] is None for m in steps[1:10])
 
 
-def test_a_transmission_inside_a_window_is_refused():
+def test_a_window_run_past_transmissions_reports_what_single_steps_report():
+    """Channel lookahead (comms.broker.lookahead): a window may hold transmissions at or after the step the vehicle
+    said it may transmit at; each is in its own step's message, as stepping makes them."""
+    single, single_pubs = vehicle(0.3)
+    for k in range(11):
+        run(single, k, k + 1)
+    windowed, window_pubs = vehicle(0.3)
+    run(windowed, 0, 1)  # transmits at 0: may again at 3
+    run(windowed, 1, 11)  # steps 1 .. 10, transmitting at 3, 6 and 9
+    steps = [step for m in reported(window_pubs) for step in split_window(m)[0]]
+    strip = lambda m: {key: v for key, v in m.items() if key not in ("next_tx", "earlier")}  # noqa: E731
+    assert [strip(m) for m in steps] == [strip(m) for m in reported(single_pubs)]
+    assert [k for k, m in enumerate(steps) if m["tx"] is not None] == [0, 3, 6, 9]
+
+
+def test_a_transmission_before_the_step_the_vehicle_said_is_refused():
     node, _ = vehicle(0.5)
     run(node, 0, 1)
-    with pytest.raises(RuntimeError, match="vehicle 2 transmitted at step 5, inside the time window up to 9"):
+    assert node.promised == 5
+    node.promised = 8  # as if its policy's earliest step had said 8 and it then transmitted at 5
+    with pytest.raises(RuntimeError, match="vehicle 2 transmitted at step 5, before step 8 it said it would"):
         run(node, 1, 10)

@@ -19,8 +19,12 @@ import logging
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
+import msgspec
+
 from comms.broker.broker_core import BrokerCore
+from comms.broker.lookahead import Replay, quiet_from
 from comms.broker.span import Grants
+from comms.broker.windows import lookahead_end
 from comms.bus.bus import Extras, Handler, Publishers, serve
 from comms.channel.channel import ARRIVAL_SLACK, intake_step
 from comms.records.drops import Drops
@@ -41,6 +45,7 @@ from comms.records.messages import (
     parse_tx,
     rx_key,
     rx_message,
+    split_window,
     tx_key,
     vehicle_of_key,
 )
@@ -86,6 +91,7 @@ class Broker:
         self.unpublished: list[LinkEvent] = []  # link events not yet published (one events message per step)
         self.stepped: list[LinkEvents] = []  # a window's earlier steps' events, each step's batch, not yet published
         self.grants = Grants(dt)  # lockstep spans: the ticks the broker issues itself (comms.broker.span)
+        self.replay: Replay | None = None  # a window run past transmissions, to replay (comms.broker.lookahead)
 
     def take(self, key: str, payload: bytes) -> None:
         """File one incoming message; count and drop it if malformed or on a key its sender does not own."""
@@ -100,15 +106,22 @@ class Broker:
                     self.books.ticks[tick.k], self.books.raw_ticks[tick.k] = tick, message
                 self.latest_tick = max(self.latest_tick, tick.reach - 1)  # a window's (a span's) last step
             elif owned is not None and owned[1] == "state":
-                report = StateReport.from_message(message, owned[0])
-                # each step once, in order; one beyond the next tick would be held forever
-                in_stream(report.k, self.books.taken.get(report.vehicle), self.latest_tick + 2, self.submitted)
-                self._plausible(report)
-                self.books.taken[report.vehicle] = report.k
-                self.books.states.setdefault(report.k, {})[report.vehicle] = (report, self._tx(message, report))
-                self.grants.report(report.vehicle, report.k, _next_tx(message))
+                # a window's earlier steps matter only to a window run past transmissions (comms.broker.lookahead)
+                steps = [message] if self.replay is None else split_window(message)[0]
+                reports = [StateReport.from_message(step, owned[0]) for step in steps]
+                for step, report in zip(steps, reports, strict=True):
+                    self._file(step, report)
+                self.grants.report(owned[0], reports[-1].k, _next_tx(message))
         except (ValueError, RecursionError) as exc:  # RecursionError: never past the bounded reader, counted if so
             self.books.drops.drop(key, exc)
+
+    def _file(self, message: dict[str, object], report: StateReport) -> None:
+        """One step of a vehicle's step message, with the transmission it made: checked, then filed."""
+        # each step once, in order; one beyond the next tick would be held forever
+        in_stream(report.k, self.books.taken.get(report.vehicle), self.latest_tick + 2, self.submitted)
+        self._plausible(report)
+        self.books.taken[report.vehicle] = report.k
+        self.books.states.setdefault(report.k, {})[report.vehicle] = (report, self._tx(message, report))
 
     def _plausible(self, report: StateReport) -> None:
         """ValueError (dropped: implausible) for a state beyond its vehicle's bounds: it never reaches the channel."""
@@ -137,12 +150,13 @@ class Broker:
     def advance(self) -> bool:
         """Do everything the messages so far allow; True once the final tick is done."""
         while True:
-            if self._realtime() and self._can_submit(self.submitted + 1):
+            if self.replay is not None and self._can_submit(self.replay.end - 1):
+                self._replay(self.replay)
+            elif self._realtime() and self._can_submit(self.submitted + 1):
                 self._submit(self.submitted + 1)
                 self._release()
             elif self._tick_of(self.next_k) is not None and self._can_submit(self.next_k - 1):
-                tick, raw = self._next_tick()
-                self._handle(tick, raw)  # still filed while it runs: it says who is alive at the end of step k-1
+                tick = self._handle(*self._next_tick())  # still filed while it runs: it says who is alive
                 self.books.ticks.pop(self.next_k, None)
                 self.books.raw_ticks.pop(self.next_k, None)
                 self.grants.forget_before(self.next_k - 1)
@@ -152,15 +166,26 @@ class Broker:
             else:
                 return False
 
-    def _next_tick(self) -> tuple[Tick, dict[str, object]]:
-        """The tick of step next_k and its wire form: the supervisor's own, or one the broker issues in a span."""
+    def _next_tick(self) -> tuple[Tick, dict[str, object] | None]:
+        """The tick of step next_k and its wire form: the supervisor's own, or one the broker issues in a span (its
+        wire form None: made once its window is settled, _handle)."""
         k = self.next_k
         tick = self.books.ticks.get(k)
         if tick is not None:
             return tick, self.books.raw_ticks[k]
         tick = self.grants.tick(k, self.vehicles)
         assert tick is not None  # advance asked _tick_of first
-        return tick, tick.to_message()
+        return tick, None
+
+    def _looked_ahead(self, tick: Tick) -> Tick:
+        """A tick the broker issues, its window run past the first transmission as far as the channel allows
+        (comms.broker.lookahead); as it is if it cannot be (a kill or restart next: hold)."""
+        grant = self.grants.governing(tick.k)
+        if grant is None or grant.hold:
+            return tick
+        quiet = quiet_from(self.core.channel, tick.end - 1, self.dt)
+        end = lookahead_end(tick.k, tick.end, grant.reach, grant.longest, quiet)
+        return tick if end == tick.end else msgspec.structs.replace(tick, until=end)
 
     def _realtime(self) -> bool:
         return self.clock is not None and self.clock.wall is not None
@@ -202,17 +227,29 @@ class Broker:
         self.unpublished += self.core.submit(sent, where, tick.network if tick else None)
         self.submitted = k
 
-    def _handle(self, tick: Tick, raw: dict[str, object]) -> None:
-        """A tick (lockstep: of a time window, inside which no vehicle transmits but at its last step): the last
-        step's transmissions into the water, then every reception arriving by each step of the window, step by step
-        (nothing can be submitted between them, so this is what stepping one step at a time would hand out)."""
+    def _handle(self, tick: Tick, raw: dict[str, object] | None) -> Tick:
+        """A tick (lockstep: of a time window, inside which no vehicle transmits but at its last step, unless the
+        broker runs it past them: comms.broker.lookahead): the last step's transmissions into the water, then every
+        reception arriving by each step of the window, step by step (nothing can be submitted between them, so this
+        is what stepping one step at a time would hand out). raw: its wire form (None: a tick the broker issues,
+        whose window it may still run further). Returns the tick as handled."""
         if tick.k - 1 > self.submitted:
             self._submit(tick.k - 1)
         self.states_before(tick.k)
+        ahead = False
+        if raw is None:
+            plain = tick.end
+            tick = self._looked_ahead(tick)
+            raw, ahead = tick.to_message(), tick.end > plain
         self.clock = tick
         if tick.end - tick.k > 1:
-            self._handle_window(tick, raw)
-            return
+            self._handle_window(tick, raw, ahead)
+        else:
+            self._handle_step(tick, raw)
+        return tick
+
+    def _handle_step(self, tick: Tick, raw: dict[str, object]) -> None:
+        """A tick of one step (the final one: the channel flushed and the broker's end-of-run report)."""
         batches = self._deliver(tick.t)
         if tick.final:
             self.unpublished += self.core.finish(tick.t)
@@ -228,18 +265,44 @@ class Broker:
         self._step_out(tick, batches_message(raw, batches))
         self._publish_stats(tick.t)
 
-    def _handle_window(self, tick: Tick, raw: dict[str, object]) -> None:
+    def _handle_window(self, tick: Tick, raw: dict[str, object], ahead: bool) -> None:
         """A lockstep tick of several steps: one batch per step, the statistics snapshotted at each step's time, the
-        link events a batch per step too."""
+        link events a batch per step too. ahead: a window run past transmissions, whose steps after the first are
+        handed out as the channel would deliver them with nothing sent meanwhile, and replayed once its states are
+        in (_replay)."""
+        last = tick.k + 1 if ahead else tick.end
         batches = []
-        for k in range(tick.k, tick.end):
+        for k in range(tick.k, last):
             t = tick.t if k == tick.k else k * self.dt
             batches.append(self._deliver(t))
-            self._publish_stats(t)
-            if self.unpublished:  # each step's events its own batch, as single steps publish them (the log keeps
-                self.stepped.append(LinkEvents(t, k, tuple(self.unpublished)))  # them so, whatever the windows)
-                self.unpublished = []
+            self._close_step(t, k)
+        if ahead:
+            alive = tick.alive if tick.alive is not None else self.vehicles
+            handed = self.core.ahead([k * self.dt for k in range(last, tick.end)], alive)
+            self.replay = Replay(tick.k, tick.end, handed)
+            batches += handed
         self._step_out(tick, batches_message(raw, batches))
+
+    def _close_step(self, t: float, k: int) -> None:
+        """Step k of a window done: the statistics snapshotted at its time; its link events one batch, as single
+        steps publish them (the log keeps them so, whatever the windows)."""
+        self._publish_stats(t)
+        if self.unpublished:
+            self.stepped.append(LinkEvents(t, k, tuple(self.unpublished)))
+            self.unpublished = []
+
+    def _replay(self, window: Replay) -> None:
+        """A window run past transmissions, once all its states are in: its steps after the first as stepping runs
+        them (the transmissions of the step before into the water, the step's deliveries, its statistics and
+        events), each step's deliveries those handed out at its start, or the lookahead was wrong."""
+        self.replay = None
+        for k in range(window.k + 1, window.end):
+            self._submit(k - 1)
+            t = k * self.dt
+            if self._deliver(t) != window.handed[k - window.k - 1]:
+                raise RuntimeError(f"channel lookahead: the receptions of step {k} changed after they were handed out")
+            self._close_step(t, k)
+        self._publish_stepped()
 
     def _step_out(self, tick: Tick, batches: Message) -> None:
         """The batches message (what every vehicle waits for), then the tick's link events: off the fleet's critical
@@ -292,6 +355,9 @@ class Broker:
         if self.unpublished:
             self.stepped.append(LinkEvents(tick.t, tick.k, tuple(self.unpublished)))
             self.unpublished = []
+        self._publish_stepped()
+
+    def _publish_stepped(self) -> None:
         for batch in self.stepped:
             self.publishers.put(COMMS_EVENTS_KEY, batch.to_message())
             self.books.published += len(batch.events)

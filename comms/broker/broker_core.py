@@ -56,11 +56,13 @@ class BrokerCore:
         """Receptions due by t, per vehicle (every vehicle gets a batch, possibly empty)."""
         self.stats.note_alive(vehicles)
         receptions, events = self.channel.deliver(t)
-        batches: dict[int, list[Reception]] = {i: [] for i in vehicles}
-        for r in receptions:
-            batches.setdefault(r.receiver, []).append(r)
         self.stats.add(events)
-        return batches, events
+        return _batches(receptions, vehicles), events
+
+    def ahead(self, times: Sequence[float], vehicles: Sequence[int]) -> list[dict[int, list[Reception]]]:
+        """The batches deliver would hand out at each of times in turn, if nothing were transmitted meanwhile; the
+        channel and the statistics are left as they are (channel lookahead: comms.broker.lookahead)."""
+        return [_batches(receptions, vehicles) for receptions in self.channel.ahead(times)]
 
     def finish(self, t: float, reason: str = "end_of_run") -> list[LinkEvent]:
         """End of run (or of this broker): what is still in flight is dropped, so every link's books balance."""
@@ -81,6 +83,14 @@ class BrokerCore:
     @property
     def counts(self) -> dict[str, int]:
         return self.stats.totals()
+
+
+def _batches(receptions: Iterable[Reception], vehicles: Sequence[int]) -> dict[int, list[Reception]]:
+    """Receptions per receiver: every vehicle gets a batch, possibly empty."""
+    batches: dict[int, list[Reception]] = {i: [] for i in vehicles}
+    for r in receptions:
+        batches.setdefault(r.receiver, []).append(r)
+    return batches
 
 
 def _silenced(tx: Transmission, receivers: set[int]) -> list[LinkEvent]:

@@ -36,6 +36,18 @@ def window_end(a: int, change: int, alive: Sequence[int], reports: Reports, long
     return end if longest is None else min(end, a + longest)
 
 
+def lookahead_end(a: int, end: int, change: int, longest: int | None, quiet: int) -> int:
+    """b of a window [a, b) that runs past its first transmission (channel lookahead), from the window [a, end) that
+    stops at it (window_end: end - 1 is the earliest step n at which a vehicle may transmit, unless the change or
+    longest cut it first). quiet: the first step after n whose intake a transmission made at n or later could
+    change (Lookahead.quiet_from). Inside [a, b) nothing sent from n on arrives, and nothing handed out at the
+    window's start can be spoiled by it, so the broker may hand out every reception of the window at its start and
+    put the window's transmissions in the water afterwards, step by step (comms.broker.lookahead): the records are
+    those of stepping. Never shorter than end, never past change or longest."""
+    b = min(change, quiet) if longest is None else min(change, quiet, a + longest)
+    return max(end, b)
+
+
 def worth_waiting(a: int, change: int, alive: Sequence[int], reports: Reports) -> bool:
     """Whether the window starting at a could be longer if granted once every state before a is in, rather than now
     (ahead, as the fleet still steps the window before; granting ahead saves a round trip through the supervisor).

@@ -1,0 +1,47 @@
+"""Channel lookahead: lockstep windows that run past the fleet's transmissions (pure; comms.broker.broker asks).
+
+A window [a, b) used to stop at the first step n at which a vehicle may transmit (comms.broker.windows), because a
+transmission made inside it could reach a receiver, or spoil a reception, before its end. The channel says when
+that can happen (comms.channel.channel decides a packet at its delivery, from the airtimes in the water by then):
+- nothing sent at n or later arrives before t_n plus the least delay of a packet, its airtime (the time of flight,
+  jitter and extra delays can all be zero: two vehicles can be at one place);
+- a transmission at t_n can spoil only packets arriving after t_n (half duplex at a transmitting receiver,
+  collisions), and only if either is modelled.
+So the window may run to b = the first step whose intake either could change (quiet_from). The broker hands out
+every reception of [a, b) at its start (Channel.ahead: what deliver would hand out with nothing sent meanwhile),
+lets the fleet step through it, transmitting, and once every state of b-1 is in it replays the window's steps
+a+1 .. b-1 as stepping would: step j-1's transmissions into the water, step j's deliveries (checked equal to those
+handed out), the statistics and link events of step j. The records are those of stepping one step at a time
+(tests/test_windows_e2e.py). The gain: a fleet sending more often than its packets take to arrive, over a channel
+without collisions, still runs windows of about the least delay; with collisions or half duplex the next arrival
+in flight cuts the window, as a packet sent then could spoil it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from comms.channel.channel import Channel, intake_step
+from comms.records.records import Reception
+from comms.records.wire import SIZE
+
+# s taken off t_n + least delay: a vehicle stamps t_n as k dt or as its tick's t, which may differ in the last bit
+STAMP_MARGIN = 1e-6
+
+
+@dataclass(frozen=True, slots=True)
+class Replay:
+    """A window [k, end) run past transmissions: the batches handed out at its steps k+1 .. end-1, to replay."""
+
+    k: int
+    end: int
+    handed: list[dict[int, list[Reception]]]
+
+
+def quiet_from(channel: Channel, n: int, dt: float) -> int:
+    """The first step after n whose intake a transmission made at step n or later could change: the least delay
+    after t_n, or the arrival of the first packet in flight that such a transmission could spoil."""
+    t_n = n * dt
+    quiet = intake_step(t_n + channel.least_delay(SIZE) - STAMP_MARGIN, dt)
+    first = channel.first_spoilable(t_n)
+    return quiet if first is None else min(quiet, intake_step(first, dt))
