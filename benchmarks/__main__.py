@@ -19,9 +19,12 @@
 10. critical path: the Zenoh paper run's stepping per step against the lean bus floor measured right after it, and
    each process's CPU, threads and context switches per step (benchmarks.bench_critical_path; issue 26);
 11. start-up: 10 and 50 AUVs one process each, forked from the fork server and spawned, alternating: start-up,
-   stepping rate, peak memory per vehicle process (benchmarks.bench_startup; issue 26).
+   stepping rate, peak memory per vehicle process (benchmarks.bench_startup; issue 26);
+12. lookahead: the paper scenario on a slow modem (2 s packets), every step and event-triggered with collisions, both
+   engines, with the lean bus floor of the same run (benchmarks.bench_lookahead; issue 26).
 Each part is also a module of its own (benchmarks.bench_engines, bench_scaling, bench_realtime, bench_bus_floor,
-bench_parse, bench_ready, bench_live, bench_report, bench_targets, bench_critical_path, bench_startup);
+bench_parse, bench_ready, bench_live, bench_report, bench_targets, bench_critical_path, bench_startup,
+bench_lookahead);
 benchmarks.bench_side_by_side compares this tree with another checkout; bench_record and bench_intake are
 diagnostics with no target of their own. Results go to benchmarks/results/*.json; the targets are printed next to
 the numbers. Speed is checked here, never in tests.
@@ -39,6 +42,7 @@ from benchmarks import (
     bench_critical_path,
     bench_engines,
     bench_live,
+    bench_lookahead,
     bench_parse,
     bench_ready,
     bench_realtime,
@@ -81,8 +85,12 @@ def main() -> None:
     critical = bench_critical_path.measure_paper(ROOT, args.repeat)
     print(bench_critical_path.summary(critical), flush=True)
 
-    everything = {"engines": engines, "scaling": scaling, "realtime": realtime, "bus_floor": floor}
+    lookahead = [bench_lookahead.measure(name, args.repeat, None) for name in bench_lookahead.CASES]
+    for row in lookahead:
+        print(bench_lookahead.summary(row), flush=True)
+    everything: dict[str, Any] = {"engines": engines, "scaling": scaling, "realtime": realtime, "bus_floor": floor}
     everything |= {"critical_path": critical, "startup": startup(args.scaling_duration, args.repeat)}
+    everything["lookahead"] = lookahead
     everything |= commands(paper, args.repeat)
     everything["targets"] = (
         [] if args.targets == "none" else bench_targets.run(args.targets.split(","), args.repeat, 100)

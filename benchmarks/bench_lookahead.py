@@ -1,0 +1,99 @@
+"""Channel lookahead on slow links: `.venv/bin/python -m benchmarks.bench_lookahead [--against DIR] [--repeat 2]`.
+
+Issue 26, part 2: a fleet that transmits more often than its packets take to arrive got lockstep windows of one step
+(a bus round trip per step); with lookahead (comms.broker.lookahead) its windows run past the transmissions for as
+long as nothing sent can arrive or spoil a reception. Cases, the paper scenario (3 AUVs, 400 s) on a slow modem
+(15 B at 60 bit/s: 2 s on the air):
+- every-step: every vehicle transmits at every step, delay only (no half duplex, no collisions): windows of 20 steps;
+- event-collisions: event-triggered (min interval 0.3 s), half duplex and collisions: the next packet in flight
+  cuts a window, so lookahead helps only while few are in flight.
+Each case is a whole `cpf run` as a user waits for it: the Zenoh engine of this tree, the in-process engine (the
+records are the same; tests/test_windows_e2e.py) and, with --against, the Zenoh engine of another checkout (say the
+commit before lookahead) run from there with this venv; alternating, best of --repeat, the spread (max - min) beside.
+The bus floor of the same run (bench_bus_floor --lean, 3 vehicles, per step times the run's steps) is printed beside,
+as every Zenoh figure's. Written to benchmarks/results/lookahead.json.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+from benchmarks import ROOT, bench_bus_floor, save
+
+SLOW = ["comms.bitrate=60"]
+CASES: dict[str, list[str]] = {
+    "every-step": SLOW,
+    "event-collisions": [*SLOW, "comms.half_duplex=true", "comms.collisions=true", "comms.transmit.policy=event",
+                         "comms.transmit.min_interval=0.3"],
+}  # fmt: skip
+STEPS = 4000  # the paper scenario: 400 s at 0.1 s
+
+
+def command(tree: Path, engine: str, overrides: list[str], out: Path) -> list[str]:
+    sets = [arg for o in overrides for arg in ("--set", o)]
+    scenario = str(ROOT / "configs" / "paper.toml")
+    return [sys.executable, "-m", "supervisor.cli", "run", scenario, "--engine", engine, *sets, "--out", str(out)]
+
+
+def timed(argv: list[str], tree: Path) -> float:
+    """Wall time of one command run from tree, its processes importing that tree's modules (PYTHONPATH: the fork
+    server starts with -P, so without it every child would import this venv's editable install, this tree)."""
+    env = {**os.environ, "PYTHONPATH": str(tree)}
+    start = time.perf_counter()
+    done = subprocess.run(argv, cwd=tree, capture_output=True, text=True, env=env)
+    if done.returncode != 0:
+        raise SystemExit(f"{' '.join(argv)} failed ({done.returncode}):\n{done.stderr[-2000:]}")
+    return time.perf_counter() - start
+
+
+def measure(name: str, repeat: int, against: Path | None) -> dict[str, Any]:
+    trees = {"zenoh": (ROOT, "zenoh"), "inprocess": (ROOT, "inprocess")}
+    if against is not None:
+        trees["zenoh_against"] = (against, "zenoh")
+    times: dict[str, list[float]] = {key: [] for key in trees}
+    with tempfile.TemporaryDirectory(prefix="cpf-lookahead-") as tmp:
+        for i in range(repeat):
+            for key, (tree, engine) in trees.items():  # alternating: the machine's drift hits each alike
+                out = Path(tmp) / f"{key}-{i}.mcap"
+                times[key].append(timed(command(tree, engine, CASES[name], out), tree))
+    floor = bench_bus_floor.measure(3, 2000, lean=True) * STEPS
+    row: dict[str, Any] = {"case": name, "bus_floor_s": floor}
+    for key, values in times.items():
+        row[key] = {"best_s": min(values), "spread_s": max(values) - min(values)}
+    return row
+
+
+def summary(row: dict[str, Any]) -> str:
+    runs = [key for key in row if isinstance(row[key], dict)]
+    parts = [f"{key} {row[key]['best_s']:.2f} s ({row[key]['spread_s']:.2f})" for key in runs]
+    ratio = row["zenoh"]["best_s"] / row["inprocess"]["best_s"]
+    return (
+        f"lookahead {row['case']}: "
+        + ", ".join(parts)
+        + f"; zenoh/in-process {ratio:.2f}; "
+        + (f"lean bus floor of the same run {row['bus_floor_s']:.2f} s for {STEPS} steps")
+    )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--repeat", type=int, default=2)
+    parser.add_argument("--against", type=Path, default=None, help="another checkout, its Zenoh engine run beside")
+    parser.add_argument("--cases", default=",".join(CASES))
+    args = parser.parse_args()
+    rows = []
+    for name in args.cases.split(","):
+        rows.append(measure(name, args.repeat, args.against))
+        print(summary(rows[-1]), flush=True)
+    print(f"written: {save('lookahead', rows)}")
+
+
+if __name__ == "__main__":
+    main()
