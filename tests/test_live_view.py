@@ -72,6 +72,16 @@ def live_port(proc: subprocess.Popen[str]) -> int:
     raise AssertionError(f"cpf ended without a live line (exit {proc.wait()})")
 
 
+def told_subscribed(proc: subprocess.Popen[str], topics: list[str]) -> None:
+    """Read cpf replay's stderr until it has said a client subscribed to each of topics (live_port read the lines
+    before)."""
+    assert proc.stderr is not None
+    waiting = set(topics)
+    while waiting and (line := proc.stderr.readline()):
+        waiting -= {topic for topic in topics if line.strip() == f"cpf replay: a client subscribed to {topic}"}
+    assert not waiting, f"cpf replay did not say a client subscribed to {sorted(waiting)} (exit {proc.poll()})"
+
+
 def log_scene(path: Path) -> list[tuple[str, int, object]]:
     return [(m.topic, m.log_time, m.message) for m in logfile.messages(path, is_scene_topic)]
 
@@ -224,6 +234,7 @@ def test_a_replay_serves_the_logs_scene(tmp_path: Path, scene: bool) -> None:
     wanted = [TRANSFORMS_TOPIC, SCENE_TOPIC]
     with running(args, tmp_path, stdin=True) as proc, FoxgloveClient.open(live_port(proc), set(wanted)) as client:
         client.subscribe(wanted)
+        told_subscribed(proc, wanted)  # the server has the subscriptions: what is replayed now reaches the client
         assert proc.poll() is None and proc.stdin is not None  # waiting for Enter: nothing replayed yet
         proc.stdin.write("\n")
         proc.stdin.close()

@@ -115,7 +115,7 @@ def replay(args: argparse.Namespace) -> int:
 
     progress = ProgressLine()
     try:
-        with live_view(args.live, "cpf replay") as live:
+        with live_view(args.live, "cpf replay", tell_subscriptions=True) as live:
             report = replay(
                 args.log, args.speed, args.start, args.end, args.loop, args.connect, args.listen,
                 wait_to_start(args.delay), None if args.quiet else progress, keyboard, args.zenoh_config, live,

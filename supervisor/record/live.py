@@ -17,6 +17,7 @@ from __future__ import annotations
 import json
 import logging
 import threading
+from collections.abc import Callable
 from types import TracebackType
 from typing import TYPE_CHECKING, Any
 
@@ -72,9 +73,10 @@ class LiveView:
     """A Foxglove WebSocket server on HOST:port (0: a free port; `port` is the one it got) for one run or replay.
     `take` each record as it is made; `finish` when the run is over; `stop` (or leave the `with`) in every case.
     build_scene: build the foxglove/* channels from the records (False: they come from a log, through `take`).
+    on_subscribe: told each topic a client subscribes to (on the server's thread), say to tell the user.
     ScenarioError if the port cannot be had."""
 
-    def __init__(self, port: int, build_scene: bool = True) -> None:
+    def __init__(self, port: int, build_scene: bool = True, on_subscribe: Callable[[str], None] | None = None) -> None:
         import foxglove
 
         self._foxglove = foxglove
@@ -83,6 +85,7 @@ class LiveView:
         self.port: int = self._relay.port
         self.scene: LiveScene | None = LiveScene() if build_scene else None
         self._build = build_scene
+        self._on_subscribe = on_subscribe
         self._latched: dict[str, tuple[bytes, int]] = {}  # topic of LATCHED -> its latest message, its log time (ns)
         self._latch = threading.Lock()  # a latched message and its sending, against a subscriber's copy of it
         self._finished = False
@@ -159,6 +162,8 @@ class LiveView:
             latest = self._latched.get(topic)
             if latest is not None and channel is not None:
                 channel.log(latest[0], log_time=latest[1])
+        if self._on_subscribe is not None:
+            self._on_subscribe(topic)
 
     def finish(self) -> None:
         """The run is over: the scene's last instants out (and the clients' connections will close with 1000,
