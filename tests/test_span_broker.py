@@ -98,9 +98,10 @@ def stepped(fleet: Fleet, overrides: tuple[str, ...]):  # noqa: F811
     return pubs
 
 
-def spanned(fleet: Fleet, overrides: tuple[str, ...]):  # noqa: F811
+def spanned(fleet: Fleet, overrides: tuple[str, ...], forged: int | None = None):  # noqa: F811
     """One span the broker runs, its windows run past the transmissions as far as the channel allows; the vehicles
-    answer each window with one message of its steps, transmitting at every step."""
+    answer each window with one message of its steps, transmitting at every step. forged: the step at which vehicle
+    2 says its transmission went into the water 3 s earlier."""
     broker, pubs = pure_broker(overrides=overrides)
     broker.take(TICK_KEY, encode(tick_message(0, 0.0, False, span=LONG, longest=100)))
     broker.advance()
@@ -113,11 +114,12 @@ def spanned(fleet: Fleet, overrides: tuple[str, ...]):  # noqa: F811
             telemetry, model, sent = fleet[vid]
             steps = []
             for k in range(a, b):
-                tx = tx_wire(msgspec.structs.replace(sent, seq=k + 1, t=k * DT, stamp=k * DT))
+                t = k * DT - (3.0 if (vid, k) == (2, forged) else 0.0)
+                tx = tx_wire(msgspec.structs.replace(sent, seq=k + 1, t=t, stamp=k * DT))
                 steps.append(step_message(state_message(telemetry, model, k, k + 1), tx, None))
             broker.take(state_key(vid), encode(window_message(steps, b)))
         broker.advance()
-    return pubs, windows
+    return pubs, windows, broker
 
 
 @pytest.mark.parametrize(
@@ -134,10 +136,22 @@ def test_windows_run_past_transmissions_and_hand_out_what_stepping_does(fleet: F
     """Channel lookahead (comms.broker.lookahead): the same receptions at every step, the same link events and link
     statistics, as the supervisor's ticks one step at a time."""
     one_by_one = stepped(fleet, overrides)
-    pubs, windows = spanned(fleet, overrides)
+    pubs, windows, _ = spanned(fleet, overrides)
     assert windows == expected
     assert received(pubs) == received(one_by_one)
     assert any(batch["receptions"] for batch in received(pubs).values()) == (overrides != COLLIDING)
     for key in (COMMS_EVENTS_KEY, COMMS_STATS_KEY):
         assert published(pubs, key) == published(one_by_one, key)
     assert published(pubs, COMMS_EVENTS_KEY)
+
+
+def test_a_transmission_not_at_its_step_s_time_is_dropped(fleet: Fleet) -> None:  # noqa: F811
+    """A forged transmission time would have its packet arrive before the window's receptions were handed out (a
+    packet sent 3 s before a 2 s airtime): the broker drops it (counted), the state still counts, nothing else
+    changes."""
+    pubs, windows, broker = spanned(fleet, SLOW, forged=35)
+    assert windows == [(0, 20), (20, 40), (40, 45)]
+    assert broker.books.drops.by_cause == {"malformed": 1}
+    sent = [e for m in published(pubs, COMMS_EVENTS_KEY) for e in m["events"] if e["kind"] == "sent"]
+    # four links (2 - 1 - 3, both ways), every step's but the last's in the water (at the next tick), one dropped
+    assert not any(e["sender"] == 2 and e["seq"] == 36 for e in sent) and len(sent) == 4 * (LONG - 1) - 1

@@ -52,7 +52,7 @@ from comms.records.messages import (
 from comms.records.records import Kinematics, LinkEvent, Reception, Transmission
 from comms.records.reports import CommsDone
 from comms.records.state import StateReport
-from comms.records.stream import in_stream
+from comms.records.stream import at_step_time, in_stream
 
 log = logging.getLogger(__name__)
 
@@ -139,6 +139,7 @@ class Broker:
             if not isinstance(tx, dict):
                 raise ValueError("field 'tx' is not a map")
             transmission = parse_tx(tx, vehicle)
+            at_step_time(transmission.t, report.k, self.dt, "the transmission's")  # the channel times it from t
             bounds = self.core.plausible.get(vehicle)
             if bounds is not None:
                 bounds.check_tx(transmission, report, self.dt)

@@ -27,3 +27,10 @@ def in_stream(k: int, taken: int | None, granted: int | None, past: int | None =
         raise dropped(STALE, f"step {k} is not after step {past}, already past")
     if granted is not None and k >= granted:
         raise dropped(BEYOND_WINDOW, f"step {k} is beyond the steps granted (up to {granted - 1})")
+
+
+def at_step_time(t: float, k: int, dt: float, what: str) -> None:
+    """ValueError unless t is the time of step k, k dt up to rounding (the clock's t of a step is its tick's, a
+    multiple of dt added up or multiplied out)."""
+    if abs(t - k * dt) > 1e-9 * max(1.0, k * dt):
+        raise ValueError(f"{what} t = {t:g} s is not the time of step {k} ({k * dt:g} s)")

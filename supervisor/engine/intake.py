@@ -41,7 +41,7 @@ from comms.records.receptions import RxBatch
 from comms.records.records import LinkEvent, Transmission
 from comms.records.reports import CommsDone, CommsStats, VehicleDone
 from comms.records.state import StateReport
-from comms.records.stream import FAULTY, VEHICLE_FAULTS, in_stream
+from comms.records.stream import FAULTY, VEHICLE_FAULTS, at_step_time, in_stream
 from supervisor.analysis.comms_summary import BY_NO_KEY
 from supervisor.analysis.series import SeriesBuilder
 from supervisor.config.derived import steps_of
@@ -280,7 +280,7 @@ class Intake:
 
     def _typed_tx(self, tx: Transmission, vid: int, state: StateReport) -> Transmission:
         tx.check(vid)
-        self.bounds.time(tx.t, "the transmission's")
+        at_step_time(tx.t, state.k, self.bounds.dt, "the transmission's")  # the channel times its packet from t
         self.plausible[vid].check_tx(tx, state, self.bounds.dt)  # (vid: the state's, one of the run's: plausible)
         return tx
 

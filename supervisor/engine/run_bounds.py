@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from comms.records.stream import at_step_time
 from supervisor.config.derived import steps_of
 from supervisor.config.scenario_schema import GraphSwitchFault, Scenario
 from supervisor.record.recorder import TIME_MARGIN
@@ -36,8 +37,7 @@ class RunBounds:
         """A vehicle's step k, at t = k dt (up to rounding): the supervisor's ticks say so."""
         if not 0 <= k < self.steps:
             raise ValueError(f"step {k} is outside the run (0 to {self.steps - 1})")
-        if abs(t - k * self.dt) > 1e-9 * max(1.0, k * self.dt):
-            raise ValueError(f"t = {t:g} s is not the time of step {k} ({k * self.dt:g} s)")
+        at_step_time(t, k, self.dt, "the state's")
 
     def vehicle(self, vid: int) -> None:
         if vid not in self.vehicles:
