@@ -9,6 +9,9 @@ vehicle can step through it on its own; the results are those of stepping one st
 
 Each vehicle says, with its state of step s, the first step n > s at which it may transmit next
 (vehicles.transmission.earliest_transmission): a report (s, n). It may transmit at n, not before.
+
+Inside a span the broker may run a window further, past transmissions, as far as the channel allows
+(lookahead_end; comms.broker.lookahead says when and how the records stay those of stepping).
 """
 
 from __future__ import annotations
@@ -40,10 +43,10 @@ def lookahead_end(a: int, end: int, change: int, longest: int | None, quiet: int
     """b of a window [a, b) that runs past its first transmission (channel lookahead), from the window [a, end) that
     stops at it (window_end: end - 1 is the earliest step n at which a vehicle may transmit, unless the change or
     longest cut it first). quiet: the first step after n whose intake a transmission made at n or later could
-    change (Lookahead.quiet_from). Inside [a, b) nothing sent from n on arrives, and nothing handed out at the
-    window's start can be spoiled by it, so the broker may hand out every reception of the window at its start and
-    put the window's transmissions in the water afterwards, step by step (comms.broker.lookahead): the records are
-    those of stepping. Never shorter than end, never past change or longest."""
+    change (comms.broker.lookahead.quiet_from). Inside [a, b) nothing sent from n on arrives, and nothing handed
+    out at the window's start can be spoiled by it, so the broker may hand out every reception of the window at its
+    start and put the window's transmissions in the water afterwards, step by step (comms.broker.lookahead): the
+    records are those of stepping. Never shorter than end, never past change or longest."""
     b = min(change, quiet) if longest is None else min(change, quiet, a + longest)
     return max(end, b)
 
