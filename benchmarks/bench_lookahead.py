@@ -1,12 +1,16 @@
 """Channel lookahead on slow links: `.venv/bin/python -m benchmarks.bench_lookahead [--against DIR] [--repeat 2]`.
 
-Issue 26, part 2: a fleet that transmits more often than its packets take to arrive got lockstep windows of one step
-(a bus round trip per step); with lookahead (comms.broker.lookahead) its windows run past the transmissions for as
-long as nothing sent can arrive or spoil a reception. Cases, the paper scenario (3 AUVs, 400 s) on a slow modem
-(15 B at 60 bit/s: 2 s on the air):
-- every-step: every vehicle transmits at every step, delay only (no half duplex, no collisions): windows of 20 steps;
-- event-collisions: event-triggered (min interval 0.3 s), half duplex and collisions: the next packet in flight
-  cuts a window, so lookahead helps only while few are in flight.
+Issue 26, part 2: a lockstep window used to stop at the fleet's first transmission; with lookahead
+(comms.broker.lookahead) it runs past transmissions for as long as nothing sent can arrive or spoil a reception.
+Cases (400 s each):
+- acoustic: configs/paper_acoustic.toml as it is (WHOI rate 0, 3.2 s packets, event-triggered on TDMA slots of
+  4 s): a slot holds a packet, so no window can run past one: no gain expected;
+- acoustic-no-tdma: the same without TDMA (event-triggered, min interval 4 s, heartbeat 12 s, half duplex and
+  collisions): the vehicles' transmissions fall at different steps, and windows merge those within a packet's
+  airtime of each other unless a packet in flight arrives first;
+- every-step: the paper on a 2 s-packet modem (15 B at 60 bit/s), every vehicle transmitting at every step, delay
+  only (no half duplex, no collisions): windows of 20 steps instead of 1. Not a real modem (the scenario check warns
+  that no modem sends faster than its airtime): the bound's best case.
 Each case is a whole `cpf run` as a user waits for it: the Zenoh engine of this tree, the in-process engine (the
 records are the same; tests/test_windows_e2e.py) and, with --against, the Zenoh engine of another checkout (say the
 commit before lookahead) run from there with this venv; alternating, best of --repeat, the spread (max - min) beside.
@@ -28,18 +32,25 @@ from typing import Any
 from benchmarks import ROOT, bench_bus_floor, save
 
 SLOW = ["comms.bitrate=60"]
-CASES: dict[str, list[str]] = {
-    "every-step": SLOW,
-    "event-collisions": [*SLOW, "comms.half_duplex=true", "comms.collisions=true", "comms.transmit.policy=event",
-                         "comms.transmit.min_interval=0.3"],
-}  # fmt: skip
+CASES: dict[str, tuple[str, list[str]]] = {  # name -> (scenario file in configs/, --set)
+    "acoustic": ("paper_acoustic.toml", []),
+    "acoustic-no-tdma": ("paper_acoustic.toml", []),  # its [comms.tdma] table left out (scenario_text)
+    "every-step": ("paper.toml", SLOW),
+}
 STEPS = 4000  # the paper scenario: 400 s at 0.1 s
 
 
-def command(tree: Path, engine: str, overrides: list[str], out: Path) -> list[str]:
+def scenario_text(name: str) -> str:
+    text = (ROOT / "configs" / CASES[name][0]).read_text()
+    if name != "acoustic-no-tdma":
+        return text
+    head, tdma = text.split("\n[comms.tdma]\n", 1)
+    return head + tdma[tdma.index("\n[") :]  # up to the next table
+
+
+def command(engine: str, scenario: Path, overrides: list[str], out: Path) -> list[str]:
     sets = [arg for o in overrides for arg in ("--set", o)]
-    scenario = str(ROOT / "configs" / "paper.toml")
-    return [sys.executable, "-m", "supervisor.cli", "run", scenario, "--engine", engine, *sets, "--out", str(out)]
+    return [sys.executable, "-m", "supervisor.cli", "run", str(scenario), "--engine", engine, *sets, "--out", str(out)]
 
 
 def timed(argv: list[str], tree: Path) -> float:
@@ -59,10 +70,12 @@ def measure(name: str, repeat: int, against: Path | None) -> dict[str, Any]:
         trees["zenoh_against"] = (against, "zenoh")
     times: dict[str, list[float]] = {key: [] for key in trees}
     with tempfile.TemporaryDirectory(prefix="cpf-lookahead-") as tmp:
+        scenario = Path(tmp) / CASES[name][0]
+        scenario.write_text(scenario_text(name))
         for i in range(repeat):
             for key, (tree, engine) in trees.items():  # alternating: the machine's drift hits each alike
                 out = Path(tmp) / f"{key}-{i}.mcap"
-                times[key].append(timed(command(tree, engine, CASES[name], out), tree))
+                times[key].append(timed(command(engine, scenario, CASES[name][1], out), tree))
     floor = bench_bus_floor.measure(3, 2000, lean=True) * STEPS
     row: dict[str, Any] = {"case": name, "bus_floor_s": floor}
     for key, values in times.items():

@@ -51,10 +51,11 @@ CASES: dict[str, tuple[str, float, list[str], list[str]]] = {  # name -> (scenar
          "faults.0.end=9"],
         EVERY_KIND,
     ),
-    "slow links, collisions": (
+    "slow links, collisions, jitter, bursts": (
         "paper.toml", 40.0,
         [*SLOW, "comms.collisions=true", "comms.half_duplex=true", "comms.transmit.policy=event",
-         "comms.transmit.min_interval=0.3", "faults.0.start=10", "faults.0.end=20"],
+         "comms.transmit.min_interval=0.3", "comms.jitter=0.05", "comms.burst.mean_loss=0.05",
+         "comms.burst.mean_burst=2.0", "faults.0.start=10", "faults.0.end=20"],
         [],
     ),
     "slow links, tdma": (
@@ -68,7 +69,7 @@ CASES: dict[str, tuple[str, float, list[str], list[str]]] = {  # name -> (scenar
 }  # fmt: skip
 
 # Whose windows, without lookahead, stop at transmissions at most 5 steps apart (TDMA's slots are longer).
-PAST_TRANSMISSIONS = ("slow links, every step", "slow links, every fault kind", "slow links, collisions")
+PAST_TRANSMISSIONS = ("slow links, every step", "slow links, every fault kind", "slow links, collisions, jitter, bursts")
 
 
 def run(
