@@ -69,7 +69,11 @@ CASES: dict[str, tuple[str, float, list[str], list[str]]] = {  # name -> (scenar
 }  # fmt: skip
 
 # Whose windows, without lookahead, stop at transmissions at most 5 steps apart (TDMA's slots are longer).
-PAST_TRANSMISSIONS = ("slow links, every step", "slow links, every fault kind", "slow links, collisions, jitter, bursts")
+PAST_TRANSMISSIONS = (
+    "slow links, every step",
+    "slow links, every fault kind",
+    "slow links, collisions, jitter, bursts",
+)
 
 
 def run(
