@@ -10,7 +10,9 @@ Cases (400 s each):
   airtime of each other unless a packet in flight arrives first;
 - every-step: the paper on a 2 s-packet modem (15 B at 60 bit/s), every vehicle transmitting at every step, delay
   only (no half duplex, no collisions): windows of 20 steps instead of 1. Not a real modem (the scenario check warns
-  that no modem sends faster than its airtime): the bound's best case.
+  that no modem sends faster than its airtime): the bound's best case;
+- delayed-links: the paper's ideal modem (no airtime) with 2 s of extra delay on every link, every vehicle
+  transmitting at every step: a study of late messages (the paper's conclusion), windows of 20 steps.
 Each case is a whole `cpf run` as a user waits for it: the Zenoh engine of this tree, the in-process engine (the
 records are the same; tests/test_windows_e2e.py) and, with --against, the Zenoh engine of another checkout (say the
 commit before lookahead) run from there with this venv; alternating, best of --repeat, the spread (max - min) beside.
@@ -32,10 +34,13 @@ from typing import Any
 from benchmarks import ROOT, bench_bus_floor, save
 
 SLOW = ["comms.bitrate=60"]
+PAPER_LINKS = ((1, 2), (2, 1), (1, 3), (3, 1))  # the paper's graph 2 - 1 - 3, both ways
+DELAYED = "comms.links=[" + ",".join(f"{{sender={i},receiver={j},extra_delay=2.0}}" for i, j in PAPER_LINKS) + "]"
 CASES: dict[str, tuple[str, list[str]]] = {  # name -> (scenario file in configs/, --set)
     "acoustic": ("paper_acoustic.toml", []),
     "acoustic-no-tdma": ("paper_acoustic.toml", []),  # its [comms.tdma] table left out (scenario_text)
     "every-step": ("paper.toml", SLOW),
+    "delayed-links": ("paper.toml", [DELAYED]),
 }
 STEPS = 4000  # the paper scenario: 400 s at 0.1 s
 

@@ -9,7 +9,7 @@ import copy
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from comms.channel.channel import Channel, ChannelParams
+from comms.channel.channel import Channel, ChannelParams, LinkParams
 from comms.channel.modem import ModemParams
 from comms.records.wire import SIZE
 from tests.test_channel import at, tx
@@ -24,10 +24,12 @@ sends = st.lists(
 )
 
 
-def channel_with(packets: list[tuple[int, float, float, float]], modem: ModemParams, jitter: float) -> Channel:
+def channel_with(
+    packets: list[tuple[int, float, float, float]], modem: ModemParams, jitter: float, links: dict | None = None
+) -> Channel:
     """Every packet of the list sent (in time order) to the two other vehicles, the senders at (x, y), the others at
-    fixed places."""
-    channel = Channel(ChannelParams(modem=modem, jitter=jitter), seed=7)
+    fixed places; links: the links' own parameters."""
+    channel = Channel(ChannelParams(modem=modem, jitter=jitter, links=links or {}), seed=7)
     places = {1: at(0.0), 2: at(300.0, 100.0), 3: at(-200.0, 250.0)}
     for seq, (sender, t, x, y) in enumerate(sorted(packets, key=lambda p: p[1]), start=1):
         where = {**places, sender: at(x, y)}
@@ -57,6 +59,20 @@ def test_no_packet_arrives_sooner_than_the_least_delay(packets, jitter) -> None:
     channel = channel_with(packets, SLOW, jitter)
     least = channel.least_delay(SIZE)
     assert least == SLOW.airtime(SIZE) > 0.5
+    sent = {seq: t for seq, (_, t, _, _) in enumerate(sorted(packets, key=lambda p: p[1]), start=1)}
+    for arrival, _, seq, *_ in channel._in_flight:
+        assert arrival >= sent[seq] + least
+
+
+@settings(max_examples=40, deadline=None)
+@given(packets=sends, extra=st.lists(st.floats(0.0, 3.0), min_size=6, max_size=6))
+def test_no_packet_arrives_sooner_than_the_least_delay_of_its_links(packets, extra) -> None:
+    """Every link its own extra delay; the bound over all six links holds for every packet, and is their least."""
+    pairs = [(i, j) for i in IDS for j in IDS if i != j]
+    own = {pair: LinkParams(extra_delay=x) for pair, x in zip(pairs, extra, strict=True)}
+    channel = channel_with(packets, SLOW, 0.05, own)
+    least = channel.least_delay(SIZE, pairs)
+    assert least == SLOW.airtime(SIZE) + min(extra)
     sent = {seq: t for seq, (_, t, _, _) in enumerate(sorted(packets, key=lambda p: p[1]), start=1)}
     for arrival, _, seq, *_ in channel._in_flight:
         assert arrival >= sent[seq] + least

@@ -75,6 +75,11 @@ def test_inside_a_span_the_broker_grants_windows_up_to_the_next_transmission(fle
 # nor collisions unless said. (The scenario's policy only passes validation: the test's vehicles send every step.)
 SLOW = ("comms.bitrate=60",)
 COLLIDING = (*SLOW, "comms.collisions=true", "comms.transmit.policy=event")
+# Delay only: the ideal modem (no airtime), every link its own extra delay, the least 1.5 s (15 steps).
+DELAYED = (
+    "comms.links=[{sender=1,receiver=2,extra_delay=1.5},{sender=2,receiver=1,extra_delay=1.5},"
+    "{sender=1,receiver=3,extra_delay=2.5},{sender=3,receiver=1,extra_delay=1.7}]",
+)
 LONG = 45
 
 
@@ -129,8 +134,9 @@ def spanned(fleet: Fleet, overrides: tuple[str, ...], forged: int | None = None)
         # collisions: from step 20 on a packet arrives at every step, and one sent then could spoil
         # it: windows of one step, as without lookahead
         (COLLIDING, [(0, 20), *((k, k + 1) for k in range(20, LONG))]),
+        (DELAYED, [(0, 15), (15, 30), (30, 45)]),  # the least extra delay of the links in force
     ],
-    ids=["delay only", "collisions"],
+    ids=["delay only", "collisions", "extra delays"],
 )
 def test_windows_run_past_transmissions_and_hand_out_what_stepping_does(fleet: Fleet, overrides, expected) -> None:  # noqa: F811
     """Channel lookahead (comms.broker.lookahead): the same receptions at every step, the same link events and link

@@ -58,6 +58,13 @@ CASES: dict[str, tuple[str, float, list[str], list[str]]] = {  # name -> (scenar
          "comms.burst.mean_burst=2.0", "faults.0.start=10", "faults.0.end=20"],
         [],
     ),
+    "delayed links, every step": (  # the ideal modem, each link an extra delay (the least 1.5 s), one degraded
+        "paper.toml", 40.0,
+        ["comms.links=[{sender=1,receiver=2,extra_delay=1.5},{sender=2,receiver=1,extra_delay=1.5},"
+         "{sender=1,receiver=3,extra_delay=2.5},{sender=3,receiver=1,extra_delay=1.7}]",
+         "faults.0.start=10", "faults.0.end=20"],
+        ["kind=link_degraded,sender=1,receiver=3,extra_loss=0.3,extra_delay=0.4,start=22,end=31"],
+    ),
     "slow links, tdma": (
         "paper.toml", 40.0, [*SLOW, "comms.tdma.slot=2.2", "comms.half_duplex=true", "faults.0.start=10",
                              "faults.0.end=20"], [],
@@ -71,6 +78,7 @@ CASES: dict[str, tuple[str, float, list[str], list[str]]] = {  # name -> (scenar
 # Whose windows, without lookahead, stop at transmissions at most 5 steps apart (TDMA's slots are longer).
 PAST_TRANSMISSIONS = (
     "slow links, every step",
+    "delayed links, every step",
     "slow links, every fault kind",
     "slow links, collisions, jitter, bursts",
 )

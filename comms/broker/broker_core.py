@@ -64,6 +64,12 @@ class BrokerCore:
         channel and the statistics are left as they are (channel lookahead: comms.broker.lookahead)."""
         return [_batches(receptions, vehicles) for receptions in self.channel.ahead(times)]
 
+    def links(self, network: Network | None = None) -> list[tuple[int, int]]:
+        """The directed links packets travel under network (None: the scenario's graph)."""
+        if network is None:
+            return [(i, j) for i, heard_by in self.neighbours.items() for j in heard_by]
+        return [(i, j) for i in self.neighbours for j in network.neighbours(i)]
+
     def finish(self, t: float, reason: str = "end_of_run") -> list[LinkEvent]:
         """End of run (or of this broker): what is still in flight is dropped, so every link's books balance."""
         events = self.channel.flush(t, reason)

@@ -3,8 +3,8 @@
 A window [a, b) used to stop at the first step n at which a vehicle may transmit (comms.broker.windows), because a
 transmission made inside it could reach a receiver, or spoil a reception, before its end. The channel says when
 that can happen (comms.channel.channel decides a packet at its delivery, from the airtimes in the water by then):
-- nothing sent at n or later arrives before t_n plus the least delay of a packet, its airtime (the time of flight,
-  jitter and extra delays can all be zero: two vehicles can be at one place);
+- nothing sent at n or later arrives before t_n plus the least delay of a packet: its airtime and the least extra
+  delay of the links in force (the time of flight and jitter can be zero: two vehicles can be at one place);
 - a transmission at t_n can spoil only packets arriving after t_n (half duplex at a transmitting receiver,
   collisions), and only if either is modelled.
 So the window may run to b = the first step whose intake either could change (quiet_from). The broker hands out
@@ -19,6 +19,7 @@ in flight cuts the window, as a packet sent then could spoil it.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 from comms.channel.channel import Channel, intake_step
@@ -38,10 +39,11 @@ class Replay:
     handed: list[dict[int, list[Reception]]]
 
 
-def quiet_from(channel: Channel, n: int, dt: float) -> int:
+def quiet_from(channel: Channel, n: int, dt: float, links: Iterable[tuple[int, int]]) -> int:
     """The first step after n whose intake a transmission made at step n or later could change: the least delay
-    after t_n, or the arrival of the first packet in flight that such a transmission could spoil."""
+    after t_n of a packet on links (the directed links of the graph in force), or the arrival of the first packet
+    in flight that such a transmission could spoil."""
     t_n = n * dt
-    quiet = intake_step(t_n + channel.least_delay(SIZE) - STAMP_MARGIN, dt)
+    quiet = intake_step(t_n + channel.least_delay(SIZE, links) - STAMP_MARGIN, dt)
     first = channel.first_spoilable(t_n)
     return quiet if first is None else min(quiet, intake_step(first, dt))

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import heapq
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -111,7 +111,7 @@ class Channel:
     def _link(self, sender: int, receiver: int) -> _Link:
         key = (sender, receiver)
         if key not in self._links:
-            own = self.params.links.get(key, LinkParams())
+            own = self._link_params(sender, receiver)
             model = own.loss or self.params.loss
             rng = np.random.default_rng([self.seed, sender, receiver])
             self._links[key] = _Link(rng, model.link() if model else None, own.extra_delay)
@@ -226,10 +226,15 @@ class Channel:
         later = [item[0] for item in self._in_flight if item[0] > t + ARRIVAL_SLACK]
         return min(later, default=None)
 
-    def least_delay(self, size_bytes: int) -> float:
-        """A lower bound on any packet's delay, transmission to arrival: its airtime (the time of flight, jitter and
-        extra delays can all be zero)."""
-        return self.params.modem.airtime(self.params.packet_bytes or size_bytes)
+    def least_delay(self, size_bytes: int, links: Iterable[tuple[int, int]] = ()) -> float:
+        """A lower bound on the delay, transmission to arrival, of any packet on links (directed, sender to
+        receiver): its airtime plus the least of the links' own extra delays (the time of flight and jitter can be
+        zero; a link fault's extra delay only adds). With no links named, the airtime."""
+        extra = min((self._link_params(i, j).extra_delay for i, j in links), default=0.0)
+        return self.params.modem.airtime(self.params.packet_bytes or size_bytes) + extra
+
+    def _link_params(self, sender: int, receiver: int) -> LinkParams:
+        return self.params.links.get((sender, receiver), LinkParams())
 
     def _spoiled(self, j: int, there: _Airtime) -> str | None:
         """Why a packet could not be received at j, if it could not."""
