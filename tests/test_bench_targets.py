@@ -32,3 +32,16 @@ def test_the_startup_benchmark_starts_a_fleet_forked_and_spawned() -> None:
     for how in ("fork", "spawn"):  # (memory is sampled every 0.2 s: a run this short may end unsampled)
         assert row[how]["startup_s"]["best"] > 0 and row[how]["real_time_factor"]["best"] > 0
     assert "fork start-up" in bench_startup.summary(row)
+
+
+def test_every_lookahead_case_is_the_scenario_it_says() -> None:
+    """benchmarks/bench_lookahead.py's cases: valid, on the links they name (its timing is `make bench`'s)."""
+    from benchmarks import bench_lookahead
+
+    for name, (file, overrides) in bench_lookahead.CASES.items():
+        sc = parse_scenario(bench_lookahead.scenario_text(name), file, overrides)
+        assert (sc.comms.tdma is None) == (name != "acoustic"), name
+        if name == "delayed-links":
+            assert [link.extra_delay for link in sc.comms.links] == [2.0] * 4 and len(sc.graph.edges) == 2
+        if name == "every-step":
+            assert sc.comms.bitrate == 60 and sc.comms.transmit.period is None
