@@ -85,12 +85,9 @@ def main() -> None:
     critical = bench_critical_path.measure_paper(ROOT, args.repeat)
     print(bench_critical_path.summary(critical), flush=True)
 
-    lookahead = [bench_lookahead.measure(name, args.repeat, None) for name in bench_lookahead.CASES]
-    for row in lookahead:
-        print(bench_lookahead.summary(row), flush=True)
     everything: dict[str, Any] = {"engines": engines, "scaling": scaling, "realtime": realtime, "bus_floor": floor}
     everything |= {"critical_path": critical, "startup": startup(args.scaling_duration, args.repeat)}
-    everything["lookahead"] = lookahead
+    everything["lookahead"] = lookahead(args.repeat)
     everything |= commands(paper, args.repeat)
     everything["targets"] = (
         [] if args.targets == "none" else bench_targets.run(args.targets.split(","), args.repeat, 100)
@@ -104,6 +101,15 @@ def startup(duration: float, repeat: int) -> list[dict[str, Any]]:
     for n in (10, 50):
         rows.append(bench_startup.measure(n, duration, repeat))
         print(bench_startup.summary(rows[-1]), flush=True)
+    return rows
+
+
+def lookahead(repeat: int) -> list[dict[str, Any]]:
+    """The paper on slow and delayed links, with and without TDMA (issue 26's channel lookahead), each printed."""
+    rows = []
+    for name in bench_lookahead.CASES:
+        rows.append(bench_lookahead.measure(name, repeat, None))
+        print(bench_lookahead.summary(rows[-1]), flush=True)
     return rows
 
 

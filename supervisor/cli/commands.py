@@ -108,8 +108,8 @@ def resim(args: argparse.Namespace) -> int:
 
 
 def replay(args: argparse.Namespace) -> int:
+    from supervisor.cli.live_view import live_view
     from supervisor.cli.replay_keys import keyboard
-    from supervisor.cli.run import live_view
     from supervisor.cli.terminal import ProgressLine, wait_to_start
     from supervisor.tools.replay import replay
 

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import contextlib
 import dataclasses
 import json
 import logging
@@ -12,12 +11,13 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from supervisor.cli.live_view import live_view
 from supervisor.cli.outputs import output_errors
 from supervisor.cli.parser import START_TIMEOUT
 from supervisor.errors import ScenarioError
 
 if TYPE_CHECKING:
-    from collections.abc import Callable, Iterator, Sequence
+    from collections.abc import Callable, Sequence
 
     from comms.broker.broker_start import BrokerStart
     from comms.bus.access import Credential
@@ -110,25 +110,6 @@ def execute(args: argparse.Namespace) -> tuple[Scenario, RunResult, Path]:
     with live_view(args.live, "cpf run") as live:
         result = _simulate(args, scenario, out, live)
     return scenario, result, out
-
-
-@contextlib.contextmanager
-def live_view(port: int | None, command: str, tell_subscriptions: bool = False) -> Iterator[LiveView | None]:
-    """With --live: a Foxglove WebSocket server, its address on stderr, stopped on the way out whatever happens
-    (the end, an error, Ctrl-C); ScenarioError if the port cannot be had. Without: None, and foxglove not imported.
-    tell_subscriptions: each topic a client subscribes to, a line on stderr (a replay waiting for Enter: the user
-    sees the viewer is in before starting it)."""
-    if port is None:
-        yield None
-        return
-    from supervisor.record.live import LiveView
-
-    def told(topic: str) -> None:
-        print(f"{command}: a client subscribed to {topic}", file=sys.stderr, flush=True)
-
-    with LiveView(port, on_subscribe=told if tell_subscriptions else None) as live:
-        print(f"{command}: live view on {live.url} (Foxglove: Open connection -> Foxglove WebSocket)", file=sys.stderr)
-        yield live
 
 
 def _checked_scenario(args: argparse.Namespace) -> Scenario:
