@@ -14,7 +14,9 @@ a+1 .. b-1 as stepping would: step j-1's transmissions into the water, step j's 
 handed out), the statistics and link events of step j. The records are those of stepping one step at a time
 (tests/test_windows_e2e.py). The gain: a fleet sending more often than its packets take to arrive, over a channel
 without collisions, still runs windows of about the least delay; with collisions or half duplex the next arrival
-in flight cuts the window, as a packet sent then could spoil it.
+in flight cuts the window, as a packet sent then could spoil it; on TDMA a slot holds its packet, and on the ideal
+channel (no airtime, no extra delay) a packet arrives at the next step: no gain there. Every bound starts from the
+transmission's time, which must be its step's (comms.records.stream.at_step_time: a forged one is dropped).
 """
 
 from __future__ import annotations
