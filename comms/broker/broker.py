@@ -184,7 +184,7 @@ class Broker:
         grant = self.grants.governing(tick.k)
         if grant is None or grant.hold:
             return tick
-        quiet = quiet_from(self.core.channel, tick.end - 1, self.dt, self.core.links(tick.network))
+        quiet = quiet_from(self.core.channel, tick.end - 1, self.dt, self.core.least_delay(tick.network))
         end = lookahead_end(tick.k, tick.end, grant.reach, grant.longest, quiet)
         return tick if end == tick.end else msgspec.structs.replace(tick, until=end)
 

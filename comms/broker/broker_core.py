@@ -17,7 +17,7 @@ from comms.records.messages import Message
 from comms.records.network import Network
 from comms.records.plausible import Plausible
 from comms.records.records import Kinematics, LinkEvent, Reception, Transmission
-from comms.records.wire import decode_coordination, encode_coordination
+from comms.records.wire import SIZE, decode_coordination, encode_coordination
 
 
 @dataclass
@@ -27,6 +27,7 @@ class BrokerCore:
     stats: LinkStats
     plausible: dict[int, Plausible] = field(default_factory=dict)  # each vehicle's bounds (comms.records.plausible)
     _next_snapshot: float | None = None  # the first snapshot after one full window
+    _least: dict[Network | None, float] = field(default_factory=dict)  # least_delay's, by network
 
     def submit(
         self,
@@ -64,11 +65,16 @@ class BrokerCore:
         channel and the statistics are left as they are (channel lookahead: comms.broker.lookahead)."""
         return [_batches(receptions, vehicles) for receptions in self.channel.ahead(times)]
 
-    def links(self, network: Network | None = None) -> list[tuple[int, int]]:
-        """The directed links packets travel under network (None: the scenario's graph)."""
-        if network is None:
-            return [(i, j) for i, heard_by in self.neighbours.items() for j in heard_by]
-        return [(i, j) for i in self.neighbours for j in network.neighbours(i)]
+    def least_delay(self, network: Network | None = None) -> float:
+        """A lower bound on any packet's delay under network (None: the scenario's graph, no faults): the channel's
+        over the directed links packets travel then (Channel.least_delay); worked out once per network."""
+        if network not in self._least:
+            if network is None:
+                links = [(i, j) for i, heard_by in self.neighbours.items() for j in heard_by]
+            else:
+                links = [(i, j) for i in self.neighbours for j in network.neighbours(i)]
+            self._least[network] = self.channel.least_delay(SIZE, links)
+        return self._least[network]
 
     def finish(self, t: float, reason: str = "end_of_run") -> list[LinkEvent]:
         """End of run (or of this broker): what is still in flight is dropped, so every link's books balance."""

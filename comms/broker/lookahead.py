@@ -21,12 +21,10 @@ transmission's time, which must be its step's (comms.records.stream.at_step_time
 
 from __future__ import annotations
 
-from collections.abc import Iterable
 from dataclasses import dataclass
 
 from comms.channel.channel import Channel, intake_step
 from comms.records.records import Reception
-from comms.records.wire import SIZE
 
 # s taken off t_n + least delay: a vehicle stamps t_n as k dt or as its tick's t, which may differ in the last bit
 STAMP_MARGIN = 1e-6
@@ -41,11 +39,13 @@ class Replay:
     handed: list[dict[int, list[Reception]]]
 
 
-def quiet_from(channel: Channel, n: int, dt: float, links: Iterable[tuple[int, int]]) -> int:
-    """The first step after n whose intake a transmission made at step n or later could change: the least delay
-    after t_n of a packet on links (the directed links of the graph in force), or the arrival of the first packet
-    in flight that such a transmission could spoil."""
+def quiet_from(channel: Channel, n: int, dt: float, least_delay: float) -> int:
+    """The first step after n whose intake a transmission made at step n or later could change: least_delay (of a
+    packet on the links in force: BrokerCore.least_delay) after t_n, or the arrival of the first packet in flight
+    that such a transmission could spoil."""
     t_n = n * dt
-    quiet = intake_step(t_n + channel.least_delay(SIZE, links) - STAMP_MARGIN, dt)
+    quiet = intake_step(t_n + least_delay - STAMP_MARGIN, dt)
+    if quiet <= n + 1:  # no window can pass n (the ideal channel): the packets in flight need not be looked at
+        return quiet
     first = channel.first_spoilable(t_n)
     return quiet if first is None else min(quiet, intake_step(first, dt))

@@ -18,7 +18,7 @@ from __future__ import annotations
 import heapq
 import math
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -201,20 +201,10 @@ class Channel:
 
     def ahead(self, times: Sequence[float]) -> list[list[Reception]]:
         """What deliver(t) would hand out at each of times in turn (ascending), if nothing were transmitted
-        meanwhile; the channel is left as it is (channel lookahead: comms.broker.lookahead). Delivery draws nothing
-        at random and forgets only airtimes long past, so this is deliver's answer."""
-        waiting = sorted(self._in_flight, key=lambda item: item[:4])  # the heap's pop order
-        out: list[list[Reception]] = []
-        i = 0
-        for t in times:
-            due: list[Reception] = []
-            while i < len(waiting) and waiting[i][0] <= t + ARRIVAL_SLACK:
-                _, _, _, j, there, reception, _ = waiting[i]
-                if self._spoiled(j, there) is None:
-                    due.append(reception)
-                i += 1
-            out.append(due)
-        return out
+        meanwhile (channel lookahead: comms.broker.lookahead): deliver itself, on a copy of what it changes (the
+        packets in flight, the airtimes it forgets); it draws nothing at random, so this is its answer."""
+        copy = replace(self, _in_flight=list(self._in_flight), _heard=dict(self._heard), _sending=dict(self._sending))
+        return [copy.deliver(t)[0] for t in times]
 
     def first_spoilable(self, t: float) -> float | None:
         """The earliest arrival after t (an intake after t's) of a packet in flight that a transmission made at t or
