@@ -23,15 +23,13 @@ as every Zenoh figure's. Written to benchmarks/results/lookahead.json.
 from __future__ import annotations
 
 import argparse
-import os
-import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 from typing import Any
 
 from benchmarks import ROOT, bench_bus_floor, save
+from benchmarks.bench_targets import timed
 
 SLOW = ["comms.bitrate=60"]
 PAPER_LINKS = ((1, 2), (2, 1), (1, 3), (3, 1))  # the paper's graph 2 - 1 - 3, both ways
@@ -58,17 +56,6 @@ def command(engine: str, scenario: Path, overrides: list[str], out: Path) -> lis
     return [sys.executable, "-m", "supervisor.cli", "run", str(scenario), "--engine", engine, *sets, "--out", str(out)]
 
 
-def timed(argv: list[str], tree: Path) -> float:
-    """Wall time of one command run from tree, its processes importing that tree's modules (PYTHONPATH: the fork
-    server starts with -P, so without it every child would import this venv's editable install, this tree)."""
-    env = {**os.environ, "PYTHONPATH": str(tree)}
-    start = time.perf_counter()
-    done = subprocess.run(argv, cwd=tree, capture_output=True, text=True, env=env)
-    if done.returncode != 0:
-        raise SystemExit(f"{' '.join(argv)} failed ({done.returncode}):\n{done.stderr[-2000:]}")
-    return time.perf_counter() - start
-
-
 def measure(name: str, repeat: int, against: Path | None) -> dict[str, Any]:
     trees = {"zenoh": (ROOT, "zenoh"), "inprocess": (ROOT, "inprocess")}
     if against is not None:
@@ -80,7 +67,7 @@ def measure(name: str, repeat: int, against: Path | None) -> dict[str, Any]:
         for i in range(repeat):
             for key, (tree, engine) in trees.items():  # alternating: the machine's drift hits each alike
                 out = Path(tmp) / f"{key}-{i}.mcap"
-                times[key].append(timed(command(engine, scenario, CASES[name][1], out), tree))
+                times[key].append(timed(command(engine, scenario, CASES[name][1], out), tree=tree))
     floor = bench_bus_floor.measure(3, 2000, lean=True) * STEPS
     row: dict[str, Any] = {"case": name, "bus_floor_s": floor}
     for key, values in times.items():

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import os
 import subprocess
 import sys
 import tempfile
@@ -62,13 +63,16 @@ def scenario_text(case: Case) -> str:
     return text + f'\n[comms.transmit]\npolicy = "periodic"\n{period}'
 
 
-def timed(argv: list[str], sampled: tuple[str, int, list[float]] | None = None) -> float:
+def timed(argv: list[str], sampled: tuple[str, int, list[float]] | None = None, tree: Path = ROOT) -> float:
     """Wall time of one command, as a user waits for it; its failure stops the benchmark with its output. sampled:
-    (marker, how many vehicle processes, peaks): add the peak resident memory of its largest vehicle process (MB)."""
+    (marker, how many vehicle processes, peaks): add the peak resident memory of its largest vehicle process (MB).
+    tree: the checkout it runs from, its processes importing that tree's modules (PYTHONPATH: the fork server
+    starts with -P, so without it every child would import this venv's editable install, this tree)."""
+    env = {**os.environ, "PYTHONPATH": str(tree)}
     start = time.perf_counter()
     with contextlib.ExitStack() as stack:
         sampler = stack.enter_context(ProcessSampler(*sampled[:2])) if sampled is not None else None
-        done = subprocess.run(argv, cwd=ROOT, capture_output=True, text=True)
+        done = subprocess.run(argv, cwd=tree, capture_output=True, text=True, env=env)
     wall = time.perf_counter() - start
     if sampled is not None and sampler is not None and sampler.rss:
         sampled[2].append(max(sampler.rss.values()) / 1e6)
