@@ -147,3 +147,18 @@ def test_a_plausible_state_carrying_an_absurd_transmission_loses_the_transmissio
     broker = Broker(broker_start(SCENARIO, 0).core, SCENARIO.vehicle_ids, RecordingPublishers(), DT)
     broker.take(state_key(2), encode({**state(0), "tx": tx}))
     assert broker.books.drops.by_cause == {IMPLAUSIBLE: 1} and broker.books.states[0][2][1] is None
+
+
+def test_a_transmission_not_at_its_step_s_time_is_dropped_by_both_readers() -> None:
+    """A forged t (the channel times the packet from it; an early one would arrive before it was sent) loses the
+    transmission, intake and broker alike (comms.records.stream.at_step_time); the state counts."""
+    tx = {"sender": 2, "seq": 1, "t": 0.3, "gamma": 0.5, "gamma_dot": 0.98, "position": [1.0, -2.0, 3.0],
+          "velocity": [1.2, 0.1, 0.0]}  # fmt: skip
+    message = {**state(0), "tx": tx}  # step 0: t = 0
+    taking, rec = intake()
+    taking.take(Received(state_key(2), encode(message)), 0.0)
+    assert taking.drops.by_key == {"cpf/vehicle/2/tx": 1} and [r[0] for r in rec.records] == [state_key(2)]
+    for t, dropped in ((0.3, 1), (0.0, 0)):  # at its step's time: kept
+        broker = Broker(broker_start(SCENARIO, 0).core, SCENARIO.vehicle_ids, RecordingPublishers(), DT)
+        broker.take(state_key(2), encode({**message, "tx": {**tx, "t": t}}))
+        assert broker.books.drops.total == dropped and (broker.books.states[0][2][1] is None) == bool(dropped)
