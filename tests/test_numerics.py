@@ -364,3 +364,19 @@ def test_the_checker_catches_libm_calls(tmp_path: Path) -> None:
     source = "import math\nimport numpy\nfrom math import exp\nfrom comms import x\ny = math.sin(1.0) + 2.0 ** 0.5\n"
     (tmp_path / "bad.py").write_text(source, encoding="utf-8")
     assert len(_violations(tmp_path / "bad.py")) == 5
+
+
+def test_norm3_is_row_norms_row_and_correctly_rounded() -> None:
+    """norm3 of a vector and row_norms of a row are the same bits (the summary's and the report's path error), and
+    within half an ULP of the exact sqrt of the (rounded) sum of squares they take."""
+    from numerics.linalg import norm3, row_norms
+
+    rng = random.Random(27)
+    rows = [[rng.uniform(-1, 1) * 10.0 ** rng.randint(-8, 8) for _ in range(3)] for _ in range(2000)]
+    rows += [[0.0, 0.0, 0.0], [-0.0, 3.0, 4.0], [1e150, 0.0, 0.0]]
+    many = row_norms(rows).tolist()
+    assert [norm3(*row) for row in rows] == many
+    ctx = decimal.Context(prec=60)
+    for (x, y, z), got in zip(rows[:200], many[:200], strict=True):
+        exact = ctx.sqrt(decimal.Decimal(x * x + y * y + z * z))
+        assert abs(decimal.Decimal(got) - exact) <= decimal.Decimal(math.ulp(got)) / 2

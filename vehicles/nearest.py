@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from numerics.linalg import row_norms
 from vehicles.bounded_min import bounded_minimum
 
 if TYPE_CHECKING:
@@ -104,13 +105,6 @@ def _points(path: Path, gammas: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.array([path.evaluate_floats(g)[0] for g in gammas.tolist()], dtype=np.float64).reshape(-1, 3)
 
 
-def _norms(vectors: NDArray[np.float64]) -> NDArray[np.float64]:
-    """|row| of an (n, 3) array, elementwise (the same bits on every CPU, unlike linalg.norm)."""
-    x, y, z = vectors[:, 0], vectors[:, 1], vectors[:, 2]
-    out: NDArray[np.float64] = np.sqrt(x * x + y * y + z * z)
-    return out
-
-
 def _samples(
     path: Path, q: NDArray[np.float64], lo: float, hi: float
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
@@ -118,13 +112,13 @@ def _samples(
     and the largest distance [m] between consecutive points."""
     gammas = np.linspace(lo, hi, MIN_SAMPLES)
     points = _points(path, gammas)
-    gaps = _norms(np.diff(points, axis=0))
+    gaps = row_norms(np.diff(points, axis=0))
     wanted = min(max(math.ceil(math.fsum(gaps.tolist()) / MAX_SPACING) + 1, MIN_SAMPLES), MAX_SAMPLES)
     if wanted > MIN_SAMPLES:
         gammas = np.linspace(lo, hi, wanted)
         points = _points(path, gammas)
-        gaps = _norms(np.diff(points, axis=0))
-    return gammas, _norms(points - q), float(gaps.max()) if gaps.size else 0.0
+        gaps = row_norms(np.diff(points, axis=0))
+    return gammas, row_norms(points - q), float(gaps.max()) if gaps.size else 0.0
 
 
 def _local_minima(d: NDArray[np.float64], limit: float) -> list[int]:

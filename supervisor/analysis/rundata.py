@@ -22,6 +22,7 @@ from comms.records.records import LinkEvent
 from comms.records.reports import CommsStats
 from comms.records.run import FaultEvent, Graph
 from comms.records.state import StateReport
+from numerics.linalg import row_norms
 from supervisor.errors import ScenarioError
 from supervisor.record import logfile
 from supervisor.record.meta import RunMeta
@@ -74,7 +75,7 @@ class VehicleSeries:
 
     @property
     def error_norm(self) -> Array:
-        return np.linalg.norm(self.error, axis=1)
+        return row_norms(self.error)
 
 
 class AgeSeries(NamedTuple):
@@ -288,8 +289,8 @@ def _navigation(messages: list[StateReport]) -> dict[str, Array]:
     sigma = _matrix([m.position_sigma or (math.nan,) * 3 for m in messages], 3)
     truth = _matrix([m.position for m in messages], 3)
     return {
-        "nav_error": np.linalg.norm(estimate - truth, axis=1),
-        "nav_sigma": np.linalg.norm(sigma, axis=1),
+        "nav_error": row_norms(estimate - truth),
+        "nav_sigma": row_norms(sigma),
         "nav_fix": np.array([m.nav_fix or 0 for m in messages], dtype=int),
     }
 

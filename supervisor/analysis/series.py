@@ -8,6 +8,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from comms.records.state import StateReport
+from numerics.linalg import norm3
 from supervisor.analysis.summary import Series
 
 INITIAL_ROWS = 1024  # steps held before the first growth; the array doubles as the run goes
@@ -68,9 +69,11 @@ def _inputs(tau: Sequence[float]) -> tuple[float, float, float]:
 
 
 def _magnitude(error: tuple[float, float, float]) -> float:
-    """|error|: the norm the series always took, or math.hypot where its squares would overflow (a state's error is
-    a diagnostic that need only be a number; 1e300 made a RuntimeWarning and inf)."""
+    """|error| as the report's data takes it from the log (numerics.linalg: the same bits on every CPU; numpy's
+    vector norm was BLAS's dot, CPU-dependent in its last bit and ~1.8 us a call against 0.13 us), or math.hypot
+    where its squares would overflow (a state's error is a diagnostic that need only be a number; 1e300 made a
+    RuntimeWarning and inf)."""
     x, y, z = error
     if max(abs(x), abs(y), abs(z)) < 1e150:
-        return float(np.linalg.norm(error))
+        return norm3(x, y, z)
     return math.hypot(x, y, z)
