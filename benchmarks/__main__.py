@@ -21,10 +21,12 @@
 11. start-up: 10 and 50 AUVs one process each, forked from the fork server and spawned, alternating: start-up,
    stepping rate, peak memory per vehicle process (benchmarks.bench_startup; issue 26);
 12. lookahead: the paper scenario on a slow modem (2 s packets), every step and event-triggered with collisions, both
-   engines, with the lean bus floor of the same run (benchmarks.bench_lookahead; issue 26).
+   engines, with the lean bus floor of the same run (benchmarks.bench_lookahead; issue 26);
+13. sweep split: a paper sweep run's CPU, whole and with its vehicle steps replayed, and the least a 1000-run sweep
+   could take with a free vehicle step (benchmarks.bench_sweep_split; issue 26).
 Each part is also a module of its own (benchmarks.bench_engines, bench_scaling, bench_realtime, bench_bus_floor,
 bench_parse, bench_ready, bench_live, bench_report, bench_targets, bench_critical_path, bench_startup,
-bench_lookahead);
+bench_lookahead, bench_sweep_split);
 benchmarks.bench_side_by_side compares this tree with another checkout; bench_record and bench_intake are
 diagnostics with no target of their own. Results go to benchmarks/results/*.json; the targets are printed next to
 the numbers. Speed is checked here, never in tests.
@@ -49,6 +51,7 @@ from benchmarks import (
     bench_report,
     bench_scaling,
     bench_startup,
+    bench_sweep_split,
     bench_targets,
     save,
 )
@@ -87,7 +90,7 @@ def main() -> None:
 
     everything: dict[str, Any] = {"engines": engines, "scaling": scaling, "realtime": realtime, "bus_floor": floor}
     everything |= {"critical_path": critical, "startup": startup(args.scaling_duration, args.repeat)}
-    everything["lookahead"] = lookahead(args.repeat)
+    everything |= {"lookahead": lookahead(args.repeat), "sweep_split": sweep_split(paper, args.repeat)}
     everything |= commands(paper, args.repeat)
     everything["targets"] = (
         [] if args.targets == "none" else bench_targets.run(args.targets.split(","), args.repeat, 100)
@@ -111,6 +114,13 @@ def lookahead(repeat: int) -> list[dict[str, Any]]:
         rows.append(bench_lookahead.measure(name, repeat, None))
         print(bench_lookahead.summary(rows[-1]), flush=True)
     return rows
+
+
+def sweep_split(paper: Path, repeat: int) -> dict[str, Any]:
+    """A paper sweep run with and without its vehicle steps (issue 26's fast studies), printed."""
+    split = bench_sweep_split.measure(paper, max(repeat, 2))
+    print(bench_sweep_split.summary(split), flush=True)
+    return split
 
 
 def commands(paper: Path, repeat: int) -> dict[str, Any]:

@@ -3,7 +3,7 @@ benchmark itself is run by `make bench`, never in tests)."""
 
 from __future__ import annotations
 
-from benchmarks import bench_ready, bench_startup
+from benchmarks import ROOT, bench_ready, bench_startup
 from benchmarks.bench_targets import CASES, scenario_text
 from supervisor.config.scenario import parse_scenario
 
@@ -45,3 +45,14 @@ def test_every_lookahead_case_is_the_scenario_it_says() -> None:
             assert [link.extra_delay for link in sc.comms.links] == [2.0] * 4 and len(sc.graph.edges) == 2
         if name == "every-step":
             assert sc.comms.bitrate == 60 and sc.comms.transmit.period is None
+
+
+def test_the_sweep_split_replays_the_same_run_for_less() -> None:
+    """benchmarks/bench_sweep_split.py on a short paper run: the replayed run gives the same row (measure raises
+    otherwise) and costs less than the whole one; its figures are `make bench`'s."""
+    from benchmarks import bench_sweep_split
+
+    result = bench_sweep_split.measure(ROOT / "configs" / "paper.toml", 1, duration=5.0)
+    assert result["vehicle_steps"] == 3 * 50
+    assert 0.0 < result["rest_cpu_s"] < result["whole_cpu_s"]
+    assert "with a vehicle step that cost nothing" in bench_sweep_split.summary(result)
