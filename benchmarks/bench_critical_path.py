@@ -29,9 +29,10 @@ TICKS = os.sysconf("SC_CLK_TCK")
 STEPPING = re.compile(r"stepping ([0-9.]+) s")
 
 
-def _descendants(root: int) -> list[int]:
-    """Every process below root: its children and theirs (the run's processes are forked by its fork server)."""
-    tree, found, todo = _children(), [], [root]
+def _descendants(root: int, tree: dict[int, list[int]]) -> list[int]:
+    """Every process below root in tree (_children): its children and theirs (the run's processes are forked by
+    its fork server)."""
+    found, todo = [], [root]
     while todo:
         below = tree.get(todo.pop(), [])
         found += below
@@ -52,7 +53,7 @@ def _children() -> dict[int, list[int]]:
     return tree
 
 
-def _name(pid: int, root: int) -> str | None:
+def _name(pid: int, root: int, tree: dict[int, list[int]]) -> str | None:
     if pid == root:
         return "supervisor"
     try:
@@ -62,7 +63,7 @@ def _name(pid: int, root: int) -> str | None:
     words = cmdline.replace(b"\0", b" ").decode(errors="replace").split()  # a forked child's title: one string
     if "supervisor.cli.fork_server" in words:
         # cpf's own child; a child it has just forked shows its command line too, until it sets its own title
-        return "fork server" if pid in _children().get(root, []) else None
+        return "fork server" if pid in tree.get(root, []) else None
     if "comms" in words:
         return "broker"
     if "vehicle" in words and "--id" in words:
@@ -94,8 +95,9 @@ def sample(
     names: dict[int, str] = {}
     while not stop.wait(0.05):
         if len(names) < expected:  # until every child is there: /proc scans cost
-            for pid in _descendants(root):
-                name = _name(pid, root)
+            tree = _children()  # one scan of /proc per round
+            for pid in _descendants(root, tree):
+                name = _name(pid, root, tree)
                 if name is not None:
                     names[pid] = name
             names[root] = "supervisor"

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from benchmarks.bench_critical_path import _name, run_once, summary
+from benchmarks.bench_critical_path import _children, _name, run_once, summary
 from tests.conftest import CONFIGS, ROOT, shortened
 from tests.procs import wait_until
 
@@ -38,7 +38,8 @@ def test_only_cpfs_own_child_is_named_the_fork_server() -> None:
     with subprocess.Popen(argv, stdin=subprocess.PIPE) as lookalike:
         try:  # (until it has exec'd, its command line is this process's)
             assert wait_until(lambda: b"fork_server" in Path(f"/proc/{lookalike.pid}/cmdline").read_bytes())
-            assert _name(lookalike.pid, os.getpid()) == "fork server"  # our child: the fork server of "our" run
-            assert _name(lookalike.pid, os.getppid()) is None  # a grandchild of that cpf: a child not yet titled
+            tree = _children()
+            assert _name(lookalike.pid, os.getpid(), tree) == "fork server"  # our child: the fork server of "our" run
+            assert _name(lookalike.pid, os.getppid(), tree) is None  # a grandchild of that cpf: a child not yet titled
         finally:
             lookalike.kill()
