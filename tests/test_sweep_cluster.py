@@ -111,6 +111,22 @@ def test_a_cluster_sweep_gives_the_rows_of_a_local_sweep(tmp_path, scenario, loc
     assert (tmp_path / "dask/sweep_comms_loss.png").read_bytes().startswith(b"\x89PNG")
 
 
+def test_a_cluster_sweep_brings_each_runs_log_back_when_asked(tmp_path, scenario, local_rows):
+    """--logs on a cluster: each log comes back with its row (the workers share no directory with the client) and is
+    written beside it, whole."""
+    with local_cluster() as cluster:
+        args = ["sweep", str(scenario), *GRID, "--cluster", cluster.scheduler_address, "--logs", "--out", "dask"]
+        done = cpf(*args, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert read_rows(tmp_path / "dask/results.csv") == local_rows
+    runs = tmp_path / "dask/runs"
+    logs = sorted(runs.glob("*.mcap"))
+    assert [p.stem for p in logs] == sorted(p.stem for p in runs.glob("*.json")) and len(logs) == 4
+    for log in logs:
+        info = cpf("info", str(log), cwd=tmp_path)
+        assert info.returncode == 0 and "engine     inprocess" in info.stdout, info.stderr
+
+
 def until_in(stream: IO[str], text: str) -> str:
     """What stream gives until text appears in it (or it ends): cpf's progress bar, read as it is drawn."""
     seen = ""

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import io
+import json
 from pathlib import Path
 from typing import Any
 
@@ -71,6 +72,45 @@ def test_a_sweep_writes_every_run_and_resumes_without_redoing(tmp_path, paper_te
     assert "3/4" in again.stderr and "4/4" in again.stderr  # resumed: three runs were done already
     assert runs[0].exists() and all(p.stat().st_mtime_ns == mtime for p, mtime in kept.items())  # only it re-ran
     assert read_rows(tmp_path / "sw/results.csv") == rows  # and it came out the same
+
+
+def test_a_sweep_keeps_each_runs_log_only_when_asked(tmp_path, paper_text):
+    """--logs: each run's log beside its row (runs/<id>.mcap), a whole log whose report agrees with the row to the
+    bit (the same path error and packets); a run done before without its log runs again, the others do not; without
+    --logs no run leaves a log."""
+    scenario = tmp_path / "s.toml"
+    scenario.write_text(shortened(paper_text, 12.0).replace("transient = 50.0", "transient = 4.0"))
+    args = ["sweep", str(scenario), "--param", "comms.loss=0,0.5", "--seeds", "1", "--jobs", "2", "--out", "sw"]
+    plain = cpf(*args, cwd=tmp_path)
+    assert plain.returncode == 0, plain.stderr
+    runs = tmp_path / "sw/runs"
+    assert len(list(runs.glob("*.json"))) == 2 and list(runs.glob("*.mcap*")) == []
+    rows = read_rows(tmp_path / "sw/results.csv")
+    (runs / next(iter(sorted(runs.glob("*.json")))).name).unlink()  # one run to do again, the other to log
+    kept = cpf(*args, "--logs", cwd=tmp_path)
+    assert kept.returncode == 0, kept.stderr
+    assert "0/2" in kept.stderr and "2/2" in kept.stderr  # the run without a log ran again too
+    assert read_rows(tmp_path / "sw/results.csv") == rows  # and came out the same
+    logs = sorted(runs.glob("*.mcap"))
+    assert [p.stem for p in logs] == sorted(p.stem for p in runs.glob("*.json")) and not list(runs.glob("*.part"))
+    for row, log in zip(rows, sorted(logs, key=lambda p: json_row(p)["comms.loss"]), strict=True):
+        report = cpf("report", str(log), "--out", str(tmp_path / log.stem), cwd=tmp_path)
+        assert report.returncode == 0, report.stderr
+        metrics = json.loads((tmp_path / log.stem / "metrics.json").read_text())
+        total = metrics["packets"]["total"]
+        assert [total[k] for k in ("sent", "delivered", "dropped")] == [
+            int(row[k]) for k in ("sent", "delivered", "dropped")
+        ]
+        assert metrics["path_following"]["max_error_after_transient"] == float(row["max_path_error"])
+    assert int(rows[1]["dropped"]) > 0
+    again = cpf(*args, "--logs", cwd=tmp_path)
+    assert again.returncode == 0 and "2/2" in again.stderr and "0/2" not in again.stderr  # nothing ran again
+
+
+def json_row(log: Path) -> dict[str, Any]:
+    """The row kept beside a run's log."""
+    row: dict[str, Any] = json.loads(log.with_suffix(".json").read_text())
+    return row
 
 
 def test_a_sweep_over_zenoh_gives_the_results_of_the_in_process_engine(tmp_path, paper_text):

@@ -70,7 +70,7 @@ def sweep(args: argparse.Namespace) -> int:
     cluster = None if args.cluster is None else Cluster(args.cluster, args.cluster_timeout)
     bar = SweepBar()
     try:
-        rows = sweep(args.scenario, params, args.seeds, args.jobs or 2, args.out, args.engine, bar, cluster)
+        rows = sweep(args.scenario, params, args.seeds, args.jobs or 2, args.out, args.engine, bar, cluster, args.logs)
     finally:
         bar.close()
     print(f"{len(rows)} runs -> {args.out / 'results.csv'}")

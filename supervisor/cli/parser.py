@@ -227,6 +227,11 @@ def _add_log_commands(sub: Commands) -> None:
     )  # fmt: skip
     sweep.add_argument("--engine", choices=["inprocess", "zenoh"], default="inprocess", help="identical results")
     sweep.add_argument("--out", type=Path, required=True, help="directory: runs/, results.csv, plots")
+    sweep.add_argument(
+        "--logs", action="store_true",
+        help="keep each run's log as runs/<id>.mcap (for cpf report, replay, resim); without, a run records only its "
+        "row",
+    )  # fmt: skip
     _add_resim(sub)
     info = sub.add_parser("info", help="what a recorded run is: scenario, engine, duration, faults, topics")
     info.add_argument("log", type=Path, help="MCAP file written by cpf run (one cut short too)")

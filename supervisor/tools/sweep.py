@@ -103,9 +103,24 @@ def _override(key: str, value: Any) -> str:
 
 
 def run_one(scenario_name: str, scenario_bytes: bytes, spec: RunSpec, engine: str) -> dict[str, Any]:
-    """One run of the sweep, wherever it runs (a local worker process, a Dask worker): its metrics row. The scenario
-    comes as the file's bytes and is written into the run's temporary directory under its own name (the Zenoh
-    engine's processes load it from there), so a cluster's workers need no filesystem shared with the client."""
+    """One run of the sweep, wherever it runs (a local worker process, a Dask worker): its metrics row, nothing
+    recorded (the in-process engine counts the messages a log would hold; the Zenoh engine's log is deleted)."""
+    return _measured(scenario_name, scenario_bytes, spec, engine, False)[0]
+
+
+def run_logged(scenario_name: str, scenario_bytes: bytes, spec: RunSpec, engine: str) -> tuple[dict[str, Any], bytes]:
+    """run_one, and the run's whole log (with its Foxglove scene) as bytes: `cpf sweep --logs`. Bytes, not a path: a
+    cluster's workers share no filesystem with the client, which writes the log where the row goes."""
+    row, log = _measured(scenario_name, scenario_bytes, spec, engine, True)
+    assert log is not None
+    return row, log
+
+
+def _measured(
+    scenario_name: str, scenario_bytes: bytes, spec: RunSpec, engine: str, keep_log: bool
+) -> tuple[dict[str, Any], bytes | None]:
+    """The run's row, and its log if keep_log. The scenario comes as the file's bytes and is written into the run's
+    temporary directory under its own name (the Zenoh engine's processes load it from there)."""
     from supervisor.analysis.summary import summarize
     from supervisor.config.derived import intervals, tube_radius
     from supervisor.config.scenario import load_scenario
@@ -119,26 +134,31 @@ def run_one(scenario_name: str, scenario_bytes: bytes, spec: RunSpec, engine: st
         path.write_bytes(scenario_bytes)
         scenario = load_scenario(path, overrides)
         quiet = Progress(scenario.scenario.duration, io.StringIO(), enabled=False)
-        result = _run(engine, scenario, path, overrides, Path(tmp) / "run.mcap", spec.seed, quiet)
+        out = Path(tmp) / "run.mcap"
+        result = _run(engine, scenario, path, overrides, out, spec.seed, quiet, keep_log)
+        log = out.read_bytes() if keep_log else None
     rep = scenario.report
     tube = tube_radius(scenario)
     summary = summarize(
         result.series, scenario.scenario.duration, intervals(scenario), rep.transient, tube, rep.coordination_tolerance
     )
-    return {**dict(spec.settings), "seed": spec.seed, **_measures(result, summary, scenario)}
+    return {**dict(spec.settings), "seed": spec.seed, **_measures(result, summary, scenario)}, log
 
 
-def _run(engine: str, scenario: Any, path: Path, overrides: tuple[str, ...], out: Path, seed: int, quiet: Any) -> Any:
-    """The run on either engine; the Zenoh engine's processes load the scenario file themselves, with overrides."""
+def _run(
+    engine: str, scenario: Any, path: Path, overrides: tuple[str, ...], out: Path, seed: int, quiet: Any, log: bool
+) -> Any:
+    """The run on either engine, its log written to out only if log; the Zenoh engine's processes load the scenario
+    file themselves, with overrides."""
     text = path.read_text(encoding="utf-8")
     if engine == "zenoh":
         from supervisor.engine.cosim import BusOptions, run_zenoh
 
-        bus = BusOptions(overrides=overrides)  # its log is deleted once its metrics are taken: no scene to build
-        return run_zenoh(scenario, path, text, out, seed, "lockstep", 1.0, bus, quiet, scene=False)
+        bus = BusOptions(overrides=overrides)  # a log not kept is deleted once its metrics are taken: no scene
+        return run_zenoh(scenario, path, text, out, seed, "lockstep", 1.0, bus, quiet, scene=log)
     from supervisor.engine.inprocess import run_inprocess
 
-    return run_inprocess(scenario, str(path), text, None, seed, quiet)  # its log would be deleted unread
+    return run_inprocess(scenario, str(path), text, out if log else None, seed, quiet)
 
 
 def _measures(result: Any, summary: Any, scenario: Any) -> dict[str, Any]:
@@ -168,22 +188,24 @@ def sweep(
     engine: str = "inprocess",
     progress: Callable[[int, int], None] | None = None,
     cluster: Cluster | None = None,
+    logs: bool = False,
 ) -> list[dict[str, Any]]:
     """Run (or resume) the whole sweep; returns every row, in grid order. progress, if given, is called with (runs
     done, runs in all) before the first run and after each (the command line draws a bar with it). cluster: the
     runs go to a Dask scheduler (supervisor.tools.sweep_cluster; jobs is then the cluster's business), else to jobs
-    local processes. Either way the rows come back here and are written here, so resuming works alike."""
+    local processes. Either way the rows come back here and are written here, so resuming works alike. logs: each
+    run's log kept as runs/<id>.mcap (a run done before without its log runs again); else runs record nothing."""
     _check_values(scenario_path, params)
     scenario_bytes = scenario_path.read_bytes()
     specs = grid(params, seeds)
     runs_dir = out_dir / "runs"
     with _executor(jobs, cluster) as (pool, watch):  # a cluster that cannot be reached: nothing written yet
         runs_dir.mkdir(parents=True, exist_ok=True)
-        todo = [s for s in specs if not (runs_dir / f"{s.run_id}.json").exists()]
+        todo = [s for s in specs if not _done(runs_dir, s, logs)]
         done = len(specs) - len(todo)
         if progress is not None:
             progress(done, len(specs))
-        futures = {pool.submit(run_one, scenario_path.name, scenario_bytes, s, engine): s for s in todo}
+        futures = _submitted(pool, run_logged if logs else run_one, scenario_path.name, scenario_bytes, todo, engine)
         try:
             for future in _completed(futures, watch):
                 _keep(runs_dir, futures[future], future)
@@ -220,7 +242,7 @@ def _executor(jobs: int, cluster: Cluster | None) -> Iterator[tuple[Executor, Ca
         yield pool, watch.watch
 
 
-def _completed(futures: Iterable[Future[dict[str, Any]]], watch: Callable[[], None] | None) -> Iterator[Any]:
+def _completed(futures: Iterable[Future[Any]], watch: Callable[[], None] | None) -> Iterator[Any]:
     """The futures as they finish; watch() every WATCH_INTERVAL s while none does."""
     pending = set(futures)
     while pending:
@@ -230,18 +252,38 @@ def _completed(futures: Iterable[Future[dict[str, Any]]], watch: Callable[[], No
         yield from finished
 
 
-def _keep(runs_dir: Path, spec: RunSpec, future: Future[dict[str, Any]]) -> None:
-    """A finished run's row to runs_dir/<id>.json (whole or not at all: a resumed sweep trusts every file there);
-    SimulationError naming the run if it failed (the runs done are kept)."""
+def _submitted(
+    pool: Executor, work: Callable[..., Any], name: str, scenario_bytes: bytes, todo: list[RunSpec], engine: str
+) -> dict[Future[Any], RunSpec]:
+    """Each run to do, handed to the pool as a call of work (run_one, or run_logged: its log too)."""
+    return {pool.submit(work, name, scenario_bytes, spec, engine): spec for spec in todo}
+
+
+def _done(runs_dir: Path, spec: RunSpec, logs: bool) -> bool:
+    """Whether a resumed sweep has this run already: its row, and its log if logs are kept."""
+    return (runs_dir / f"{spec.run_id}.json").exists() and (not logs or (runs_dir / f"{spec.run_id}.mcap").exists())
+
+
+def _keep(runs_dir: Path, spec: RunSpec, future: Future[Any]) -> None:
+    """A finished run's row to runs_dir/<id>.json, its log (run_logged) first to runs_dir/<id>.mcap, each whole or
+    not at all (a resumed sweep trusts every file there); SimulationError naming the run if it failed (the runs done
+    are kept)."""
     try:
-        row = future.result()
+        done = future.result()
     except CancelledError:  # not by us: a Dask client cancels its futures when it loses the scheduler
         raise SimulationError(f"sweep run {spec.run_id} was cancelled (Dask scheduler lost?)") from None
     except Exception as exc:
         raise SimulationError(f"sweep run {spec.run_id} failed: {exc}") from exc
-    part = runs_dir / f"{spec.run_id}.json.part"
-    part.write_text(json.dumps(row))
-    part.replace(runs_dir / f"{spec.run_id}.json")
+    row, log = done if isinstance(done, tuple) else (done, None)
+    if log is not None:
+        _write_whole(runs_dir / f"{spec.run_id}.mcap", log)
+    _write_whole(runs_dir / f"{spec.run_id}.json", json.dumps(row).encode())
+
+
+def _write_whole(path: Path, data: bytes) -> None:
+    part = path.with_name(path.name + ".part")
+    part.write_bytes(data)
+    part.replace(path)
 
 
 def write_csv(rows: list[dict[str, Any]], path: Path) -> None:
