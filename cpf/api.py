@@ -90,6 +90,10 @@ def sweep(
 
     from supervisor.cli.parser import arguments
     from supervisor.cli.terminal import SweepBar
+    from supervisor.errors import ScenarioError
+
+    if logs and out is None:  # a temporary directory would take the logs with it
+        raise ScenarioError("sweep: logs=True keeps each run's log in out/runs/: give out a directory")
     from supervisor.tools.sweep import parse_param
     from supervisor.tools.sweep import sweep as run_sweep
 

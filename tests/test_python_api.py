@@ -191,6 +191,17 @@ def test_sweep_gives_the_rows_of_cpf_sweep(scenario, capsys):
     assert table.delivered.nunique() == 4  # every run its own draws
 
 
+def test_a_sweep_keeping_logs_wants_a_directory_and_leaves_them_there(scenario):
+    short = scenario.parent / "sweep.toml"
+    short.write_text(shortened(scenario.read_text(), 5.0))
+    with pytest.raises(cpf.ScenarioError, match=r"logs=True keeps each run's log in out/runs/: give out a directory"):
+        cpf.sweep(short, params={"comms.loss": [0.1]}, seeds=1, logs=True)
+    table = cpf.sweep(short, params={"comms.loss": [0.1]}, seeds=2, out=scenario.parent / "kept", logs=True)
+    logs = sorted((scenario.parent / "kept" / "runs").glob("*.mcap"))
+    assert len(logs) == 2 == len(table)
+    assert sorted(cpf.load(log).states.t.max() for log in logs) == pytest.approx([4.9, 4.9])
+
+
 def test_the_readmes_example_runs(tmp_path, monkeypatch, capsys):
     """The README's Python block, as written, on a 30 s paper scenario (the full one takes a few seconds per run)."""
     readme = (CONFIGS.parent / "README.md").read_text(encoding="utf-8")
