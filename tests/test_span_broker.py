@@ -161,3 +161,21 @@ def test_a_transmission_not_at_its_step_s_time_is_dropped(fleet: Fleet) -> None:
     sent = [e for m in published(pubs, COMMS_EVENTS_KEY) for e in m["events"] if e["kind"] == "sent"]
     # four links (2 - 1 - 3, both ways), every step's but the last's in the water (at the next tick), one dropped
     assert not any(e["sender"] == 2 and e["seq"] == 36 for e in sent) and len(sent) == 4 * (LONG - 1) - 1
+
+
+@pytest.mark.parametrize("spanned_run", [False, True], ids=["ticked", "in a span"])
+def test_a_step_message_with_a_malformed_next_tx_is_dropped_whole(fleet: Fleet, spanned_run: bool) -> None:  # noqa: F811
+    """A forged next_tx (not a step) drops the whole message, counted, as the supervisor's intake drops it (read_window
+    refuses it, split_window names it): the broker kept the state and ignored next_tx when not in a lookahead window,
+    so its channel saw a state the log never had."""
+    broker, _ = pure_broker()
+    if spanned_run:
+        broker.take(TICK_KEY, encode(tick_message(0, 0.0, False, span=STEPS, longest=100)))
+    else:
+        broker.take(TICK_KEY, encode(tick_message(0, 0.0, False)))
+    broker.advance()
+    telemetry, model, _ = fleet[IDS[0]]
+    message = step_message(state_message(telemetry, model, 0, 0), None, None, 1)
+    broker.take(state_key(IDS[0]), encode({**message, "next_tx": "soon"}))
+    assert broker.books.drops.by_cause == {"malformed": 1}
+    assert IDS[0] not in broker.books.taken

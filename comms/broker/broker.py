@@ -106,12 +106,15 @@ class Broker:
                     self.books.ticks[tick.k], self.books.raw_ticks[tick.k] = tick, message
                 self.latest_tick = max(self.latest_tick, tick.reach - 1)  # a window's (a span's) last step
             elif owned is not None and owned[1] == "state":
-                # a window's earlier steps matter only to a window run past transmissions (comms.broker.lookahead)
-                steps = [message] if self.replay is None else split_window(message)[0]
+                # Checked whole, as the supervisor's intake checks it (a malformed next_tx or earlier step: dropped);
+                # the earlier steps are read only for a window run past transmissions (comms.broker.lookahead).
+                steps, next_tx = split_window(message)
+                if self.replay is None:
+                    steps = steps[-1:]
                 reports = [StateReport.from_message(step, owned[0]) for step in steps]
                 for step, report in zip(steps, reports, strict=True):
                     self._file(step, report)
-                self.grants.report(owned[0], reports[-1].k, _next_tx(message))
+                self.grants.report(owned[0], reports[-1].k, next_tx)
         except (ValueError, RecursionError) as exc:  # RecursionError: never past the bounded reader, counted if so
             self.books.drops.drop(key, exc)
 
@@ -363,12 +366,6 @@ class Broker:
             self.publishers.put(COMMS_EVENTS_KEY, batch.to_message())
             self.books.published += len(batch.events)
         self.stepped = []
-
-
-def _next_tx(message: dict[str, object]) -> int | None:
-    """The first step at which a vehicle may transmit next, as its step message says (None: it does not say)."""
-    next_tx = message.get("next_tx")
-    return next_tx if isinstance(next_tx, int) and not isinstance(next_tx, bool) else None
 
 
 def run_broker(
