@@ -93,7 +93,7 @@ def main() -> None:
     everything |= {"lookahead": lookahead(args.repeat), "sweep_split": sweep_split(paper, args.repeat)}
     everything |= commands(paper, args.repeat)
     everything["targets"] = (
-        [] if args.targets == "none" else bench_targets.run(args.targets.split(","), args.repeat, 100)
+        [] if args.targets == "none" else bench_targets.run(args.targets.split(","), args.repeat, 200)
     )
     print(f"written: {save('all', everything)}")
 
