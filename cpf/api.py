@@ -75,17 +75,17 @@ def sweep(
     scenario: Scenario,
     params: Mapping[str, Any],
     seeds: int = 2,
-    jobs: int = 2,
+    jobs: int | None = None,
     out: str | Path | None = None,
     engine: str = "inprocess",
     progress: bool = True,
     logs: bool = False,
 ) -> pd.DataFrame:
     """`cpf sweep`: every combination of params ({"coordination.k": [0.1, 0.2]}, or {"comms.loss": "0:0.8:0.1"} as
-    --param takes it) times seeds 0..seeds-1, jobs runs at once; the rows of its results.csv, in grid order. out: the
-    sweep's directory (runs/, results.csv; resumable), None: a temporary one. A progress bar (tqdm.auto: terminal or
-    notebook) unless progress=False. logs: each run's log kept as runs/<id>.mcap in out (`cpf sweep --logs`;
-    cpf.load reads one); without, runs record only their rows."""
+    --param takes it) times seeds 0..seeds-1, jobs runs at once (None: as `cpf sweep` without --jobs, one per core);
+    the rows of its results.csv, in grid order. out: the sweep's directory (runs/, results.csv; resumable), None: a
+    temporary one. A progress bar (tqdm.auto: terminal or notebook) unless progress=False. logs: each run's log kept
+    as runs/<id>.mcap in out (`cpf sweep --logs`; cpf.load reads one); without, runs record only their rows."""
     import pandas as pd
 
     from supervisor.cli.parser import arguments
@@ -99,7 +99,8 @@ def sweep(
 
     with tempfile.TemporaryDirectory(prefix="cpf-sweep-") as tmp:
         path = scenario_file(scenario, Path(tmp))
-        argv = ["sweep", "--seeds", str(seeds), "--jobs", str(jobs), "--engine", engine, *(["--logs"] if logs else [])]
+        argv = ["sweep", "--seeds", str(seeds), "--engine", engine, *(["--logs"] if logs else [])]
+        argv += [] if jobs is None else ["--jobs", str(jobs)]
         argv += ["--out", str(Path(tmp) / "sweep" if out is None else out)]
         args = arguments([*argv, *(f"--param={spec}" for spec in param_specs(params)), "--", str(path)])
         bar = SweepBar(notebook=True) if progress else None

@@ -5,6 +5,8 @@ from __future__ import annotations
 import csv
 import io
 import json
+import os
+import subprocess
 from pathlib import Path
 from typing import Any
 
@@ -16,9 +18,9 @@ from supervisor.engine.progress import Progress
 from supervisor.engine.resim import resimulate
 from supervisor.errors import ScenarioError
 from supervisor.record.recorder import read_messages
-from supervisor.tools.sweep import Param, grid, parse_param
+from supervisor.tools.sweep import Param, default_jobs, grid, parse_param
 from tests.conftest import CONFIGS, shortened
-from tests.procs import cpf
+from tests.procs import CPF, cpf
 
 
 def test_param_lists_and_ranges():
@@ -111,6 +113,25 @@ def json_row(log: Path) -> dict[str, Any]:
     """The row kept beside a run's log."""
     row: dict[str, Any] = json.loads(log.with_suffix(".json").read_text())
     return row
+
+
+def test_without_jobs_a_sweep_runs_one_per_core_it_may_use(tmp_path, paper_text):
+    """The default --jobs follows the cores this process may use (its CPU affinity), not a fixed 2: one in-process
+    run per core, a Zenoh run per 1.5 cores."""
+    assert [default_jobs("inprocess", n) for n in (1, 2, 16)] == [1, 2, 16]
+    assert [default_jobs("zenoh", n) for n in (1, 2, 3, 16)] == [1, 1, 2, 10]
+    scenario = tmp_path / "s.toml"
+    scenario.write_text(shortened(paper_text, 2.0))
+    args = ["sweep", str(scenario), "--param", "comms.loss=0,0.5", "--seeds", "1"]
+    one_core = subprocess.run(  # on one core: the child's affinity set before it execs
+        [CPF, *args, "--out", "one"], cwd=tmp_path, capture_output=True, text=True,
+        preexec_fn=lambda: os.sched_setaffinity(0, {min(os.sched_getaffinity(0))}),
+    )  # fmt: skip
+    assert one_core.returncode == 0, one_core.stderr
+    assert "2 runs (1 at once) -> one/results.csv" in one_core.stdout
+    every = cpf(*args, "--out", "every", cwd=tmp_path)
+    assert every.returncode == 0, every.stderr
+    assert f"2 runs ({len(os.sched_getaffinity(0))} at once) -> every/results.csv" in every.stdout
 
 
 def test_a_sweep_over_zenoh_gives_the_results_of_the_in_process_engine(tmp_path, paper_text):

@@ -60,7 +60,7 @@ def export(args: argparse.Namespace) -> int:
 def sweep(args: argparse.Namespace) -> int:
     from supervisor.cli.outputs import checked_directory
     from supervisor.cli.terminal import SweepBar
-    from supervisor.tools.sweep import Cluster, parse_param, sweep
+    from supervisor.tools.sweep import Cluster, local_jobs, parse_param, sweep
     from supervisor.tools.sweep_plot import plot_sweep
 
     if args.cluster is not None and args.jobs is not None:  # the workers' threads say how many runs go at once
@@ -70,10 +70,11 @@ def sweep(args: argparse.Namespace) -> int:
     cluster = None if args.cluster is None else Cluster(args.cluster, args.cluster_timeout)
     bar = SweepBar()
     try:
-        rows = sweep(args.scenario, params, args.seeds, args.jobs or 2, args.out, args.engine, bar, cluster, args.logs)
+        rows = sweep(args.scenario, params, args.seeds, args.jobs, args.out, args.engine, bar, cluster, args.logs)
     finally:
         bar.close()
-    print(f"{len(rows)} runs -> {args.out / 'results.csv'}")
+    at_once = "on the cluster" if cluster is not None else f"{local_jobs(args.jobs, args.engine)} at once"
+    print(f"{len(rows)} runs ({at_once}) -> {args.out / 'results.csv'}")
     for path in plot_sweep(rows, params, args.out):
         print(path)
     return 0

@@ -215,7 +215,11 @@ def _add_log_commands(sub: Commands) -> None:
         "--seeds", type=arg_types.whole(1, 10**6), default=10, help="runs per parameter combination, seeds 0..N-1"
     )
     sweep.add_argument(
-        "--jobs", type=arg_types.whole(1, 256), default=None, help="runs at once, one local process each (default 2)"
+        "--jobs",
+        type=arg_types.whole(1, 256),
+        default=None,
+        help="runs at once, one local process each (default: one per core this process may use; Zenoh runs: one "
+        "per 1.5 cores)",
     )
     sweep.add_argument(
         "--cluster", default=None, metavar="ADDRESS",

@@ -32,6 +32,24 @@ from supervisor.config.scenario import split_outside_brackets
 from supervisor.errors import ScenarioError, SimulationError
 
 WATCH_INTERVAL = 1.0  # s between looks at a cluster's workers while no run finishes
+# CPU a Zenoh run keeps busy, in cores: its processes took 17.9 s of CPU over 11.7 s of stepping for the paper scenario
+# (benchmarks.bench_critical_path, 2 vCPU), so two of its runs at once would already want three cores of a two.
+ZENOH_RUN_CORES = 1.5
+
+
+def default_jobs(engine: str, cores: int) -> int:
+    """Runs at once when the user does not say: a run of the in-process engine is one busy thread, so one per core;
+    a Zenoh run is several processes that keep ~ZENOH_RUN_CORES cores busy, so as many as the cores carry."""
+    if engine == "zenoh":
+        return max(1, math.floor(cores / ZENOH_RUN_CORES))
+    return max(1, cores)
+
+
+def local_jobs(jobs: int | None, engine: str) -> int:
+    """The local processes a sweep runs at once: jobs, or default_jobs for the cores this process may use."""
+    from supervisor.engine.hosting import cores
+
+    return jobs if jobs is not None else default_jobs(engine, cores())
 
 
 @dataclass(frozen=True, slots=True)
@@ -183,23 +201,22 @@ def sweep(
     scenario_path: Path,
     params: Sequence[Param],
     seeds: int,
-    jobs: int,
+    jobs: int | None,
     out_dir: Path,
     engine: str = "inprocess",
     progress: Callable[[int, int], None] | None = None,
     cluster: Cluster | None = None,
     logs: bool = False,
 ) -> list[dict[str, Any]]:
-    """Run (or resume) the whole sweep; returns every row, in grid order. progress, if given, is called with (runs
-    done, runs in all) before the first run and after each (the command line draws a bar with it). cluster: the
-    runs go to a Dask scheduler (supervisor.tools.sweep_cluster; jobs is then the cluster's business), else to jobs
-    local processes. Either way the rows come back here and are written here, so resuming works alike. logs: each
-    run's log kept as runs/<id>.mcap (a run done before without its log runs again); else runs record nothing."""
+    """Run (or resume) the whole sweep; every row, in grid order. progress(runs done, runs in all), if given, before
+    the first run and after each. cluster: the runs go to a Dask scheduler (supervisor.tools.sweep_cluster), else
+    to local_jobs(jobs) local processes; either way the rows (logs: and each run's log, runs/<id>.mcap) come back
+    and are written here, so resuming works alike (a run without its log, when logs are kept, runs again)."""
     _check_values(scenario_path, params)
     scenario_bytes = scenario_path.read_bytes()
     specs = grid(params, seeds)
     runs_dir = out_dir / "runs"
-    with _executor(jobs, cluster) as (pool, watch):  # a cluster that cannot be reached: nothing written yet
+    with _executor(local_jobs(jobs, engine), cluster) as (pool, watch):  # no cluster to reach: nothing written
         runs_dir.mkdir(parents=True, exist_ok=True)
         todo = [s for s in specs if not _done(runs_dir, s, logs)]
         done = len(specs) - len(todo)
