@@ -7,9 +7,11 @@ the printed summary's numbers, computed here from the tables' own columns.
 
 from __future__ import annotations
 
+import inspect
 import io
 import json
 import math
+import re
 from pathlib import Path
 
 import msgspec
@@ -254,3 +256,20 @@ def test_a_field_added_to_the_state_record_gets_its_column_with_no_other_edit():
     base = msgspec.structs.asdict(REPORT)
     rows = states_table([_WithDepthRate(**base, depth_rate=0.05), _WithDepthRate(**base)])
     assert list(rows["depth_rate"].iloc[:1]) == [0.05] and math.isnan(rows["depth_rate"].iloc[1])
+
+
+def test_the_api_docs_show_each_functions_signature_as_it_is():
+    """docs/api.md's signature lines (cpf.run, cpf.load, cpf.sweep) name every parameter with its default, as the
+    functions have them: the page drifted once (cpf.sweep's jobs=2 and no logs, after both changed)."""
+    page = (CONFIGS.parent / "docs" / "api.md").read_text(encoding="utf-8")
+    shown = dict(re.findall(r"(?m)^cpf\.(\w+)\((.*)\) -> ", page))
+    assert set(shown) == {"run", "load", "sweep"}
+
+    def written(p: inspect.Parameter) -> str:
+        if p.default is inspect.Parameter.empty:
+            return p.name
+        return f"{p.name}={json.dumps(p.default) if isinstance(p.default, str | bool) else repr(p.default)}"
+
+    for name, params in shown.items():
+        actual = ", ".join(written(p) for p in inspect.signature(getattr(cpf, name)).parameters.values())
+        assert params == actual.replace("=false", "=False").replace("=true", "=True"), name
