@@ -73,7 +73,7 @@ def sweep(args: argparse.Namespace) -> int:
         rows = sweep(args.scenario, params, args.seeds, args.jobs, args.out, args.engine, bar, cluster, args.logs)
     finally:
         bar.close()
-    at_once = "on the cluster" if cluster is not None else f"{local_jobs(args.jobs, args.engine)} at once"
+    at_once = "on the cluster" if cluster is not None else f"{local_jobs(args.jobs)} at once"
     print(f"{len(rows)} runs ({at_once}) -> {args.out / 'results.csv'}")
     for path in plot_sweep(rows, params, args.out):
         print(path)

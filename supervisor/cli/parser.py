@@ -218,8 +218,7 @@ def _add_log_commands(sub: Commands) -> None:
         "--jobs",
         type=arg_types.whole(1, 256),
         default=None,
-        help="runs at once, one local process each (default: one per core this process may use; Zenoh runs: one "
-        "per 1.5 cores)",
+        help="runs at once, one local process each (default: one per core this process may use)",
     )
     sweep.add_argument(
         "--cluster", default=None, metavar="ADDRESS",
