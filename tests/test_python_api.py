@@ -201,6 +201,7 @@ def test_a_sweep_keeping_logs_wants_a_directory_and_leaves_them_there(scenario):
     table = cpf.sweep(short, params={"comms.loss": [0.1]}, seeds=2, out=scenario.parent / "kept", logs=True)
     logs = sorted((scenario.parent / "kept" / "runs").glob("*.mcap"))
     assert len(logs) == 2 == len(table)
+    assert sorted(scenario.parent / "kept" / log for log in table.log) == logs  # each row names its log
     assert sorted(cpf.load(log).states.t.max() for log in logs) == pytest.approx([4.9, 4.9])
 
 

@@ -118,8 +118,10 @@ def test_a_cluster_sweep_brings_each_runs_log_back_when_asked(tmp_path, scenario
         args = ["sweep", str(scenario), *GRID, "--cluster", cluster.scheduler_address, "--logs", "--out", "dask"]
         done = cpf(*args, cwd=tmp_path)
     assert done.returncode == 0, done.stderr
-    assert read_rows(tmp_path / "dask/results.csv") == local_rows
+    rows = read_rows(tmp_path / "dask/results.csv")
+    assert [{k: v for k, v in r.items() if k != "log"} for r in rows] == local_rows
     runs = tmp_path / "dask/runs"
+    assert sorted(r["log"] for r in rows) == sorted(f"runs/{p.name}" for p in runs.glob("*.mcap"))
     logs = sorted(runs.glob("*.mcap"))
     assert [p.stem for p in logs] == sorted(p.stem for p in runs.glob("*.json")) and len(logs) == 4
     for log in logs:

@@ -92,7 +92,9 @@ def test_a_sweep_keeps_each_runs_log_only_when_asked(tmp_path, paper_text):
     kept = cpf(*args, "--logs", cwd=tmp_path)
     assert kept.returncode == 0, kept.stderr
     assert "0/2" in kept.stderr and "2/2" in kept.stderr  # the run without a log ran again too
-    assert read_rows(tmp_path / "sw/results.csv") == rows  # and came out the same
+    logged_rows = read_rows(tmp_path / "sw/results.csv")
+    assert [{k: v for k, v in r.items() if k != "log"} for r in logged_rows] == rows  # and came out the same
+    assert sorted(r["log"] for r in logged_rows) == sorted(f"runs/{p.name}" for p in runs.glob("*.mcap"))
     logs = sorted(runs.glob("*.mcap"))
     assert [p.stem for p in logs] == sorted(p.stem for p in runs.glob("*.json")) and not list(runs.glob("*.part"))
     for row, log in zip(rows, sorted(logs, key=lambda p: json_row(p)["comms.loss"]), strict=True):

@@ -279,9 +279,9 @@ def _done(runs_dir: Path, spec: RunSpec, logs: bool) -> bool:
 
 
 def _keep(runs_dir: Path, spec: RunSpec, future: Future[Any]) -> None:
-    """A finished run's row to runs_dir/<id>.json, its log (run_logged) first to runs_dir/<id>.mcap, each whole or
-    not at all (a resumed sweep trusts every file there); SimulationError naming the run if it failed (the runs done
-    are kept)."""
+    """A finished run's row to runs_dir/<id>.json, its log (run_logged) first to runs_dir/<id>.mcap (named in the
+    row's "log"), each whole or not at all (a resumed sweep trusts every file there); SimulationError naming the run
+    if it failed (the runs done are kept)."""
     try:
         done = future.result()
     except CancelledError:  # not by us: a Dask client cancels its futures when it loses the scheduler
@@ -289,8 +289,9 @@ def _keep(runs_dir: Path, spec: RunSpec, future: Future[Any]) -> None:
     except Exception as exc:
         raise SimulationError(f"sweep run {spec.run_id} failed: {exc}") from exc
     row, log = done if isinstance(done, tuple) else (done, None)
-    if log is not None:
+    if log is not None:  # the row says where its log is (relative to the sweep's directory)
         _write_whole(runs_dir / f"{spec.run_id}.mcap", log)
+        row = {**row, "log": f"{runs_dir.name}/{spec.run_id}.mcap"}
     _write_whole(runs_dir / f"{spec.run_id}.json", json.dumps(row).encode())
 
 
