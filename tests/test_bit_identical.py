@@ -16,6 +16,7 @@ import sys
 
 import pytest
 
+from tests.conftest import shortened
 from tests.cpu_targets import PROBE, targets
 from tests.run_digest import FIXTURE, reference_runs, run_and_digest
 
@@ -71,3 +72,34 @@ def test_the_cpu_targets_change_what_the_cpu_decides():
 def test_a_reference_run_records_the_same_on_another_cpu(tmp_path, target, name):
     text, extra = RUNS[name]
     assert run_and_digest(name, text, extra, tmp_path, TARGETS[target]) == EXPECTED[name]
+
+
+# A run's summary as a sweep takes it: its series (the rows of a sweep and `cpf run`'s summary come from these arrays).
+SERIES = """
+import hashlib, io, sys
+from pathlib import Path
+from supervisor.config.scenario import parse_scenario
+from supervisor.engine.inprocess import run_inprocess
+from supervisor.engine.progress import Progress
+text = Path(sys.argv[1]).read_text()
+scenario = parse_scenario(text, sys.argv[1])
+s = run_inprocess(scenario, sys.argv[1], text, None, 0, Progress(1.0, io.StringIO(), enabled=False)).series
+arrays = (s.gamma, s.gamma_dot, s.path_error, s.inputs, s.surge)
+print(hashlib.sha256(b"".join(a.tobytes() for a in arrays)).hexdigest())
+"""
+
+
+@pytest.mark.parametrize("target", sorted(TARGETS))
+def test_a_runs_summary_series_are_the_same_on_another_cpu(tmp_path, target):
+    """What a run's summary and a sweep's row are computed from (gamma, gamma_dot, |p - p_d|, inputs, surge speed at
+    every step) is the same on another CPU's kernels as on OpenBLAS's FMA (Haswell) one: |p - p_d| took BLAS's dot,
+    whose last bits differ between those kernels."""
+    path = tmp_path / "paper.toml"
+    path.write_text(shortened(RUNS["paper-inprocess"][0], 30.0))
+    here = {**os.environ, "OPENBLAS_CORETYPE": "Haswell"}
+
+    def digest(env: dict[str, str]) -> str:
+        return subprocess.run([sys.executable, "-c", SERIES, str(path)], capture_output=True, text=True, check=True,
+                              env=env).stdout.strip()  # fmt: skip
+
+    assert digest({**os.environ, **TARGETS[target]}) == digest(here)
