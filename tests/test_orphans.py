@@ -214,3 +214,31 @@ def test_sigkill_of_the_supervisor_ends_the_live_views_relay_within_2_s(tmp_path
     finally:
         run.kill()
     assert wait_until(lambda: not _running(relay), timeout=GONE_WITHIN), "the relay outlived cpf"
+
+
+# The Zenoh engine's runs stop their own processes through the worker's cleanup (a deadline, then SIGKILL), and the
+# worker waits for them before it ends: more than the 2 s a launched child is given.
+SWEEP_GONE_WITHIN = {"inprocess": GONE_WITHIN, "zenoh": 10.0}
+
+
+@pytest.mark.parametrize("engine", ["inprocess", "zenoh"])
+def test_sigkill_of_a_sweep_ends_its_workers_and_their_runs(tmp_path: Path, paper_text: str, engine: str) -> None:
+    """`cpf sweep`'s local workers die with it: the kernel sends each SIGTERM (parent-death signal), its run stops as
+    on Ctrl-C (its processes stopped, its temporary directory removed) and the worker ends rather than take the next
+    run queued for it. Before, both workers ran on, one run after another, orphans."""
+    scenario = tmp_path / "long.toml"
+    scenario.write_text(shortened(paper_text, 20000.0))
+    args = ["sweep", str(scenario), "--param", "comms.loss=0,0.3", "--seeds", "3", "--jobs", "2", "--engine", engine]
+    sweep = start_cpf([*args, "--out", "sw"], tmp_path)
+    try:
+        runs = lambda: list(tmp_path.glob("cpf-sweep-*"))  # noqa: E731  # each run's own (TMPDIR: start_cpf)
+        assert wait_until(lambda: len(runs()) == 2), "the two workers did not start their runs"
+        if engine == "zenoh":  # each run's three vehicles, their scenario in the run's directory under tmp_path
+            vehicles = lambda: [c for _, c in processes_with(str(tmp_path)) if " vehicle " in c]  # noqa: E731
+            assert wait_until(lambda: len(vehicles()) == 6), "the runs' vehicles did not start"
+        sweep.send_signal(signal.SIGKILL)
+        sweep.communicate(timeout=10)
+    finally:
+        sweep.kill()
+    assert wait_for_no_processes(str(tmp_path), timeout=SWEEP_GONE_WITHIN[engine]) == []  # workers, runs' children
+    assert wait_until(lambda: runs() == [], timeout=2.0), f"left behind: {runs()}"

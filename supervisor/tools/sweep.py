@@ -16,7 +16,9 @@ import hashlib
 import io
 import json
 import math
+import os
 import re
+import signal
 import tempfile
 import tomllib
 from collections.abc import Callable, Iterable, Iterator, Sequence
@@ -26,6 +28,7 @@ from itertools import product
 from pathlib import Path
 from typing import Any
 
+from comms.bus.lifeline import ORPHANED, set_parent_death_signal
 from supervisor.analysis.metrics import STEADY_STATE_WINDOW
 from supervisor.analysis.summary import coordination_error
 from supervisor.config.scenario import split_outside_brackets
@@ -247,13 +250,22 @@ def _check_values(scenario_path: Path, params: Sequence[Param]) -> None:
 def _executor(jobs: int, cluster: Cluster | None) -> Iterator[tuple[Executor, Callable[[], None] | None]]:
     """Where the runs go, and what to check while waiting for them (None: nothing)."""
     if cluster is None:
-        with ProcessPoolExecutor(max_workers=max(1, jobs)) as pool:
+        with ProcessPoolExecutor(max_workers=max(1, jobs), initializer=_worker_start, initargs=(os.getpid(),)) as pool:
             yield pool, None
         return
     from supervisor.tools.sweep_cluster import cluster_executor
 
     with cluster_executor(cluster.address, cluster.timeout) as (pool, watch):
         yield pool, watch.watch
+
+
+def _worker_start(parent: int) -> None:
+    """A local worker ends with its sweep: were cpf killed (SIGKILL: none of its own cleanup runs), the kernel sends
+    the worker SIGTERM, which ends its run as a Ctrl-C of `cpf run` does (cpf's handler, inherited: the run's own
+    processes stopped, its temporary directory removed), and _in_worker then ends the worker; without both it ran on
+    through the runs queued for it, an orphan."""
+    if set_parent_death_signal(signal.SIGTERM) and os.getppid() != parent:
+        os._exit(ORPHANED)  # the sweep died before the prctl: the signal would never come
 
 
 def _completed(futures: Iterable[Future[Any]], watch: Callable[[], None] | None) -> Iterator[Any]:
@@ -269,8 +281,22 @@ def _completed(futures: Iterable[Future[Any]], watch: Callable[[], None] | None)
 def _submitted(
     pool: Executor, work: Callable[..., Any], name: str, scenario_bytes: bytes, todo: list[RunSpec], engine: str
 ) -> dict[Future[Any], RunSpec]:
-    """Each run to do, handed to the pool as a call of work (run_one, or run_logged: its log too)."""
+    """Each run to do, handed to the pool as a call of work (run_one, or run_logged: its log too); in a local worker
+    through _in_worker, which ends a worker whose sweep is gone."""
+    if isinstance(pool, ProcessPoolExecutor):
+        return {pool.submit(_in_worker, work, name, scenario_bytes, spec, engine): spec for spec in todo}
     return {pool.submit(work, name, scenario_bytes, spec, engine): spec for spec in todo}
+
+
+def _in_worker(work: Callable[..., Any], *args: Any) -> Any:
+    """work(*args) in a local worker. A run that ends by KeyboardInterrupt (the sweep's SIGTERM when it died,
+    _worker_start, or its Ctrl-C) has cleaned up on the way here; the worker then ends instead of taking the next
+    run queued for it. (Not by asking whether the parent is gone: its main thread's death sends the signal while
+    the rest of it is still going, and getppid() still named it.)"""
+    try:
+        return work(*args)
+    except KeyboardInterrupt:
+        os._exit(ORPHANED)
 
 
 def _done(runs_dir: Path, spec: RunSpec, logs: bool) -> bool:
