@@ -242,3 +242,25 @@ def test_sigkill_of_a_sweep_ends_its_workers_and_their_runs(tmp_path: Path, pape
         sweep.kill()
     assert wait_for_no_processes(str(tmp_path), timeout=SWEEP_GONE_WITHIN[engine]) == []  # workers, runs' children
     assert wait_until(lambda: runs() == [], timeout=2.0), f"left behind: {runs()}"
+
+
+def test_sigkill_of_a_python_sweep_ends_its_workers_and_their_runs(tmp_path: Path, paper_text: str) -> None:
+    """The same for cpf.sweep in a Python process of the user's (a notebook's kernel), which has no handler of cpf's:
+    the workers install it themselves, so each run still cleans up; only the killed process's own temporary
+    directory (the scenario it wrote for the sweep) is left, as any SIGKILLed process leaves its own."""
+    scenario = tmp_path / "long.toml"
+    scenario.write_text(shortened(paper_text, 20000.0))
+    grid = "{'comms.loss': [0, 0.3]}, seeds=3, jobs=2, out='sw', progress=False"
+    code = f"import cpf; cpf.sweep({str(scenario)!r}, {grid})"
+    env = {**os.environ, "TMPDIR": str(tmp_path)}
+    host = subprocess.Popen([sys.executable, "-c", code], cwd=tmp_path, env=env, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)  # fmt: skip
+    try:
+        dirs = lambda: list(tmp_path.glob("cpf-sweep-*"))  # noqa: E731  # the sweep's own, and each run's
+        assert wait_until(lambda: len(dirs()) == 3), "the two workers did not start their runs"
+        host.kill()
+        host.wait(timeout=10)
+    finally:
+        host.kill()
+    assert wait_for_no_processes(str(tmp_path), timeout=GONE_WITHIN) == []
+    assert wait_until(lambda: len(dirs()) == 1, timeout=2.0), f"left behind: {dirs()}"

@@ -261,9 +261,13 @@ def _executor(jobs: int, cluster: Cluster | None) -> Iterator[tuple[Executor, Ca
 
 def _worker_start(parent: int) -> None:
     """A local worker ends with its sweep: were cpf killed (SIGKILL: none of its own cleanup runs), the kernel sends
-    the worker SIGTERM, which ends its run as a Ctrl-C of `cpf run` does (cpf's handler, inherited: the run's own
-    processes stopped, its temporary directory removed), and _in_worker then ends the worker; without both it ran on
-    through the runs queued for it, an orphan."""
+    the worker SIGTERM, which ends its run as a Ctrl-C of `cpf run` does (cpf's handler, set here also for a sweep
+    from Python, cpf.sweep, whose process has none: the run's own processes stopped, its temporary directory
+    removed), and _in_worker then ends the worker; without both it ran on through the runs queued for it, an
+    orphan."""
+    from supervisor.engine import interrupts
+
+    signal.signal(signal.SIGTERM, interrupts.handle)
     if set_parent_death_signal(signal.SIGTERM) and os.getppid() != parent:
         os._exit(ORPHANED)  # the sweep died before the prctl: the signal would never come
 
