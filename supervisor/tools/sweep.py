@@ -22,7 +22,7 @@ import signal
 import tempfile
 import tomllib
 from collections.abc import Callable, Iterable, Iterator, Sequence
-from concurrent.futures import FIRST_COMPLETED, CancelledError, Executor, Future, ProcessPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, CancelledError, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass
 from itertools import product
 from pathlib import Path
@@ -216,16 +216,17 @@ def sweep(
     scenario_bytes = scenario_path.read_bytes()
     specs = grid(params, seeds)
     runs_dir = out_dir / "runs"
-    with _executor(local_jobs(jobs), cluster) as (pool, watch):  # no cluster to reach: nothing written
+    with _executor(local_jobs(jobs), cluster) as (submit, watch):  # no cluster to reach: nothing written
         runs_dir.mkdir(parents=True, exist_ok=True)
         todo = [s for s in specs if not _done(runs_dir, s, logs)]
         done = len(specs) - len(todo)
         if progress is not None:
             progress(done, len(specs))
-        futures = _submitted(pool, run_logged if logs else run_one, scenario_path.name, scenario_bytes, todo, engine)
+        work = run_logged if logs else run_one
+        futures = {submit(work, scenario_path.name, scenario_bytes, spec, engine): spec for spec in todo}
         try:
             for future in _completed(futures, watch):
-                _keep(runs_dir, futures[future], future)
+                _keep(runs_dir, futures[future], future, logs)
                 done += 1
                 if progress is not None:
                     progress(done, len(specs))
@@ -246,17 +247,25 @@ def _check_values(scenario_path: Path, params: Sequence[Param]) -> None:
             load_scenario(scenario_path, [_override(param.key, value)])
 
 
+Submit = Callable[..., Future[Any]]  # submit(work, *args): work(*args) where the runs go
+
+
 @contextlib.contextmanager
-def _executor(jobs: int, cluster: Cluster | None) -> Iterator[tuple[Executor, Callable[[], None] | None]]:
-    """Where the runs go, and what to check while waiting for them (None: nothing)."""
+def _executor(jobs: int, cluster: Cluster | None) -> Iterator[tuple[Submit, Callable[[], None] | None]]:
+    """Where the runs go (jobs local processes, each started by _worker_start and running through _in_worker: it
+    ends with the sweep; or a Dask cluster), and what to check while waiting for them (None: nothing)."""
     if cluster is None:
         with ProcessPoolExecutor(max_workers=max(1, jobs), initializer=_worker_start, initargs=(os.getpid(),)) as pool:
-            yield pool, None
+
+            def submit(work: Callable[..., Any], *args: Any) -> Future[Any]:
+                return pool.submit(_in_worker, work, *args)
+
+            yield submit, None
         return
     from supervisor.tools.sweep_cluster import cluster_executor
 
-    with cluster_executor(cluster.address, cluster.timeout) as (pool, watch):
-        yield pool, watch.watch
+    with cluster_executor(cluster.address, cluster.timeout) as (remote, watch):
+        yield remote.submit, watch.watch
 
 
 def _worker_start(parent: int) -> None:
@@ -282,16 +291,6 @@ def _completed(futures: Iterable[Future[Any]], watch: Callable[[], None] | None)
         yield from finished
 
 
-def _submitted(
-    pool: Executor, work: Callable[..., Any], name: str, scenario_bytes: bytes, todo: list[RunSpec], engine: str
-) -> dict[Future[Any], RunSpec]:
-    """Each run to do, handed to the pool as a call of work (run_one, or run_logged: its log too); in a local worker
-    through _in_worker, which ends a worker whose sweep is gone."""
-    if isinstance(pool, ProcessPoolExecutor):
-        return {pool.submit(_in_worker, work, name, scenario_bytes, spec, engine): spec for spec in todo}
-    return {pool.submit(work, name, scenario_bytes, spec, engine): spec for spec in todo}
-
-
 def _in_worker(work: Callable[..., Any], *args: Any) -> Any:
     """work(*args) in a local worker. A run that ends by KeyboardInterrupt (the sweep's SIGTERM when it died,
     _worker_start, or its Ctrl-C) has cleaned up on the way here; the worker then ends instead of taking the next
@@ -308,7 +307,7 @@ def _done(runs_dir: Path, spec: RunSpec, logs: bool) -> bool:
     return (runs_dir / f"{spec.run_id}.json").exists() and (not logs or (runs_dir / f"{spec.run_id}.mcap").exists())
 
 
-def _keep(runs_dir: Path, spec: RunSpec, future: Future[Any]) -> None:
+def _keep(runs_dir: Path, spec: RunSpec, future: Future[Any], logs: bool) -> None:
     """A finished run's row to runs_dir/<id>.json, its log (run_logged) first to runs_dir/<id>.mcap (named in the
     row's "log"), each whole or not at all (a resumed sweep trusts every file there); SimulationError naming the run
     if it failed (the runs done are kept)."""
@@ -318,7 +317,7 @@ def _keep(runs_dir: Path, spec: RunSpec, future: Future[Any]) -> None:
         raise SimulationError(f"sweep run {spec.run_id} was cancelled (Dask scheduler lost?)") from None
     except Exception as exc:
         raise SimulationError(f"sweep run {spec.run_id} failed: {exc}") from exc
-    row, log = done if isinstance(done, tuple) else (done, None)
+    row, log = done if logs else (done, None)  # run_logged's (row, log), or run_one's row
     if log is not None:  # the row says where its log is (relative to the sweep's directory)
         _write_whole(runs_dir / f"{spec.run_id}.mcap", log)
         row = {**row, "log": f"{runs_dir.name}/{spec.run_id}.mcap"}
