@@ -42,9 +42,12 @@ def measure(scenario: Path, repeat: int, duration: float | None = None) -> dict[
     whole = [_cpu(run)[0] for _ in range(repeat)]
     rest: list[float] = []
     for _ in range(repeat):
-        seconds, row = _cpu(lambda: _replaying(run, iter(outputs)))
+        handed = iter(outputs)
+        seconds, row = _cpu(lambda: _replaying(run, handed))  # noqa: B023  # called here, in this iteration
         if _without_wall(row) != _without_wall(expected):
             raise AssertionError(f"the replayed run's row differs from the run's: {row} != {expected}")
+        if next(handed, None) is not None:  # else the run stepped its vehicles itself: nothing was left out
+            raise AssertionError("the replayed run did not take every recorded vehicle step")
         rest.append(seconds)
     cores = os.cpu_count() or 1
     return {
