@@ -24,6 +24,7 @@ import msgspec
 from comms.broker.broker_core import BrokerCore
 from comms.broker.lookahead import Replay, quiet_from
 from comms.broker.span import Grants
+from comms.broker.step_reading import VehicleStep, read_steps
 from comms.broker.windows import lookahead_end
 from comms.bus.bus import Extras, Handler, Publishers, serve
 from comms.channel.channel import ARRIVAL_SLACK, intake_step
@@ -42,10 +43,8 @@ from comms.records.messages import (
     batches_message,
     decode,
     parse_tick,
-    parse_tx,
     rx_key,
     rx_message,
-    split_window,
     tx_key,
     vehicle_of_key,
 )
@@ -97,34 +96,34 @@ class Broker:
         """File one incoming message; count and drop it if malformed or on a key its sender does not own."""
         owned = vehicle_of_key(key)
         try:
-            message = decode(payload)
-            if key == TICK_KEY:
+            if owned is not None and owned[1] == "state":
+                # Checked whole, as the supervisor's intake checks it (a malformed next_tx or earlier step: dropped);
+                # the earlier steps are read only for a window run past transmissions (comms.broker.lookahead).
+                steps, next_tx = read_steps(payload, owned[0], whole=self.replay is not None)
+                for step in steps:
+                    self._file(step)
+                self.grants.report(owned[0], steps[-1].report.k, next_tx)
+            elif key == TICK_KEY:
+                message = decode(payload)
                 tick = parse_tick(message)
                 if tick.span is not None:
                     self.grants.add(tick)
                 else:
                     self.books.ticks[tick.k], self.books.raw_ticks[tick.k] = tick, message
                 self.latest_tick = max(self.latest_tick, tick.reach - 1)  # a window's (a span's) last step
-            elif owned is not None and owned[1] == "state":
-                # Checked whole, as the supervisor's intake checks it (a malformed next_tx or earlier step: dropped);
-                # the earlier steps are read only for a window run past transmissions (comms.broker.lookahead).
-                steps, next_tx = split_window(message)
-                if self.replay is None:
-                    steps = steps[-1:]
-                reports = [StateReport.from_message(step, owned[0]) for step in steps]
-                for step, report in zip(steps, reports, strict=True):
-                    self._file(step, report)
-                self.grants.report(owned[0], reports[-1].k, next_tx)
+            else:
+                decode(payload)  # a key the broker does not read: counted if malformed, as any
         except (ValueError, RecursionError) as exc:  # RecursionError: never past the bounded reader, counted if so
             self.books.drops.drop(key, exc)
 
-    def _file(self, message: dict[str, object], report: StateReport) -> None:
+    def _file(self, step: VehicleStep) -> None:
         """One step of a vehicle's step message, with the transmission it made: checked, then filed."""
+        report = step.report
         # each step once, in order; one beyond the next tick would be held forever
         in_stream(report.k, self.books.taken.get(report.vehicle), self.latest_tick + 2, self.submitted)
         self._plausible(report)
         self.books.taken[report.vehicle] = report.k
-        self.books.states.setdefault(report.k, {})[report.vehicle] = (report, self._tx(message, report))
+        self.books.states.setdefault(report.k, {})[report.vehicle] = (report, self._tx(step))
 
     def _plausible(self, report: StateReport) -> None:
         """ValueError (dropped: implausible) for a state beyond its vehicle's bounds: it never reaches the channel."""
@@ -133,22 +132,21 @@ class Broker:
             bounds.check(report, self.books.last.get(report.vehicle), self.dt)
         self.books.last[report.vehicle] = report
 
-    def _tx(self, message: dict[str, object], report: StateReport) -> Transmission | None:
+    def _tx(self, step: VehicleStep) -> Transmission | None:
         """The transmission a step message carries; a malformed one is counted and dropped, the state still counts."""
-        tx, vehicle = message.get("tx"), report.vehicle
-        if tx is None:
-            return None
+        report, transmission = step.report, step.tx
         try:
-            if not isinstance(tx, dict):
-                raise ValueError("field 'tx' is not a map")
-            transmission = parse_tx(tx, vehicle)
+            if step.tx_error is not None:
+                raise step.tx_error
+            if transmission is None:
+                return None
             at_step_time(transmission.t, report.k, self.dt, "the transmission's")  # the channel times it from t
-            bounds = self.core.plausible.get(vehicle)
+            bounds = self.core.plausible.get(report.vehicle)
             if bounds is not None:
                 bounds.check_tx(transmission, report, self.dt)
             return transmission
         except ValueError as exc:
-            self.books.drops.drop(tx_key(vehicle), exc, "transmission")
+            self.books.drops.drop(tx_key(report.vehicle), exc, "transmission")
             return None
 
     def advance(self) -> bool:

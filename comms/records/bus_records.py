@@ -1,5 +1,6 @@
 """A vehicle's step message and the broker's link events read straight from their msgpack payload into typed records,
-in one pass of msgspec in C, and each record's log form from them: the supervisor's intake reads ~18 records a step.
+in one pass of msgspec in C, and each record's log form from them: the supervisor's intake reads ~18 records a step,
+and the broker reads the step messages here too (comms.broker.step_reading), so that both take the same ones.
 
 The parts are their records themselves, each its message's only description (comms.records.state.StateReport,
 comms.records.records.Transmission, comms.records.receptions.RxBatch, comms.records.events.LinkEvents), so that the
