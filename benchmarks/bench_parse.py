@@ -6,7 +6,9 @@ every step. Prints, per kind, the best of 5 rounds in us per message of the read
 comms.records.fields.read_as, then what its types cannot say: each message is described by its struct alone, so
 there are no hand-written checks left to compare), and writes them to benchmarks/results/parse.json. Issue 13 put
 these readings on every message of the Zenoh engine (the hand-written checks alone cost ~10 us per state message,
-~11 % of a paper run).
+~11 % of a paper run). Then the broker's reading of each vehicle's whole step message (state, transmission and
+reception batch in one payload, as the vehicle publishes it: comms.broker.step_reading), in one msgspec pass and,
+side by side, the slow way it takes for a message msgspec refuses (the bounded reader, then each record's).
 """
 
 from __future__ import annotations
@@ -18,9 +20,11 @@ import timeit
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
+from unittest.mock import patch
 
 from benchmarks import ROOT, save
-from comms.records.messages import vehicle_of_key
+from comms.broker import step_reading
+from comms.records.messages import encode, step_message, vehicle_of_key
 from comms.records.receptions import RxBatch
 from comms.records.records import Transmission
 from comms.records.state import StateReport
@@ -65,7 +69,28 @@ def measure(path: Path) -> dict[str, Any]:
         messages = found[leaf]
         results[kind] = {"messages": len(messages), "read_us": per_message(read, messages)}
         results[kind]["checked_us"] = None if checked is None else per_message(checked, messages)
+    results["broker step message"] = _broker_reading(step_messages(found))
     return results
+
+
+def step_messages(found: dict[str, list[tuple[dict[str, Any], int]]]) -> list[tuple[bytes, int]]:
+    """(payload, vehicle) of each vehicle's step message of each step: its state with the transmission and the
+    reception batch of the same step."""
+    by_step = {(v, m["k"]): m for v, m in ((v, m) for m, v in found["rx"])}
+    sent = {(v, m["stamp"]): m for m, v in found.get("tx", [])}
+    return [
+        (encode(step_message(m, sent.get((v, m["t"])), by_step.get((v, m["k"])), m["k"] + 1)), v)
+        for m, v in found["state"]
+    ]
+
+
+def _broker_reading(payloads: list[tuple[bytes, int]]) -> dict[str, Any]:
+    """us per step message of comms.broker.step_reading.read_steps, in one pass and the slow way."""
+    read = lambda p, v: step_reading.read_steps(p, v, whole=False)  # noqa: E731
+    one_pass = per_message(read, payloads)  # type: ignore[arg-type]  # payloads, not messages: timed the same
+    with patch.object(step_reading, "read_window", lambda _: None):
+        slow = per_message(read, payloads)  # type: ignore[arg-type]
+    return {"messages": len(payloads), "read_us": one_pass, "slow_us": slow}
 
 
 def summary(results: dict[str, Any]) -> str:
@@ -74,6 +99,11 @@ def summary(results: dict[str, Any]) -> str:
         r = results[kind]
         checked = "-" if r["checked_us"] is None else f"{r['checked_us']:.2f}"
         lines.append(f"{kind:<16} {r['messages']:>6} {r['read_us']:>10.2f} {checked:>25}")
+    b = results["broker step message"]
+    lines.append(
+        f"broker's step message: {b['messages']} read in {b['read_us']:.2f} us each in one msgspec pass, "
+        f"{b['slow_us']:.2f} us the slow way ({b['slow_us'] / b['read_us']:.1f}x)"
+    )
     return "\n".join(lines)
 
 

@@ -3,6 +3,8 @@ benchmark itself is run by `make bench`, never in tests)."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from benchmarks import ROOT, bench_ready, bench_startup
 from benchmarks.bench_targets import CASES, scenario_text
 from supervisor.config.scenario import parse_scenario
@@ -56,3 +58,19 @@ def test_the_sweep_split_replays_the_same_run_for_less() -> None:
     assert result["vehicle_steps"] == 3 * 50
     assert 0.0 < result["rest_cpu_s"] < result["whole_cpu_s"]
     assert "with a vehicle step that cost nothing" in bench_sweep_split.summary(result)
+
+
+def test_the_parse_benchmark_reads_whole_step_messages_as_the_broker_does(tmp_path: Path) -> None:
+    """benchmarks/bench_parse.py's broker row on a short paper run: each vehicle's step message of each step carries
+    that step's state, transmission and reception batch, and the broker reads every one in one pass."""
+    from benchmarks import bench_parse
+    from comms.broker import step_reading
+
+    short = tmp_path / "paper.toml"
+    short.write_text((ROOT / "configs" / "paper.toml").read_text().replace("duration = 400.0", "duration = 2.0"))
+    payloads = bench_parse.step_messages(bench_parse.logged(short))
+    assert len(payloads) == 3 * 20
+    for payload, vid in payloads:
+        window = step_reading.read_window(payload)
+        assert window is not None and window[0][-1].tx is not None and window[0][-1].rx is not None, vid
+    assert "one msgspec pass" in bench_parse.summary(bench_parse.measure(short))
