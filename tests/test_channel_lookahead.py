@@ -79,6 +79,36 @@ def test_no_packet_arrives_sooner_than_the_least_delay_of_its_links(packets, ext
         assert arrival >= sent[seq] + least
 
 
+PLACES = {1: at(0.0), 2: at(300.0, 100.0), 3: at(-200.0, 250.0)}  # channel_with's
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    packets=sends,
+    t=st.floats(0.0, 6.0),
+    later=st.tuples(st.sampled_from(IDS), st.floats(0.0, 2.0), st.floats(-400.0, 400.0), st.floats(-400.0, 400.0)),
+    modem=st.sampled_from([SLOW, ModemParams(bitrate=240.0, preamble=0.1, collisions=True),
+                           ModemParams(bitrate=240.0, preamble=0.1, half_duplex=True)]),
+)  # fmt: skip
+def test_no_transmission_at_t_or_later_spoils_an_arrival_before_the_first_spoilable(packets, t, later, modem) -> None:
+    """What lookahead counts on, by the channel's own mechanics rather than first_spoilable's definition: with
+    everything sent by t in the water, one more packet sent at t or later (any sender, anywhere) leaves every
+    reception arriving before first_spoilable(t) as it was (collisions and half duplex, alone or together)."""
+    sent = [p for p in packets if p[1] <= t]
+    base = channel_with(sent, modem, 0.0)
+    first = base.first_spoilable(t)
+    other = copy.deepcopy(base)
+    sender, wait, x, y = later
+    extra = tx(sender, 99, t + wait, position=(x, y, 0.0))
+    other.transmit(extra, SIZE, {j for j in IDS if j != sender}, {**PLACES, sender: at(x, y)})
+    times = [0.1 * k for k in range(1, 100)]
+
+    def before_first(batches: list[list]) -> list[list]:
+        return [[r for r in b if r.seq != 99 and (first is None or r.arrival < first)] for b in batches]
+
+    assert before_first(other.ahead(times)) == before_first(base.ahead(times))
+
+
 @settings(max_examples=40, deadline=None)
 @given(packets=sends, t=st.floats(0.0, 6.0))
 def test_the_first_spoilable_arrival_is_the_first_after_t_and_only_with_collisions_or_half_duplex(packets, t) -> None:

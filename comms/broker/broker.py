@@ -135,11 +135,12 @@ class Broker:
     def _tx(self, step: VehicleStep) -> Transmission | None:
         """The transmission a step message carries; a malformed one is counted and dropped, the state still counts."""
         report, transmission = step.report, step.tx
+        if step.tx_error is not None:
+            self.books.drops.drop(tx_key(report.vehicle), step.tx_error, "transmission")
+            return None
+        if transmission is None:
+            return None
         try:
-            if step.tx_error is not None:
-                raise step.tx_error
-            if transmission is None:
-                return None
             at_step_time(transmission.t, report.k, self.dt, "the transmission's")  # the channel times it from t
             bounds = self.core.plausible.get(report.vehicle)
             if bounds is not None:
