@@ -143,14 +143,14 @@ def test_without_jobs_the_sweeps_pool_has_one_process_per_core_it_may_use(tmp_pa
 
     pools: list[Any] = []
 
-    class Recorded(sweep_module.ProcessPoolExecutor):  # type: ignore[misc]
+    class Recorded(sweep_module.ProcessPoolExecutor):
         def __init__(self, *args: Any, **kwargs: Any) -> None:
             super().__init__(*args, **kwargs)
             pools.append(self)
 
         def submit(self, *args: Any, **kwargs: Any) -> Any:
             future = super().submit(*args, **kwargs)
-            self.ran = set(self._processes)  # type: ignore[attr-defined]  # the workers so far (spawned on demand)
+            self.ran = set(self._processes)  # the workers so far (spawned on demand)
             return future
 
     monkeypatch.setattr(sweep_module, "ProcessPoolExecutor", Recorded)
