@@ -11,12 +11,30 @@ from supervisor.config.scenario import parse_scenario
 
 
 def test_every_case_is_a_valid_scenario_of_its_size_and_message_rate() -> None:
-    for case in CASES:
+    for case in CASES:  # (the 1000-AUV case is not: UNRUNNABLE, below)
         scenario = parse_scenario(scenario_text(case), f"{case.name}.toml")
         assert scenario.scenario.duration == case.duration, case.name
         if case.vehicles:
             assert len(scenario.vehicle_ids) == case.vehicles, case.name
             assert scenario.comms.transmit.period == case.period, case.name
+
+
+def test_the_thousand_auv_case_is_refused_and_bounded_by_its_vehicle_steps() -> None:
+    """ring1000-1hz is not run because a scenario of 1000 AUVs is refused (ids are one byte on the wire); its row is
+    the bound its vehicles' steps set: N x (one vehicle's step) of CPU per step of dt, on one core in-process."""
+    import pytest
+
+    from benchmarks.bench_targets import UNRUNNABLE, step_bound, summary
+    from supervisor.errors import ScenarioError
+
+    (case,) = UNRUNNABLE
+    with pytest.raises(ScenarioError, match="255"):
+        parse_scenario(scenario_text(case), f"{case.name}.toml")
+    bound = step_bound(case, steps=20)
+    assert bound["max_real_time_inprocess"] == pytest.approx(0.1 / (1000 * bound["vehicle_step_us"] * 1e-6))
+    assert bound["max_real_time_zenoh"] == pytest.approx(bound["cores"] * bound["max_real_time_inprocess"])
+    row = {"case": case.name, "target": case.target, "why": "ids", "bound": bound}
+    assert "not run (ids)" in summary(row) and "in-process" in summary(row)
 
 
 def test_the_readiness_benchmark_sees_a_vehicle_come_alive() -> None:
