@@ -23,10 +23,12 @@
 12. lookahead: the paper scenario on a slow modem (2 s packets), every step and event-triggered with collisions, both
    engines, with the lean bus floor of the same run (benchmarks.bench_lookahead; issue 26);
 13. sweep split: a paper sweep run's CPU, whole and with its vehicle steps replayed, and the least a 1000-run sweep
-   could take with a free vehicle step (benchmarks.bench_sweep_split; issue 26).
+   could take with a free vehicle step (benchmarks.bench_sweep_split; issue 26), then the premise of stepping many
+   runs at once as arrays: the vehicle model's float functions on 1000 lanes against one state at a time, the same
+   bits (benchmarks.bench_lanes).
 Each part is also a module of its own (benchmarks.bench_engines, bench_scaling, bench_realtime, bench_bus_floor,
 bench_parse, bench_ready, bench_live, bench_report, bench_targets, bench_critical_path, bench_startup,
-bench_lookahead, bench_sweep_split);
+bench_lookahead, bench_sweep_split, bench_lanes);
 benchmarks.bench_side_by_side compares this tree with another checkout; bench_record and bench_intake are
 diagnostics with no target of their own. Results go to benchmarks/results/*.json; the targets are printed next to
 the numbers. Speed is checked here, never in tests.
@@ -43,6 +45,7 @@ from benchmarks import (
     bench_bus_floor,
     bench_critical_path,
     bench_engines,
+    bench_lanes,
     bench_live,
     bench_lookahead,
     bench_parse,
@@ -120,7 +123,9 @@ def sweep_split(paper: Path, repeat: int) -> dict[str, Any]:
     """A paper sweep run with and without its vehicle steps (issue 26's fast studies), printed."""
     split = bench_sweep_split.measure(paper, max(repeat, 2))
     print(bench_sweep_split.summary(split), flush=True)
-    return split
+    lanes = bench_lanes.measure(paper, 1000)
+    print(bench_lanes.summary(lanes), flush=True)
+    return {**split, "lanes": lanes}
 
 
 def commands(paper: Path, repeat: int) -> dict[str, Any]:

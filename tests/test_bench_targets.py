@@ -92,3 +92,14 @@ def test_the_parse_benchmark_reads_whole_step_messages_as_the_broker_does(tmp_pa
         window = step_reading.read_window(payload)
         assert window is not None and window[0][-1].tx is not None and window[0][-1].rx is not None, vid
     assert "one msgspec pass" in bench_parse.summary(bench_parse.measure(short))
+
+
+def test_the_lanes_benchmark_checks_every_lane_against_the_scalar_call() -> None:
+    """benchmarks/bench_lanes.py on a few lanes: the array call gives each lane the scalar call's bits (measure raises
+    otherwise: seen with the array result one ulp off in one component), for the paper's AUV and one with lift."""
+    from benchmarks import bench_lanes
+
+    for path in (ROOT / "configs" / "paper.toml", ROOT / "configs" / "ring10_1hz.toml"):
+        row = bench_lanes.measure(path, 5)
+        assert row["bits_equal"] and row["array_us_per_lane"] > 0
+    assert "the same bits" in bench_lanes.summary(row)
