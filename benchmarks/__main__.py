@@ -14,7 +14,7 @@
    client sees the scene (benchmarks.bench_live);
 8. report: `cpf report` of an 8-vehicle, 450 s run as a user waits for it (issue 28: under 10 s;
    benchmarks.bench_report, which also times another checkout's alternately with --old);
-9. targets: issue 15's cases as whole `cpf run` / `cpf sweep` commands, both engines side by side
+9. targets: issue 26's cases as whole `cpf run` / `cpf sweep` commands, both engines side by side
    (benchmarks.bench_targets; --targets picks the cases, "none" skips them);
 10. critical path: the Zenoh paper run's stepping per step against the lean bus floor measured right after it, and
    each process's CPU, threads and context switches per step (benchmarks.bench_critical_path; issue 26);
@@ -67,7 +67,7 @@ def main() -> None:
     parser.add_argument("--scaling-duration", type=float, default=20.0, help="simulated s per scaling run")
     parser.add_argument("--realtime-duration", type=float, default=60.0, help="simulated s on the realtime clock")
     every = ",".join([c.name for c in (*bench_targets.CASES, *bench_targets.UNRUNNABLE)] + ["sweep"])
-    parser.add_argument("--targets", default=every, help="issue 15's cases to run (comma-separated), or none")
+    parser.add_argument("--targets", default=every, help="issue 26's target cases to run (comma-separated), or none")
     args = parser.parse_args()
     paper = ROOT / "configs" / "paper.toml"
 
