@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 
 from comms.bus.bus import Ending, Extras, Publishers, Timed, serve
 from comms.channel.channel import intake_step
+from comms.records.bus_records import read_batches
 from comms.records.drops import Drops
 from comms.records.messages import (
     COMMS_STEP_KEY,
@@ -179,11 +180,10 @@ class _Vehicle:
 
 
 def _take(key: str, payload: bytes, vid: int, pending: _Pending, dt: float, now: Callable[[], float]) -> None:
-    """File an incoming message by step; a malformed one is counted and dropped."""
+    """File an incoming message by step; a malformed one is counted and dropped, with nothing of it filed."""
     try:
-        message = decode(payload)
         if key == COMMS_STEP_KEY:
-            tick, batches = parse_window(message, vid, dt)
+            tick, batches = _batches(payload, vid, dt)
             if not tick.final:
                 pending.ticks[tick.k] = tick
                 if tick.wall is not None:  # its time, but never more than the lead after it came: a host whose
@@ -191,11 +191,24 @@ def _take(key: str, payload: bytes, vid: int, pending: _Pending, dt: float, now:
                     pending.start_at[tick.k] = min(tick.wall, now() + tick_lead(dt, tick.speed))
                 for k in range(tick.k, tick.end):
                     batch = None if batches is None else batches[k - tick.k]
-                    pending.batches[k] = ([] if batch is None else RxBatch.from_message(batch).heard, batch)
+                    pending.batches[k] = ([], None) if batch is None else (batch.heard, batch.to_message())
         elif key == rx_key(vid):
-            _file_rx(message, pending, dt, now())
+            _file_rx(decode(payload), pending, dt, now())
+        else:
+            decode(payload)  # a key the vehicle does not read: counted if malformed, as any
     except (ValueError, RecursionError) as exc:  # RecursionError: never past the bounded reader, counted if so
         pending.drops.drop(key, exc)
+
+
+def _batches(payload: bytes, vid: int, dt: float) -> tuple[Tick, list[RxBatch] | None]:
+    """The tick of a batches message and vid's reception batch of each step of its window (None: the broker is
+    down), every one read before anything is filed: in one msgspec pass (comms.records.bus_records.read_batches),
+    the slow way where it refuses, which raises ValueError naming what is wrong."""
+    read = read_batches(payload, vid, dt)
+    if read is not None:
+        return read
+    tick, batches = parse_window(decode(payload), vid, dt)
+    return tick, None if batches is None else [RxBatch.from_message(batch) for batch in batches]
 
 
 def _file_rx(message: Message, pending: _Pending, dt: float, now: float) -> None:

@@ -1,6 +1,7 @@
 """A vehicle's step message and the broker's link events read straight from their msgpack payload into typed records,
 in one pass of msgspec in C, and each record's log form from them: the supervisor's intake reads ~18 records a step,
-and the broker reads the step messages here too (comms.broker.step_reading), so that both take the same ones.
+and the broker reads the step messages here too (comms.broker.step_reading), so that both take the same ones. The
+broker's batches message is read here for the vehicles (read_batches): its tick and the vehicle's own receptions.
 
 The parts are their records themselves, each its message's only description (comms.records.state.StateReport,
 comms.records.records.Transmission, comms.records.receptions.RxBatch, comms.records.events.LinkEvents), so that the
@@ -19,9 +20,10 @@ import orjson
 
 from comms.records.bounded import MAX_BYTES
 from comms.records.events import LinkEvents
-from comms.records.receptions import RxBatch
+from comms.records.receptions import Delivery, RxBatch
 from comms.records.records import LinkEvent, Transmission
 from comms.records.state import StateReport
+from comms.records.tick import Tick
 
 
 class PartsWire(msgspec.Struct):
@@ -46,10 +48,21 @@ class Step(msgspec.Struct):
     rx: RxBatch | None
 
 
+class BatchesWire(msgspec.Struct):
+    """The broker's batches message as a vehicle reads it (comms.records.messages.batches_message): the tick and each
+    vehicle's receptions, packed on their own (None: the broker is down)."""
+
+    tick: Tick
+    rx: dict[int, bytes] | None = None
+
+
 _STATE = msgspec.msgpack.Decoder(StateReport)
 _STEP = msgspec.msgpack.Decoder(StepWire)
 _PARTS = msgspec.msgpack.Decoder(PartsWire)
 _EVENTS = msgspec.msgpack.Decoder(LinkEvents)
+_BATCHES = msgspec.msgpack.Decoder(BatchesWire)
+_STEP_RECEPTIONS = msgspec.msgpack.Decoder(list[Delivery])  # a tick of one step: its receptions
+_WINDOW_RECEPTIONS = msgspec.msgpack.Decoder(list[list[Delivery]])  # a tick of a window: a list per step
 # What msgspec raises for a payload it will not read; RecursionError: its skipping of a deep value it does not keep
 # (an unknown field, an earlier step) counts its depth against the interpreter's limit. The bounded reader then
 # reads the payload again and names the cause (comms.records.bounded).
@@ -84,6 +97,33 @@ def read_events(payload: bytes) -> LinkEvents | None:
         return _EVENTS.decode(payload)
     except _MSGSPEC_REFUSES:
         return None
+
+
+def read_batches(payload: bytes, vid: int, dt: float) -> tuple[Tick, list[RxBatch] | None] | None:
+    """(the tick, vehicle vid's reception batch of each step of its window: step j's at t = j dt, the first at the
+    tick's own t; None if the broker is down) of a batches message, or None where msgspec refuses any of it, the
+    tick is not one (Tick.check) or the receptions are not one list per step (the vehicle then reads it the slow way,
+    comms.records.messages.parse_window, which says what is wrong). Only vid's receptions are unpacked."""
+    if len(payload) > MAX_BYTES:
+        return None
+    try:
+        wire = _BATCHES.decode(payload)
+        tick = wire.tick.check()
+        if wire.rx is None:
+            return tick, None
+        packed, steps = wire.rx.get(vid), tick.end - tick.k
+        if steps == 1:
+            mine = [] if packed is None else _STEP_RECEPTIONS.decode(packed)
+            return tick, [RxBatch(tick.t, tick.k, vid, tuple(mine))]
+        per_step = [[] for _ in range(steps)] if packed is None else _WINDOW_RECEPTIONS.decode(packed)
+    except (*_MSGSPEC_REFUSES, ValueError):  # ValueError: Tick.check's
+        return None
+    if len(per_step) != steps:
+        return None
+    times = [tick.t, *(j * dt for j in range(tick.k + 1, tick.end))]
+    return tick, [
+        RxBatch(t, j, vid, tuple(d)) for j, t, d in zip(range(tick.k, tick.end), times, per_step, strict=True)
+    ]
 
 
 def log_json(record: StateReport | Transmission | RxBatch | LinkEvent | LinkEvents) -> bytes:
