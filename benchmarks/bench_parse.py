@@ -8,7 +8,9 @@ there are no hand-written checks left to compare), and writes them to benchmarks
 these readings on every message of the Zenoh engine (the hand-written checks alone cost ~10 us per state message,
 ~11 % of a paper run). Then the broker's reading of each vehicle's whole step message (state, transmission and
 reception batch in one payload, as the vehicle publishes it: comms.broker.step_reading), in one msgspec pass and,
-side by side, the slow way it takes for a message msgspec refuses (the bounded reader, then each record's).
+side by side, the slow way it takes for a message msgspec refuses (the bounded reader, then each record's); and the
+same for a vehicle's reading of the broker's batches message of each step (its tick and every vehicle's receptions,
+of which it unpacks its own: vehicles.node).
 """
 
 from __future__ import annotations
@@ -24,7 +26,7 @@ from unittest.mock import patch
 
 from benchmarks import ROOT, save
 from comms.broker import step_reading
-from comms.records.messages import encode, step_message, vehicle_of_key
+from comms.records.messages import encode, encode_list, step_message, tick_message, vehicle_of_key
 from comms.records.receptions import RxBatch
 from comms.records.records import Transmission
 from comms.records.state import StateReport
@@ -70,7 +72,35 @@ def measure(path: Path) -> dict[str, Any]:
         results[kind] = {"messages": len(messages), "read_us": per_message(read, messages)}
         results[kind]["checked_us"] = None if checked is None else per_message(checked, messages)
     results["broker step message"] = _broker_reading(step_messages(found))
+    dt = load_scenario(path).scenario.step
+    results["vehicle batches message"] = _vehicle_reading(batches_messages(found, dt), dt)
     return results
+
+
+def batches_messages(found: dict[str, list[tuple[dict[str, Any], int]]], dt: float) -> list[tuple[bytes, int]]:
+    """(payload, vehicle) of the broker's batches message of each step, once per vehicle that reads it: the step's
+    tick and every vehicle's receptions of the step, each packed on its own (comms.records.messages.batches_message)."""
+    by_step: dict[int, dict[int, list[dict[str, Any]]]] = {}
+    for message, vid in found["rx"]:
+        by_step.setdefault(message["k"], {})[vid] = message["receptions"]
+    payloads = []
+    for k, receptions in sorted(by_step.items()):
+        tick = tick_message(k, k * dt, False)
+        packed = {v: encode_list(r) for v, r in receptions.items()}
+        payload = encode({"t": tick["t"], "k": k, "tick": tick, "rx": packed})
+        payloads += [(payload, v) for v in receptions]
+    return payloads
+
+
+def _vehicle_reading(payloads: list[tuple[bytes, int]], dt: float) -> dict[str, Any]:
+    """us per batches message of vehicles.node._batches, in one pass and the slow way."""
+    from vehicles import node
+
+    read = lambda p, v: node._batches(p, v, dt)  # noqa: E731
+    one_pass = per_message(read, payloads)  # type: ignore[arg-type]  # payloads, not messages: timed the same
+    with patch.object(node, "read_batches", lambda *_: None):
+        slow = per_message(read, payloads)  # type: ignore[arg-type]
+    return {"messages": len(payloads), "read_us": one_pass, "slow_us": slow}
 
 
 def step_messages(found: dict[str, list[tuple[dict[str, Any], int]]]) -> list[tuple[bytes, int]]:
@@ -99,11 +129,12 @@ def summary(results: dict[str, Any]) -> str:
         r = results[kind]
         checked = "-" if r["checked_us"] is None else f"{r['checked_us']:.2f}"
         lines.append(f"{kind:<16} {r['messages']:>6} {r['read_us']:>10.2f} {checked:>25}")
-    b = results["broker step message"]
-    lines.append(
-        f"broker's step message: {b['messages']} read in {b['read_us']:.2f} us each in one msgspec pass, "
-        f"{b['slow_us']:.2f} us the slow way ({b['slow_us'] / b['read_us']:.1f}x)"
-    )
+    for name in ("broker step message", "vehicle batches message"):
+        b, what = results[name], f"{name.split()[0]}'s {name.split(' ', 1)[1]}"
+        lines.append(
+            f"{what}: {b['messages']} read in {b['read_us']:.2f} us each in one msgspec pass, "
+            f"{b['slow_us']:.2f} us the slow way ({b['slow_us'] / b['read_us']:.1f}x)"
+        )
     return "\n".join(lines)
 
 

@@ -79,19 +79,28 @@ def test_the_sweep_split_replays_the_same_run_for_less() -> None:
 
 
 def test_the_parse_benchmark_reads_whole_step_messages_as_the_broker_does(tmp_path: Path) -> None:
-    """benchmarks/bench_parse.py's broker row on a short paper run: each vehicle's step message of each step carries
-    that step's state, transmission and reception batch, and the broker reads every one in one pass."""
+    """benchmarks/bench_parse.py's broker and vehicle rows on a short paper run: each vehicle's step message of each
+    step carries that step's state, transmission and reception batch, and the broker reads every one in one pass;
+    each step's batches message carries every vehicle's receptions, and each vehicle reads its own in one pass."""
     from benchmarks import bench_parse
     from comms.broker import step_reading
+    from comms.records.bus_records import read_batches
 
     short = tmp_path / "paper.toml"
     short.write_text((ROOT / "configs" / "paper.toml").read_text().replace("duration = 400.0", "duration = 2.0"))
-    payloads = bench_parse.step_messages(bench_parse.logged(short))
+    found = bench_parse.logged(short)
+    payloads = bench_parse.step_messages(found)
     assert len(payloads) == 3 * 20
     for payload, vid in payloads:
         window = step_reading.read_window(payload)
         assert window is not None and window[0][-1].tx is not None and window[0][-1].rx is not None, vid
-    assert "one msgspec pass" in bench_parse.summary(bench_parse.measure(short))
+    batches = bench_parse.batches_messages(found, 0.1)
+    assert len(batches) == 3 * 20
+    heard = [read_batches(payload, vid, 0.1) for payload, vid in batches]
+    assert all(read is not None and read[1] is not None for read in heard)
+    assert sum(len(read[1][0].receptions) for read in heard if read and read[1]) > 0  # the paper's links deliver
+    text = bench_parse.summary(bench_parse.measure(short))
+    assert "broker's step message" in text and "vehicle's batches message" in text
 
 
 def test_the_lanes_benchmark_checks_every_lane_against_the_scalar_call() -> None:
