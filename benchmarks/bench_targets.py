@@ -173,13 +173,13 @@ def summary(row: dict[str, Any]) -> str:
         if bound
         else ""
     )
-    if "inprocess" not in row:  # a case not run: its bound only
-        return f"{row['case']:12s} not run ({row['why']}){limit}   [target: {row['target']}]"
     if row["case"] == "sweep":
         return (
             f"sweep: {row['runs']} runs in {row['best_s']:.1f} s (spread {row['spread_s']:.1f} s) -> 1000 runs in "
             f"{row['extrapolated_1000_runs_min']:.1f} min   [target: {row['target']}]"
         )
+    if "why" in row:  # a case not run: its bound only
+        return f"{row['case']:12s} not run ({row['why']}){limit}   [target: {row['target']}]"
     inp, zen = row["inprocess"], row["zenoh"]
     rss = zen.get("peak_rss_mb_per_vehicle_process")
     return (

@@ -35,6 +35,9 @@ def test_the_thousand_auv_case_is_refused_and_bounded_by_its_vehicle_steps() -> 
     assert bound["max_real_time_zenoh"] == pytest.approx(bound["cores"] * bound["max_real_time_inprocess"])
     row = {"case": case.name, "target": case.target, "why": "ids", "bound": bound}
     assert "not run (ids)" in summary(row) and "in-process" in summary(row)
+    sweep = {"case": "sweep", "runs": 2, "best_s": 6.0, "spread_s": 0.5, "extrapolated_1000_runs_min": 50.0,
+             "target": "1000 runs <= 2 min (issue 26)"}  # fmt: skip
+    assert summary(sweep).startswith("sweep: 2 runs in 6.0 s")  # (it was read as a case not run: KeyError)
 
 
 def test_the_readiness_benchmark_sees_a_vehicle_come_alive() -> None:
