@@ -1,6 +1,7 @@
 """The broker's reading of step messages (comms.broker.step_reading): in one pass of msgspec where it reads, the slow
 way where it refuses; on any payload (good, altered anywhere, windows, a window run past transmissions) the broker
-files and counts exactly what the slow reading alone does, and takes the same messages as the supervisor's intake."""
+files and counts exactly what the slow reading alone does (but for what msgspec skips unchecked with an unknown field:
+comms.records.bus_records), and takes the same messages as the supervisor's intake."""
 
 from __future__ import annotations
 
@@ -18,6 +19,7 @@ from comms.bus.bus import Received
 from comms.records.messages import TICK_KEY, encode, state_key, tick_message
 from supervisor.config.fleet import broker_core
 from supervisor.engine.intake import Intake
+from supervisor.engine.realtime_timing import RealtimeTiming
 from tests.conftest import RecordingPublishers
 from tests.test_bus_records import DT, RX, SCENARIO, STEP, TX, WINDOW, Capture, altered, state
 
@@ -76,15 +78,17 @@ def test_good_messages_are_read_in_one_pass(monkeypatch: pytest.MonkeyPatch) -> 
 def test_the_broker_takes_the_step_messages_the_supervisor_records() -> None:
     """A state the supervisor records must be on the channel, and one it drops must not: a value nested deeper than
     the bounded reader takes, in a field no reader keeps, is skipped by msgspec. The broker read it the slow way and
-    dropped the message (too deep) while the supervisor recorded it: the channel then lacked a state the log had."""
+    dropped the message (too deep) while the supervisor recorded it: the channel then lacked a state the log had. In a
+    realtime run the supervisor read every message the slow way, and then dropped what the broker took."""
     deep: Any = 1.0
     for _ in range(40):
         deep = [deep]
     for message in ({**STEP, "extra": deep}, {**STEP, "extra": 1}, {**STEP, "gamma": "x"}):
-        intake = Intake(SCENARIO, Capture(), None)  # type: ignore[arg-type]  # Capture does what a Recorder is asked
-        intake.take(Received(state_key(2), encode(message)), 0.0)
-        broker = broker_after(encode(message))
-        assert (2 in intake.states.get(2, ())) == (2 in broker.books.states.get(2, {})), message.get("extra")
+        for timing in (None, RealtimeTiming(DT)):  # lockstep, realtime (which the supervisor read the slow way)
+            intake = Intake(SCENARIO, Capture(), timing)  # type: ignore[arg-type]  # Capture does what it is asked
+            intake.take(Received(state_key(2), encode(message)), 0.0)
+            broker = broker_after(encode(message))
+            assert (2 in intake.states.get(2, ())) == (2 in broker.books.states.get(2, {})), (message, timing)
 
 
 def test_a_window_state_is_checked_only_where_it_is_read() -> None:

@@ -1,7 +1,9 @@
 """The intake's one-pass reading (comms.records.bus_records): its structs are the records' own, their log form is the
 bytes the records' to_message gives through orjson, and on any payload (good, altered anywhere, windows of several
 steps, link events) the intake records, counts and books exactly what the slow reading (decode, then each record's
-from_message) does."""
+from_message) does; but for what msgspec skips unchecked with a field no record has (a value nested deeper than the
+bounded reader takes, map keys of other types, text that is not UTF-8), which the slow reading refuses and the
+strategies here do not make (comms.records.bus_records)."""
 
 from __future__ import annotations
 
@@ -26,6 +28,7 @@ from comms.records.state import NeighbourAge, StateReport
 from supervisor.config.scenario import parse_scenario
 from supervisor.engine import intake as intake_module
 from supervisor.engine.intake import Intake
+from supervisor.engine.realtime_timing import RealtimeTiming
 from supervisor.record.meta import RunMeta
 from supervisor.record.recorder import JSON_OPTIONS
 from supervisor.record.scene.scene import FleetScene
@@ -178,6 +181,25 @@ def test_good_messages_are_read_in_one_pass(monkeypatch: pytest.MonkeyPatch) -> 
     records, malformed, states, *_ = taken([(state_key(2), encode(WINDOW)), (COMMS_EVENTS_KEY, encode(EVENTS))], True)
     assert malformed == {} and states == {1: {2}, 2: {2}} and len(records) == 2 + 2 + 1 + 1  # the events: one batch
     assert len(orjson.loads(records[-1][2])["events"]) == 3  # all of EVENTS
+
+
+def test_a_realtime_step_is_timed_and_recorded_the_same_either_way() -> None:
+    """Realtime runs read step messages in one pass too (they read the slow way, so the supervisor dropped what the
+    broker took): the timing (how late receptions were taken in, when steps began) and the records are the same."""
+    realtime = {**state(2), "rx_lateness": [0.01, -0.002], "step_lateness": 0.004}
+    due = {**RX, "receptions": [{**r, "due": 1000.0 + r["arrival"]} for r in RX["receptions"]]}
+    items = [(state_key(2), encode(step_message(realtime, TX, due, 3)))]
+    seen = []
+    for typed in (True, False):
+        rec = Capture()
+        timing = RealtimeTiming(DT)
+        intake = Intake(SCENARIO, rec, timing)  # type: ignore[arg-type]  # Capture does what a Recorder is asked
+        if not typed:
+            intake._typed = lambda key, payload: False  # type: ignore[method-assign]
+        for key, payload in items:
+            intake.take(Received(key, payload), 0.0)
+        seen.append((rec.records, timing.reached, timing.began, timing.receptions, timing.taken_late))
+    assert seen[0] == seen[1] and seen[0][1] == [0.01, -0.002] and seen[0][3] == 2
 
 
 # Finite numbers of any size: a NaN or an infinity is dropped as not finite (test_a_non_finite_state_is_dropped).

@@ -136,8 +136,8 @@ def test_without_jobs_a_sweep_runs_one_per_core_it_may_use(tmp_path, paper_text)
 
 
 def test_without_jobs_the_sweeps_pool_has_one_process_per_core_it_may_use(tmp_path, paper_text, monkeypatch):
-    """The pool itself (not what the command prints): its size and the worker processes that ran the runs, with this
-    process pinned to one core and then on every core it may use."""
+    """The pool itself (not what the command prints): its size, with this process pinned to one core and then on
+    every core it may use."""
     import cpf
     from supervisor.tools import sweep as sweep_module
 
@@ -147,11 +147,6 @@ def test_without_jobs_the_sweeps_pool_has_one_process_per_core_it_may_use(tmp_pa
         def __init__(self, *args: Any, **kwargs: Any) -> None:
             super().__init__(*args, **kwargs)
             pools.append(self)
-
-        def submit(self, *args: Any, **kwargs: Any) -> Any:
-            future = super().submit(*args, **kwargs)
-            self.ran = set(self._processes)  # the workers so far (spawned on demand)
-            return future
 
     monkeypatch.setattr(sweep_module, "ProcessPoolExecutor", Recorded)
     scenario = shortened_file(tmp_path, paper_text)
@@ -163,7 +158,6 @@ def test_without_jobs_the_sweeps_pool_has_one_process_per_core_it_may_use(tmp_pa
         os.sched_setaffinity(0, every)
     cpf.sweep(scenario, {"comms.loss": [0, 0.25, 0.5]}, seeds=1, progress=False)
     assert [pool._max_workers for pool in pools] == [1, len(every)]
-    assert [len(pool.ran) for pool in pools] == [1, min(3, len(every))]
 
 
 def shortened_file(tmp_path: Path, paper_text: str) -> Path:

@@ -1,6 +1,7 @@
 """The vehicle's reading of the broker's batches message (comms.records.bus_records.read_batches, the slow way only
-where msgspec refuses): what it files is what the slow reading alone files, on any message; nothing of a message it
-drops is filed; a good one never takes the slow way."""
+where msgspec refuses): what it files is what the slow reading alone files, on any message (but for what msgspec skips
+unchecked with an unknown field: comms.records.bus_records); nothing of a message it drops is filed; a good one never
+takes the slow way."""
 
 from __future__ import annotations
 

@@ -1,8 +1,8 @@
 """The broker's reading of a vehicle's step message: as the supervisor's intake reads it (supervisor.engine.intake),
 straight from its msgpack payload into typed records in one pass of msgspec (comms.records.bus_records.read_window),
 and the slow way (the bounded reader, then each record's from_message) only where msgspec refuses it, to say what is
-wrong. Each step message is read by the broker and the supervisor alike, so both take the same ones: what one filed
-and the other dropped would put on the channel a state the log never had.
+wrong. Each step message is read by the broker and the supervisor alike (in lockstep and realtime runs), so both
+take the same ones: what one filed and the other dropped would put on the channel a state the log never had.
 
 A malformed step message is a ValueError (dropped whole); a malformed transmission in a good one is kept as its error,
 for the broker to count when it files the step (the state still counts).

@@ -8,7 +8,11 @@ comms.records.records.Transmission, comms.records.receptions.RxBatch, comms.reco
 log form `log_json` is the bytes orjson writes for `to_message()`. What the types cannot say (a vehicle owning its
 key, a rotation, a speed) is the caller's to check, as `from_message` does (each record's check()). A payload msgspec
 refuses reads as None here: the caller then reads it the slow way (comms.records.messages.decode and the records'
-from_message), which says what is wrong (an older log's form aside, the same types refuse the same messages).
+from_message), which says what is wrong (an older log's form aside, the same types refuse the same messages). One
+difference, the same for every reader since each reads here first: msgspec skips a field no record has without
+looking into it, so a value nested deeper than the bounded reader takes, map keys of other types or text that is
+not UTF-8 there pass here, where the slow reading refuses the message (nothing reads that field either way; a value
+nested near the interpreter's recursion limit, ~1000 levels, is refused at a depth that depends on the caller's).
 """
 
 from __future__ import annotations

@@ -91,7 +91,7 @@ class Intake:
         """One message from the bus (t: the supervisor's time, unused: every message recorded carries its own).
         Anything that does not read as its record or does not fit the run is counted and dropped."""
         try:
-            if self.timing is not None or not self._typed(item.key, item.payload):
+            if not self._typed(item.key, item.payload):
                 self._take(item.key, decode(item.payload))
         except (ValueError, RecursionError) as exc:  # RecursionError: never past the bounded reader, counted if so
             self.drops.drop(item.key, exc)
@@ -143,8 +143,7 @@ class Intake:
     def _typed(self, key: str, payload: bytes) -> bool:
         """A vehicle's step message or the broker's link events read straight into typed records
         (comms.records.bus_records: ~2x faster) and checked and recorded as _take would; False, with nothing done, for
-        any message msgspec refuses (or any other key): _take then reads it and says what is wrong. Realtime runs read
-        the slow way (the timing reads the messages)."""
+        any message msgspec refuses (or any other key): _take then reads it and says what is wrong."""
         if key == COMMS_EVENTS_KEY:
             events = read_events(payload)
             if events is not None:
@@ -237,13 +236,10 @@ class Intake:
         transmission = self._part(tx_key(vid), lambda: self._tx(tx, vid, state)) if tx is not None else None
         batch = self._part(rx_key(vid), lambda: self._rx(rx, vid)) if rx is not None else None
         message = state.to_message()
-        rx_message = batch.to_message() if batch is not None else None
         if self.timing is not None:
-            self.timing.add_state(message)
-            if rx_message is not None:
-                self.timing.add_rx(rx_message)
-        if batch is not None and rx_message is not None:
-            self.rec.write(rx_key(vid), batch.t, rx_message)
+            self.timing.add(state, batch)
+        if batch is not None:
+            self.rec.write(rx_key(vid), batch.t, batch.to_message())
         if transmission is not None:
             self.rec.write(tx_key(vid), transmission.t, transmission.to_message())
         self._state(state, message)
@@ -259,6 +255,8 @@ class Intake:
         tx, rx = step.tx, step.rx
         transmission = self._part(tx_key(vid), lambda: self._typed_tx(tx, vid, state)) if tx is not None else None
         batch = self._part(rx_key(vid), lambda: self._fitting_rx(rx, vid)) if rx is not None else None
+        if self.timing is not None:
+            self.timing.add(state, batch)
         if batch is not None:
             self.rec.write_json(rx_key(vid), batch.t, log_json(batch))
         if transmission is not None:

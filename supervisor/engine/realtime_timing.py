@@ -13,6 +13,7 @@ import numpy as np
 from comms.channel.channel import intake_step
 from comms.records.messages import Message
 from comms.records.receptions import RxBatch
+from comms.records.state import StateReport
 
 
 @dataclass
@@ -22,6 +23,12 @@ class RealtimeTiming:
     began: list[float] = field(default_factory=list)  # s after t_k that a vehicle began its step of t_k
     receptions: int = 0
     taken_late: int = 0
+
+    def add(self, state: StateReport, batch: RxBatch | None) -> None:
+        """A vehicle's step as the supervisor takes it in: its state and the reception batch it carries, if any."""
+        self.add_state(state.to_message())
+        if batch is not None:
+            self.add_rx(batch.to_message())
 
     def add_state(self, state: Message) -> None:
         """A vehicle's state record; fields that are not numbers are left out (a malformed message never stops us)."""
