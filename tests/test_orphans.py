@@ -10,6 +10,7 @@ A launched child that ends early still says why (its stderr file has no name, so
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import subprocess
@@ -264,3 +265,30 @@ def test_sigkill_of_a_python_sweep_ends_its_workers_and_their_runs(tmp_path: Pat
         host.kill()
     assert wait_for_no_processes(str(tmp_path), timeout=GONE_WITHIN) == []
     assert wait_until(lambda: len(dirs()) == 1, timeout=2.0), f"left behind: {dirs()}"
+
+
+def test_a_stop_asked_while_a_sweep_run_starts_ends_its_worker(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A sweep worker's SIGTERM (its sweep died) may come while its run starts, before the engine's safe points.
+    Raised there, a library that swallowed KeyboardInterrupt let the run go on to its end (a worker outlived a
+    SIGKILLed cpf.sweep in the suite). Now it waits for the run's safe points, and ends the worker when the run
+    returns if none came."""
+    from supervisor.engine import interrupts
+    from supervisor.tools import sweep as sweep_module
+
+    class Ended(Exception):
+        pass
+
+    def ended(code: int) -> None:
+        raise Ended(code)
+
+    def starting() -> str:
+        with contextlib.suppress(KeyboardInterrupt):  # a library that swallows it
+            interrupts.handle(signal.SIGTERM, None)  # the signal, while the run starts
+        return "row"
+
+    monkeypatch.setattr(os, "_exit", ended)
+    try:
+        with pytest.raises(Ended):
+            sweep_module._in_worker(starting)
+    finally:
+        interrupts.reset()

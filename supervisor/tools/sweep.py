@@ -295,9 +295,17 @@ def _in_worker(work: Callable[..., Any], *args: Any) -> Any:
     """work(*args) in a local worker. A run that ends by KeyboardInterrupt (the sweep's SIGTERM when it died,
     _worker_start, or its Ctrl-C) has cleaned up on the way here; the worker then ends instead of taking the next
     run queued for it. (Not by asking whether the parent is gone: its main thread's death sends the signal while
-    the rest of it is still going, and getppid() still named it.)"""
+    the rest of it is still going, and getppid() still named it.) The whole run is deferred (interrupts): a signal
+    while it starts, before its engine's safe points, was raised wherever it was, and a library that swallowed it
+    let the run go on to its end (a worker outlived a SIGKILLed cpf.sweep by its whole run); a stop asked for after
+    the run's last safe point ends the worker when the run returns."""
+    from supervisor.engine import interrupts
+
     try:
-        return work(*args)
+        with interrupts.deferred():
+            result = work(*args)
+        interrupts.check()
+        return result
     except KeyboardInterrupt:
         os._exit(ORPHANED)
 
