@@ -292,3 +292,32 @@ def test_a_stop_asked_while_a_sweep_run_starts_ends_its_worker(monkeypatch: pyte
             sweep_module._in_worker(starting)
     finally:
         interrupts.reset()
+
+
+def test_a_stop_that_ends_a_sweep_run_otherwise_ends_its_worker(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A run whose KeyboardInterrupt turned into another error on its way out left its worker waiting for work from
+    its dead sweep for ever: cpf's handler raises once, so the next SIGTERM did nothing (an orphan found alive 20 min
+    after its cpf.sweep host was SIGKILLed). The worker ends whenever a stop was asked for during its run."""
+    from supervisor.engine import interrupts
+    from supervisor.tools import sweep as sweep_module
+
+    class Ended(Exception):
+        pass
+
+    def ended(code: int) -> None:
+        raise Ended(code)
+
+    def unwinding() -> str:
+        try:
+            interrupts.handle(signal.SIGTERM, None)
+            interrupts.check()  # the run's safe point raises it
+        except KeyboardInterrupt:
+            raise RuntimeError("a cleanup that failed on the way out") from None
+        return "row"
+
+    monkeypatch.setattr(os, "_exit", ended)
+    try:
+        with pytest.raises(Ended):
+            sweep_module._in_worker(unwinding)
+    finally:
+        interrupts.reset()

@@ -69,6 +69,11 @@ def deferring(run: Callable[P, R]) -> Callable[P, R]:
     return wrapper
 
 
+def stopping() -> bool:
+    """Whether a stop was asked for since the command began (raised already or still to come)."""
+    return _requested or _stopping
+
+
 def check() -> None:
     """A safe point: KeyboardInterrupt if a stop was asked for (once: cleanup after it is not interrupted again)."""
     if _requested and not _stopping:

@@ -298,16 +298,18 @@ def _in_worker(work: Callable[..., Any], *args: Any) -> Any:
     the rest of it is still going, and getppid() still named it.) The whole run is deferred (interrupts): a signal
     while it starts, before its engine's safe points, was raised wherever it was, and a library that swallowed it
     let the run go on to its end (a worker outlived a SIGKILLed cpf.sweep by its whole run); a stop asked for after
-    the run's last safe point ends the worker when the run returns."""
+    the run's last safe point ends the worker when the run returns. So does a stop however the run ended: cpf's
+    handler raises once, so a worker whose KeyboardInterrupt became another error waited for work for ever (seen)."""
     from supervisor.engine import interrupts
 
     try:
         with interrupts.deferred():
-            result = work(*args)
-        interrupts.check()
-        return result
+            return work(*args)
     except KeyboardInterrupt:
         os._exit(ORPHANED)
+    finally:
+        if interrupts.stopping():
+            os._exit(ORPHANED)
 
 
 def _done(runs_dir: Path, spec: RunSpec, logs: bool) -> bool:
