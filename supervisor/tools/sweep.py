@@ -292,14 +292,12 @@ def _completed(futures: Iterable[Future[Any]], watch: Callable[[], None] | None)
 
 
 def _in_worker(work: Callable[..., Any], *args: Any) -> Any:
-    """work(*args) in a local worker. A run that ends by KeyboardInterrupt (the sweep's SIGTERM when it died,
-    _worker_start, or its Ctrl-C) has cleaned up on the way here; the worker then ends instead of taking the next
-    run queued for it. (Not by asking whether the parent is gone: its main thread's death sends the signal while
-    the rest of it is still going, and getppid() still named it.) The whole run is deferred (interrupts): a signal
-    while it starts, before its engine's safe points, was raised wherever it was, and a library that swallowed it
-    let the run go on to its end (a worker outlived a SIGKILLed cpf.sweep by its whole run); a stop asked for after
-    the run's last safe point ends the worker when the run returns. So does a stop however the run ended: cpf's
-    handler raises once, so a worker whose KeyboardInterrupt became another error waited for work for ever (seen)."""
+    """work(*args) in a local worker, which ends (instead of taking the next run queued for it) once a stop was asked
+    for during the run: the sweep's SIGTERM when it died (_worker_start) or a Ctrl-C, however the run then ended.
+    The run has cleaned up on its way here. The whole run is deferred (interrupts): raised while the run started,
+    before its engine's safe points, a library swallowed the stop and the run went on; and cpf's handler raises
+    once, so a worker whose stop ended otherwise waited for work for ever (seen). (Not by asking whether the parent
+    is gone: its main thread's death sends the signal while the rest of it goes on, and getppid() still names it.)"""
     from supervisor.engine import interrupts
 
     try:
