@@ -8,10 +8,13 @@ once per sync step. Neighbour data enter only through `receive`, so what a vehic
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from comms.records.records import Disturbances, FloatArray
+from numerics.lanes import least
 from vehicles.actuators import SIZE as ACTUATOR_SIZE
 from vehicles.actuators import START as ACTUATOR_START
 from vehicles.actuators import Actuators
@@ -28,6 +31,7 @@ from vehicles.path_following import AdaptiveController, ControlOutput, PathFollo
 from vehicles.paths import Path
 from vehicles.plant import plant_rates
 from vehicles.saturation import bounded_correction, clamp, hold, slope_rate_bound, slope_size
+from vehicles.stepping import Begun, Stepped
 from vehicles.vehicle_model import Auv, VehicleModel
 
 # Where gamma and gamma_dot sit in the integrated vector z = [lifted x, gamma, gamma_dot, actuators' state (if
@@ -114,7 +118,7 @@ def receive(state: VehicleState, sender: int, estimate: NeighbourEstimate) -> Ve
     )  # fmt: skip
 
 
-def _neighbour_values(
+def neighbour_values(
     cfg: VehicleConfig, state: VehicleState, t: float, neighbours: Iterable[int]
 ) -> list[tuple[float, float]]:
     """Predicted (gamma_j, gamma_dot_j) of the neighbours heard from so far; unheard ones, and those not heard for
@@ -126,25 +130,44 @@ def _neighbour_values(
     return [predictor.predict(held[j], t, v_r) for j in neighbours if j in held and fresh(held[j], t, max_age)]
 
 
+class Along:
+    """What a stage needs of a vehicle's own path and of its neighbours' predicted (gamma_j, gamma_dot_j) at the
+    stage's time (neighbour_values): the path's point as the model sees it and the coordination law's v_tilde.
+    vehicles.lanes has the same for many vehicles at once."""
+
+    __slots__ = ("cfg", "heard")
+
+    def __init__(self, cfg: VehicleConfig, heard: list[tuple[float, float]]) -> None:
+        self.cfg, self.heard = cfg, heard
+
+    def point(self, gamma: float) -> PathVectors:
+        return self.cfg.model.path_seen(self.cfg.path.evaluate_floats(gamma))
+
+    def correction(self, gamma: float, gamma_dot: float) -> float:
+        cfg = self.cfg
+        return cfg.law.correction(gamma, gamma_dot, self.heard, cfg.coordination)
+
+
 def _closed_loop(
     cfg: VehicleConfig,
     z: Sequence[float],
-    heard: list[tuple[float, float]],
+    along: Along,
     dist: Disturbances,
     t: float,
     held: HeldError | None = None,
     memory: object = None,
 ) -> tuple[list[float], ControlOutput, float, Float3, Float3]:
     """Derivative of z (see _GAMMA) at the stage's time t, with the controller's outputs, v_tilde, the error
-    p - p_d(gamma) the controller saw [m] and the inputs the vehicle got; heard: the neighbours' predicted
-    (gamma_j, gamma_dot_j) then (_neighbour_values); held: the navigation error the controller sees the stage state
-    with (None: it sees the truth); memory: an adaptive controller's, of the step's start."""
+    p - p_d(gamma) the controller saw [m] and the inputs the vehicle got; along: the path and the neighbours at t;
+    held: the navigation error the controller sees the stage state with (None: it sees the truth); memory: an
+    adaptive controller's, of the step's start. Written so that every float may be an array of lanes (many
+    vehicles at once: vehicles.lanes), its branches on the state in functions that take both."""
     gamma, gamma_dot = z[_GAMMA], z[_GAMMA_DOT]
-    point = cfg.model.path_seen(cfg.path.evaluate_floats(gamma))
+    point = along.point(gamma)
     limits = _rate_limits(cfg, dist, point)
     if limits is not None:
         gamma_dot = clamp(gamma_dot, *limits)
-    v_tilde = _bounded(cfg, point, cfg.law.correction(gamma, gamma_dot, heard, cfg.coordination))
+    v_tilde = _bounded(cfg, point, along.correction(gamma, gamma_dot))
     view = z if held is None else seen(z, held)
     known, observer_rates = _current_fed(cfg, z, view, t)
     vehicle, v_r, adaptive = cfg.vehicle, cfg.coordination.v_r, cfg.adaptive
@@ -203,6 +226,10 @@ def _bounded(cfg: VehicleConfig, point: PathVectors, v_tilde: float) -> float:
         v_tilde = bounded_correction(v_tilde, cfg.correction_limit)
     if cfg.correction_acceleration is not None:
         size = slope_size(point)
+        if isinstance(size, np.ndarray):  # lanes: the same, lane by lane
+            moving = size > 0.0
+            bounded = bounded_correction(v_tilde, cfg.correction_acceleration / np.where(moving, size, 1.0))
+            return np.where(moving, bounded, v_tilde)
         if size > 0.0:  # where the path does not move with gamma, nothing to bound
             v_tilde = bounded_correction(v_tilde, cfg.correction_acceleration / size)
     return v_tilde
@@ -217,7 +244,7 @@ def _rate_limits(cfg: VehicleConfig, dist: Disturbances, point: PathVectors | No
     if cfg.top_speed is None or point is None:
         return None if cap is None else (-math.inf, cap)
     bound = slope_rate_bound(slope_size(point), cfg.top_speed)
-    return -bound, bound if cap is None else min(cap, bound)
+    return -bound, bound if cap is None else least(cap, bound)
 
 
 def _advance(z: Sequence[float], h: float, zdot: Sequence[float]) -> list[float]:
@@ -236,55 +263,70 @@ def step(
     """Advance one RK4 step of dt; the telemetry describes the state at the start of the step.
 
     Integrated in floats on the lifted state (vehicles.dynamics): arrays only at the boundary. held: the navigation
-    error the controller sees every stage with (vehicles.navigation); the telemetry's error is the true one."""
-    model = cfg.model
-    t = state.t
-    lifted = model.lift(state.x)
+    error the controller sees every stage with (vehicles.navigation); the telemetry's error is the true one.
+    vehicles.lanes steps many vehicles at once through the same begin, rk4 and finish."""
+    begun = begin(cfg, state, held)
+
+    def along(t: float) -> Along:
+        return Along(cfg, neighbour_values(cfg, state, t, neighbours))
+
+    return finish(cfg, state, begun, rk4(cfg, state.t, begun, dt, along, dist, held), dt, dist, held)
+
+
+def begin(cfg: VehicleConfig, state: VehicleState, held: HeldError | None) -> Begun:
+    """The integrated vector of the state and what the controller and the observer start the step from."""
+    lifted = cfg.model.lift(state.x)
     actuated = state.actuators or (ACTUATOR_START if cfg.actuators is not None else ())
     observer = _observer_state(cfg, state, lifted, held)
     z = [*lifted, float(state.gamma), float(state.gamma_dot), *actuated, *observer]
-    memory = _memory(cfg, state, lifted, held)
-    z_next, stages, v_tilde, seen_error = _rk4(cfg, state, z, dt, neighbours, dist, held, memory)
-    _, out, applied = stages[0]
-    error = seen_error if held is None else _true_error(seen_error, held)
+    return Begun(z, _memory(cfg, state, lifted, held), observer)
+
+
+def finish(
+    cfg: VehicleConfig, state: VehicleState, begun: Begun, stepped: Stepped, dt: float, dist: Disturbances,
+    held: HeldError | None,
+) -> tuple[VehicleState, Telemetry]:  # fmt: skip
+    """The state after the step (its attitude back on SO(3), gamma_dot within its limits) and the telemetry of its
+    start."""
+    model, z, z_next, observer = cfg.model, begun.z, stepped.z, begun.observer
+    error = stepped.seen_error if held is None else _true_error(stepped.seen_error, held)
     observed = (observer[3], observer[4], observer[5]) if observer else None
     telemetry = Telemetry(
-        cfg.vehicle_id, t, state.gamma, z[_GAMMA_DOT], state.x, model.vector(error), model.inputs(applied),
-        v_tilde, out.lyapunov, observed,
+        cfg.vehicle_id, state.t, state.gamma, z[_GAMMA_DOT], state.x, model.vector(error),
+        model.inputs(stepped.applied), stepped.v_tilde, stepped.lyapunov, observed,
     )  # fmt: skip
     x_next = model.lower(reorthonormalize(z_next[:LIFTED_SIZE]))
     gamma_dot_next = _within_limits(cfg, dist, z_next[_GAMMA], z_next[_GAMMA_DOT])
     at = _observer_at(cfg)
     actuated_next, observer_next = tuple(z_next[_ACTUATORS:at]), tuple(z_next[at:])
-    memory_next = _learned(cfg, memory, stages, z_next, dt, held)
+    memory_next = _learned(cfg, begun.memory, stepped.stages, z_next, dt, held)
     next_state = VehicleState(
-        t + dt, x_next, z_next[_GAMMA], gamma_dot_next, state.estimates, observer_next, memory_next, actuated_next
-    )
+        state.t + dt, x_next, z_next[_GAMMA], gamma_dot_next, state.estimates, observer_next, memory_next,
+        actuated_next,
+    )  # fmt: skip
     return next_state, telemetry
 
 
-def _rk4(
-    cfg: VehicleConfig, state: VehicleState, z: list[float], dt: float, neighbours: Sequence[int],
-    dist: Disturbances, held: HeldError | None, memory: object,
-) -> tuple[list[float], list[tuple[list[float], ControlOutput, Float3]], float, Float3]:  # fmt: skip
-    """z after one classical RK4 step of dt, with its four stages (z, the controller's outputs there, the inputs the
-    vehicle got), v_tilde and the error the controller saw at the step's start."""
-    t = state.t
+def rk4(
+    cfg: VehicleConfig, t: float, begun: Begun, dt: float, along: Callable[[float], Along], dist: Disturbances,
+    held: HeldError | None,
+) -> Stepped:  # fmt: skip
+    """One classical RK4 step of dt from begun at t; along(t): the path and the neighbours at a stage's time."""
+    z, memory = begun.z, begun.memory
     # The estimates do not change within a step: the two midpoint stages predict the neighbours at the same time.
-    mid = _neighbour_values(cfg, state, t + dt / 2, neighbours)
-    start = _neighbour_values(cfg, state, t, neighbours)
-    k1, out, v_tilde, seen_error, tau = _closed_loop(cfg, z, start, dist, t, held, memory)
+    mid = along(t + dt / 2)
+    k1, out, v_tilde, seen_error, tau = _closed_loop(cfg, z, along(t), dist, t, held, memory)
     z2 = _advance(z, dt / 2, k1)
     k2, out2, _, _, tau2 = _closed_loop(cfg, z2, mid, dist, t + dt / 2, held, memory)
     z3 = _advance(z, dt / 2, k2)
     k3, out3, _, _, tau3 = _closed_loop(cfg, z3, mid, dist, t + dt / 2, held, memory)
-    end = _neighbour_values(cfg, state, t + dt, neighbours)
+    end = along(t + dt)
     z4 = _advance(z, dt, k3)
     k4, out4, _, _, tau4 = _closed_loop(cfg, z4, end, dist, t + dt, held, memory)
     h = dt / 6
     z_next = [a + h * (b1 + 2 * b2 + 2 * b3 + b4) for a, b1, b2, b3, b4 in zip(z, k1, k2, k3, k4, strict=True)]
     stages = [(z, out, tau), (z2, out2, tau2), (z3, out3, tau3), (z4, out4, tau4)]
-    return z_next, stages, v_tilde, seen_error
+    return Stepped(z_next, stages, v_tilde, seen_error, out.lyapunov, tau)
 
 
 def _memory(cfg: VehicleConfig, state: VehicleState, lifted: Sequence[float], held: HeldError | None) -> object:

@@ -15,6 +15,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, TypeVar
 
+import numpy as np
+
 from comms.channel.guard import CALL_BUDGET, guarded_call, short
 from vehicles.coordination import CoordinationGains
 from vehicles.dynamics import Accelerations, PathVectors
@@ -97,6 +99,11 @@ class Guarded:
         return self._call(self.inner.update, memory, model, params, stages, after, dt)
 
     @property
+    def lanes(self) -> bool:
+        """Whether what it guards takes arrays of lanes (vehicles.lanes): its own word for it."""
+        return getattr(self.inner, "lanes", False) is True
+
+    @property
     def dimension(self) -> int:
         """A vehicle model's (the scenario's, given to it when built)."""
         return int(self.inner.dimension)
@@ -120,6 +127,10 @@ class Guarded:
         return guarded_call(self.label, self.budget, method, *args)
 
     def _finite(self, value: Any) -> float:
+        if isinstance(value, np.ndarray) and self.lanes:  # one value per lane: every one finite
+            if value.dtype != np.float64 or value.ndim != 1 or not np.isfinite(value).all():
+                raise FloatingPointError(f"{self.label} returned {short(value)}, not finite numbers")
+            return value  # type: ignore[return-value]  # lanes: floats to the code that takes them
         if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
             raise FloatingPointError(f"{self.label} returned {short(value)}, not a finite number")
         return float(value)

@@ -33,14 +33,15 @@ under the entry-point group `cpf.controllers` like any extension (docs/extending
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Annotated, Literal, NamedTuple, Protocol, runtime_checkable
+from typing import Annotated, Any, Literal, NamedTuple, Protocol, runtime_checkable
 
+import numpy as np
 from annotated_types import Gt
 
 from comms.records.records import FloatArray
+from numerics.lanes import sqrt
 from vehicles.dynamics import Accelerations, Model, PathVectors, with_inputs
 from vehicles.geometry import Float3
 from vehicles.params import VehicleParams
@@ -157,6 +158,12 @@ class Backstepping:
         if self.delta == 0.0:
             raise ValueError("delta must be non-zero (delta = 0 leaves the pitch and yaw rates unsteerable)")
 
+    @property
+    def lanes(self) -> bool:
+        """Whether control takes arrays of lanes (vehicles.lanes): this class's does (law is written in their
+        arithmetic); a subclass with a control of its own says so itself (a class attribute lanes = True)."""
+        return type(self).control is Backstepping.control
+
     def control(
         self, model: VehicleModel, params: VehicleParams, s: Sequence[float], path: PathVectors, gamma: float,
         gamma_dot: float, v_d: float, current: Current | None,
@@ -219,7 +226,7 @@ def law(
     current: (c, c_dot), the ocean current in body axes and its derivative, for a controller that knows it (the
     law on the velocity over ground: _over_ground); None for one that does not."""
     z1, tangent, curvature = _path_in_body(path, s, gains.delta)
-    rho = math.sqrt(1.0 + z1[0] * z1[0] + z1[1] * z1[1] + z1[2] * z1[2])
+    rho = sqrt(1.0 + z1[0] * z1[0] + z1[1] * z1[1] + z1[2] * z1[2])
     sigma = (z1[0] / rho, z1[1] / rho, z1[2] / rho)
     drift = model.drift(s, prm)  # with zero input: exact for the unactuated velocities, the rest is tau's to add
     if current is None:
@@ -325,10 +332,17 @@ def _backstepping(
 
 def saturated(prm: VehicleParams, tau_u: float, tau_q: float, tau_r: float) -> Float3:
     """The inputs within the vehicle's limits: min(max(tau, -lim), lim) to the bit, NaN included, without six
-    builtin calls per evaluation."""
+    builtin calls per evaluation (lanes: _within)."""
     lim_u, lim_t = prm.max_surge_force, prm.max_torque
+    if isinstance(tau_u, np.ndarray):
+        return _within(tau_u, lim_u), _within(tau_q, lim_t), _within(tau_r, lim_t)
     return (
         lim_u if tau_u > lim_u else -lim_u if tau_u < -lim_u else tau_u,
         lim_t if tau_q > lim_t else -lim_t if tau_q < -lim_t else tau_q,
         lim_t if tau_r > lim_t else -lim_t if tau_r < -lim_t else tau_r,
     )
+
+
+def _within(tau: Any, lim: float) -> Any:
+    """saturated's test for one input, lane by lane."""
+    return np.where(tau > lim, lim, np.where(tau < -lim, -lim, tau))

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 from comms.records.records import Disturbances, Heard, Transmission
 from comms.records.state import NeighbourAge
@@ -85,6 +86,36 @@ def node_step(
     dist: Disturbances,
 ) -> tuple[NodeState, StepOutput]:
     """One sync step at time t: receive, maybe transmit, integrate."""
+    before = prepare(cfg, radio, node, t, dt, heard, neighbours, dist)
+    nav = before.nav
+    return complete(before, *step(cfg, before.state, dt, neighbours, dist, None if nav is None else nav.held))
+
+
+class Prepared(NamedTuple):
+    """A sync step up to its integration (node_step): the state that integrates, with the receptions taken in,
+    and what the node keeps of the transmission decided."""
+
+    state: VehicleState
+    seq: int
+    last: NeighbourEstimate | None
+    pending: bool
+    frozen: NeighbourEstimate | None
+    sent: Transmission | None
+    ages: tuple[NeighbourAge, ...]
+    nav: NavOutput | None
+
+
+def prepare(
+    cfg: VehicleConfig,
+    radio: Radio,
+    node: NodeState,
+    t: float,
+    dt: float,
+    heard: Sequence[Heard],
+    neighbours: Sequence[int],
+    dist: Disturbances,
+) -> Prepared:
+    """Receive and maybe transmit at t, and the navigation computer's step."""
     v = node.vehicle  # at the clock's t, so that every engine steps on the same grid
     state = VehicleState(t, v.x, v.gamma, v.gamma_dot, v.estimates, v.observer, v.memory, v.actuators)
     for h in heard:
@@ -98,10 +129,14 @@ def node_step(
     if wants and may:
         seq, last = seq + 1, now
         sent = transmission(cfg, state, seq, frozen or now, dist)
-    nav = _navigate(cfg, node, state, t, dt)
-    state, telemetry = step(cfg, state, dt, neighbours, dist, None if nav is None else nav.held)
-    after = NodeState(state, seq, last, wants and not may, frozen, None if nav is None else nav.prior)
-    return after, StepOutput(telemetry, sent, ages, nav)
+    return Prepared(state, seq, last, wants and not may, frozen, sent, ages, _navigate(cfg, node, state, t, dt))
+
+
+def complete(before: Prepared, state: VehicleState, telemetry: Telemetry) -> tuple[NodeState, StepOutput]:
+    """The node after its integration (state: the vehicle's after it), and what the step reports."""
+    nav = before.nav
+    after = NodeState(state, before.seq, before.last, before.pending, before.frozen, None if nav is None else nav.prior)
+    return after, StepOutput(telemetry, before.sent, before.ages, nav)
 
 
 def _navigate(cfg: VehicleConfig, node: NodeState, state: VehicleState, t: float, dt: float) -> NavOutput | None:

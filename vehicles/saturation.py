@@ -21,7 +21,10 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from numerics import tanh
+from numerics.lanes import each, greatest, least, sqrt
 from vehicles.dynamics import Model, PathVectors
 from vehicles.params import VehicleParams
 from vehicles.paths import Path
@@ -39,7 +42,10 @@ def rate_bound(model: Model, path: Path, gamma: float, top_speed: float) -> floa
 
 
 def slope_rate_bound(size: float, top_speed: float) -> float:
-    """rate_bound where |p_d^gamma| = size (slope_size of the path point as the model sees it)."""
+    """rate_bound where |p_d^gamma| = size (slope_size of the path point as the model sees it); size may be lanes."""
+    if isinstance(size, np.ndarray):
+        moving = size > 0.0
+        return np.where(moving, top_speed / np.where(moving, size, 1.0), math.inf)
     return top_speed / size if size > 0.0 else math.inf
 
 
@@ -52,7 +58,7 @@ def path_slope(model: Model, path: Path, gamma: float) -> float:
 def slope_size(point: PathVectors) -> float:
     """|p_d^gamma| of a path point (p_d, p_d^gamma, p_d^gammagamma), m per unit of gamma."""
     slope = point[1]
-    return math.sqrt(slope[0] * slope[0] + slope[1] * slope[1] + slope[2] * slope[2])
+    return sqrt(slope[0] * slope[0] + slope[1] * slope[1] + slope[2] * slope[2])
 
 
 def coordination_acceleration(params: VehicleParams) -> float:
@@ -62,17 +68,25 @@ def coordination_acceleration(params: VehicleParams) -> float:
 
 
 def bounded_correction(v_tilde: float, limit: float) -> float:
-    """limit tanh(v_tilde / limit): v_tilde for |v_tilde| << limit, never more than limit in size."""
-    return limit * tanh(v_tilde / limit)
+    """limit tanh(v_tilde / limit): v_tilde for |v_tilde| << limit, never more than limit in size (either may be
+    lanes)."""
+    ratio = v_tilde / limit
+    return limit * (each(tanh, ratio) if isinstance(ratio, np.ndarray) else tanh(ratio))
 
 
 def clamp(value: float, low: float, high: float) -> float:
-    """value within [low, high] (NaN stays NaN: a broken state is not hidden)."""
+    """value within [low, high] (NaN stays NaN: a broken state is not hidden); any of them may be lanes."""
+    if isinstance(value, np.ndarray) or isinstance(low, np.ndarray) or isinstance(high, np.ndarray):
+        return np.where(value < low, low, np.where(value > high, high, value))
     return low if value < low else high if value > high else value
 
 
 def hold(gamma_ddot: float, gamma_dot: float, low: float, high: float) -> float:
-    """gamma_ddot with the part that would push gamma_dot past a bound it sits at removed (no wind-up)."""
+    """gamma_ddot with the part that would push gamma_dot past a bound it sits at removed (no wind-up); any of them
+    may be lanes."""
+    if isinstance(gamma_dot, np.ndarray):
+        gamma_ddot = np.where(gamma_dot >= high, least(gamma_ddot, 0.0), gamma_ddot)
+        return np.where(gamma_dot <= low, greatest(gamma_ddot, 0.0), gamma_ddot)
     if gamma_dot >= high:
         gamma_ddot = min(gamma_ddot, 0.0)
     if gamma_dot <= low:

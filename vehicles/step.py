@@ -19,7 +19,7 @@ from comms.records.records import Disturbances, Heard, Transmission
 from comms.records.state import StateReport
 from vehicles.agent import VehicleConfig
 from vehicles.report import state_report
-from vehicles.runtime import NodeState, Radio, node_step
+from vehicles.runtime import NodeState, Radio, StepOutput, node_step
 
 # How vehicles.guard's errors begin (its labels).
 EXTENSION_KINDS = ("law ", "predictor ", "transmission ", "controller ", "model ")
@@ -54,10 +54,15 @@ def step_records(
         if isinstance(exc, FloatingPointError) and str(exc).startswith(EXTENSION_KINDS):  # vehicles.guard's
             raise FloatingPointError(f"vehicle {cfg.vehicle_id} at t = {t:.1f} s: {exc}") from None
         raise FloatingPointError(f"vehicle {cfg.vehicle_id} diverged at t = {t:.1f} s ({exc})") from None
+    return node, records(cfg, k, t, out)
+
+
+def records(cfg: VehicleConfig, k: int, t: float, out: StepOutput) -> StepRecords:
+    """The records of a vehicle's step k (at t) from its output; FloatingPointError if its state is not sane."""
     sent = out.transmission
     report = state_report(out.telemetry, cfg.model, k, sent.seq if sent else 0, out.estimate_ages, out.navigation)
     _check_sane(report, t)
-    return node, StepRecords(report.to_message(), sent, tx_message(sent) if sent else None, report)
+    return StepRecords(report.to_message(), sent, tx_message(sent) if sent else None, report)
 
 
 def _check_sane(report: StateReport, t: float) -> None:

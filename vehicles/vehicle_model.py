@@ -77,6 +77,12 @@ class Auv:
             self.lift_moment_ur,
         )  # fmt: skip
 
+    @property
+    def lanes(self) -> bool:
+        """Whether drift takes arrays of lanes (vehicles.lanes): this class's does (it is written in their
+        arithmetic); a subclass with a drift of its own says so itself (a class attribute lanes = True)."""
+        return type(self).drift is Auv.drift
+
     def drift(self, s: Sequence[float], params: VehicleParams) -> Accelerations:
         """Eq. (2) with no input (vehicles.dynamics.spatial_drift), or its planar restriction (planar_drift)."""
         return spatial_drift(s, params) if self.dimension == 3 else planar_drift(s, params)

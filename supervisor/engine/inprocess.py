@@ -48,8 +48,8 @@ from supervisor.plan.faults import ProcessAction
 from supervisor.plan.schedule import Schedule, StepPlan
 from supervisor.record.meta import RunMeta
 from supervisor.record.recorder import LiveSink, Recorder, Sink, Tally
+from vehicles.lanes import Job, Outcome, shape_of, step_all
 from vehicles.runtime import NodeState
-from vehicles.step import step_records
 
 log = logging.getLogger("cpf.engine")
 
@@ -79,6 +79,7 @@ class _InProcessRun:
         self.schedule = Schedule(scenario)
         ids = scenario.vehicle_ids
         self.configs = {i: vehicle_config(scenario, i, seed) for i in ids}
+        self.shapes = {i: shape_of(cfg) for i, cfg in self.configs.items()}  # which vehicles step together as lanes
         self.nodes = {i: NodeState(initial_state(scenario, self.configs[i])) for i in ids}
         self.radios = {i: radio(scenario, i) for i in ids}
         self.alive = list(ids)
@@ -103,8 +104,9 @@ class _InProcessRun:
         heard = self._channel(k, t)
         self.books.window(t, self.alive)  # every delivery up to t is booked now
         self.sent, self.where, self.network = [], {}, plan.network
-        for i in self.alive:
-            self._vehicle(i, plan, heard.get(i))
+        alive = list(self.alive)  # a vehicle lost on the way leaves self.alive, not this step's list
+        for i, outcome in zip(alive, step_all([self._job(i, plan, heard.get(i)) for i in alive]), strict=True):
+            self._vehicle(i, plan.t, outcome)
 
     def _channel(self, k: int, t: float) -> dict[int, RxBatch]:
         """The broker's work at t: submit last step's transmissions, deliver what is due (nothing if it is down)."""
@@ -132,16 +134,20 @@ class _InProcessRun:
             raise SimulationError(f"comms broker stopped at t = {t:.1f} s ({exc})") from None
         self._record_events(events)
 
-    def _vehicle(self, i: int, plan: StepPlan, rx: RxBatch | None) -> None:
+    def _job(self, i: int, plan: StepPlan, rx: RxBatch | None) -> Job:
         heard = rx.heard if rx is not None else []  # None: the broker is down
-        t, neighbours, dist = plan.t, plan.network.neighbours(i), plan.disturbance(i)
-        try:
-            self.nodes[i], out = step_records(
-                self.configs[i], self.radios[i], self.nodes[i], plan.k, t, self.dt, heard, neighbours, dist
-            )
-        except FloatingPointError as exc:  # its closed loop diverged: lost, as the Zenoh engine loses its process
-            self._lose(i, t, str(exc))
+        neighbours, dist = plan.network.neighbours(i), plan.disturbance(i)
+        return Job(self.shapes[i], self.configs[i], self.radios[i], self.nodes[i], plan.k, plan.t, self.dt, heard,
+                   neighbours, dist)  # fmt: skip
+
+    def _vehicle(self, i: int, t: float, outcome: Outcome) -> None:
+        """Vehicle i's step (vehicles.lanes.step_all's outcome) taken in and recorded."""
+        if isinstance(outcome, FloatingPointError):  # its closed loop diverged: lost, as the Zenoh engine loses it
+            self._lose(i, t, str(outcome))
             return
+        if isinstance(outcome, Exception):
+            raise outcome
+        self.nodes[i], out = outcome
         if out.transmission is not None and out.tx is not None:
             self.rec.write(tx_key(i), t, out.tx)
             self.sent.append(out.transmission)

@@ -6,7 +6,7 @@ from __future__ import annotations
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Annotated
+from typing import Annotated, ClassVar
 
 from annotated_types import Gt
 
@@ -29,6 +29,13 @@ class Retuned:
     ) -> ControlOutput:  # fmt: skip
         inner = Backstepping(delta=-0.5, k1=self.k1, k2=self.k2, k_zeta=1.0)
         return inner.control(model, params, s, path, gamma, gamma_dot, v_d, current)
+
+
+@dataclass(frozen=True)
+class RetunedLanes(Retuned):
+    """Retuned, saying it takes arrays of lanes (vehicles.lanes): its arithmetic is Backstepping's, which does."""
+
+    lanes: ClassVar[bool] = True
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,44 @@
+"""The scalar functions' branches over numpy arrays of lanes (many vehicles at once: vehicles.lanes), the same bits.
+
+numpy's elementwise +, -, *, / and sqrt round as Python's floats do (IEEE-754, correctly rounded; numpy contracts
+nothing into an FMA), so float code written with them takes arrays unchanged. What branches on a value cannot: each
+function here takes a float or an array and, given an array, does lane by lane what the float code does (Python's
+min returns its first argument unless the second is smaller: -0.0 and NaN included). The elementary functions
+(fdlibm's branches) go lane by lane through the scalar code (`each`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+
+def is_lanes(x: object) -> bool:
+    return isinstance(x, np.ndarray)
+
+
+def sqrt(x: Any) -> Any:
+    """math.sqrt of a float, numpy's (also correctly rounded) of an array."""
+    return np.sqrt(x) if isinstance(x, np.ndarray) else math.sqrt(x)
+
+
+def least(a: Any, b: Any) -> Any:
+    """min(a, b) lane by lane: b where b < a, else a."""
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        return np.where(b < a, b, a)
+    return min(a, b)
+
+
+def greatest(a: Any, b: Any) -> Any:
+    """max(a, b) lane by lane: b where b > a, else a."""
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        return np.where(b > a, b, a)
+    return max(a, b)
+
+
+def each(f: Callable[[float], float], x: np.ndarray) -> np.ndarray:
+    """f of every lane, through the scalar code."""
+    return np.fromiter(map(f, x.tolist()), dtype=np.float64, count=len(x))

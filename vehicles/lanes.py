@@ -1,0 +1,172 @@
+"""Many vehicles' steps at once, each float of the closed loop a numpy array with one lane per vehicle (issue 26).
+
+Vehicles whose closed loops differ only in their paths, coordination laws, predictors and what they heard (a fleet
+of alike vehicles; the same vehicle in many runs) integrate together: vehicles.runtime.prepare and
+vehicles.agent.begin one vehicle at a time, then vehicles.agent.rk4 once for all of them (the same code as one
+vehicle's: numpy's elementwise arithmetic rounds as Python's floats, and the closed loop's branches on the state take
+lanes: numerics.lanes), the path's point and the law's correction lane by lane (extensions written for floats), then
+agent.finish, runtime.complete and step.records one vehicle at a time. So each vehicle's records are those of
+vehicles.step.step_records, bit for bit (tests/test_lanes.py holds it over scenarios).
+
+Only parts that say they take lanes (a class attribute `lanes = True`: the built-in controller and the AUV model)
+are stepped so; a vehicle with any other part (an extension, navigation, an adaptive controller, a current, an
+observer, actuators) steps alone. A group whose stepping raises anything, a float exception included (numpy is told
+to raise where Python's floats would or might), is stepped again one vehicle at a time: errors are exactly those of
+the scalar step.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from comms.records.records import Disturbances, Heard
+from vehicles.agent import Along, VehicleConfig, begin, finish, neighbour_values, rk4
+from vehicles.dynamics import PathVectors
+from vehicles.runtime import NodeState, Prepared, Radio, complete, prepare
+from vehicles.step import StepRecords, records, step_records
+from vehicles.stepping import Begun, Stepped
+
+# Fewer alike vehicles than this step one at a time: numpy's cost per call (~1 us against a float's ~30 ns) and
+# what each vehicle still does alone outweigh the arrays below it. Measured (benchmarks.bench_lanes, the paper's
+# vehicles): lanes cost 2x a vehicle's step alone at 6, 1.2x at 12, 0.8x at 24, 0.6x at 48, 0.46x at 200.
+MIN_LANES = 16
+
+Outcome = tuple[NodeState, StepRecords] | Exception  # an exception: what step_records raised for that vehicle
+
+
+@dataclass(frozen=True, slots=True)
+class Job:
+    """step_records' arguments for one vehicle, and its shape (shape_of(cfg), kept by the caller: a repr a step is
+    too dear for)."""
+
+    shape: str | None
+    cfg: VehicleConfig
+    radio: Radio
+    node: NodeState
+    k: int
+    t: float
+    dt: float
+    heard: Sequence[Heard]
+    neighbours: Sequence[int]
+    dist: Disturbances
+
+
+def step_all(jobs: Sequence[Job], min_lanes: int | None = None) -> list[Outcome]:
+    """Each job's step_records (or what it raised), groups of at least min_lanes (None: MIN_LANES) alike vehicles
+    stepped together as lanes."""
+    least = MIN_LANES if min_lanes is None else min_lanes
+    outcomes: list[Outcome | None] = [None] * len(jobs)
+    for group in _groups(jobs):
+        stepped = _lanes([jobs[i] for i in group]) if len(group) >= least else None
+        for n, i in enumerate(group):
+            outcomes[i] = stepped[n] if stepped is not None else _one(jobs[i])
+    return [o for o in outcomes if o is not None]
+
+
+def _one(job: Job) -> Outcome:
+    try:
+        return step_records(job.cfg, job.radio, job.node, job.k, job.t, job.dt, job.heard, job.neighbours, job.dist)
+    except Exception as exc:  # handed back to be raised in the vehicle's turn, as the scalar loop would
+        return exc
+
+
+def _groups(jobs: Sequence[Job]) -> list[list[int]]:
+    """Indices of the jobs that may step together (in order), and each job that may not alone."""
+    groups: dict[object, list[int]] = {}
+    alone: list[list[int]] = []
+    for i, job in enumerate(jobs):
+        shape = job.shape
+        if shape is None:
+            alone.append([i])
+        else:
+            groups.setdefault((shape, job.t, job.dt, job.dist), []).append(i)
+    return [*groups.values(), *alone]
+
+
+def shape_of(cfg: VehicleConfig) -> str | None:
+    """What must be the same for vehicles to step together (None: this one steps alone): every part the stages
+    compute with as arrays, by its repr (floats by their exact digits)."""
+    if cfg.navigation is not None or cfg.adaptive is not None:
+        return None
+    parts = (cfg.controller, cfg.vehicle, cfg.current, cfg.current_observer, cfg.actuators)
+    if not all(part is None or getattr(part, "lanes", False) is True for part in parts):
+        return None
+    shared = (
+        type(cfg.model).__qualname__, cfg.model.dim, cfg.params, cfg.plant, cfg.current_known, cfg.top_speed,
+        cfg.correction_limit, cfg.correction_acceleration, cfg.coordination.v_r, *parts,
+    )  # fmt: skip
+    return repr(shared)
+
+
+def _lanes(jobs: Sequence[Job]) -> list[Outcome] | None:
+    """The jobs stepped together; None if that raised (they are then stepped one at a time)."""
+    try:
+        return _together(jobs)
+    except Exception:  # anything: the scalar step gives the error, if there is one
+        return None
+
+
+def _together(jobs: Sequence[Job]) -> list[Outcome]:
+    first = jobs[0]
+    cfgs = [job.cfg for job in jobs]
+    before = [prepare(j.cfg, j.radio, j.node, j.t, j.dt, j.heard, j.neighbours, j.dist) for j in jobs]
+    begun = [begin(cfg, p.state, None) for cfg, p in zip(cfgs, before, strict=True)]
+    z = list(np.array([b.z for b in begun]).T.copy())
+
+    def along(t: float) -> LaneAlong:
+        heard = [neighbour_values(j.cfg, p.state, t, j.neighbours) for j, p in zip(jobs, before, strict=True)]
+        return LaneAlong(cfgs, heard)
+
+    with np.errstate(all="raise", under="ignore"):  # where Python's floats raise, or might: alone, they say what
+        stepped = rk4(first.cfg, first.t, Begun(z, None, ()), first.dt, along, first.dist, None)
+    lanes = _unstacked(stepped, len(jobs))
+    return [_finished(j, p, b, s) for j, p, b, s in zip(jobs, before, begun, lanes, strict=True)]
+
+
+def _finished(job: Job, before: Prepared, begun: Begun, stepped: Stepped) -> Outcome:
+    state, telemetry = finish(job.cfg, before.state, begun, stepped, job.dt, job.dist, None)
+    node, out = complete(before, state, telemetry)
+    try:
+        return node, records(job.cfg, job.k, job.t, out)
+    except FloatingPointError as exc:  # its state is not sane: step_records raises the same
+        return exc
+
+
+def _unstacked(stepped: Stepped, lanes: int) -> list[Stepped]:
+    """One Stepped per lane, of floats (a value the same for every lane comes as a float)."""
+    z = np.array(stepped.z).T.tolist()
+    v_tilde, lyapunov = _column(stepped.v_tilde, lanes), _column(stepped.lyapunov, lanes)
+    error = list(zip(*(_column(e, lanes) for e in stepped.seen_error), strict=True))
+    applied = list(zip(*(_column(a, lanes) for a in stepped.applied), strict=True))
+    return [Stepped(z[n], [], v_tilde[n], error[n], lyapunov[n], applied[n]) for n in range(lanes)]
+
+
+def _column(value: Any, lanes: int) -> list[float]:
+    return np.broadcast_to(np.asarray(value, dtype=np.float64), (lanes,)).tolist()
+
+
+class LaneAlong(Along):
+    """agent.Along for lanes: each vehicle's own path and law, lane by lane, through their float code."""
+
+    __slots__ = ("cfgs", "heards")
+
+    def __init__(self, cfgs: Sequence[VehicleConfig], heards: Sequence[list[tuple[float, float]]]) -> None:
+        super().__init__(cfgs[0], heards[0])
+        self.cfgs, self.heards = cfgs, heards
+
+    def point(self, gamma: Any) -> PathVectors:
+        flat = [
+            [*p, *v, *a]
+            for cfg, g in zip(self.cfgs, gamma.tolist(), strict=True)
+            for p, v, a in (cfg.model.path_seen(cfg.path.evaluate_floats(g)),)
+        ]
+        c = np.array(flat).T.copy()
+        return (c[0], c[1], c[2]), (c[3], c[4], c[5]), (c[6], c[7], c[8])
+
+    def correction(self, gamma: Any, gamma_dot: Any) -> Any:
+        values = zip(self.cfgs, self.heards, gamma.tolist(), gamma_dot.tolist(), strict=True)
+        return np.array([cfg.law.correction(g, gd, heard, cfg.coordination) for cfg, heard, g, gd in values])
