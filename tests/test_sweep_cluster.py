@@ -1,5 +1,5 @@
 """`cpf sweep --cluster`: the runs on a Dask cluster the test starts (distributed.LocalCluster on 127.0.0.1, free
-ports, no dashboard). Workers in threads of this process (processes=False) run supervisor.tools.sweep.run_one as
+ports, no dashboard). Workers in threads of this process (processes=False) run supervisor.tools.sweep_runs.run_one as
 imported here, so a test can see (and hold up) every run the cluster does; `cpf sweep` is the client, run as a
 user would."""
 
@@ -17,7 +17,7 @@ import pytest
 from distributed import LocalCluster
 from distributed.diagnostics.plugin import SchedulerPlugin
 
-import supervisor.tools.sweep as sweep_module
+import supervisor.tools.sweep_runs as sweep_module
 from comms.bus.bus import free_port
 from tests.conftest import CONFIGS, shortened
 from tests.procs import cpf, start_cpf

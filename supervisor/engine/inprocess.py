@@ -70,7 +70,7 @@ class RunResult:
     drop_causes: dict[str, dict[str, int]] | None = None  # zenoh: reader -> cause -> messages it dropped
 
 
-class _InProcessRun:
+class InProcessRun:
     def __init__(self, scenario: Scenario, rec: Sink, seed: int) -> None:
         self.sc, self.rec, self.seed = scenario, rec, seed
         # Nothing kept (a sweep's run): messages only the log would read are counted, not built.
@@ -91,8 +91,14 @@ class _InProcessRun:
         self.where: dict[int, Kinematics] = {}
         self.network: Network | None = None  # in force when `sent` was transmitted
         self.pending: list[LinkEvent] = []  # link events booked, not yet recorded (_flush_events)
+        self.stepping: list[int] = []  # the vehicles of the step begun
 
     def step(self, k: int) -> None:
+        plan, jobs = self.begin(k)
+        self.take(plan, step_all(jobs))
+
+    def begin(self, k: int) -> tuple[StepPlan, list[Job]]:
+        """Step k up to its vehicles' steps: the plan carried out, the channel's deliveries; each vehicle's job."""
         plan = self.schedule.plan(k)
         t = plan.t
         for event in plan.events:
@@ -104,8 +110,12 @@ class _InProcessRun:
         heard = self._channel(k, t)
         self.books.window(t, self.alive)  # every delivery up to t is booked now
         self.sent, self.where, self.network = [], {}, plan.network
-        alive = list(self.alive)  # a vehicle lost on the way leaves self.alive, not this step's list
-        for i, outcome in zip(alive, step_all([self._job(i, plan, heard.get(i)) for i in alive]), strict=True):
+        self.stepping = list(self.alive)  # a vehicle lost on the way leaves self.alive, not this step's list
+        return plan, [self._job(i, plan, heard.get(i)) for i in self.stepping]
+
+    def take(self, plan: StepPlan, outcomes: list[Outcome]) -> None:
+        """The vehicles' steps of begin's jobs (vehicles.lanes.step_all's outcomes, in order) taken in."""
+        for i, outcome in zip(self.stepping, outcomes, strict=True):
             self._vehicle(i, plan.t, outcome)
 
     def _channel(self, k: int, t: float) -> dict[int, RxBatch]:
@@ -240,16 +250,12 @@ def run_inprocess(
     """Run the scenario, record every message to out (MCAP; None: only counted, for a sweep), and return what the
     summary needs. scene: the log gets the run's Foxglove channels (record.scene); live: sees every record too.
     speed: on the realtime clock, simulated s per wall s (each step waits for its wall time: a run to watch live);
-    None: the lockstep clock, as fast as it goes."""
+    None: the lockstep clock, as fast as it goes. (supervisor.engine.batch runs many at once, nothing recorded.)"""
     dt = scenario.scenario.step
     steps = steps_of(scenario)
     with Recorder(out, scene, live) if out is not None else Tally() as rec:
-        rec.limit(scenario.scenario.duration)
         clock = "lockstep" if speed is None else "realtime"
-        meta = RunMeta.of(scenario, scenario_file, scenario_toml, seed, "inprocess", clock)
-        rec.write(META_KEY, 0.0, meta.to_message())
-        rec.write(GRAPH_KEY, 0.0, Graph.of(0.0, scenario.graph.edges).to_message())
-        run = _InProcessRun(scenario, rec, seed)
+        run = started(scenario, scenario_file, scenario_toml, seed, rec, clock)
         progress.begin()
         began = time.monotonic()
         for k in range(steps):
@@ -260,9 +266,24 @@ def run_inprocess(
         run.finish(steps * dt)
         stepping = progress.stepping_time()
         wall = progress.done(steps * dt)
-    messages, scene_count = rec.count, rec.scene_count  # once the log is closed: its scene is written then
+    return result(run, rec, steps * dt, wall, stepping)
+
+
+def started(
+    scenario: Scenario, scenario_file: str, scenario_toml: str, seed: int, rec: Sink, clock: str
+) -> InProcessRun:
+    """A run at its start, its metadata and graph recorded."""
+    rec.limit(scenario.scenario.duration)
+    meta = RunMeta.of(scenario, scenario_file, scenario_toml, seed, "inprocess", clock)
+    rec.write(META_KEY, 0.0, meta.to_message())
+    rec.write(GRAPH_KEY, 0.0, Graph.of(0.0, scenario.graph.edges).to_message())
+    return InProcessRun(scenario, rec, seed)
+
+
+def result(run: InProcessRun, rec: Sink, end: float, wall: float, stepping: float) -> RunResult:
+    """What a finished run gives, once its recorder is closed (its log's scene is written then)."""
     books = run.books
     return RunResult(
-        run.builder.series(), wall, messages, books.counts, books.stats.snapshot(steps * dt), books.lambda2,
-        run.builder.ages, stepping, scene_messages=scene_count,
+        run.builder.series(), wall, rec.count, books.counts, books.stats.snapshot(end), books.lambda2,
+        run.builder.ages, stepping, scene_messages=rec.scene_count,
     )  # fmt: skip

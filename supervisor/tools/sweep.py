@@ -12,14 +12,11 @@ from __future__ import annotations
 
 import contextlib
 import csv
-import hashlib
-import io
 import json
 import math
 import os
 import re
 import signal
-import tempfile
 import tomllib
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, CancelledError, Future, ProcessPoolExecutor, wait
@@ -29,12 +26,14 @@ from pathlib import Path
 from typing import Any
 
 from comms.bus.lifeline import ORPHANED, set_parent_death_signal
-from supervisor.analysis.metrics import STEADY_STATE_WINDOW
-from supervisor.analysis.summary import coordination_error
 from supervisor.config.scenario import split_outside_brackets
 from supervisor.errors import ScenarioError, SimulationError
+from supervisor.tools.sweep_runs import RunSpec, override, run_logged, run_many, run_one
 
 WATCH_INTERVAL = 1.0  # s between looks at a cluster's workers while no run finishes
+# Runs stepped together at most (sweep_runs.run_many): the vehicles' lanes cost less per vehicle up to a few hundred
+# lanes (vehicles.lanes), while a batch is written, shown and resumed only whole.
+MAX_BATCH = 64
 
 
 def default_jobs(cores: int) -> int:
@@ -65,18 +64,6 @@ class Cluster:
 class Param:
     key: str
     values: tuple[Any, ...]
-
-
-@dataclass(frozen=True, slots=True)
-class RunSpec:
-    settings: tuple[tuple[str, Any], ...]
-    seed: int
-
-    @property
-    def run_id(self) -> str:
-        text = json.dumps([list(self.settings), self.seed])
-        readable = "_".join(f"{k.split('.')[-1]}={v}" for k, v in self.settings)
-        return f"{readable}_seed={self.seed}_{hashlib.sha1(text.encode()).hexdigest()[:8]}".replace("/", "-")
 
 
 def parse_param(text: str) -> Param:
@@ -116,87 +103,6 @@ def grid(params: Sequence[Param], seeds: int, first_seed: int = 0) -> list[RunSp
     return [RunSpec(tuple(combo), first_seed + s) for combo in combos for s in range(seeds)]
 
 
-def _override(key: str, value: Any) -> str:
-    return f"{key}={json.dumps(value)}"
-
-
-def run_one(scenario_name: str, scenario_bytes: bytes, spec: RunSpec, engine: str) -> dict[str, Any]:
-    """One run of the sweep, wherever it runs (a local worker process, a Dask worker): its metrics row, nothing
-    recorded (the in-process engine counts the messages a log would hold; the Zenoh engine's log is deleted)."""
-    return _measured(scenario_name, scenario_bytes, spec, engine, False)[0]
-
-
-def run_logged(scenario_name: str, scenario_bytes: bytes, spec: RunSpec, engine: str) -> tuple[dict[str, Any], bytes]:
-    """run_one, and the run's whole log (with its Foxglove scene) as bytes: `cpf sweep --logs`. Bytes, not a path: a
-    cluster's workers share no filesystem with the client, which writes the log where the row goes."""
-    row, log = _measured(scenario_name, scenario_bytes, spec, engine, True)
-    assert log is not None
-    return row, log
-
-
-def _measured(
-    scenario_name: str, scenario_bytes: bytes, spec: RunSpec, engine: str, keep_log: bool
-) -> tuple[dict[str, Any], bytes | None]:
-    """The run's row, and its log if keep_log. The scenario comes as the file's bytes and is written into the run's
-    temporary directory under its own name (the Zenoh engine's processes load it from there)."""
-    from supervisor.analysis.summary import summarize
-    from supervisor.config.derived import intervals, tube_radius
-    from supervisor.config.scenario import load_scenario
-    from supervisor.engine.progress import Progress
-
-    overrides = tuple(_override(k, v) for k, v in spec.settings)
-    with tempfile.TemporaryDirectory(prefix="cpf-sweep-") as tmp:
-        path = Path(tmp, "scenario")
-        path.mkdir()
-        path = path / scenario_name
-        path.write_bytes(scenario_bytes)
-        scenario = load_scenario(path, overrides)
-        quiet = Progress(scenario.scenario.duration, io.StringIO(), enabled=False)
-        out = Path(tmp) / "run.mcap"
-        result = _run(engine, scenario, path, overrides, out, spec.seed, quiet, keep_log)
-        log = out.read_bytes() if keep_log else None
-    rep = scenario.report
-    tube = tube_radius(scenario)
-    summary = summarize(
-        result.series, scenario.scenario.duration, intervals(scenario), rep.transient, tube, rep.coordination_tolerance
-    )
-    return {**dict(spec.settings), "seed": spec.seed, **_measures(result, summary, scenario)}, log
-
-
-def _run(
-    engine: str, scenario: Any, path: Path, overrides: tuple[str, ...], out: Path, seed: int, quiet: Any, log: bool
-) -> Any:
-    """The run on either engine, its log written to out only if log; the Zenoh engine's processes load the scenario
-    file themselves, with overrides."""
-    text = path.read_text(encoding="utf-8")
-    if engine == "zenoh":
-        from supervisor.engine.cosim import BusOptions, run_zenoh
-
-        bus = BusOptions(overrides=overrides)  # a log not kept is deleted once its metrics are taken: no scene
-        return run_zenoh(scenario, path, text, out, seed, "lockstep", 1.0, bus, quiet, scene=log)
-    from supervisor.engine.inprocess import run_inprocess
-
-    return run_inprocess(scenario, str(path), text, out if log else None, seed, quiet)
-
-
-def _measures(result: Any, summary: Any, scenario: Any) -> dict[str, Any]:
-    series = result.series
-    coordination = coordination_error(series.gamma)
-    tail = series.t >= series.t[-1] - STEADY_STATE_WINDOW
-    settled = series.t >= min(scenario.report.transient, series.t[-1])
-    return {
-        "steady_coordination_error": float(coordination[tail].max()),
-        "peak_coordination_error_after_transient": float(coordination[settled].max()),
-        "sync_time": summary.sync_time,
-        "resync_time": summary.resync_time,
-        "max_path_error": summary.max_path_error_after_transient,
-        "sent": result.link_counts["sent"],
-        "delivered": result.link_counts["delivered"],
-        "dropped": result.link_counts["dropped"],
-        "wall_s": result.wall_time,
-    }
-
-
 def sweep(
     scenario_path: Path,
     params: Sequence[Param],
@@ -209,9 +115,10 @@ def sweep(
     logs: bool = False,
 ) -> list[dict[str, Any]]:
     """Run (or resume) the whole sweep; every row, in grid order. progress(runs done, runs in all), if given, before
-    the first run and after each. cluster: the runs go to a Dask scheduler (supervisor.tools.sweep_cluster), else
-    to local_jobs(jobs) local processes; either way the rows (logs: and each run's log, runs/<id>.mcap) come back
-    and are written here, so resuming works alike (a run without its log, when logs are kept, runs again)."""
+    the first run and after each (a batch's runs end together). cluster: the runs go to a Dask scheduler
+    (supervisor.tools.sweep_cluster), else to local_jobs(jobs) local processes; either way the rows (logs: and each
+    run's log, runs/<id>.mcap) come back and are written here, so resuming works alike (a run without its log, when
+    logs are kept, runs again)."""
     _check_values(scenario_path, params)
     scenario_bytes = scenario_path.read_bytes()
     specs = grid(params, seeds)
@@ -222,11 +129,11 @@ def sweep(
         done = len(specs) - len(todo)
         if progress is not None:
             progress(done, len(specs))
-        work = run_logged if logs else run_one
-        futures = {submit(work, scenario_path.name, scenario_bytes, spec, engine): spec for spec in todo}
+        workers = 0 if cluster is not None else local_jobs(jobs)
+        futures = _submitted(submit, scenario_path, scenario_bytes, todo, engine, logs, workers)
         try:
-            for future in _completed(futures, watch):
-                _keep(runs_dir, futures[future], future, logs)
+            for spec, outcome in _finished(futures, watch):
+                _keep(runs_dir, spec, outcome, logs)
                 done += 1
                 if progress is not None:
                     progress(done, len(specs))
@@ -238,13 +145,52 @@ def sweep(
     return rows
 
 
+def _submitted(
+    submit: Submit, scenario_path: Path, scenario_bytes: bytes, todo: list[RunSpec], engine: str, logs: bool, jobs: int
+) -> dict[Future[Any], list[RunSpec]]:
+    """The runs sent where they run, each future with its runs: in batches stepped together (sweep_runs.run_many)
+    on the in-process engine for jobs local workers; one at a time with logs, on the Zenoh engine (whose runs are
+    processes of their own) or on a cluster (jobs 0: its workers may be many, and come and go)."""
+    name = scenario_path.name
+    if not jobs or logs or engine != "inprocess":
+        work = run_logged if logs else run_one
+        return {submit(work, name, scenario_bytes, spec, engine): [spec] for spec in todo}
+    return {submit(run_many, name, scenario_bytes, batch): batch for batch in batches(todo, jobs)}
+
+
+def batches(todo: Sequence[RunSpec], jobs: int) -> list[list[RunSpec]]:
+    """todo in batches of at most MAX_BATCH runs, as even as they go, a multiple of jobs of them (every worker as
+    busy as the others)."""
+    count = jobs * max(1, math.ceil(len(todo) / (jobs * MAX_BATCH)))
+    size = max(1, math.ceil(len(todo) / count))
+    return [list(todo[i : i + size]) for i in range(0, len(todo), size)]
+
+
+def _finished(
+    futures: dict[Future[Any], list[RunSpec]], watch: Callable[[], None] | None
+) -> Iterator[tuple[RunSpec, Any]]:
+    """Each run with its outcome, as their futures finish."""
+    for future in _completed(futures, watch):
+        yield from _outcomes(futures[future], future)
+
+
+def _outcomes(specs: list[RunSpec], future: Future[Any]) -> list[tuple[RunSpec, Any]]:
+    """Each run's outcome (its row, run_logged's (row, log), or the exception that ended it); a future that failed
+    as a whole (a worker lost) is every run's failure."""
+    try:
+        value = future.result()
+    except Exception as exc:
+        return [(spec, exc) for spec in specs]
+    return list(zip(specs, value if len(specs) > 1 or isinstance(value, list) else [value], strict=True))
+
+
 def _check_values(scenario_path: Path, params: Sequence[Param]) -> None:
     """Every value must make a valid scenario: ScenarioError before anything runs."""
     from supervisor.config.scenario import load_scenario
 
     for param in params:
         for value in param.values:
-            load_scenario(scenario_path, [_override(param.key, value)])
+            load_scenario(scenario_path, [override(param.key, value)])
 
 
 Submit = Callable[..., Future[Any]]  # submit(work, *args): work(*args) where the runs go
@@ -315,16 +261,14 @@ def _done(runs_dir: Path, spec: RunSpec, logs: bool) -> bool:
     return (runs_dir / f"{spec.run_id}.json").exists() and (not logs or (runs_dir / f"{spec.run_id}.mcap").exists())
 
 
-def _keep(runs_dir: Path, spec: RunSpec, future: Future[Any], logs: bool) -> None:
+def _keep(runs_dir: Path, spec: RunSpec, done: Any, logs: bool) -> None:
     """A finished run's row to runs_dir/<id>.json, its log (run_logged) first to runs_dir/<id>.mcap (named in the
     row's "log"), each whole or not at all (a resumed sweep trusts every file there); SimulationError naming the run
-    if it failed (the runs done are kept)."""
-    try:
-        done = future.result()
-    except CancelledError:  # not by us: a Dask client cancels its futures when it loses the scheduler
+    if it failed (done: its exception; the runs done are kept)."""
+    if isinstance(done, CancelledError):  # not by us: a Dask client cancels its futures when it loses the scheduler
         raise SimulationError(f"sweep run {spec.run_id} was cancelled (Dask scheduler lost?)") from None
-    except Exception as exc:
-        raise SimulationError(f"sweep run {spec.run_id} failed: {exc}") from exc
+    if isinstance(done, Exception):
+        raise SimulationError(f"sweep run {spec.run_id} failed: {done}") from done
     row, log = done if logs else (done, None)  # run_logged's (row, log), or run_one's row
     if log is not None:  # the row says where its log is (relative to the sweep's directory)
         _write_whole(runs_dir / f"{spec.run_id}.mcap", log)

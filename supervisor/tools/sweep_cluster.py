@@ -1,9 +1,10 @@
 """`cpf sweep --cluster ADDRESS`: the sweep's runs on a Dask distributed cluster, through its concurrent.futures
 executor (distributed.Client.get_executor), so supervisor.tools.sweep drives a cluster as it drives local processes.
 
-Each run goes to a worker as a call of supervisor.tools.sweep.run_one with the scenario file's bytes, and comes back
-as its row, which the client writes to DIR/runs/<id>.json: the workers need cpf-cosim installed (the same version)
-but no filesystem shared with the client. Dask places the runs, runs one again elsewhere when its worker dies
+Each run goes to a worker as a call of supervisor.tools.sweep_runs.run_one with the scenario file's bytes (one run a
+call: a cluster's workers may be many, and come and go), and comes back as its row, which the client writes to
+DIR/runs/<id>.json: the workers need cpf-cosim installed (the same version) but no filesystem shared with the
+client. Dask places the runs, runs one again elsewhere when its worker dies
 (distributed.scheduler.allowed-failures times, then reports it: KilledWorker), and the client watches that the
 cluster keeps a worker at all. `distributed` is imported here only, when a cluster sweep starts: `cpf` and the
 vehicle processes stay light.

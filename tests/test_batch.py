@@ -1,0 +1,99 @@
+"""Runs stepped together (supervisor.engine.batch, a sweep's batches) give each run what it gives alone.
+
+The batch steps every run's step k before any run's step k + 1 and its alike vehicles as lanes (vehicles.lanes, down
+to groups of two here); each run's result must still be run_inprocess's without a log: series, message count, link
+books, estimate ages. Runs of other lengths and steps share a batch; one that fails ends alone, the others go on.
+"""
+
+from __future__ import annotations
+
+import io
+from typing import Any
+
+import numpy as np
+import pytest
+
+import vehicles.lanes
+from supervisor.config.scenario import parse_scenario
+from supervisor.engine.batch import BatchRun, run_batch
+from supervisor.engine.inprocess import RunResult, run_inprocess
+from supervisor.engine.progress import Progress
+from supervisor.errors import SimulationError
+from supervisor.tools.sweep import batches
+from supervisor.tools.sweep_runs import RunSpec, run_many, run_one
+from tests.conftest import CONFIGS, shortened
+from tests.test_lanes import FAULTS
+
+
+def _alone(run: BatchRun) -> RunResult:
+    quiet = Progress(run.scenario.scenario.duration, io.StringIO(), enabled=False)
+    return run_inprocess(run.scenario, run.scenario_file, run.scenario_toml, None, run.seed, quiet)
+
+
+def _same(a: RunResult, b: RunResult) -> None:
+    for name in ("t", "gamma", "gamma_dot", "path_error"):
+        assert np.array_equal(getattr(a.series, name), getattr(b.series, name), equal_nan=True), name
+    assert (a.messages, a.link_counts, a.link_stats) == (b.messages, b.link_counts, b.link_stats)
+    assert (a.stats_history, a.estimate_ages) == (b.stats_history, b.estimate_ages)
+
+
+def _runs(settings: list[tuple[list[str], list[str], int]], duration: float) -> list[BatchRun]:
+    text = shortened((CONFIGS / "paper.toml").read_text(), duration)
+    return [BatchRun(parse_scenario(text, "paper.toml", o, f), "paper.toml", text, seed) for o, f, seed in settings]
+
+
+def test_each_run_of_a_batch_is_the_run_alone(monkeypatch):
+    monkeypatch.setattr(vehicles.lanes, "MIN_LANES", 2)
+    runs = _runs(
+        [
+            ([], [], 0),
+            (["comms.loss=0.3"], [], 1),
+            (["comms.loss=0.3"], [], 2),
+            ([], FAULTS, 3),  # every fault kind: kills and restarts change who steps
+            (["scenario.duration=35.0"], [], 4),  # ends earlier
+            (["scenario.step=0.05"], [], 5),  # steps of another length: a group of its own
+        ],
+        60.0,
+    )
+    together = run_batch(runs)
+    for run, result in zip(runs, together, strict=True):
+        assert isinstance(result, RunResult)
+        _same(result, _alone(run))
+
+
+def test_a_run_that_fails_in_a_batch_ends_alone_with_its_error(monkeypatch):
+    monkeypatch.setattr(vehicles.lanes, "MIN_LANES", 2)
+    runs = _runs([([], [], 0), (["scenario.step=1"], [], 1), (["comms.loss=0.2"], [], 2)], 20.0)
+    together = run_batch(runs)
+    with pytest.raises(SimulationError) as alone:
+        _alone(runs[1])
+    failed = together[1]
+    assert isinstance(failed, SimulationError) and str(failed) == str(alone.value)
+    assert "diverged at t = 1.0 s" in str(failed)
+    for n in (0, 2):
+        result = together[n]
+        assert isinstance(result, RunResult)
+        _same(result, _alone(runs[n]))
+
+
+def test_a_sweep_batch_gives_each_run_its_own_row():
+    """sweep_runs.run_many (what `cpf sweep` sends a worker) against run_one per spec, wall time apart; a failed
+    run's place holds its error."""
+    text = shortened((CONFIGS / "paper.toml").read_text(), 30.0).encode()
+    specs = [RunSpec((("comms.loss", loss),), seed) for loss in (0.0, 0.4) for seed in range(2)]
+    specs.append(RunSpec((("scenario.step", 1.0),), 0))
+    many = run_many("paper.toml", text, specs)
+    assert isinstance(many[-1], SimulationError)
+    for spec, row in zip(specs[:-1], many[:-1], strict=True):
+        assert not isinstance(row, Exception)
+        alone: dict[str, Any] = run_one("paper.toml", text, spec, "inprocess")
+        assert {**row, "wall_s": None} == {**alone, "wall_s": None}
+
+
+@pytest.mark.parametrize(
+    ("runs", "jobs", "sizes"), [(200, 2, [50] * 4), (5, 2, [3, 2]), (1, 4, [1]), (130, 1, [44, 44, 42])]
+)
+def test_batches_are_even_and_a_multiple_of_the_workers(runs, jobs, sizes):
+    specs = [RunSpec((), seed) for seed in range(runs)]
+    got = batches(specs, jobs)
+    assert [len(b) for b in got] == sizes and [s for b in got for s in b] == specs
