@@ -123,9 +123,11 @@ def sweep_split(paper: Path, repeat: int) -> dict[str, Any]:
     """A paper sweep run with and without its vehicle steps (issue 26's fast studies), printed."""
     split = bench_sweep_split.measure(paper, max(repeat, 2))
     print(bench_sweep_split.summary(split), flush=True)
+    steps = [bench_lanes.measure_steps(paper, count, 20) for count in (6, 16, 48, 192)]
+    print(bench_lanes.steps_summary(steps), flush=True)
     lanes = bench_lanes.measure(paper, 1000)
     print(bench_lanes.summary(lanes), flush=True)
-    return {**split, "lanes": lanes}
+    return {**split, "lanes": {**lanes, "steps": steps}}
 
 
 def commands(paper: Path, repeat: int) -> dict[str, Any]:

@@ -1,19 +1,18 @@
-"""What stepping many runs at once as arrays would give: `.venv/bin/python -m benchmarks.bench_lanes [--lanes N]`.
+"""Vehicles stepped as numpy lanes against one at a time: `.venv/bin/python -m benchmarks.bench_lanes [--lanes N]`.
 
-Issue 26 asks for a 1000-run sweep in 2 min; benchmarks.bench_sweep_split shows no vehicle step alone can reach it:
-the rest of the engine would have to run many runs at once as arrays ("lanes"), which is not built. This measures
-the premise, on code that exists: the vehicle model's float functions (the spatial drift of eqs. (1)-(2), the
-kinematics, the plant's rates), unchanged, called once with numpy arrays of --lanes states (one array per state
-component) instead of once per state. It checks every lane's result equals the scalar call's bit for bit (numpy's
-elementwise +, -, *, / and abs round as Python's floats do) and prints the cost per lane both ways. What it does not
-show: the functions with branches on the state or fdlibm's argument reduction (a path's sincos, the saturations, the
-re-orthonormalization) need array forms first, and the channel, books and series do not run on lanes at all.
+Two measures. The whole step (vehicles.lanes.step_all, what the in-process engine and a sweep's batches run): copies
+of the scenario's vehicles at their start, stepped --steps times together as lanes and again each alone, every
+state message compared equal, the cost per vehicle step both ways, for each of --counts (how MIN_LANES was chosen).
+And the premise, the plant's rates alone (the spatial drift of eqs. (1)-(2), the inputs, the kinematics), called
+once with arrays of --lanes states instead of once per state, each lane's bits checked against the scalar call's.
+Neither includes the channel, the books or the series, which still run one run at a time.
 """
 
 from __future__ import annotations
 
 import argparse
 import struct
+import time
 import timeit
 from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
@@ -22,10 +21,12 @@ from typing import Any
 import numpy as np
 
 from benchmarks import ROOT, save
-from supervisor.config.fleet import initial_state, vehicle_config
+from supervisor.config.fleet import initial_state, radio, vehicle_config
 from supervisor.config.scenario import load_scenario
-from vehicles.agent import VehicleConfig
+from vehicles.agent import UNDISTURBED, VehicleConfig
+from vehicles.lanes import Job, shape_of, step_all
 from vehicles.plant import plant_rates
+from vehicles.runtime import NodeState
 
 
 def rates(cfg: VehicleConfig) -> Callable[[Sequence[Any], Sequence[Any]], tuple[Any, ...]]:
@@ -58,6 +59,42 @@ def measure(scenario: Path, lanes: int) -> dict[str, Any]:
             "array_us_per_lane": array * 1e6, "speedup": scalar / array}  # fmt: skip
 
 
+def measure_steps(scenario: Path, count: int, steps: int) -> dict[str, Any]:
+    """us per vehicle step of count copies of the scenario's vehicles (in turn), as lanes and alone, best of 3;
+    AssertionError if a state message differs."""
+    sc = load_scenario(scenario)
+    ids = sc.vehicle_ids
+    cfgs = [vehicle_config(sc, ids[n % len(ids)], 0) for n in range(count)]
+    shapes, radios = [shape_of(cfg) for cfg in cfgs], [radio(sc, cfg.vehicle_id) for cfg in cfgs]
+    start = [NodeState(initial_state(sc, cfg)) for cfg in cfgs]
+    dt = sc.scenario.step
+
+    def run(min_lanes: int) -> tuple[float, list[Any]]:
+        nodes, states, began = list(start), [], time.perf_counter()
+        for k in range(steps):
+            alike = zip(shapes, cfgs, radios, nodes, strict=True)
+            jobs = [Job(sh, c, r, nd, k, k * dt, dt, [], [], UNDISTURBED) for sh, c, r, nd in alike]
+            outcomes = step_all(jobs, min_lanes)
+            nodes = [o[0] for o in outcomes]  # type: ignore[index]
+            states += [o[1].state for o in outcomes]  # type: ignore[index]
+        return time.perf_counter() - began, states
+
+    lanes, alone = [run(2) for _ in range(3)], [run(10**9) for _ in range(3)]
+    if lanes[0][1] != alone[0][1]:
+        raise AssertionError(f"{count} lanes: a state message differs from the vehicle's stepped alone")
+    per = 1e6 / (count * steps)
+    return {"vehicles": count, "steps": steps, "lanes_us": min(t for t, _ in lanes) * per,
+            "alone_us": min(t for t, _ in alone) * per}  # fmt: skip
+
+
+def steps_summary(rows: list[dict[str, Any]]) -> str:
+    parts = [
+        f"{r['vehicles']}: {r['lanes_us']:.0f} against {r['alone_us']:.0f} us ({r['lanes_us'] / r['alone_us']:.2f}x)"
+        for r in rows
+    ]
+    return "a vehicle step as lanes against alone, by vehicles stepped (the same state messages): " + "; ".join(parts)
+
+
 def _bits(values: Iterable[float]) -> bytes:
     """The values' IEEE 754 bits (== would take -0.0 for 0.0 and no NaN for itself)."""
     floats = list(values)
@@ -76,10 +113,14 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--scenario", type=Path, default=ROOT / "configs" / "paper.toml")
     parser.add_argument("--lanes", type=int, default=1000)
+    parser.add_argument("--counts", default="6,16,48,192", help="vehicles stepped, for the whole step")
+    parser.add_argument("--steps", type=int, default=20)
     args = parser.parse_args()
+    steps = [measure_steps(args.scenario, int(n), args.steps) for n in args.counts.split(",")]
+    print(steps_summary(steps))
     row = measure(args.scenario, args.lanes)
     print(summary(row))
-    save("lanes", row)
+    save("lanes", {**row, "steps": steps})
 
 
 if __name__ == "__main__":

@@ -11,8 +11,11 @@ preserved.
 
 from math import copysign, fabs, frexp, inf, nan, sqrt
 
+import numpy as np
+from numpy.typing import NDArray
+
 from numerics._bits import clear_low_word, from_words
-from numerics._reduce import rem_pio2
+from numerics._reduce import _INVPIO2, _PIO2_1, _PIO2_1T, _TO_INT, _TWO_M16, MEDIUM_LIMIT, rem_pio2
 
 # k_sin.c
 _S1 = -1.66666666666666324348e-01  # 0xBFC55555, 0x55555549
@@ -100,7 +103,10 @@ def cos(x: float) -> float:
 
 
 def sincos(x: float) -> tuple[float, float]:
-    """(sin(x), cos(x)) with one argument reduction; the same bits as sin(x) and cos(x)."""
+    """(sin(x), cos(x)) with one argument reduction; the same bits as sin(x) and cos(x). x may be a numpy array of
+    lanes (vehicles.lanes): then the same, lane by lane."""
+    if isinstance(x, np.ndarray):
+        return _sincos_lanes(x)
     if -_PIO4_HIGH < x < _PIO4_HIGH:
         s = x if -_SIN_TINY < x < _SIN_TINY else _kernel_sin0(x)
         c = 1.0 if -_COS_TINY < x < _COS_TINY else _kernel_cos(x, 0.0)
@@ -119,6 +125,32 @@ def sincos(x: float) -> tuple[float, float]:
     if n == 2:
         return -s, -c
     return -c, s
+
+
+def _sincos_lanes(x: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """sincos of each lane, its arithmetic on arrays where it takes no branch on the lane (|x| < pi/4, and the
+    medium reduction's first round, which is all but |x| near a multiple of pi/2 needs); the other lanes (those,
+    huge, inf or nan) through the scalar code. Lanes headed elsewhere compute on stand-ins (0, 1): no float error."""
+    ax = np.abs(x)
+    small = ax < _PIO4_HIGH
+    medium = ~small & (ax < MEDIUM_LIMIT)
+    xm = np.where(medium, x, 1.0)
+    fn = (xm * _INVPIO2 + _TO_INT) - _TO_INT
+    r = xm - fn * _PIO2_1
+    w = fn * _PIO2_1T
+    y0 = r - w
+    medium &= ~(np.abs(y0) < np.abs(xm) * _TWO_M16)  # rem_pio2's second round: the scalar code
+    y1 = (r - y0) - w
+    xs = np.where(small, x, 0.0)
+    s_small = np.where(np.abs(xs) < _SIN_TINY, xs, _kernel_sin0(xs))  # type: ignore[arg-type]
+    c_small = np.where(np.abs(xs) < _COS_TINY, 1.0, _kernel_cos(xs, 0.0))  # type: ignore[arg-type]
+    s_m, c_m = _kernel_sin(y0, y1), _kernel_cos(y0, y1)  # type: ignore[arg-type]
+    n = fn.astype(np.int64) & 3
+    s = np.where(small, s_small, np.choose(n, [s_m, c_m, -s_m, -c_m]))
+    c = np.where(small, c_small, np.choose(n, [c_m, -s_m, -c_m, s_m]))
+    for i in np.flatnonzero(~(small | medium)).tolist():
+        s[i], c[i] = sincos(float(x[i]))
+    return s, c
 
 
 # s_atan.c: atan(0.5), atan(1), atan(1.5), atan(inf) as high and low parts, and the odd polynomial.

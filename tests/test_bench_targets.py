@@ -125,6 +125,8 @@ def test_the_lanes_benchmark_checks_every_lane_against_the_scalar_call(monkeypat
         out = real(*args)
         return (np.nextafter(out[0], np.inf), *out[1:]) if isinstance(out[0], np.ndarray) else out
 
+    steps = bench_lanes.measure_steps(ROOT / "configs" / "paper.toml", 4, 2)
+    assert steps["lanes_us"] > 0 and "(the same state messages)" in bench_lanes.steps_summary([steps])
     monkeypatch.setattr(bench_lanes, "plant_rates", one_ulp_off)
     with pytest.raises(AssertionError, match="lane 0"):
         bench_lanes.measure(ROOT / "configs" / "paper.toml", 5)

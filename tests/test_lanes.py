@@ -229,3 +229,24 @@ def test_saturated_inputs_and_the_bounded_correction_on_lanes_are_each_lanes(dat
     with np.errstate(all="raise", under="ignore"):  # as vehicles.lanes steps
         bounded = _bounded(cfg, point(np.array(slopes), np.array(zero)), corrections)
     assert _bits(bounded) == _bits([_bounded(cfg, point(s, 0.0), v) for s, v in zip(slopes, v_tilde, strict=True)])
+
+
+_ANGLES = st.one_of(
+    _values,
+    st.floats(-1e7, 1e7),  # the medium reduction
+    st.integers(-200, 200).map(lambda n: n * math.pi / 2),  # near multiples of pi/2: its second and third rounds
+    st.integers(-200, 200).flatmap(lambda n: st.floats(n * math.pi / 2 - 1e-9, n * math.pi / 2 + 1e-9)),
+)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(_ANGLES, min_size=1, max_size=12))
+def test_sincos_of_lanes_is_sincos_of_each_lane(angles):
+    """numerics.sincos given an array: its arithmetic on the lanes it can take, the scalar code on the rest; the
+    same bits either way, with no float error raised (vehicles.lanes raises on any)."""
+    from numerics import sincos
+
+    with np.errstate(all="raise", under="ignore"):
+        s, c = sincos(np.array(angles, dtype=np.float64))  # type: ignore[arg-type]
+    scalar = [sincos(a) for a in angles]
+    assert _bits(s) == _bits([v[0] for v in scalar]) and _bits(c) == _bits([v[1] for v in scalar])

@@ -117,9 +117,11 @@ def _together(jobs: Sequence[Job]) -> list[Outcome]:
     begun = [begin(cfg, p.state, None) for cfg, p in zip(cfgs, before, strict=True)]
     z = list(np.array([b.z for b in begun]).T.copy())
 
+    paths = _same_paths(cfgs)
+
     def along(t: float) -> LaneAlong:
         heard = [neighbour_values(j.cfg, p.state, t, j.neighbours) for j, p in zip(jobs, before, strict=True)]
-        return LaneAlong(cfgs, heard)
+        return LaneAlong(cfgs, heard, paths)
 
     with np.errstate(all="raise", under="ignore"):  # where Python's floats raise, or might: alone, they say what
         stepped = rk4(first.cfg, first.t, Begun(z, None, ()), first.dt, along, first.dist, None)
@@ -150,23 +152,57 @@ def _column(value: Any, lanes: int) -> list[float]:
 
 
 class LaneAlong(Along):
-    """agent.Along for lanes: each vehicle's own path and law, lane by lane, through their float code."""
+    """agent.Along for lanes: each vehicle's own law lane by lane through its float code, and its path's point for
+    all the lanes that share the path at once where the path takes lanes (`lanes = True`: the helix, circle and
+    line), else lane by lane."""
 
-    __slots__ = ("cfgs", "heards")
+    __slots__ = ("cfgs", "heards", "paths")
 
-    def __init__(self, cfgs: Sequence[VehicleConfig], heards: Sequence[list[tuple[float, float]]]) -> None:
+    def __init__(
+        self, cfgs: Sequence[VehicleConfig], heards: Sequence[list[tuple[float, float]]], paths: list[list[int]]
+    ) -> None:
         super().__init__(cfgs[0], heards[0])
-        self.cfgs, self.heards = cfgs, heards
+        self.cfgs, self.heards, self.paths = cfgs, heards, paths
 
     def point(self, gamma: Any) -> PathVectors:
-        flat = [
-            [*p, *v, *a]
-            for cfg, g in zip(self.cfgs, gamma.tolist(), strict=True)
-            for p, v, a in (cfg.model.path_seen(cfg.path.evaluate_floats(g)),)
-        ]
-        c = np.array(flat).T.copy()
+        c = np.empty((9, len(self.cfgs)))
+        for lanes in self.paths:
+            cfg = self.cfgs[lanes[0]]
+            if len(lanes) > 1 and getattr(cfg.path, "lanes", False) is True:
+                values = _flat(cfg.model.path_seen(cfg.path.evaluate_floats(gamma[lanes])))
+                for row, value in enumerate(values):
+                    c[row, lanes] = value
+            else:
+                for n in lanes:
+                    c[:, n] = _flat(self.cfgs[n].model.path_seen(self.cfgs[n].path.evaluate_floats(float(gamma[n]))))
         return (c[0], c[1], c[2]), (c[3], c[4], c[5]), (c[6], c[7], c[8])
 
     def correction(self, gamma: Any, gamma_dot: Any) -> Any:
         values = zip(self.cfgs, self.heards, gamma.tolist(), gamma_dot.tolist(), strict=True)
         return np.array([cfg.law.correction(g, gd, heard, cfg.coordination) for cfg, heard, g, gd in values])
+
+
+def _flat(point: PathVectors) -> list[Any]:
+    p, v, a = point
+    return [*p, *v, *a]
+
+
+def _same_paths(cfgs: Sequence[VehicleConfig]) -> list[list[int]]:
+    """The lanes grouped by path (equal paths: the same vehicle of many runs), in order of first lane."""
+    groups: list[tuple[object, list[int]]] = []
+    for n, cfg in enumerate(cfgs):
+        for path, lanes in groups:
+            if _equal(path, cfg.path):
+                lanes.append(n)
+                break
+        else:
+            groups.append((cfg.path, [n]))
+    return [lanes for _, lanes in groups]
+
+
+def _equal(a: object, b: object) -> bool:
+    """a is b, or equal; a comparison that raises (a path holding arrays) is not equal."""
+    try:
+        return a is b or bool(a == b)
+    except Exception:
+        return False

@@ -21,7 +21,7 @@ from __future__ import annotations
 import math
 from bisect import bisect_right
 from dataclasses import dataclass, field
-from typing import Protocol, TypeAlias, runtime_checkable
+from typing import ClassVar, Protocol, TypeAlias, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -122,6 +122,8 @@ class Helix:
     revolution] != 0 (negative turns clockwise seen from above); phase phi [rad]; center [m].
     """
 
+    lanes: ClassVar[bool] = True  # evaluate_floats takes arrays of lanes (vehicles.lanes): its arithmetic
+
     radius: float
     climb: float
     period: float
@@ -184,6 +186,8 @@ class Circle:
     radius [m] > 0; period [gamma per revolution] != 0 (negative turns clockwise); phase [rad]; center [m].
     """
 
+    lanes: ClassVar[bool] = True  # evaluate_floats takes arrays of lanes (vehicles.lanes): its arithmetic
+
     radius: float
     period: float
     phase: float
@@ -225,6 +229,8 @@ class Line:
 
     start [m]; velocity [m per unit gamma], any non-zero vector.
     """
+
+    lanes: ClassVar[bool] = True  # evaluate_floats takes arrays of lanes (vehicles.lanes): its arithmetic
 
     start: tuple[float, float, float]
     velocity: tuple[float, float, float]
