@@ -4,28 +4,31 @@ Vehicles whose closed loops differ only in their paths, coordination laws, predi
 of alike vehicles; the same vehicle in many runs) integrate together: vehicles.runtime.prepare and
 vehicles.agent.begin one vehicle at a time, then vehicles.agent.rk4 once for all of them (the same code as one
 vehicle's: numpy's elementwise arithmetic rounds as Python's floats, and the closed loop's branches on the state take
-lanes: numerics.lanes), the path's point and the law's correction lane by lane (extensions written for floats), then
-agent.finish, runtime.complete and step.records one vehicle at a time. So each vehicle's records are those of
-vehicles.step.step_records, bit for bit (tests/test_lanes.py holds it over scenarios).
+lanes: numerics.lanes), the law's correction lane by lane (extensions written for floats) and the path's point once
+for the lanes on one path that takes lanes (else lane by lane), then agent.finish, runtime.complete and step.records
+one vehicle at a time. So each vehicle's records are those of vehicles.step.step_records, bit for bit
+(tests/test_lanes.py holds it over scenarios).
 
-Only parts that say they take lanes (a class attribute `lanes = True`: the built-in controller and the AUV model)
-are stepped so; a vehicle with any other part (an extension, navigation, an adaptive controller, a current, an
-observer, actuators) steps alone. A group whose stepping raises anything, a float exception included (numpy is told
-to raise where Python's floats would or might), is stepped again one vehicle at a time: errors are exactly those of
-the scalar step.
+Only parts that say they take lanes (`lanes = True`: the built-in backstepping controller and AUV model, and an
+extension that says so) are stepped so, and vehicles step together only where those parts, the parameters and the
+saturations are the same to the bit (vehicles.lane_keys); a vehicle with navigation, an adaptive controller, or a
+current, observer, actuators or controller that does not say so steps alone. A group whose stepping raises
+anything, a float exception included (numpy is told to raise where Python's floats would or might), is stepped
+again one vehicle at a time: errors are exactly those of the scalar step.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from comms.records.records import Disturbances, Heard
 from vehicles.agent import Along, VehicleConfig, begin, finish, neighbour_values, rk4
 from vehicles.dynamics import PathVectors
+from vehicles.lane_keys import key
 from vehicles.runtime import NodeState, Prepared, Radio, complete, prepare
 from vehicles.step import StepRecords, records, step_records
 from vehicles.stepping import Begun, Stepped
@@ -40,10 +43,10 @@ Outcome = tuple[NodeState, StepRecords] | Exception  # an exception: what step_r
 
 @dataclass(frozen=True, slots=True)
 class Job:
-    """step_records' arguments for one vehicle, and its shape (shape_of(cfg), kept by the caller: a repr a step is
+    """step_records' arguments for one vehicle, and its shape (shape_of(cfg), kept by the caller: a key a step is
     too dear for)."""
 
-    shape: str | None
+    shape: Shape | None
     cfg: VehicleConfig
     radio: Radio
     node: NodeState
@@ -82,24 +85,32 @@ def _groups(jobs: Sequence[Job]) -> list[list[int]]:
         shape = job.shape
         if shape is None:
             alone.append([i])
-        else:
-            groups.setdefault((shape, job.t, job.dt, job.dist), []).append(i)
+        else:  # of the disturbances, the stages read the cap alone (agent._rate_limits)
+            groups.setdefault((shape.shared, key(job.t), key(job.dt), key(job.dist.gamma_dot_cap)), []).append(i)
     return [*groups.values(), *alone]
 
 
-def shape_of(cfg: VehicleConfig) -> str | None:
+class Shape(NamedTuple):
+    """shape_of's: the key of what the lanes share, and of the vehicle's path (lanes on the same path take its
+    point at once)."""
+
+    shared: object
+    path: object
+
+
+def shape_of(cfg: VehicleConfig) -> Shape | None:
     """What must be the same for vehicles to step together (None: this one steps alone): every part the stages
-    compute with as arrays, by its repr (floats by their exact digits)."""
+    compute with as arrays, to the bit (vehicles.lane_keys)."""
     if cfg.navigation is not None or cfg.adaptive is not None:
         return None
     parts = (cfg.controller, cfg.vehicle, cfg.current, cfg.current_observer, cfg.actuators)
     if not all(part is None or getattr(part, "lanes", False) is True for part in parts):
         return None
     shared = (
-        type(cfg.model).__qualname__, cfg.model.dim, cfg.params, cfg.plant, cfg.current_known, cfg.top_speed,
-        cfg.correction_limit, cfg.correction_acceleration, cfg.coordination.v_r, *parts,
+        type(cfg.model), cfg.model.dim, cfg.params, cfg.plant, cfg.current_known, cfg.top_speed, cfg.correction_limit,
+        cfg.correction_acceleration, cfg.coordination.v_r, *parts,
     )  # fmt: skip
-    return repr(shared)
+    return Shape(key(shared), key(cfg.path))
 
 
 def _lanes(jobs: Sequence[Job]) -> list[Outcome] | None:
@@ -117,7 +128,7 @@ def _together(jobs: Sequence[Job]) -> list[Outcome]:
     begun = [begin(cfg, p.state, None) for cfg, p in zip(cfgs, before, strict=True)]
     z = list(np.array([b.z for b in begun]).T.copy())
 
-    paths = _same_paths(cfgs)
+    paths = _same_paths(jobs)
 
     def along(t: float) -> LaneAlong:
         heard = [neighbour_values(j.cfg, p.state, t, j.neighbours) for j, p in zip(jobs, before, strict=True)]
@@ -187,22 +198,10 @@ def _flat(point: PathVectors) -> list[Any]:
     return [*p, *v, *a]
 
 
-def _same_paths(cfgs: Sequence[VehicleConfig]) -> list[list[int]]:
-    """The lanes grouped by path (equal paths: the same vehicle of many runs), in order of first lane."""
-    groups: list[tuple[object, list[int]]] = []
-    for n, cfg in enumerate(cfgs):
-        for path, lanes in groups:
-            if _equal(path, cfg.path):
-                lanes.append(n)
-                break
-        else:
-            groups.append((cfg.path, [n]))
-    return [lanes for _, lanes in groups]
-
-
-def _equal(a: object, b: object) -> bool:
-    """a is b, or equal; a comparison that raises (a path holding arrays) is not equal."""
-    try:
-        return a is b or bool(a == b)
-    except Exception:
-        return False
+def _same_paths(jobs: Sequence[Job]) -> list[list[int]]:
+    """The lanes grouped by path (the same to the bit: the same vehicle of many runs), in order of first lane."""
+    groups: dict[object, list[int]] = {}
+    for n, job in enumerate(jobs):
+        assert job.shape is not None  # only such jobs step as lanes
+        groups.setdefault(job.shape.path, []).append(n)
+    return list(groups.values())

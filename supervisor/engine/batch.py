@@ -50,7 +50,7 @@ def run_batch(runs: Sequence[BatchRun]) -> list[RunResult | Exception]:
     results: list[RunResult | Exception | None] = [None] * len(runs)
     ended: list[tuple[_Live, float]] = []  # finished runs, with their stepping's end
     with contextlib.ExitStack() as stack:
-        live = [_start(n, run, stack) for n, run in enumerate(runs)]
+        live = [entry for n, run in enumerate(runs) if (entry := _start(n, run, stack, results)) is not None]
         k = 0
         while live:
             live = _step(live, k, results)
@@ -62,13 +62,23 @@ def run_batch(runs: Sequence[BatchRun]) -> list[RunResult | Exception]:
             interrupts.check()  # a safe point: a stop asked for (Ctrl-C, the sweep's SIGTERM) ends the batch here
     wall = (time.monotonic() - began) / max(1, len(runs))
     for entry, end in ended:
-        results[entry.index] = result(entry.run, entry.rec, end, wall, wall)
+        try:
+            results[entry.index] = result(entry.run, entry.rec, end, wall, wall)
+        except Exception as exc:
+            results[entry.index] = exc
     return [r if r is not None else RuntimeError("run did not end") for r in results]
 
 
-def _start(index: int, run: BatchRun, stack: contextlib.ExitStack) -> _Live:
+def _start(
+    index: int, run: BatchRun, stack: contextlib.ExitStack, results: list[RunResult | Exception | None]
+) -> _Live | None:
+    """The run started (None: it failed to, its exception in results)."""
     rec = stack.enter_context(Tally())
-    started_run = started(run.scenario, run.scenario_file, run.scenario_toml, run.seed, rec, "lockstep")
+    try:
+        started_run = started(run.scenario, run.scenario_file, run.scenario_toml, run.seed, rec, "lockstep")
+    except Exception as exc:
+        results[index] = exc
+        return None
     return _Live(index, started_run, rec, steps_of(run.scenario))
 
 

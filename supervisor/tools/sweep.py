@@ -21,7 +21,7 @@ import tomllib
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, CancelledError, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass
-from itertools import product
+from itertools import pairwise, product
 from pathlib import Path
 from typing import Any
 
@@ -132,7 +132,7 @@ def sweep(
         workers = 0 if cluster is not None else local_jobs(jobs)
         futures = _submitted(submit, scenario_path, scenario_bytes, todo, engine, logs, workers)
         try:
-            for spec, outcome in _finished(futures, watch):
+            for spec, outcome in _finished(futures, watch):  # a batch's failures after its rows: all are kept
                 _keep(runs_dir, spec, outcome, logs)
                 done += 1
                 if progress is not None:
@@ -159,11 +159,12 @@ def _submitted(
 
 
 def batches(todo: Sequence[RunSpec], jobs: int) -> list[list[RunSpec]]:
-    """todo in batches of at most MAX_BATCH runs, as even as they go, a multiple of jobs of them (every worker as
-    busy as the others)."""
-    count = jobs * max(1, math.ceil(len(todo) / (jobs * MAX_BATCH)))
-    size = max(1, math.ceil(len(todo) / count))
-    return [list(todo[i : i + size]) for i in range(0, len(todo), size)]
+    """todo in order, in batches of at most MAX_BATCH runs whose sizes differ by one at most, a multiple of jobs of
+    them (every worker as busy as the others) unless there are fewer runs."""
+    count = min(len(todo), jobs * math.ceil(len(todo) / (jobs * MAX_BATCH)))
+    size, extra = divmod(len(todo), max(1, count))
+    bounds = [n * size + min(n, extra) for n in range(count + 1)]
+    return [list(todo[a:b]) for a, b in pairwise(bounds)]
 
 
 def _finished(
@@ -171,7 +172,8 @@ def _finished(
 ) -> Iterator[tuple[RunSpec, Any]]:
     """Each run with its outcome, as their futures finish."""
     for future in _completed(futures, watch):
-        yield from _outcomes(futures[future], future)
+        outcomes = _outcomes(futures[future], future)
+        yield from sorted(outcomes, key=lambda outcome: isinstance(outcome[1], Exception))
 
 
 def _outcomes(specs: list[RunSpec], future: Future[Any]) -> list[tuple[RunSpec, Any]]:

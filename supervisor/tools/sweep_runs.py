@@ -55,21 +55,36 @@ def run_logged(scenario_name: str, scenario_bytes: bytes, spec: RunSpec, engine:
 
 
 def run_many(scenario_name: str, scenario_bytes: bytes, specs: Sequence[RunSpec]) -> list[dict[str, Any] | Exception]:
-    """Each spec's row (or what ended its run), the runs stepped together on the in-process engine, nothing
-    recorded (supervisor.engine.batch: their alike vehicles as lanes); each row that of run_one but its wall_s, the
-    batch's shared equally."""
-    from supervisor.config.scenario import load_scenario
+    """Each spec's row (or what ended its run: a scenario its settings make invalid included), the runs stepped
+    together on the in-process engine, nothing recorded (supervisor.engine.batch: their alike vehicles as lanes);
+    each row that of run_one but its wall_s, the batch's shared equally."""
     from supervisor.engine.batch import BatchRun, run_batch
 
     with _scenario_file(scenario_name, scenario_bytes) as path:
         text = path.read_text(encoding="utf-8")
-        scenarios = [load_scenario(path, spec.overrides) for spec in specs]
-        runs = [BatchRun(sc, str(path), text, spec.seed) for sc, spec in zip(scenarios, specs, strict=True)]
-        results = run_batch(runs)
-    return [
-        r if isinstance(r, Exception) else row_of(spec, sc, r)
-        for spec, sc, r in zip(specs, scenarios, results, strict=True)
-    ]
+        loaded = [_loaded(path, spec) for spec in specs]
+        runs = [BatchRun(sc, str(path), text, spec.seed) for spec, sc in zip(specs, loaded, strict=True) if sc]
+        results = iter(run_batch(runs))
+    outcomes: list[dict[str, Any] | Exception] = []
+    for spec, sc in zip(specs, loaded, strict=True):
+        if isinstance(sc, Exception):
+            outcomes.append(sc)
+            continue
+        result = next(results)
+        outcomes.append(result if isinstance(result, Exception) else row_of(spec, sc, result))
+    return outcomes
+
+
+def _loaded(path: Path, spec: RunSpec) -> Any:
+    """The spec's scenario, or the ScenarioError its settings give (swept values are checked one by one, not every
+    combination)."""
+    from supervisor.config.scenario import load_scenario
+    from supervisor.errors import ScenarioError
+
+    try:
+        return load_scenario(path, spec.overrides)
+    except ScenarioError as exc:
+        return exc
 
 
 @contextlib.contextmanager

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Annotated, ClassVar
 
 from annotated_types import Gt
@@ -36,6 +36,21 @@ class RetunedLanes(Retuned):
     """Retuned, saying it takes arrays of lanes (vehicles.lanes): its arithmetic is Backstepping's, which does."""
 
     lanes: ClassVar[bool] = True
+
+
+@dataclass(frozen=True)
+class Hidden:
+    """Backstepping with a gain its class keeps out of its repr and ==, saying it takes lanes: vehicles.lanes must
+    not step two of them with different gains as one."""
+
+    k1: float = field(default=0.5, repr=False, compare=False)
+    lanes: ClassVar[bool] = True
+
+    def control(
+        self, model: VehicleModel, params: VehicleParams, s: Sequence[float], path: PathVectors, gamma: float,
+        gamma_dot: float, v_d: float, current: Current | None,
+    ) -> ControlOutput:  # fmt: skip
+        return Backstepping(k1=self.k1).control(model, params, s, path, gamma, gamma_dot, v_d, current)
 
 
 @dataclass(frozen=True)
