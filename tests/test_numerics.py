@@ -323,6 +323,20 @@ def test_results_digest() -> None:
 ALLOWED_MATH = {"sqrt", "frexp", "ldexp", "floor", "ceil", "fabs", "copysign", "isnan", "isinf", "isfinite", "trunc"}
 ALLOWED_MATH |= {"ulp", "nextafter", "inf", "nan"}
 ALLOWED_IMPORTS = {"math", "struct", "numerics"}
+# What the modules that take numpy arrays (lanes, vehicles.lanes) may call of it: exact, elementwise or no arithmetic.
+ALLOWED_NUMPY = {
+    "abs",
+    "array",
+    "asarray",
+    "choose",
+    "flatnonzero",
+    "float64",
+    "fromiter",
+    "int64",
+    "ndarray",
+    "sqrt",
+    "where",
+}
 
 
 def _violations(path: Path) -> list[str]:
@@ -332,6 +346,9 @@ def _violations(path: Path) -> list[str]:
         if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) and node.value.id == "math":
             if node.attr not in ALLOWED_MATH:
                 found.append(f"{where} math.{node.attr}")
+        elif isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) and node.value.id in ("np", "numpy"):
+            if node.attr not in ALLOWED_NUMPY:
+                found.append(f"{where} numpy.{node.attr}")
         elif isinstance(node, ast.ImportFrom):
             module = (node.module or "").split(".")[0]
             if module not in ALLOWED_IMPORTS:
@@ -351,19 +368,22 @@ def _violations(path: Path) -> list[str]:
 
 def test_no_libm_calls() -> None:
     """Only IEEE-exact math functions, no float powers, no numpy or C extensions, nothing else of the project; the
-    one exception is numerics/linalg.py, whose products are numpy's elementwise operations in a fixed order (it may
-    import numpy and typing, and is held to the rest: no libm call, no float power)."""
+    exceptions are numerics/linalg.py, whose products are numpy's elementwise operations in a fixed order, and the
+    modules that take arrays of lanes (lanes.py, and trig.py's sincos): they may import numpy and typing, call only
+    ALLOWED_NUMPY of numpy (exact or elementwise, no libm), and are held to the rest: no libm call, no float power."""
     paths = sorted((ROOT / "numerics").glob("*.py"))
     assert len(paths) >= 5
     found = [v for path in paths for v in _violations(path)]
-    linalg_imports = {"from __future__", "import numpy", "from numpy.typing", "from typing"}
-    assert [v for v in found if not (v.startswith("linalg.py:") and v.split(" ", 1)[1] in linalg_imports)] == []
+    with_numpy = {"from __future__", "import numpy", "from numpy.typing", "from typing", "from collections.abc"}
+    exempt = ("linalg.py:", "lanes.py:", "trig.py:")
+    assert [v for v in found if not (v.startswith(exempt) and v.split(" ", 1)[1] in with_numpy)] == []
 
 
 def test_the_checker_catches_libm_calls(tmp_path: Path) -> None:
     source = "import math\nimport numpy\nfrom math import exp\nfrom comms import x\ny = math.sin(1.0) + 2.0 ** 0.5\n"
+    source += "z = numpy.sin(y) + np.exp(y) + np.where(y > 0, y, 0.0)\n"  # two libm calls of numpy; where is exact
     (tmp_path / "bad.py").write_text(source, encoding="utf-8")
-    assert len(_violations(tmp_path / "bad.py")) == 5
+    assert len(_violations(tmp_path / "bad.py")) == 7
 
 
 def test_norm3_is_row_norms_row_and_correctly_rounded() -> None:
