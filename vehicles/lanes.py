@@ -34,9 +34,10 @@ from vehicles.step import StepRecords, records, step_records
 from vehicles.stepping import Begun, Stepped
 
 # Fewer alike vehicles than this step one at a time: numpy's cost per call (~1 us against a float's ~30 ns) and
-# what each vehicle still does alone outweigh the arrays below it. Measured (benchmarks.bench_lanes, the paper's
-# vehicles): lanes cost 2x a vehicle's step alone at 6, 1.2x at 12, 0.8x at 24, 0.6x at 48, 0.46x at 200.
-MIN_LANES = 16
+# what each vehicle still does alone outweigh the arrays below it. Measured (benchmarks.bench_lanes, copies of the
+# paper's vehicles, two runs): lanes cost 1.5-2.0x a vehicle's step alone at 16, 1.1-1.2x at 24, 0.98-1.07x at 32,
+# 0.8-0.9x at 48, 0.56x at 192.
+MIN_LANES = 32
 
 Outcome = tuple[NodeState, StepRecords] | Exception  # an exception: what step_records raised for that vehicle
 
