@@ -121,3 +121,29 @@ def test_a_failed_run_of_a_batch_is_named_and_the_batch_rows_kept(tmp_path):
         sweep(scenario, params, 1, 1, tmp_path / "out", progress=None)
     kept = sorted(p.name.split("_seed")[0] for p in (tmp_path / "out" / "runs").glob("*.json"))
     assert kept == ["duration=10.0_step=0.1", "duration=10.0_step=0.2"]
+
+
+def test_a_batch_of_long_runs_of_large_fleets_holds_fewer_runs():
+    """batch_limit from what a run's series really hold at its end (the builder's array and the Series it hands
+    back: BYTES_PER_VEHICLE_STEP, measured here on a filled builder), so that a batch's runs hold at most
+    BATCH_MEMORY together: the paper (3 AUVs, 4000 steps) 64 a batch, 50 AUVs for an hour at 0.1 s 5."""
+    import dataclasses
+
+    from supervisor.analysis.series import BYTES_PER_VEHICLE_STEP, SeriesBuilder
+    from supervisor.tools.sweep import BATCH_MEMORY, MAX_BATCH, batch_limit
+
+    vehicles, steps = 4, 3000
+    builder = SeriesBuilder(range(1, vehicles + 1), steps, 0.1)
+    builder._grow(steps - 1)
+    series = builder.series()
+    arrays = [v for f in dataclasses.fields(series) if isinstance(v := getattr(series, f.name), np.ndarray)]
+    held = builder._data.nbytes + sum(a.nbytes for a in arrays) - series.t.nbytes
+    assert held == BYTES_PER_VEHICLE_STEP * vehicles * steps
+    assert batch_limit(3 * 4000) == MAX_BATCH
+    assert batch_limit(50 * 36000) == 5 and 5 * 50 * 36000 * BYTES_PER_VEHICLE_STEP <= BATCH_MEMORY
+    assert batch_limit(10**12) == 1
+    assert [len(b) for b in batches([RunSpec((), s) for s in range(12)], 2, 5)] == [3, 3, 3, 3]
+    from supervisor.tools.sweep import Param, _check_values
+
+    paper = CONFIGS / "paper.toml"
+    assert _check_values(paper, [Param("scenario.duration", (10.0, 800.0))]) == 8000 * 3  # the longest value counts

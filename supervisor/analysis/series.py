@@ -13,6 +13,7 @@ from supervisor.analysis.summary import Series
 
 INITIAL_ROWS = 1024  # steps held before the first growth; the array doubles as the run goes
 _COLUMNS = 7  # gamma, gamma_dot, |p - p_d|, surge force, pitch torque, yaw torque, surge speed
+BYTES_PER_VEHICLE_STEP = 2 * _COLUMNS * 8  # what a run's series holds at its end: the builder's array and the Series
 
 
 class SeriesBuilder:

@@ -34,6 +34,9 @@ WATCH_INTERVAL = 1.0  # s between looks at a cluster's workers while no run fini
 # Runs stepped together at most (sweep_runs.run_many): the vehicles' lanes cost less per vehicle up to a few hundred
 # lanes (vehicles.lanes), while a batch is written, shown and resumed only whole.
 MAX_BATCH = 64
+# Bytes the series of a batch's runs may hold together (a worker holds them all until the batch ends): fewer runs a
+# batch for long runs of large fleets (a 1 h run of 50 AUVs at 0.1 s holds ~200 MB), one-at-a-time's footprint per run.
+BATCH_MEMORY = 1 << 30
 
 
 def default_jobs(cores: int) -> int:
@@ -119,7 +122,7 @@ def sweep(
     (supervisor.tools.sweep_cluster), else to local_jobs(jobs) local processes; either way the rows (logs: and each
     run's log, runs/<id>.mcap) come back and are written here, so resuming works alike (a run without its log, when
     logs are kept, runs again)."""
-    _check_values(scenario_path, params)
+    largest = _check_values(scenario_path, params)
     scenario_bytes = scenario_path.read_bytes()
     specs = grid(params, seeds)
     runs_dir = out_dir / "runs"
@@ -130,7 +133,7 @@ def sweep(
         if progress is not None:
             progress(done, len(specs))
         workers = 0 if cluster is not None else local_jobs(jobs)
-        futures = _submitted(submit, scenario_path, scenario_bytes, todo, engine, logs, workers)
+        futures = _submitted(submit, scenario_path, scenario_bytes, todo, engine, logs, workers, batch_limit(largest))
         try:
             for spec, outcome in _finished(futures, watch):  # a batch's failures after its rows: all are kept
                 _keep(runs_dir, spec, outcome, logs)
@@ -146,8 +149,9 @@ def sweep(
 
 
 def _submitted(
-    submit: Submit, scenario_path: Path, scenario_bytes: bytes, todo: list[RunSpec], engine: str, logs: bool, jobs: int
-) -> dict[Future[Any], list[RunSpec]]:
+    submit: Submit, scenario_path: Path, scenario_bytes: bytes, todo: list[RunSpec], engine: str, logs: bool, jobs: int,
+    most: int,
+) -> dict[Future[Any], list[RunSpec]]:  # fmt: skip
     """The runs sent where they run, each future with its runs: in batches stepped together (sweep_runs.run_many)
     on the in-process engine for jobs local workers; one at a time with logs, on the Zenoh engine (whose runs are
     processes of their own) or on a cluster (jobs 0: its workers may be many, and come and go)."""
@@ -155,13 +159,21 @@ def _submitted(
     if not jobs or logs or engine != "inprocess":
         work = run_logged if logs else run_one
         return {submit(work, name, scenario_bytes, spec, engine): [spec] for spec in todo}
-    return {submit(run_many, name, scenario_bytes, batch): batch for batch in batches(todo, jobs)}
+    return {submit(run_many, name, scenario_bytes, batch): batch for batch in batches(todo, jobs, most)}
 
 
-def batches(todo: Sequence[RunSpec], jobs: int) -> list[list[RunSpec]]:
-    """todo in order, in batches of at most MAX_BATCH runs whose sizes differ by one at most, a multiple of jobs of
+def batch_limit(vehicle_steps: int) -> int:
+    """The runs a batch may hold: MAX_BATCH, fewer where runs of vehicle_steps (steps x vehicles, the largest the
+    sweep makes) would hold more than BATCH_MEMORY of series together; one at least."""
+    from supervisor.analysis.series import BYTES_PER_VEHICLE_STEP
+
+    return max(1, min(MAX_BATCH, BATCH_MEMORY // max(1, vehicle_steps * BYTES_PER_VEHICLE_STEP)))
+
+
+def batches(todo: Sequence[RunSpec], jobs: int, most: int = MAX_BATCH) -> list[list[RunSpec]]:
+    """todo in order, in batches of at most `most` runs whose sizes differ by one at most, a multiple of jobs of
     them (every worker as busy as the others) unless there are fewer runs."""
-    count = min(len(todo), jobs * math.ceil(len(todo) / (jobs * MAX_BATCH)))
+    count = min(len(todo), jobs * math.ceil(len(todo) / (jobs * most)))
     size, extra = divmod(len(todo), max(1, count))
     bounds = [n * size + min(n, extra) for n in range(count + 1)]
     return [list(todo[a:b]) for a, b in pairwise(bounds)]
@@ -186,13 +198,15 @@ def _outcomes(specs: list[RunSpec], future: Future[Any]) -> list[tuple[RunSpec, 
     return list(zip(specs, value if len(specs) > 1 or isinstance(value, list) else [value], strict=True))
 
 
-def _check_values(scenario_path: Path, params: Sequence[Param]) -> None:
-    """Every value must make a valid scenario: ScenarioError before anything runs."""
+def _check_values(scenario_path: Path, params: Sequence[Param]) -> int:
+    """Every value must make a valid scenario: ScenarioError before anything runs. The most steps x vehicles of the
+    scenario and of each value (a batch's memory: batch_limit)."""
+    from supervisor.config.derived import steps_of
     from supervisor.config.scenario import load_scenario
 
-    for param in params:
-        for value in param.values:
-            load_scenario(scenario_path, [override(param.key, value)])
+    variants = [load_scenario(scenario_path)]
+    variants += [load_scenario(scenario_path, [override(p.key, value)]) for p in params for value in p.values]
+    return max(steps_of(sc) * len(sc.vehicle_ids) for sc in variants)
 
 
 Submit = Callable[..., Future[Any]]  # submit(work, *args): work(*args) where the runs go
