@@ -77,14 +77,24 @@ def test_a_run_that_fails_in_a_batch_ends_alone_with_its_error(monkeypatch):
         _same(result, _alone(runs[n]))
 
 
-def test_a_sweep_batch_gives_each_run_its_own_row():
-    """sweep_runs.run_many (what `cpf sweep` sends a worker) against run_one per spec, wall time apart; a failed
-    run's place holds its error."""
+def test_a_sweep_batch_gives_each_run_its_own_row(monkeypatch):
+    """sweep_runs.run_many (what `cpf sweep` sends a worker) against run_one per spec, wall time apart, its vehicles
+    stepped as lanes (counted: groups of 2 here); a failed run's place holds its error."""
+    monkeypatch.setattr(vehicles.lanes, "MIN_LANES", 2)
+    together = [0]
+    inner = vehicles.lanes._together
+
+    def counted(jobs: Any) -> Any:
+        together[0] += len(jobs)
+        return inner(jobs)
+
+    monkeypatch.setattr(vehicles.lanes, "_together", counted)
     text = shortened((CONFIGS / "paper.toml").read_text(), 30.0).encode()
     specs = [RunSpec((("comms.loss", loss),), seed) for loss in (0.0, 0.4) for seed in range(2)]
     specs.append(RunSpec((("scenario.step", 1.0),), 0))
     many = run_many("paper.toml", text, specs)
     assert isinstance(many[-1], SimulationError)
+    assert together[0] >= 4 * 3 * 300  # the four good runs' vehicles, every step, as lanes
     for spec, row in zip(specs[:-1], many[:-1], strict=True):
         assert not isinstance(row, Exception)
         alone: dict[str, Any] = run_one("paper.toml", text, spec, "inprocess")

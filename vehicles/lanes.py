@@ -63,12 +63,14 @@ def step_all(jobs: Sequence[Job], min_lanes: int | None = None) -> list[Outcome]
     """Each job's step_records (or what it raised), groups of at least min_lanes (None: MIN_LANES) alike vehicles
     stepped together as lanes."""
     least = MIN_LANES if min_lanes is None else min_lanes
-    outcomes: list[Outcome | None] = [None] * len(jobs)
+    if len(jobs) < least:  # no group can be large enough: no grouping (a small fleet's every step)
+        return [_one(job) for job in jobs]
+    slots: dict[int, Outcome] = {}
     for group in _groups(jobs):
         stepped = _lanes([jobs[i] for i in group]) if len(group) >= least else None
         for n, i in enumerate(group):
-            outcomes[i] = stepped[n] if stepped is not None else _one(jobs[i])
-    return [o for o in outcomes if o is not None]
+            slots[i] = stepped[n] if stepped is not None else _one(jobs[i])
+    return [slots[i] for i in range(len(jobs))]
 
 
 def _one(job: Job) -> Outcome:

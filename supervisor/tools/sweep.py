@@ -195,7 +195,7 @@ def _outcomes(specs: list[RunSpec], future: Future[Any]) -> list[tuple[RunSpec, 
         value = future.result()
     except Exception as exc:
         return [(spec, exc) for spec in specs]
-    return list(zip(specs, value if len(specs) > 1 or isinstance(value, list) else [value], strict=True))
+    return list(zip(specs, value if isinstance(value, list) else [value], strict=True))  # run_many's list, else one
 
 
 def _check_values(scenario_path: Path, params: Sequence[Param]) -> int:
