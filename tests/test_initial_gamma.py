@@ -18,6 +18,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from supervisor.config.fleet import build_path, initial_state, vehicle_config
 from supervisor.config.scenario import load_scenario, parse_scenario
@@ -298,3 +300,33 @@ def test_nearest_gamma_rejects_bad_input() -> None:
         nearest_gamma(line, np.array([0.0, math.nan, 0.0]))
     with pytest.raises(ValueError, match="reference must be finite"):
         nearest_gamma(line, np.zeros(3), math.inf)
+
+
+class _Alone:
+    """A path that does not take lanes: nearest_gamma evaluates it gamma by gamma."""
+
+    def __init__(self, path: PathModel) -> None:
+        self.path = path
+        self.gamma_period, self.straight_beyond = path.gamma_period, path.straight_beyond
+
+    def evaluate_floats(self, gamma: float):  # type: ignore[no-untyped-def]
+        assert isinstance(gamma, float)
+        return self.path.evaluate_floats(gamma)
+
+
+_FINITE = st.floats(-1e4, 1e4, allow_nan=False)
+_PATHS = st.one_of(
+    st.builds(Helix, st.floats(0.1, 1e3), _FINITE, st.floats(1.0, 1e4), _FINITE),
+    st.builds(Circle, st.floats(0.1, 1e3), st.floats(-1e4, -1.0), _FINITE),
+    st.builds(Line, st.tuples(_FINITE, _FINITE, _FINITE), st.tuples(st.floats(0.5, 5.0), _FINITE, st.just(0.0))),
+)
+
+
+@settings(max_examples=40, deadline=None)
+@given(_PATHS, st.tuples(_FINITE, _FINITE, st.floats(-50.0, 50.0)), st.floats(-1e5, 1e5))
+def test_a_path_searched_as_lanes_gives_the_gamma_searched_one_at_a_time(path, point, reference) -> None:  # type: ignore[no-untyped-def]
+    """The helix, circle and line take every sample's gamma at once (vehicles.nearest._points); the start each
+    gives is the one of the same path evaluated gamma by gamma, to the bit."""
+    assert path.lanes is True
+    alone = nearest_gamma(_Alone(path), point, reference)  # type: ignore[arg-type]
+    assert nearest_gamma(path, point, reference) == alone
