@@ -170,7 +170,7 @@ class _Vehicle:
         started = self.now() if tick.wall is not None else 0.0
         t = tick.t if k == tick.k else k * self.dt
         self.node, out = step_records(self.cfg, self.radio, self.node, k, t, self.dt, heard, current, dist)
-        if out.tx is not None and self.promised is not None and k < self.promised:  # the windows count on it
+        if out.transmission is not None and self.promised is not None and k < self.promised:  # windows count on it
             raise RuntimeError(f"vehicle {vid} transmitted at step {k}, before step {self.promised} it said it would")
         state = out.state
         if tick.wall is not None:

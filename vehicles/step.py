@@ -27,13 +27,20 @@ EXTENSION_KINDS = ("law ", "predictor ", "transmission ", "controller ", "model 
 
 @dataclass(frozen=True, slots=True)
 class StepRecords:
-    """What one vehicle step puts on the record: its state message, its transmission (if it made one) and that
-    transmission's message."""
+    """What one vehicle step puts on the record: its state (as a record, and as the message built from it), its
+    transmission (if it made one) and that transmission's message. The messages are built when asked for, each time:
+    a sweep's run counts them without building them (supervisor.engine.inprocess, a Tally)."""
 
-    state: Message
     transmission: Transmission | None
-    tx: Message | None
     report: StateReport  # the state message as a record: an engine in this process needs not parse it back
+
+    @property
+    def state(self) -> Message:
+        return self.report.to_message()
+
+    @property
+    def tx(self) -> Message | None:
+        return tx_message(self.transmission) if self.transmission is not None else None
 
 
 def step_records(
@@ -62,7 +69,7 @@ def records(cfg: VehicleConfig, k: int, t: float, out: StepOutput) -> StepRecord
     sent = out.transmission
     report = state_report(out.telemetry, cfg.model, k, sent.seq if sent else 0, out.estimate_ages, out.navigation)
     _check_sane(report, t)
-    return StepRecords(report.to_message(), sent, tx_message(sent) if sent else None, report)
+    return StepRecords(sent, report)
 
 
 def _check_sane(report: StateReport, t: float) -> None:

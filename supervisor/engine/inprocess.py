@@ -35,6 +35,7 @@ from comms.records.network import Network
 from comms.records.receptions import RxBatch
 from comms.records.records import Kinematics, LinkEvent, Transmission
 from comms.records.run import Graph
+from comms.records.state import StateReport
 from supervisor.analysis.series import SeriesBuilder
 from supervisor.analysis.summary import Series
 from supervisor.config.derived import steps_of
@@ -86,7 +87,7 @@ class InProcessRun:
         self.broker: BrokerCore | None = broker_core(scenario, seed)
         self.books = LinkBooks(link_stats(scenario))
         self.builder = SeriesBuilder(ids, steps_of(scenario), self.dt)
-        self.last_state: dict[int, Message] = {}
+        self.last_state: dict[int, StateReport] = {}  # each vehicle's latest: a restart resumes from it
         self.sent: list[Transmission] = []
         self.where: dict[int, Kinematics] = {}
         self.network: Network | None = None  # in force when `sent` was transmitted
@@ -158,14 +159,18 @@ class InProcessRun:
         if isinstance(outcome, Exception):
             raise outcome
         self.nodes[i], out = outcome
-        if out.transmission is not None and out.tx is not None:
-            self.rec.write(tx_key(i), t, out.tx)
-            self.sent.append(out.transmission)
-        state = out.state
-        self.rec.write(state_key(i), t, state)
-        self.builder.add(out.report)
-        self.last_state[i] = state
-        self.where[i] = out.report.kinematics
+        sent, report = out.transmission, out.report
+        if sent is not None:
+            self.sent.append(sent)
+        if self.tally is not None:  # a sweep's run: its messages counted, not built
+            self.tally.skip(1 if sent is None else 2)
+        else:
+            if sent is not None:
+                self.rec.write(tx_key(i), t, out.tx)
+            self.rec.write(state_key(i), t, out.state)
+        self.builder.add(report)
+        self.last_state[i] = report
+        self.where[i] = report.kinematics
 
     def _act(self, action: ProcessAction, k: int, t: float) -> None:
         """A scheduled kill or restart, as the Zenoh engine carries it out (the schedule is the fault, not a loss:
@@ -183,9 +188,10 @@ class InProcessRun:
         elif action.action == "kill":
             self._kill_vehicle(vid)
         else:
-            self.nodes[vid] = restarted_node(self.configs[vid], self.last_state[vid], self.nodes[vid].seq, k, self.dt)
+            last = self.last_state[vid]
+            self.nodes[vid] = restarted_node(self.configs[vid], last.to_message(), self.nodes[vid].seq, k, self.dt)
             self.alive = sorted([*self.alive, vid])
-            action.announce(t, float(self.last_state[vid]["t"]))
+            action.announce(t, last.t)
             return
         action.announce(t)
 

@@ -196,5 +196,5 @@ def _restep(
             )
             if loop is not None:
                 loop.transmitted(out.transmission)
-            last_state[i] = out.state
-            yield i, plan.t, out.state, out.report
+            last_state[i] = state = out.state
+            yield i, plan.t, state, out.report
