@@ -18,7 +18,7 @@ from supervisor.config.scenario import parse_scenario
 from supervisor.engine.batch import BatchRun, run_batch
 from supervisor.engine.inprocess import RunResult, run_inprocess
 from supervisor.engine.progress import Progress
-from supervisor.errors import SimulationError
+from supervisor.errors import ScenarioError, SimulationError
 from supervisor.tools.sweep import batches
 from supervisor.tools.sweep_runs import RunSpec, run_many, run_one
 from tests.conftest import CONFIGS, shortened
@@ -91,11 +91,16 @@ def test_a_sweep_batch_gives_each_run_its_own_row(monkeypatch):
     monkeypatch.setattr(vehicles.lanes, "_together", counted)
     text = shortened((CONFIGS / "paper.toml").read_text(), 30.0).encode()
     specs = [RunSpec((("comms.loss", loss),), seed) for loss in (0.0, 0.4) for seed in range(2)]
+    # A scenario its settings make invalid amid the good runs (the review found every row after it shifted by one).
+    specs.insert(1, RunSpec((("path_following.k1", -1.0),), 0))
     specs.append(RunSpec((("scenario.step", 1.0),), 0))
     many = run_many("paper.toml", text, specs)
+    assert isinstance(many[1], ScenarioError) and "path_following.k1" in str(many[1])
     assert isinstance(many[-1], SimulationError)
     assert together[0] >= 4 * 3 * 300  # the four good runs' vehicles, every step, as lanes
     for spec, row in zip(specs[:-1], many[:-1], strict=True):
+        if spec.settings[0][0] == "path_following.k1":
+            continue
         assert not isinstance(row, Exception)
         alone: dict[str, Any] = run_one("paper.toml", text, spec, "inprocess")
         assert {**row, "wall_s": None} == {**alone, "wall_s": None}
@@ -121,16 +126,17 @@ def test_batches_are_even_and_a_multiple_of_the_workers(runs, jobs, sizes):
 def test_a_failed_run_of_a_batch_is_named_and_the_batch_rows_kept(tmp_path):
     """Combinations of swept values no scenario takes (each value alone is valid, so the sweep starts) in a batch
     with good runs: the sweep ends naming the first of them, and every other run of the batch has its row (the
-    review found the batch's first run named with another's error, and the rows after a failure lost)."""
+    review found the batch's first run named with another's error, the rows after a failure lost, and the rows after a
+    scenario its settings make invalid shifted by one: this valid 10.1 s run was not kept)."""
     from supervisor.tools.sweep import Param, sweep
 
     scenario = tmp_path / "paper.toml"
     scenario.write_text(shortened((CONFIGS / "paper.toml").read_text(), 10.0))
-    params = [Param("scenario.duration", (10.0, 10.1)), Param("scenario.step", (0.2, 0.1))]  # 10.1 fits neither
+    params = [Param("scenario.duration", (10.0, 10.1)), Param("scenario.step", (0.2, 0.1))]  # 10.1 / 0.2 is not whole
     with pytest.raises(SimulationError, match=r"sweep run duration=10.1_step=0.2_seed=0_\w+ failed: .*step"):
         sweep(scenario, params, 1, 1, tmp_path / "out", progress=None)
     kept = sorted(p.name.split("_seed")[0] for p in (tmp_path / "out" / "runs").glob("*.json"))
-    assert kept == ["duration=10.0_step=0.1", "duration=10.0_step=0.2"]
+    assert kept == ["duration=10.0_step=0.1", "duration=10.0_step=0.2", "duration=10.1_step=0.1"]
 
 
 def test_a_batch_of_long_runs_of_large_fleets_holds_fewer_runs():

@@ -63,7 +63,8 @@ def run_many(scenario_name: str, scenario_bytes: bytes, specs: Sequence[RunSpec]
     with _scenario_file(scenario_name, scenario_bytes) as path:
         text = path.read_text(encoding="utf-8")
         loaded = [_loaded(path, spec) for spec in specs]
-        runs = [BatchRun(sc, str(path), text, spec.seed) for spec, sc in zip(specs, loaded, strict=True) if sc]
+        valid = [(spec, sc) for spec, sc in zip(specs, loaded, strict=True) if not isinstance(sc, Exception)]
+        runs = [BatchRun(sc, str(path), text, spec.seed) for spec, sc in valid]
         results = iter(run_batch(runs))
     outcomes: list[dict[str, Any] | Exception] = []
     for spec, sc in zip(specs, loaded, strict=True):
