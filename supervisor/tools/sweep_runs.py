@@ -79,13 +79,27 @@ def run_many(scenario_name: str, scenario_bytes: bytes, specs: Sequence[RunSpec]
 def _loaded(path: Path, spec: RunSpec) -> Any:
     """The spec's scenario, or the ScenarioError its settings give (swept values are checked one by one, not every
     combination)."""
+    from supervisor.errors import ScenarioError
+
+    try:
+        return _load(path, spec)
+    except ScenarioError as exc:
+        return exc
+
+
+def _load(path: Path, spec: RunSpec) -> Any:
+    """load_scenario of the spec; its ScenarioError names the file as the sweep was given it (its name), not the
+    temporary copy a user never saw."""
     from supervisor.config.scenario import load_scenario
     from supervisor.errors import ScenarioError
 
     try:
         return load_scenario(path, spec.overrides)
     except ScenarioError as exc:
-        return exc
+        here = str(path)
+        raise ScenarioError(
+            str(exc).replace(here, path.name), [e.replace(here, path.name) for e in exc.errors]
+        ) from None
 
 
 @contextlib.contextmanager
@@ -103,11 +117,10 @@ def _measured(
     scenario_name: str, scenario_bytes: bytes, spec: RunSpec, engine: str, keep_log: bool
 ) -> tuple[dict[str, Any], bytes | None]:
     """The run's row, and its log if keep_log."""
-    from supervisor.config.scenario import load_scenario
     from supervisor.engine.progress import Progress
 
     with _scenario_file(scenario_name, scenario_bytes) as path:
-        scenario = load_scenario(path, spec.overrides)
+        scenario = _load(path, spec)
         quiet = Progress(scenario.scenario.duration, io.StringIO(), enabled=False)
         out = path.parent.parent / "run.mcap"
         result = _run(engine, scenario, path, spec.overrides, out, spec.seed, quiet, keep_log)
