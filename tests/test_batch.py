@@ -133,7 +133,9 @@ def test_a_failed_run_of_a_batch_is_named_and_the_batch_rows_kept(tmp_path):
     scenario = tmp_path / "paper.toml"
     scenario.write_text(shortened((CONFIGS / "paper.toml").read_text(), 10.0))
     params = [Param("scenario.duration", (10.0, 10.1)), Param("scenario.step", (0.2, 0.1))]  # 10.1 / 0.2 is not whole
-    with pytest.raises(SimulationError, match=r"sweep run duration=10.1_step=0.2_seed=0_\w+ failed: paper\.toml: scenario\.step: "):
+    with pytest.raises(
+        SimulationError, match=r"sweep run duration=10.1_step=0.2_seed=0_\w+ failed: paper\.toml: scenario\.step: "
+    ):
         sweep(scenario, params, 1, 1, tmp_path / "out", progress=None)
     kept = sorted(p.name.split("_seed")[0] for p in (tmp_path / "out" / "runs").glob("*.json"))
     assert kept == ["duration=10.0_step=0.1", "duration=10.0_step=0.2", "duration=10.1_step=0.1"]

@@ -309,7 +309,7 @@ class _Alone:
         self.path = path
         self.gamma_period, self.straight_beyond = path.gamma_period, path.straight_beyond
 
-    def evaluate_floats(self, gamma: float):  # type: ignore[no-untyped-def]
+    def evaluate_floats(self, gamma: float):
         assert isinstance(gamma, float)
         return self.path.evaluate_floats(gamma)
 
@@ -324,7 +324,7 @@ _PATHS = st.one_of(
 
 @settings(max_examples=40, deadline=None)
 @given(_PATHS, st.tuples(_FINITE, _FINITE, st.floats(-50.0, 50.0)), st.floats(-1e5, 1e5))
-def test_a_path_searched_as_lanes_gives_the_gamma_searched_one_at_a_time(path, point, reference) -> None:  # type: ignore[no-untyped-def]
+def test_a_path_searched_as_lanes_gives_the_gamma_searched_one_at_a_time(path, point, reference) -> None:
     """The helix, circle and line take every sample's gamma at once (vehicles.nearest._points); the start each
     gives is the one of the same path evaluated gamma by gamma, to the bit."""
     assert path.lanes is True

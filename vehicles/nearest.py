@@ -19,7 +19,7 @@ comes from the path's `evaluate_floats` and float or elementwise arithmetic, nev
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -107,7 +107,8 @@ def _points(path: Path, gammas: NDArray[np.float64]) -> NDArray[np.float64]:
     if getattr(path, "lanes", False) is True and gammas.size > 1:
         with np.errstate(all="raise", under="ignore"):  # where float code would raise, or might: gamma by gamma
             try:
-                p = path.evaluate_floats(gammas)[0]
+                every: Any = gammas  # a float's arithmetic on every gamma at once
+                p = path.evaluate_floats(every)[0]
                 return np.stack([np.broadcast_to(np.asarray(c, dtype=np.float64), gammas.shape) for c in p], axis=1)
             except (ArithmeticError, ValueError):
                 pass

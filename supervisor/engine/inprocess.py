@@ -165,8 +165,9 @@ class InProcessRun:
         if self.tally is not None:  # a sweep's run: its messages counted, not built
             self.tally.skip(1 if sent is None else 2)
         else:
-            if sent is not None:
-                self.rec.write(tx_key(i), t, out.tx)
+            tx = out.tx
+            if tx is not None:
+                self.rec.write(tx_key(i), t, tx)
             self.rec.write(state_key(i), t, out.state)
         self.builder.add(report)
         self.last_state[i] = report

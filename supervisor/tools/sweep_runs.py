@@ -14,10 +14,14 @@ import tempfile
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from supervisor.analysis.metrics import STEADY_STATE_WINDOW
 from supervisor.analysis.summary import coordination_error
+
+if TYPE_CHECKING:
+    from supervisor.config.scenario_schema import Scenario
+    from supervisor.errors import ScenarioError
 
 
 @dataclass(frozen=True, slots=True)
@@ -76,7 +80,7 @@ def run_many(scenario_name: str, scenario_bytes: bytes, specs: Sequence[RunSpec]
     return outcomes
 
 
-def _loaded(path: Path, spec: RunSpec) -> Any:
+def _loaded(path: Path, spec: RunSpec) -> Scenario | ScenarioError:
     """The spec's scenario, or the ScenarioError its settings give (swept values are checked one by one, not every
     combination)."""
     from supervisor.errors import ScenarioError
@@ -87,7 +91,7 @@ def _loaded(path: Path, spec: RunSpec) -> Any:
         return exc
 
 
-def _load(path: Path, spec: RunSpec) -> Any:
+def _load(path: Path, spec: RunSpec) -> Scenario:
     """load_scenario of the spec; its ScenarioError names the file as the sweep was given it (its name), not the
     temporary copy a user never saw."""
     from supervisor.config.scenario import load_scenario
