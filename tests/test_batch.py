@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import vehicles.lanes
+from supervisor.config.derived import steps_of
 from supervisor.config.scenario import parse_scenario
 from supervisor.engine.batch import BatchRun, run_batch
 from supervisor.engine.inprocess import RunResult, run_inprocess
@@ -148,7 +149,7 @@ def test_a_batch_of_long_runs_of_large_fleets_holds_fewer_runs():
     import dataclasses
 
     from supervisor.analysis.series import BYTES_PER_VEHICLE_STEP, SeriesBuilder
-    from supervisor.tools.sweep import BATCH_MEMORY, MAX_BATCH, batch_limit
+    from supervisor.tools.sweep_runs import BATCH_MEMORY, MAX_BATCH, batch_limit
 
     vehicles, steps = 4, 3000
     builder = SeriesBuilder(range(1, vehicles + 1), steps, 0.1)
@@ -165,3 +166,48 @@ def test_a_batch_of_long_runs_of_large_fleets_holds_fewer_runs():
 
     paper = CONFIGS / "paper.toml"
     assert _check_values(paper, [Param("scenario.duration", (10.0, 800.0))]) == 8000 * 3  # the longest value counts
+
+
+def test_a_worker_parts_its_batch_by_its_runs_own_size(monkeypatch):
+    """The sweep sizes its batches from each swept value alone (sweep._check_values); a combination (a longer run at
+    a shorter step) can be far larger, so run_many parts its batch by each run's own steps x vehicles, every part
+    within BATCH_MEMORY (the review found 7.2 GiB a batch where 1 GiB was meant), the rows still run_one's."""
+    import supervisor.engine.batch
+    from supervisor.analysis.series import BYTES_PER_VEHICLE_STEP
+    from supervisor.tools import sweep_runs
+
+    monkeypatch.setattr(sweep_runs, "BATCH_MEMORY", 3 * 3 * 100 * BYTES_PER_VEHICLE_STEP)  # three 10 s paper runs
+    parts: list[int] = []
+    inner = supervisor.engine.batch.run_batch
+
+    def parted(runs: Any) -> Any:
+        parts.append(sum(steps_of(run.scenario) * len(run.scenario.vehicle_ids) for run in runs))
+        return inner(runs)
+
+    monkeypatch.setattr(supervisor.engine.batch, "run_batch", parted)
+    text = shortened((CONFIGS / "paper.toml").read_text(), 10.0).encode()
+    specs = [RunSpec((("scenario.duration", 10.0),), seed) for seed in range(4)]
+    specs.insert(2, RunSpec((("scenario.duration", 20.0), ("scenario.step", 0.05)), 0))  # 400 steps
+    many = run_many("paper.toml", text, specs)
+    assert parts == [600, 1200, 600]  # [10 s, 10 s], [20 s at 0.05 s], [10 s, 10 s]
+    for spec, row in zip(specs, many, strict=True):
+        assert isinstance(row, dict)
+        assert {**row, "wall_s": None} == {**run_one("paper.toml", text, spec, "inprocess"), "wall_s": None}
+
+
+def test_a_run_whose_summary_fails_ends_alone_in_its_batch(monkeypatch):
+    """A run's row is made in its own turn: were its summary to raise, that run's place holds the error and the
+    other runs of the batch keep their rows (before, run_many failed as a whole and the batch's every run with it)."""
+    from supervisor.tools import sweep_runs
+
+    inner = sweep_runs.row_of
+
+    def picky(spec: RunSpec, scenario: Any, result: Any) -> dict[str, Any]:
+        if spec.seed == 1:
+            raise ValueError("no summary for seed 1")
+        return inner(spec, scenario, result)
+
+    monkeypatch.setattr(sweep_runs, "row_of", picky)
+    text = shortened((CONFIGS / "paper.toml").read_text(), 5.0).encode()
+    many = run_many("paper.toml", text, [RunSpec((), seed) for seed in range(3)])
+    assert isinstance(many[1], ValueError) and all(isinstance(row, dict) for row in (many[0], many[2]))

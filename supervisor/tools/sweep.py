@@ -28,15 +28,9 @@ from typing import Any
 from comms.bus.lifeline import ORPHANED, set_parent_death_signal
 from supervisor.config.scenario import split_outside_brackets
 from supervisor.errors import ScenarioError, SimulationError
-from supervisor.tools.sweep_runs import RunSpec, override, run_logged, run_many, run_one
+from supervisor.tools.sweep_runs import MAX_BATCH, RunSpec, batch_limit, override, run_logged, run_many, run_one
 
 WATCH_INTERVAL = 1.0  # s between looks at a cluster's workers while no run finishes
-# Runs stepped together at most (sweep_runs.run_many): the vehicles' lanes cost less per vehicle up to a few hundred
-# lanes (vehicles.lanes), while a batch is written, shown and resumed only whole.
-MAX_BATCH = 64
-# Bytes the series of a batch's runs may hold together (a worker holds them all until the batch ends): fewer runs a
-# batch for long runs of large fleets (a 1 h run of 50 AUVs at 0.1 s holds ~200 MB), one-at-a-time's footprint per run.
-BATCH_MEMORY = 1 << 30
 
 
 def default_jobs(cores: int) -> int:
@@ -160,14 +154,6 @@ def _submitted(
         work = run_logged if logs else run_one
         return {submit(work, name, scenario_bytes, spec, engine): [spec] for spec in todo}
     return {submit(run_many, name, scenario_bytes, batch): batch for batch in batches(todo, jobs, most)}
-
-
-def batch_limit(vehicle_steps: int) -> int:
-    """The runs a batch may hold: MAX_BATCH, fewer where runs of vehicle_steps (steps x vehicles, the largest the
-    sweep makes) would hold more than BATCH_MEMORY of series together; one at least."""
-    from supervisor.analysis.series import BYTES_PER_VEHICLE_STEP
-
-    return max(1, min(MAX_BATCH, BATCH_MEMORY // max(1, vehicle_steps * BYTES_PER_VEHICLE_STEP)))
 
 
 def batches(todo: Sequence[RunSpec], jobs: int, most: int = MAX_BATCH) -> list[list[RunSpec]]:

@@ -24,6 +24,14 @@ if TYPE_CHECKING:
     from supervisor.errors import ScenarioError
 
 
+# Runs stepped together at most (run_many): the vehicles' lanes cost less per vehicle up to a few hundred lanes
+# (vehicles.lanes), while a batch is written, shown and resumed only whole.
+MAX_BATCH = 64
+# Bytes the series of a batch's runs may hold together (a worker holds them all until the batch ends): fewer runs a
+# batch for long runs of large fleets (a 1 h run of 50 AUVs at 0.1 s holds ~200 MB), one-at-a-time's footprint per run.
+BATCH_MEMORY = 1 << 30
+
+
 @dataclass(frozen=True, slots=True)
 class RunSpec:
     settings: tuple[tuple[str, Any], ...]
@@ -69,15 +77,51 @@ def run_many(scenario_name: str, scenario_bytes: bytes, specs: Sequence[RunSpec]
         loaded = [_loaded(path, spec) for spec in specs]
         valid = [(spec, sc) for spec, sc in zip(specs, loaded, strict=True) if not isinstance(sc, Exception)]
         runs = [BatchRun(sc, str(path), text, spec.seed) for spec, sc in valid]
-        results = iter(run_batch(runs))
+        results = iter([result for part in _within_memory(runs) for result in run_batch(part)])
     outcomes: list[dict[str, Any] | Exception] = []
     for spec, sc in zip(specs, loaded, strict=True):
         if isinstance(sc, Exception):
             outcomes.append(sc)
             continue
-        result = next(results)
-        outcomes.append(result if isinstance(result, Exception) else row_of(spec, sc, result))
+        outcomes.append(_row(spec, sc, next(results)))
     return outcomes
+
+
+def _row(spec: RunSpec, scenario: Scenario, result: Any) -> dict[str, Any] | Exception:
+    """run_one's row of a finished run, or what ended it (the summary's failure included: this run's alone)."""
+    if isinstance(result, Exception):
+        return result
+    try:
+        return row_of(spec, scenario, result)
+    except Exception as exc:
+        return exc
+
+
+def batch_limit(vehicle_steps: int) -> int:
+    """The runs a batch may hold: MAX_BATCH, fewer where runs of vehicle_steps (steps x vehicles) would hold more
+    than BATCH_MEMORY of series together; one at least."""
+    from supervisor.analysis.series import BYTES_PER_VEHICLE_STEP
+
+    return max(1, min(MAX_BATCH, BATCH_MEMORY // max(1, vehicle_steps * BYTES_PER_VEHICLE_STEP)))
+
+
+def _within_memory(runs: Sequence[Any]) -> list[list[Any]]:
+    """runs (BatchRun) in order, in parts that each hold at most batch_limit of its largest run: the sweep sizes
+    its batches from each swept value alone, and only here are the runs' own steps and vehicles known (a longer
+    duration with a shorter step can make a run many times the largest the sweep saw)."""
+    from supervisor.config.derived import steps_of
+
+    parts: list[list[Any]] = []
+    largest = 0
+    for run in runs:
+        size = steps_of(run.scenario) * len(run.scenario.vehicle_ids)
+        if parts and len(parts[-1]) < batch_limit(max(largest, size)):
+            parts[-1].append(run)
+            largest = max(largest, size)
+        else:
+            parts.append([run])
+            largest = size
+    return parts
 
 
 def _loaded(path: Path, spec: RunSpec) -> Scenario | ScenarioError:
