@@ -31,6 +31,12 @@ from supervisor.errors import ScenarioError, SimulationError
 from supervisor.tools.sweep_runs import MAX_BATCH, RunSpec, batch_limit, override, run_logged, run_many, run_one
 
 WATCH_INTERVAL = 1.0  # s between looks at a cluster's workers while no run finishes
+# Batches go to whichever worker is free first (list scheduling), in grid order, so that a batch's runs are alike
+# (lanes). Where runs differ in cost (a swept duration or step), one batch a worker left one worker with most of the
+# work (the review: 1.6-2.1x the balanced time). Graham's bound (Bell Syst. Tech. J. 45, 1966) puts the last worker
+# to finish at most one batch past the mean load; a quarter of a worker's share or less keeps runs of alike cost
+# within 1.25x of balanced, and the batches large enough for lanes in sweeps of hundreds of runs.
+BATCHES_PER_WORKER = 4
 
 
 def default_jobs(cores: int) -> int:
@@ -158,8 +164,9 @@ def _submitted(
 
 def batches(todo: Sequence[RunSpec], jobs: int, most: int = MAX_BATCH) -> list[list[RunSpec]]:
     """todo in order, in batches of at most `most` runs whose sizes differ by one at most, a multiple of jobs of
-    them (every worker as busy as the others) unless there are fewer runs."""
-    count = min(len(todo), jobs * math.ceil(len(todo) / (jobs * most)))
+    them, and with several workers at least BATCHES_PER_WORKER each, unless there are fewer runs."""
+    per_worker = BATCHES_PER_WORKER if jobs > 1 else 1
+    count = min(len(todo), jobs * max(per_worker, math.ceil(len(todo) / (jobs * most))))
     size, extra = divmod(len(todo), max(1, count))
     bounds = [n * size + min(n, extra) for n in range(count + 1)]
     return [list(todo[a:b]) for a, b in pairwise(bounds)]
