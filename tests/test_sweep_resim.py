@@ -74,6 +74,23 @@ def test_a_sweep_over_tables_runs_each(tmp_path, paper_text):
     assert rows[0]["delivered"] == rows[0]["sent"] and int(rows[1]["delivered"]) < int(rows[1]["sent"]) / 2
 
 
+def test_values_valid_only_together_are_swept_and_a_hopeless_one_named(tmp_path, paper_text):
+    """A loss model and its options swept together: neither is a valid scenario alone (options for no model; a
+    model without its options), each with the other is. Refused before (each value was checked alone); a value no
+    combination takes is still refused before any run, by the error that says most."""
+    from supervisor.tools.sweep import sweep
+
+    scenario = tmp_path / "s.toml"
+    scenario.write_text(shortened(paper_text, 5.0))
+    model, options = Param("comms.loss_model", ("bernoulli",)), Param("comms.loss_model_options.p", (0.0, 0.9))
+    rows = sweep(scenario, [model, options], 1, 1, tmp_path / "sw", progress=None)
+    assert [row["delivered"] == row["sent"] for row in rows] == [True, False]
+    hopeless = Param("comms.loss_model_options.p", (0.5, 2.0))
+    with pytest.raises(ScenarioError, match=r"p must be in \[0, 1\], got 2\.0"):
+        sweep(scenario, [model, hopeless], 1, 1, tmp_path / "sw2", progress=None)
+    assert not (tmp_path / "sw2").exists()
+
+
 def test_grid_covers_every_combination_and_seed_with_stable_names():
     specs = grid([Param("a.x", (1, 2)), Param("b.y", ("p", "q", "r"))], seeds=3)
     assert len(specs) == 18 and len({s.run_id for s in specs}) == 18

@@ -21,7 +21,7 @@ import tomllib
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, CancelledError, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass
-from itertools import pairwise, product
+from itertools import islice, pairwise, product
 from pathlib import Path
 from typing import Any
 
@@ -37,6 +37,9 @@ WATCH_INTERVAL = 1.0  # s between looks at a cluster's workers while no run fini
 # to finish at most one batch past the mean load; a quarter of a worker's share or less keeps runs of alike cost
 # within 1.25x of balanced, and the batches large enough for lanes in sweeps of hundreds of runs.
 BATCHES_PER_WORKER = 4
+# Combinations of the other swept values a value that is not valid alone is tried with (_valid_with): enough for any
+# sweep of a few parameters, and a bound on the start-up a hopeless value costs (~13 ms a scenario loaded).
+COMBINATIONS_TRIED = 256
 
 
 def default_jobs(cores: int) -> int:
@@ -192,14 +195,35 @@ def _outcomes(specs: list[RunSpec], future: Future[Any]) -> list[tuple[RunSpec, 
 
 
 def _check_values(scenario_path: Path, params: Sequence[Param]) -> int:
-    """Every value must make a valid scenario: ScenarioError before anything runs. The most steps x vehicles of the
-    scenario and of each value (a batch's memory: batch_limit)."""
+    """Every value must make a valid scenario, alone or with values of the other params (a loss model's options
+    need the model swept with them): ScenarioError, its own, before anything runs. The most steps x vehicles of the
+    scenario and of each value (a batch's size: batch_limit)."""
     from supervisor.config.derived import steps_of
     from supervisor.config.scenario import load_scenario
 
     variants = [load_scenario(scenario_path)]
-    variants += [load_scenario(scenario_path, [override(p.key, value)]) for p in params for value in p.values]
+    variants += [_valid_with(scenario_path, params, n, value) for n, p in enumerate(params) for value in p.values]
     return max(steps_of(sc) * len(sc.vehicle_ids) for sc in variants)
+
+
+def _valid_with(scenario_path: Path, params: Sequence[Param], n: int, value: Any) -> Any:
+    """The scenario with params[n] = value alone, else with the first combination of the other params' values it
+    is valid with (at most COMBINATIONS_TRIED of them); if none, the ScenarioError of the first combination (the
+    one that says most: a loss model's option out of range rather than options without a model)."""
+    from supervisor.config.scenario import load_scenario
+
+    setting = override(params[n].key, value)
+    try:
+        return load_scenario(scenario_path, [setting])
+    except ScenarioError as alone:
+        first: ScenarioError | None = None
+        others = [[override(p.key, v) for v in p.values] for m, p in enumerate(params) if m != n]
+        for combo in islice(product(*others), COMBINATIONS_TRIED) if others else ():
+            try:
+                return load_scenario(scenario_path, [*combo, setting])
+            except ScenarioError as exc:
+                first = first or exc
+        raise (first or alone) from None
 
 
 Submit = Callable[..., Future[Any]]  # submit(work, *args): work(*args) where the runs go
