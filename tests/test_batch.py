@@ -20,7 +20,7 @@ from supervisor.engine.batch import BatchRun, run_batch
 from supervisor.engine.inprocess import RunResult, run_inprocess
 from supervisor.engine.progress import Progress
 from supervisor.errors import ScenarioError, SimulationError
-from supervisor.tools.sweep import batches
+from supervisor.tools.sweep import BATCHES_PER_WORKER, _submitted, batches
 from supervisor.tools.sweep_runs import RunSpec, run_many, run_one
 from tests.conftest import CONFIGS, shortened
 from tests.test_lanes import FAULTS
@@ -110,15 +110,15 @@ def test_a_sweep_batch_gives_each_run_its_own_row(monkeypatch):
 @pytest.mark.parametrize(
     ("runs", "jobs", "sizes"),
     [
-        (200, 2, [25] * 8),
+        (200, 2, [50] * 4),
         (1000, 2, [63] * 8 + [62] * 8),
-        (5, 2, [1] * 5),
+        (5, 2, [3, 2]),
         (1, 4, [1]),
         (130, 1, [44, 43, 43]),
-        (40, 4, [3] * 8 + [2] * 8),
+        (9, 4, [3, 2, 2, 2]),
     ],
 )
-def test_batches_are_even_a_multiple_of_the_workers_and_several_each(runs, jobs, sizes):
+def test_batches_are_even_and_a_multiple_of_the_workers(runs, jobs, sizes):
     specs = [RunSpec((), seed) for seed in range(runs)]
     got = batches(specs, jobs)
     assert [len(b) for b in got] == sizes and [s for b in got for s in b] == specs
@@ -127,12 +127,18 @@ def test_batches_are_even_a_multiple_of_the_workers_and_several_each(runs, jobs,
 @pytest.mark.parametrize("durations", [(100.0, 400.0), (100.0, 200.0, 300.0, 400.0), (400.0, 100.0)])
 def test_workers_given_batches_in_grid_order_finish_near_together(durations):
     """Batches go to the first free worker in grid order (seeds innermost), so a swept duration puts cheap and dear
-    runs in different batches; with at least BATCHES_PER_WORKER each, the last worker ends within 1.25x of the
-    balanced time (Graham's list-scheduling bound: one batch past the mean). With one batch a worker the review
-    measured 1.6x for durations 100 and 400 s."""
+    runs in different batches; the sweep gives such runs (their steps x vehicles unlike) at least
+    BATCHES_PER_WORKER batches each, and the last worker ends within 1.25x of the balanced time (Graham's
+    list-scheduling bound: one batch past the mean). With one batch a worker the review measured 1.6x for durations
+    100 and 400 s."""
     specs = [RunSpec((("scenario.duration", d),), seed) for d in durations for seed in range(10)]
+    sent: list[list[RunSpec]] = []
+    submit = lambda work, name, text, batch: sent.append(batch)  # noqa: E731
+    sizes = (int(min(durations)) * 30, int(max(durations)) * 30)  # steps x 3 vehicles at 0.1 s
+    _submitted(submit, CONFIGS / "paper.toml", b"", specs, "inprocess", False, 2, sizes)  # type: ignore[arg-type]
+    assert len(sent) >= 2 * BATCHES_PER_WORKER
     loads = [0.0, 0.0]
-    for batch in batches(specs, 2):
+    for batch in sent:
         loads[loads.index(min(loads))] += sum(spec.settings[0][1] for spec in batch)
     assert max(loads) <= 1.25 * sum(loads) / 2, loads
 
@@ -178,7 +184,8 @@ def test_a_batch_of_long_runs_of_large_fleets_holds_fewer_runs():
     from supervisor.tools.sweep import Param, _check_values
 
     paper = CONFIGS / "paper.toml"
-    assert _check_values(paper, [Param("scenario.duration", (10.0, 800.0))]) == 8000 * 3  # the longest value counts
+    assert _check_values(paper, [Param("scenario.duration", (10.0, 800.0))]) == (100 * 3, 8000 * 3)
+    assert _check_values(paper, [Param("comms.loss", (0.1, 0.2))]) == (4000 * 3, 4000 * 3)  # alike: one batch a worker
 
 
 def test_a_worker_parts_its_batch_by_its_runs_own_size(monkeypatch):

@@ -32,10 +32,11 @@ from supervisor.tools.sweep_runs import MAX_BATCH, RunSpec, batch_limit, overrid
 
 WATCH_INTERVAL = 1.0  # s between looks at a cluster's workers while no run finishes
 # Batches go to whichever worker is free first (list scheduling), in grid order, so that a batch's runs are alike
-# (lanes). Where runs differ in cost (a swept duration or step), one batch a worker left one worker with most of the
-# work (the review: 1.6-2.1x the balanced time). Graham's bound (Bell Syst. Tech. J. 45, 1966) puts the last worker
-# to finish at most one batch past the mean load; a quarter of a worker's share or less keeps runs of alike cost
-# within 1.25x of balanced, and the batches large enough for lanes in sweeps of hundreds of runs.
+# (lanes). Where the swept values change a run's size (steps x vehicles: a swept duration or step), one batch a
+# worker left one worker with most of the work (the review: 1.6-2.1x the balanced time). Graham's bound (Bell Syst.
+# Tech. J. 45, 1966) puts the last worker to finish at most one batch past the mean load: four batches a worker keep
+# such sweeps within ~1.25x of balanced. Runs of one size keep one batch a worker (lanes: batches of 25 paper runs
+# cost ~10 % more CPU than of 50, measured).
 BATCHES_PER_WORKER = 4
 # Combinations of the other swept values a value that is not valid alone is tried with (_valid_with): enough for any
 # sweep of a few parameters, and a bound on the start-up a hopeless value costs (~13 ms a scenario loaded).
@@ -125,7 +126,7 @@ def sweep(
     (supervisor.tools.sweep_cluster), else to local_jobs(jobs) local processes; either way the rows (logs: and each
     run's log, runs/<id>.mcap) come back and are written here, so resuming works alike (a run without its log, when
     logs are kept, runs again)."""
-    largest = _check_values(scenario_path, params)
+    sizes = _check_values(scenario_path, params)
     scenario_bytes = scenario_path.read_bytes()
     specs = grid(params, seeds)
     runs_dir = out_dir / "runs"
@@ -136,7 +137,7 @@ def sweep(
         if progress is not None:
             progress(done, len(specs))
         workers = 0 if cluster is not None else local_jobs(jobs)
-        futures = _submitted(submit, scenario_path, scenario_bytes, todo, engine, logs, workers, batch_limit(largest))
+        futures = _submitted(submit, scenario_path, scenario_bytes, todo, engine, logs, workers, sizes)
         try:
             for spec, outcome in _finished(futures, watch):  # a batch's failures after its rows: all are kept
                 _keep(runs_dir, spec, outcome, logs)
@@ -153,22 +154,25 @@ def sweep(
 
 def _submitted(
     submit: Submit, scenario_path: Path, scenario_bytes: bytes, todo: list[RunSpec], engine: str, logs: bool, jobs: int,
-    most: int,
+    sizes: tuple[int, int],
 ) -> dict[Future[Any], list[RunSpec]]:  # fmt: skip
     """The runs sent where they run, each future with its runs: in batches stepped together (sweep_runs.run_many)
-    on the in-process engine for jobs local workers; one at a time with logs, on the Zenoh engine (whose runs are
-    processes of their own) or on a cluster (jobs 0: its workers may be many, and come and go)."""
+    on the in-process engine for jobs local workers (sizes: the least and most steps x vehicles the swept values
+    make); one at a time with logs, on the Zenoh engine (whose runs are processes of their own) or on a cluster
+    (jobs 0: its workers may be many, and come and go)."""
     name = scenario_path.name
     if not jobs or logs or engine != "inprocess":
         work = run_logged if logs else run_one
         return {submit(work, name, scenario_bytes, spec, engine): [spec] for spec in todo}
-    return {submit(run_many, name, scenario_bytes, batch): batch for batch in batches(todo, jobs, most)}
+    least, largest = sizes
+    per_worker = 1 if least == largest or jobs == 1 else BATCHES_PER_WORKER
+    parts = batches(todo, jobs, batch_limit(largest), per_worker)
+    return {submit(run_many, name, scenario_bytes, batch): batch for batch in parts}
 
 
-def batches(todo: Sequence[RunSpec], jobs: int, most: int = MAX_BATCH) -> list[list[RunSpec]]:
+def batches(todo: Sequence[RunSpec], jobs: int, most: int = MAX_BATCH, per_worker: int = 1) -> list[list[RunSpec]]:
     """todo in order, in batches of at most `most` runs whose sizes differ by one at most, a multiple of jobs of
-    them, and with several workers at least BATCHES_PER_WORKER each, unless there are fewer runs."""
-    per_worker = BATCHES_PER_WORKER if jobs > 1 else 1
+    them, at least per_worker each, unless there are fewer runs."""
     count = min(len(todo), jobs * max(per_worker, math.ceil(len(todo) / (jobs * most))))
     size, extra = divmod(len(todo), max(1, count))
     bounds = [n * size + min(n, extra) for n in range(count + 1)]
@@ -194,16 +198,17 @@ def _outcomes(specs: list[RunSpec], future: Future[Any]) -> list[tuple[RunSpec, 
     return list(zip(specs, value if isinstance(value, list) else [value], strict=True))  # run_many's list, else one
 
 
-def _check_values(scenario_path: Path, params: Sequence[Param]) -> int:
+def _check_values(scenario_path: Path, params: Sequence[Param]) -> tuple[int, int]:
     """Every value must make a valid scenario, alone or with values of the other params (a loss model's options
-    need the model swept with them): ScenarioError, its own, before anything runs. The most steps x vehicles of the
-    scenario and of each value (a batch's size: batch_limit)."""
+    need the model swept with them): ScenarioError, its own, before anything runs. The least and the most steps x
+    vehicles of the values (of the scenario, if nothing is swept: how to batch, _submitted)."""
     from supervisor.config.derived import steps_of
     from supervisor.config.scenario import load_scenario
 
     variants = [load_scenario(scenario_path)]
     variants += [_valid_with(scenario_path, params, n, value) for n, p in enumerate(params) for value in p.values]
-    return max(steps_of(sc) * len(sc.vehicle_ids) for sc in variants)
+    sizes = [steps_of(sc) * len(sc.vehicle_ids) for sc in variants[1:] or variants]  # the scenario's own, if unswept
+    return min(sizes), max(sizes)
 
 
 def _valid_with(scenario_path: Path, params: Sequence[Param], n: int, value: Any) -> Any:
