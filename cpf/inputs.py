@@ -4,12 +4,11 @@ log's meta and `cpf vehicle` started by hand all read one); values become TOML, 
 
 from __future__ import annotations
 
-import math
-import numbers
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any, TypeAlias
 
+from supervisor.config.toml_writer import toml_assignment, toml_key, toml_value
 from supervisor.errors import ScenarioError
 
 Scenario: TypeAlias = "str | Path | Mapping[str, Any]"
@@ -33,13 +32,13 @@ def scenario_file(scenario: Scenario, where: Path) -> Path:
 
 def toml_text(data: Mapping[str, Any]) -> str:
     """A scenario dict as TOML: its values, then a [table] per dict and a [[table]] per list of dicts."""
-    lines = [_assignment(k, v) for k, v in data.items() if not _table(v) and not _tables(v)]
+    lines = [toml_assignment(k, v) for k, v in data.items() if not _table(v) and not _tables(v)]
     for key, value in data.items():
         if _table(value):
-            lines += ["", f"[{_key(key)}]", *(_assignment(k, v) for k, v in value.items())]
+            lines += ["", f"[{toml_key(key)}]", *(toml_assignment(k, v) for k, v in value.items())]
         elif _tables(value):
             for item in value:
-                lines += ["", f"[[{_key(key)}]]", *(_assignment(k, v) for k, v in item.items())]
+                lines += ["", f"[[{toml_key(key)}]]", *(toml_assignment(k, v) for k, v in item.items())]
     return "\n".join(lines) + "\n"
 
 
@@ -49,44 +48,6 @@ def _table(value: Any) -> bool:
 
 def _tables(value: Any) -> bool:
     return isinstance(value, list | tuple) and bool(value) and all(isinstance(v, Mapping) for v in value)
-
-
-def _assignment(key: str, value: Any) -> str:
-    return f"{_key(key)} = {toml_value(value)}"
-
-
-def _key(key: str) -> str:
-    bare = key and all(c.isascii() and (c.isalnum() or c in "_-") for c in key)
-    return key if bare else _string(key)
-
-
-def _string(text: str) -> str:
-    """A TOML basic string (JSON's escapes are TOML's too)."""
-    import json
-
-    return json.dumps(text)
-
-
-def toml_value(value: Any) -> str:
-    """A value as TOML writes it (tables inline); ScenarioError for one TOML has no form for (None, objects)."""
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, numbers.Integral):
-        return str(int(value))
-    if isinstance(value, numbers.Real):
-        number = float(value)
-        return (
-            ("nan" if math.isnan(number) else f"{'-' if number < 0 else ''}inf")
-            if not math.isfinite(number)
-            else repr(number)
-        )
-    if isinstance(value, str):
-        return _string(value)
-    if isinstance(value, Mapping):
-        return "{" + ", ".join(_assignment(k, v) for k, v in value.items()) + "}"
-    if isinstance(value, list | tuple):
-        return "[" + ", ".join(toml_value(v) for v in value) + "]"
-    raise ScenarioError(f"scenario: TOML has no value like {value!r} ({type(value).__name__})")
 
 
 def overrides(given: Changes) -> list[str]:
@@ -100,7 +61,7 @@ def overrides(given: Changes) -> list[str]:
 
 def fault_specs(given: Sequence[str | Mapping[str, Any]] | None) -> list[str]:
     """--fault texts: specs as they are, a dict as KEY=VALUE,... with its values as TOML."""
-    return [spec if isinstance(spec, str) else ",".join(_assignment(k, v) for k, v in spec.items())
+    return [spec if isinstance(spec, str) else ",".join(toml_assignment(k, v) for k, v in spec.items())
             for spec in given or ()]  # fmt: skip
 
 

@@ -161,6 +161,21 @@ def test_a_failed_run_of_a_batch_is_named_and_the_batch_rows_kept(tmp_path):
     assert kept == ["duration=10.0_step=0.1", "duration=10.0_step=0.2", "duration=10.1_step=0.1"]
 
 
+def test_a_sweep_that_fails_says_so_in_one_line_and_its_idle_workers_end_quietly(tmp_path):
+    """A failed run ends the sweep; its workers are stopped (sweep._stop_workers), and one that waits for work ends
+    quietly (sweep._worker_signal): the stop raised in the pool's loop printed a traceback per idle worker."""
+    from tests.procs import cpf
+
+    scenario = tmp_path / "paper.toml"
+    scenario.write_text(shortened((CONFIGS / "paper.toml").read_text(), 10.0))
+    grid = ["--param", "scenario.duration=10.0,10.1", "--param", "scenario.step=0.2,0.1", "--seeds", "1"]
+    done = cpf("sweep", str(scenario), *grid, "--jobs", "1", "--out", "sw", cwd=tmp_path)  # idle once its batch ends
+    assert done.returncode == 1
+    assert "Traceback" not in done.stderr, done.stderr
+    (last,) = done.stderr.strip().splitlines()[-1:]
+    assert last.startswith("cpf: error: sweep run duration=10.1_step=0.2_seed=0_"), done.stderr
+
+
 def test_a_batch_of_long_runs_of_large_fleets_holds_fewer_runs():
     """batch_limit from what a run's series really hold at its end (the builder's array and the Series it hands
     back: BYTES_PER_VEHICLE_STEP, measured here on a filled builder), so that a batch's runs hold at most

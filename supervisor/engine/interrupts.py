@@ -69,6 +69,11 @@ def deferring(run: Callable[P, R]) -> Callable[P, R]:
     return wrapper
 
 
+def running() -> bool:
+    """Whether a run is under way (inside `deferred()`): a signal now stops it at its next safe point."""
+    return _deferred > 0
+
+
 def stopping() -> bool:
     """Whether a stop was asked for since the command began (raised already or still to come)."""
     return _requested or _stopping

@@ -23,6 +23,7 @@ from concurrent.futures import FIRST_COMPLETED, CancelledError, Future, ProcessP
 from dataclasses import dataclass
 from itertools import islice, pairwise, product
 from pathlib import Path
+from types import FrameType
 from typing import Any
 
 from comms.bus.lifeline import ORPHANED, set_parent_death_signal
@@ -273,11 +274,21 @@ def _worker_start(parent: int) -> None:
     from Python, cpf.sweep, whose process has none: the run's own processes stopped, its temporary directory
     removed), and _in_worker then ends the worker; without both it ran on through the runs queued for it, an
     orphan."""
-    from supervisor.engine import interrupts
-
-    signal.signal(signal.SIGTERM, interrupts.handle)
+    signal.signal(signal.SIGTERM, _worker_signal)
     if set_parent_death_signal(signal.SIGTERM) and os.getppid() != parent:
         os._exit(ORPHANED)  # the sweep died before the prctl: the signal would never come
+
+
+def _worker_signal(signum: int, frame: FrameType | None) -> None:
+    """A worker's SIGTERM: a run under way stops at its next step (cpf's handler: it cleans up, then _in_worker
+    ends the worker); a worker waiting for work ends at once, quietly (raised in the pool's loop, the stop printed
+    a traceback to the sweep's terminal)."""
+    from supervisor.engine import interrupts
+
+    if interrupts.running():
+        interrupts.handle(signum, frame)
+    else:
+        os._exit(ORPHANED)
 
 
 def _completed(futures: Iterable[Future[Any]], watch: Callable[[], None] | None) -> Iterator[Any]:

@@ -10,7 +10,6 @@ import contextlib
 import hashlib
 import io
 import json
-import math
 import tempfile
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
@@ -19,6 +18,7 @@ from typing import TYPE_CHECKING, Any
 
 from supervisor.analysis.metrics import STEADY_STATE_WINDOW
 from supervisor.analysis.summary import coordination_error
+from supervisor.config.toml_writer import toml_value
 
 if TYPE_CHECKING:
     from supervisor.config.scenario_schema import Scenario
@@ -53,19 +53,6 @@ def override(key: str, value: Any) -> str:
     """key=value as --set takes it: value written as TOML (a table as an inline table, which JSON's braces are not:
     `--param 'comms.loss_model_options={p=0.1},{p=0.2}'` was refused as "must be a table")."""
     return f"{key}={toml_value(value)}"
-
-
-def toml_value(value: Any) -> str:
-    """value (what a TOML value reads as: a bool, number, string, array or table) as TOML text."""
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, float):
-        return repr(value) if math.isfinite(value) else ("nan" if math.isnan(value) else "inf" if value > 0 else "-inf")
-    if isinstance(value, list | tuple):
-        return "[" + ", ".join(toml_value(v) for v in value) + "]"
-    if isinstance(value, dict):
-        return "{" + ", ".join(f"{toml_value(str(k))} = {toml_value(v)}" for k, v in value.items()) + "}"
-    return json.dumps(value, ensure_ascii=False).replace("\x7f", "\\u007f")  # an int; a string: JSON escapes (TOML too)
 
 
 def run_one(scenario_name: str, scenario_bytes: bytes, spec: RunSpec, engine: str) -> dict[str, Any]:
