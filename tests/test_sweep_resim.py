@@ -12,10 +12,11 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from supervisor.config.scenario import parse_scenario
+from supervisor.config.toml_writer import toml_value
 from supervisor.engine.inprocess import run_inprocess
 from supervisor.engine.progress import Progress
 from supervisor.engine.resim import resimulate
@@ -57,6 +58,17 @@ def test_a_swept_value_is_handed_to_the_scenario_as_toml_reads_it(value: Any) ->
     text = override("comms.loss_model_options", value).split("=", 1)[1]
     back = tomllib.loads(f"v = {text}")["v"]
     assert back == value and type(back) is type(value)
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(_TOML_VALUES, min_size=1, max_size=4))
+def test_param_values_written_as_toml_read_back_whole(values: list[Any]) -> None:
+    """--param KEY=v1,v2,... (and cpf.sweep's lists, written so: cpf.inputs) splits only at commas outside brackets,
+    braces and quoted strings: a table of two keys, a string with a comma or a quote stays one value (the split at
+    every comma outside brackets refused `{p_gb=0.1, p_bg=0.5}` and cut "a,b" in two)."""
+    spec = ",".join(toml_value(v) for v in values)
+    assume(spec.count(":") != 2)  # start:stop:step: a range
+    assert parse_param(f"comms.loss_model_options={spec}").values == tuple(values)
 
 
 def test_a_sweep_over_tables_runs_each(tmp_path, paper_text):

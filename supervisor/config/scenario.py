@@ -251,11 +251,21 @@ def fault_table(spec: str) -> dict[str, Any]:
 
 
 def split_outside_brackets(spec: str) -> list[str]:
-    """Split at commas outside brackets, so edges=[[1,2],[2,3]] stays whole."""
+    """Split at commas outside brackets, braces and quoted strings, so edges=[[1,2],[2,3]], a table {a=1, b=2} and
+    a string "a,b" each stay whole."""
     parts, depth, current = [], 0, ""
+    quote, escaped = "", False
     for char in spec:
-        depth += {"[": 1, "]": -1}.get(char, 0)
-        if char == "," and depth == 0:
+        if escaped:  # the character after a backslash in a "..." string
+            escaped = False
+        elif quote:  # inside "..." (backslash escapes) or '...' (literal): nothing counts but its end
+            escaped = char == "\\" and quote == '"'
+            quote = "" if char == quote else quote
+        elif char in "\"'":
+            quote = char
+        else:
+            depth += {"[": 1, "]": -1, "{": 1, "}": -1}.get(char, 0)
+        if char == "," and depth == 0 and not quote:
             parts.append(current)
             current = ""
         else:

@@ -225,8 +225,8 @@ def _valid_with(scenario_path: Path, params: Sequence[Param], n: int, value: Any
         first: ScenarioError | None = None
         others = [[override(p.key, v) for v in p.values] for m, p in enumerate(params) if m != n]
         for combo in islice(product(*others), COMBINATIONS_TRIED) if others else ():
-            try:
-                return load_scenario(scenario_path, [*combo, setting])
+            try:  # in the params' order, as a run applies them (a table, then one of its keys, is not the reverse)
+                return load_scenario(scenario_path, [*combo[:n], setting, *combo[n:]])
             except ScenarioError as exc:
                 first = first or exc
         raise (first or alone) from None

@@ -128,8 +128,8 @@ def _within_memory(runs: Sequence[Any]) -> list[list[Any]]:
 
 
 def _loaded(path: Path, spec: RunSpec) -> Scenario | ScenarioError:
-    """The spec's scenario, or the ScenarioError its settings give (swept values are checked one by one, not every
-    combination)."""
+    """The spec's scenario, or the ScenarioError its settings give (the sweep checks each swept value, alone or in
+    some combination, not every combination: sweep._check_values)."""
     from supervisor.errors import ScenarioError
 
     try:
@@ -139,8 +139,8 @@ def _loaded(path: Path, spec: RunSpec) -> Scenario | ScenarioError:
 
 
 def _load(path: Path, spec: RunSpec) -> Scenario:
-    """load_scenario of the spec; its ScenarioError names the file as the sweep was given it (its name), not the
-    temporary copy a user never saw."""
+    """load_scenario of the spec; its ScenarioError names the file by its name (paper.toml), not by the temporary
+    copy a user never saw."""
     from supervisor.config.scenario import load_scenario
     from supervisor.errors import ScenarioError
 
