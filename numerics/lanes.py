@@ -20,6 +20,12 @@ def is_lanes(x: object) -> bool:
     return isinstance(x, np.ndarray)
 
 
+def takes_lanes(part: object) -> bool:
+    """Whether part (a controller, model, path...) says its float code takes arrays of lanes: a class attribute
+    `lanes = True`, exactly (vehicles.lanes, docs/extending.md)."""
+    return getattr(part, "lanes", False) is True
+
+
 def sqrt(x: Any) -> Any:
     """math.sqrt of a float, numpy's (also correctly rounded) of an array."""
     return np.sqrt(x) if isinstance(x, np.ndarray) else math.sqrt(x)

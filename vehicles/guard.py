@@ -18,6 +18,7 @@ from typing import Any, TypeVar
 import numpy as np
 
 from comms.channel.guard import CALL_BUDGET, guarded_call, short
+from numerics.lanes import takes_lanes
 from vehicles.coordination import CoordinationGains
 from vehicles.dynamics import Accelerations, PathVectors
 from vehicles.estimates import NeighbourEstimate
@@ -101,7 +102,7 @@ class Guarded:
     @property
     def lanes(self) -> bool:
         """Whether what it guards takes arrays of lanes (vehicles.lanes): its own word for it."""
-        return getattr(self.inner, "lanes", False) is True
+        return takes_lanes(self.inner)
 
     @property
     def dimension(self) -> int:

@@ -26,6 +26,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from comms.records.records import Disturbances, Heard
+from numerics.lanes import takes_lanes
 from vehicles.agent import Along, VehicleConfig, begin, finish, neighbour_values, rk4
 from vehicles.dynamics import PathVectors
 from vehicles.lane_keys import key
@@ -107,7 +108,7 @@ def shape_of(cfg: VehicleConfig) -> Shape | None:
     if cfg.navigation is not None or cfg.adaptive is not None:
         return None
     parts = (cfg.controller, cfg.vehicle, cfg.current, cfg.current_observer, cfg.actuators)
-    if not all(part is None or getattr(part, "lanes", False) is True for part in parts):
+    if not all(part is None or takes_lanes(part) for part in parts):
         return None
     shared = (
         type(cfg.model), cfg.model.dim, cfg.params, cfg.plant, cfg.current_known, cfg.top_speed, cfg.correction_limit,
@@ -182,7 +183,7 @@ class LaneAlong(Along):
         c = np.empty((9, len(self.cfgs)))
         for lanes in self.paths:
             cfg = self.cfgs[lanes[0]]
-            if len(lanes) > 1 and getattr(cfg.path, "lanes", False) is True:
+            if len(lanes) > 1 and takes_lanes(cfg.path):
                 values = _flat(cfg.model.path_seen(cfg.path.evaluate_floats(gamma[lanes])))
                 for row, value in enumerate(values):
                     c[row, lanes] = value

@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from numerics.lanes import takes_lanes
 from numerics.linalg import row_norms
 from vehicles.bounded_min import bounded_minimum
 
@@ -104,7 +105,7 @@ def _points(path: Path, gammas: NDArray[np.float64]) -> NDArray[np.float64]:
     """p_d at each gamma, shape (n, 3), from evaluate_floats: Path.positions is for plotting (numpy's kernels). A
     path that takes lanes (vehicles.lanes: the helix, circle and line) gets every gamma at once, the bits of each
     call alone (tests/test_initial_gamma.py): the paper's three starts took 24 ms gamma by gamma, 6 ms so."""
-    if getattr(path, "lanes", False) is True and gammas.size > 1:
+    if takes_lanes(path) and gammas.size > 1:
         with np.errstate(all="raise", under="ignore"):  # where float code would raise, or might: gamma by gamma
             try:
                 every: Any = gammas  # a float's arithmetic on every gamma at once
