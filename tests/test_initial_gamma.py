@@ -330,3 +330,20 @@ def test_a_path_searched_as_lanes_gives_the_gamma_searched_one_at_a_time(path, p
     assert path.lanes is True
     alone = nearest_gamma(_Alone(path), point, reference)  # type: ignore[arg-type]
     assert nearest_gamma(path, point, reference) == alone
+
+
+def test_a_path_that_takes_lanes_is_sampled_all_at_once(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The search's samples of a helix come from one evaluate_floats call on an array (else the test above would
+    hold of a search that fell back to one gamma at a time)."""
+    import vehicles.nearest
+
+    shapes: list[tuple[int, ...]] = []
+    inner = Helix.evaluate_floats
+
+    def counted(self: Helix, gamma: float) -> tuple[tuple[float, ...], ...]:
+        shapes.append(np.shape(gamma))
+        return inner(self, gamma)
+
+    monkeypatch.setattr(Helix, "evaluate_floats", counted)
+    vehicles.nearest._points(Helix(20.0, 0.05, 400.0, 0.0), np.linspace(0.0, 400.0, 2001))
+    assert shapes == [(2001,)]

@@ -206,6 +206,22 @@ def test_a_run_shorter_than_the_transient_does_not_judge_the_tube(tmp_path, pape
     assert "none (the run ends within it)" in text and "nan" not in text and "OUTSIDE" not in text
 
 
+@pytest.mark.parametrize("name", ["examples/micromodem_tdma.toml", "examples/every_fault.toml"])
+def test_a_run_without_a_log_counts_the_messages_its_log_holds(tmp_path: Path, name: str) -> None:
+    """A sweep's run counts its messages without building them (a Tally): as many as the log of the same run holds,
+    where vehicles do not transmit at every step (TDMA) and where they are killed and restarted (a restart resumes
+    from the last state's record)."""
+    text = shortened((CONFIGS / name).read_text(), 60.0)
+    scenario = parse_scenario(text, "s.toml")
+    quiet = lambda: Progress(scenario.scenario.duration, io.StringIO(), enabled=False)  # noqa: E731
+    logged = run_inprocess(scenario, "s.toml", text, tmp_path / "run.mcap", 1, quiet(), scene=False)
+    bare = run_inprocess(scenario, "s.toml", text, None, 1, quiet())
+    assert bare.messages == logged.messages == len(read_messages(tmp_path / "run.mcap"))
+    assert bare.link_counts == logged.link_counts
+    for name in ("gamma", "gamma_dot", "path_error"):
+        assert np.array_equal(getattr(bare.series, name), getattr(logged.series, name), equal_nan=True), name
+
+
 def test_a_run_without_a_log_gives_the_same_result_and_writes_nothing(paper_run, tmp_path, monkeypatch):
     """A sweep keeps only each run's metrics (out=None): the series, counts and message count of a run that
     records must come out the same, and no file may be written."""
