@@ -24,12 +24,15 @@ from dataclasses import dataclass
 from itertools import islice, pairwise, product
 from pathlib import Path
 from types import FrameType
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from comms.bus.lifeline import ORPHANED, set_parent_death_signal
 from supervisor.config.scenario import split_outside_brackets
 from supervisor.errors import ScenarioError, SimulationError
 from supervisor.tools.sweep_runs import MAX_BATCH, RunSpec, batch_limit, override, run_logged, run_many, run_one
+
+if TYPE_CHECKING:
+    from supervisor.config.scenario_schema import Scenario
 
 WATCH_INTERVAL = 1.0  # s between looks at a cluster's workers while no run finishes
 # Batches go to whichever worker is free first (list scheduling), in grid order, so that a batch's runs are alike
@@ -212,7 +215,7 @@ def _check_values(scenario_path: Path, params: Sequence[Param]) -> tuple[int, in
     return min(sizes), max(sizes)
 
 
-def _valid_with(scenario_path: Path, params: Sequence[Param], n: int, value: Any) -> Any:
+def _valid_with(scenario_path: Path, params: Sequence[Param], n: int, value: Any) -> Scenario:
     """The scenario with params[n] = value alone, else with the first combination of the other params' values it
     is valid with (at most COMBINATIONS_TRIED of them); if none, the ScenarioError of the first combination (the
     one that says most: a loss model's option out of range rather than options without a model)."""
