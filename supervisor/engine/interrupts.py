@@ -49,8 +49,13 @@ def _interrupt() -> None:
 
 @contextlib.contextmanager
 def deferred() -> Iterator[None]:
-    """Inside, a signal only records the request: the run stops at its next `check()`."""
+    """Inside, a signal only records the request: the run stops at its next `check()`. A run that begins after a stop
+    was raised stops at once: that KeyboardInterrupt was swallowed where it landed (in a callback whose exceptions
+    Python ignores, an import's module-lock weakref: "Exception ignored in ...", seen by
+    tests/test_double_interrupt.py), and the run went on to its end, exit 0."""
     global _deferred
+    if not _deferred and _stopping:
+        raise KeyboardInterrupt
     _deferred += 1
     try:
         yield
