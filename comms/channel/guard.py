@@ -78,9 +78,14 @@ class GuardedLink:
         return _count(self.label, guarded_call(self.label, self.budget, lambda: self.inner.draws))
 
     def decide(self, rng: np.random.Generator, distance_m: float, size_bytes: int, t: float = 0.0) -> str | None:
-        reason = guarded_call(self.label, self.budget, self.inner.decide, rng, distance_m, size_bytes, t)
+        try:
+            reason = guarded_call(self.label, self.budget, self.inner.decide, rng, distance_m, size_bytes, t)
+        except FloatingPointError as exc:  # when, in the run's time: the engines notice it a step apart
+            raise FloatingPointError(f"{exc}, deciding a packet sent at t = {t:.1f} s") from None
         if reason is not None and not (isinstance(reason, str) and reason):  # "" would pass as delivered
-            raise FloatingPointError(f"{self.label} returned {short(reason)}, not None or a reason string")
+            raise FloatingPointError(
+                f"{self.label} returned {short(reason)}, not None or a reason string, for a packet sent at t = {t:.1f} s"
+            )
         return reason
 
 
