@@ -66,7 +66,7 @@ def main() -> None:
     parser.add_argument("--sizes", default="3,10,30,50", help="fleet sizes for the scaling runs")
     parser.add_argument("--scaling-duration", type=float, default=20.0, help="simulated s per scaling run")
     parser.add_argument("--realtime-duration", type=float, default=60.0, help="simulated s on the realtime clock")
-    every = ",".join([c.name for c in (*bench_targets.CASES, *bench_targets.UNRUNNABLE)] + ["sweep"])
+    every = ",".join([c.name for c in bench_targets.CASES] + ["sweep"])
     parser.add_argument("--targets", default=every, help="issue 26's target cases to run (comma-separated), or none")
     args = parser.parse_args()
     paper = ROOT / "configs" / "paper.toml"

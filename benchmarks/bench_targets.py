@@ -10,8 +10,7 @@ Cases (issue 26's numbers where it gives them, else issue 15's):
   process per AUV >= 20x real time;
 - ring50-10hz: the same fleet messaging every step, 120 s: >= 5x (issue 15);
 - ring100-1hz: 100 AUVs at 1 Hz, 120 s: >= 10x;
-- ring1000-1hz: 1000 AUVs at 1 Hz, in-process, 60 s: >= 1x; not run (a vehicle id is one byte on the wire: at most
-  255), its bound only (below);
+- ring1000-1hz: 1000 AUVs at 1 Hz, in-process only, 60 s: >= 1x;
 - sweep: `cpf sweep` of the paper scenario, --jobs 2, --runs runs (issue 26: at least 200), extrapolated to 1000
   runs: <= 2 minutes (issue 26; issue 15 asked for 10).
 The fleets of FORCED are also run with one process per AUV forced (`--vehicles-per-process 1`, a row of its own,
@@ -55,6 +54,7 @@ class Case:
     duration: float  # simulated s
     period: float | None  # s between a vehicle's messages; None: every step
     target: str  # what the issue asks, as printed
+    engines: tuple[str, ...] = ("inprocess", "zenoh")
 
 
 CASES = (
@@ -63,8 +63,8 @@ CASES = (
     Case("ring50-1hz", 50, 300.0, 1.0, "zenoh, one process per AUV, >= 20x real time"),
     Case("ring50-10hz", 50, 120.0, None, "zenoh >= 5x real time (issue 15)"),
     Case("ring100-1hz", 100, 120.0, 1.0, "zenoh >= 10x real time"),
+    Case("ring1000-1hz", 1000, 60.0, 1.0, "in-process >= 1x real time", ("inprocess",)),
 )
-UNRUNNABLE = (Case("ring1000-1hz", 1000, 60.0, 1.0, "in-process >= 1x real time"),)  # bound only: ids <= 255
 
 
 def scenario_text(case: Case) -> str:
@@ -97,7 +97,7 @@ def measure(case: Case, repeat: int, tmp: Path) -> list[dict[str, Any]]:
     """The case's row (and its /1pp row, for the fleets of FORCED), every variant run repeat times, alternating."""
     path = tmp / f"{case.name}.toml"
     path.write_text(scenario_text(case))
-    runs: dict[str, list[str]] = {"inprocess": [], "zenoh": []}
+    runs: dict[str, list[str]] = {engine: [] for engine in case.engines}
     if case.name in FORCED:
         runs["zenoh/1pp"] = ONE_PER_AUV
     walls: dict[str, list[float]] = {variant: [] for variant in runs}
@@ -108,9 +108,9 @@ def measure(case: Case, repeat: int, tmp: Path) -> list[dict[str, Any]]:
             argv = [*CPF, "run", str(path), "--engine", engine, "--out", str(tmp / "run.mcap"), *extra]
             sampled = (str(path), _vehicle_processes(case, extra), rss[variant]) if engine == "zenoh" else None
             walls[variant].append(timed(argv, sampled))
-    rows = [_row(case, case.name, walls["inprocess"], walls["zenoh"], rss["zenoh"])]
+    rows = [case_row(case, case.name, walls["inprocess"], walls.get("zenoh", []), rss.get("zenoh", []))]
     if "zenoh/1pp" in runs:
-        rows.append(_row(case, f"{case.name}/1pp", walls["inprocess"], walls["zenoh/1pp"], rss["zenoh/1pp"]))
+        rows.append(case_row(case, f"{case.name}/1pp", walls["inprocess"], walls["zenoh/1pp"], rss["zenoh/1pp"]))
     if case.vehicles:
         bound = step_bound(case)
         for row in rows:
@@ -121,7 +121,7 @@ def measure(case: Case, repeat: int, tmp: Path) -> list[dict[str, Any]]:
 def step_bound(case: Case, steps: int = 1000) -> dict[str, Any]:
     """The most real time the case's vehicle steps alone allow (see the module's docstring), from vehicle 1's step
     (a ring's vehicles all step alike: a line, two neighbours) timed by benchmarks.bench_step."""
-    ring = Case(case.name, min(case.vehicles, 50), case.duration, case.period, case.target)  # ids <= 255: a 50 ring
+    ring = Case(case.name, min(case.vehicles, 50), case.duration, case.period, case.target)  # quicker to build
     scenario = parse_scenario(scenario_text(ring), f"{case.name}.toml")
     cost, dt, n = per_step(scenario, 1, steps), scenario.scenario.step, case.vehicles
     return {"vehicle_step_us": cost * 1e6, "cores": cores(), "max_real_time_zenoh": cores() * dt / (n * cost),
@@ -135,13 +135,16 @@ def _vehicle_processes(case: Case, extra: list[str]) -> int:
     return len(groups(list(range(fleet)), per_process))
 
 
-def _row(case: Case, name: str, inprocess: list[float], zenoh: list[float], rss: list[float]) -> dict[str, Any]:
+def case_row(case: Case, name: str, inprocess: list[float], zenoh: list[float], rss: list[float]) -> dict[str, Any]:
+    """zenoh: [] for a case run in-process only."""
     row: dict[str, Any] = {"case": name, "duration_s": case.duration, "target": case.target}
     for engine, values in (("inprocess", inprocess), ("zenoh", zenoh)):
-        row[engine] = {"best_s": min(values), "spread_s": max(values) - min(values), "all_s": values}
-        row[engine]["real_time_factor"] = case.duration / min(values)
-    row["ratio_zenoh_to_inprocess"] = row["zenoh"]["best_s"] / row["inprocess"]["best_s"]
-    row["zenoh"]["peak_rss_mb_per_vehicle_process"] = max(rss) if rss else None
+        if values:
+            row[engine] = {"best_s": min(values), "spread_s": max(values) - min(values), "all_s": values}
+            row[engine]["real_time_factor"] = case.duration / min(values)
+    if zenoh:
+        row["ratio_zenoh_to_inprocess"] = row["zenoh"]["best_s"] / row["inprocess"]["best_s"]
+        row["zenoh"]["peak_rss_mb_per_vehicle_process"] = max(rss) if rss else None
     return row
 
 
@@ -178,17 +181,20 @@ def summary(row: dict[str, Any]) -> str:
             f"sweep: {row['runs']} runs in {row['best_s']:.1f} s (spread {row['spread_s']:.1f} s) -> 1000 runs in "
             f"{row['extrapolated_1000_runs_min']:.1f} min   [target: {row['target']}]"
         )
-    if "why" in row:  # a case not run: its bound only
-        return f"{row['case']:12s} not run ({row['why']}){limit}   [target: {row['target']}]"
-    inp, zen = row["inprocess"], row["zenoh"]
-    rss = zen.get("peak_rss_mb_per_vehicle_process")
-    return (
-        f"{row['case']:12s} in-process {inp['best_s']:6.2f} s ({inp['real_time_factor']:5.1f}x, spread "
-        f"{inp['spread_s']:.2f})  zenoh {zen['best_s']:6.2f} s ({zen['real_time_factor']:5.1f}x, spread "
-        f"{zen['spread_s']:.2f})  ratio {row['ratio_zenoh_to_inprocess']:.2f}   [target: {row['target']}]"
-        + (f"  peak RSS per vehicle process {rss:.0f} MB" if rss is not None else "")
-        + limit
-    )
+    inp = row["inprocess"]
+    text = f"{row['case']:12s} in-process {inp['best_s']:6.2f} s ({inp['real_time_factor']:5.1f}x, spread "
+    text += f"{inp['spread_s']:.2f})"
+    zen = row.get("zenoh")
+    if zen is not None:
+        rss = zen.get("peak_rss_mb_per_vehicle_process")
+        text += (
+            f"  zenoh {zen['best_s']:6.2f} s ({zen['real_time_factor']:5.1f}x, spread {zen['spread_s']:.2f})  ratio "
+            f"{row['ratio_zenoh_to_inprocess']:.2f}   [target: {row['target']}]"
+            + (f"  peak RSS per vehicle process {rss:.0f} MB" if rss is not None else "")
+        )
+    else:
+        text += f"   [target: {row['target']}]"
+    return text + limit
 
 
 def run(names: list[str], repeat: int, sweep_runs: int) -> list[dict[str, Any]]:
@@ -199,11 +205,6 @@ def run(names: list[str], repeat: int, sweep_runs: int) -> list[dict[str, Any]]:
                 for row in measure(case, repeat, Path(tmp)):
                     rows.append(row)
                     print(summary(row), flush=True)
-        for case in UNRUNNABLE:
-            if case.name in names:
-                why = "a vehicle id is one byte on the wire: at most 255 vehicles"
-                rows.append({"case": case.name, "target": case.target, "why": why, "bound": step_bound(case)})
-                print(summary(rows[-1]), flush=True)
         if "sweep" in names:
             rows.append(measure_sweep(sweep_runs, repeat, Path(tmp)))
             print(summary(rows[-1]), flush=True)
@@ -212,7 +213,7 @@ def run(names: list[str], repeat: int, sweep_runs: int) -> list[dict[str, Any]]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    every = [c.name for c in (*CASES, *UNRUNNABLE)] + ["sweep"]
+    every = [c.name for c in CASES] + ["sweep"]
     parser.add_argument("--cases", default=",".join(every), help=f"comma-separated, of: {', '.join(every)}")
     parser.add_argument("--repeat", type=int, default=2, help="runs per engine and case (best kept)")
     parser.add_argument("--runs", type=int, default=200, help="runs of the sweep case (issue 26: >= 200)")

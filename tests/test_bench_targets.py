@@ -7,12 +7,12 @@ from pathlib import Path
 from typing import Any
 
 from benchmarks import ROOT, bench_ready, bench_startup
-from benchmarks.bench_targets import CASES, scenario_text
+from benchmarks.bench_targets import CASES, case_row, scenario_text
 from supervisor.config.scenario import parse_scenario
 
 
 def test_every_case_is_a_valid_scenario_of_its_size_and_message_rate() -> None:
-    for case in CASES:  # (the 1000-AUV case is not: UNRUNNABLE, below)
+    for case in CASES:
         scenario = parse_scenario(scenario_text(case), f"{case.name}.toml")
         assert scenario.scenario.duration == case.duration, case.name
         if case.vehicles:
@@ -20,22 +20,22 @@ def test_every_case_is_a_valid_scenario_of_its_size_and_message_rate() -> None:
             assert scenario.comms.transmit.period == case.period, case.name
 
 
-def test_the_thousand_auv_case_is_refused_and_bounded_by_its_vehicle_steps() -> None:
-    """ring1000-1hz is not run because a scenario of 1000 AUVs is refused (ids are one byte on the wire); its row is
-    the bound its vehicles' steps set: N x (one vehicle's step) of CPU per step of dt, on one core in-process."""
+def test_the_thousand_auv_case_runs_in_process_and_is_bounded_by_its_vehicle_steps() -> None:
+    """ring1000-1hz runs in-process only (its target's engine); its row also gives the bound its vehicles' steps set:
+    N x (one vehicle's step) of CPU per step of dt, on one core in-process."""
     import pytest
 
-    from benchmarks.bench_targets import UNRUNNABLE, step_bound, summary
-    from supervisor.errors import ScenarioError
+    from benchmarks.bench_targets import step_bound, summary
 
-    (case,) = UNRUNNABLE
-    with pytest.raises(ScenarioError, match="255"):
-        parse_scenario(scenario_text(case), f"{case.name}.toml")
+    (case,) = [c for c in CASES if c.vehicles == 1000]
+    assert case.engines == ("inprocess",)
     bound = step_bound(case, steps=20)
     assert bound["max_real_time_inprocess"] == pytest.approx(0.1 / (1000 * bound["vehicle_step_us"] * 1e-6))
     assert bound["max_real_time_zenoh"] == pytest.approx(bound["cores"] * bound["max_real_time_inprocess"])
-    row = {"case": case.name, "target": case.target, "why": "ids", "bound": bound}
-    assert "not run (ids)" in summary(row) and "in-process" in summary(row)
+    row = case_row(case, case.name, [80.0, 90.0], [], [])
+    row["bound"] = bound
+    text = summary(row)
+    assert "in-process  80.00 s (  0.8x, spread 10.00)" in text and "zenoh" not in text.split("[target")[0], text
     sweep = {"case": "sweep", "runs": 2, "best_s": 6.0, "spread_s": 0.5, "extrapolated_1000_runs_min": 50.0,
              "target": "1000 runs <= 2 min (issue 26)"}  # fmt: skip
     assert summary(sweep).startswith("sweep: 2 runs in 6.0 s")  # (it was read as a case not run: KeyError)

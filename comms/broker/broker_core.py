@@ -17,7 +17,7 @@ from comms.records.messages import Message
 from comms.records.network import Network
 from comms.records.plausible import Plausible
 from comms.records.records import Kinematics, LinkEvent, Reception, Transmission
-from comms.records.wire import SIZE, decode_coordination, encode_coordination
+from comms.records.wire import decode_coordination, encode_coordination, message_size
 
 
 @dataclass
@@ -26,6 +26,7 @@ class BrokerCore:
     neighbours: dict[int, list[int]]  # the current graph: who hears whom
     stats: LinkStats
     plausible: dict[int, Plausible] = field(default_factory=dict)  # each vehicle's bounds (comms.records.plausible)
+    wide: bool = False  # the fleet's message has its sender in two bytes (comms.records.wire.wide_for)
     _next_snapshot: float | None = None  # the first snapshot after one full window
     _least: dict[Network | None, float] = field(default_factory=dict)  # least_delay's, by network
 
@@ -39,8 +40,8 @@ class BrokerCore:
         network: the graph and link faults in force then (None: the scenario's graph, no faults)."""
         events: list[LinkEvent] = []
         for tx in sorted(transmissions, key=lambda tx: tx.sender):
-            wire = encode_coordination(tx)
-            carried = decode_coordination(wire)  # what receivers will read: float32 values
+            wire = encode_coordination(tx, self.wide)
+            carried = decode_coordination(wire, self.wide)  # what receivers will read: float32 values
             as_sent = Transmission(  # not dataclasses.replace: the same record, a fraction of the cost
                 tx.sender, tx.seq, tx.t, carried.gamma, carried.gamma_dot, tx.position, tx.velocity, tx.stamp
             )
@@ -73,7 +74,7 @@ class BrokerCore:
                 links = [(i, j) for i, heard_by in self.neighbours.items() for j in heard_by]
             else:
                 links = [(i, j) for i in self.neighbours for j in network.neighbours(i)]
-            self._least[network] = self.channel.least_delay(SIZE, links)
+            self._least[network] = self.channel.least_delay(message_size(self.wide), links)
         return self._least[network]
 
     def finish(self, t: float, reason: str = "end_of_run") -> list[LinkEvent]:

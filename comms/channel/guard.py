@@ -83,9 +83,8 @@ class GuardedLink:
         except FloatingPointError as exc:  # when, in the run's time: the engines notice it a step apart
             raise FloatingPointError(f"{exc}, deciding a packet sent at t = {t:.1f} s") from None
         if reason is not None and not (isinstance(reason, str) and reason):  # "" would pass as delivered
-            raise FloatingPointError(
-                f"{self.label} returned {short(reason)}, not None or a reason string, for a packet sent at t = {t:.1f} s"
-            )
+            what = f"{self.label} returned {short(reason)}, not None or a reason string"
+            raise FloatingPointError(f"{what}, for a packet sent at t = {t:.1f} s")
         return reason
 
 

@@ -2,6 +2,9 @@
 
     sender u8 | seq u16 (wraps) | time u32 (ms) | gamma f32 | gamma_dot f32        little-endian
 
+A fleet with a vehicle id above 255 sends the sender as u16 instead (16 bytes, every vehicle of that fleet alike):
+a fleet that fits in a byte keeps the 15 bytes, and so the airtimes and records it always had.
+
 Its length is the packet size the channel charges airtime for, and receivers get the decoded (rounded) values:
 gamma in float32 keeps about 7 significant digits, enough for coordination errors down to 1e-4 at gamma ~ 400.
 """
@@ -9,13 +12,16 @@ gamma in float32 keeps about 7 significant digits, enough for coordination error
 from __future__ import annotations
 
 import struct
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 from comms.records.records import Transmission
 
-LAYOUT = struct.Struct("<BHIff")
-SIZE = LAYOUT.size  # 15 bytes
-MAX_VEHICLE_ID = 255
+NARROW = struct.Struct("<BHIff")  # 15 bytes: every id of the fleet fits in one
+WIDE = struct.Struct("<HHIff")  # 16 bytes
+SIZE = NARROW.size  # 15 bytes: the message of a fleet whose ids fit in a byte
+MAX_VEHICLE_ID = 65535
+NARROW_IDS = 255
 
 
 @dataclass(frozen=True, slots=True)
@@ -27,10 +33,20 @@ class Decoded:
     gamma_dot: float
 
 
-def encode_coordination(tx: Transmission) -> bytes:
-    return LAYOUT.pack(tx.sender, tx.seq % 65536, round(tx.data_time * 1000.0), tx.gamma, tx.gamma_dot)
+def wide_for(ids: Iterable[int]) -> bool:
+    """Whether a fleet with these vehicle ids sends the wide message (a sender in two bytes)."""
+    return max(ids, default=0) > NARROW_IDS
 
 
-def decode_coordination(data: bytes) -> Decoded:
-    sender, seq, t_ms, gamma, gamma_dot = LAYOUT.unpack(data)
+def message_size(wide: bool = False) -> int:
+    return (WIDE if wide else NARROW).size
+
+
+def encode_coordination(tx: Transmission, wide: bool = False) -> bytes:
+    layout = WIDE if wide else NARROW
+    return layout.pack(tx.sender, tx.seq % 65536, round(tx.data_time * 1000.0), tx.gamma, tx.gamma_dot)
+
+
+def decode_coordination(data: bytes, wide: bool = False) -> Decoded:
+    sender, seq, t_ms, gamma, gamma_dot = (WIDE if wide else NARROW).unpack(data)
     return Decoded(sender, seq, t_ms / 1000.0, gamma, gamma_dot)

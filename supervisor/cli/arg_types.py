@@ -7,6 +7,8 @@ import argparse
 import math
 from collections.abc import Callable
 
+from comms.records.wire import MAX_VEHICLE_ID
+
 
 def number(text: str) -> float:
     """A finite number: inf and nan (which float() takes) are refused."""
@@ -71,7 +73,7 @@ def gamma0(text: str) -> tuple[int | None, float]:
     vid, _, value = text.rpartition("=")
     if not vid:
         return None, number(value)
-    return whole(1, 255)(vid), number(value)
+    return whole(1, MAX_VEHICLE_ID)(vid), number(value)
 
 
 def per_process(text: str) -> int:

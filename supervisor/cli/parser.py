@@ -7,6 +7,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import NoReturn, TypeAlias
 
+from comms.records.wire import MAX_VEHICLE_ID
 from supervisor.cli import arg_types
 from supervisor.engine import resim_settings  # light: the table only, for the help text
 from supervisor.errors import ScenarioError
@@ -145,7 +146,7 @@ def _add_processes(sub: Commands) -> None:
     )
     vehicle.add_argument("scenario", type=Path)
     vehicle.add_argument(
-        "--id", type=arg_types.whole(1, 255), action="append", required=True,
+        "--id", type=arg_types.whole(1, MAX_VEHICLE_ID), action="append", required=True,
         help="vehicle id in the scenario (repeatable: one process serves them all, each on its own Zenoh session)",
     )  # fmt: skip
     vehicle.add_argument("--connect", required=True, help="Zenoh endpoint of the run's router")

@@ -7,13 +7,12 @@ from collections import Counter
 from collections.abc import Iterable
 from typing import Any
 
-from comms.records.wire import SIZE
 from supervisor.config.comms_schema import CommsSection, TransmitSection
 from supervisor.config.controller_choice import AUTO, controller_name, estimated_spread
 from supervisor.config.derived import steps_of, tube_radius
 from supervisor.config.describe import describe_fault
 from supervisor.config.fleet import coupling_k
-from supervisor.config.medium import modem_params, sound_speed
+from supervisor.config.medium import message_bytes, modem_params, sound_speed
 from supervisor.config.plant import actuation
 from supervisor.config.plant import spreads as plant_spreads
 from supervisor.config.scenario_schema import Scenario, VehicleSection
@@ -123,7 +122,7 @@ def _vehicle(v: VehicleSection) -> str:
 def _comms(sc: Scenario) -> str:
     c = sc.comms
     radio = modem_params(sc)
-    size = c.packet_bytes or SIZE
+    size = message_bytes(sc)
     parts = [f"{c.modem} modem"]
     if radio.bitrate is not None:
         parts.append(f"{_num(radio.bitrate)} bit/s, {_num(radio.airtime(size))} s on air per {size}-B packet")

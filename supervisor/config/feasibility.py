@@ -21,8 +21,7 @@ import numpy as np
 from comms.channel.acoustics import time_of_flight
 from comms.channel.link_budget import LinkBudgetRange
 from comms.channel.loss import RangeTable
-from comms.records.wire import SIZE
-from supervisor.config.medium import modem_params, sound_speed
+from supervisor.config.medium import message_bytes, modem_params, sound_speed
 from supervisor.config.scenario_schema import Scenario
 
 Positions = dict[int, np.ndarray]
@@ -51,7 +50,7 @@ def timing_of(sc: Scenario) -> Timing:
 
     interval = transmit_interval(sc) or sc.scenario.step
     extra = {(link.sender, link.receiver): link.extra_delay for link in sc.comms.links}
-    airtime = modem_params(sc).airtime(sc.comms.packet_bytes or SIZE)
+    airtime = modem_params(sc).airtime(message_bytes(sc))
     return Timing(airtime, interval, sc.comms.jitter, sound_speed(sc), extra)
 
 
@@ -136,7 +135,7 @@ def range_success(sc: Scenario, distance: float) -> float | None:
 
     model = range_model(sc, modem_params(sc))
     if isinstance(model, LinkBudgetRange):
-        return model.mean_success(distance, sc.comms.packet_bytes or SIZE)
+        return model.mean_success(distance, message_bytes(sc))
     if isinstance(model, RangeTable):
         return model.success_probability(distance)
     return None

@@ -25,6 +25,7 @@ from comms.channel.loss import (
 from comms.channel.modem import ModemParams
 from comms.records.messages import Message
 from comms.records.state import StateReport
+from comms.records.wire import wide_for
 from supervisor.config.controller_choice import controller_name, controller_options
 from supervisor.config.extensions import extension
 from supervisor.config.links import needs_fitting
@@ -302,7 +303,8 @@ def radio(scenario: Scenario, vehicle_id: int) -> Radio:
 
 def broker_core(scenario: Scenario, seed: int) -> BrokerCore:
     neighbours = {i: scenario.neighbours(i) for i in scenario.vehicle_ids}
-    return BrokerCore(Channel(channel_params(scenario), seed), neighbours, link_stats(scenario))
+    wide = wide_for(scenario.vehicle_ids)
+    return BrokerCore(Channel(channel_params(scenario), seed), neighbours, link_stats(scenario), wide=wide)
 
 
 # A delivery keeps its pair in the delivered graph for this many transmit intervals: more than one, so that the

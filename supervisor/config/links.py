@@ -13,8 +13,7 @@ import math
 
 import numpy as np
 
-from comms.records.wire import SIZE
-from supervisor.config.medium import modem_params, sound_speed
+from supervisor.config.medium import message_bytes, modem_params, sound_speed
 from supervisor.config.scenario_schema import Scenario
 
 PREDICTORS = ("first_order", "hold", "reference")  # the ones the analysis models (stability.model)
@@ -48,7 +47,7 @@ def delay_of(scenario: Scenario) -> float:
     distances = [float(np.linalg.norm(where[a] - where[b])) for a, b in scenario.graph.edges]
     flight = float(np.mean(distances)) / sound_speed(scenario) if distances else 0.0
     modem = modem_params(scenario)
-    on_air = modem.airtime(c.packet_bytes or SIZE)
+    on_air = modem.airtime(message_bytes(scenario))
     extra = float(np.mean([link.extra_delay for link in c.links])) if c.links else 0.0
     raw = on_air + flight + c.jitter / 2 + extra
     return dt * max(1, math.ceil(raw / dt - 1e-9))

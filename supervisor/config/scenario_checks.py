@@ -265,9 +265,8 @@ def _paths(sc: Scenario) -> Iterator[str]:
 
 def _comms(sc: Scenario) -> Iterator[str]:
     """Links, TDMA order and packet size against the fleet and the modem; the models' own checks."""
-    from comms.records.wire import SIZE
     from supervisor.config.fleet import channel_params
-    from supervisor.config.medium import modem_params
+    from supervisor.config.medium import message_bytes, modem_params
 
     ids = sc.vehicle_ids
     edges = {tuple(e) for e in sc.graph.edges} | {(j, i) for i, j in sc.graph.edges}
@@ -281,7 +280,7 @@ def _comms(sc: Scenario) -> Iterator[str]:
     if tdma is not None and tdma.order is not None and sorted(tdma.order) != sorted(ids):
         yield f"comms.tdma.order: must list every vehicle once {sorted(ids)}, got {list(tdma.order)}"
     radio = modem_params(sc)
-    size = sc.comms.packet_bytes or SIZE
+    size = message_bytes(sc)
     if radio.max_bytes is not None and size > radio.max_bytes:
         yield f"comms.packet_bytes: the {sc.comms.modem} modem takes {radio.max_bytes} B, got {size}"
     yield from _reception(sc, radio.collisions)

@@ -321,7 +321,7 @@ PathSpec = Annotated[HelixPath | CirclePath | LinePath | LawnmowerPath, Field(di
 class VehicleSection(StrictModel):
     """One AUV: its id, where it starts and the path it follows."""
 
-    id: VehicleId = Field(description="vehicle id, unique, at most 255 (one byte on the wire)")
+    id: VehicleId = Field(description="vehicle id, unique, at most 65535 (2 bytes on the wire if one is over 255)")
     position: Position = Field(description="initial [x, y, z], m (z up)")
     attitude_rpy_deg: tuple[Degrees, Degrees, Degrees] = Field(
         default=(0.0, 0.0, 0.0), description="initial roll, pitch, yaw, deg"

@@ -43,7 +43,7 @@ MAX_ANGLE = 1000.0  # rad: an angle beyond a few turns is a typo (degrees given 
 MAX_GAIN = 1e4  # a controller or coordination gain
 MAX_GAMMA = 1e6  # units of gamma: gamma0, offsets, thresholds (float32 on the wire keeps 7 digits of it)
 MAX_RATE = 1e6  # units of gamma per s: v_r, a gamma_dot cap
-MAX_COUNT = 65_025  # items of a list that grows with the fleet (edges, links): 255 x 255
+MAX_COUNT = 65_025  # items of a list that grows with the fleet (edges, links): a complete graph of 361 AUVs
 MAX_BYTES = 1_000_000  # B: a packet or frame
 
 Length = Annotated[float, Strict(), Field(ge=-MAX_LENGTH, le=MAX_LENGTH)]

@@ -30,7 +30,9 @@ class ClosedLoop:
 
     def transmitted(self, tx: Transmission | None) -> None:
         if tx is not None:
-            carried = decode_coordination(encode_coordination(tx))
+            # wide takes any id; the floats it carries are those of the fleet's own message, which differs in the
+            # sender's width alone
+            carried = decode_coordination(encode_coordination(tx, wide=True), wide=True)
             self.sent[(tx.sender, tx.data_time)] = (carried.gamma, carried.gamma_dot)
 
     def heard(self, batch: list[Heard]) -> list[Heard]:
