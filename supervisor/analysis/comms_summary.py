@@ -16,6 +16,7 @@ import msgspec
 
 from comms.broker.stats import clamp_lambda2
 from comms.records.reports import LinkCounts
+from supervisor.analysis.condense import MAX_ROWS, SHOWN, kept_note
 
 BY_NO_KEY = "any key"  # a reader that reports one count, not by key (the broker)
 
@@ -74,14 +75,23 @@ def comms_summary(
 
 
 def format_comms(summary: CommsSummary) -> str:
-    header = f"{'link':<8}{'sent':>7}{'deliv':>7}  {'dropped by cause':<34}"
+    """A row per directed link; more than MAX_ROWS links: the SHOWN that delivered the smallest share of what they
+    sent (supervisor.analysis.condense), then all of them added up."""
+    rows = list(summary.links)
+    if len(rows) > MAX_ROWS:
+        rows = sorted(rows, key=lambda r: r.delivered / r.sent if r.sent else 1.0)[:SHOWN]  # stable: ties in order
+    width = max([8] + [len(f"{r.sender}->{r.receiver}") + 1 for r in rows])
+    header = f"{'link':<{width}}{'sent':>7}{'deliv':>7}  {'dropped by cause':<34}"
     lines = [header + f"{'delay mean/max [s]':>20}{'age mean/max [s]':>19}"]
-    for r in summary.links:
+    for r in rows + ([_total(summary.links)] if len(rows) < len(summary.links) else []):
+        name = f"{r.sender}->{r.receiver}" if r.sender else f"all {len(summary.links)}"
         causes = ", ".join(f"{n} {cause}" for cause, n in sorted(r.dropped.items())) or "-"
         lines.append(
-            f"{r.sender}->{r.receiver:<5}{r.sent:>7}{r.delivered:>7}  {causes:<34}"
+            f"{name:<{width}}{r.sent:>7}{r.delivered:>7}  {causes:<34}"
             f"{_pair(r.mean_delay, r.max_delay):>20}{_pair(r.mean_age, r.max_age):>19}"
         )
+    if len(rows) < len(summary.links):
+        lines.append(kept_note(len(rows), len(summary.links), "links that delivered least, then all of them"))
     if (silent := _silent(summary.links)) is not None:
         lines.append(silent)
     if summary.lambda2_min is not None and summary.lambda2_mean is not None:
@@ -90,6 +100,24 @@ def format_comms(summary: CommsSummary) -> str:
             f"min {summary.lambda2_min:.3f}, mean {summary.lambda2_mean:.3f} (0 = disconnected)"
         )
     return "\n".join(lines)
+
+
+def _total(links: Sequence[LinkRow]) -> LinkRow:
+    """Every link's books added up (sender 0: the row of all of them); means weighted by what each link delivered
+    (delays) or by link (ages, which have no count here)."""
+    dropped: dict[str, int] = {}
+    for r in links:
+        for cause, n in r.dropped.items():
+            dropped[cause] = dropped.get(cause, 0) + n
+    delays = [(r.mean_delay, r.delivered) for r in links if r.mean_delay is not None and r.delivered]
+    ages = [r.mean_age for r in links if r.mean_age is not None]
+    return LinkRow(
+        0, 0, sum(r.sent for r in links), sum(r.delivered for r in links), dropped,
+        sum(d * n for d, n in delays) / sum(n for _, n in delays) if delays else None,
+        max((r.max_delay for r in links if r.max_delay is not None), default=None),
+        sum(ages) / len(ages) if ages else None,
+        max((r.max_age for r in links if r.max_age is not None), default=None),
+    )  # fmt: skip
 
 
 def _silent(links: Sequence[LinkRow]) -> str | None:

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from supervisor.analysis.condense import MAX_ROWS, SHOWN, kept_note
 from supervisor.analysis.summary import Series
 from supervisor.config.fleet import vehicle_config
 from supervisor.config.scenario_schema import Scenario
@@ -59,16 +60,21 @@ def _limits(scenario: Scenario, vehicle: int, surge: np.ndarray) -> list[np.ndar
 
 
 def format_input_limits(times: list[InputTime] | None) -> str | None:
-    """One line per vehicle that spent any time at a limit, for the run summary; None if none did (or no inputs)."""
+    """One line per vehicle that spent any time at a limit, for the run summary; None if none did (or no inputs).
+    More than MAX_ROWS such vehicles: the SHOWN that spent the most time at a limit (supervisor.analysis.condense)."""
     if times is None:
         return None
-    lines = []
+    found = []
     for item in times:
         shares = [(name, s / item.alive) for name, s in zip(INPUTS, item.seconds, strict=True) if item.alive and s > 0]
         if shares:
             text = ", ".join(f"{name} {percent(share)}" for name, share in shares)
-            lines.append(f"vehicle {item.vehicle}: inputs at their limits for {text} of its time")
-    return "\n".join(lines) or None
+            line = f"vehicle {item.vehicle}: inputs at their limits for {text} of its time"
+            found.append((max(share for _, share in shares), line))
+    if len(found) <= MAX_ROWS:
+        return "\n".join(line for _, line in found) or None
+    most = sorted(found, key=lambda item: -item[0])[:SHOWN]  # stable: the earlier vehicle first among equals
+    return "\n".join([line for _, line in most] + [kept_note(SHOWN, len(found), "vehicles at a limit that were there longest")])
 
 
 def percent(share: float) -> str:

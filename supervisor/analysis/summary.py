@@ -18,6 +18,7 @@ from itertools import pairwise
 import numpy as np
 
 from comms.records.records import FloatArray
+from supervisor.analysis.condense import MAX_ROWS, spread
 
 
 @dataclass(frozen=True, slots=True)
@@ -158,6 +159,8 @@ def format_summary(summary: Summary) -> str:
     for p in summary.phases:
         span = f"{p.start:.0f}-{p.end:.0f}"
         rates = " ".join(_number(v, ".3f", 9) for v in p.mean_gamma_dot)  # "-": the vehicle was down all the phase
+        if len(p.mean_gamma_dot) > MAX_ROWS:
+            rates = spread(p.mean_gamma_dot, ".3f")
         path = _number(p.max_path_error, ".3f", 14)  # "-": within the transient
         lines.append(
             f"{p.name:<22}{span:>14}{_number(p.max_coordination_error, '.4g', 11):>12}"

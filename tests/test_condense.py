@@ -1,0 +1,60 @@
+"""The run summary of a large fleet (supervisor.analysis.condense): a table with more than MAX_ROWS rows prints the
+SHOWN a reader looks for first (links that delivered least, vehicles longest at an input limit), then all links
+added up, and says so; the mean gamma_dot of many vehicles is their range. Up to MAX_ROWS, every row as before."""
+
+from __future__ import annotations
+
+import math
+
+from supervisor.analysis.comms_summary import CommsSummary, LinkRow, format_comms
+from supervisor.analysis.condense import MAX_ROWS, SHOWN
+from supervisor.analysis.input_limits import InputTime, format_input_limits
+from supervisor.analysis.summary import PhaseStats, Summary, format_summary
+
+
+def ring_links(n: int) -> tuple[LinkRow, ...]:
+    """Links i -> i+1 of a ring; link k delivers all but k % 7 of its 20 packets, 0.1 s late on average."""
+    return tuple(
+        LinkRow(i, i % n + 1, 20, 20 - i % 7, {"noise": i % 7} if i % 7 else {}, 0.1 * i, 0.2 * i, 1.0, 2.0 + i)
+        for i in range(1, n + 1)
+    )
+
+
+def test_a_long_link_table_shows_the_links_that_delivered_least_and_all_of_them_added_up():
+    links = ring_links(300)
+    lines = format_comms(CommsSummary(links, None, None, 0)).splitlines()
+    shown = [line.split()[0] for line in lines[1 : 1 + SHOWN]]
+    assert shown == [f"{i}->{i + 1}" for i in (6, 13, 20, 27, 34, 41, 48, 55, 62, 69)]  # 14 of 20; in order on ties
+    total = lines[1 + SHOWN].split()
+    delivered = sum(r.delivered for r in links)
+    assert total[:4] == ["all", "300", str(20 * 300), str(delivered)]
+    assert f"{sum(i % 7 for i in range(1, 301))} noise" in lines[1 + SHOWN]
+    mean_delay = sum(0.1 * r.sender * r.delivered for r in links) / delivered  # weighted by what each delivered
+    assert f"{mean_delay:.2f} / {0.2 * 300:.2f}" in lines[1 + SHOWN] and f"1.00 / {2.0 + 300:.2f}" in lines[1 + SHOWN]
+    assert lines[2 + SHOWN].startswith(f"(above: the {SHOWN} of 300 links that delivered least")
+    assert len(lines) == 3 + SHOWN
+
+
+def test_a_table_up_to_its_limit_prints_every_row_in_order():
+    lines = format_comms(CommsSummary(ring_links(MAX_ROWS), None, None, 0)).splitlines()
+    assert [line.split()[0] for line in lines[1:]] == [f"{i}->{i % MAX_ROWS + 1}" for i in range(1, MAX_ROWS + 1)]
+
+
+def test_many_vehicles_at_a_limit_show_those_there_longest():
+    times = [InputTime(v, (0.0, float(v % 40), 0.0), 100.0) for v in range(1, 61)]  # 41-60 tie with 1-20
+    lines = str(format_input_limits(times)).splitlines()
+    assert [int(line.split()[1][:-1]) for line in lines[:SHOWN]] == list(range(39, 29, -1))
+    assert lines[SHOWN].startswith(
+        f"(above: the {SHOWN} of 59 vehicles at a limit"
+    )  # (40: never) and len(lines) == SHOWN + 1
+    few = str(format_input_limits(times[:MAX_ROWS])).splitlines()
+    assert len(few) == MAX_ROWS and few[0] == "vehicle 1: inputs at their limits for pitch 1 % of its time"
+
+
+def test_the_mean_gamma_dot_of_many_vehicles_is_their_range():
+    rates = tuple([math.nan] + [0.5 + 0.001 * i for i in range(1, 40)])
+    phase = PhaseStats("whole run", 0.0, 10.0, 1.0, 0.5, math.nan, rates)
+    text = format_summary(Summary((phase,), 1.2, math.nan, None, None, 0.01)).splitlines()[1]
+    assert text.endswith("0.501 to 0.539 over 40 vehicles")
+    few = PhaseStats("whole run", 0.0, 10.0, 1.0, 0.5, math.nan, rates[:3])
+    assert format_summary(Summary((few,), 1.2, math.nan, None, None, 0.01)).splitlines()[1].endswith("- 0.501 0.502")
