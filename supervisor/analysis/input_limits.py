@@ -74,7 +74,8 @@ def format_input_limits(times: list[InputTime] | None) -> str | None:
     if len(found) <= MAX_ROWS:
         return "\n".join(line for _, line in found) or None
     most = sorted(found, key=lambda item: -item[0])[:SHOWN]  # stable: the earlier vehicle first among equals
-    return "\n".join([line for _, line in most] + [kept_note(SHOWN, len(found), "vehicles at a limit that were there longest")])
+    note = kept_note(SHOWN, len(found), "vehicles at a limit that were there longest")
+    return "\n".join([line for _, line in most] + [note])
 
 
 def percent(share: float) -> str:

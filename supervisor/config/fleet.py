@@ -30,6 +30,7 @@ from supervisor.config.controller_choice import controller_name, controller_opti
 from supervisor.config.extensions import extension
 from supervisor.config.links import needs_fitting
 from supervisor.config.medium import modem_params, sound_speed
+from supervisor.config.per_scenario import per_scenario
 from supervisor.config.plant import actuators_of, current_of, plant_of
 from supervisor.config.scenario_schema import (
     BurstSection,
@@ -108,9 +109,10 @@ def vehicle_config(scenario: Scenario, vehicle_id: int, seed: int | None = None)
     )
 
 
+@per_scenario
 def coupling_k(scenario: Scenario) -> float:
     """The k law (5) runs with (supervisor.config.stability.scenario.coupling_gain), the analysis and its scipy
-    imported only where k must be fitted to the links."""
+    imported only where k must be fitted to the links; once per scenario (every vehicle's configuration needs it)."""
     if not needs_fitting(scenario):
         return scenario.coordination.k
     from supervisor.config.stability.scenario import coupling_gain
