@@ -20,7 +20,12 @@ SLOW = '\n[comms.transmit]\npolicy = "periodic"\nperiod = 1.0\n'  # k fitted to 
 def test_every_vehicle_of_a_fleet_gets_the_gain_worked_out_once(monkeypatch):
     calls = []
     real = stability.coupling_gain
-    monkeypatch.setattr(stability, "coupling_gain", lambda sc: calls.append(sc) or real(sc))
+
+    def counted(sc):
+        calls.append(sc)
+        return real(sc)
+
+    monkeypatch.setattr(stability, "coupling_gain", counted)
     sc = parse_scenario(ring_scenario(12, 10.0) + SLOW, "ring.toml")
     ks = {fleet.vehicle_config(sc, vid).coordination.k for vid in sc.vehicle_ids}
     assert len(calls) == 1 and ks == {real(sc)}  # fitted (the analysis ran), and the same for all
