@@ -5,6 +5,8 @@ added up, and says so; the mean gamma_dot of many vehicles is their range. Up to
 from __future__ import annotations
 
 import math
+from pathlib import Path
+from typing import Any
 
 from supervisor.analysis.comms_summary import CommsSummary, LinkRow, format_comms
 from supervisor.analysis.condense import MAX_ROWS, SHOWN
@@ -58,3 +60,19 @@ def test_the_mean_gamma_dot_of_many_vehicles_is_their_range():
     assert text.endswith("0.501 to 0.539 over 40 vehicles")
     few = PhaseStats("whole run", 0.0, 10.0, 1.0, 0.5, math.nan, rates[:3])
     assert format_summary(Summary((few,), 1.2, math.nan, None, None, 0.01)).splitlines()[1].endswith("- 0.501 0.502")
+
+
+def test_the_headline_of_a_run_slower_than_real_time_says_how_much_slower():
+    """(It said "0x real time" for 1000 AUVs at 0.33x.)"""
+    from types import SimpleNamespace
+
+    from supervisor.cli.run import _headline
+    from supervisor.config.scenario import parse_scenario
+    from tests.conftest import CONFIGS
+
+    sc = parse_scenario((CONFIGS / "paper.toml").read_text(), "paper.toml")
+    result: Any = SimpleNamespace(stepping_time=1200.0, wall_time=1210.0, scene_messages=0, messages=5)
+    args: Any = SimpleNamespace(engine="inprocess")
+    assert "(stepping 1200.00 s, 0.33x real time)" in _headline(args, sc, result, Path("r.mcap"))
+    result.stepping_time = 4.0
+    assert "(stepping 4.00 s, 100x real time)" in _headline(args, sc, result, Path("r.mcap"))

@@ -204,7 +204,8 @@ def _headline(args: argparse.Namespace, scenario: Scenario, result: RunResult, o
     return (
         f"{scenario.scenario.name}: {len(scenario.vehicles)} vehicles, {args.engine} engine, "
         f"{duration:g} s simulated in {result.wall_time:.2f} s "
-        f"(stepping {result.stepping_time:.2f} s, {factor:.0f}x real time), {result.messages} messages{scene} -> {out}"
+        f"(stepping {result.stepping_time:.2f} s, {factor:.{0 if factor >= 10 else 2}f}x real time), "
+        f"{result.messages} messages{scene} -> {out}"
     )
 
 
