@@ -6,7 +6,9 @@ Rules that decide what is drawn (each chosen by the data, never by the scenario'
 - Colours: one per vehicle, the same vehicle in the same colour in every figure; tab10 up to 10 vehicles, tab20 up
   to 20, evenly spaced hues of a continuous colormap beyond, so no two vehicles share a colour.
 - Legends: up to LEGEND_INSIDE_MAX entries inside the axes where they hide least; more go beside the axes, in columns
-  of at most LEGEND_ROWS_MAX, and constrained layout keeps them within the saved image.
+  of at most LEGEND_ROWS_MAX, and constrained layout keeps them within the saved image. More than
+  LEGEND_VEHICLES_MAX vehicles (lines marked with gid VEHICLE): a colour bar from hue to vehicle replaces their
+  entries (1000 entries did not fit any image), the other entries stay in the legend.
 - Coordination errors (Fig. 5): up to PAIRWISE_MAX_VEHICLES vehicles, gamma_i - gamma_j for every pair as in the
   paper; more vehicles, each vehicle's gamma_i minus the mean gamma of the vehicles alive at that instant (NaN where
   a vehicle is down), with the fleet's spread max gamma - min gamma, the coordination error of the summary. The
@@ -33,6 +35,8 @@ import numpy as np
 from matplotlib import colormaps
 from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.cm import ScalarMappable
+from matplotlib.colors import BoundaryNorm, ListedColormap
 from matplotlib.figure import Figure
 from matplotlib.legend import Legend
 from matplotlib.lines import Line2D
@@ -76,6 +80,9 @@ PAIRWISE_MAX_VEHICLES = 4  # 6 pairs: the paper's Fig. 5 shows 3; at 5 vehicles 
 FLAT_RATIO = 0.1  # depth span / horizontal span at or below which the trajectories are drawn top-down only
 LEGEND_INSIDE_MAX = 6
 LEGEND_ROWS_MAX = 16
+LEGEND_VEHICLES_MAX = 4 * LEGEND_ROWS_MAX  # vehicles named one by one in a legend; more: a colour bar
+VEHICLE = "cpf-vehicle"  # the gid of an artist drawn for one vehicle in its colour (place_legend)
+KEY_TICKS = 6  # vehicles named on a colour bar
 TIME_DECIMALS = 9  # time stamps of different vehicles are matched after rounding to 1 ns
 
 
@@ -107,14 +114,36 @@ def distinct_colours(n: int) -> list[Any]:
 
 def place_legend(ax: Axes, fontsize: str = "small") -> Legend | None:
     """A legend that neither hides the data nor leaves the image: inside while short, beside the axes in columns
-    when long (constrained layout makes room for it); none when nothing is labelled (an empty legend warns)."""
-    count = len(ax.get_legend_handles_labels()[0])
+    when long (constrained layout makes room for it); none when nothing is labelled (an empty legend warns). More
+    than LEGEND_VEHICLES_MAX vehicles' lines: a colour bar names them (colour_key), the legend the rest."""
+    entries = list(zip(*ax.get_legend_handles_labels(), strict=True))
+    fleet = [(h, label) for h, label in entries if h.get_gid() == VEHICLE]
+    if len(fleet) > LEGEND_VEHICLES_MAX:
+        colour_key(ax, [h.get_color() for h, _ in fleet], [label for _, label in fleet])  # type: ignore[attr-defined]
+        entries = [(h, label) for h, label in entries if h.get_gid() != VEHICLE]
+    handles, labels = [h for h, _ in entries], [label for _, label in entries]
+    count = len(handles)
     if count == 0:
         return None
     if count <= LEGEND_INSIDE_MAX:
-        return ax.legend(loc="best", fontsize=fontsize)
+        return ax.legend(handles, labels, loc="best", fontsize=fontsize)
     columns = math.ceil(count / LEGEND_ROWS_MAX)
-    return ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, ncols=columns, fontsize=fontsize)
+    return ax.legend(
+        handles, labels, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, ncols=columns,
+        fontsize=fontsize,
+    )  # fmt: skip
+
+
+def colour_key(ax: Axes, colours: Sequence[Any], names: Sequence[str], figure: Figure | None = None) -> None:
+    """A colour bar beside ax with one band per vehicle in its colour, KEY_TICKS of them named (figure: the figure
+    to hold it, if not ax's)."""
+    n = len(colours)
+    mappable = ScalarMappable(BoundaryNorm(np.arange(n + 1), n), ListedColormap(list(colours)))
+    marks = sorted({round(x) for x in np.linspace(0, n - 1, KEY_TICKS)})
+    bar = (figure or ax.get_figure()).colorbar(mappable, ax=ax, ticks=[m + 0.5 for m in marks], fraction=0.04)  # type: ignore[union-attr]
+    bar.ax.set_yticklabels([names[m] for m in marks], fontsize="small")
+    bar.ax.minorticks_off()
+    bar.set_label(f"{n} vehicles, one hue each")
 
 
 def _shade_faults(ax: Axes, faults: Sequence[FaultInterval]) -> None:
@@ -188,6 +217,9 @@ def fig_trajectories(run: RunData) -> Figure:
     _draw_top_down(top, run, colours, _depth_note(run) if flat else "")
     fig.suptitle(f"Coordinated path-following: {run.name}")
     handles = [Line2D([], [], color=colours[v], lw=1.6, label=f"AUV {v}") for v in run.vehicles]
+    if len(handles) > LEGEND_VEHICLES_MAX:
+        colour_key(top, list(colours.values()), [f"AUV {v}" for v in run.vehicles], fig)
+        handles = []
     handles += _style_key()
     fig.legend(handles=handles, loc="outside right upper", fontsize="small", ncols=math.ceil(len(handles) / 20))
     return fig
@@ -283,7 +315,7 @@ def _per_vehicle(ax: Axes, run: RunData, column: Callable[[VehicleSeries], Array
     """One line per vehicle in its colour, broken where the vehicle was down."""
     t, values = aligned(run, column)
     for k, (vehicle, c) in enumerate(_vehicle_colours(run).items()):
-        ax.plot(t, values[:, k], color=c, label=f"AUV {vehicle}")
+        ax.plot(t, values[:, k], color=c, label=f"AUV {vehicle}", gid=VEHICLE)
 
 
 def fig_coordination_errors(run: RunData) -> Figure:
@@ -353,7 +385,9 @@ def _from_mean(ax: Axes, run: RunData, t: Array, gamma: Array) -> Array:
     spread[alive] = np.nanmax(gamma[alive], axis=1) - np.nanmin(gamma[alive], axis=1)
     colours = _vehicle_colours(run)
     for column, vehicle in enumerate(run.vehicles):
-        ax.plot(t, gamma[:, column] - mean, color=colours[vehicle], lw=1.2, label=rf"$\gamma_{{{vehicle}}}$")
+        ax.plot(
+            t, gamma[:, column] - mean, color=colours[vehicle], lw=1.2, label=rf"$\gamma_{{{vehicle}}}$", gid=VEHICLE
+        )
     ax.plot(t, spread, color="k", lw=2.0, ls=":", label=r"spread $\max_i \gamma_i - \min_i \gamma_i$")
     return spread
 

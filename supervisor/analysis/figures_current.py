@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from matplotlib.figure import Figure
 
-from supervisor.analysis.figures import _vehicle_colours, finish_time_axes, new_figure
+from supervisor.analysis.figures import VEHICLE, _vehicle_colours, finish_time_axes, new_figure
 from supervisor.analysis.metrics import run_scenario
 from supervisor.analysis.rundata import RunData
 from supervisor.config.plant import current_of
@@ -35,7 +35,7 @@ def fig_current_estimates(run: RunData) -> Figure:
             continue
         made = None if truth is None else [truth.velocity(t, z) for t, z in zip(s.t, s.position[:, 2], strict=True)]
         for axis, ax in enumerate(axes):
-            ax.plot(s.t, s.current_estimate[:, axis], color=c, lw=1.0, label=f"AUV {vehicle}")
+            ax.plot(s.t, s.current_estimate[:, axis], color=c, lw=1.0, label=f"AUV {vehicle}", gid=VEHICLE)
             if made is not None:
                 ax.plot(s.t, [m[axis] for m in made], color=c, lw=1.0, ls="--")
     if truth is not None:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from matplotlib.figure import Figure
 
-from supervisor.analysis.figures import _vehicle_colours, finish_time_axes, new_figure
+from supervisor.analysis.figures import VEHICLE, _vehicle_colours, finish_time_axes, new_figure
 from supervisor.analysis.rundata import RunData
 
 FIX, FIX_LOST = 1, 2  # nav_fix in a state message (vehicles.navigation)
@@ -27,7 +27,7 @@ def fig_navigation_errors(run: RunData) -> Figure:
         s = run.vehicles[vehicle]
         if s.nav_error is None or s.nav_sigma is None or s.nav_fix is None:
             continue
-        ax.plot(s.t, s.nav_error, color=c, lw=1.0, label=f"AUV {vehicle}")
+        ax.plot(s.t, s.nav_error, color=c, lw=1.0, label=f"AUV {vehicle}", gid=VEHICLE)
         ax.plot(s.t, s.nav_sigma, color=c, lw=1.0, ls=":")
         fused, lost = s.nav_fix == FIX, s.nav_fix == FIX_LOST
         ax.plot(s.t[fused], s.nav_error[fused], "o", color=c, ms=3)

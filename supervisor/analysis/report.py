@@ -13,8 +13,10 @@ import json
 from collections.abc import Callable
 from pathlib import Path
 
+import numpy as np
 from matplotlib.figure import Figure
 
+from supervisor.analysis.condense import MAX_ROWS, SHOWN
 from supervisor.analysis.drawing import draw, workers
 from supervisor.analysis.figures import (  # colour, finish_time_axes, new_figure: for report_comms
     DPI,
@@ -93,13 +95,22 @@ def figure_builders(run: RunData) -> list[tuple[str, Callable[[RunData], Figure]
         ("fig4_path_following_errors", fig_path_following_errors),
         ("fig5_coordination_errors", fig_coordination_errors),
     ]
-    figures += [(f"fig6_velocities_auv{v}", _velocities_figure(v)) for v in run.vehicles]
+    figures += [(f"fig6_velocities_auv{v}", _velocities_figure(v)) for v in velocity_figure_vehicles(run)]
     figures.append(("gamma_dot", fig_gamma_dot))
     if has_navigation(run):
         figures.append(("navigation_errors", fig_navigation_errors))
     if has_current_estimate(run):
         figures.append(("current_estimates", fig_current_estimates))
     return figures + [(name.removesuffix(".png"), build) for name, build in comms_figures(run)]
+
+
+def velocity_figure_vehicles(run: RunData) -> list[int]:
+    """The vehicles that get a velocity figure (Fig. 6) each: every one up to MAX_ROWS, else the SHOWN that strayed
+    furthest from their paths (supervisor.analysis.condense: 1000 figures took longer than the run)."""
+    if len(run.vehicles) <= MAX_ROWS:
+        return list(run.vehicles)
+    worst = {v: float(np.nanmax(s.error_norm, initial=0.0)) for v, s in run.vehicles.items()}
+    return sorted(sorted(run.vehicles, key=lambda v: -worst[v])[:SHOWN])
 
 
 def _velocities_figure(vehicle: int) -> Callable[[RunData], Figure]:

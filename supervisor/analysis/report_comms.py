@@ -18,6 +18,7 @@ from matplotlib.ticker import LogLocator
 
 from comms.broker.stats import clamp_lambda2
 from comms.records.graph import algebraic_connectivity, laplacian
+from supervisor.analysis.condense import MAX_ROWS, SHOWN
 from supervisor.analysis.figures import colour, finish_time_axes, new_figure
 from supervisor.analysis.panels import panel_grid
 from supervisor.analysis.rundata import AgeSeries, Array, LinkLog, RunData
@@ -88,13 +89,25 @@ def _drops(link: LinkLog) -> str:
 # --- packets ------------------------------------------------------------------------------------------------
 
 
+def shown_links(run: RunData) -> tuple[list[LinkLog], str]:
+    """The links a per-link figure draws, and what its title adds: every one up to MAX_ROWS, else the SHOWN that
+    delivered the smallest share of what they sent (supervisor.analysis.condense; 2000 panels took minutes and
+    showed nothing)."""
+    links = list(run.links.values())
+    if len(links) <= MAX_ROWS:
+        return links, ""
+    worst = sorted(links, key=lambda link: link.times("delivered").size / max(link.times("sent").size, 1))
+    return worst[:SHOWN], f" (the {SHOWN} of {len(links)} links that delivered least)"
+
+
 def fig_packets(run: RunData) -> Figure:
     """Per directed link: cumulative packets sent, delivered and dropped over time."""
-    fig, axes = _panels(len(run.links), f"Packets per directed link (cumulative): {run.name}", sharey=True)
+    links, which = shown_links(run)
+    fig, axes = _panels(len(links), f"Packets per directed link (cumulative): {run.name}{which}", sharey=True)
     if not run.links:
         _empty(axes[0], "no link events (cpf/comms/events) in this log")
         return fig
-    for k, (ax, link) in enumerate(zip(axes, run.links.values(), strict=False)):
+    for k, (ax, link) in enumerate(zip(axes, links, strict=False)):
         for kind, (c, width) in KIND_STYLE.items():
             _cumulative(ax, run, link.times(kind), c, width, kind if k == 0 else "_nolegend_")
         sent, delivered = link.times("sent").size, link.times("delivered").size
@@ -121,13 +134,14 @@ def _cumulative(ax: Axes, run: RunData, times: Array, c: str, width: float, labe
 
 def fig_delays(run: RunData) -> Figure:
     """Histogram of the delivery delay (transmission to arrival) of every delivered packet, one panel per link."""
-    fig, axes = _panels(len(run.links), f"Delivery delays per directed link: {run.name}")
-    delays = [link.delays for link in run.links.values()]
+    links, which = shown_links(run)
+    fig, axes = _panels(len(links), f"Delivery delays per directed link: {run.name}{which}")
+    delays = [link.delays for link in links]
     if not any(d.size for d in delays):
         _empty(axes[0], "no delivered packets in this log")
         return fig
     bins = _delay_bins(np.concatenate(delays))
-    for k, (ax, link, d) in enumerate(zip(axes, run.links.values(), delays, strict=False)):
+    for k, (ax, link, d) in enumerate(zip(axes, links, delays, strict=False)):
         if d.size:
             # stepfilled: one polygon per panel, not a patch per bin (20 panels of 40 bins: 0.9 s of CPU less)
             counts, _, _ = ax.hist(d, bins=bins.tolist(), color=colour(k), alpha=0.8, histtype="stepfilled")
@@ -170,8 +184,8 @@ def _delay_bins(delays: Array) -> Array:
 
 def fig_estimate_age(run: RunData) -> Figure:
     """Per vehicle: the age of its estimate of each neighbour over time (sawtooth: resets at each reception)."""
-    holders = sorted({holder for _, holder in run.estimate_ages})
-    fig, axes = _panels(len(holders), f"Age of each vehicle's neighbour estimates: {run.name}", sharey=True)
+    holders, which = _shown_holders(run)
+    fig, axes = _panels(len(holders), f"Age of each vehicle's neighbour estimates: {run.name}{which}", sharey=True)
     if not holders:
         _empty(axes[0], "no estimate ages (estimate_age of cpf/vehicle/<id>/state) in this log")
         return fig
@@ -184,6 +198,20 @@ def fig_estimate_age(run: RunData) -> Figure:
         finish_time_axes(ax, run, "age [s]", f"AUV {holder}'s estimates")
     _only_bottom_xlabels(axes)
     return fig
+
+
+def _shown_holders(run: RunData) -> tuple[list[int], str]:
+    """The vehicles whose estimates get a panel: every one up to MAX_ROWS, else the SHOWN whose estimates got
+    oldest (supervisor.analysis.condense)."""
+    holders = sorted({holder for _, holder in run.estimate_ages})
+    if len(holders) <= MAX_ROWS:
+        return holders, ""
+    oldest: dict[int, float] = {}
+    for (_, holder), ages in run.estimate_ages.items():
+        if ages.age.size:
+            oldest[holder] = max(oldest.get(holder, 0.0), float(ages.age.max()))
+    chosen = sorted(holders, key=lambda h: -oldest.get(h, 0.0))[:SHOWN]
+    return sorted(chosen), f" (the {SHOWN} of {len(holders)} vehicles whose estimates got oldest)"
 
 
 def _age_line(ax: Axes, neighbour: int, ages: AgeSeries) -> None:
