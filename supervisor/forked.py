@@ -27,7 +27,11 @@ LOST = 255  # the exit code of a child whose status went with a killed fork serv
 STATUS_WAIT = 1.0  # s for the server's word on a child its pidfd says has ended
 SOCKET_ENV = "CPF_FORK_SERVER_SOCKET"  # the descriptor of the fork server's end of the socket
 MAX_MESSAGE = 1 << 20  # bytes: a request carries the child's whole environment
-MAX_FDS = 64
+MAX_FDS = 253  # Linux's SCM_MAX_FD, the most one message passes: a host of 150 vehicles passes 151 (64 made it spawn)
+
+
+class TooManyDescriptors(OSError):
+    """A child whose descriptors one message cannot pass (a host of > 250 vehicles): spawn it instead."""
 
 
 def available() -> bool:
@@ -87,7 +91,9 @@ class ForkServer:
         self, args: list[str], env: Mapping[str, str], stdio: tuple[int, int], fds: tuple[int, ...]
     ) -> ForkedProcess:
         """A child running `cpf <args>` with stdin and stderr (stdio) and fds at their numbers; OSError if the
-        server is gone or refused."""
+        server is gone or refused; TooManyDescriptors (the server is fine) if they do not fit in one message."""
+        if len(stdio) + len(fds) > MAX_FDS:
+            raise TooManyDescriptors(f"{len(stdio) + len(fds)} descriptors, more than one message passes ({MAX_FDS})")
         title = " ".join([sys.executable, "-P", *CLI, *args])  # the command line a spawned child would show
         request = {"argv": args, "title": title, "env": dict(env), "cwd": os.getcwd(), "targets": list(fds)}
         with self._lock:

@@ -17,6 +17,7 @@ lifeline.
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import logging
 import os
 import signal
@@ -35,6 +36,8 @@ from supervisor import forked
 FORK_SERVER_TIMEOUT = 30.0  # s for the fork server to import what a child needs (~0.4 s of CPU)
 log = logging.getLogger(__name__)
 Process = subprocess.Popen[bytes] | forked.ForkedProcess
+
+STEM_MAX = 64  # characters of a process name in a file name
 
 
 @dataclass
@@ -140,6 +143,8 @@ class ProcessGroup:
         if server is not None and args is not None:
             try:
                 return server.fork(args, env, (self._lifeline_read, stderr.fileno()), fds)
+            except forked.TooManyDescriptors as exc:  # this child alone is spawned
+                log.debug("spawning %s: %s", " ".join(args[:1]), exc)
             except OSError as exc:  # killed, say: this child and the next are spawned
                 log.warning("cannot fork %s (%s): spawning it", " ".join(args[:1]), exc)
                 self._fork = False
@@ -239,7 +244,16 @@ class ProcessGroup:
 
 
 def _stderr_file(name: str) -> IO[bytes]:
-    return tempfile.TemporaryFile(prefix="cpf-" + name.replace(",", "-").replace(" ", "-") + "-")
+    return tempfile.TemporaryFile(prefix=f"cpf-{file_stem(name)}-")
+
+
+def file_stem(name: str) -> str:
+    """A process's name as part of a file name: a host's names its vehicles ('vehicles 1,2,...,150': 540 characters
+    past the 255 a file name may have), so a long one keeps its start and a digest of the whole."""
+    text = name.replace(",", "-").replace(" ", "-")
+    if len(text) <= STEM_MAX:
+        return text
+    return f"{text[: STEM_MAX - 13]}-{hashlib.sha256(text.encode()).hexdigest()[:12]}"
 
 
 def _signal_group(pid: int, sig: signal.Signals) -> None:

@@ -36,6 +36,9 @@ from supervisor.config.scenario_schema import Scenario
 from supervisor.engine.hosting import hosted_ids
 from supervisor.engine.launch import BusOptions
 
+ZENOH_MAX_SESSIONS = 1000  # Zenoh's default transport/unicast/max_sessions
+SPARE_SESSIONS = 64  # beyond the fleet and the broker: live viewers, replay tools
+
 
 @dataclass(frozen=True, slots=True)
 class RunAccess:
@@ -103,11 +106,20 @@ def run_access(sc: Scenario, bus: BusOptions, endpoint: str) -> Iterator[RunAcce
         entries["transport/link/tls/listen_certificate_base64"] = pem_base64(tls.certificate)
         entries["transport/link/tls/listen_private_key_base64"] = pem_base64(tls.key)
     entries["access_control"] = access_control(credentials)
+    entries.update(session_room(len(sc.vehicle_ids)))
     if bus.credentials_dir is not None:
         hand_out(bus.credentials_dir, [credentials[vehicle_name(v)] for v in bus.remote])
     with _private(credentials) as (users, files, fds):
         entries["transport/auth/usrpwd/dictionary_file"] = users
         yield RunAccess(Extras(bus.zenoh_config, entries, credentials=True), files, fds)
+
+
+def session_room(vehicles: int) -> dict[str, object]:
+    """The router's session limit, raised where the fleet needs more than Zenoh's default 1000 (every vehicle its own
+    session, hosted or not, and the broker; SPARE_SESSIONS for live viewers and tools): the 1000th vehicle of a ring
+    of 1000 was refused, and the run timed out waiting for it to come alive."""
+    needed = vehicles + 1 + SPARE_SESSIONS
+    return {"transport/unicast/max_sessions": needed} if needed > ZENOH_MAX_SESSIONS else {}
 
 
 @contextlib.contextmanager

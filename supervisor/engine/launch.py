@@ -14,6 +14,7 @@ from pathlib import Path
 
 from comms.broker.broker_start import BrokerStart
 from comms.bus.handover import write_private
+from supervisor.processes import file_stem
 from vehicles.start import VehicleStart
 
 START_TIMEOUT = 60.0  # s for a process to declare its liveliness token (cpf run --start-timeout)
@@ -74,7 +75,7 @@ class Launch:
         """The options that hand the process `name` what it serves (a vehicle process its starts, the broker its
         start): written to a file of the run's private directory, one per process start (a restart's replaces the
         last)."""
-        path = self.private_dir / f"{name.replace(' ', '-').replace(',', '-')}.start"
+        path = self.private_dir / f"{file_stem(name)}.start"
         path.unlink(missing_ok=True)
         write_private(path, start)
         return ["--plan", str(path)]
