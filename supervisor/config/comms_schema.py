@@ -173,8 +173,9 @@ class CommsSection(StrictModel):
     half_duplex: bool | None = Field(default=None, description="deaf while transmitting; overrides the modem's")
     collisions: bool | None = Field(default=None, description="overlapping packets lost; overrides the modem's")
     packet_bytes: Int | None = Field(
-        default=None, gt=0, le=MAX_BYTES, description="B on air; omitted: the encoded message size (15 B)"
-    )
+        default=None, gt=0, le=MAX_BYTES,
+        description="B on air; omitted: the encoded message size (15 B; 16 B if an id is over 255)",
+    )  # fmt: skip
     jitter: Float = Field(default=0.0, ge=0, le=MAX_DELAY, description="extra delay, uniform on [0, jitter], s")
     loss: Float = Field(default=0.0, ge=0, le=1, description="independent (Bernoulli) loss per directed link")
     burst: BurstSection | None = Field(default=None, description="bursty (Gilbert-Elliott) loss per directed link")
