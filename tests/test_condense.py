@@ -43,14 +43,21 @@ def test_a_table_up_to_its_limit_prints_every_row_in_order():
 
 
 def test_many_vehicles_at_a_limit_show_those_there_longest():
-    times = [InputTime(v, (0.0, float(v % 40), 0.0), 100.0) for v in range(1, 61)]  # 41-60 tie with 1-20
+    times = [InputTime(v, (0.0, float(v % 10), 0.0), 100.0) for v in range(1, 61)]  # six vehicles to each share
     lines = str(format_input_limits(times)).splitlines()
-    assert [int(line.split()[1][:-1]) for line in lines[:SHOWN]] == list(range(39, 29, -1))
-    assert lines[SHOWN].startswith(
-        f"(above: the {SHOWN} of 59 vehicles at a limit"
-    )  # (40: never) and len(lines) == SHOWN + 1
+    assert [int(line.split()[1][:-1]) for line in lines[:SHOWN]] == [9, 19, 29, 39, 49, 59, 8, 18, 28, 38]  # ties: in
+    # the fleet's order
+    assert lines[SHOWN].startswith(f"(above: the {SHOWN} of 54 vehicles at a limit")  # (10, 20, ...: never at one)
+    assert len(lines) == SHOWN + 1
     few = str(format_input_limits(times[:MAX_ROWS])).splitlines()
-    assert len(few) == MAX_ROWS and few[0] == "vehicle 1: inputs at their limits for pitch 1 % of its time"
+    assert len(few) == MAX_ROWS - 2 and few[0] == "vehicle 1: inputs at their limits for pitch 1 % of its time"
+
+
+def test_a_long_table_with_large_counts_keeps_its_columns_apart():
+    """(The total of 1560 links of 700 packets ran into its own numbers: 'all 156010920001076400'.)"""
+    links = tuple(LinkRow(i, i + 1, 700, 690, {"noise": 10}, 0.1, 0.2, 1.0, 2.0) for i in range(1, 1561))
+    total = format_comms(CommsSummary(links, None, None, 0)).splitlines()[1 + SHOWN].split()
+    assert total[:5] == ["all", "1560", str(700 * 1560), str(690 * 1560), str(10 * 1560)]
 
 
 def test_the_mean_gamma_dot_of_many_vehicles_is_their_range():

@@ -9,6 +9,7 @@ A ring of 70 AUVs (140 directed links), 3 s, in-process; its first vehicle start
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -18,8 +19,9 @@ from matplotlib.figure import Figure
 from benchmarks.bench_scaling import ring_scenario
 from supervisor.analysis.condense import MAX_ROWS, SHOWN
 from supervisor.analysis.figures import LEGEND_VEHICLES_MAX, fig_coordination_errors, fig_trajectories
+from supervisor.analysis.figures_current import fig_current_estimates
 from supervisor.analysis.report import figure_builders, velocity_figure_vehicles
-from supervisor.analysis.report_comms import fig_packets, shown_links
+from supervisor.analysis.report_comms import fig_estimate_age, fig_packets, shown_links
 from supervisor.analysis.rundata import RunData, load_run
 from tests.procs import cpf
 
@@ -61,7 +63,7 @@ def test_link_figures_go_to_the_links_that_delivered_least_and_say_so(run: RunDa
 
 
 def _colour_bars(fig: Figure) -> list[str]:
-    return [ax.get_ylabel() for ax in fig.axes if ax.get_label() == "<colorbar>"]
+    return [ax.get_ylabel() for ax in fig.axes if ax.get_ylabel().endswith("one hue each")]
 
 
 def test_a_colour_bar_names_the_vehicles_where_a_legend_would_not_fit(run: RunData) -> None:
@@ -80,3 +82,25 @@ def test_a_fleet_within_the_legend_keeps_its_legend(tmp_path: Path) -> None:
     fig = fig_coordination_errors(small)
     assert _colour_bars(fig) == [] and len(fig.axes[0].get_legend().get_texts()) == 8 + 1  # type: ignore[union-attr]
     assert len(velocity_figure_vehicles(small)) == 8 and len(shown_links(small)[0]) == 16
+
+
+@pytest.fixture(scope="module")
+def dense(tmp_path_factory: pytest.TempPathFactory) -> RunData:
+    """70 AUVs, every pair linked (69 neighbours each), estimating a current, 1 s."""
+    where = tmp_path_factory.mktemp("dense")
+    edges = ", ".join(f"[{i}, {j}]" for i in range(1, FLEET + 1) for j in range(i + 1, FLEET + 1))
+    text = re.sub(r"edges = \[.*\]", f"edges = [{edges}]", ring_scenario(FLEET, 1.0))
+    (where / "dense.toml").write_text(text + '\n[environment]\ncurrent = [0.2, 0.1, 0.0]\nestimate_current = "on"\n')
+    done = cpf("run", "dense.toml", "--engine", "inprocess", "--quiet", "--out", "r.mcap", cwd=where)
+    assert done.returncode == 0, done.stderr
+    return load_run(where / "r.mcap")
+
+
+def test_estimate_ages_of_many_neighbours_share_one_colour_bar(dense: RunData) -> None:
+    fig = fig_estimate_age(dense)
+    assert _colour_bars(fig) == [f"{FLEET} vehicles, one hue each"]  # (10 panels had a legend of 69 entries each)
+    assert all(ax.get_legend() is None for ax in fig.axes)
+
+
+def test_current_estimates_of_a_large_fleet_have_one_colour_bar(dense: RunData) -> None:
+    assert _colour_bars(fig_current_estimates(dense)) == [f"{FLEET} vehicles, one hue each"]  # (one per axis)

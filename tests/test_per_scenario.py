@@ -47,4 +47,4 @@ def test_each_scenario_object_has_its_own_value_and_its_entry_goes_with_it():
     gc.collect()
     assert gone() is None  # the cache holds no scenario alive
     fresh = parse_scenario(text.replace('name = "paper"', 'name = "third"'), "c.toml")
-    assert name(fresh) == "third" and seen == ["paper", "other", "third"]  # (a reused id never returns a dead value)
+    assert name(fresh) == "third" and seen == ["paper", "other", "third"]

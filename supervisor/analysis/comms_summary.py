@@ -77,21 +77,22 @@ def comms_summary(
 def format_comms(summary: CommsSummary) -> str:
     """A row per directed link; more than MAX_ROWS links: the SHOWN that delivered the smallest share of what they
     sent (supervisor.analysis.condense), then all of them added up."""
-    rows = list(summary.links)
-    if len(rows) > MAX_ROWS:
-        rows = sorted(rows, key=lambda r: r.delivered / r.sent if r.sent else 1.0)[:SHOWN]  # stable: ties in order
-    width = max([8] + [len(f"{r.sender}->{r.receiver}") + 1 for r in rows])
-    header = f"{'link':<{width}}{'sent':>7}{'deliv':>7}  {'dropped by cause':<34}"
+    rows, condensed = list(summary.links), len(summary.links) > MAX_ROWS
+    if condensed:  # sorted is stable: ties in order
+        rows = [*sorted(rows, key=lambda r: r.delivered / r.sent if r.sent else 1.0)[:SHOWN], _total(summary.links)]
+    names = [f"{r.sender}->{r.receiver}" if r.sender else f"all {len(summary.links)}" for r in rows]
+    width = max([8] + [len(name) + 1 for name in names])
+    count = max([6] + [len(str(r.sent)) for r in rows]) + 1  # the total's counts too
+    header = f"{'link':<{width}}{'sent':>{count}}{'deliv':>{count}}  {'dropped by cause':<34}"
     lines = [header + f"{'delay mean/max [s]':>20}{'age mean/max [s]':>19}"]
-    for r in rows + ([_total(summary.links)] if len(rows) < len(summary.links) else []):
-        name = f"{r.sender}->{r.receiver}" if r.sender else f"all {len(summary.links)}"
+    for name, r in zip(names, rows, strict=True):
         causes = ", ".join(f"{n} {cause}" for cause, n in sorted(r.dropped.items())) or "-"
         lines.append(
-            f"{name:<{width}}{r.sent:>7}{r.delivered:>7}  {causes:<34}"
+            f"{name:<{width}}{r.sent:>{count}}{r.delivered:>{count}}  {causes:<34}"
             f"{_pair(r.mean_delay, r.max_delay):>20}{_pair(r.mean_age, r.max_age):>19}"
         )
-    if len(rows) < len(summary.links):
-        lines.append(kept_note(len(rows), len(summary.links), "links that delivered least, then all of them"))
+    if condensed:
+        lines.append(kept_note(SHOWN, len(summary.links), "links that delivered least, then all of them"))
     if (silent := _silent(summary.links)) is not None:
         lines.append(silent)
     if summary.lambda2_min is not None and summary.lambda2_mean is not None:

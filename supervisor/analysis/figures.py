@@ -56,6 +56,7 @@ __all__ = [
     "PAIRWISE_MAX_VEHICLES",
     "aligned",
     "colour",
+    "colour_key",
     "distinct_colours",
     "fig_coordination_errors",
     "fig_gamma_dot",
@@ -67,6 +68,7 @@ __all__ = [
     "new_figure",
     "place_legend",
     "save",
+    "vehicle_colours",
 ]
 
 Array = NDArray[np.float64]
@@ -134,13 +136,22 @@ def place_legend(ax: Axes, fontsize: str = "small") -> Legend | None:
     )  # fmt: skip
 
 
-def colour_key(ax: Axes, colours: Sequence[Any], names: Sequence[str], figure: Figure | None = None) -> None:
+def colour_key(
+    ax: Axes, colours: Sequence[Any], names: Sequence[str], figure: Figure | None = None, inside: bool = False
+) -> None:
     """A colour bar beside ax with one band per vehicle in its colour, KEY_TICKS of them named (figure: the figure
-    to hold it, if not ax's)."""
+    to hold it, if not ax's); inside: drawn in ax itself (an axes made for it, on a figure without a layout
+    engine)."""
     n = len(colours)
     mappable = ScalarMappable(BoundaryNorm(np.arange(n + 1), n), ListedColormap(list(colours)))
     marks = sorted({round(x) for x in np.linspace(0, n - 1, KEY_TICKS)})
-    bar = (figure or ax.get_figure()).colorbar(mappable, ax=ax, ticks=[m + 0.5 for m in marks], fraction=0.04)  # type: ignore[union-attr]
+    holder = figure or ax.get_figure()
+    assert holder is not None  # ax is on a figure
+    ticks = [m + 0.5 for m in marks]
+    if inside:
+        bar = holder.colorbar(mappable, cax=ax, ticks=ticks)
+    else:
+        bar = holder.colorbar(mappable, ax=ax, ticks=ticks, fraction=0.04)
     bar.ax.set_yticklabels([names[m] for m in marks], fontsize="small")
     bar.ax.minorticks_off()
     bar.set_label(f"{n} vehicles, one hue each")
@@ -173,7 +184,7 @@ def finish_time_axes(ax: Axes, run: RunData, ylabel: str, title: str | None = No
     place_legend(ax)
 
 
-def _vehicle_colours(run: RunData) -> dict[int, Any]:
+def vehicle_colours(run: RunData) -> dict[int, Any]:
     return dict(zip(run.vehicles, distinct_colours(len(run.vehicles)), strict=True))
 
 
@@ -210,7 +221,7 @@ def fig_trajectories(run: RunData) -> Figure:
     fig = new_figure(9.0, 7.5) if flat else new_figure(15.0, 7.0)
     if not flat:  # constrained layout does not see the 3-D axes' z label: keep it off the top-down view's y label
         fig.set_layout_engine("constrained", wspace=0.12)
-    colours = _vehicle_colours(run)
+    colours = vehicle_colours(run)
     if not flat:
         _draw_3d(fig.add_subplot(1, 2, 1, projection="3d"), run, colours)
     top = fig.add_subplot(1, 1, 1) if flat else fig.add_subplot(1, 2, 2)
@@ -314,7 +325,7 @@ def aligned(run: RunData, column: Callable[[VehicleSeries], Array]) -> tuple[Arr
 def _per_vehicle(ax: Axes, run: RunData, column: Callable[[VehicleSeries], Array]) -> None:
     """One line per vehicle in its colour, broken where the vehicle was down."""
     t, values = aligned(run, column)
-    for k, (vehicle, c) in enumerate(_vehicle_colours(run).items()):
+    for k, (vehicle, c) in enumerate(vehicle_colours(run).items()):
         ax.plot(t, values[:, k], color=c, label=f"AUV {vehicle}", gid=VEHICLE)
 
 
@@ -383,7 +394,7 @@ def _from_mean(ax: Axes, run: RunData, t: Array, gamma: Array) -> Array:
     mean, spread = np.full(len(t), np.nan), np.full(len(t), np.nan)
     mean[alive] = np.nanmean(gamma[alive], axis=1)
     spread[alive] = np.nanmax(gamma[alive], axis=1) - np.nanmin(gamma[alive], axis=1)
-    colours = _vehicle_colours(run)
+    colours = vehicle_colours(run)
     for column, vehicle in enumerate(run.vehicles):
         ax.plot(
             t, gamma[:, column] - mean, color=colours[vehicle], lw=1.2, label=rf"$\gamma_{{{vehicle}}}$", gid=VEHICLE

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from matplotlib.figure import Figure
 
-from supervisor.analysis.figures import VEHICLE, _vehicle_colours, finish_time_axes, new_figure
+from supervisor.analysis.figures import VEHICLE, finish_time_axes, new_figure, vehicle_colours
 from supervisor.analysis.metrics import run_scenario
 from supervisor.analysis.rundata import RunData
 from supervisor.config.plant import current_of
@@ -29,13 +29,14 @@ def fig_current_estimates(run: RunData) -> Figure:
     fig = new_figure()
     axes = fig.subplots(2, 1, sharex=True)
     truth = _true_current(run)
-    for vehicle, c in _vehicle_colours(run).items():
+    for vehicle, c in vehicle_colours(run).items():
         s = run.vehicles[vehicle]
         if s.current_estimate is None:
             continue
         made = None if truth is None else [truth.velocity(t, z) for t, z in zip(s.t, s.position[:, 2], strict=True)]
         for axis, ax in enumerate(axes):
-            ax.plot(s.t, s.current_estimate[:, axis], color=c, lw=1.0, label=f"AUV {vehicle}", gid=VEHICLE)
+            named = {"label": f"AUV {vehicle}", "gid": VEHICLE} if axis == 0 else {}  # one key for both axes
+            ax.plot(s.t, s.current_estimate[:, axis], color=c, lw=1.0, **named)
             if made is not None:
                 ax.plot(s.t, [m[axis] for m in made], color=c, lw=1.0, ls="--")
     if truth is not None:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from matplotlib.figure import Figure
 
-from supervisor.analysis.figures import VEHICLE, _vehicle_colours, finish_time_axes, new_figure
+from supervisor.analysis.figures import VEHICLE, finish_time_axes, new_figure, vehicle_colours
 from supervisor.analysis.rundata import RunData
 
 FIX, FIX_LOST = 1, 2  # nav_fix in a state message (vehicles.navigation)
@@ -23,7 +23,7 @@ def fig_navigation_errors(run: RunData) -> Figure:
     """|p_hat_i - p_i| per vehicle, the filter's 1-sigma, and the fix instants."""
     fig = new_figure()
     ax = fig.add_subplot()
-    for vehicle, c in _vehicle_colours(run).items():
+    for vehicle, c in vehicle_colours(run).items():
         s = run.vehicles[vehicle]
         if s.nav_error is None or s.nav_sigma is None or s.nav_fix is None:
             continue

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
 from matplotlib.axes import Axes
@@ -19,13 +20,21 @@ from matplotlib.ticker import LogLocator
 from comms.broker.stats import clamp_lambda2
 from comms.records.graph import algebraic_connectivity, laplacian
 from supervisor.analysis.condense import MAX_ROWS, SHOWN
-from supervisor.analysis.figures import colour, finish_time_axes, new_figure
+from supervisor.analysis.figures import (
+    LEGEND_VEHICLES_MAX,
+    colour,
+    colour_key,
+    finish_time_axes,
+    new_figure,
+    vehicle_colours,
+)
 from supervisor.analysis.panels import panel_grid
 from supervisor.analysis.rundata import AgeSeries, Array, LinkLog, RunData
 
 __all__ = ["comms_figures"]
 
 PANEL_HEIGHT = 1.9  # in per subplot row
+KEY_ROOM = 1.6  # in of right margin for a colour bar and its names
 MAX_ROWS_ONE_COLUMN = 4
 DELAY_BINS = 40
 SKEWED_COUNTS = 20.0  # tallest / smallest non-empty bar above which the count axis is logarithmic
@@ -190,12 +199,19 @@ def fig_estimate_age(run: RunData) -> Figure:
         _empty(axes[0], "no estimate ages (estimate_age of cpf/vehicle/<id>/state) in this log")
         return fig
     top = max(float(a.age.max()) for a in run.estimate_ages.values() if a.age.size) * HEADROOM or 1.0
+    colours = vehicle_colours(run)
+    mine = {holder: {n: ages for (n, h), ages in run.estimate_ages.items() if h == holder} for holder in holders}
+    named = max(len(of) for of in mine.values()) <= LEGEND_VEHICLES_MAX  # else one colour bar for every panel
     for ax, holder in zip(axes, holders, strict=True):
-        mine = {n: ages for (n, h), ages in run.estimate_ages.items() if h == holder}
-        for neighbour, ages in mine.items():
-            _age_line(ax, neighbour, ages)
+        for neighbour, ages in mine[holder].items():
+            _age_line(ax, neighbour, ages, colours.get(neighbour, "0.5"), named)
         ax.set_ylim(0.0, top)  # explicit: a constant age (ideal channel) would sit on the frame
         finish_time_axes(ax, run, "age [s]", f"AUV {holder}'s estimates")
+    if not named:  # in a margin made for it: the panels are on a fixed grid (supervisor.analysis.panels)
+        width = fig.get_figwidth()
+        fig.subplots_adjust(right=1 - KEY_ROOM / width)
+        key = fig.add_axes((1 - (KEY_ROOM - 0.25) / width, 0.1, 0.15 / width, 0.8))
+        colour_key(key, list(colours.values()), [f"AUV {v}" for v in colours], inside=True)
     _only_bottom_xlabels(axes)
     return fig
 
@@ -214,9 +230,10 @@ def _shown_holders(run: RunData) -> tuple[list[int], str]:
     return sorted(chosen), f" (the {SHOWN} of {len(holders)} vehicles whose estimates got oldest)"
 
 
-def _age_line(ax: Axes, neighbour: int, ages: AgeSeries) -> None:
-    label = f"of AUV {neighbour} (max {ages.age.max():.1f} s, mean {ages.age.mean():.1f} s)"
-    ax.plot(ages.t, ages.age, color=colour(neighbour - 1), lw=1.2, label=label)
+def _age_line(ax: Axes, neighbour: int, ages: AgeSeries, c: Any, named: bool) -> None:
+    """In the neighbour's colour of every figure, named in the legend (named) or by the figure's colour bar."""
+    label = f"of AUV {neighbour} (max {ages.age.max():.1f} s, mean {ages.age.mean():.1f} s)" if named else "_nolegend_"
+    ax.plot(ages.t, ages.age, color=c, lw=1.2, label=label)
 
 
 # --- connectivity -------------------------------------------------------------------------------------------
