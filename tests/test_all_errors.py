@@ -119,9 +119,10 @@ def test_a_thousand_errors_print_the_first_twenty_and_a_count(
     from supervisor.cli import main
     from supervisor.errors import SHOWN_ERRORS
 
-    vehicles = "".join(
-        f"[[vehicles]]\nid = {i}\nposition = [0.0, {i}.0, -10.0]\n"
-        f'path = {{ type = "line", start = [0.0, {i}.0, -10.0], velocity = [1.0, 0.0, 0.0] }}\n'
+    vehicles = "".join(  # each vehicle 1 Tm deep, and its path too: two errors each (its id was a third, when ids
+        # stopped at 255)
+        f"[[vehicles]]\nid = {i}\nposition = [0.0, {i}.0, -1e12]\n"
+        f'path = {{ type = "line", start = [0.0, {i}.0, -1e12], velocity = [1.0, 0.0, 0.0] }}\n'
         for i in range(1, 601)
     )
     edges = ", ".join(f"[{i}, {i + 1}]" for i in range(1, 600))

@@ -86,3 +86,19 @@ def test_a_fleet_with_an_id_of_300_runs_on_both_engines_alike_with_sixteen_byte_
     delays = [e["delay"] for e in events if e["kind"] == "delivered"]
     assert {e["sender"] for e in events} == {1, 2, 300} and len(delays) > 10
     assert min(delays) >= 1.6 - 1e-9 and max(delays) < 1.6 + 0.04  # 16 B at 80 bit/s, plus the flight
+
+
+def test_a_fleet_past_the_logs_channels_is_refused_in_one_line_counting_it():
+    """MCAP numbers channels in 16 bits and each vehicle has ~5: at most MAX_FLEET vehicles (ids go to 65535)."""
+    from supervisor.config.schema_base import MAX_FLEET
+    from supervisor.errors import ScenarioError
+
+    vehicles = "".join(
+        f'\n[[vehicles]]\nid = {i}\nposition = [0.0, {i}.0, 0.0]\npath = {{ type = "line", start = [0.0, {i}.0, 0.0], '
+        "velocity = [1.0, 0.0, 0.0] }\n"
+        for i in range(1, MAX_FLEET + 2)
+    )
+    text = '[scenario]\nname = "big"\nduration = 1.0\nstep = 0.1\n[graph]\nedges = [[1, 2]]\n' + vehicles
+    with pytest.raises(ScenarioError) as refused:
+        parse_scenario(text, "big.toml")
+    assert str(refused.value) == f"big.toml: vehicles: must have at most {MAX_FLEET} items, got {MAX_FLEET + 1}"

@@ -13,11 +13,11 @@ from supervisor.config.schema_base import (
     MAX_BYTES,
     MAX_COUNT,
     MAX_DELAY,
+    MAX_FLEET,
     MAX_GAIN,
     MAX_GAMMA,
     MAX_LENGTH,
     MAX_TIME,
-    MAX_VEHICLE_ID,
     ExtensionName,
     Float,
     Int,
@@ -150,7 +150,7 @@ class TdmaSection(StrictModel):
     )
     order: tuple[VehicleId, ...] | None = Field(
         default=None,
-        max_length=MAX_VEHICLE_ID,
+        max_length=MAX_FLEET,
         description="slot owners in order, every vehicle once; omitted: the ids as listed",
     )
 

@@ -54,6 +54,7 @@ def _file_location(loc: tuple[int | str, ...], data: object, missing: bool) -> l
     return out
 
 
+SHOWN_ITEMS = 10  # a list refused as too long is shown up to this many items, else counted
 _PROBLEMS = {
     "missing": "missing required field",
     "extra_forbidden": "unknown key",
@@ -79,6 +80,8 @@ def _describe(error: ErrorDetails, data: object) -> tuple[str, str]:
     problem = _PROBLEMS.get(kind) or error["msg"].removeprefix("Value error, ")
     problem = problem.replace("Input should be", "must be").replace("Tuple should have", "must have")
     shown = "" if kind in ("missing", "extra_forbidden") else f", got {_show(value)}"
+    if kind == "too_long" and isinstance(value, list | tuple) and len(value) > SHOWN_ITEMS:  # 10001 vehicles
+        shown = f", got {len(value)}"
     return format_location(loc), re.sub(r" after validation, not \d+$", "", problem) + shown
 
 

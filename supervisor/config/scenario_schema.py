@@ -42,12 +42,12 @@ from supervisor.config.plant_schema import UNCERTAINTY_DESCRIPTION, EnvironmentS
 from supervisor.config.saturation_schema import SaturationSection
 from supervisor.config.schema_base import (
     MAX_COUNT,
+    MAX_FLEET,
     MAX_GAIN,
     MAX_GAMMA,
     MAX_LENGTH,
     MAX_RATE,
     MAX_TIME,
-    MAX_VEHICLE_ID,
     MIN_STEP,
     Degrees,
     ExtensionName,
@@ -377,7 +377,7 @@ class Scenario(StrictModel):
     coordination: CoordinationSection = CoordinationSection()
     graph: GraphSection
     vehicles: tuple[VehicleSection, ...] = Field(
-        min_length=2, max_length=MAX_VEHICLE_ID, description="the fleet: one [[vehicles]] per AUV"
+        min_length=2, max_length=MAX_FLEET, description="the fleet: one [[vehicles]] per AUV"
     )
     comms: CommsSection = CommsSection()
     faults: tuple[FaultSpec, ...] = Field(

@@ -26,7 +26,7 @@ from pydantic import (
 from comms.records.fields import MAX_SPEED, MAX_TIME
 from comms.records.wire import MAX_VEHICLE_ID
 
-__all__ = ["MAX_SPEED", "MAX_TIME", "MAX_VEHICLE_ID"]
+__all__ = ["MAX_FLEET", "MAX_SPEED", "MAX_TIME", "MAX_VEHICLE_ID"]
 
 # Numbers as TOML writes them: an integer is a valid float, a string ("400") or a boolean is not a number.
 Float = Annotated[float, Strict()]
@@ -43,6 +43,7 @@ MAX_ANGLE = 1000.0  # rad: an angle beyond a few turns is a typo (degrees given 
 MAX_GAIN = 1e4  # a controller or coordination gain
 MAX_GAMMA = 1e6  # units of gamma: gamma0, offsets, thresholds (float32 on the wire keeps 7 digits of it)
 MAX_RATE = 1e6  # units of gamma per s: v_r, a gamma_dot cap
+MAX_FLEET = 10_000  # vehicles: each has ~5 log channels (state, tx, rx, scene), and MCAP numbers channels in 16 bits
 MAX_COUNT = 65_025  # items of a list that grows with the fleet (edges, links): a complete graph of 361 AUVs
 MAX_BYTES = 1_000_000  # B: a packet or frame
 
