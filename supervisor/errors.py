@@ -45,3 +45,8 @@ class RecoveryError(CpfError, ValueError):
 class CorruptRecord(Exception):
     """`cpf recover`, internal: a record that is not what its prefix announces; the scan stops before it. Not a
     CpfError: recovery catches it, it never reaches the user."""
+
+
+class TooManyDescriptors(OSError):
+    """A child whose descriptors one message to the fork server cannot pass (a host of > 250 vehicles: each its
+    credential): it is spawned instead, and the fork server goes on serving (supervisor.forked)."""

@@ -22,16 +22,14 @@ import time
 from collections.abc import Callable, Mapping
 from typing import Any
 
+from supervisor.errors import TooManyDescriptors
+
 CLI = ("-m", "supervisor.cli")  # the command lines the server can fork: `python [-P] -m supervisor.cli ...`
 LOST = 255  # the exit code of a child whose status went with a killed fork server
 STATUS_WAIT = 1.0  # s for the server's word on a child its pidfd says has ended
 SOCKET_ENV = "CPF_FORK_SERVER_SOCKET"  # the descriptor of the fork server's end of the socket
 MAX_MESSAGE = 1 << 20  # bytes: a request carries the child's whole environment
 MAX_FDS = 253  # Linux's SCM_MAX_FD, the most one message passes: a host of 150 vehicles passes 151 (64 made it spawn)
-
-
-class TooManyDescriptors(OSError):
-    """A child whose descriptors one message cannot pass (a host of > 250 vehicles): spawn it instead."""
 
 
 def available() -> bool:

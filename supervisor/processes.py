@@ -32,6 +32,7 @@ from typing import IO
 
 from comms.bus import lifeline
 from supervisor import forked
+from supervisor.errors import TooManyDescriptors
 
 FORK_SERVER_TIMEOUT = 30.0  # s for the fork server to import what a child needs (~0.4 s of CPU)
 log = logging.getLogger(__name__)
@@ -143,7 +144,7 @@ class ProcessGroup:
         if server is not None and args is not None:
             try:
                 return server.fork(args, env, (self._lifeline_read, stderr.fileno()), fds)
-            except forked.TooManyDescriptors as exc:  # this child alone is spawned
+            except TooManyDescriptors as exc:  # this child alone is spawned
                 log.debug("spawning %s: %s", " ".join(args[:1]), exc)
             except OSError as exc:  # killed, say: this child and the next are spawned
                 log.warning("cannot fork %s (%s): spawning it", " ".join(args[:1]), exc)

@@ -18,8 +18,9 @@ from matplotlib.figure import Figure
 
 from benchmarks.bench_scaling import ring_scenario
 from supervisor.analysis.condense import MAX_ROWS, SHOWN
-from supervisor.analysis.figures import LEGEND_VEHICLES_MAX, fig_coordination_errors, fig_trajectories
+from supervisor.analysis.figures import fig_coordination_errors, fig_trajectories
 from supervisor.analysis.figures_current import fig_current_estimates
+from supervisor.analysis.legends import LEGEND_VEHICLES_MAX
 from supervisor.analysis.report import figure_builders, velocity_figure_vehicles
 from supervisor.analysis.report_comms import fig_estimate_age, fig_packets, shown_links
 from supervisor.analysis.rundata import RunData, load_run

@@ -15,13 +15,12 @@ import struct
 from collections.abc import Iterable
 from dataclasses import dataclass
 
+from comms.records.ids import NARROW_IDS
 from comms.records.records import Transmission
 
 NARROW = struct.Struct("<BHIff")  # 15 bytes: every id of the fleet fits in one
 WIDE = struct.Struct("<HHIff")  # 16 bytes
 SIZE = NARROW.size  # 15 bytes: the message of a fleet whose ids fit in a byte
-MAX_VEHICLE_ID = 65535
-NARROW_IDS = 255
 
 
 @dataclass(frozen=True, slots=True)

@@ -5,10 +5,10 @@ Rules that decide what is drawn (each chosen by the data, never by the scenario'
 
 - Colours: one per vehicle, the same vehicle in the same colour in every figure; tab10 up to 10 vehicles, tab20 up
   to 20, evenly spaced hues of a continuous colormap beyond, so no two vehicles share a colour.
-- Legends: up to LEGEND_INSIDE_MAX entries inside the axes where they hide least; more go beside the axes, in columns
-  of at most LEGEND_ROWS_MAX, and constrained layout keeps them within the saved image. More than
-  LEGEND_VEHICLES_MAX vehicles (lines marked with gid VEHICLE): a colour bar from hue to vehicle replaces their
-  entries (1000 entries did not fit any image), the other entries stay in the legend.
+- Legends (supervisor.analysis.legends): up to LEGEND_INSIDE_MAX entries inside the axes where they hide least; more
+  go beside the axes, in columns of at most LEGEND_ROWS_MAX, and constrained layout keeps them within the saved
+  image. More than LEGEND_VEHICLES_MAX vehicles (lines marked with gid VEHICLE): a colour bar from hue to vehicle
+  replaces their entries (1000 entries did not fit any image), the other entries stay in the legend.
 - Coordination errors (Fig. 5): up to PAIRWISE_MAX_VEHICLES vehicles, gamma_i - gamma_j for every pair as in the
   paper; more vehicles, each vehicle's gamma_i minus the mean gamma of the vehicles alive at that instant (NaN where
   a vehicle is down), with the fleet's spread max gamma - min gamma, the coordination error of the summary. The
@@ -35,13 +35,11 @@ import numpy as np
 from matplotlib import colormaps
 from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.cm import ScalarMappable
-from matplotlib.colors import BoundaryNorm, ListedColormap
 from matplotlib.figure import Figure
-from matplotlib.legend import Legend
 from matplotlib.lines import Line2D
 from numpy.typing import NDArray
 
+from supervisor.analysis.legends import LEGEND_VEHICLES_MAX, VEHICLE, colour_key, place_legend
 from supervisor.analysis.panels import panel_grid
 from supervisor.config.derived import gamma_unit, rate_label
 
@@ -56,7 +54,6 @@ __all__ = [
     "PAIRWISE_MAX_VEHICLES",
     "aligned",
     "colour",
-    "colour_key",
     "distinct_colours",
     "fig_coordination_errors",
     "fig_gamma_dot",
@@ -66,7 +63,6 @@ __all__ = [
     "finish_time_axes",
     "is_flat",
     "new_figure",
-    "place_legend",
     "save",
     "vehicle_colours",
 ]
@@ -80,11 +76,6 @@ FAULT_HATCHES = ("", "//", "\\\\", "xx", "..")  # tells distinct fault labels ap
 SYMLOG_DECADES = 2  # coordination errors are drawn symlog only if their peak is this many decades above their level
 PAIRWISE_MAX_VEHICLES = 4  # 6 pairs: the paper's Fig. 5 shows 3; at 5 vehicles there would be 10 lines
 FLAT_RATIO = 0.1  # depth span / horizontal span at or below which the trajectories are drawn top-down only
-LEGEND_INSIDE_MAX = 6
-LEGEND_ROWS_MAX = 16
-LEGEND_VEHICLES_MAX = 4 * LEGEND_ROWS_MAX  # vehicles named one by one in a legend; more: a colour bar
-VEHICLE = "cpf-vehicle"  # the gid of an artist drawn for one vehicle in its colour (place_legend)
-KEY_TICKS = 6  # vehicles named on a colour bar
 TIME_DECIMALS = 9  # time stamps of different vehicles are matched after rounding to 1 ns
 
 
@@ -112,49 +103,6 @@ def distinct_colours(n: int) -> list[Any]:
     if n <= 20:
         return [colormaps["tab20"](k) for k in range(n)]
     return [colormaps["turbo"](x) for x in np.linspace(0.05, 0.95, n)]
-
-
-def place_legend(ax: Axes, fontsize: str = "small") -> Legend | None:
-    """A legend that neither hides the data nor leaves the image: inside while short, beside the axes in columns
-    when long (constrained layout makes room for it); none when nothing is labelled (an empty legend warns). More
-    than LEGEND_VEHICLES_MAX vehicles' lines: a colour bar names them (colour_key), the legend the rest."""
-    entries = list(zip(*ax.get_legend_handles_labels(), strict=True))
-    fleet = [(h, label) for h, label in entries if h.get_gid() == VEHICLE]
-    if len(fleet) > LEGEND_VEHICLES_MAX:
-        colour_key(ax, [h.get_color() for h, _ in fleet], [label for _, label in fleet])  # type: ignore[attr-defined]
-        entries = [(h, label) for h, label in entries if h.get_gid() != VEHICLE]
-    handles, labels = [h for h, _ in entries], [label for _, label in entries]
-    count = len(handles)
-    if count == 0:
-        return None
-    if count <= LEGEND_INSIDE_MAX:
-        return ax.legend(handles, labels, loc="best", fontsize=fontsize)
-    columns = math.ceil(count / LEGEND_ROWS_MAX)
-    return ax.legend(
-        handles, labels, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, ncols=columns,
-        fontsize=fontsize,
-    )  # fmt: skip
-
-
-def colour_key(
-    ax: Axes, colours: Sequence[Any], names: Sequence[str], figure: Figure | None = None, inside: bool = False
-) -> None:
-    """A colour bar beside ax with one band per vehicle in its colour, KEY_TICKS of them named (figure: the figure
-    to hold it, if not ax's); inside: drawn in ax itself (an axes made for it, on a figure without a layout
-    engine)."""
-    n = len(colours)
-    mappable = ScalarMappable(BoundaryNorm(np.arange(n + 1), n), ListedColormap(list(colours)))
-    marks = sorted({round(x) for x in np.linspace(0, n - 1, KEY_TICKS)})
-    holder = figure or ax.get_figure()
-    assert holder is not None  # ax is on a figure
-    ticks = [m + 0.5 for m in marks]
-    if inside:
-        bar = holder.colorbar(mappable, cax=ax, ticks=ticks)
-    else:
-        bar = holder.colorbar(mappable, ax=ax, ticks=ticks, fraction=0.04)
-    bar.ax.set_yticklabels([names[m] for m in marks], fontsize="small")
-    bar.ax.minorticks_off()
-    bar.set_label(f"{n} vehicles, one hue each")
 
 
 def _shade_faults(ax: Axes, faults: Sequence[FaultInterval]) -> None:

@@ -6,7 +6,8 @@ from __future__ import annotations
 
 from matplotlib.figure import Figure
 
-from supervisor.analysis.figures import VEHICLE, finish_time_axes, new_figure, vehicle_colours
+from supervisor.analysis.figures import finish_time_axes, new_figure, vehicle_colours
+from supervisor.analysis.legends import VEHICLE
 from supervisor.analysis.metrics import run_scenario
 from supervisor.analysis.rundata import RunData
 from supervisor.config.plant import current_of

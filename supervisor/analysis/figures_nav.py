@@ -9,7 +9,8 @@ from __future__ import annotations
 
 from matplotlib.figure import Figure
 
-from supervisor.analysis.figures import VEHICLE, finish_time_axes, new_figure, vehicle_colours
+from supervisor.analysis.figures import finish_time_axes, new_figure, vehicle_colours
+from supervisor.analysis.legends import VEHICLE
 from supervisor.analysis.rundata import RunData
 
 FIX, FIX_LOST = 1, 2  # nav_fix in a state message (vehicles.navigation)

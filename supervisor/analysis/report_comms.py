@@ -20,14 +20,8 @@ from matplotlib.ticker import LogLocator
 from comms.broker.stats import clamp_lambda2
 from comms.records.graph import algebraic_connectivity, laplacian
 from supervisor.analysis.condense import MAX_ROWS, SHOWN
-from supervisor.analysis.figures import (
-    LEGEND_VEHICLES_MAX,
-    colour,
-    colour_key,
-    finish_time_axes,
-    new_figure,
-    vehicle_colours,
-)
+from supervisor.analysis.figures import colour, finish_time_axes, new_figure, vehicle_colours
+from supervisor.analysis.legends import LEGEND_VEHICLES_MAX, colour_key
 from supervisor.analysis.panels import panel_grid
 from supervisor.analysis.rundata import AgeSeries, Array, LinkLog, RunData
 

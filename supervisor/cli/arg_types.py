@@ -7,7 +7,7 @@ import argparse
 import math
 from collections.abc import Callable
 
-from comms.records.wire import MAX_VEHICLE_ID
+from comms.records.ids import MAX_VEHICLE_ID
 
 
 def number(text: str) -> float:

@@ -7,7 +7,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import NoReturn, TypeAlias
 
-from comms.records.wire import MAX_VEHICLE_ID
+from comms.records.ids import MAX_VEHICLE_ID
 from supervisor.cli import arg_types
 from supervisor.engine import resim_settings  # light: the table only, for the help text
 from supervisor.errors import ScenarioError

@@ -24,7 +24,7 @@ from pydantic import (
 )
 
 from comms.records.fields import MAX_SPEED, MAX_TIME
-from comms.records.wire import MAX_VEHICLE_ID
+from comms.records.ids import MAX_VEHICLE_ID
 
 __all__ = ["MAX_FLEET", "MAX_SPEED", "MAX_TIME", "MAX_VEHICLE_ID"]
 

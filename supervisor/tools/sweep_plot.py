@@ -22,7 +22,8 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
-from supervisor.analysis.figures import distinct_colours, place_legend, save
+from supervisor.analysis.figures import distinct_colours, save
+from supervisor.analysis.legends import place_legend
 from supervisor.analysis.metrics import STEADY_STATE_WINDOW
 from supervisor.tools.sweep import Param
 
