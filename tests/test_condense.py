@@ -83,3 +83,31 @@ def test_the_headline_of_a_run_slower_than_real_time_says_how_much_slower():
     assert "(stepping 1200.00 s, 0.33x real time)" in _headline(args, sc, result, Path("r.mcap"))
     result.stepping_time = 4.0
     assert "(stepping 4.00 s, 100x real time)" in _headline(args, sc, result, Path("r.mcap"))
+
+
+def test_cpf_info_of_a_large_fleet_names_its_vehicles_edges_and_topics_in_a_few_lines(tmp_path):
+    """(1000 AUVs: a vehicles line of 1000 ids, a graph line of 1000 edges and 5000 topic lines.)"""
+    from benchmarks.bench_scaling import ring_scenario
+    from tests.procs import cpf
+
+    (tmp_path / "ring.toml").write_text(ring_scenario(30, 1.0))
+    assert cpf("run", "ring.toml", "--engine", "inprocess", "--quiet", "--out", "r.mcap", cwd=tmp_path).returncode == 0
+    info = cpf("info", "r.mcap", cwd=tmp_path)
+    lines = {line.split()[0]: line for line in info.stdout.splitlines() if line and not line.startswith(" ")}
+    assert lines["vehicles"].split(None, 1)[1] == "1-30 (each remus100)"
+    assert lines["graph"].split(None, 1)[1] == "30 edges: 1-2, 2-3, 3-4, 4-5, 5-6, ..., 29-30, 30-1"
+    states = [line for line in info.stdout.splitlines() if "cpf/vehicle/<id>/state" in line]
+    assert len(states) == 1 and states[0].split()[1:] == ["300", "(30", "topics,", "10-10", "each)"]
+    assert len(info.stdout.splitlines()) < 40
+
+
+def test_topics_alike_but_for_an_id_group_only_past_the_limit():
+    from supervisor.tools.info import topic_lines
+
+    few = {f"cpf/vehicle/{v}/state": 5 for v in range(1, MAX_ROWS + 1)}
+    assert len(topic_lines(few)) == MAX_ROWS
+    many = {**{f"foxglove/trail/{v}": v for v in range(1, 31)}, "foxglove/scene": 3}
+    assert topic_lines(many) == [
+        "  foxglove/scene                     3",
+        f"  {'foxglove/trail/<id>':<28}{sum(range(1, 31)):>8}  (30 topics, 1-30 each)",
+    ]

@@ -10,6 +10,8 @@ returns the error the other commands give for it (`cpf info` prints the descript
 from __future__ import annotations
 
 import json
+import re
+from collections.abc import Sequence
 from pathlib import Path
 from typing import IO
 
@@ -17,6 +19,7 @@ from mcap.records import Statistics
 from mcap.summary import Summary
 
 from comms.records.messages import META_KEY
+from supervisor.analysis.condense import MAX_ROWS, SHOWN
 from supervisor.config.describe import describe_fault, seconds
 from supervisor.record.logfile import (
     LogError,
@@ -53,9 +56,28 @@ def overview(path: Path) -> tuple[str, LogError | None]:
         f"({source})",
         *_run_lines(meta, log),
         "topics" if log.counts else "topics     none",
-        *(f"  {topic:<{TOPIC_WIDTH}}{count:>8}" for topic, count in sorted(log.counts.items())),
+        *topic_lines(log.counts),
     ]
     return "\n".join(lines), problem
+
+
+def topic_lines(counts: dict[str, int]) -> list[str]:
+    """A line per topic with its message count; topics alike but for a vehicle's number (cpf/vehicle/<id>/state),
+    more than MAX_ROWS of them, as one line: how many, their messages in all and each's least and most (1000 AUVs
+    made 5000 lines)."""
+    alike: dict[str, list[str]] = {}
+    for topic in sorted(counts):
+        alike.setdefault(re.sub(r"(?<=/)\d+(?=/|$)", "<id>", topic), []).append(topic)
+    lines = []
+    for pattern, topics in sorted(alike.items()):
+        if len(topics) <= MAX_ROWS:
+            lines += [f"  {topic:<{TOPIC_WIDTH}}{counts[topic]:>8}" for topic in topics]
+        else:
+            each = [counts[topic] for topic in topics]
+            lines.append(
+                f"  {pattern:<{TOPIC_WIDTH}}{sum(each):>8}  ({len(topics)} topics, {min(each)}-{max(each)} each)"
+            )
+    return lines
 
 
 def _overview(path: Path) -> tuple[RawLog, str, LogError | None]:
@@ -120,7 +142,7 @@ def _run_lines(meta: RunMeta | str, log: RawLog) -> list[str]:
         f"duration   {seconds(meta.duration)} s simulated (scenario); messages from t = "
         f"{seconds(_ns(log.first_time))} to {seconds(_ns(log.last_time))} s",
         f"vehicles   {_vehicles(meta)}",
-        f"graph      {', '.join(f'{i}-{j}' for i, j in meta.edges) or '-'}",
+        f"graph      {_edges(meta.edges)}",
         f"faults     {faults[0]}",
         *(f"           {line}" for line in faults[1:]),
         *_plant_lines(meta),
@@ -135,7 +157,7 @@ def _vehicles(meta: RunMeta) -> str:
     from supervisor.config.scenario_schema import Scenario
     from supervisor.config.vehicle_models import model_name_of
 
-    ids = ", ".join(str(v) for v in meta.vehicles) or "-"
+    ids = _ids(meta.vehicles) or "-"
     try:
         scenario = Scenario.model_validate(meta.scenario)
         names = [model_name_of(scenario, v) for v in meta.vehicles]
@@ -143,7 +165,33 @@ def _vehicles(meta: RunMeta) -> str:
         return ids
     if len(set(names)) == 1:
         return f"{ids} (each {names[0]})"
+    if len(names) > MAX_ROWS:  # by model: "remus100: 1-500; own: 501-1000"
+        by: dict[str, list[int]] = {}
+        for v, name in zip(meta.vehicles, names, strict=True):
+            by.setdefault(name, []).append(v)
+        return "; ".join(f"{name}: {_ids(vs)}" for name, vs in by.items())
     return ", ".join(f"{v} {name}" for v, name in zip(meta.vehicles, names, strict=True))
+
+
+def _ids(ids: Sequence[int]) -> str:
+    """Vehicle ids as listed; more than MAX_ROWS, runs of consecutive ones as ranges (1000 AUVs: '1-1000')."""
+    if len(ids) <= MAX_ROWS:
+        return ", ".join(str(v) for v in ids)
+    runs: list[list[int]] = []
+    for v in ids:
+        if runs and v == runs[-1][-1] + 1:
+            runs[-1].append(v)
+        else:
+            runs.append([v])
+    return ", ".join(f"{r[0]}-{r[-1]}" if len(r) > 2 else ", ".join(map(str, r)) for r in runs)
+
+
+def _edges(edges: Sequence[Sequence[int]]) -> str:
+    """The graph's edges; more than MAX_ROWS, how many and the first and last few."""
+    named = [f"{i}-{j}" for i, j in edges]
+    if len(named) <= MAX_ROWS:
+        return ", ".join(named) or "-"
+    return f"{len(named)} edges: {', '.join(named[: SHOWN // 2])}, ..., {', '.join(named[-2:])}"
 
 
 def _plant_lines(meta: RunMeta) -> list[str]:
