@@ -95,22 +95,27 @@ def group_members(group: int) -> list[int]:
 
 
 @pytest.mark.skipif(len(os.sched_getaffinity(0)) < 2, reason="one core: cpf report draws in its own process")
-@pytest.mark.parametrize("how", ["SIGKILL of cpf", "Ctrl-C"])
+@pytest.mark.parametrize("how", ["SIGKILL of cpf", "Ctrl-C", "SIGKILL of a worker"])
 def test_a_report_stopped_while_its_workers_draw_leaves_no_worker(log: Path, tmp_path: Path, how: str) -> None:
     report = subprocess.Popen(
         [CPF, "report", str(log), "--out", str(tmp_path)],
         start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
     )  # fmt: skip
     try:
-        assert wait_until(lambda: len(group_members(report.pid)) > 1, timeout=60), "no worker was forked"
+        drawing = 2 if how == "SIGKILL of a worker" else 1  # its draw workers (the log's reader aside is one child)
+        assert wait_until(lambda: len(group_members(report.pid)) > drawing, timeout=60), "no worker was forked"
         if how == "Ctrl-C":
             os.killpg(report.pid, signal.SIGINT)  # a terminal sends it to the whole foreground group
+        elif how == "SIGKILL of a worker":  # (the report waited for ever for the figure it was drawing)
+            os.kill(next(pid for pid in group_members(report.pid) if pid != report.pid), signal.SIGKILL)
         else:
             os.kill(report.pid, signal.SIGKILL)
         _, err = report.communicate(timeout=10)
         assert wait_until(lambda: not group_members(report.pid), timeout=5), group_members(report.pid)
         if how == "Ctrl-C":
             assert report.returncode == 130 and "Traceback" not in err and len(err.splitlines()) == 1, err
+        if how == "SIGKILL of a worker":
+            assert report.returncode == 1 and "Traceback" not in err and len(err.splitlines()) == 1, err
     finally:
         if group_members(report.pid):
             os.killpg(report.pid, signal.SIGKILL)

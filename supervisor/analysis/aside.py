@@ -21,6 +21,7 @@ from collections.abc import Callable, Iterator
 from typing import Any, Generic, TypeVar
 
 from comms.bus.lifeline import ORPHANED, set_parent_death_signal
+from supervisor.errors import CpfError
 
 T = TypeVar("T")
 
@@ -45,8 +46,9 @@ class Pending(Generic[T]):
             payload = pipe.read()  # to the end: the child has written and closed, or died
         _, status = os.waitpid(self.pid, 0)
         self.pid = None
-        if not payload:
-            return False, RuntimeError(f"the child process reading aside ended with no result (status {status})")
+        if not payload:  # killed (SIGKILL, the OOM killer): the command's failure in one line, not a traceback
+            how = f"killed by signal {os.WTERMSIG(status)}" if os.WIFSIGNALED(status) else f"status {status}"
+            return False, CpfError(f"the process reading the log aside ended with no result ({how})")
         ok, value = pickle.loads(payload)
         return bool(ok), value
 

@@ -8,7 +8,9 @@ The PNGs are the same bytes as those drawn one by one (tests/test_report.py).
 Forking is safe only in a process with no other thread (a lock another thread held would stay held in the child):
 with other threads alive (a notebook's kernel, a test runner's helpers), on one core, or for a few figures, they are
 drawn here one after the other. Workers ignore Ctrl-C (their parent ends the pool) and are killed by the kernel when
-their parent dies (comms.bus.lifeline's parent-death signal): nothing is left behind.
+their parent dies (comms.bus.lifeline's parent-death signal): nothing is left behind. A worker that dies (SIGKILL,
+the kernel's OOM killer) ends the report with one line, its other workers killed: concurrent.futures says so
+(BrokenProcessPool) where multiprocessing.Pool waited for its lost figure for ever.
 """
 
 from __future__ import annotations
@@ -19,6 +21,9 @@ import os
 import signal
 import threading
 from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
+from multiprocessing.queues import SimpleQueue
 from pathlib import Path
 
 from matplotlib.figure import Figure
@@ -26,6 +31,7 @@ from matplotlib.figure import Figure
 from comms.bus.lifeline import ORPHANED, set_parent_death_signal
 from supervisor.analysis.figures import save
 from supervisor.analysis.rundata import RunData
+from supervisor.errors import CpfError
 
 __all__ = ["MIN_PARALLEL", "draw", "workers"]
 
@@ -52,20 +58,38 @@ def draw(run: RunData, figures: Sequence[tuple[str, Builder]], out_dir: Path, pr
         return [save(build(run), out_dir / f"{name}.png") for name, build in figures]
     global _job
     _job = (run, dict(figures), out_dir)
+    context = multiprocessing.get_context("fork")
+    started: SimpleQueue[int] = context.SimpleQueue()  # each worker's pid: to kill them if the report ends early
+    pool = ProcessPoolExecutor(
+        processes, mp_context=context, initializer=_worker_start, initargs=(os.getpid(), started)
+    )
+    done = False
     try:
-        context = multiprocessing.get_context("fork")
-        with _signals_held():  # a Ctrl-C while the pool starts would leave it half-made, outside the with below
-            pool = context.Pool(processes, initializer=_worker_start, initargs=(os.getpid(),))
-        with pool:
+        with _signals_held():  # a Ctrl-C while the workers are forked would leave the pool half-made
             # Last first: a report's last figures are the channel's, of a panel per link and the slowest (an
-            # 8-vehicle run: 1-2 s each against 0.3 s); begun first, the workers end together.
-            names = [name for name, _ in reversed(figures)]
-            paths = pool.map(_draw_one, names, chunksize=1)[::-1]
-            pool.close()  # let the workers end by themselves; leaving the block terminates those that do not
-            pool.join()
-            return paths
+            # 8-vehicle run: 1-2 s each against 0.3 s); begun first, the workers end together. (The first submit
+            # forks every worker, before the pool's own thread starts.)
+            futures: list[Future[Path]] = [pool.submit(_draw_one, name) for name, _ in reversed(figures)]
+        try:
+            paths = [future.result() for future in futures][::-1]
+        except BrokenProcessPool:
+            raise CpfError("a process drawing the report's figures died (killed?): no report written") from None
+        done = True
+        return paths
     finally:
         _job = None
+        _end(pool, started, done)
+
+
+def _end(pool: ProcessPoolExecutor, started: SimpleQueue[int], done: bool) -> None:
+    """The pool shut down: its workers let end by themselves after a whole report, else killed at once."""
+    if done:
+        pool.shutdown(wait=True)
+        return
+    pool.shutdown(wait=False, cancel_futures=True)
+    while not started.empty():
+        with contextlib.suppress(ProcessLookupError):  # (a child's pid stays ours until it is reaped)
+            os.kill(started.get(), signal.SIGKILL)
 
 
 @contextlib.contextmanager
@@ -79,7 +103,8 @@ def _signals_held() -> Iterator[None]:
         signal.pthread_sigmask(signal.SIG_SETMASK, before)
 
 
-def _worker_start(parent: int) -> None:
+def _worker_start(parent: int, started: SimpleQueue[int]) -> None:
+    started.put(os.getpid())
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole group: the parent ends the pool
     signal.signal(signal.SIGTERM, signal.SIG_DFL)  # how the pool ends a worker; cpf's own handler raises in it
     signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})  # held by _signals_held
