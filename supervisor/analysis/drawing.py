@@ -20,7 +20,7 @@ import multiprocessing
 import os
 import signal
 import threading
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from multiprocessing.queues import SimpleQueue
@@ -29,6 +29,7 @@ from pathlib import Path
 from matplotlib.figure import Figure
 
 from comms.bus.lifeline import ORPHANED, set_parent_death_signal
+from supervisor.analysis.aside import signals_held
 from supervisor.analysis.figures import save
 from supervisor.analysis.rundata import RunData
 from supervisor.errors import CpfError
@@ -65,7 +66,7 @@ def draw(run: RunData, figures: Sequence[tuple[str, Builder]], out_dir: Path, pr
     )
     done = False
     try:
-        with _signals_held():  # a Ctrl-C while the workers are forked would leave the pool half-made
+        with signals_held():  # a Ctrl-C while the workers are forked would leave the pool half-made
             # Last first: a report's last figures are the channel's, of a panel per link and the slowest (an
             # 8-vehicle run: 1-2 s each against 0.3 s); begun first, the workers end together. (The first submit
             # forks every worker, before the pool's own thread starts.)
@@ -92,22 +93,11 @@ def _end(pool: ProcessPoolExecutor, started: SimpleQueue[int], done: bool) -> No
             os.kill(started.get(), signal.SIGKILL)
 
 
-@contextlib.contextmanager
-def _signals_held() -> Iterator[None]:
-    """SIGINT and SIGTERM held back (delivered on leaving), here and in the processes forked meanwhile."""
-    held = {signal.SIGINT, signal.SIGTERM}
-    before = signal.pthread_sigmask(signal.SIG_BLOCK, held)
-    try:
-        yield
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, before)
-
-
 def _worker_start(parent: int, started: SimpleQueue[int]) -> None:
     started.put(os.getpid())
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole group: the parent ends the pool
     signal.signal(signal.SIGTERM, signal.SIG_DFL)  # how the pool ends a worker; cpf's own handler raises in it
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})  # held by _signals_held
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})  # held by signals_held
     if set_parent_death_signal(signal.SIGKILL) and os.getppid() != parent:
         os._exit(ORPHANED)  # the parent died before the prctl: the signal would never come
 
