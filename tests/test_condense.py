@@ -111,3 +111,15 @@ def test_topics_alike_but_for_an_id_group_only_past_the_limit():
         "  foxglove/scene                     3",
         f"  {'foxglove/trail/<id>':<28}{sum(range(1, 31)):>8}  (30 topics, 1-30 each)",
     ]
+
+
+def test_the_summary_and_the_report_pick_the_same_links_the_same_way():
+    """One selection (condense.first_looked_at) and one share (condense.delivered_share): a link that sent nothing
+    lost nothing (the report counted it as delivering none, the summary as delivering all)."""
+    from supervisor.analysis.condense import delivered_share, first_looked_at
+
+    assert delivered_share(0, 0) == 1.0 and delivered_share(4, 1) == 0.25
+    links = [(i, 0 if i % 3 == 0 else 10, 10 - i % 5) for i in range(1, 40)]  # (name, sent, delivered)
+    shown = first_looked_at(links, lambda x: delivered_share(x[1], x[2]))
+    assert len(shown) == SHOWN and all(sent for _, sent, _ in shown)
+    assert first_looked_at(links[:MAX_ROWS], lambda x: 0.0) == links[:MAX_ROWS]

@@ -16,7 +16,7 @@ import msgspec
 
 from comms.broker.stats import clamp_lambda2
 from comms.records.reports import LinkCounts
-from supervisor.analysis.condense import MAX_ROWS, SHOWN, kept_note
+from supervisor.analysis.condense import MAX_ROWS, SHOWN, delivered_share, first_looked_at, kept_note
 
 BY_NO_KEY = "any key"  # a reader that reports one count, not by key (the broker)
 
@@ -79,7 +79,7 @@ def format_comms(summary: CommsSummary) -> str:
     sent (supervisor.analysis.condense), then all of them added up."""
     rows, condensed = list(summary.links), len(summary.links) > MAX_ROWS
     if condensed:  # sorted is stable: ties in order
-        rows = [*sorted(rows, key=lambda r: r.delivered / r.sent if r.sent else 1.0)[:SHOWN], _total(summary.links)]
+        rows = [*first_looked_at(rows, lambda r: delivered_share(r.sent, r.delivered)), _total(summary.links)]
     names = [f"{r.sender}->{r.receiver}" if r.sender else f"all {len(summary.links)}" for r in rows]
     width = max([8] + [len(name) + 1 for name in names])
     count = max([6] + [len(str(r.sent)) for r in rows]) + 1  # the total's counts too

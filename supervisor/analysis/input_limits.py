@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from supervisor.analysis.condense import MAX_ROWS, SHOWN, kept_note
+from supervisor.analysis.condense import SHOWN, first_looked_at, kept_note
 from supervisor.analysis.summary import Series
 from supervisor.config.fleet import vehicle_config
 from supervisor.config.scenario_schema import Scenario
@@ -71,11 +71,11 @@ def format_input_limits(times: list[InputTime] | None) -> str | None:
             text = ", ".join(f"{name} {percent(share)}" for name, share in shares)
             line = f"vehicle {item.vehicle}: inputs at their limits for {text} of its time"
             found.append((max(share for _, share in shares), line))
-    if len(found) <= MAX_ROWS:
-        return "\n".join(line for _, line in found) or None
-    most = sorted(found, key=lambda item: -item[0])[:SHOWN]  # stable: the earlier vehicle first among equals
-    note = kept_note(SHOWN, len(found), "vehicles at a limit that were there longest")
-    return "\n".join([line for _, line in most] + [note])
+    most = first_looked_at(found, lambda item: -item[0])
+    note = (
+        [kept_note(SHOWN, len(found), "vehicles at a limit that were there longest")] if len(most) < len(found) else []
+    )
+    return "\n".join([line for _, line in most] + note) or None
 
 
 def percent(share: float) -> str:

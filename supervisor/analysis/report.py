@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
-from supervisor.analysis.condense import MAX_ROWS, SHOWN
+from supervisor.analysis.condense import first_looked_at
 from supervisor.analysis.drawing import draw, workers
 from supervisor.analysis.figures import (  # colour, finish_time_axes, new_figure: for report_comms
     DPI,
@@ -107,10 +107,8 @@ def figure_builders(run: RunData) -> list[tuple[str, Callable[[RunData], Figure]
 def velocity_figure_vehicles(run: RunData) -> list[int]:
     """The vehicles that get a velocity figure (Fig. 6) each: every one up to MAX_ROWS, else the SHOWN that strayed
     furthest from their paths (supervisor.analysis.condense: 1000 figures took longer than the run)."""
-    if len(run.vehicles) <= MAX_ROWS:
-        return list(run.vehicles)
     worst = {v: float(np.nanmax(s.error_norm, initial=0.0)) for v, s in run.vehicles.items()}
-    return sorted(sorted(run.vehicles, key=lambda v: -worst[v])[:SHOWN])
+    return sorted(first_looked_at(list(run.vehicles), lambda v: -worst[v]))
 
 
 def _velocities_figure(vehicle: int) -> Callable[[RunData], Figure]:

@@ -19,7 +19,7 @@ from matplotlib.ticker import LogLocator
 
 from comms.broker.stats import clamp_lambda2
 from comms.records.graph import algebraic_connectivity, laplacian
-from supervisor.analysis.condense import MAX_ROWS, SHOWN
+from supervisor.analysis.condense import SHOWN, delivered_share, first_looked_at
 from supervisor.analysis.figures import colour, finish_time_axes, new_figure, vehicle_colours
 from supervisor.analysis.legends import LEGEND_VEHICLES_MAX, colour_key
 from supervisor.analysis.panels import panel_grid
@@ -97,10 +97,8 @@ def shown_links(run: RunData) -> tuple[list[LinkLog], str]:
     delivered the smallest share of what they sent (supervisor.analysis.condense; 2000 panels took minutes and
     showed nothing)."""
     links = list(run.links.values())
-    if len(links) <= MAX_ROWS:
-        return links, ""
-    worst = sorted(links, key=lambda link: link.times("delivered").size / max(link.times("sent").size, 1))
-    return worst[:SHOWN], f" (the {SHOWN} of {len(links)} links that delivered least)"
+    shown = first_looked_at(links, lambda link: delivered_share(link.times("sent").size, link.times("delivered").size))
+    return shown, f" (the {SHOWN} of {len(links)} links that delivered least)" if len(shown) < len(links) else ""
 
 
 def fig_packets(run: RunData) -> Figure:
@@ -214,14 +212,15 @@ def _shown_holders(run: RunData) -> tuple[list[int], str]:
     """The vehicles whose estimates get a panel: every one up to MAX_ROWS, else the SHOWN whose estimates got
     oldest (supervisor.analysis.condense)."""
     holders = sorted({holder for _, holder in run.estimate_ages})
-    if len(holders) <= MAX_ROWS:
-        return holders, ""
     oldest: dict[int, float] = {}
     for (_, holder), ages in run.estimate_ages.items():
         if ages.age.size:
             oldest[holder] = max(oldest.get(holder, 0.0), float(ages.age.max()))
-    chosen = sorted(holders, key=lambda h: -oldest.get(h, 0.0))[:SHOWN]
-    return sorted(chosen), f" (the {SHOWN} of {len(holders)} vehicles whose estimates got oldest)"
+    chosen = sorted(first_looked_at(holders, lambda h: -oldest.get(h, 0.0)))
+    which = (
+        f" (the {SHOWN} of {len(holders)} vehicles whose estimates got oldest)" if len(chosen) < len(holders) else ""
+    )
+    return chosen, which
 
 
 def _age_line(ax: Axes, neighbour: int, ages: AgeSeries, c: Any, named: bool) -> None:
