@@ -37,15 +37,18 @@ def wide_for(ids: Iterable[int]) -> bool:
     return max(ids, default=0) > NARROW_IDS
 
 
+def layout(wide: bool = False) -> struct.Struct:
+    return WIDE if wide else NARROW
+
+
 def message_size(wide: bool = False) -> int:
-    return (WIDE if wide else NARROW).size
+    return layout(wide).size
 
 
 def encode_coordination(tx: Transmission, wide: bool = False) -> bytes:
-    layout = WIDE if wide else NARROW
-    return layout.pack(tx.sender, tx.seq % 65536, round(tx.data_time * 1000.0), tx.gamma, tx.gamma_dot)
+    return layout(wide).pack(tx.sender, tx.seq % 65536, round(tx.data_time * 1000.0), tx.gamma, tx.gamma_dot)
 
 
 def decode_coordination(data: bytes, wide: bool = False) -> Decoded:
-    sender, seq, t_ms, gamma, gamma_dot = (WIDE if wide else NARROW).unpack(data)
+    sender, seq, t_ms, gamma, gamma_dot = layout(wide).unpack(data)
     return Decoded(sender, seq, t_ms / 1000.0, gamma, gamma_dot)
