@@ -84,7 +84,9 @@ def sin(x: float) -> float:
 
 
 def cos(x: float) -> float:
-    """Cosine of x (s_cos.c); cos(+-inf) = nan."""
+    """Cosine of x (s_cos.c); cos(+-inf) = nan. x may be a numpy array of lanes: sincos's cosine of each."""
+    if isinstance(x, np.ndarray):
+        return _sincos_lanes(x)[1]
     if -_PIO4_HIGH < x < _PIO4_HIGH:
         if -_COS_TINY < x < _COS_TINY:
             return 1.0
@@ -220,7 +222,10 @@ _PI_LO = 1.2246467991473531772e-16  # 0x3CA1A626, 0x33145C07
 
 
 def atan2(y: float, x: float) -> float:
-    """Arc tangent of y/x in [-pi, pi] using the signs of both (e_atan2.c); atan2(+-0, -0) = +-pi."""
+    """Arc tangent of y/x in [-pi, pi] using the signs of both (e_atan2.c); atan2(+-0, -0) = +-pi. y and x may be
+    numpy arrays of lanes (vehicles.lanes): then the same, lane by lane."""
+    if isinstance(y, np.ndarray) or isinstance(x, np.ndarray):
+        return _atan2_lanes(np.asarray(y, dtype=np.float64), np.asarray(x, dtype=np.float64))
     if x != x or y != y:
         return x + y
     if x == 1.0:
@@ -251,6 +256,39 @@ def atan2(y: float, x: float) -> float:
     if m == 2:
         return _PI - (z - _PI_LO)
     return (z - _PI_LO) - _PI
+
+
+def _atan2_lanes(y: NDArray[np.float64], x: NDArray[np.float64]) -> NDArray[np.float64]:
+    """atan2 of each pair of lanes, on arrays where e_atan2.c's path is atan(|y/x|) with both finite and nonzero and
+    x not 1 (all but a few lanes of a vehicle's angles), the scalar code for the others. Lanes headed elsewhere
+    compute on a stand-in (1, the ratio 1): no float error."""
+    y, x = np.broadcast_arrays(y, x)
+    k = np.frexp(y)[1] - np.frexp(x)[1]
+    usual = np.isfinite(x) & np.isfinite(y) & (x != 0.0) & (y != 0.0) & (x != 1.0) & (k <= 60)
+    usual &= ~((x < 0.0) & (k < -60))
+    ratio = np.abs(np.where(usual, y, 1.0) / np.where(usual, x, 1.0))
+    usual &= ratio != 0.0  # y/x underflowed: the scalar code (atan of 0 or a subnormal)
+    z = _atan_lanes(np.where(usual, ratio, 1.0))
+    z = np.where(y < 0.0, np.where(x < 0.0, (z - _PI_LO) - _PI, -z), np.where(x < 0.0, _PI - (z - _PI_LO), z))
+    out = np.array(z, dtype=np.float64)
+    for i in np.flatnonzero(~usual).tolist():
+        out.flat[i] = atan2(float(y.flat[i]), float(x.flat[i]))
+    return out
+
+
+def _atan_lanes(a: NDArray[np.float64]) -> NDArray[np.float64]:
+    """atan of each lane of a, 0 < a < 2^61 (s_atan.c's branches, each lane's own by where): every interval's
+    reduction is computed for every lane, on a stand-in where the lane is elsewhere."""
+    tiny = a < _ATAN_TINY
+    low = a < 0.4375
+    i = (a >= 0.6875).astype(np.int64) + (a >= 1.1875) + (a >= 2.4375)
+    far = np.where(i == 3, a, 2.5)  # -1/a only where a is that large: no overflow elsewhere
+    t = np.choose(i, [(2.0 * a - 1.0) / (2.0 + a), (a - 1.0) / (a + 1.0), (a - 1.5) / (1.0 + 1.5 * a), -1.0 / far])
+    hi, lo = np.choose(i, _ATANHI), np.choose(i, _ATANLO)
+    t = np.where(low, 0.5, t)
+    reduced = hi - ((t * _atan_poly(t) - lo) - t)  # type: ignore[arg-type]
+    near = np.where(low & ~tiny, a, 0.5)
+    return np.where(low, np.where(tiny, a, near - near * _atan_poly(near)), reduced)  # type: ignore[arg-type]
 
 
 # e_asin.c
