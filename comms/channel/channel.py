@@ -136,9 +136,11 @@ class Channel:
         events: list[LinkEvent] = []
         sender_at = np.asarray(tx.position)
         collisions = self.params.modem.collisions
-        for j in sorted(everyone):
-            if j == tx.sender or not (collisions or j in receivers):
-                continue  # without collisions a non-neighbour's position does not matter: skip its time of flight
+        # Without collisions a non-neighbour's position does not matter: only the receivers, in the same order (a
+        # fleet of 1000 sorted all its ids per packet).
+        for j in sorted(everyone if collisions else receivers.intersection(everyone)):
+            if j == tx.sender:
+                continue
             flight = time_of_flight(sender_at, everyone[j].position, everyone[j].velocity, self.params.sound_speed)
             start = tx.t + flight
             capture = self.params.capture
