@@ -2,8 +2,9 @@
 
 The in-process engine steps every group of alike vehicles as lanes; here every group of two or more is (MIN_LANES
 lowered), against the same runs with none, over the repository's scenarios: different paths (helices, lines,
-arcs), the planar model, faults, lossy TDMA links and event-triggered transmission. A scenario whose vehicles
-cannot step as lanes (line of sight, actuators, navigation, a current) must give the same records too, alone.
+arcs), the planar model, faults, lossy TDMA links and event-triggered transmission, line of sight on fins with its
+disturbance observer (tests/test_lanes_line_of_sight.py has its branches). A scenario whose vehicles cannot step as
+lanes (navigation, a current) must give the same records too, alone.
 """
 
 from __future__ import annotations
@@ -46,9 +47,12 @@ SCENARIOS = {
     "examples/circles.toml": 40.0,
     "examples/lawnmower_survey.toml": 40.0,
     "examples/micromodem_tdma.toml": 60.0,
-    "studies/robustness.toml": 30.0,
+    "studies/robustness.toml": 30.0,  # navigation and a current: its vehicles step alone (ALONE)
+    "ring10_1hz.toml": 30.0,  # line of sight on fins, its disturbance observer: a generated ring's default vehicles
+    "inline5.toml": 30.0,
     "paper.toml+extension": 40.0,  # a user's controller that says it takes lanes, behind vehicles.guard
 }
+ALONE = {"studies/robustness.toml"}
 EXTENSION = ["path_following.controller=tests.samples.controllers:RetunedLanes"]
 
 
@@ -114,12 +118,12 @@ def test_a_run_stepped_as_lanes_records_what_it_records_stepped_alone(name, tmp_
     assert together[0] == stepped  # stepped alone, nothing went through the lanes
     assert len(lanes) == len(alone) and bitwise(lanes) == bitwise(alone)  # == takes -0.0 for 0.0
     scenario = _scenario(text)
-    if any(shape_of(vehicle_config(scenario, i, 0)) for i in scenario.vehicle_ids):
-        states = sum(1 for topic, _, _ in alone if topic.endswith("/state"))
-        # All of them, but where a fault sets one vehicle apart (its disturbance) or leaves it alone (a kill).
-        assert stepped == states if "faults" not in name else 0.8 * states < stepped < states
-    else:  # line of sight (adaptive), navigation, actuators: they step alone
+    assert any(shape_of(vehicle_config(scenario, i, 0)) for i in scenario.vehicle_ids) == (name not in ALONE)
+    states = sum(1 for topic, _, _ in alone if topic.endswith("/state"))
+    if name in ALONE:
         assert stepped == 0
+    else:  # all of them, but where a fault sets one vehicle apart (its disturbance) or leaves it alone (a kill)
+        assert stepped == states if "fault" not in name else 0.8 * states < stepped < states, (stepped, states)
 
 
 def _jobs(count: int, x_of: dict[int, np.ndarray] | None = None) -> list[Job]:

@@ -22,11 +22,14 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Annotated
+from typing import Annotated, Any, ClassVar
 
+import numpy as np
 from annotated_types import Gt
 
+from numerics.lanes import is_lanes, least, sqrt
 from vehicles.geometry import Float3
+from vehicles.saturation import within
 
 SIZE = 3  # stern-plane angle, rudder angle [rad], shaft speed [fraction of its maximum]
 START = (0.0, 0.0, 0.0)
@@ -45,6 +48,7 @@ class Actuators:
     thruster_time_constant: Annotated[float, Gt(0)]
     max_thrust: Annotated[float, Gt(0)]
     max_rate: Annotated[float, Gt(0)] | None = None
+    lanes: ClassVar[bool] = True  # applied and rates take arrays of lanes (vehicles.lanes)
 
     def applied(self, a: Sequence[float], u: float) -> Float3:
         """(tau_u, tau_q, tau_r) the actuators in state a give at surge speed u [m/s]."""
@@ -59,8 +63,8 @@ class Actuators:
         d_s = lag * (self._deflection(commanded[1], flow) - a[0])
         d_r = lag * (self._deflection(commanded[2], flow) - a[1])
         if self.max_rate is not None:
-            d_s, d_r = _within(d_s, self.max_rate), _within(d_r, self.max_rate)
-        wanted = math.copysign(min(1.0, math.sqrt(abs(commanded[0]) / self.max_thrust)), commanded[0])
+            d_s, d_r = within(d_s, self.max_rate), within(d_r, self.max_rate)
+        wanted = _copysign(least(1.0, sqrt(abs(commanded[0]) / self.max_thrust)), commanded[0])
         return d_s, d_r, (wanted - a[2]) / self.thruster_time_constant
 
     @property
@@ -72,16 +76,21 @@ class Actuators:
         """The largest pitch or yaw moment the fins give at surge speed u [N m]."""
         return self.fin_moment * u * u
 
-    def _deflection(self, torque: float, flow: float) -> float:
+    def _deflection(self, torque: Any, flow: Any) -> Any:
         """The fin angle that gives torque at u|u| = flow, within the limit."""
         limit = self.max_deflection
+        if is_lanes(flow) or is_lanes(torque):
+            still = abs(flow) < _SLOWEST
+            at_rest = np.where(torque == 0.0, 0.0, np.copysign(limit, torque))
+            return np.where(still, at_rest, within(torque / (self.fin_lift * np.where(still, 1.0, flow)), limit))
         if abs(flow) < _SLOWEST:  # no flow: any moment wanted is beyond the fin
             return 0.0 if torque == 0.0 else math.copysign(limit, torque)
-        return _within(torque / (self.fin_lift * flow), limit)
+        return within(torque / (self.fin_lift * flow), limit)
 
 
-def _within(x: float, limit: float) -> float:
-    return limit if x > limit else -limit if x < -limit else x
+def _copysign(x: Any, sign: Any) -> Any:
+    """math.copysign, of each lane for lanes."""
+    return np.copysign(x, sign) if is_lanes(x) or is_lanes(sign) else math.copysign(x, sign)
 
 
 def remus100(max_thrust: float) -> Actuators:

@@ -299,9 +299,8 @@ def finish(
     gamma_dot_next = _within_limits(cfg, dist, z_next[_GAMMA], z_next[_GAMMA_DOT])
     at = _observer_at(cfg)
     actuated_next, observer_next = tuple(z_next[_ACTUATORS:at]), tuple(z_next[at:])
-    memory_next = _learned(cfg, begun.memory, stepped.stages, z_next, dt, held)
     next_state = VehicleState(
-        state.t + dt, x_next, z_next[_GAMMA], gamma_dot_next, state.estimates, observer_next, memory_next,
+        state.t + dt, x_next, z_next[_GAMMA], gamma_dot_next, state.estimates, observer_next, stepped.memory,
         actuated_next,
     )  # fmt: skip
     return next_state, telemetry
@@ -317,16 +316,16 @@ def rk4(
     mid = along(t + dt / 2)
     k1, out, v_tilde, seen_error, tau = _closed_loop(cfg, z, along(t), dist, t, held, memory)
     z2 = _advance(z, dt / 2, k1)
-    k2, out2, _, _, tau2 = _closed_loop(cfg, z2, mid, dist, t + dt / 2, held, memory)
+    k2, _, _, _, tau2 = _closed_loop(cfg, z2, mid, dist, t + dt / 2, held, memory)
     z3 = _advance(z, dt / 2, k2)
-    k3, out3, _, _, tau3 = _closed_loop(cfg, z3, mid, dist, t + dt / 2, held, memory)
+    k3, _, _, _, tau3 = _closed_loop(cfg, z3, mid, dist, t + dt / 2, held, memory)
     end = along(t + dt)
     z4 = _advance(z, dt, k3)
-    k4, out4, _, _, tau4 = _closed_loop(cfg, z4, end, dist, t + dt, held, memory)
+    k4, _, _, _, tau4 = _closed_loop(cfg, z4, end, dist, t + dt, held, memory)
     h = dt / 6
     z_next = [a + h * (b1 + 2 * b2 + 2 * b3 + b4) for a, b1, b2, b3, b4 in zip(z, k1, k2, k3, k4, strict=True)]
-    stages = [(z, out, tau), (z2, out2, tau2), (z3, out3, tau3), (z4, out4, tau4)]
-    return Stepped(z_next, stages, v_tilde, seen_error, out.lyapunov, tau)
+    stages = [(z, tau), (z2, tau2), (z3, tau3), (z4, tau4)]
+    return Stepped(z_next, _learned(cfg, memory, stages, z_next, dt, held), v_tilde, seen_error, out.lyapunov, tau)
 
 
 def _memory(cfg: VehicleConfig, state: VehicleState, lifted: Sequence[float], held: HeldError | None) -> object:
@@ -341,8 +340,8 @@ def _memory(cfg: VehicleConfig, state: VehicleState, lifted: Sequence[float], he
 
 
 def _learned(
-    cfg: VehicleConfig, memory: object, stages: Sequence[tuple[list[float], ControlOutput, Float3]],
-    z_next: Sequence[float], dt: float, held: HeldError | None,
+    cfg: VehicleConfig, memory: object, stages: Sequence[tuple[list[float], Float3]], z_next: Sequence[float],
+    dt: float, held: HeldError | None,
 ) -> object:  # fmt: skip
     """An adaptive controller's memory after the step: from the RK4 stages it steered at (the inputs the vehicle got
     there) and the state at the step's end, as it saw them (with the step's navigation error)."""
@@ -350,7 +349,7 @@ def _learned(
     if adaptive is None:
         return None
     after = z_next[:LIFTED_SIZE]
-    steered = [(z[:LIFTED_SIZE], tau) for z, _, tau in stages]
+    steered = [(z[:LIFTED_SIZE], tau) for z, tau in stages]
     if held is not None:
         after, steered = seen(after, held), [(seen(s, held), tau) for s, tau in steered]
     return adaptive.update(memory, cfg.vehicle, cfg.params, steered, after, dt)

@@ -9,12 +9,14 @@ for the lanes on one path that takes lanes (else lane by lane), then agent.finis
 one vehicle at a time. So each vehicle's records are those of vehicles.step.step_records, bit for bit
 (tests/test_lanes.py holds it over scenarios).
 
-Only parts that say they take lanes (`lanes = True`: the built-in backstepping controller and AUV model, and an
-extension that says so) are stepped so, and vehicles step together only where those parts, the parameters and the
-saturations are the same to the bit (vehicles.lane_keys); a vehicle with navigation, an adaptive controller, or a
-current, observer, actuators or controller that does not say so steps alone. A group whose stepping raises
-anything, a float exception included (numpy is told to raise where Python's floats would or might), is stepped
-again one vehicle at a time: errors are exactly those of the scalar step.
+Only parts that say they take lanes (`lanes = True`: the built-in backstepping and line-of-sight controllers, the
+AUV model and the actuators, and an extension that says so) are stepped so, and vehicles step together only where
+those parts, the parameters and the saturations are the same to the bit (vehicles.lane_keys); a vehicle with
+navigation, or a current, observer, actuators or controller that does not say so steps alone. An adaptive
+controller's memory (line of sight's disturbance estimate) steps as lanes too: each vehicle's, a tree of floats,
+tuples and dataclasses, becomes one of arrays (lane_keys.stacked) for the step and each vehicle's again after it. A
+group whose stepping raises anything, a float exception included (numpy is told to raise where Python's floats would
+or might), is stepped again one vehicle at a time: errors are exactly those of the scalar step.
 """
 
 from __future__ import annotations
@@ -29,7 +31,7 @@ from comms.records.records import Disturbances, Heard
 from numerics.lanes import takes_lanes
 from vehicles.agent import Along, VehicleConfig, begin, finish, neighbour_values, rk4
 from vehicles.dynamics import PathVectors
-from vehicles.lane_keys import key
+from vehicles.lane_keys import key, stacked, unstacked
 from vehicles.runtime import NodeState, Prepared, Radio, complete, prepare
 from vehicles.step import StepRecords, records, step_records
 from vehicles.stepping import Begun, Stepped
@@ -105,7 +107,7 @@ class Shape(NamedTuple):
 def shape_of(cfg: VehicleConfig) -> Shape | None:
     """What must be the same for vehicles to step together (None: this one steps alone): every part the stages
     compute with as arrays, to the bit (vehicles.lane_keys)."""
-    if cfg.navigation is not None or cfg.adaptive is not None:
+    if cfg.navigation is not None:
         return None
     parts = (cfg.controller, cfg.vehicle, cfg.current, cfg.current_observer, cfg.actuators)
     if not all(part is None or takes_lanes(part) for part in parts):
@@ -131,6 +133,7 @@ def _together(jobs: Sequence[Job]) -> list[Outcome]:
     before = [prepare(j.cfg, j.radio, j.node, j.t, j.dt, j.heard, j.neighbours, j.dist) for j in jobs]
     begun = [begin(cfg, p.state, None) for cfg, p in zip(cfgs, before, strict=True)]
     z = list(np.array([b.z for b in begun]).T.copy())
+    memory = stacked([b.memory for b in begun])
 
     paths = _same_paths(jobs)
 
@@ -139,7 +142,7 @@ def _together(jobs: Sequence[Job]) -> list[Outcome]:
         return LaneAlong(cfgs, heard, paths)
 
     with np.errstate(all="raise", under="ignore"):  # where Python's floats raise, or might: alone, they say what
-        stepped = rk4(first.cfg, first.t, Begun(z, None, ()), first.dt, along, first.dist, None)
+        stepped = rk4(first.cfg, first.t, Begun(z, memory, ()), first.dt, along, first.dist, None)
     lanes = _unstacked(stepped, len(jobs))
     return [_finished(j, p, b, s) for j, p, b, s in zip(jobs, before, begun, lanes, strict=True)]
 
@@ -159,7 +162,8 @@ def _unstacked(stepped: Stepped, lanes: int) -> list[Stepped]:
     v_tilde, lyapunov = _column(stepped.v_tilde, lanes), _column(stepped.lyapunov, lanes)
     error = list(zip(*(_column(e, lanes) for e in stepped.seen_error), strict=True))
     applied = list(zip(*(_column(a, lanes) for a in stepped.applied), strict=True))
-    return [Stepped(z[n], [], v_tilde[n], error[n], lyapunov[n], applied[n]) for n in range(lanes)]
+    memory = unstacked(stepped.memory, lanes)
+    return [Stepped(z[n], memory[n], v_tilde[n], error[n], lyapunov[n], applied[n]) for n in range(lanes)]
 
 
 def _column(value: Any, lanes: int) -> list[float]:

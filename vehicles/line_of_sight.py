@@ -73,22 +73,28 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Annotated
+from typing import Annotated, Any
 
+import numpy as np
 from annotated_types import Ge, Gt, Le
 
 from numerics import atan2, cos
+from numerics.lanes import greatest, is_lanes, least, sqrt
 from vehicles.disturbance_observer import NO_DISTURBANCE, Disturbance, filtered, measured
 from vehicles.dynamics import Accelerations, PathVectors
 from vehicles.geometry import Float3
 from vehicles.params import VehicleParams
 from vehicles.path_following import ControlOutput, Current, Stage, drag, saturated
-from vehicles.saturation import clamp
+from vehicles.saturation import clamp, within
 from vehicles.vehicle_model import VehicleModel
 
 # m/s: below this speed the sideslip and climb angles fade out (the angle of a velocity of a few cm/s is noise:
 # at rest the vehicle steers its heading, not its course)
 _CALM = 0.1
+
+
+# What the law computes with (LineOfSight.lanes)
+_LAW = ("start", "update", "control", "control_with", "_guidance", "_inputs", "_rates", "torque_limit")
 
 
 @dataclass(frozen=True, slots=True)
@@ -108,6 +114,12 @@ class LineOfSight:
     margin: Annotated[float, Gt(0), Le(1)] = 0.5
     min_speed: Annotated[float, Ge(0)] = 0.0
     observer: Annotated[float, Ge(0)] | None = None
+
+    @property
+    def lanes(self) -> bool:
+        """Whether its law takes arrays of lanes (vehicles.lanes): this class's does; a subclass that replaces a
+        part of it says so itself (a class attribute lanes = True)."""
+        return all(getattr(type(self), name) is getattr(LineOfSight, name) for name in _LAW)
 
     @property
     def adaptive(self) -> bool:
@@ -139,12 +151,12 @@ class LineOfSight:
         assert isinstance(memory, Disturbance)
         p_d, p_g, _ = path
         error = (s[0] - p_d[0], s[1] - p_d[1], s[2] - p_d[2])
-        rho = math.sqrt(1.0 + error[0] * error[0] + error[1] * error[1] + error[2] * error[2])
+        rho = sqrt(1.0 + error[0] * error[0] + error[1] * error[1] + error[2] * error[2])
         along = (error[0] * p_g[0] + error[1] * p_g[1] + error[2] * p_g[2]) / rho
         zeta = gamma_dot - v_d
         drift = model.drift(s, params)
         e_r, e_q, turning, u_path = self._guidance(s, path, error, gamma_dot, current)
-        wanted = _surge_for(s, p_g, u_path, u_path * gamma_dot - self.k1 * along / max(u_path, 1e-9), current)
+        wanted = _surge_for(s, p_g, u_path, u_path * gamma_dot - self.k1 * along / greatest(u_path, 1e-9), current)
         tau = self._inputs(params, s, drift, memory.inputs, (e_r, e_q), turning, wanted)
         lyapunov = (rho - 1.0) + 0.5 * zeta * zeta + (1.0 - cos(e_r)) + (1.0 - cos(e_q))
         return ControlOutput(tau, -self.k_zeta * zeta + along, lyapunov, drift)
@@ -155,18 +167,19 @@ class LineOfSight:
         """(course and climb errors [rad]: from the direction the vehicle moves over ground to the line of sight,
         the path tangent's angular velocity in body axes [rad/s], |p_d^gamma| [m per unit of gamma])."""
         _, p_g, p_gg = path
-        speed = math.sqrt(p_g[0] * p_g[0] + p_g[1] * p_g[1] + p_g[2] * p_g[2])
-        a = self.lookahead / max(speed, 1e-9)  # on the tangent, not the path: a point on a curve ahead cuts inside it
+        speed = sqrt(p_g[0] * p_g[0] + p_g[1] * p_g[1] + p_g[2] * p_g[2])
+        # on the tangent, not the path: a point on a curve ahead cuts inside it
+        a = self.lookahead / greatest(speed, 1e-9)
         to_target = (a * p_g[0] - error[0], a * p_g[1] - error[1], a * p_g[2] - error[2])
         dx, dy, dz = _in_body(s, to_target)
-        spin = gamma_dot / max(speed * speed, 1e-18)  # the tangent turns at (p_g x p_gg) gamma_dot / |p_g|^2
+        spin = gamma_dot / greatest(speed * speed, 1e-18)  # the tangent turns at (p_g x p_gg) gamma_dot / |p_g|^2
         turning = _in_body(s, (spin * (p_g[1] * p_gg[2] - p_g[2] * p_gg[1]),
                                spin * (p_g[2] * p_gg[0] - p_g[0] * p_gg[2]),
                                spin * (p_g[0] * p_gg[1] - p_g[1] * p_gg[0])))  # fmt: skip
         u, v, w = _over_ground(s, current)
-        moving = min(1.0, math.sqrt(u * u + v * v + w * w) / _CALM)
+        moving = least(1.0, sqrt(u * u + v * v + w * w) / _CALM)
         course = atan2(dy, dx) - moving * atan2(v, u)
-        climb = atan2(dz, math.sqrt(dx * dx + dy * dy)) - moving * atan2(w, math.sqrt(u * u + v * v))
+        climb = atan2(dz, sqrt(dx * dx + dy * dy)) - moving * atan2(w, sqrt(u * u + v * v))
         return course, climb, turning, speed
 
     def _inputs(
@@ -185,7 +198,7 @@ class LineOfSight:
         held_r = prm.inertia[2] * dr + (lin[2] + quad[2] * abs(r)) * r + d[2]
         q_v = clamp(turning[1] - self.k_heading * errors[1], *self._rates(lin[1], quad[1], limit, held_q))
         r_v = clamp(turning[2] + self.k_heading * errors[0], *self._rates(lin[2], quad[2], limit, held_r))
-        u_v = min(max(u_wanted, self.min_speed), top_speed(prm))
+        u_v = least(greatest(u_wanted, self.min_speed), top_speed(prm))
         k2 = self.k2
         tau = (
             prm.mass[0] * (-k2 * (u - u_v) - du) + drag(prm.linear_damping[0], prm.quadratic_damping[0], u_v, u) - d[0],
@@ -207,17 +220,17 @@ class LineOfSight:
         """The largest pitch or yaw moment at surge speed u [N m]: the preset's, or the fins' if smaller."""
         if self.fin_moment is None:
             return prm.max_torque
-        return min(prm.max_torque, self.fin_moment * u * u)
+        return least(prm.max_torque, self.fin_moment * u * u)
 
 
 def _surge_for(s: Sequence[float], p_g: Float3, norm: float, along_speed: float, current: Current | None) -> float:
     """The surge speed through the water [m/s] that moves the vehicle along its path's tangent at along_speed over
     ground, its sway, heave and the current as they are; with the tangent more than 60 deg off its axis, as if it were
     60 deg off (the course is still turning toward the line of sight)."""
-    inv = 1.0 / max(norm, 1e-9)  # norm: |p_g|, which the guidance has computed
+    inv = 1.0 / greatest(norm, 1e-9)  # norm: |p_g|, which the guidance has computed
     tx, ty, tz = _in_body(s, (p_g[0] * inv, p_g[1] * inv, p_g[2] * inv))
     u, v, w = _over_ground(s, current)
-    return (along_speed - ty * v - tz * w) / max(tx, 0.5) - (u - s[12])
+    return (along_speed - ty * v - tz * w) / greatest(tx, 0.5) - (u - s[12])
 
 
 def _over_ground(s: Sequence[float], current: Current | None) -> Float3:
@@ -233,21 +246,23 @@ def top_speed(prm: VehicleParams) -> float:
     return _rate_within(prm.linear_damping[0], prm.quadratic_damping[0], prm.max_surge_force)
 
 
-def _rate_within(linear: float, quadratic: float, moment: float) -> float:
-    """The rate x >= 0 with (linear + quadratic x) x = moment (0 if moment <= 0): what that much effort holds."""
-    if moment <= 0.0:
-        return 0.0
+def _rate_within(linear: float, quadratic: float, moment: Any) -> Any:
+    """The rate x >= 0 with (linear + quadratic x) x = moment (0 if moment <= 0): what that much effort holds.
+    moment may be lanes (the rate of each)."""
+    if is_lanes(moment):
+        calm = moment <= 0.0  # a NaN is not: it goes on, as the float's does
+        return np.where(calm, 0.0, _positive_rate(linear, quadratic, np.where(calm, 1.0, moment)))
+    return 0.0 if moment <= 0.0 else _positive_rate(linear, quadratic, moment)
+
+
+def _positive_rate(linear: float, quadratic: float, moment: Any) -> Any:
     if quadratic <= 0.0:
         return moment / linear if linear > 0.0 else math.inf
-    return (-linear + math.sqrt(linear * linear + 4.0 * quadratic * moment)) / (2.0 * quadratic)
+    return (-linear + sqrt(linear * linear + 4.0 * quadratic * moment)) / (2.0 * quadratic)
 
 
 def _held(tau: Float3, limit: float) -> Float3:
-    return tau[0], _within(tau[1], limit), _within(tau[2], limit)
-
-
-def _within(x: float, limit: float) -> float:
-    return limit if x > limit else -limit if x < -limit else x
+    return tau[0], within(tau[1], limit), within(tau[2], limit)
 
 
 def _in_body(s: Sequence[float], w: Float3) -> Float3:

@@ -35,7 +35,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Annotated, Any, Literal, NamedTuple, Protocol, runtime_checkable
+from typing import Annotated, Literal, NamedTuple, Protocol, runtime_checkable
 
 import numpy as np
 from annotated_types import Gt
@@ -46,6 +46,7 @@ from vehicles.dynamics import Accelerations, Model, PathVectors, with_inputs
 from vehicles.geometry import Float3
 from vehicles.params import VehicleParams
 from vehicles.paths import Path
+from vehicles.saturation import within
 from vehicles.vehicle_model import Auv, VehicleModel
 
 Current = tuple[Float3, Float3]  # (c, c_dot): the ocean current in body axes, m/s, and its derivative, m/s^2
@@ -332,17 +333,12 @@ def _backstepping(
 
 def saturated(prm: VehicleParams, tau_u: float, tau_q: float, tau_r: float) -> Float3:
     """The inputs within the vehicle's limits: min(max(tau, -lim), lim) to the bit, NaN included, without six
-    builtin calls per evaluation (lanes: _within)."""
+    builtin calls per evaluation (lanes: vehicles.saturation.within)."""
     lim_u, lim_t = prm.max_surge_force, prm.max_torque
     if isinstance(tau_u, np.ndarray):
-        return _within(tau_u, lim_u), _within(tau_q, lim_t), _within(tau_r, lim_t)
+        return within(tau_u, lim_u), within(tau_q, lim_t), within(tau_r, lim_t)
     return (
         lim_u if tau_u > lim_u else -lim_u if tau_u < -lim_u else tau_u,
         lim_t if tau_q > lim_t else -lim_t if tau_q < -lim_t else tau_q,
         lim_t if tau_r > lim_t else -lim_t if tau_r < -lim_t else tau_r,
     )
-
-
-def _within(tau: Any, lim: float) -> Any:
-    """saturated's test for one input, lane by lane."""
-    return np.where(tau > lim, lim, np.where(tau < -lim, -lim, tau))

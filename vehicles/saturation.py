@@ -20,6 +20,7 @@ Pure and stateless functions of (gamma, gamma_dot), so a restarted vehicle and b
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -79,6 +80,14 @@ def clamp(value: float, low: float, high: float) -> float:
     if isinstance(value, np.ndarray) or isinstance(low, np.ndarray) or isinstance(high, np.ndarray):
         return np.where(value < low, low, np.where(value > high, high, value))
     return low if value < low else high if value > high else value
+
+
+def within(x: Any, limit: Any) -> Any:
+    """x within [-limit, limit] for limit >= 0, tested as `limit if x > limit else -limit if x < -limit else x`
+    (NaN stays NaN); either may be lanes."""
+    if isinstance(x, np.ndarray) or isinstance(limit, np.ndarray):
+        return np.where(x > limit, limit, np.where(x < -limit, -limit, x))
+    return limit if x > limit else -limit if x < -limit else x
 
 
 def hold(gamma_ddot: float, gamma_dot: float, low: float, high: float) -> float:

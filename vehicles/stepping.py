@@ -6,7 +6,6 @@ from __future__ import annotations
 from typing import NamedTuple
 
 from vehicles.geometry import Float3
-from vehicles.path_following import ControlOutput
 
 
 class Begun(NamedTuple):
@@ -18,11 +17,11 @@ class Begun(NamedTuple):
 
 
 class Stepped(NamedTuple):
-    """What finish needs of the RK4 step: z after it, its four stages (z, the controller's outputs, the inputs the
-    vehicle got), and at its start v_tilde, the error the controller saw, its Lyapunov value and the inputs."""
+    """What finish needs of the RK4 step: z after it, an adaptive controller's memory after it (learned from the
+    step's four stages), and at its start v_tilde, the error the controller saw, its Lyapunov value and the inputs."""
 
     z: list[float]
-    stages: list[tuple[list[float], ControlOutput, Float3]]
+    memory: object
     v_tilde: float
     seen_error: Float3
     lyapunov: float

@@ -1,0 +1,208 @@
+"""Line of sight, its disturbance observer and the actuators as lanes (vehicles.lanes): each lane the scalar bits.
+
+The default vehicles of a generated ring (the remus100 preset on fins: line of sight with its observer) stepped one at
+a time until these took lanes (issue 26: the 1000-AUV ring at 0.30x real time, its steps alone allowing 0.5x). Here
+every branch they take on the state, given arrays, is the scalar branch of each lane; the law as a whole, with an
+observer's estimate and a current, likewise; and whole runs of line-of-sight fleets, one vehicle of many runs
+(a sweep's batches) on a plant that differs from the model, record what they record alone.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import vehicles.lanes
+from numerics import atan2, cos
+from supervisor.config.fleet import vehicle_config
+from supervisor.config.scenario import parse_scenario
+from supervisor.engine.batch import BatchRun, run_batch
+from supervisor.engine.inprocess import RunResult, run_inprocess
+from supervisor.engine.progress import Progress
+from tests.conftest import CONFIGS, shortened
+from tests.test_lanes import _bits, _values
+from vehicles.actuators import remus100
+from vehicles.disturbance_observer import Disturbance
+from vehicles.lane_keys import stacked, unstacked
+from vehicles.lanes import shape_of
+from vehicles.line_of_sight import LineOfSight, _rate_within
+from vehicles.saturation import within
+
+
+def _raising() -> Any:
+    """numpy's float errors as vehicles.lanes steps: raised (a float error stops the lanes), underflow apart."""
+    return np.errstate(all="raise", under="ignore")
+
+
+_RATIOS = st.one_of(
+    _values,
+    st.floats(-1e3, 1e3),
+    st.sampled_from([0.4375, 0.6875, 1.1875, 2.4375, 2.0**-27, 2.0**60, 2.0**61, 2.0**-60, 5e-324]),
+)
+
+
+@settings(max_examples=400, deadline=None)
+@given(st.lists(st.tuples(_RATIOS, _RATIOS), min_size=1, max_size=12))
+def test_atan2_of_lanes_is_atan2_of_each_lane(pairs):
+    """numerics.atan2 given arrays: fdlibm's usual path on arrays (every interval of atan's reduction), the scalar
+    code for zeros, infinities, NaNs, x = 1 and ratios past 2^60; no float error raised."""
+    y, x = (np.array(column, dtype=np.float64) for column in zip(*pairs, strict=True))
+    with _raising():
+        together = atan2(y, x)  # type: ignore[arg-type]
+        cosines = cos(y)  # type: ignore[arg-type]
+    assert _bits(together) == _bits([atan2(a, b) for a, b in pairs])
+    assert _bits(cosines) == _bits([cos(a) for a, _ in pairs])
+
+
+_LIMITS = st.sampled_from([0.0, 0.5, 1.5, 9.1, math.inf])
+
+
+@settings(max_examples=300, deadline=None)
+@given(data=st.data())
+def test_line_of_sight_and_actuator_branches_on_lanes_are_each_lanes(data):
+    """within, the rate a moment holds, and the actuators' rates (fin command with no flow, the thrust's sign)."""
+    lanes = data.draw(st.integers(1, 6))
+    xs = data.draw(st.lists(_values, min_size=lanes, max_size=lanes))
+    limits = data.draw(st.lists(_LIMITS, min_size=lanes, max_size=lanes))
+    with _raising():
+        assert _bits(within(np.array(xs), np.array(limits))) == _bits(
+            [within(a, b) for a, b in zip(xs, limits, strict=True)]
+        )
+        for linear, quadratic in ((2.0, 5.0), (2.0, 0.0), (0.0, 0.0)):
+            try:
+                alone = [_rate_within(linear, quadratic, x) for x in xs]
+            except ArithmeticError:
+                continue  # the float raises: the lanes stop too
+            assert _bits(_rate_within(linear, quadratic, np.array(xs))) == _bits(alone)
+    fins = remus100(86.0)
+    speeds = data.draw(
+        st.lists(st.sampled_from([0.0, -0.0, 1e-4, -1e-4, 1.0, -1.5, 2.5]), min_size=lanes, max_size=lanes)
+    )
+    states = [data.draw(st.tuples(*[st.floats(-0.3, 0.3)] * 3)) for _ in range(lanes)]
+    commands = [data.draw(st.tuples(*[st.sampled_from([0.0, -0.0, 3.0, -3.0, 1e3, -50.0])] * 3)) for _ in range(lanes)]
+    many: Any
+    for many in (fins, replace(fins, max_rate=0.2)):
+        with _raising():
+            rates = many.rates(_arrays(states), _arrays(commands), np.array(speeds))
+            applied = many.applied(_arrays(states), np.array(speeds))
+        for n, (a, c, u) in enumerate(zip(states, commands, speeds, strict=True)):
+            assert _bits([r[n] for r in rates]) == _bits(many.rates(a, c, u))
+            assert _bits([r[n] for r in applied]) == _bits(many.applied(a, u))
+
+
+def _arrays(rows: list[tuple[float, ...]]) -> tuple[np.ndarray, ...]:
+    return tuple(np.array(column, dtype=np.float64) for column in zip(*rows, strict=True))
+
+
+def _ring_cfg() -> Any:
+    scenario = parse_scenario((CONFIGS / "ring10_1hz.toml").read_text(), "ring10_1hz.toml")
+    return vehicle_config(scenario, 1, 0)
+
+
+@settings(max_examples=150, deadline=None)
+@given(data=st.data())
+def test_the_line_of_sight_law_on_lanes_is_the_law_of_each_lane(data):
+    """LineOfSight.control_with over lanes of states, paths, path rates, disturbance estimates and currents (what
+    the fins give at each lane's speed differs lane by lane): each lane's outputs are the scalar law's bits."""
+    cfg = _ring_cfg()
+    law, model, prm = cfg.controller, cfg.vehicle, cfg.params
+    assert isinstance(law, LineOfSight) and law.lanes and law.fin_moment is not None
+    lanes = data.draw(st.integers(1, 5))
+    small = st.floats(-2.0, 2.0)
+    rows = [data.draw(st.lists(small, min_size=18, max_size=18)) for _ in range(lanes)]
+    for row in rows:  # a rotation near the identity (any floats would do for the bits; these keep it a vehicle)
+        for i, value in zip((3, 7, 11), (1.0, 1.0, 1.0), strict=True):
+            row[i] += value
+    paths = [data.draw(st.lists(small, min_size=9, max_size=9)) for _ in range(lanes)]
+    gammas = data.draw(st.lists(st.floats(-0.5, 2.0), min_size=lanes, max_size=lanes))
+    estimates = [data.draw(st.tuples(*[st.sampled_from([0.0, 4.0, -30.0])] * 3)) for _ in range(lanes)]
+    currents = data.draw(st.booleans())
+    flows = [data.draw(st.lists(st.floats(-0.5, 0.5), min_size=6, max_size=6)) for _ in range(lanes)]
+
+    def current(columns: list[Any]) -> Any:
+        return ((columns[0], columns[1], columns[2]), (columns[3], columns[4], columns[5])) if currents else None
+
+    alone = [
+        law.control_with(
+            Disturbance(d), model, prm, s, ((p[0], p[1], p[2]), (p[3], p[4], p[5]), (p[6], p[7], p[8])), 0.0, g, 1.0,
+            current(f),
+        )
+        for s, p, g, d, f in zip(rows, paths, gammas, estimates, flows, strict=True)
+    ]  # fmt: skip
+    s_l, p_l, f_l = list(_arrays(rows)), list(_arrays(paths)), list(_arrays(flows))
+    memory = stacked([Disturbance(d) for d in estimates])
+    lanes_law: Any = law  # its float code, given arrays
+    path = ((p_l[0], p_l[1], p_l[2]), (p_l[3], p_l[4], p_l[5]), (p_l[6], p_l[7], p_l[8]))
+    with _raising():
+        out = lanes_law.control_with(memory, model, prm, s_l, path, 0.0, np.array(gammas), 1.0, current(f_l))
+    for n, one in enumerate(alone):
+        assert _bits([t[n] for t in out.tau]) == _bits(one.tau)
+        assert _bits([out.gamma_ddot[n], out.lyapunov[n]]) == _bits([one.gamma_ddot, one.lyapunov])
+
+
+def test_memories_stack_and_unstack_to_the_bit():
+    """lane_keys.stacked and unstacked: a float tree's lanes back as they were (-0.0, NaN's bits), a value every
+    lane shares as itself, and what is not a tree of floats refused (the vehicles then step alone)."""
+    values = [Disturbance((1.5, -0.0, math.nan)), Disturbance((2.0, 0.0, -1e-300))]
+    together = stacked(values)
+    assert isinstance(together.inputs[0], np.ndarray)
+    back = unstacked(together, 2)
+    assert [_bits(v.inputs) for v in back] == [_bits(v.inputs) for v in values]
+    shared = Disturbance((0.0, 0.0, 0.0))
+    assert stacked([shared, shared]) is shared and unstacked(shared, 3) == [shared] * 3
+    with pytest.raises(TypeError):
+        stacked([{"a": 1.0}, {"a": 2.0}])
+
+
+def test_line_of_sight_vehicles_step_as_lanes_unless_a_part_of_the_law_is_replaced():
+    """The ring's vehicles (line of sight, its observer, fins) have a shape; a subclass that replaces a part of the
+    law steps alone unless it says it takes lanes."""
+    cfg = _ring_cfg()
+    assert cfg.adaptive is not None and cfg.actuators is not None and shape_of(cfg) is not None
+
+    class Steeper(LineOfSight):
+        def torque_limit(self, prm: Any, u: float) -> float:
+            return 2.0 * LineOfSight.torque_limit(self, prm, u)
+
+    steeper = Steeper(**{name: getattr(cfg.controller, name) for name in ("lookahead", "fin_moment")})
+    assert shape_of(replace(cfg, controller=steeper)) is None
+
+
+def _alone(run: BatchRun) -> RunResult:
+    quiet = Progress(run.scenario.scenario.duration, io.StringIO(), enabled=False)
+    return run_inprocess(run.scenario, run.scenario_file, run.scenario_toml, None, run.seed, quiet)
+
+
+def test_runs_of_line_of_sight_vehicles_on_a_mismatched_plant_batched_are_each_run_alone(monkeypatch):
+    """inline5 (line of sight on fins) with its plant 30 % off the model, so the disturbance observer's estimate is
+    large: each vehicle of three runs (links of three losses) steps as lanes with itself in the others, memory and
+    all, and every run's result is the run alone, bit for bit."""
+    from tests.test_batch import _same
+
+    monkeypatch.setattr(vehicles.lanes, "MIN_LANES", 2)
+    together = [0]
+    inner = vehicles.lanes._together
+
+    def counted(jobs: Any) -> Any:
+        together[0] += len(jobs)
+        return inner(jobs)
+
+    monkeypatch.setattr(vehicles.lanes, "_together", counted)
+    text = shortened((CONFIGS / "inline5.toml").read_text(), 30.0)
+    losses = ("0.0", "0.3", "0.5")  # one seed: the plant is drawn from it, so each vehicle's is the same in every run
+    overrides = [["vehicle.uncertainty=0.3", f"comms.loss={loss}"] for loss in losses]
+    runs = [BatchRun(parse_scenario(text, "inline5.toml", o), "inline5.toml", text, 3) for o in overrides]
+    results = run_batch(runs)
+    assert together[0] == 3 * 5 * 300  # every vehicle of every run, every step
+    cfg = vehicle_config(runs[0].scenario, 1, 3)
+    assert cfg.plant is not None and cfg.plant != cfg.params
+    for run, result in zip(runs, results, strict=True):
+        assert isinstance(result, RunResult)
+        _same(result, _alone(run))
