@@ -9,8 +9,8 @@ int(), the bits through struct). They never call the platform's libm for sin, ex
 The algorithms and constants are Sun's fdlibm (as in FreeBSD msun and openlibm); each module names the files it
 ports. Accuracy: within 1 ULP of the true value (exp10 a few ULP, erfc 2 ULP relative).
 
-sincos, cos, atan2 and numerics.lanes also take numpy arrays of lanes (many vehicles at once: vehicles.lanes), with
-numpy's exact or elementwise operations only (tests/test_numerics.py lists them), lane by lane the same bits.
+sincos, cos, atan2, tanh and numerics.lanes also take numpy arrays of lanes (many vehicles at once: vehicles.lanes),
+with numpy's exact or elementwise operations only (tests/test_numerics.py lists them), lane by lane the same bits.
 
 Unlike Python's math module, nothing raises on a domain or range error: the results are those of C, e.g.
 log(0) = -inf, log(-1) = nan, asin(2) = nan, sin(inf) = nan, exp(1000) = inf, exp(-1000) = 0.0.

@@ -10,6 +10,10 @@ preserved.
 """
 
 from math import fabs, inf, ldexp
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
 
 from numerics._bits import from_words
 
@@ -130,7 +134,10 @@ _TANH_BIG = from_words(0x40360000, 0)  # 22
 
 
 def tanh(x: float) -> float:
-    """Hyperbolic tangent (s_tanh.c); tanh(+-inf) = +-1."""
+    """Hyperbolic tangent (s_tanh.c); tanh(+-inf) = +-1. x may be a numpy array of lanes (vehicles.lanes): then the
+    same, lane by lane."""
+    if isinstance(x, np.ndarray):
+        return _tanh_lanes(x)
     ax = fabs(x)
     if not ax < _TANH_BIG:
         if x != x:
@@ -145,6 +152,54 @@ def tanh(x: float) -> float:
         t = expm1(-2.0 * ax)
         z = -t / (t + 2.0)
     return -z if x < 0.0 else z
+
+
+def _tanh_lanes(x: NDArray[np.float64]) -> NDArray[np.float64]:
+    """tanh of each lane: s_tanh.c's branches chosen by where, the usual ones (2^-28 <= |x| < 22) on arrays through
+    _expm1_lanes, each on a stand-in (0.5) where the lane is elsewhere."""
+    ax = np.abs(x)
+    usual = (ax >= _TWO_M28) & (ax < _TANH_BIG)
+    a = np.where(usual, ax, 0.5)
+    big = a >= 1.0
+    t = _expm1_lanes(np.where(big, 2.0 * a, -2.0 * a))
+    z = np.where(big, 1.0 - 2.0 / (t + 2.0), -t / (t + 2.0))
+    edge = np.where((ax < _TWO_M28) | (x != x), x, np.where(x < 0.0, -1.0, 1.0))  # x itself; +-1 past 22
+    return np.where(usual, np.where(x < 0.0, -z, z), edge)
+
+
+def _expm1_lanes(x: NDArray[np.float64]) -> NDArray[np.float64]:
+    """expm1 of each lane, 2^-54 <= |x| < 56 ln2 (s_expm1.c, its reduction and scaling branches chosen by where)."""
+    ax = np.abs(x)
+    reduce = ax > _HALF_LN2
+    near = ax < _THREE_HALVES_LN2
+    k_far = np.trunc(_INVLN2 * x + np.where(x > 0.0, 0.5, -0.5))
+    k = np.where(reduce, np.where(near, np.where(x > 0.0, 1.0, -1.0), k_far), 0.0)
+    hi = np.where(near, np.where(x > 0.0, x - _LN2_HI, x + _LN2_HI), x - k * _LN2_HI)
+    lo = np.where(near, np.where(x > 0.0, _LN2_LO, -_LN2_LO), k * _LN2_LO)
+    xr = np.where(reduce, hi - lo, x)
+    c = np.where(reduce, (hi - xr) - lo, 0.0)
+    hfx = 0.5 * xr
+    hxs = xr * hfx
+    r1 = 1.0 + hxs * (_Q1 + hxs * (_Q2 + hxs * (_Q3 + hxs * (_Q4 + hxs * _Q5))))
+    t = 3.0 - r1 * hfx
+    e = hxs * ((r1 - t) / (6.0 - xr * t))
+    return np.where(k == 0.0, xr - (xr * e - hxs), _expm1_scale_lanes(k, xr, (xr * (e - c) - c) - hxs))
+
+
+def _expm1_scale_lanes(k: NDArray[np.float64], x: NDArray[np.float64], e: NDArray[np.float64]) -> Any:
+    """_expm1_scale of each lane (k < 64: no 2^1024)."""
+    two_k, two_minus_k = np.ldexp(1.0, k.astype(np.int64)), np.ldexp(1.0, -k.astype(np.int64))
+    return np.select(
+        [k == -1.0, (k == 1.0) & (x < -0.25), k == 1.0, (k <= -2.0) | (k > 56.0), k < 20.0],
+        [
+            0.5 * (x - e) - 0.5,
+            -2.0 * (e - (x + 0.5)),
+            1.0 + 2.0 * (x - e),
+            (1.0 - (e - x)) * two_k - 1.0,
+            ((1.0 - two_minus_k) - (e - x)) * two_k,
+        ],
+        ((x - (e + two_minus_k)) + 1.0) * two_k,
+    )
 
 
 # exp10: x*ln(10) as a double-double, then exp(hi)*(1 + lo).

@@ -4,13 +4,12 @@ numpy's elementwise +, -, *, / and sqrt round as Python's floats do (IEEE-754, c
 nothing into an FMA), so float code written with them takes arrays unchanged. What branches on a value cannot: each
 function here takes a float or an array and, given an array, does lane by lane what the float code does (Python's
 min returns its first argument unless the second is smaller: -0.0 and NaN included). The elementary functions
-(fdlibm's branches) go lane by lane through the scalar code (`each`).
+that lanes use take arrays themselves (numerics' sincos, cos, atan2 and tanh).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -43,8 +42,3 @@ def greatest(a: Any, b: Any) -> Any:
     if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
         return np.where(b > a, b, a)
     return max(a, b)
-
-
-def each(f: Callable[[float], float], x: np.ndarray) -> np.ndarray:
-    """f of every lane, through the scalar code."""
-    return np.fromiter(map(f, x.tolist()), dtype=np.float64, count=len(x))

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from numerics import tanh
-from numerics.lanes import each, greatest, least, sqrt
+from numerics.lanes import greatest, least, sqrt
 from vehicles.dynamics import Model, PathVectors
 from vehicles.params import VehicleParams
 from vehicles.paths import Path
@@ -72,7 +72,7 @@ def bounded_correction(v_tilde: float, limit: float) -> float:
     """limit tanh(v_tilde / limit): v_tilde for |v_tilde| << limit, never more than limit in size (either may be
     lanes)."""
     ratio = v_tilde / limit
-    return limit * (each(tanh, ratio) if isinstance(ratio, np.ndarray) else tanh(ratio))
+    return limit * tanh(ratio)
 
 
 def clamp(value: float, low: float, high: float) -> float:
