@@ -124,10 +124,13 @@ def sweep_split(paper: Path, repeat: int) -> dict[str, Any]:
     split = bench_sweep_split.measure(paper, max(repeat, 2))
     print(bench_sweep_split.summary(split), flush=True)
     steps = [bench_lanes.measure_steps(paper, count, 20) for count in (6, 16, 48, 192)]
-    print(bench_lanes.steps_summary(steps), flush=True)
+    print("paper's vehicles: " + bench_lanes.steps_summary(steps), flush=True)
+    ring = paper.parent / "ring10_1hz.toml"  # line of sight on fins with its observer: a generated ring's vehicles
+    sighted = [bench_lanes.measure_steps(ring, count, 20) for count in (6, 16, 48, 192)]
+    print("ring10_1hz's vehicles: " + bench_lanes.steps_summary(sighted), flush=True)
     lanes = bench_lanes.measure(paper, 1000)
     print(bench_lanes.summary(lanes), flush=True)
-    return {**split, "lanes": {**lanes, "steps": steps}}
+    return {**split, "lanes": {**lanes, "steps": steps, "line_of_sight_steps": sighted}}
 
 
 def commands(paper: Path, repeat: int) -> dict[str, Any]:

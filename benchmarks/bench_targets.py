@@ -19,7 +19,9 @@ Zenoh run's peak resident memory per vehicle process (bench_scaling.ProcessSampl
 also gives the most its vehicles' own steps allow, from one vehicle's step timed here (benchmarks.bench_step:
 vehicles.agent.step alone, less than a vehicle's whole step, so this is an upper bound): N AUVs at a step of dt need
 N x (step cost) of CPU per dt simulated, so at most cores x dt / (N x cost) times real time over Zenoh and
-dt / (N x cost) in-process (one thread), however cheap the bus, the channel and the recording.
+dt / (N x cost) in-process (one thread), however cheap the bus, the channel and the recording. In-process, a fleet
+of vehicles.lanes.MIN_LANES or more steps as lanes: its cost is then a vehicle's share of up to 200 of the ring's
+vehicles stepped together (benchmarks.bench_lanes.measure_steps, their state messages checked against each alone).
 Results go to benchmarks/results/targets.json. `--cases` picks some (comma-separated names).
 """
 
@@ -37,10 +39,12 @@ from pathlib import Path
 from typing import Any
 
 from benchmarks import ROOT, save
+from benchmarks.bench_lanes import measure_steps
 from benchmarks.bench_scaling import ProcessSampler, ring_scenario
 from benchmarks.bench_step import per_step
 from supervisor.config.scenario import parse_scenario
 from supervisor.engine.hosting import cores, default_per_process, groups
+from vehicles.lanes import MIN_LANES
 
 CPF = [sys.executable, "-m", "supervisor.cli"]
 FORCED = ("ring50-1hz", "ring50-10hz", "ring100-1hz")  # also run with one process per AUV forced
@@ -112,20 +116,28 @@ def measure(case: Case, repeat: int, tmp: Path) -> list[dict[str, Any]]:
     if "zenoh/1pp" in runs:
         rows.append(case_row(case, f"{case.name}/1pp", walls["inprocess"], walls["zenoh/1pp"], rss["zenoh/1pp"]))
     if case.vehicles:
-        bound = step_bound(case)
+        bound = step_bound(case, tmp)
         for row in rows:
             row["bound"] = bound
     return rows
 
 
-def step_bound(case: Case, steps: int = 1000) -> dict[str, Any]:
-    """The most real time the case's vehicle steps alone allow (see the module's docstring), from vehicle 1's step
-    (a ring's vehicles all step alike: a line, two neighbours) timed by benchmarks.bench_step."""
+def step_bound(case: Case, tmp: Path, steps: int = 1000) -> dict[str, Any]:
+    """The most real time the case's vehicle steps allow (see the module's docstring), from vehicle 1's step alone
+    (a ring's vehicles all step alike: a line, two neighbours) timed by benchmarks.bench_step, and in-process for a
+    fleet that steps as lanes, from up to 200 of them stepped together."""
     ring = Case(case.name, min(case.vehicles, 50), case.duration, case.period, case.target)  # quicker to build
     scenario = parse_scenario(scenario_text(ring), f"{case.name}.toml")
     cost, dt, n = per_step(scenario, 1, steps), scenario.scenario.step, case.vehicles
-    return {"vehicle_step_us": cost * 1e6, "cores": cores(), "max_real_time_zenoh": cores() * dt / (n * cost),
-            "max_real_time_inprocess": dt / (n * cost)}  # fmt: skip
+    bound = {"vehicle_step_us": cost * 1e6, "cores": cores(), "max_real_time_zenoh": cores() * dt / (n * cost),
+             "max_real_time_inprocess": dt / (n * cost)}  # fmt: skip
+    if n >= MIN_LANES:
+        together = Case(case.name, min(n, 200), case.duration, case.period, case.target)
+        path = tmp / f"{case.name}-lanes.toml"
+        path.write_text(scenario_text(together))
+        lanes = measure_steps(path, together.vehicles, 5)["lanes_us"] * 1e-6
+        bound |= {"vehicle_step_lanes_us": lanes * 1e6, "max_real_time_inprocess": dt / (n * lanes)}
+    return bound
 
 
 def _vehicle_processes(case: Case, extra: list[str]) -> int:
@@ -170,8 +182,9 @@ def measure_sweep(runs: int, repeat: int, tmp: Path) -> dict[str, Any]:
 def summary(row: dict[str, Any]) -> str:
     bound = row.get("bound")
     limit = (
-        f"; its vehicles' steps alone ({bound['vehicle_step_us']:.0f} us each) allow at most "
-        f"{bound['max_real_time_zenoh']:.1f}x over Zenoh on {bound['cores']} cores, "
+        f"; its vehicles' steps ({bound['vehicle_step_us']:.0f} us each alone"
+        + (f", {bound['vehicle_step_lanes_us']:.0f} as lanes" if "vehicle_step_lanes_us" in bound else "")
+        + f") allow at most {bound['max_real_time_zenoh']:.1f}x over Zenoh on {bound['cores']} cores, "
         f"{bound['max_real_time_inprocess']:.1f}x in-process"
         if bound
         else ""
