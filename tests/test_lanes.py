@@ -315,3 +315,49 @@ def test_vehicles_step_together_only_with_parts_the_same_to_the_bit():
     assert first is not None and second is not None
     assert first.shared == second.shared and first.path != second.path
     _same_bits_as_alone(signed)
+
+
+def _ring_jobs(paths: list[Any] | None = None) -> list[Job]:
+    """ring10_1hz's ten vehicles (each on a line of its own) at their start, nothing heard; paths: theirs replaced."""
+    from dataclasses import replace
+
+    scenario = parse_scenario((CONFIGS / "ring10_1hz.toml").read_text(), "ring10_1hz.toml")
+    jobs = []
+    for n, vid in enumerate(scenario.vehicle_ids):
+        cfg = vehicle_config(scenario, vid, 0)
+        cfg = cfg if paths is None else replace(cfg, path=paths[n])
+        node = NodeState(initial_state(scenario, cfg))
+        jobs.append(Job(shape_of(cfg), cfg, radio(scenario, vid), node, 0, 0.0, 0.1, [], [], Disturbances()))
+    return jobs
+
+
+def test_a_fleet_on_paths_of_its_own_takes_their_points_in_one_call_per_stage(monkeypatch):
+    """Ten lines, one per vehicle: each RK4 stage evaluates one stand-in line whose fields are the ten lines' (it
+    evaluated each line alone, 40 calls a step, before); a path class that says it takes lanes but whose code
+    cannot take its fields as arrays falls back to each path alone. The same bits as each vehicle alone both ways."""
+    from dataclasses import dataclass
+
+    from vehicles.paths import Line
+
+    calls: list[int] = []
+    evaluate = Line.evaluate_floats
+
+    def counted(self: Line, gamma: Any) -> Any:
+        if isinstance(gamma, np.ndarray):
+            calls.append(len(gamma))
+        return evaluate(self, gamma)
+
+    jobs = _ring_jobs()
+    assert len({job.shape.path for job in jobs if job.shape}) == 10
+    monkeypatch.setattr(Line, "evaluate_floats", counted)
+    step_all(jobs, min_lanes=2)
+    assert calls == [10] * 4
+    _same_bits_as_alone(jobs)
+
+    @dataclass(frozen=True)
+    class Fussy(Line):  # its code branches on a field: refuses arrays
+        def evaluate_floats(self, gamma: Any) -> Any:
+            return Line.evaluate_floats(self, gamma) if self.start[0] <= 1e9 else None
+
+    fussy = [Fussy(job.cfg.path.start, job.cfg.path.velocity) for job in jobs]  # type: ignore[attr-defined]
+    _same_bits_as_alone(_ring_jobs(fussy))

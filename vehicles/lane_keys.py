@@ -39,8 +39,9 @@ def key(value: Any) -> object:
 
 def stacked(values: list[Any]) -> Any:
     """One value of lanes for the vehicles' values of one shape: floats become an array (lane n: values[n]), tuples
-    and dataclasses (whose fields all take __init__) are stacked field by field, and an object every vehicle shares
-    (None, a constant) stays itself. Anything else raises TypeError (vehicles.lanes then steps them alone)."""
+    and dataclasses are stacked field by field (a dataclass made without its __init__, whose checks would refuse
+    arrays: every field, derived ones too, is the lanes' own), and an object every vehicle shares (None, a constant)
+    stays itself. Anything else raises TypeError (vehicles.lanes then steps them alone)."""
     first = values[0]
     if all(v is first for v in values):
         return first
@@ -49,10 +50,8 @@ def stacked(values: list[Any]) -> Any:
     if isinstance(first, tuple) and not hasattr(first, "_fields") and all(_like(v, first) for v in values):
         return tuple(stacked(list(column)) for column in zip(*values, strict=True))
     if dataclasses.is_dataclass(first) and all(type(v) is type(first) for v in values):
-        fields = dataclasses.fields(first)
-        if all(f.init for f in fields):
-            cls: Any = type(first)
-            return cls(**{f.name: stacked([getattr(v, f.name) for v in values]) for f in fields})
+        names = [f.name for f in dataclasses.fields(first)]
+        return _made(type(first), {name: stacked([getattr(v, name) for v in values]) for name in names})
     raise TypeError(f"cannot step {type(first).__name__} values as lanes")
 
 
@@ -65,8 +64,16 @@ def unstacked(value: Any, lanes: int) -> list[Any]:
     if dataclasses.is_dataclass(value) and not isinstance(value, type) and _has_lanes(value):
         names = [f.name for f in dataclasses.fields(value)]
         columns = [unstacked(getattr(value, name), lanes) for name in names]
-        return [type(value)(**dict(zip(names, row, strict=True))) for row in zip(*columns, strict=True)]
+        return [_made(type(value), dict(zip(names, row, strict=True))) for row in zip(*columns, strict=True)]
     return [value] * lanes
+
+
+def _made(cls: type, fields: dict[str, Any]) -> Any:
+    """An instance of the dataclass cls with these fields, its __init__ (and checks) not run: frozen or not."""
+    made: Any = object.__new__(cls)
+    for name, value in fields.items():
+        object.__setattr__(made, name, value)
+    return made
 
 
 def _like(value: Any, first: tuple[Any, ...]) -> bool:

@@ -135,7 +135,7 @@ def _together(jobs: Sequence[Job]) -> list[Outcome]:
     z = list(np.array([b.z for b in begun]).T.copy())
     memory = stacked([b.memory for b in begun])
 
-    paths = _same_paths(jobs)
+    paths = _path_lanes(jobs)
 
     def along(t: float) -> LaneAlong:
         heard = [neighbour_values(j.cfg, p.state, t, j.neighbours) for j, p in zip(jobs, before, strict=True)]
@@ -170,31 +170,51 @@ def _column(value: Any, lanes: int) -> list[float]:
     return np.broadcast_to(np.asarray(value, dtype=np.float64), (lanes,)).tolist()
 
 
+class PathLanes(NamedTuple):
+    """Lanes whose path's point is taken in one call: path (their shared path, or a stand-in whose fields are the
+    lanes' paths' fields stacked: lane_keys.stacked) evaluated at their gammas; None: lane by lane. parts: the
+    groups of one path each to fall back on if the stand-in's evaluation raises."""
+
+    lanes: list[int]
+    path: object | None
+    parts: tuple[PathLanes, ...] = ()
+
+
 class LaneAlong(Along):
     """agent.Along for lanes: each vehicle's own law lane by lane through its float code, and its path's point for
-    all the lanes that share the path at once where the path takes lanes (`lanes = True`: the helix, circle and
-    line), else lane by lane."""
+    all the lanes whose paths are of one class that takes lanes (`lanes = True`: the helix, circle and line) at once,
+    else lane by lane."""
 
     __slots__ = ("cfgs", "heards", "paths")
 
     def __init__(
-        self, cfgs: Sequence[VehicleConfig], heards: Sequence[list[tuple[float, float]]], paths: list[list[int]]
+        self, cfgs: Sequence[VehicleConfig], heards: Sequence[list[tuple[float, float]]], paths: list[PathLanes]
     ) -> None:
         super().__init__(cfgs[0], heards[0])
         self.cfgs, self.heards, self.paths = cfgs, heards, paths
 
     def point(self, gamma: Any) -> PathVectors:
         c = np.empty((9, len(self.cfgs)))
-        for lanes in self.paths:
-            cfg = self.cfgs[lanes[0]]
-            if len(lanes) > 1 and takes_lanes(cfg.path):
-                values = _flat(cfg.model.path_seen(cfg.path.evaluate_floats(gamma[lanes])))
-                for row, value in enumerate(values):
-                    c[row, lanes] = value
-            else:
-                for n in lanes:
-                    c[:, n] = _flat(self.cfgs[n].model.path_seen(self.cfgs[n].path.evaluate_floats(float(gamma[n]))))
+        for group in self.paths:
+            self._fill(c, gamma, group)
         return (c[0], c[1], c[2]), (c[3], c[4], c[5]), (c[6], c[7], c[8])
+
+    def _fill(self, c: np.ndarray, gamma: Any, group: PathLanes) -> None:
+        lanes, path = group.lanes, group.path
+        if path is None:
+            for n in lanes:
+                c[:, n] = _flat(self.cfgs[n].model.path_seen(self.cfgs[n].path.evaluate_floats(float(gamma[n]))))
+            return
+        try:
+            values = _flat(self.cfgs[lanes[0]].model.path_seen(path.evaluate_floats(gamma[lanes])))  # type: ignore[attr-defined]
+        except Exception:
+            if not group.parts:
+                raise
+            for part in group.parts:  # a stand-in its class's code cannot take: each path's lanes, as without
+                self._fill(c, gamma, part)
+            return
+        for row, value in enumerate(values):
+            c[row, lanes] = value
 
     def correction(self, gamma: Any, gamma_dot: Any) -> Any:
         values = zip(self.cfgs, self.heards, gamma.tolist(), gamma_dot.tolist(), strict=True)
@@ -206,10 +226,46 @@ def _flat(point: PathVectors) -> list[Any]:
     return [*p, *v, *a]
 
 
-def _same_paths(jobs: Sequence[Job]) -> list[list[int]]:
-    """The lanes grouped by path (the same to the bit: the same vehicle of many runs), in order of first lane."""
-    groups: dict[object, list[int]] = {}
+def _path_lanes(jobs: Sequence[Job]) -> list[PathLanes]:
+    """The lanes grouped for their paths' points: by path (the same to the bit: the same vehicle of many runs), and
+    those of one class that takes lanes together, through a stand-in (a fleet on lines of its own)."""
+    same: dict[object, list[int]] = {}
     for n, job in enumerate(jobs):
         assert job.shape is not None  # only such jobs step as lanes
-        groups.setdefault(job.shape.path, []).append(n)
-    return list(groups.values())
+        same.setdefault(job.shape.path, []).append(n)
+    by_class: dict[type, list[PathLanes]] = {}
+    out: list[PathLanes] = []
+    for lanes in same.values():
+        path = jobs[lanes[0]].cfg.path
+        if not takes_lanes(path):
+            out.append(PathLanes(lanes, None))
+        else:
+            by_class.setdefault(type(path), []).append(PathLanes(lanes, path if len(lanes) > 1 else None))
+    for groups in by_class.values():
+        out += groups if len(groups) == 1 else _merged(groups, [jobs[n].cfg.path for g in groups for n in g.lanes])
+    return out
+
+
+def _merged(groups: list[PathLanes], paths: list[Any]) -> list[PathLanes]:
+    """One group of the lanes of groups through a stand-in of their paths (in the order of the lanes), or groups as
+    they are if the paths do not stack."""
+    lanes = [n for group in groups for n in group.lanes]
+    try:
+        return [PathLanes(lanes, _stand_in(paths), tuple(groups))]
+    except TypeError:
+        return groups
+
+
+# Stand-ins by their paths' identities (the paths held, so no id is reused while its entry lives): a fleet's paths
+# are the same objects step after step.
+_STAND_INS: dict[tuple[int, ...], tuple[list[Any], object]] = {}
+
+
+def _stand_in(paths: list[Any]) -> object:
+    ids = tuple(map(id, paths))
+    kept = _STAND_INS.get(ids)
+    if kept is None:
+        if len(_STAND_INS) >= 64:
+            _STAND_INS.clear()
+        kept = _STAND_INS[ids] = (paths, stacked(paths))
+    return kept[1]
