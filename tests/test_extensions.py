@@ -133,3 +133,35 @@ def test_cpf_plugins_lists_every_builtin(tmp_path):
     for name in ("corrected", "literal", "saturated", "first_order", "hold", "reference", "periodic", "event"):
         assert f"  {name} " in done.stdout
     assert "options: horizon" in done.stdout and "options: k_c, width" in done.stdout
+
+
+def test_a_class_signatures_are_inspected_once_unless_an_instance_or_the_class_changes_a_method(monkeypatch):
+    """Every vehicle of a fleet builds the same extensions: the interface's signatures are read once per class
+    (inspecting them 11000 times took 1.5 s of a 1000-AUV start), but an instance that holds a method of its own, or
+    a method replaced on the class, is inspected again (a wrong signature still found before the run)."""
+    from typing import Any, Protocol
+
+    from supervisor.config import extensions
+
+    class Speaks(Protocol):
+        def say(self, word: str) -> str: ...
+
+    class Plain:
+        def say(self, word: str) -> str:
+            return word
+
+    inspected: list[object] = []
+    real = extensions._problem_of
+
+    def counted(instance: object, protocol: type) -> str | None:
+        inspected.append(instance)
+        return real(instance, protocol)
+
+    monkeypatch.setattr(extensions, "_problem_of", counted)
+    assert [extensions._signature_problem(Plain(), Speaks) for _ in range(5)] == [None] * 5
+    assert len(inspected) == 1
+    odd: Any = Plain()
+    odd.say = lambda: "no word"
+    assert extensions._signature_problem(odd, Speaks) is not None and len(inspected) == 2
+    monkeypatch.setattr(Plain, "say", lambda self: "none")
+    assert extensions._signature_problem(Plain(), Speaks) is not None and len(inspected) == 3

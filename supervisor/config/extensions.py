@@ -193,13 +193,37 @@ def instantiate(
     return instance, identity, []
 
 
+# What _signature_problem found for instances of a class, per interface and the class's methods of it as they are (a
+# method replaced on the class is checked again): every vehicle of a fleet builds the same dozen extensions (0.14 ms
+# each to inspect; 1.5 s for a fleet of 1000).
+_CHECKED: dict[tuple[object, ...], str | None] = {}
+
+
 def _signature_problem(instance: Any, protocol: type) -> str | None:
     """Why a method of the interface cannot be called on instance with the interface's arguments (None: it can):
-    a wrong signature is found before the run, not at its first call."""
-    for name, method in vars(protocol).items():
-        if name.startswith("_") or not callable(method):
-            continue
-        wanted = inspect.signature(method)
+    a wrong signature is found before the run, not at its first call. Once per class, unless an instance holds a
+    method of its own (in its __dict__)."""
+    cls, names = type(instance), _methods(protocol)
+    key = (cls, protocol, *(getattr(cls, name, None) for name in names))
+    own = getattr(instance, "__dict__", None) or {}
+    try:
+        if any(name in own for name in names):
+            return _problem_of(instance, protocol)
+        if key not in _CHECKED:
+            _CHECKED[key] = _problem_of(instance, protocol)
+        return _CHECKED[key]
+    except TypeError:  # a method that cannot be a key (unhashable): inspected each time
+        return _problem_of(instance, protocol)
+
+
+def _methods(protocol: type) -> list[str]:
+    """The interface's methods (its public callables)."""
+    return [name for name, method in vars(protocol).items() if not name.startswith("_") and callable(method)]
+
+
+def _problem_of(instance: Any, protocol: type) -> str | None:
+    for name in _methods(protocol):
+        wanted = inspect.signature(getattr(protocol, name))
         try:
             inspect.signature(getattr(instance, name)).bind(*range(len(wanted.parameters) - 1))  # not self
         except TypeError:
