@@ -26,6 +26,7 @@ from mcap.writer import CompressionType, Writer
 # sequence u32, log time u64, publish time u64); its data follows.
 MESSAGE_HEAD = struct.Struct("<BQHIQQ")
 HEAD_FIELDS = MESSAGE_HEAD.size - 9  # the record's own fields before its data (the length counts them)
+INDEX_HEAD = struct.Struct("<BQHI")  # a message index's: opcode, record length, channel id u16, entries' bytes u32
 
 
 class _ChannelIndex:
@@ -39,11 +40,12 @@ class _ChannelIndex:
         self.flat: list[int] = []  # time, offset, time, offset, ...
 
     def write(self, stream: RecordBuilder) -> None:
-        stream.start_record(Opcode.MESSAGE_INDEX)
-        stream.write2(self.channel_id)
-        stream.write4(len(self.flat) * 8)
+        """The record in one pack: opcode, its length, channel id, the entries' byte length, the entries. (A
+        channel per vehicle and kind of message leaves one entry or two per index: for a fleet of 1000, a record
+        built field by field cost 8 us a message.)"""
+        size = len(self.flat) * 8
+        stream.write(INDEX_HEAD.pack(Opcode.MESSAGE_INDEX, 6 + size, self.channel_id, size))
         stream.write(struct.pack(f"<{len(self.flat)}Q", *self.flat))
-        stream.finish_record()
 
 
 class FastChunk:
