@@ -87,12 +87,15 @@ def _groups(jobs: Sequence[Job]) -> list[list[int]]:
     """Indices of the jobs that may step together (in order), and each job that may not alone."""
     groups: dict[object, list[int]] = {}
     alone: list[list[int]] = []
+    bits: dict[int, object] = {}  # key by id: a step's jobs share their t and dt objects (and the jobs hold them)
     for i, job in enumerate(jobs):
         shape = job.shape
         if shape is None:
             alone.append([i])
         else:  # of the disturbances, the stages read the cap alone (agent._rate_limits)
-            groups.setdefault((shape.shared, key(job.t), key(job.dt), key(job.dist.gamma_dot_cap)), []).append(i)
+            values = (job.t, job.dt, job.dist.gamma_dot_cap)
+            keys = [bits[id(v)] if id(v) in bits else bits.setdefault(id(v), key(v)) for v in values]
+            groups.setdefault((shape.shared, *keys), []).append(i)
     return [*groups.values(), *alone]
 
 
