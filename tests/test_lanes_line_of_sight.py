@@ -12,7 +12,7 @@ from __future__ import annotations
 import io
 import math
 from dataclasses import replace
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import pytest
@@ -48,11 +48,22 @@ _RATIOS = st.one_of(
 )
 
 
+_BOUNDS = [0.4375, 0.6875, 1.1875, 2.4375, 2.0**-27, 2.0**60, 2.0**61, 2.0**-60]
+_NEAR_BOUNDS = st.sampled_from(_BOUNDS).flatmap(lambda b: st.floats(b * (1 - 1e-15), b * (1 + 1e-15)))
+_X = st.one_of(st.floats(-1e3, 1e3), st.sampled_from([1.0, -1.0, 3.0, -0.25]))
+
+
 @settings(max_examples=400, deadline=None)
-@given(st.lists(st.tuples(_RATIOS, _RATIOS), min_size=1, max_size=12))
-def test_atan2_of_lanes_is_atan2_of_each_lane(pairs):
-    """numerics.atan2 given arrays: fdlibm's usual path on arrays (every interval of atan's reduction), the scalar
-    code for zeros, infinities, NaNs, x = 1 and ratios past 2^60; no float error raised."""
+@given(
+    st.lists(st.tuples(_RATIOS, _RATIOS), min_size=1, max_size=12),
+    st.lists(st.tuples(st.one_of(_NEAR_BOUNDS, _RATIOS), _X, st.booleans()), min_size=1, max_size=12),
+)
+def test_atan2_of_lanes_is_atan2_of_each_lane(pairs, ratios):
+    """numerics.atan2 given arrays: fdlibm's usual path on arrays (every interval of atan's reduction, reached by
+    y = ratio x with the ratio at or about each bound), the scalar code for zeros, infinities, NaNs, x = 1 and
+    ratios past 2^60; no float error raised."""
+    with np.errstate(all="ignore"):
+        pairs = pairs + [((-r if flip else r) * x, x) for r, x, flip in ratios]
     y, x = (np.array(column, dtype=np.float64) for column in zip(*pairs, strict=True))
     with _raising():
         together = atan2(y, x)  # type: ignore[arg-type]
@@ -126,14 +137,19 @@ def _ring_cfg() -> Any:
     return vehicle_config(scenario, 1, 0)
 
 
-@settings(max_examples=150, deadline=None)
+_VARIANTS = [{}, {"fin_moment": None}, {"min_speed": 0.3, "margin": 1.0}, {"observer": 0.0, "lookahead": 2.0}]
+
+
+@pytest.mark.parametrize("variant", _VARIANTS, ids=["fins", "no-fins", "min-speed", "no-observer"])
+@settings(max_examples=60, deadline=None)
 @given(data=st.data())
-def test_the_line_of_sight_law_on_lanes_is_the_law_of_each_lane(data):
+def test_the_line_of_sight_law_on_lanes_is_the_law_of_each_lane(variant, data):
     """LineOfSight.control_with over lanes of states, paths, path rates, disturbance estimates and currents (what
-    the fins give at each lane's speed differs lane by lane): each lane's outputs are the scalar law's bits."""
+    the fins give at each lane's speed differs lane by lane), with its options as the ring has them and otherwise:
+    each lane's outputs (inputs, gamma_ddot, Lyapunov value, the drift it computed) are the scalar law's bits."""
     cfg = _ring_cfg()
-    law, model, prm = cfg.controller, cfg.vehicle, cfg.params
-    assert isinstance(law, LineOfSight) and law.lanes and law.fin_moment is not None
+    law, model, prm = replace(cfg.controller, **variant), cfg.vehicle, cfg.params
+    assert isinstance(law, LineOfSight) and law.lanes
     lanes = data.draw(st.integers(1, 5))
     small = st.floats(-2.0, 2.0)
     rows = [data.draw(st.lists(small, min_size=18, max_size=18)) for _ in range(lanes)]
@@ -165,20 +181,89 @@ def test_the_line_of_sight_law_on_lanes_is_the_law_of_each_lane(data):
     for n, one in enumerate(alone):
         assert _bits([t[n] for t in out.tau]) == _bits(one.tau)
         assert _bits([out.gamma_ddot[n], out.lyapunov[n]]) == _bits([one.gamma_ddot, one.lyapunov])
+        assert out.drift is not None and one.drift is not None
+        assert _bits([np.broadcast_to(v, (lanes,))[n] for part in out.drift for v in part]) == _bits(
+            [v for part in one.drift for v in part]
+        )
 
 
 def test_memories_stack_and_unstack_to_the_bit():
-    """lane_keys.stacked and unstacked: a float tree's lanes back as they were (-0.0, NaN's bits), a value every
-    lane shares as itself, and what is not a tree of floats refused (the vehicles then step alone)."""
+    """lane_keys.stacked and unstacked: a float tree's lanes (tuples, named tuples, dataclasses) back as they were
+    (-0.0, NaN's bits), a value every lane shares as itself; what cannot be split lane by lane refused, both ways
+    (the review found a named tuple of arrays handed whole to every vehicle, a shared array taken for lanes)."""
     values = [Disturbance((1.5, -0.0, math.nan)), Disturbance((2.0, 0.0, -1e-300))]
     together = stacked(values)
     assert isinstance(together.inputs[0], np.ndarray)
     back = unstacked(together, 2)
     assert [_bits(v.inputs) for v in back] == [_bits(v.inputs) for v in values]
     shared = Disturbance((0.0, 0.0, 0.0))
-    assert stacked([shared, shared]) is shared and unstacked(shared, 3) == [shared] * 3
-    with pytest.raises(TypeError):
-        stacked([{"a": 1.0}, {"a": 2.0}])
+    assert stacked([shared, shared]).inputs == shared.inputs and unstacked(shared, 3) == [shared] * 3
+    named = unstacked(Estimate(np.array([1.0, -0.0]), 7), 2)
+    assert named == [Estimate(1.0, 7), Estimate(-0.0, 7)] and math.copysign(1.0, named[1].a) < 0
+    weights = np.zeros(2)
+    for refused in ([{"a": 1.0}, {"a": 2.0}], [weights, weights], [[1.0], [2.0]], [Estimate(1.0, 1), Estimate(1.0, 2)]):
+        with pytest.raises(TypeError):
+            stacked(refused)
+    for refused_lanes in ({"a": np.zeros(2)}, [np.zeros(2)], Estimate(np.zeros(3), 1), np.zeros((2, 2))):
+        with pytest.raises(TypeError):
+            unstacked(refused_lanes, 2)
+
+
+class Estimate(NamedTuple):
+    a: Any  # a float, or its lanes
+    n: int
+
+
+_START = Estimate(0.0, 0)  # one start for every vehicle, as line of sight's NO_DISTURBANCE
+
+
+class Learner:
+    """An adaptive controller that says it takes lanes, its memory a named tuple: backstepping nudged by the sum of
+    its surge speeds after each step (a memory that differs vehicle by vehicle)."""
+
+    lanes = True
+
+    def control(self, model: Any, params: Any, s: Any, path: Any, gamma: Any, gamma_dot: Any, v_d: Any, current: Any):
+        return self.control_with(_START, model, params, s, path, gamma, gamma_dot, v_d, current)
+
+    def start(self, model: Any, params: Any, s: Any) -> Estimate:
+        return _START
+
+    def control_with(
+        self, memory: Any, model: Any, params: Any, s: Any, path: Any, gamma: Any, gamma_dot: Any, v_d: Any,
+        current: Any,
+    ) -> Any:  # fmt: skip
+        from vehicles.path_following import Backstepping, ControlOutput
+
+        out = Backstepping().control(model, params, s, path, gamma, gamma_dot, v_d, current)
+        return ControlOutput(out.tau, out.gamma_ddot + 1e-3 * memory.a, out.lyapunov, out.drift)
+
+    def update(self, memory: Any, model: Any, params: Any, stages: Any, after: Any, dt: float) -> Estimate:
+        return Estimate(memory.a + after[12], memory.n + 1)
+
+
+def test_an_adaptive_controller_with_a_named_tuple_memory_steps_as_lanes_to_each_vehicles_bits():
+    """Three steps of the paper's vehicles (twice over) under Learner as lanes: each vehicle's memory and state the
+    bits of it stepped alone throughout, and a vehicle stepping alone after the lanes goes on from its own memory."""
+    from tests.test_lanes import _jobs
+    from vehicles.lanes import step_all
+
+    learner = Learner()  # one object: vehicles step together only with the same controller (lane_keys.key)
+    jobs = [replace(j, cfg=replace(j.cfg, controller=learner)) for j in _jobs(6)]
+    jobs = [replace(j, shape=shape_of(j.cfg)) for j in jobs]
+    assert all(j.shape is not None and j.cfg.adaptive is not None for j in jobs)
+    assert len({j.shape.shared for j in jobs if j.shape}) == 1
+    together, alone = list(jobs), list(jobs)
+    for k in range(3):
+        lanes, single = step_all(together, min_lanes=2), step_all(alone, min_lanes=10**9)
+        for a, b in zip(lanes, single, strict=True):
+            assert not isinstance(a, Exception) and not isinstance(b, Exception)
+            assert type(a[0].vehicle.memory) is Estimate and a[0].vehicle.memory.n == k + 1
+            mine, theirs = a[0].vehicle.memory, b[0].vehicle.memory
+            assert isinstance(mine, Estimate) and isinstance(theirs, Estimate) and _bits([mine.a]) == _bits([theirs.a])
+            assert _bits(a[0].vehicle.x) == _bits(b[0].vehicle.x)
+        together = [replace(j, node=o[0], k=k + 1, t=(k + 1) * 0.1) for j, o in zip(together, lanes, strict=True)]  # type: ignore[index]
+        alone = [replace(j, node=o[0], k=k + 1, t=(k + 1) * 0.1) for j, o in zip(alone, single, strict=True)]  # type: ignore[index]
 
 
 def test_line_of_sight_vehicles_step_as_lanes_unless_a_part_of_the_law_is_replaced():

@@ -37,35 +37,63 @@ def key(value: Any) -> object:
     return ("object", id(value))
 
 
+# Values lanes share only when equal (each lane gets the value itself).
+_ATOMS = (bool, int, str, bytes, type(None))
+
+
 def stacked(values: list[Any]) -> Any:
-    """One value of lanes for the vehicles' values of one shape: floats become an array (lane n: values[n]), tuples
-    and dataclasses are stacked field by field (a dataclass made without its __init__, whose checks would refuse
-    arrays: every field, derived ones too, is the lanes' own), and an object every vehicle shares (None, a constant)
-    stays itself. Anything else raises TypeError (vehicles.lanes then steps them alone)."""
+    """One value of lanes for the vehicles' values of one shape: floats become an array (lane n: values[n]; a float
+    every lane holds as one object stays itself), tuples, named tuples and dataclasses are stacked field by field (a
+    dataclass made without its __init__, whose checks would refuse arrays: every field, derived ones too, is the
+    lanes' own), None, ints, strings and bools stay themselves where every lane's is equal. Anything else (an array,
+    a list, a dict, values that differ in type or length) raises TypeError: vehicles.lanes then steps them alone."""
     first = values[0]
-    if all(v is first for v in values):
+    kind = type(first)
+    if any(type(v) is not kind for v in values):
+        raise TypeError(f"cannot step values of types {kind.__name__} and others as lanes")
+    if kind is float:
+        return first if all(v is first for v in values) else np.array(values, dtype=np.float64)
+    if kind in _ATOMS and all(v == first for v in values):
         return first
-    if all(type(v) is float for v in values):
-        return np.array(values, dtype=np.float64)
-    if isinstance(first, tuple) and not hasattr(first, "_fields") and all(_like(v, first) for v in values):
-        return tuple(stacked(list(column)) for column in zip(*values, strict=True))
-    if dataclasses.is_dataclass(first) and all(type(v) is type(first) for v in values):
+    if issubclass(kind, tuple) and all(len(v) == len(first) for v in values):
+        return _tuple_of(kind, [stacked(list(column)) for column in zip(*values, strict=True)])
+    if dataclasses.is_dataclass(first):
         names = [f.name for f in dataclasses.fields(first)]
-        return _made(type(first), {name: stacked([getattr(v, name) for v in values]) for name in names})
-    raise TypeError(f"cannot step {type(first).__name__} values as lanes")
+        return _made(kind, {name: stacked([getattr(v, name) for v in values]) for name in names})
+    raise TypeError(f"cannot step {kind.__name__} values as lanes")
 
 
 def unstacked(value: Any, lanes: int) -> list[Any]:
-    """stacked's inverse: each lane's value (an object the lanes shared, each lane the same object)."""
+    """stacked's inverse: each lane's value (a float or an atom the lanes shared: each lane that value). TypeError
+    for what stacked could not have made: an array not of one value per lane, a list, a dict (a controller's update
+    that returns one steps its vehicles alone, not with every lane's values in each vehicle's memory)."""
     if isinstance(value, np.ndarray):
+        if value.shape != (lanes,):
+            raise TypeError(f"an array of shape {value.shape} is not one value per lane of {lanes}")
         return value.tolist()
-    if isinstance(value, tuple) and not hasattr(value, "_fields") and any(_has_lanes(v) for v in value):
-        return [tuple(column) for column in zip(*(unstacked(v, lanes) for v in value), strict=True)]
-    if dataclasses.is_dataclass(value) and not isinstance(value, type) and _has_lanes(value):
+    kind = type(value)
+    if isinstance(value, float):
+        return [float(value)] * lanes
+    if kind in _ATOMS:
+        return [value] * lanes
+    if issubclass(kind, tuple):
+        columns = [unstacked(v, lanes) for v in value]
+        return [_tuple_of(kind, list(row)) for row in zip(*columns, strict=True)] if columns else [value] * lanes
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
         names = [f.name for f in dataclasses.fields(value)]
         columns = [unstacked(getattr(value, name), lanes) for name in names]
-        return [_made(type(value), dict(zip(names, row, strict=True))) for row in zip(*columns, strict=True)]
-    return [value] * lanes
+        return [_made(kind, dict(zip(names, row, strict=True))) for row in zip(*columns, strict=True)]
+    raise TypeError(f"cannot take {kind.__name__} values apart into lanes")
+
+
+def _tuple_of(kind: type, items: list[Any]) -> Any:
+    """A tuple of kind (a plain one, or a named tuple) of items; TypeError for another tuple subclass."""
+    if kind is tuple:
+        return tuple(items)
+    make = getattr(kind, "_make", None)
+    if make is None:
+        raise TypeError(f"cannot make a {kind.__name__} of lanes")
+    return make(items)
 
 
 def _made(cls: type, fields: dict[str, Any]) -> Any:
@@ -74,17 +102,3 @@ def _made(cls: type, fields: dict[str, Any]) -> Any:
     for name, value in fields.items():
         object.__setattr__(made, name, value)
     return made
-
-
-def _like(value: Any, first: tuple[Any, ...]) -> bool:
-    return type(value) is tuple and len(value) == len(first)
-
-
-def _has_lanes(value: Any) -> bool:
-    if isinstance(value, np.ndarray):
-        return True
-    if isinstance(value, tuple):
-        return any(_has_lanes(v) for v in value)
-    if dataclasses.is_dataclass(value) and not isinstance(value, type):
-        return any(_has_lanes(getattr(value, f.name)) for f in dataclasses.fields(value))
-    return False

@@ -138,7 +138,7 @@ class Channel:
         collisions = self.params.modem.collisions
         # Without collisions a non-neighbour's position does not matter: only the receivers, in the same order (a
         # fleet of 1000 sorted all its ids per packet).
-        for j in sorted(everyone if collisions else receivers.intersection(everyone)):
+        for j in sorted(everyone if collisions else everyone.keys() & receivers):
             if j == tx.sender:
                 continue
             flight = time_of_flight(sender_at, everyone[j].position, everyone[j].velocity, self.params.sound_speed)
