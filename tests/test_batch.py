@@ -26,6 +26,21 @@ from tests.conftest import CONFIGS, shortened
 from tests.test_lanes import FAULTS
 
 
+def lanes_counted(monkeypatch: pytest.MonkeyPatch) -> list[int]:
+    """Groups of 2 or more step as lanes (MIN_LANES lowered) and the vehicle steps taken so are counted: the list's
+    one item, as the run goes."""
+    monkeypatch.setattr(vehicles.lanes, "MIN_LANES", 2)
+    together = [0]
+    inner = vehicles.lanes._together
+
+    def counted(jobs: Any) -> Any:
+        together[0] += len(jobs)
+        return inner(jobs)
+
+    monkeypatch.setattr(vehicles.lanes, "_together", counted)
+    return together
+
+
 def _alone(run: BatchRun) -> RunResult:
     quiet = Progress(run.scenario.scenario.duration, io.StringIO(), enabled=False)
     return run_inprocess(run.scenario, run.scenario_file, run.scenario_toml, None, run.seed, quiet)
@@ -81,15 +96,7 @@ def test_a_run_that_fails_in_a_batch_ends_alone_with_its_error(monkeypatch):
 def test_a_sweep_batch_gives_each_run_its_own_row(monkeypatch):
     """sweep_runs.run_many (what `cpf sweep` sends a worker) against run_one per spec, wall time apart, its vehicles
     stepped as lanes (counted: groups of 2 here); a failed run's place holds its error."""
-    monkeypatch.setattr(vehicles.lanes, "MIN_LANES", 2)
-    together = [0]
-    inner = vehicles.lanes._together
-
-    def counted(jobs: Any) -> Any:
-        together[0] += len(jobs)
-        return inner(jobs)
-
-    monkeypatch.setattr(vehicles.lanes, "_together", counted)
+    together = lanes_counted(monkeypatch)
     text = shortened((CONFIGS / "paper.toml").read_text(), 30.0).encode()
     specs = [RunSpec((("comms.loss", loss),), seed) for loss in (0.0, 0.4) for seed in range(2)]
     # A scenario its settings make invalid amid the good runs (the review found every row after it shifted by one).

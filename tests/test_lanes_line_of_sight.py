@@ -9,7 +9,6 @@ observer's estimate and a current, likewise; and whole runs of line-of-sight fle
 
 from __future__ import annotations
 
-import io
 import math
 from dataclasses import replace
 from typing import Any, NamedTuple
@@ -19,13 +18,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-import vehicles.lanes
 from numerics import atan2, cos
 from supervisor.config.fleet import vehicle_config
 from supervisor.config.scenario import parse_scenario
 from supervisor.engine.batch import BatchRun, run_batch
-from supervisor.engine.inprocess import RunResult, run_inprocess
-from supervisor.engine.progress import Progress
+from supervisor.engine.inprocess import RunResult
 from tests.conftest import CONFIGS, shortened
 from tests.test_lanes import _bits, _values
 from vehicles.actuators import remus100
@@ -280,26 +277,13 @@ def test_line_of_sight_vehicles_step_as_lanes_unless_a_part_of_the_law_is_replac
     assert shape_of(replace(cfg, controller=steeper)) is None
 
 
-def _alone(run: BatchRun) -> RunResult:
-    quiet = Progress(run.scenario.scenario.duration, io.StringIO(), enabled=False)
-    return run_inprocess(run.scenario, run.scenario_file, run.scenario_toml, None, run.seed, quiet)
-
-
 def test_runs_of_line_of_sight_vehicles_on_a_mismatched_plant_batched_are_each_run_alone(monkeypatch):
     """inline5 (line of sight on fins) with its plant 30 % off the model, so the disturbance observer's estimate is
     large: each vehicle of three runs (links of three losses) steps as lanes with itself in the others, memory and
     all, and every run's result is the run alone, bit for bit."""
-    from tests.test_batch import _same
+    from tests.test_batch import _alone, _same, lanes_counted
 
-    monkeypatch.setattr(vehicles.lanes, "MIN_LANES", 2)
-    together = [0]
-    inner = vehicles.lanes._together
-
-    def counted(jobs: Any) -> Any:
-        together[0] += len(jobs)
-        return inner(jobs)
-
-    monkeypatch.setattr(vehicles.lanes, "_together", counted)
+    together = lanes_counted(monkeypatch)
     text = shortened((CONFIGS / "inline5.toml").read_text(), 30.0)
     losses = ("0.0", "0.3", "0.5")  # one seed: the plant is drawn from it, so each vehicle's is the same in every run
     overrides = [["vehicle.uncertainty=0.3", f"comms.loss={loss}"] for loss in losses]
