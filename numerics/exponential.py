@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from numerics._bits import from_words
+from numerics.lanes import FEW_LANES, each
 
 _O_THRESHOLD = 7.09782712893383973096e02  # 0x40862E42, 0xFEFA39EF
 _U_THRESHOLD = -7.45133219101941108420e02  # 0xc0874910, 0xD52D3051
@@ -137,7 +138,7 @@ def tanh(x: float) -> float:
     """Hyperbolic tangent (s_tanh.c); tanh(+-inf) = +-1. x may be a numpy array of lanes (vehicles.lanes): then the
     same, lane by lane."""
     if isinstance(x, np.ndarray):
-        return _tanh_lanes(x)
+        return _tanh_lanes(x) if x.size >= FEW_LANES else each(tanh, x)
     ax = fabs(x)
     if not ax < _TANH_BIG:
         if x != x:

@@ -16,6 +16,7 @@ from numpy.typing import NDArray
 
 from numerics._bits import clear_low_word, from_words
 from numerics._reduce import _INVPIO2, _PIO2_1, _PIO2_1T, _TO_INT, _TWO_M16, MEDIUM_LIMIT, rem_pio2
+from numerics.lanes import FEW_LANES, each
 
 # k_sin.c
 _S1 = -1.66666666666666324348e-01  # 0xBFC55555, 0x55555549
@@ -86,7 +87,7 @@ def sin(x: float) -> float:
 def cos(x: float) -> float:
     """Cosine of x (s_cos.c); cos(+-inf) = nan. x may be a numpy array of lanes: sincos's cosine of each."""
     if isinstance(x, np.ndarray):
-        return _sincos_lanes(x)[1]
+        return _sincos_lanes(x)[1] if x.size >= FEW_LANES else each(cos, x)
     if -_PIO4_HIGH < x < _PIO4_HIGH:
         if -_COS_TINY < x < _COS_TINY:
             return 1.0
@@ -108,7 +109,10 @@ def sincos(x: float) -> tuple[float, float]:
     """(sin(x), cos(x)) with one argument reduction; the same bits as sin(x) and cos(x). x may be a numpy array of
     lanes (vehicles.lanes): then the same, lane by lane."""
     if isinstance(x, np.ndarray):
-        return _sincos_lanes(x)
+        if x.size >= FEW_LANES:
+            return _sincos_lanes(x)
+        s, c = zip(*map(sincos, x.tolist()), strict=True) if x.size else ((), ())
+        return np.array(s, dtype=np.float64), np.array(c, dtype=np.float64)
     if -_PIO4_HIGH < x < _PIO4_HIGH:
         s = x if -_SIN_TINY < x < _SIN_TINY else _kernel_sin0(x)
         c = 1.0 if -_COS_TINY < x < _COS_TINY else _kernel_cos(x, 0.0)
@@ -225,7 +229,8 @@ def atan2(y: float, x: float) -> float:
     """Arc tangent of y/x in [-pi, pi] using the signs of both (e_atan2.c); atan2(+-0, -0) = +-pi. y and x may be
     numpy arrays of lanes (vehicles.lanes): then the same, lane by lane."""
     if isinstance(y, np.ndarray) or isinstance(x, np.ndarray):
-        return _atan2_lanes(np.asarray(y, dtype=np.float64), np.asarray(x, dtype=np.float64))
+        lanes = (np.asarray(y, dtype=np.float64), np.asarray(x, dtype=np.float64))
+        return _atan2_lanes(*lanes) if max(a.size for a in lanes) >= FEW_LANES else each(atan2, *lanes)
     if x != x or y != y:
         return x + y
     if x == 1.0:

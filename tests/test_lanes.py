@@ -261,13 +261,18 @@ _ANGLES = st.one_of(
 @given(st.lists(_ANGLES, min_size=1, max_size=12))
 def test_sincos_of_lanes_is_sincos_of_each_lane(angles):
     """numerics.sincos given an array: its arithmetic on the lanes it can take, the scalar code on the rest; the
-    same bits either way, with no float error raised (vehicles.lanes raises on any)."""
+    same bits either way, with no float error raised (vehicles.lanes raises on any). Its array form (_sincos_lanes,
+    what FEW_LANES or more take) and the function on few lanes and on many (the angles repeated)."""
     from numerics import sincos
+    from numerics.lanes import FEW_LANES
+    from numerics.trig import _sincos_lanes
 
-    with np.errstate(all="raise", under="ignore"):
-        s, c = sincos(np.array(angles, dtype=np.float64))  # type: ignore[arg-type]
-    scalar = [sincos(a) for a in angles]
-    assert _bits(s) == _bits([v[0] for v in scalar]) and _bits(c) == _bits([v[1] for v in scalar])
+    many = angles * (FEW_LANES // len(angles) + 1)
+    for values, form in ((angles, _sincos_lanes), (angles, sincos), (many, sincos)):
+        with np.errstate(all="raise", under="ignore"):
+            s, c = form(np.array(values, dtype=np.float64))  # type: ignore[arg-type]
+        scalar = [sincos(a) for a in values]
+        assert _bits(s) == _bits([v[0] for v in scalar]) and _bits(c) == _bits([v[1] for v in scalar])
 
 
 def _alike(controllers: list[Any], paths: list[Any] | None = None) -> list[Job]:

@@ -19,6 +19,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from numerics import atan2, cos
+from numerics.lanes import FEW_LANES
+from numerics.trig import _atan2_lanes, _sincos_lanes
 from supervisor.config.fleet import vehicle_config
 from supervisor.config.scenario import parse_scenario
 from supervisor.engine.batch import BatchRun, run_batch
@@ -58,15 +60,17 @@ _X = st.one_of(st.floats(-1e3, 1e3), st.sampled_from([1.0, -1.0, 3.0, -0.25]))
 def test_atan2_of_lanes_is_atan2_of_each_lane(pairs, ratios):
     """numerics.atan2 given arrays: fdlibm's usual path on arrays (every interval of atan's reduction, reached by
     y = ratio x with the ratio at or about each bound), the scalar code for zeros, infinities, NaNs, x = 1 and
-    ratios past 2^60; no float error raised."""
+    ratios past 2^60; no float error raised. The array forms themselves, and the functions on few lanes (the scalar
+    code of each) and on FEW_LANES or more (the pairs repeated: the array forms)."""
     with np.errstate(all="ignore"):
         pairs = pairs + [((-r if flip else r) * x, x) for r, x, flip in ratios]
-    y, x = (np.array(column, dtype=np.float64) for column in zip(*pairs, strict=True))
-    with _raising():
-        together = atan2(y, x)  # type: ignore[arg-type]
-        cosines = cos(y)  # type: ignore[arg-type]
-    assert _bits(together) == _bits([atan2(a, b) for a, b in pairs])
-    assert _bits(cosines) == _bits([cos(a) for a, _ in pairs])
+    many = pairs * (FEW_LANES // len(pairs) + 1)
+    for values in (pairs, many):
+        y, x = (np.array(column, dtype=np.float64) for column in zip(*values, strict=True))
+        with _raising():
+            forms = [atan2(y, x), cos(y), _atan2_lanes(y, x), _sincos_lanes(y)[1]]  # type: ignore[arg-type]
+        arctangents, cosines = [atan2(a, b) for a, b in values], [cos(a) for a, _ in values]
+        assert [_bits(f) for f in forms] == [_bits(arctangents), _bits(cosines)] * 2
 
 
 _TANH = st.one_of(
@@ -81,12 +85,15 @@ _TANH = st.one_of(
 @given(st.lists(_TANH, min_size=1, max_size=12))
 def test_tanh_of_lanes_is_tanh_of_each_lane(xs):
     """numerics.tanh given an array (the bounded correction's): s_tanh.c's and s_expm1.c's branches by where, every
-    lane the scalar bits (signed zeros, NaN, +-1 past 22), no float error raised."""
+    lane the scalar bits (signed zeros, NaN, +-1 past 22), no float error raised: the array form, and tanh on few
+    lanes and on FEW_LANES or more."""
     from numerics import tanh
+    from numerics.exponential import _tanh_lanes
 
-    with _raising():
-        together = tanh(np.array(xs, dtype=np.float64))  # type: ignore[arg-type]
-    assert _bits(together) == _bits([tanh(x) for x in xs])
+    for values in (xs, xs * (FEW_LANES // len(xs) + 1)):
+        with _raising():
+            forms = [tanh(np.array(values, dtype=np.float64)), _tanh_lanes(np.array(values))]  # type: ignore[arg-type]
+        assert [_bits(f) for f in forms] == [_bits([tanh(x) for x in values])] * 2
 
 
 _LIMITS = st.sampled_from([0.0, 0.5, 1.5, 9.1, math.inf])
