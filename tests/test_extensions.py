@@ -165,3 +165,22 @@ def test_a_class_signatures_are_inspected_once_unless_an_instance_or_the_class_c
     assert extensions._signature_problem(odd, Speaks) is not None and len(inspected) == 2
     monkeypatch.setattr(Plain, "say", lambda self: "none")
     assert extensions._signature_problem(Plain(), Speaks) is not None and len(inspected) == 3
+
+    class Chooses:  # what it calls is decided per instance (the review's): never kept per class
+        def __init__(self, loud: bool) -> None:
+            self.loud = loud
+
+        @property
+        def say(self) -> Any:
+            return (lambda: "!") if self.loud else (lambda word: word)
+
+    class Proxy:
+        def __init__(self, inner: object) -> None:
+            self._inner = inner
+
+        def __getattr__(self, name: str) -> Any:
+            return getattr(self._inner, name)
+
+    for quiet, loud in ((Chooses(False), Chooses(True)), (Proxy(Chooses(False)), Proxy(odd))):
+        assert extensions._signature_problem(quiet, Speaks) is None
+        assert extensions._signature_problem(loud, Speaks) is not None

@@ -362,7 +362,18 @@ def test_a_fleet_on_paths_of_its_own_takes_their_points_in_one_call_per_stage(mo
     @dataclass(frozen=True)
     class Fussy(Line):  # its code branches on a field: refuses arrays
         def evaluate_floats(self, gamma: Any) -> Any:
-            return Line.evaluate_floats(self, gamma) if self.start[0] <= 1e9 else None
+            if isinstance(gamma, np.ndarray):
+                calls.append(len(gamma))
+            return evaluate(self, gamma) if self.start[0] <= 1e9 else None
 
     fussy = [Fussy(job.cfg.path.start, job.cfg.path.velocity) for job in jobs]  # type: ignore[attr-defined]
-    _same_bits_as_alone(_ring_jobs(fussy))
+    Fussy.lanes = True  # it says so itself (a subclass's inherited word does not make a stand-in)
+    fussy_jobs = _ring_jobs(fussy)
+    calls.clear()
+    together = step_all(fussy_jobs, min_lanes=2)
+    assert calls == [10]  # its stand-in tried once and refused (each path's lanes since); the vehicles still as lanes
+    calls.clear()
+    step_all(fussy_jobs, min_lanes=2)
+    assert calls == []  # the refusal remembered
+    alone = step_all(fussy_jobs, min_lanes=10**9)
+    assert [bitwise(a[1].state) for a in together] == [bitwise(b[1].state) for b in alone]  # type: ignore[index]

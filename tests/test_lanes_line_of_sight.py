@@ -10,7 +10,7 @@ observer's estimate and a current, likewise; and whole runs of line-of-sight fle
 from __future__ import annotations
 
 import math
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -192,25 +192,41 @@ def test_the_line_of_sight_law_on_lanes_is_the_law_of_each_lane(variant, data):
 
 
 def test_memories_stack_and_unstack_to_the_bit():
-    """lane_keys.stacked and unstacked: a float tree's lanes (tuples, named tuples, dataclasses) back as they were
-    (-0.0, NaN's bits), a value every lane shares as itself; what cannot be split lane by lane refused, both ways
-    (the review found a named tuple of arrays handed whole to every vehicle, a shared array taken for lanes)."""
+    """lane_keys.stacked and unstacked: a float tree's lanes (tuples, named tuples, dataclasses, what __post_init__
+    set beside their fields) back as they were (-0.0, NaN's bits), a value every lane shares as itself; what cannot
+    be split lane by lane refused, both ways (the reviews found a named tuple of arrays handed whole to every
+    vehicle, a shared array taken for lanes, an attribute __post_init__ set lost, a memory's own array of as many
+    values as lanes split among them)."""
     values = [Disturbance((1.5, -0.0, math.nan)), Disturbance((2.0, 0.0, -1e-300))]
     together = stacked(values)
     assert isinstance(together.inputs[0], np.ndarray)
-    back = unstacked(together, 2)
+    back = unstacked(together, 2, together)
     assert [_bits(v.inputs) for v in back] == [_bits(v.inputs) for v in values]
     shared = Disturbance((0.0, 0.0, 0.0))
-    assert stacked([shared, shared]).inputs == shared.inputs and unstacked(shared, 3) == [shared] * 3
-    named = unstacked(Estimate(np.array([1.0, -0.0]), 7), 2)
+    assert stacked([shared, shared]).inputs == shared.inputs and unstacked(shared, 3, shared) == [shared] * 3
+    start = Estimate(0.0, 7)
+    named = unstacked(Estimate(np.array([1.0, -0.0]), 7), 2, stacked([start, start]))
     assert named == [Estimate(1.0, 7), Estimate(-0.0, 7)] and math.copysign(1.0, named[1].a) < 0
+    gains = [Gained(1.0), Gained(3.0)]
+    assert [g.gain for g in unstacked(stacked(gains), 2, stacked(gains))] == [2.0, 6.0]
     weights = np.zeros(2)
     for refused in ([{"a": 1.0}, {"a": 2.0}], [weights, weights], [[1.0], [2.0]], [Estimate(1.0, 1), Estimate(1.0, 2)]):
         with pytest.raises(TypeError):
             stacked(refused)
-    for refused_lanes in ({"a": np.zeros(2)}, [np.zeros(2)], Estimate(np.zeros(3), 1), np.zeros((2, 2))):
+    own = Estimate(np.zeros(2), 1)  # an array where the memory held an int: the controller's own, not lanes
+    for refused_lanes in ({"a": np.zeros(2)}, [np.zeros(2)], Estimate(np.zeros(3), 1), np.zeros((2, 2)), own):
         with pytest.raises(TypeError):
-            unstacked(refused_lanes, 2)
+            unstacked(refused_lanes, 2, Estimate(0.0, 1) if refused_lanes is not own else Estimate(1, 1))
+
+
+@dataclass(frozen=True)
+class Gained:
+    """A memory whose __post_init__ sets an attribute beside its field."""
+
+    a: float
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "gain", 2.0 * self.a)
 
 
 class Estimate(NamedTuple):

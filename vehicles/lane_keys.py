@@ -43,10 +43,11 @@ _ATOMS = (bool, int, str, bytes, type(None))
 
 def stacked(values: list[Any]) -> Any:
     """One value of lanes for the vehicles' values of one shape: floats become an array (lane n: values[n]; a float
-    every lane holds as one object stays itself), tuples, named tuples and dataclasses are stacked field by field (a
-    dataclass made without its __init__, whose checks would refuse arrays: every field, derived ones too, is the
-    lanes' own), None, ints, strings and bools stay themselves where every lane's is equal. Anything else (an array,
-    a list, a dict, values that differ in type or length) raises TypeError: vehicles.lanes then steps them alone."""
+    every lane holds as one object stays itself), tuples, named tuples and dataclasses are stacked attribute by
+    attribute (a dataclass made without its __init__, whose checks would refuse arrays: every attribute it holds,
+    fields and what __post_init__ set alike, is the lanes' own), None, ints, strings and bools stay themselves where
+    every lane's is equal. Anything else (an array, a list, a dict, values that differ in type, length or
+    attributes) raises TypeError: vehicles.lanes then steps them alone."""
     first = values[0]
     kind = type(first)
     if any(type(v) is not kind for v in values):
@@ -58,18 +59,21 @@ def stacked(values: list[Any]) -> Any:
     if issubclass(kind, tuple) and all(len(v) == len(first) for v in values):
         return _tuple_of(kind, [stacked(list(column)) for column in zip(*values, strict=True)])
     if dataclasses.is_dataclass(first):
-        names = [f.name for f in dataclasses.fields(first)]
+        names = _attributes(first)
+        if any(_attributes(v) != names for v in values):
+            raise TypeError(f"{kind.__name__} values hold different attributes")
         return _made(kind, {name: stacked([getattr(v, name) for v in values]) for name in names})
     raise TypeError(f"cannot step {kind.__name__} values as lanes")
 
 
-def unstacked(value: Any, lanes: int) -> list[Any]:
-    """stacked's inverse: each lane's value (a float or an atom the lanes shared: each lane that value). TypeError
-    for what stacked could not have made: an array not of one value per lane, a list, a dict (a controller's update
-    that returns one steps its vehicles alone, not with every lane's values in each vehicle's memory)."""
+def unstacked(value: Any, lanes: int, like: Any) -> list[Any]:
+    """Each lane's part of value, which a step of lanes made from like (what stacked gave it): an array of one value
+    per lane where like held a float or such an array, a float or an atom the lanes share (each lane that value),
+    tuples, named tuples and dataclasses part by part. TypeError for anything else: an array where like held no
+    float (a memory's own array, whatever its length, is not lanes), a list, a dict; the vehicles then step alone."""
     if isinstance(value, np.ndarray):
-        if value.shape != (lanes,):
-            raise TypeError(f"an array of shape {value.shape} is not one value per lane of {lanes}")
+        if value.shape != (lanes,) or not isinstance(like, float | np.ndarray):
+            raise TypeError(f"an array of shape {value.shape} is not one value per lane of {lanes} here")
         return value.tolist()
     kind = type(value)
     if isinstance(value, float):
@@ -77,13 +81,36 @@ def unstacked(value: Any, lanes: int) -> list[Any]:
     if kind in _ATOMS:
         return [value] * lanes
     if issubclass(kind, tuple):
-        columns = [unstacked(v, lanes) for v in value]
+        parts = like if type(like) is kind and len(like) == len(value) else (None,) * len(value)
+        columns = [unstacked(v, lanes, p) for v, p in zip(value, parts, strict=True)]
         return [_tuple_of(kind, list(row)) for row in zip(*columns, strict=True)] if columns else [value] * lanes
     if dataclasses.is_dataclass(value) and not isinstance(value, type):
-        names = [f.name for f in dataclasses.fields(value)]
-        columns = [unstacked(getattr(value, name), lanes) for name in names]
+        names = _attributes(value)
+        columns = [unstacked(getattr(value, n), lanes, getattr(like, n, None)) for n in names]
         return [_made(kind, dict(zip(names, row, strict=True))) for row in zip(*columns, strict=True)]
     raise TypeError(f"cannot take {kind.__name__} values apart into lanes")
+
+
+def _attributes(value: Any) -> list[str]:
+    """Every attribute the instance holds: its slots (those set) over its classes, then its __dict__'s."""
+    names = [
+        name for cls in type(value).__mro__ for name in _slots(cls)
+        if name not in ("__dict__", "__weakref__") and _holds(value, name)
+    ]  # fmt: skip
+    return names + [name for name in getattr(value, "__dict__", {}) if name not in names]
+
+
+def _slots(cls: type) -> tuple[str, ...]:
+    slots = vars(cls).get("__slots__", ())
+    return (slots,) if isinstance(slots, str) else tuple(slots)
+
+
+def _holds(value: Any, name: str) -> bool:
+    try:
+        object.__getattribute__(value, name)
+    except AttributeError:
+        return False
+    return True
 
 
 def _tuple_of(kind: type, items: list[Any]) -> Any:
@@ -96,9 +123,10 @@ def _tuple_of(kind: type, items: list[Any]) -> Any:
     return make(items)
 
 
-def _made(cls: type, fields: dict[str, Any]) -> Any:
-    """An instance of the dataclass cls with these fields, its __init__ (and checks) not run: frozen or not."""
+def _made(cls: type, attributes: dict[str, Any]) -> Any:
+    """An instance of the dataclass cls holding these attributes, its __init__ (and checks) not run: frozen or
+    not."""
     made: Any = object.__new__(cls)
-    for name, value in fields.items():
+    for name, value in attributes.items():
         object.__setattr__(made, name, value)
     return made

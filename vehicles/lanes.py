@@ -62,15 +62,17 @@ class Job:
     dist: Disturbances
 
 
-def step_all(jobs: Sequence[Job], min_lanes: int | None = None) -> list[Outcome]:
+def step_all(jobs: Sequence[Job], min_lanes: int | None = None, strict: bool = False) -> list[Outcome]:
     """Each job's step_records (or what it raised), groups of at least min_lanes (None: MIN_LANES) alike vehicles
-    stepped together as lanes."""
+    stepped together as lanes; strict: a group whose lanes raise raises (a benchmark's lanes are lanes), instead of
+    stepping one vehicle at a time."""
     least = MIN_LANES if min_lanes is None else min_lanes
     if len(jobs) < least:  # no group can be large enough: no grouping (a small fleet's every step)
         return [_one(job) for job in jobs]
     slots: dict[int, Outcome] = {}
+    together = _together if strict else _lanes
     for group in _groups(jobs):
-        stepped = _lanes([jobs[i] for i in group]) if len(group) >= least else None
+        stepped = together([jobs[i] for i in group]) if len(group) >= least else None
         for n, i in enumerate(group):
             slots[i] = stepped[n] if stepped is not None else _one(jobs[i])
     return [slots[i] for i in range(len(jobs))]
@@ -146,7 +148,7 @@ def _together(jobs: Sequence[Job]) -> list[Outcome]:
 
     with np.errstate(all="raise", under="ignore"):  # where Python's floats raise, or might: alone, they say what
         stepped = rk4(first.cfg, first.t, Begun(z, memory, ()), first.dt, along, first.dist, None)
-    lanes = _unstacked(stepped, len(jobs))
+    lanes = _unstacked(stepped, len(jobs), memory)
     return [_finished(j, p, b, s) for j, p, b, s in zip(jobs, before, begun, lanes, strict=True)]
 
 
@@ -159,13 +161,14 @@ def _finished(job: Job, before: Prepared, begun: Begun, stepped: Stepped) -> Out
         return exc
 
 
-def _unstacked(stepped: Stepped, lanes: int) -> list[Stepped]:
-    """One Stepped per lane, of floats (a value the same for every lane comes as a float)."""
+def _unstacked(stepped: Stepped, lanes: int, began: object) -> list[Stepped]:
+    """One Stepped per lane, of floats (a value the same for every lane comes as a float); began: the stacked
+    memory the step began with."""
     z = np.array(stepped.z).T.tolist()
     v_tilde, lyapunov = _column(stepped.v_tilde, lanes), _column(stepped.lyapunov, lanes)
     error = list(zip(*(_column(e, lanes) for e in stepped.seen_error), strict=True))
     applied = list(zip(*(_column(a, lanes) for a in stepped.applied), strict=True))
-    memory = unstacked(stepped.memory, lanes)
+    memory = unstacked(stepped.memory, lanes, began)
     return [Stepped(z[n], memory[n], v_tilde[n], error[n], lyapunov[n], applied[n]) for n in range(lanes)]
 
 
@@ -208,16 +211,23 @@ class LaneAlong(Along):
             for n in lanes:
                 c[:, n] = _flat(self.cfgs[n].model.path_seen(self.cfgs[n].path.evaluate_floats(float(gamma[n]))))
             return
+        if group.parts and id(path) in _REFUSED:
+            self._fill_parts(c, gamma, group)
+            return
         try:
             values = _flat(self.cfgs[lanes[0]].model.path_seen(path.evaluate_floats(gamma[lanes])))  # type: ignore[attr-defined]
         except Exception:
             if not group.parts:
                 raise
-            for part in group.parts:  # a stand-in its class's code cannot take: each path's lanes, as without
-                self._fill(c, gamma, part)
+            _REFUSED.add(id(path))  # a stand-in its class's code cannot take: each path's lanes, from now on
+            self._fill_parts(c, gamma, group)
             return
         for row, value in enumerate(values):
             c[row, lanes] = value
+
+    def _fill_parts(self, c: np.ndarray, gamma: Any, group: PathLanes) -> None:
+        for part in group.parts:
+            self._fill(c, gamma, part)
 
     def correction(self, gamma: Any, gamma_dot: Any) -> Any:
         values = zip(self.cfgs, self.heards, gamma.tolist(), gamma_dot.tolist(), strict=True)
@@ -244,8 +254,11 @@ def _path_lanes(jobs: Sequence[Job]) -> list[PathLanes]:
             out.append(PathLanes(lanes, None))
         else:
             by_class.setdefault(type(path), []).append(PathLanes(lanes, path if len(lanes) > 1 else None))
-    for groups in by_class.values():
-        out += groups if len(groups) == 1 else _merged(groups, [jobs[n].cfg.path for g in groups for n in g.lanes])
+    for cls, groups in by_class.items():
+        # A stand-in only for a class that says it takes lanes itself: a subclass of one that does may compute with
+        # what its fields do not hold (as a controller's subclass must say so again)
+        alike = len(groups) > 1 and vars(cls).get("lanes") is True
+        out += _merged(groups, [jobs[n].cfg.path for g in groups for n in g.lanes]) if alike else groups
     return out
 
 
@@ -254,14 +267,16 @@ def _merged(groups: list[PathLanes], paths: list[Any]) -> list[PathLanes]:
     they are if the paths do not stack."""
     lanes = [n for group in groups for n in group.lanes]
     try:
-        return [PathLanes(lanes, _stand_in(paths), tuple(groups))]
+        stand_in = _stand_in(paths)
     except TypeError:
         return groups
+    return groups if id(stand_in) in _REFUSED else [PathLanes(lanes, stand_in, tuple(groups))]
 
 
 # Stand-ins by their paths' identities (the paths held, so no id is reused while its entry lives): a fleet's paths
 # are the same objects step after step.
 _STAND_INS: dict[tuple[int, ...], tuple[list[Any], object]] = {}
+_REFUSED: set[int] = set()  # ids of the stand-ins (held by _STAND_INS) whose evaluation raised
 
 
 def _stand_in(paths: list[Any]) -> object:
@@ -270,5 +285,6 @@ def _stand_in(paths: list[Any]) -> object:
     if kept is None:
         if len(_STAND_INS) >= 64:
             _STAND_INS.clear()
+            _REFUSED.clear()
         kept = _STAND_INS[ids] = (paths, stacked(paths))
     return kept[1]

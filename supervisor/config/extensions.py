@@ -25,6 +25,7 @@ import functools
 import hashlib
 import importlib
 import inspect
+import types
 from collections.abc import Mapping
 from dataclasses import dataclass
 from importlib import metadata
@@ -204,16 +205,30 @@ def _signature_problem(instance: Any, protocol: type) -> str | None:
     a wrong signature is found before the run, not at its first call. Once per class, unless an instance holds a
     method of its own (in its __dict__)."""
     cls, names = type(instance), _methods(protocol)
-    key = (cls, protocol, *(getattr(cls, name, None) for name in names))
-    own = getattr(instance, "__dict__", None) or {}
-    try:
-        if any(name in own for name in names):
-            return _problem_of(instance, protocol)
-        if key not in _CHECKED:
-            _CHECKED[key] = _problem_of(instance, protocol)
-        return _CHECKED[key]
-    except TypeError:  # a method that cannot be a key (unhashable): inspected each time
+    if not _plain(cls, instance, names):
         return _problem_of(instance, protocol)
+    key = (cls, protocol, *(vars_static(cls, name) for name in names))
+    if key not in _CHECKED:
+        _CHECKED[key] = _problem_of(instance, protocol)
+    return _CHECKED[key]
+
+
+def _plain(cls: type, instance: Any, names: list[str]) -> bool:
+    """Whether every instance of cls calls the same methods of these names: each a function, static or class
+    method of the class (not a property, slot, partialmethod or an instance's own), and no __getattr__ of its own
+    deciding otherwise (what _signature_problem may keep per class)."""
+    if "__getattr__" in dir(cls) or type(cls).__getattribute__ is not type.__getattribute__:
+        return False
+    if cls.__getattribute__ is not object.__getattribute__:
+        return False
+    own = getattr(instance, "__dict__", None) or {}
+    kinds = (types.FunctionType, staticmethod, classmethod)
+    return not any(name in own for name in names) and all(isinstance(vars_static(cls, n), kinds) for n in names)
+
+
+def vars_static(cls: type, name: str) -> object:
+    """The class attribute name as the class holds it (inspect.getattr_static: no descriptor run)."""
+    return inspect.getattr_static(cls, name, None)
 
 
 def _methods(protocol: type) -> list[str]:
