@@ -330,6 +330,7 @@ ALLOWED_NUMPY = {
     "asarray",
     "broadcast_arrays",
     "choose",
+    "copysign",
     "flatnonzero",
     "float64",
     "frexp",

@@ -27,7 +27,7 @@ from typing import Annotated, Any, ClassVar
 import numpy as np
 from annotated_types import Gt
 
-from numerics.lanes import is_lanes, least, sqrt
+from numerics.lanes import copysign, is_lanes, least, sqrt
 from vehicles.geometry import Float3
 from vehicles.saturation import within
 
@@ -64,7 +64,7 @@ class Actuators:
         d_r = lag * (self._deflection(commanded[2], flow) - a[1])
         if self.max_rate is not None:
             d_s, d_r = within(d_s, self.max_rate), within(d_r, self.max_rate)
-        wanted = _copysign(least(1.0, sqrt(abs(commanded[0]) / self.max_thrust)), commanded[0])
+        wanted = copysign(least(1.0, sqrt(abs(commanded[0]) / self.max_thrust)), commanded[0])
         return d_s, d_r, (wanted - a[2]) / self.thruster_time_constant
 
     @property
@@ -81,16 +81,11 @@ class Actuators:
         limit = self.max_deflection
         if is_lanes(flow) or is_lanes(torque):
             still = abs(flow) < _SLOWEST
-            at_rest = np.where(torque == 0.0, 0.0, np.copysign(limit, torque))
+            at_rest = np.where(torque == 0.0, 0.0, copysign(limit, torque))
             return np.where(still, at_rest, within(torque / (self.fin_lift * np.where(still, 1.0, flow)), limit))
         if abs(flow) < _SLOWEST:  # no flow: any moment wanted is beyond the fin
             return 0.0 if torque == 0.0 else math.copysign(limit, torque)
         return within(torque / (self.fin_lift * flow), limit)
-
-
-def _copysign(x: Any, sign: Any) -> Any:
-    """math.copysign, of each lane for lanes."""
-    return np.copysign(x, sign) if is_lanes(x) or is_lanes(sign) else math.copysign(x, sign)
 
 
 def remus100(max_thrust: float) -> Actuators:

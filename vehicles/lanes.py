@@ -13,10 +13,11 @@ Only parts that say they take lanes (`lanes = True`: the built-in backstepping a
 AUV model and the actuators, and an extension that says so) are stepped so, and vehicles step together only where
 those parts, the parameters and the saturations are the same to the bit (vehicles.lane_keys); a vehicle with
 navigation, or a current, observer, actuators or controller that does not say so steps alone. An adaptive
-controller's memory (line of sight's disturbance estimate) steps as lanes too: each vehicle's, a tree of floats,
-tuples and dataclasses, becomes one of arrays (lane_keys.stacked) for the step and each vehicle's again after it. A
-group whose stepping raises anything, a float exception included (numpy is told to raise where Python's floats would
-or might), is stepped again one vehicle at a time: errors are exactly those of the scalar step.
+controller's memory (line of sight's disturbance estimate) steps as lanes too: each vehicle's, floats in tuples,
+named tuples and dataclasses, becomes one of arrays (lane_keys.stacked) for the step and each vehicle's again after
+it (lane_keys.unstacked). A group whose stepping raises anything, a float exception included (numpy is told to raise
+where Python's floats would or might), is stepped again one vehicle at a time: errors are exactly those of the scalar
+step.
 """
 
 from __future__ import annotations
@@ -177,9 +178,9 @@ def _column(value: Any, lanes: int) -> list[float]:
 
 
 class PathLanes(NamedTuple):
-    """Lanes whose path's point is taken in one call: path (their shared path, or a stand-in whose fields are the
-    lanes' paths' fields stacked: lane_keys.stacked) evaluated at their gammas; None: lane by lane. parts: the
-    groups of one path each to fall back on if the stand-in's evaluation raises."""
+    """Lanes whose path's point is taken in one call: path (their shared path, or a stand-in whose attributes are the
+    lanes' paths' stacked: lane_keys.stacked) evaluated at their gammas; None: lane by lane. parts: the groups of
+    one path each to fall back on if the stand-in's evaluation raises."""
 
     lanes: list[int]
     path: object | None

@@ -207,7 +207,7 @@ def _signature_problem(instance: Any, protocol: type) -> str | None:
     cls, names = type(instance), _methods(protocol)
     if not _plain(cls, instance, names):
         return _problem_of(instance, protocol)
-    key = (cls, protocol, *(vars_static(cls, name) for name in names))
+    key = (cls, protocol, *(inspect.getattr_static(cls, name, None) for name in names))
     if key not in _CHECKED:
         _CHECKED[key] = _problem_of(instance, protocol)
     return _CHECKED[key]
@@ -217,18 +217,13 @@ def _plain(cls: type, instance: Any, names: list[str]) -> bool:
     """Whether every instance of cls calls the same methods of these names: each a function, static or class
     method of the class (not a property, slot, partialmethod or an instance's own), and no __getattr__ of its own
     deciding otherwise (what _signature_problem may keep per class)."""
-    if "__getattr__" in dir(cls) or type(cls).__getattribute__ is not type.__getattribute__:
-        return False
-    if cls.__getattribute__ is not object.__getattribute__:
+    if hasattr(cls, "__getattr__") or cls.__getattribute__ is not object.__getattribute__:
         return False
     own = getattr(instance, "__dict__", None) or {}
     kinds = (types.FunctionType, staticmethod, classmethod)
-    return not any(name in own for name in names) and all(isinstance(vars_static(cls, n), kinds) for n in names)
-
-
-def vars_static(cls: type, name: str) -> object:
-    """The class attribute name as the class holds it (inspect.getattr_static: no descriptor run)."""
-    return inspect.getattr_static(cls, name, None)
+    return not any(name in own for name in names) and all(
+        isinstance(inspect.getattr_static(cls, name, None), kinds) for name in names
+    )
 
 
 def _methods(protocol: type) -> list[str]:
