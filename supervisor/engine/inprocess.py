@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from comms.broker.broker_core import BrokerCore
+from comms.records.bus_records import log_json
 from comms.records.events import LinkEvents
 from comms.records.messages import (
     COMMS_EVENTS_KEY,
@@ -74,8 +75,6 @@ class RunResult:
 class InProcessRun:
     def __init__(self, scenario: Scenario, rec: Sink, seed: int) -> None:
         self.sc, self.rec, self.seed = scenario, rec, seed
-        # Nothing kept (a sweep's run): messages only the log would read are counted, not built.
-        self.tally = rec if isinstance(rec, Tally) else None
         self.dt = scenario.scenario.step
         self.schedule = Schedule(scenario)
         ids = scenario.vehicle_ids
@@ -129,11 +128,12 @@ class InProcessRun:
         self._flush_events(t, k)
         self._record_snapshot(self.broker.snapshot_due(t))
         out = {i: RxBatch.of(i, k, t, batches[i], None) for i in self.alive}
-        if self.tally is not None:
-            self.tally.skip(len(out))
+        rec = self.rec
+        if isinstance(rec, Tally):
+            rec.skip(len(out))
             return out
-        for i, batch in out.items():
-            self.rec.write(rx_key(i), t, batch.to_message())
+        for i, batch in out.items():  # in their log form as the Zenoh supervisor writes them (intake): one pass
+            rec.write_json(rx_key(i), t, log_json(batch))
         return out
 
     def _submit(self, broker: BrokerCore, t: float) -> None:
@@ -162,13 +162,13 @@ class InProcessRun:
         sent, report = out.transmission, out.report
         if sent is not None:
             self.sent.append(sent)
-        if self.tally is not None:  # a sweep's run: its messages counted, not built
-            self.tally.skip(1 if sent is None else 2)
-        else:
-            tx = out.tx
-            if tx is not None:
-                self.rec.write(tx_key(i), t, tx)
-            self.rec.write(state_key(i), t, out.state)
+        rec = self.rec
+        if isinstance(rec, Tally):  # a sweep's run: its messages counted, not built
+            rec.skip(1 if sent is None else 2)
+        else:  # their log form as the Zenoh supervisor writes it (intake), the scene fed the record itself
+            if sent is not None:
+                rec.write_json(tx_key(i), t, log_json(sent))
+            rec.write_state(state_key(i), t, log_json(report), report)
         self.builder.add(report)
         self.last_state[i] = report
         self.where[i] = report.kinematics
@@ -236,10 +236,12 @@ class InProcessRun:
         events, self.pending = self.pending, []
         if not events:
             return
-        if self.tally is not None:
-            self.tally.skip(1)
+        rec = self.rec
+        if isinstance(rec, Tally):
+            rec.skip(1)
             return
-        self.rec.write(COMMS_EVENTS_KEY, t, LinkEvents(t, k, tuple(events)).to_message())
+        batch = LinkEvents(t, k, tuple(events))
+        rec.write_events(COMMS_EVENTS_KEY, t, log_json(batch), batch.events)
 
 
 @interrupts.deferring
