@@ -25,10 +25,12 @@
 13. sweep split: a paper sweep run's CPU, whole and with its vehicle steps replayed, and the least a 1000-run sweep
    could take with a free vehicle step (benchmarks.bench_sweep_split; issue 26), then the premise of stepping many
    runs at once as arrays: the vehicle model's float functions on 1000 lanes against one state at a time, the same
-   bits (benchmarks.bench_lanes).
+   bits (benchmarks.bench_lanes);
+14. collector: the ring of 1000 (10 s) and the paper in-process with the garbage collector at our pace and at
+   CPython's, alternating, their messages compared (benchmarks.bench_collector; issue 26).
 Each part is also a module of its own (benchmarks.bench_engines, bench_scaling, bench_realtime, bench_bus_floor,
 bench_parse, bench_ready, bench_live, bench_report, bench_targets, bench_critical_path, bench_startup,
-bench_lookahead, bench_sweep_split, bench_lanes);
+bench_lookahead, bench_sweep_split, bench_lanes, bench_collector);
 benchmarks.bench_side_by_side compares this tree with another checkout; bench_record and bench_intake are
 diagnostics with no target of their own. Results go to benchmarks/results/*.json; the targets are printed next to
 the numbers. Speed is checked here, never in tests.
@@ -43,6 +45,7 @@ from typing import Any
 from benchmarks import (
     ROOT,
     bench_bus_floor,
+    bench_collector,
     bench_critical_path,
     bench_engines,
     bench_lanes,
@@ -95,6 +98,7 @@ def main() -> None:
     everything |= {"critical_path": critical, "startup": startup(args.scaling_duration, args.repeat)}
     everything |= {"lookahead": lookahead(args.repeat), "sweep_split": sweep_split(paper, args.repeat)}
     everything |= commands(paper, args.repeat)
+    everything["collector"] = bench_collector.run(args.repeat, 10.0)
     everything["targets"] = (
         [] if args.targets == "none" else bench_targets.run(args.targets.split(","), args.repeat, 200)
     )

@@ -41,6 +41,7 @@ def run(
     (or FloatingPointError, for a diverging vehicle) for a run that failed."""
     from supervisor.cli.parser import arguments
     from supervisor.cli.run import execute
+    from supervisor.engine.collector import paced
 
     keep = Path(tempfile.mkdtemp(prefix="cpf-run-"))
     try:
@@ -51,7 +52,8 @@ def run(
         argv += ([] if seed is None else ["--seed", str(seed)]) + ([] if progress else ["--quiet"])
         parsed = arguments(["run", *argv, "--", str(path)])  # --: a file named -x.toml is a file
         parsed.bar = True  # progress as a tqdm.auto bar: a widget in a notebook, a text bar in a terminal
-        execute(parsed)
+        with paced():
+            execute(parsed)
     except BaseException:
         shutil.rmtree(keep, ignore_errors=True)
         raise

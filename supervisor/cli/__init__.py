@@ -19,7 +19,7 @@ from supervisor.cli import commands, run
 from supervisor.cli.parser import _parser
 from supervisor.cli.run import _option_errors
 from supervisor.cli.terminal import EXIT_INPUT, EXIT_INTERRUPTED, EXIT_RUNTIME
-from supervisor.engine import interrupts
+from supervisor.engine import collector, interrupts
 from supervisor.errors import CpfError, ScenarioError, shown
 
 __all__ = ["EXIT_INPUT", "EXIT_INTERRUPTED", "EXIT_RUNTIME", "_option_errors", "_parser", "entry", "main"]
@@ -53,6 +53,7 @@ BLAS_THREADS = ("OPENBLAS_NUM_THREADS", "1")
 
 def main(argv: Sequence[str] | None = None) -> int:
     os.environ.setdefault(*BLAS_THREADS)
+    collector.pace()  # the process is ours to its end (forked ones too: they come here)
     args = _parser().parse_args(argv)
     logging.basicConfig(level=logging.WARNING, format=f"cpf {args.command}: %(message)s")
     interrupts.reset()

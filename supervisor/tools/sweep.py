@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING, Any
 
 from comms.bus.lifeline import ORPHANED, set_parent_death_signal
 from supervisor.config.scenario import split_outside_brackets
+from supervisor.engine import collector
 from supervisor.errors import ScenarioError, SimulationError
 from supervisor.tools.sweep_runs import MAX_BATCH, RunSpec, batch_limit, override, run_logged, run_many, run_one
 
@@ -278,6 +279,7 @@ def _worker_start(parent: int) -> None:
     removed), and _in_worker then ends the worker; without both it ran on through the runs queued for it, an
     orphan."""
     signal.signal(signal.SIGTERM, _worker_signal)
+    collector.pace()  # the worker is the sweep's to its end (cpf.sweep's too, whose own process is the user's)
     if set_parent_death_signal(signal.SIGTERM) and os.getppid() != parent:
         os._exit(ORPHANED)  # the sweep died before the prctl: the signal would never come
 

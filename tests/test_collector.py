@@ -1,0 +1,57 @@
+"""The garbage collector at our pace (supervisor.engine.collector) in every process of ours, from its start: a `cpf`
+command, a process forked from the fork server, a sweep's worker; and for the length of a run from Python, the
+caller's thresholds given back after it. (What the pace buys is measured by benchmarks.bench_collector.)"""
+
+from __future__ import annotations
+
+import gc
+import subprocess
+import sys
+
+import pytest
+
+import cpf
+from supervisor.engine import collector
+from tests.procs import ROOT
+
+PROBES = {
+    "a cpf command": "from supervisor.cli import main\nmain(['presets'])",
+    "a process forked from the fork server": "from supervisor.cli.fork_server import _run\n_run(['presets'])",
+    "a sweep's worker": "import os\nfrom supervisor.tools.sweep import _worker_start\n_worker_start(os.getppid())",
+}
+
+
+@pytest.mark.parametrize("how", PROBES)
+def test_a_process_of_ours_collects_at_our_pace(how: str) -> None:
+    probe = f"import gc, sys\n{PROBES[how]}\nsys.stderr.write(repr(gc.get_threshold()) + '\\n')"
+    done = subprocess.run([sys.executable, "-c", probe], cwd=ROOT, capture_output=True, text=True, check=True)
+    young, middle, old = eval(done.stderr.strip().splitlines()[-1])
+    assert young == collector.YOUNG != 700  # CPython's default
+    assert (middle, old) == gc.get_threshold()[1:] == (10, 10)  # the older generations' as CPython has them
+
+
+def test_paced_gives_the_thresholds_back_even_when_the_block_raises() -> None:
+    before = gc.get_threshold()
+    gc.set_threshold(1234, 5, 6)
+    try:
+        with pytest.raises(RuntimeError), collector.paced():
+            assert gc.get_threshold() == (collector.YOUNG, 5, 6)
+            raise RuntimeError("the run failed")
+        assert gc.get_threshold() == (1234, 5, 6)
+    finally:
+        gc.set_threshold(*before)
+
+
+def test_a_run_from_python_is_paced_and_leaves_the_callers_collector_as_it_was(monkeypatch, tmp_path) -> None:
+    import supervisor.cli.run
+
+    seen = []
+    monkeypatch.setattr(supervisor.cli.run, "execute", lambda args: seen.append(gc.get_threshold()))
+    before = gc.get_threshold()
+    gc.set_threshold(1234, 5, 6)
+    try:
+        cpf.run(ROOT / "configs" / "paper.toml", out=tmp_path / "run.mcap", progress=False)
+        assert seen == [(collector.YOUNG, 5, 6)]
+        assert gc.get_threshold() == (1234, 5, 6)
+    finally:
+        gc.set_threshold(*before)
