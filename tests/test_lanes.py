@@ -322,6 +322,20 @@ def test_vehicles_step_together_only_with_parts_the_same_to_the_bit():
     _same_bits_as_alone(signed)
 
 
+def test_alike_vehicles_share_one_shape_object():
+    """Equal shapes are one object, hashed once (vehicles.lane_keys.interned): grouping 1000 vehicles a step hashed
+    every vehicle's nested keys again (4 us each); unequal ones stay apart."""
+    from tests.samples.controllers import Hidden
+    from vehicles.lane_keys import interned
+
+    jobs = _alike([Hidden(k1=0.5), Hidden(k1=0.5), Hidden(k1=2.0)])
+    shapes = [job.shape for job in jobs if job.shape is not None]
+    assert len(shapes) == 3
+    assert shapes[0].shared is shapes[1].shared and shapes[0].shared != shapes[2].shared
+    assert interned((1.0, "a")) is interned((1.0, "a")) and interned(0.0) != interned(-0.0)
+    assert hash(interned((1.0, "a"))) == hash(interned((1.0, "a")))
+
+
 def _ring_jobs(paths: list[Any] | None = None) -> list[Job]:
     """ring10_1hz's ten vehicles (each on a line of its own) at their start, nothing heard; paths: theirs replaced."""
     from dataclasses import replace

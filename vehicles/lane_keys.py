@@ -37,6 +37,36 @@ def key(value: Any) -> object:
     return ("object", id(value))
 
 
+class Interned:
+    """A key (key()'s deep tuples) hashed once, one object for equal keys (interned): a step groups a thousand
+    vehicles by their shapes, and hashing each shape's tuples again cost 4 us a vehicle a step."""
+
+    __slots__ = ("_hash", "value")
+
+    def __init__(self, value: object) -> None:
+        self.value, self._hash = value, hash(value)
+
+    def __hash__(self) -> int:
+        return self._hash
+
+    def __eq__(self, other: object) -> bool:
+        if self is other:
+            return True
+        return isinstance(other, Interned) and self._hash == other._hash and self.value == other.value
+
+
+_INTERNED: dict[Interned, Interned] = {}  # bounded: a long sweep's configurations come and go
+_MOST_INTERNED = 4096
+
+
+def interned(value: Any) -> Interned:
+    """key(value), hashed once; the same object for values of equal keys while it is held here (else an equal one)."""
+    made = Interned(key(value))
+    if len(_INTERNED) >= _MOST_INTERNED:
+        _INTERNED.clear()
+    return _INTERNED.setdefault(made, made)
+
+
 # Values lanes share only when equal (each lane gets the value itself).
 _ATOMS = (bool, int, str, bytes, type(None))
 

@@ -32,7 +32,7 @@ from comms.records.records import Disturbances, Heard
 from numerics.lanes import takes_lanes
 from vehicles.agent import Along, VehicleConfig, begin, finish, neighbour_values, rk4
 from vehicles.dynamics import PathVectors
-from vehicles.lane_keys import key, stacked, unstacked
+from vehicles.lane_keys import interned, key, stacked, unstacked
 from vehicles.runtime import NodeState, Prepared, Radio, complete, prepare
 from vehicles.step import StepRecords, records, step_records
 from vehicles.stepping import Begun, Stepped
@@ -122,7 +122,7 @@ def shape_of(cfg: VehicleConfig) -> Shape | None:
         type(cfg.model), cfg.model.dim, cfg.params, cfg.plant, cfg.current_known, cfg.top_speed, cfg.correction_limit,
         cfg.correction_acceleration, cfg.coordination.v_r, *parts,
     )  # fmt: skip
-    return Shape(key(shared), key(cfg.path))
+    return Shape(interned(shared), interned(cfg.path))
 
 
 def _lanes(jobs: Sequence[Job]) -> list[Outcome] | None:
