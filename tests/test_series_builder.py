@@ -1,6 +1,6 @@
-"""The series builder puts a step's rows into its array in one call (supervisor.analysis.series): whatever order the
-states come in (the Zenoh supervisor's interleave steps), a vehicle's step again, a step out of range, the array
-holds what putting each state in on its own would: its latest state of each step."""
+"""The series builder (supervisor.analysis.series): whatever order the states come in (the in-process engine's in
+step order, the Zenoh supervisor's a window of steps of one vehicle after another), a vehicle's step again, a step
+out of range, the array holds each vehicle's latest state of each step."""
 
 from __future__ import annotations
 
@@ -35,14 +35,28 @@ def _one_at_a_time(states: list[StateReport]) -> np.ndarray:
     return data
 
 
-@pytest.mark.parametrize("seed", range(6))
-def test_the_series_holds_each_vehicles_latest_state_of_each_step_in_any_order(seed):
-    rng = random.Random(seed)
-    states = [_state(rng, k, v, rng.random() < 0.3) for k in range(0, STEPS, 7) for v in IDS if rng.random() < 0.9]
-    states += [_state(rng, rng.randrange(STEPS), rng.choice(IDS), False) for _ in range(40)]  # steps again
+def _states(rng: random.Random, order: str) -> list[StateReport]:
+    """States of IDS over the run (vehicle 7 gone after step 900), some steps again, some outside the run; in step
+    order (the in-process engine), in windows of 100 steps vehicle after vehicle (the Zenoh supervisor's intake), or
+    shuffled."""
+    states = [_state(rng, k, v, rng.random() < 0.3) for k in range(0, STEPS, 7) for v in IDS if v != 7 or k < 900]
+    again = [_state(rng, s.k, s.vehicle, False) for s in rng.sample(states, 40)]
     states += [_state(rng, k, 1, False) for k in (-1, STEPS, STEPS + 5)]  # outside the run: not in the series
-    if seed % 2:  # interleaved, as the bus brings them; else in step order, as the in-process engine
+    if order == "windows":
+        states.sort(key=lambda s: (s.k // 100, s.vehicle, s.k))
+    elif order == "shuffled":
         rng.shuffle(states)
+    for repeat in again:  # a vehicle's step again, right after it (a restarted process): its latest counts
+        states.insert(
+            next(n for n, s in enumerate(states) if (s.k, s.vehicle) == (repeat.k, repeat.vehicle)) + 1, repeat
+        )
+    return states
+
+
+@pytest.mark.parametrize("order", ["steps", "windows", "shuffled"])
+def test_the_series_holds_each_vehicles_latest_state_of_each_step_in_any_order(order):
+    rng = random.Random(order)
+    states = _states(rng, order)
     builder = SeriesBuilder(IDS, STEPS, 0.1)
     for s in states:
         builder.add(s)

@@ -29,11 +29,6 @@ class SeriesBuilder:
         self._data = np.full((min(steps, INITIAL_ROWS), _COLUMNS, len(self.ids)), np.nan)
         self._dt = dt
         self.ages: dict[tuple[int, int], list[float]] = {}  # (sender, receiver) -> [sum, count, max]
-        # The rows of one step not yet in the array, put in with one numpy call (one per state cost ~2 us: a fleet of
-        # 1000 pays it 1000 times a step): the step, its vehicles' columns and their rows.
-        self._k = -1
-        self._columns: dict[int, int] = {}  # column -> its row's place in _rows (a vehicle again: its latest)
-        self._rows: list[tuple[float, ...]] = []
 
     def _grow(self, k: int) -> None:
         """Room for row k (k < steps): at least double, at most the run's steps."""
@@ -46,15 +41,10 @@ class SeriesBuilder:
         """Take in one state report of a vehicle of the fleet."""
         k, col = state.k, self._column[state.vehicle]
         if 0 <= k < self._steps:
-            if k != self._k:
-                self._put()
-                self._k = k
+            if k >= len(self._data):
+                self._grow(k)
             row = (state.gamma, state.gamma_dot, _magnitude(state.error), *_inputs(state.tau), state.velocity[0])
-            place = self._columns.setdefault(col, len(self._rows))
-            if place == len(self._rows):
-                self._rows.append(row)
-            else:  # the vehicle's step again (a restarted process): the later state, as one at a time would keep
-                self._rows[place] = row
+            self._data[k, :, col] = row
         for held in state.estimate_age:
             book = self.ages.setdefault((held.vehicle, state.vehicle), [0.0, 0.0, 0.0])
             age = held.age
@@ -62,19 +52,8 @@ class SeriesBuilder:
             book[1] += 1
             book[2] = max(book[2], age)
 
-    def _put(self) -> None:
-        """The pending step's rows into the array."""
-        if not self._rows:
-            return
-        if self._k >= len(self._data):
-            self._grow(self._k)
-        # An integer and a list of columns about a slice: numpy puts the columns' axis first, (vehicles, columns).
-        self._data[self._k, :, list(self._columns)] = self._rows
-        self._columns, self._rows = {}, []
-
     def series(self) -> Series:
         """Every step of the run, NaN rows for steps no state reached."""
-        self._put()
         d = np.full((self._steps, *self._data.shape[1:]), np.nan)
         d[: len(self._data)] = self._data
         times = np.arange(self._steps, dtype=np.float64) * self._dt
