@@ -16,6 +16,7 @@ from tests.procs import ROOT
 
 PROBES = {
     "a cpf command": "from supervisor.cli import main\nmain(['presets'])",
+    # what a forked child runs (fork_server._child, after the fork): main, through _run
     "a process forked from the fork server": "from supervisor.cli.fork_server import _run\n_run(['presets'])",
     "a sweep's worker": "import os\nfrom supervisor.tools.sweep import _worker_start\n_worker_start(os.getppid())",
 }
@@ -38,6 +39,33 @@ def test_paced_gives_the_thresholds_back_even_when_the_block_raises() -> None:
             assert gc.get_threshold() == (collector.YOUNG, 5, 6)
             raise RuntimeError("the run failed")
         assert gc.get_threshold() == (1234, 5, 6)
+    finally:
+        gc.set_threshold(*before)
+
+
+def test_runs_paced_at_once_in_threads_give_back_the_thresholds_of_before_the_first():
+    """cpf.run in two threads: the second's start saw the first's pace; the thresholds must still come back (the
+    review's reproduction left a notebook at 10,000)."""
+    before = gc.get_threshold()
+    gc.set_threshold(1234, 5, 6)
+    try:
+        first, second = collector.paced(), collector.paced()
+        first.__enter__()
+        second.__enter__()
+        first.__exit__(None, None, None)  # the first run ends while the second goes on: still paced
+        assert gc.get_threshold() == (collector.YOUNG, 5, 6)
+        second.__exit__(None, None, None)
+        assert gc.get_threshold() == (1234, 5, 6)
+    finally:
+        gc.set_threshold(*before)
+
+
+def test_a_collector_switched_off_stays_off():
+    before = gc.get_threshold()
+    gc.set_threshold(0, 10, 10)
+    try:
+        with collector.paced():
+            assert gc.get_threshold()[0] == 0
     finally:
         gc.set_threshold(*before)
 

@@ -7,32 +7,46 @@ last have grown by a quarter of the heap: a fleet of 1000 AUVs paid ~57 full sca
 simulated, ~18 % of the command (the same run with the collector off: 16.2 -> 13.3 s, the same peak memory: our
 objects make no cycles worth the scans). A young collection every YOUNG instead keeps collecting cycles, and leaves
 a small fleet as it was (`benchmarks.bench_collector`). It changes no result: the collector frees memory, nothing
-else.
+else. Set by cpf's main for the process it runs in (a `cpf` command, and the vehicle and broker processes a run
+starts, forked or spawned, which run through it), by a local sweep's workers, and for the length of cpf.run; not in
+the fork server, the live relay or a Dask cluster's workers (a cluster is the user's).
 """
 
 from __future__ import annotations
 
 import gc
+import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 
 YOUNG = 10_000  # container objects made between young collections (CPython's default: 700)
 
+_LOCK = threading.Lock()
+_HELD: list[tuple[int, int, int]] = []  # the thresholds before the first of the runs paced now (cpf.run in threads)
+_PACED = [0]  # how many such runs are going
+
 
 def pace() -> None:
-    """For a process that is ours from start to end (a `cpf` command, a sweep's worker): YOUNG from now on, the
-    older generations' thresholds as they were."""
-    _, middle, old = gc.get_threshold()
-    gc.set_threshold(YOUNG, middle, old)
+    """For a process that is ours from start to end: YOUNG from now on, the older generations' thresholds as they
+    were; a collector switched off (a young threshold of 0) stays off."""
+    young, middle, old = gc.get_threshold()
+    if young != 0:
+        gc.set_threshold(YOUNG, middle, old)
 
 
 @contextmanager
 def paced() -> Iterator[None]:
     """pace() for the block, then the thresholds the caller had (the Python API: a notebook's interpreter is the
-    user's)."""
-    before = gc.get_threshold()
-    pace()
+    user's). Blocks in several threads at once: the thresholds of before the first are given back after the last."""
+    with _LOCK:
+        if _PACED[0] == 0:
+            _HELD[:] = [gc.get_threshold()]
+            pace()
+        _PACED[0] += 1
     try:
         yield
     finally:
-        gc.set_threshold(*before)
+        with _LOCK:
+            _PACED[0] -= 1
+            if _PACED[0] == 0:
+                gc.set_threshold(*_HELD[0])
