@@ -132,6 +132,28 @@ def test_nothing_is_kept_before_the_meta_nor_of_records_that_do_not_read(records
     assert history.outcomes == {((1, 2), 5): (0.3, 3, "dropped", "loss")}  # shown at the next instant, 0.5 s
 
 
+def test_a_state_record_is_kept_as_its_message_would_be(records):
+    """The in-process engine feeds the scene its state records (Recorder.write_state), the Zenoh supervisor those it
+    read: the same as the records' messages, a NaN in a diagnostic left out by both."""
+    from msgspec.structs import replace
+
+    from comms.records.state import StateReport
+
+    topic, _, meta = records[0]
+    states = [(t, m) for t, _, m in records if t.endswith("/state") and m["k"] % 5 == 0][:6]
+    by_message, by_record = FleetHistory(), FleetHistory()
+    for history in (by_message, by_record):
+        history.take(topic, meta)
+    for n, (key, message) in enumerate(states):
+        report = StateReport.from_message(message, message["vehicle"])
+        if n % 2:
+            report = replace(report, gamma=float("nan"))
+        by_message.take(key, report.to_message())
+        by_record.take_state(report)
+    assert by_record.states == by_message.states
+    assert sum(len(kept) for kept in by_record.states.values()) == 3
+
+
 class _Broken(FleetScene):
     def messages(self) -> Iterator[SceneMessage]:
         raise RuntimeError("a bug in the scene")

@@ -88,15 +88,24 @@ class FleetHistory:
             return
         owned = vehicle_of_key(topic)
         try:
-            report = StateReport.from_message(message, owned[0] if owned else -1)
+            report = StateReport.from_message(message, owned[0] if owned else -1)  # checked as it is read
         except ValueError:
             return
-        self.take_state(report)
+        self._keep(report)
 
     def take_state(self, report: StateReport) -> None:
-        """A state record already read (and checked) by whoever wrote it: as `take` of its message."""
+        """A state record (the in-process engine's, or one the Zenoh supervisor read): as `take` of its message, the
+        record's checks included (a NaN in its diagnostics: not shown), on the published steps only."""
         if self.meta is None or report.k % self.every:
             return
+        try:
+            report.check(report.vehicle)
+        except ValueError:
+            return
+        self._keep(report)
+
+    def _keep(self, report: StateReport) -> None:
+        """A checked state of a published step kept as the scene shows it."""
         p, e = report.position, report.error
         target = (p[0] - e[0], p[1] - e[1], p[2] - e[2])
         norm = math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])  # correctly rounded, in a fixed order: portable
