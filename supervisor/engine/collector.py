@@ -38,15 +38,18 @@ def pace() -> None:
 def paced() -> Iterator[None]:
     """pace() for the block, then the thresholds the caller had (the Python API: a notebook's interpreter is the
     user's). Blocks in several threads at once: the thresholds of before the first are given back after the last."""
-    with _LOCK:
-        if _PACED[0] == 0:
-            _HELD[:] = [gc.get_threshold()]
-            pace()
-        _PACED[0] += 1
-    try:
+    entered = False
+    try:  # the count taken inside the try: a Ctrl-C between the two cannot leave it counted and not given back
+        with _LOCK:
+            if _PACED[0] == 0:
+                _HELD[:] = [gc.get_threshold()]
+                pace()
+            _PACED[0] += 1
+            entered = True
         yield
     finally:
-        with _LOCK:
-            _PACED[0] -= 1
-            if _PACED[0] == 0:
-                gc.set_threshold(*_HELD[0])
+        if entered:
+            with _LOCK:
+                _PACED[0] -= 1
+                if _PACED[0] == 0:
+                    gc.set_threshold(*_HELD[0])

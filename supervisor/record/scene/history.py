@@ -94,8 +94,10 @@ class FleetHistory:
         self._keep(report)
 
     def take_state(self, report: StateReport) -> None:
-        """A state record (the in-process engine's, or one the Zenoh supervisor read): as `take` of its message, the
-        record's checks included (a NaN in its diagnostics: not shown), on the published steps only."""
+        """A state record (the in-process engine's, or one the Zenoh supervisor read), on the published steps only:
+        as `take` of its message for what the record's check() says (a NaN in a diagnostic: not shown); that its state
+        itself is finite (t, position, attitude, velocities: what reading the message checks) is its writer's to
+        see to (vehicles.step's sanity check, the Zenoh supervisor's reading)."""
         if self.meta is None or report.k % self.every:
             return
         try:
