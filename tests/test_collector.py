@@ -84,3 +84,28 @@ def test_a_run_from_python_is_paced_and_leaves_the_callers_collector_as_it_was(m
         assert gc.get_threshold() == (1234, 5, 6)
     finally:
         gc.set_threshold(*before)
+
+
+def test_the_benchmarks_cpython_command_runs_at_cpythons_pace(monkeypatch, capsys):
+    """benchmarks.bench_collector times a command at CPython's pace against ours: that command must not be ours."""
+    import supervisor.cli
+    from benchmarks.bench_collector import CPYTHON
+
+    seen = []
+    real = supervisor.cli.main
+
+    def main(argv):
+        code = real(argv)
+        seen.append(gc.get_threshold()[0])
+        return code
+
+    before = gc.get_threshold()
+    monkeypatch.setattr(collector, "YOUNG", collector.YOUNG)  # the command sets it: given back after the test
+    monkeypatch.setattr(supervisor.cli, "main", main)
+    monkeypatch.setattr(sys, "argv", ["-c", "presets"])
+    try:
+        with pytest.raises(SystemExit) as ended:
+            exec(CPYTHON, {})
+    finally:
+        gc.set_threshold(*before)
+    assert ended.value.code == 0 and seen == [700] and capsys.readouterr().out
