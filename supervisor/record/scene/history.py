@@ -56,6 +56,7 @@ class FleetHistory:
     outcomes: dict[tuple[Link, int], Outcome] = field(default_factory=dict)  # (link, published instant) -> last
     faults: list[FaultEvent] = field(default_factory=list)
     graphs: list[Graph] = field(default_factory=list)
+    places: dict[int, int] = field(default_factory=dict)  # vehicle -> its place in the meta's fleet (its colour)
     _handlers: dict[str, Callable[[str, Any], None] | None] = field(default_factory=dict)
 
     def take(self, topic: str, message: Any) -> None:
@@ -81,6 +82,7 @@ class FleetHistory:
             except ValueError:
                 return
             self.every = publish_every(self.meta.step)
+            self.places = {vid: n for n, vid in enumerate(self.meta.vehicles)}
 
     def _state(self, topic: str, message: Any) -> None:
         k = message.get("k")

@@ -125,22 +125,9 @@ def paths_update(h: FleetHistory, t: float, paths: dict[int, NDArray[np.float64]
     return fx.scene_update(entities)
 
 
-# The fleet's ids last asked about (held: no other tuple takes its id) and each (vehicle, alpha)'s colour: finding a
-# vehicle's place in the fleet is a search of its ids, twice per vehicle per instant (1.3 s of the scene of a 30 s
-# run of 1000 AUVs).
-_HUES: tuple[object, dict[tuple[int, float], fx.Colour]] = ((), {})
-
-
 def _colour(h: FleetHistory, vid: int, alpha: float = 1.0) -> fx.Colour:
-    global _HUES
-    ids = h.meta.vehicles if h.meta is not None else ()
-    held = _HUES  # one read: the pair stays whole whichever thread builds a scene
-    if held[0] is not ids:
-        held = _HUES = (ids, {})
-    hue = held[1].get((vid, alpha))
-    if hue is None:
-        hue = held[1][(vid, alpha)] = vehicle_colour(ids.index(vid) if vid in ids else vid, alpha)
-    return hue
+    """The vehicle's colour: its place in the fleet's palette (a vehicle the meta does not name: its id's)."""
+    return vehicle_colour(h.places.get(vid, vid), alpha)
 
 
 class _Placed(NamedTuple):
