@@ -242,7 +242,20 @@ def _flat(point: PathVectors) -> list[Any]:
 
 def _path_lanes(jobs: Sequence[Job]) -> list[PathLanes]:
     """The lanes grouped for their paths' points: by path (the same to the bit: the same vehicle of many runs), and
-    those of one class that takes lanes together, through a stand-in (a fleet on lines of its own)."""
+    those of one class that takes lanes together, through a stand-in (a fleet on lines of its own). Worked out once
+    for the same paths in the same order: a fleet's are the same objects step after step."""
+    paths = [job.cfg.path for job in jobs]
+    ids = tuple(map(id, paths))
+    kept = _PATH_LANES.get(ids)
+    if kept is None:
+        if len(_PATH_LANES) >= 64:
+            _PATH_LANES.clear()
+            _REFUSED.clear()
+        kept = _PATH_LANES[ids] = (paths, _grouped(jobs))
+    return kept[1]
+
+
+def _grouped(jobs: Sequence[Job]) -> list[PathLanes]:
     same: dict[object, list[int]] = {}
     for n, job in enumerate(jobs):
         assert job.shape is not None  # only such jobs step as lanes
@@ -268,24 +281,12 @@ def _merged(groups: list[PathLanes], paths: list[Any]) -> list[PathLanes]:
     they are if the paths do not stack."""
     lanes = [n for group in groups for n in group.lanes]
     try:
-        stand_in = _stand_in(paths)
+        stand_in = stacked(paths)
     except TypeError:
         return groups
-    return groups if id(stand_in) in _REFUSED else [PathLanes(lanes, stand_in, tuple(groups))]
+    return [PathLanes(lanes, stand_in, tuple(groups))]
 
 
-# Stand-ins by their paths' identities (the paths held, so no id is reused while its entry lives): a fleet's paths
-# are the same objects step after step.
-_STAND_INS: dict[tuple[int, ...], tuple[list[Any], object]] = {}
-_REFUSED: set[int] = set()  # ids of the stand-ins (held by _STAND_INS) whose evaluation raised
-
-
-def _stand_in(paths: list[Any]) -> object:
-    ids = tuple(map(id, paths))
-    kept = _STAND_INS.get(ids)
-    if kept is None:
-        if len(_STAND_INS) >= 64:
-            _STAND_INS.clear()
-            _REFUSED.clear()
-        kept = _STAND_INS[ids] = (paths, stacked(paths))
-    return kept[1]
+# The lanes' path groups by their paths' identities (the paths held, so no id is reused while its entry lives).
+_PATH_LANES: dict[tuple[int, ...], tuple[list[Any], list[PathLanes]]] = {}
+_REFUSED: set[int] = set()  # ids of the stand-ins (held by _PATH_LANES) whose evaluation raised
