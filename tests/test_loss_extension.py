@@ -106,7 +106,11 @@ def test_a_loss_model_that_breaks_stops_the_run_with_one_line_naming_it(tmp_path
     sent = re.search(r"a packet sent at t = (\d+\.\d) s", line)  # the first one after the model's 2 s
     stopped = re.search(r"comms broker stopped at t = (\d+\.\d) s", line)  # the supervisor's clock then
     assert sent and sent[1] == "2.1" and stopped, done.stderr
-    assert abs(float(stopped[1]) - float(sent[1])) <= 0.2 + 1e-9, done.stderr  # over Zenoh it may be a step behind
+    # A packet sent at a step goes in the water at the next (0.1 s on): in process the clock stops there. Over Zenoh
+    # the supervisor's clock is the step whose records it is taking in, and the broker may run a window or a span
+    # ahead of it (comms.broker.windows): the clock is then behind, never ahead.
+    lag = float(sent[1]) + 0.1 - float(stopped[1])
+    assert abs(lag) < 1e-9 if engine == "inprocess" else lag > -1e-9, done.stderr
     assert "Traceback" not in done.stderr
     assert cpf("info", "run.mcap", cwd=tmp_path, env=ENV).returncode == 0  # the log was closed
 
