@@ -11,6 +11,7 @@ import math
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 
+import msgspec
 import numpy as np
 
 from comms.records.records import Disturbances, FloatArray
@@ -79,20 +80,18 @@ class VehicleConfig:
         object.__setattr__(self, "adaptive", adaptive)
 
 
-@dataclass(frozen=True, slots=True)
-class VehicleState:
+class VehicleState(msgspec.Struct, frozen=True):
     t: float
     x: FloatArray  # dynamic state of the model (see vehicles.dynamics)
     gamma: float
     gamma_dot: float
-    estimates: Mapping[int, NeighbourEstimate] = field(default_factory=dict)
+    estimates: Mapping[int, NeighbourEstimate] = msgspec.field(default_factory=dict)
     observer: tuple[float, ...] = ()  # the current observer's state (vehicles.current_observer); () before it starts
     memory: object = None  # an adaptive controller's (vehicles.path_following.AdaptiveController); None: none yet
     actuators: tuple[float, ...] = ()  # the actuators' state (vehicles.actuators); () before they start or if ideal
 
 
-@dataclass(frozen=True, slots=True)
-class Telemetry:
+class Telemetry(msgspec.Struct, frozen=True):
     """Everything a vehicle reports about one instant."""
 
     vehicle_id: int

@@ -22,11 +22,11 @@ import math
 from dataclasses import dataclass
 from typing import Annotated, Protocol, runtime_checkable
 
+import msgspec
 from annotated_types import Gt
 
 
-@dataclass(frozen=True, slots=True)
-class NeighbourEstimate:
+class NeighbourEstimate(msgspec.Struct, frozen=True):
     gamma: float
     gamma_dot: float
     stamp: float  # sender's simulation time of the data, s

@@ -23,9 +23,9 @@ step.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
 from typing import Any, NamedTuple
 
+import msgspec
 import numpy as np
 
 from comms.records.records import Disturbances, Heard
@@ -46,8 +46,7 @@ MIN_LANES = 32
 Outcome = tuple[NodeState, StepRecords] | Exception  # an exception: what step_records raised for that vehicle
 
 
-@dataclass(frozen=True, slots=True)
-class Job:
+class Job(msgspec.Struct, frozen=True):
     """step_records' arguments for one vehicle, and its shape (shape_of(cfg), kept by the caller: a key a step is
     too dear for)."""
 

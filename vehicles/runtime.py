@@ -12,6 +12,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
+import msgspec
+
 from comms.records.records import Disturbances, Heard, Transmission
 from comms.records.state import NeighbourAge
 from vehicles.agent import Telemetry, VehicleConfig, VehicleState, own_estimate, receive, step
@@ -29,8 +31,7 @@ class Radio:
     tdma: Tdma | None = None
 
 
-@dataclass(frozen=True, slots=True)
-class NodeState:
+class NodeState(msgspec.Struct, frozen=True):
     vehicle: VehicleState
     seq: int = 0  # sequence number of the last transmission
     last_sent: NeighbourEstimate | None = None  # what the neighbours were last told (if it reached them)
@@ -39,8 +40,7 @@ class NodeState:
     nav: NavState | None = None  # the navigation filter's prior for the next step (None: not begun, or no navigation)
 
 
-@dataclass(frozen=True, slots=True)
-class StepOutput:
+class StepOutput(msgspec.Struct, frozen=True):
     telemetry: Telemetry
     transmission: Transmission | None
     estimate_ages: tuple[NeighbourAge, ...]  # (neighbour, t - stamp of the estimate held of it)

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
 
+import msgspec
 import numpy as np
 
 from comms.records.fields import MAX_SPEED
@@ -25,8 +25,7 @@ from vehicles.runtime import NodeState, Radio, StepOutput, node_step
 EXTENSION_KINDS = ("law ", "predictor ", "transmission ", "controller ", "model ")
 
 
-@dataclass(frozen=True, slots=True)
-class StepRecords:
+class StepRecords(msgspec.Struct, frozen=True):
     """What one vehicle step puts on the record: its state (as a record, and as the message built from it), its
     transmission (if it made one) and that transmission's message. The messages are built when asked for, each time:
     a sweep's run counts them without building them (supervisor.engine.inprocess, a Tally)."""

@@ -20,6 +20,7 @@ import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
+import msgspec
 import numpy as np
 
 from comms.channel.acoustics import time_of_flight
@@ -81,8 +82,7 @@ class Capture:
         return level_db - total >= self.threshold_db
 
 
-@dataclass(frozen=True, slots=True)
-class _Airtime:
+class _Airtime(msgspec.Struct, frozen=True):
     """A packet's presence at one place: [start, end) in s, and whose it is."""
 
     start: float

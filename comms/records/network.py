@@ -9,7 +9,6 @@ message's only description (the tick's `network`: comms.records.tick); logs writ
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass
 from functools import lru_cache
 
 import msgspec
@@ -18,8 +17,7 @@ from comms.records.fields import Finite, Message, as_message, read_as_or_older
 from comms.records.run import Edge, Link, links, older_links, pairs
 
 
-@dataclass(frozen=True, slots=True)
-class Impairment:
+class Impairment(msgspec.Struct, frozen=True):
     """What a fault does to one directed link: lose everything (with a reason), or add loss and delay."""
 
     lost: str | None = None

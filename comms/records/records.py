@@ -73,8 +73,7 @@ class Transmission(msgspec.Struct, frozen=True):
         return self
 
 
-@dataclass(frozen=True, slots=True)
-class Heard:
+class Heard(msgspec.Struct, frozen=True):
     """A reception as the vehicle sees it: who, the data and the time of the data."""
 
     sender: int
@@ -98,16 +97,14 @@ EventKind = Literal["sent", "delivered", "dropped"]
 EVENT_KINDS: tuple[EventKind, ...] = get_args(EventKind)
 
 
-@dataclass(frozen=True, slots=True)
-class Kinematics:
+class Kinematics(msgspec.Struct, frozen=True):
     """What the channel knows of a vehicle at transmission time: inertial position and velocity."""
 
     position: FloatArray
     velocity: FloatArray
 
 
-@dataclass(frozen=True, slots=True)
-class Reception:
+class Reception(msgspec.Struct, frozen=True):
     receiver: int
     sender: int
     seq: int

@@ -13,7 +13,8 @@ from __future__ import annotations
 
 import struct
 from collections.abc import Iterable
-from dataclasses import dataclass
+
+import msgspec
 
 from comms.records.ids import NARROW_IDS
 from comms.records.records import Transmission
@@ -23,8 +24,7 @@ WIDE = struct.Struct("<HHIff")  # 16 bytes
 SIZE = NARROW.size  # 15 bytes: the message of a fleet whose ids fit in a byte
 
 
-@dataclass(frozen=True, slots=True)
-class Decoded:
+class Decoded(msgspec.Struct, frozen=True):
     sender: int
     seq: int
     t: float
