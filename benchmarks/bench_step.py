@@ -12,8 +12,9 @@ from __future__ import annotations
 
 import argparse
 import timeit
-from dataclasses import replace
 from pathlib import Path
+
+import msgspec
 
 from supervisor.config.fleet import initial_state, vehicle_config
 from supervisor.config.scenario import load_scenario, parse_scenario
@@ -52,7 +53,7 @@ def per_step(scenario: Scenario, vehicle: int, steps: int) -> float:
     neighbours = scenario.neighbours(vehicle)
     state = initial_state(scenario, cfg)
     heard = {j: NeighbourEstimate(state.gamma, 0.5 * cfg.coordination.v_r, 0.0) for j in neighbours}
-    state = replace(state, estimates=heard)
+    state = msgspec.structs.replace(state, estimates=heard)
     for _ in range(50):  # away from the start, where some terms are exactly zero
         state = step(cfg, state, dt, neighbours)[0]
     rounds = timeit.repeat(lambda: step(cfg, state, dt, neighbours), number=steps, repeat=5)

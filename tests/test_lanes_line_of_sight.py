@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from msgspec.structs import replace as new
 
 from numerics import atan2, cos
 from numerics.lanes import FEW_LANES
@@ -269,8 +270,8 @@ def test_an_adaptive_controller_with_a_named_tuple_memory_steps_as_lanes_to_each
     from vehicles.lanes import step_all
 
     learner = Learner()  # one object: vehicles step together only with the same controller (lane_keys.key)
-    jobs = [replace(j, cfg=replace(j.cfg, controller=learner)) for j in _jobs(6)]
-    jobs = [replace(j, shape=shape_of(j.cfg)) for j in jobs]
+    jobs = [new(j, cfg=replace(j.cfg, controller=learner)) for j in _jobs(6)]
+    jobs = [new(j, shape=shape_of(j.cfg)) for j in jobs]
     assert all(j.shape is not None and j.cfg.adaptive is not None for j in jobs)
     assert len({j.shape.shared for j in jobs if j.shape}) == 1
     together, alone = list(jobs), list(jobs)
@@ -282,8 +283,8 @@ def test_an_adaptive_controller_with_a_named_tuple_memory_steps_as_lanes_to_each
             mine, theirs = a[0].vehicle.memory, b[0].vehicle.memory
             assert isinstance(mine, Estimate) and isinstance(theirs, Estimate) and _bits([mine.a]) == _bits([theirs.a])
             assert _bits(a[0].vehicle.x) == _bits(b[0].vehicle.x)
-        together = [replace(j, node=o[0], k=k + 1, t=(k + 1) * 0.1) for j, o in zip(together, lanes, strict=True)]  # type: ignore[index]
-        alone = [replace(j, node=o[0], k=k + 1, t=(k + 1) * 0.1) for j, o in zip(alone, single, strict=True)]  # type: ignore[index]
+        together = [new(j, node=o[0], k=k + 1, t=(k + 1) * 0.1) for j, o in zip(together, lanes, strict=True)]  # type: ignore[index]
+        alone = [new(j, node=o[0], k=k + 1, t=(k + 1) * 0.1) for j, o in zip(alone, single, strict=True)]  # type: ignore[index]
 
 
 def test_line_of_sight_vehicles_step_as_lanes_unless_a_part_of_the_law_is_replaced():
