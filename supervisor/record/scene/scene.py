@@ -150,6 +150,7 @@ class _Sweep:
         self.known: dict[int, _Placed] = {}  # vehicle -> as last published
         self.placed: dict[tuple[int, int], _Placed] | None = None  # (k, vehicle) -> placed: the run's, made once
         self.trails: dict[int, list[tuple[int, dict[str, Any]]]] = {}  # vehicle -> (k, pose) samples
+        self._pairs: tuple[tuple[Link, ...], list[Link]] | None = None  # the graph's edges, its directed links
         self._start(h.graphs, h.faults, h.outcomes.items())
 
     def _start(self, graphs: Iterable[Graph], faults: Iterable[FaultEvent], outcomes: Iterable[LinkOutcome]) -> None:
@@ -234,24 +235,36 @@ class _Sweep:
     def _links(self, t: float, acting: list[tuple[str, dict[str, Any]]]) -> dict[str, Any]:
         """Each directed link of the graph in force, between two vehicles placed: the sender's half of the segment
         between them, coloured by its last packet's fate; a link fault's kind written at the middle of that half."""
-        ends, colours, where, kinds_at, fates = [], [], [], [], {}
-        for s, r in sorted({(i, j) for i, j in self.edges} | {(j, i) for i, j in self.edges}):
-            if s not in self.known or r not in self.known:
-                continue
-            a, b = np.array(self.known[s].position), np.array(self.known[r].position)
+        pairs = [(s, r) for s, r in self._directed() if s in self.known and r in self.known]
+        if not pairs:
+            return fx.entity(t, "links", lines=[], texts=[], metadata=fx.metadata({}))
+        # One array for all the links' ends (a fleet of 1000 made two small arrays a link an instant): numpy's
+        # element-wise sums and halves are those of one link at a time, to the bit.
+        a = np.array([self.known[s].position for s, _ in pairs])
+        b = np.array([self.known[r].position for _, r in pairs])
+        ends = np.empty((2 * len(pairs), 3))
+        ends[0::2], ends[1::2] = a, (a + b) / 2
+        colours, where, kinds_at, fates = [], [], [], {}
+        for n, (s, r) in enumerate(pairs):
             fate = self.last.get((s, r))
             word = "none yet" if fate is None else fate[3] or fate[2]
             colour = UNHEARD if fate is None else LINK_COLOURS.get(word, UNHEARD)
-            ends += [a, (a + b) / 2]
             colours += [colour, colour]
             fates[f"{s}->{r}"] = word
             kinds = [kind for kind, detail in acting if _on_link(detail, s, r)]
             if kinds:
-                where.append(0.75 * a + 0.25 * b)
+                where.append(0.75 * a[n] + 0.25 * b[n])
                 kinds_at.append(" ".join(kinds))
         labels = [fx.text(p, words, RED) for p, words in zip(fx.rounded(where), kinds_at, strict=True)] if where else []
-        lines = [fx.line(fx.LINE_LIST, fx.rounded(ends), 3.0, UNHEARD, colours)] if ends else []
+        lines = [fx.line(fx.LINE_LIST, fx.rounded(ends), 3.0, UNHEARD, colours)]
         return fx.entity(t, "links", lines=lines, texts=labels, metadata=fx.metadata(fates))
+
+    def _directed(self) -> list[Link]:
+        """The directed links of the graph in force, sorted (worked out again only when the graph changes)."""
+        if self._pairs is None or self._pairs[0] is not self.edges:
+            edges = self.edges
+            self._pairs = (edges, sorted({(i, j) for i, j in edges} | {(j, i) for i, j in edges}))
+        return self._pairs[1]
 
     def _fleet(self, t: float, acting: list[tuple[str, dict[str, Any]]]) -> dict[str, Any]:
         """The faults on the whole fleet (no vehicle, no link: blackout, broker_kill, graph_switch), above it."""
