@@ -1,4 +1,4 @@
-"""The garbage collector's pace (supervisor.engine.collector): `.venv/bin/python -m benchmarks.bench_collector
+"""The garbage collector's pace (supervisor.collector): `.venv/bin/python -m benchmarks.bench_collector
 [--repeat 2] [--duration 10]`.
 
 Whole in-process `cpf run` commands as a user waits for them, each with the collector at our pace (a young collection
@@ -22,7 +22,7 @@ from benchmarks.bench_targets import CASES, scenario_text, timed
 from supervisor.record.logfile import read_messages
 
 # The command with CPython's own young threshold: the pace is set from collector.YOUNG by cpf's main.
-CPYTHON = "import sys, supervisor.engine.collector as c; c.YOUNG = 700; from supervisor.cli import main; " + (
+CPYTHON = "import sys, supervisor.collector as c; c.YOUNG = 700; from supervisor.cli import main; " + (
     "sys.exit(main(sys.argv[1:]))"
 )
 PACES = {"ours": ["-m", "supervisor.cli"], "cpython": ["-c", CPYTHON]}

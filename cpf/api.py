@@ -41,7 +41,7 @@ def run(
     (or FloatingPointError, for a diverging vehicle) for a run that failed."""
     from supervisor.cli.parser import arguments
     from supervisor.cli.run import execute
-    from supervisor.engine.collector import paced
+    from supervisor.collector import paced
 
     keep = Path(tempfile.mkdtemp(prefix="cpf-run-"))
     try:

@@ -1,7 +1,7 @@
-"""The garbage collector at our pace (supervisor.engine.collector) from its start in a `cpf` command's process (and
+"""The garbage collector at our pace (supervisor.collector) from its start in a `cpf` command's process (and
 the vehicle and broker processes it starts, forked or spawned, which run through its main) and a sweep's worker; and
-for the length of a run from Python, the caller's thresholds given back after it. (What the pace buys is measured by
-benchmarks.bench_collector.)"""
+for the length of a run from Python, the caller's thresholds given back after it; paused while a log's scene is
+written. (What the pace buys is measured by benchmarks.bench_collector.)"""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ import sys
 import pytest
 
 import cpf
-from supervisor.engine import collector
+from supervisor import collector
 from tests.procs import ROOT
 
 PROBES = {
@@ -109,3 +109,33 @@ def test_the_benchmarks_cpython_command_runs_at_cpythons_pace(monkeypatch, capsy
     finally:
         gc.set_threshold(*before)
     assert ended.value.code == 0 and seen == [700] and capsys.readouterr().out
+
+
+def test_the_scene_is_written_with_the_collector_paused_and_it_runs_again_after(monkeypatch, tmp_path) -> None:
+    """The log's Foxglove scene makes no cycles and the run's heap is large: no full scans of it meanwhile."""
+    from supervisor.record.recorder import Recorder
+    from supervisor.record.scene.scene import FleetScene
+
+    seen = []
+    monkeypatch.setattr(FleetScene, "messages", lambda self: seen.append(gc.isenabled()) or iter(()))
+    assert gc.isenabled()
+    with Recorder(tmp_path / "run.mcap"):
+        assert gc.isenabled()
+    assert seen == [False] and gc.isenabled()
+
+
+def test_paused_blocks_in_threads_turn_the_collector_on_after_the_last_and_leave_it_off_if_it_was():
+    assert gc.isenabled()
+    with contextlib.ExitStack() as second:
+        with pytest.raises(RuntimeError), collector.paused():
+            second.enter_context(collector.paused())  # another scene begins while the first is written
+            raise RuntimeError("the disk is full")
+        assert not gc.isenabled()  # the first ended, the second still writes
+    assert gc.isenabled() and collector._PAUSED == [0]
+    gc.disable()
+    try:
+        with collector.paused():
+            pass
+        assert not gc.isenabled()  # the caller's choice
+    finally:
+        gc.enable()

@@ -35,6 +35,7 @@ from comms.records.messages import Message
 from comms.records.records import LinkEvent
 from comms.records.schemas import schema_for
 from comms.records.state import StateReport
+from supervisor.collector import paused
 from supervisor.errors import LogWriteError, ScenarioError
 from supervisor.record.fast_mcap import FastWriter
 from supervisor.record.scene.foxglove_schemas import MESSAGE_ENCODING, SCHEMA_ENCODING, schema_data, schema_name
@@ -276,8 +277,9 @@ class Recorder:
         scene, self.scene = self.scene, None
         if scene is not None:
             before = self.count
-            for topic, t, message in scene.messages():
-                self.write(topic, t, message)
+            with paused():  # the scene makes no cycles, and the run's heap is large (supervisor.collector)
+                for topic, t, message in scene.messages():
+                    self.write(topic, t, message)
             self.scene_count, self.count = self.count - before, before
 
     def _refusals(self) -> str:

@@ -27,8 +27,8 @@ from types import FrameType
 from typing import TYPE_CHECKING, Any
 
 from comms.bus.lifeline import ORPHANED, set_parent_death_signal
+from supervisor import collector
 from supervisor.config.scenario import split_outside_brackets
-from supervisor.engine import collector
 from supervisor.errors import ScenarioError, SimulationError
 from supervisor.tools.sweep_runs import MAX_BATCH, RunSpec, batch_limit, override, run_logged, run_many, run_one
 
