@@ -41,13 +41,16 @@ def paced() -> Iterator[None]:
     """pace() for the block, then the thresholds the caller had (the Python API: a notebook's interpreter is the
     user's). Blocks in several threads at once: the thresholds of before the first are given back after the last."""
     entered = False
-    try:  # the count taken inside the try: a Ctrl-C between the two cannot leave it counted and not given back
+    try:
         with _LOCK:
-            if _PACED[0] == 0:
-                _HELD[:] = [gc.get_threshold()]
-                pace()
+            held = gc.get_threshold()
+            # Counted and marked with no call between (a Ctrl-C is raised at a call): once the thresholds change,
+            # the finally gives them back.
             _PACED[0] += 1
             entered = True
+            if _PACED[0] == 1:
+                _HELD[:] = [held]
+                pace()
         yield
     finally:
         if entered:
@@ -67,11 +70,12 @@ def paused() -> Iterator[None]:
     entered = False
     try:
         with _LOCK:
-            if _PAUSED[0] == 0:
-                _WAS_ON[0] = gc.isenabled()
-                gc.disable()
-            _PAUSED[0] += 1
+            was_on = gc.isenabled()
+            _PAUSED[0] += 1  # as in paced: counted and marked before the collector is touched
             entered = True
+            if _PAUSED[0] == 1:
+                _WAS_ON[0] = was_on
+                gc.disable()
         yield
     finally:
         if entered:

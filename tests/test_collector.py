@@ -9,6 +9,7 @@ import contextlib
 import gc
 import subprocess
 import sys
+from collections.abc import Iterator
 
 import pytest
 
@@ -114,10 +115,15 @@ def test_the_benchmarks_cpython_command_runs_at_cpythons_pace(monkeypatch, capsy
 def test_the_scene_is_written_with_the_collector_paused_and_it_runs_again_after(monkeypatch, tmp_path) -> None:
     """The log's Foxglove scene makes no cycles and the run's heap is large: no full scans of it meanwhile."""
     from supervisor.record.recorder import Recorder
-    from supervisor.record.scene.scene import FleetScene
+    from supervisor.record.scene.scene import FleetScene, SceneMessage
 
     seen = []
-    monkeypatch.setattr(FleetScene, "messages", lambda self: seen.append(gc.isenabled()) or iter(()))
+
+    def messages(self: FleetScene) -> Iterator[SceneMessage]:
+        seen.append(gc.isenabled())
+        return iter(())
+
+    monkeypatch.setattr(FleetScene, "messages", messages)
     assert gc.isenabled()
     with Recorder(tmp_path / "run.mcap"):
         assert gc.isenabled()

@@ -27,6 +27,9 @@ from annotated_types import Gt
 
 
 class NeighbourEstimate(msgspec.Struct, frozen=True):
+    """What a vehicle holds of a neighbour (or says of itself). A msgspec struct, immutable: a changed copy is
+    msgspec.structs.replace(estimate, ...), not dataclasses.replace."""
+
     gamma: float
     gamma_dot: float
     stamp: float  # sender's simulation time of the data, s
