@@ -145,3 +145,33 @@ def test_paused_blocks_in_threads_turn_the_collector_on_after_the_last_and_leave
         assert not gc.isenabled()  # the caller's choice
     finally:
         gc.enable()
+
+
+def test_a_large_fleets_steps_stay_below_the_young_threshold() -> None:
+    """YOUNG is above what a step keeps alive (~10 tracked objects a vehicle, supervisor.collector): a ring of 1000
+    AUVs collects young objects as its heap grows, not at every step (at 10,000: two young collections a step)."""
+    import dataclasses
+
+    from benchmarks.bench_targets import CASES, scenario_text
+    from supervisor.config.scenario import parse_scenario
+    from supervisor.engine.inprocess import InProcessRun
+    from supervisor.record.recorder import Tally
+
+    (case,) = [c for c in CASES if c.vehicles == 1000]
+    scenario = parse_scenario(scenario_text(dataclasses.replace(case, duration=3.0)), "ring1000.toml")
+    young: list[int] = []
+
+    def counted(phase: str, info: dict[str, int]) -> None:
+        if phase == "start" and info["generation"] == 0:
+            young.append(1)
+
+    with collector.paced():
+        run = InProcessRun(scenario, Tally(), 1)
+        gc.collect()
+        gc.callbacks.append(counted)
+        try:
+            for k in range(30):
+                run.step(k)
+        finally:
+            gc.callbacks.remove(counted)
+    assert len(young) <= 30 / 5, len(young)  # at most one young collection in five steps
