@@ -199,6 +199,12 @@ def test_the_shipped_layout_names_only_topics_and_fields_the_log_has(logs):
     assert three_d["followTf"] == "fleet" and set(three_d["topics"]) <= topics  # the camera follows the fleet
     frames = {tf["child_frame_id"] for tf in last["foxglove/transforms"]["transforms"]}
     assert three_d["followTf"] in frames
+    # Every frame's axes, label and line to its parent hidden at once (Lichtblick's scene.transforms), not only the
+    # frames the layout names: a fleet of 10 showed vehicle_4's and the next's over their arrows.
+    assert (
+        three_d["scene"]["transforms"] | {"showLabel": False, "axisScale": 0, "lineWidth": 0}
+        == three_d["scene"]["transforms"]
+    )
     plotted = [p["value"] for name, config in panels.items() if name.startswith("Plot!") for p in config["paths"]]
     assert len(plotted) >= 6
     for path in plotted:
