@@ -78,6 +78,26 @@ def test_figures_drawn_by_forked_workers_are_the_bytes_drawn_one_by_one(log: Pat
         assert (tmp_path / "forked" / f"{name}.png").read_bytes() == (tmp_path / "here" / f"{name}.png").read_bytes()
 
 
+def test_a_worker_that_dies_while_the_figures_are_handed_out_is_one_line(
+    log: Path, tmp_path: Path, monkeypatch
+) -> None:
+    """The pool broken at a submit (a worker killed before the last figure was handed out), not only at a result."""
+    from concurrent.futures import ProcessPoolExecutor
+    from concurrent.futures.process import BrokenProcessPool
+
+    from supervisor.analysis import drawing
+    from supervisor.errors import CpfError
+
+    class Broken(ProcessPoolExecutor):
+        def submit(self, fn, /, *args, **kwargs):
+            raise BrokenProcessPool("A child process terminated abruptly")
+
+    monkeypatch.setattr(drawing, "ProcessPoolExecutor", Broken)
+    run = load_run(log)
+    with pytest.raises(CpfError, match="a process drawing the report's figures died"):
+        draw(run, [f for f in figure_builders(run) if f[0] in CHEAP], tmp_path, 2)
+
+
 CHEAP = ("fig4_path_following_errors", "gamma_dot", "comms_lambda2")  # the quickest to draw: one per worker and more
 
 

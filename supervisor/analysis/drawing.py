@@ -66,12 +66,14 @@ def draw(run: RunData, figures: Sequence[tuple[str, Builder]], out_dir: Path, pr
     )
     done = False
     try:
-        with signals_held():  # a Ctrl-C while the workers are forked would leave the pool half-made
-            # Last first: a report's last figures are the channel's, of a panel per link and the slowest (an
-            # 8-vehicle run: 1-2 s each against 0.3 s); begun first, the workers end together. (The first submit
-            # forks every worker, before the pool's own thread starts.)
-            futures: list[Future[Path]] = [pool.submit(_draw_one, name) for name, _ in reversed(figures)]
+        # A worker that dies breaks the pool for the submits still to come as for the results (CI killed one while
+        # the figures were being handed out): either way one line.
         try:
+            with signals_held():  # a Ctrl-C while the workers are forked would leave the pool half-made
+                # Last first: a report's last figures are the channel's, of a panel per link and the slowest (an
+                # 8-vehicle run: 1-2 s each against 0.3 s); begun first, the workers end together. (The first
+                # submit forks every worker, before the pool's own thread starts.)
+                futures: list[Future[Path]] = [pool.submit(_draw_one, name) for name, _ in reversed(figures)]
             paths = [future.result() for future in futures][::-1]
         except BrokenProcessPool:
             raise CpfError("a process drawing the report's figures died (killed?): no report written") from None
