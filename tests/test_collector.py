@@ -59,7 +59,7 @@ def test_runs_paced_at_once_in_threads_give_back_the_thresholds_of_before_the_fi
         assert gc.get_threshold() == (1234, 5, 6)
     finally:
         gc.set_threshold(*before)
-    assert collector._PACED == [0]
+    assert collector._PACE.count == 0
 
 
 def test_a_collector_switched_off_stays_off():
@@ -137,7 +137,7 @@ def test_paused_blocks_in_threads_turn_the_collector_on_after_the_last_and_leave
             second.enter_context(collector.paused())  # another scene begins while the first is written
             raise RuntimeError("the disk is full")
         assert not gc.isenabled()  # the first ended, the second still writes
-    assert gc.isenabled() and collector._PAUSED == [0]
+    assert gc.isenabled() and collector._PAUSE.count == 0
     gc.disable()
     try:
         with collector.paused():
