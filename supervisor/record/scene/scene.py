@@ -150,7 +150,6 @@ class _Sweep:
         self.known: dict[int, _Placed] = {}  # vehicle -> as last published
         self.placed: dict[tuple[int, int], _Placed] | None = None  # (k, vehicle) -> placed: the run's, made once
         self.trails: dict[int, list[tuple[int, dict[str, Any]]]] = {}  # vehicle -> (k, pose) samples
-        self._pairs: tuple[tuple[Link, ...], list[Link]] | None = None  # the graph's edges, its directed links
         self._start(h.graphs, h.faults, h.outcomes.items())
 
     def _start(self, graphs: Iterable[Graph], faults: Iterable[FaultEvent], outcomes: Iterable[LinkOutcome]) -> None:
@@ -159,7 +158,8 @@ class _Sweep:
         self.faults = sorted(faults, key=lambda f: (f.t, f.phase == "start", f.kind, _key(f.detail)))
         self.outcomes = sorted(outcomes, key=lambda item: (item[0][1], item[0][0]))
         self.done = [0, 0, 0]  # graphs, faults, outcomes in force
-        self.edges: tuple[Link, ...] = self.h.meta.edges if self.h.meta is not None else ()
+        # The directed links of the graph in force, sorted: worked out when the graph changes, not every instant.
+        self.directed = _directed(self.h.meta.edges if self.h.meta is not None else ())
         self.acting: Counter[tuple[str, str]] = Counter()  # (kind, detail as JSON) of the faults acting
 
     def _placed(self, k: int) -> dict[int, _Placed]:
@@ -195,7 +195,7 @@ class _Sweep:
         """Everything that happened up to published step k put in force."""
         at, done = self.h.instant_at_or_after, self.done
         while done[0] < len(self.graphs) and at(self.graphs[done[0]].t) <= k:
-            self.edges = self.graphs[done[0]].edges
+            self.directed = _directed(self.graphs[done[0]].edges)
             done[0] += 1
         while done[1] < len(self.faults) and at(self.faults[done[1]].t) <= k:
             fault = self.faults[done[1]]
@@ -235,9 +235,9 @@ class _Sweep:
     def _links(self, t: float, acting: list[tuple[str, dict[str, Any]]]) -> dict[str, Any]:
         """Each directed link of the graph in force, between two vehicles placed: the sender's half of the segment
         between them, coloured by its last packet's fate; a link fault's kind written at the middle of that half."""
-        pairs = [(s, r) for s, r in self._directed() if s in self.known and r in self.known]
+        pairs = [(s, r) for s, r in self.directed if s in self.known and r in self.known]
         if not pairs:
-            return fx.entity(t, "links", lines=[], texts=[], metadata=fx.metadata({}))
+            return fx.entity(t, "links")
         # One array for all the links' ends (a fleet of 1000 made two small arrays a link an instant): numpy's
         # element-wise sums and halves are those of one link at a time, to the bit.
         a = np.array([self.known[s].position for s, _ in pairs])
@@ -258,13 +258,6 @@ class _Sweep:
         labels = [fx.text(p, words, RED) for p, words in zip(fx.rounded(where), kinds_at, strict=True)] if where else []
         lines = [fx.line(fx.LINE_LIST, fx.rounded(ends), 3.0, UNHEARD, colours)]
         return fx.entity(t, "links", lines=lines, texts=labels, metadata=fx.metadata(fates))
-
-    def _directed(self) -> list[Link]:
-        """The directed links of the graph in force, sorted (worked out again only when the graph changes)."""
-        if self._pairs is None or self._pairs[0] is not self.edges:
-            edges = self.edges
-            self._pairs = (edges, sorted({(i, j) for i, j in edges} | {(j, i) for i, j in edges}))
-        return self._pairs[1]
 
     def _fleet(self, t: float, acting: list[tuple[str, dict[str, Any]]]) -> dict[str, Any]:
         """The faults on the whole fleet (no vehicle, no link: blackout, broker_kill, graph_switch), above it."""
@@ -316,6 +309,11 @@ def _placements(h: FleetHistory) -> dict[tuple[int, int], _Placed]:
     qs = fx.rounded(quaternions(np.array([s.rotation for s in snaps])), fx.QUATERNION_DIGITS)
     rows = zip(keys, snaps, fx.rounded(positions), fx.rounded(targets), qs, strict=True)
     return {key: _Placed(snap.gamma, p, target, q, fx.pose(p, q)) for key, snap, p, target, q in rows}
+
+
+def _directed(edges: Iterable[Link]) -> list[Link]:
+    """Both directions of each edge, sorted."""
+    return sorted({(i, j) for i, j in edges} | {(j, i) for i, j in edges})
 
 
 def _key(detail: dict[str, Any]) -> str:
