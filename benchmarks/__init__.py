@@ -16,3 +16,8 @@ def save(name: str, results: Any) -> Path:
     path = RESULTS / f"{name}.json"
     path.write_text(json.dumps(results, indent=2))
     return path
+
+
+def best_of(values: list[float]) -> dict[str, Any]:
+    """Repeated timings (s) as the benchmarks quote them: the best, the spread (max - min) and every run."""
+    return {"best_s": min(values), "spread_s": max(values) - min(values), "runs_s": list(values)}

@@ -17,7 +17,7 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-from benchmarks import ROOT, save
+from benchmarks import ROOT, best_of, save
 from benchmarks.bench_targets import CASES, scenario_text, timed
 from supervisor.record.logfile import read_messages
 
@@ -45,7 +45,7 @@ def measure(name: str, scenario: Path, repeat: int, tmp: Path) -> dict[str, Any]
     same = read_messages(logs["ours"]) == read_messages(logs["cpython"])  # the file's metadata says when it was made
     row: dict[str, Any] = {"case": name, "same_log": same}
     for pace, values in walls.items():
-        row[pace] = {"best_s": min(values), "spread_s": max(values) - min(values), "runs_s": values}
+        row[pace] = best_of(values)
     row["ratio"] = row["cpython"]["best_s"] / row["ours"]["best_s"]
     return row
 

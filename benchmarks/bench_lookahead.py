@@ -28,7 +28,7 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-from benchmarks import ROOT, bench_bus_floor, save
+from benchmarks import ROOT, bench_bus_floor, best_of, save
 from benchmarks.bench_targets import timed
 
 SLOW = ["comms.bitrate=60"]
@@ -71,7 +71,7 @@ def measure(name: str, repeat: int, against: Path | None) -> dict[str, Any]:
     floor = bench_bus_floor.measure(3, 2000, lean=True) * STEPS
     row: dict[str, Any] = {"case": name, "bus_floor_s": floor}
     for key, values in times.items():
-        row[key] = {"best_s": min(values), "spread_s": max(values) - min(values)}
+        row[key] = best_of(values)
     return row
 
 

@@ -38,7 +38,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from benchmarks import ROOT, save
+from benchmarks import ROOT, best_of, save
 from benchmarks.bench_lanes import measure_steps
 from benchmarks.bench_scaling import ProcessSampler, ring_scenario
 from benchmarks.bench_step import per_step
@@ -152,7 +152,7 @@ def case_row(case: Case, name: str, inprocess: list[float], zenoh: list[float], 
     row: dict[str, Any] = {"case": name, "duration_s": case.duration, "target": case.target}
     for engine, values in (("inprocess", inprocess), ("zenoh", zenoh)):
         if values:
-            row[engine] = {"best_s": min(values), "spread_s": max(values) - min(values), "all_s": values}
+            row[engine] = best_of(values)
             row[engine]["real_time_factor"] = case.duration / min(values)
     if zenoh:
         row["ratio_zenoh_to_inprocess"] = row["zenoh"]["best_s"] / row["inprocess"]["best_s"]
@@ -167,14 +167,11 @@ def measure_sweep(runs: int, repeat: int, tmp: Path) -> dict[str, Any]:
         out = tmp / f"sweep{n}"
         argv = [*CPF, "sweep", str(paper), "--param", "coordination.k=0.2", "--seeds", str(runs), "--jobs", "2"]
         walls.append(timed([*argv, "--out", str(out)]))
-    best = min(walls)
     return {
         "case": "sweep",
         "runs": runs,
-        "best_s": best,
-        "spread_s": max(walls) - min(walls),
-        "all_s": walls,
-        "extrapolated_1000_runs_min": best / runs * 1000 / 60,
+        **best_of(walls),
+        "extrapolated_1000_runs_min": min(walls) / runs * 1000 / 60,
         "target": "1000 runs <= 2 min (issue 26)",
     }
 
