@@ -73,6 +73,8 @@ def test_what_to_look_at_follows_the_stability_verdict():
         "look at: cpf stability s.toml (docs/stability.md): whether the loop converges with these links, "
         "and what it tolerates"
     )
+    unmodelled = format_divergence(found, 1.0, None, "s.toml", "coordination.law: ..., got 'saturated'")
+    assert unmodelled.splitlines()[1] == "not predicted: coordination.law: ..., got 'saturated' (docs/stability.md)"
 
 
 # The paper's fleet with k = 1, first_order prediction and a message every 5 s (cpf stability: the error grows at

@@ -66,6 +66,23 @@ def test_the_engines_record_the_same_with_an_extension(damped):
     assert states[0] == states[1] and len(states[0]) == 3 * 600
 
 
+@pytest.mark.parametrize("engine", ["inprocess", "zenoh"])
+def test_a_predictor_of_ones_own_runs_and_cpf_stability_says_it_cannot_analyse_it(tmp_path, engine):
+    """A user's predictor by import path runs (every such run ended in a ValueError: the check behind cpf validate's
+    divergence warning linearised only the built-in predictors) and cpf stability refuses it in one line, exit 2."""
+    predictor = f"coordination.predictor={SAMPLES}:Halfway"
+    done = run(tmp_path, predictor, engine=engine, seconds=20.0)
+    assert done.returncode == 0, done.stderr
+    meta = next(m for topic, _, m in read_messages(tmp_path / "run.mcap") if topic == "cpf/run/meta")
+    assert any(e.startswith(f"predictor {SAMPLES}:Halfway = ") for e in meta["extensions"]), meta["extensions"]
+    stability = cpf("stability", "s.toml", "--set", predictor, cwd=tmp_path, env=ENV)
+    assert stability.returncode == 2
+    assert one_line(stability.stderr) == (
+        "cpf: error: s.toml: coordination.predictor: the stability analysis models ('first_order', 'hold', "
+        f"'reference'), got '{SAMPLES}:Halfway'; cpf stability cannot analyse this loop"
+    )
+
+
 @pytest.mark.parametrize(
     ("setting", "expected"),
     [

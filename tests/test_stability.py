@@ -16,7 +16,7 @@ from supervisor.cli import main
 from supervisor.config.scenario import parse_scenario
 from supervisor.config.stability import Loop, Setting, largest_delay, largest_loss, largest_period, rate
 from supervisor.config.stability.monodromy import Layout, monodromy, second_moment_radius, spectral_radius
-from supervisor.config.stability.scenario import analyse, setting_of
+from supervisor.config.stability.scenario import analyse, predicted_change, setting_of
 from supervisor.tools.stability_check import simulate
 from tests.conftest import CONFIGS
 
@@ -192,3 +192,25 @@ def test_cpf_validate_warns_of_predicted_divergence_and_exits_0(caplog):
     caplog.clear()
     assert main(["validate", str(CONFIGS / "paper.toml"), "--set", "comms.transmit.period=8"]) == 0  # defaults
     assert "predicted to diverge" not in caplog.text
+
+
+@pytest.mark.parametrize(
+    ("setting", "field"),
+    [("coordination.law=saturated", "coordination.law"), ("coordination.law=wmsr", "coordination.law"),
+     ("coordination.law=tests.samples.laws:Damped", "coordination.law"),
+     ("coordination.predictor=tests.samples.laws:Halfway", "coordination.predictor")],
+)  # fmt: skip
+def test_a_loop_the_analysis_does_not_model_is_not_predicted(capsys, caplog, setting, field):
+    """The analysis linearises law (5) with a built-in predictor: another law, or a user's predictor, gets no verdict
+    (a user's predictor ended every run in a ValueError, and other laws were judged as law (5)); the period at which
+    law (5) diverges here (8 s) gives no warning for them, and cpf stability says why in one line, exit 2."""
+    paper = (CONFIGS / "paper.toml").read_text()
+    diverging = [*LAW5, "comms.transmit.period=8"]
+    assert predicted_change(parse_scenario(paper, "paper.toml", diverging)) is not None
+    assert predicted_change(parse_scenario(paper, "paper.toml", [*diverging, setting])) is None
+    sets = [item for key in [*diverging, setting] for item in ("--set", key)]
+    assert main(["validate", str(CONFIGS / "paper.toml"), *sets]) == 0
+    assert "predicted to diverge" not in caplog.text
+    assert main(["stability", str(CONFIGS / "paper.toml"), *sets]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"paper.toml: {field}: the stability analysis models " in err

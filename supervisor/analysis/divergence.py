@@ -62,15 +62,20 @@ def _peak(values: np.ndarray) -> float:
     return float(known.max()) if known.size else float("nan")
 
 
-def format_divergence(found: Divergence, v_r: float, predicted: float | None, scenario_file: str) -> str:
+def format_divergence(
+    found: Divergence, v_r: float, predicted: float | None, scenario_file: str, unmodelled: str | None = None
+) -> str:
     """Two lines for the summary; predicted: the error's growth rate (1/s) the stability analysis predicts for the
-    scenario (negative: it predicts convergence), None if it was not analysed."""
+    scenario (negative: it predicts convergence), None if it was not analysed; unmodelled: why the analysis does
+    not model this loop (supervisor.config.links.unmodelled), if it does not."""
     path = "" if np.isnan(found.path_error) else f"; path-following error up to {found.path_error:.4g} m"
     head = (
         f"the coordination loop DIVERGED from about t = {found.since:.0f} s: its error grew from "
         f"{found.error_from:.3g} to {found.error_to:.3g}, the path parameters' rates up to {found.rate_off:.3g} "
         f"away from v_r = {v_r:g}{path}"
     )
+    if unmodelled is not None:
+        return f"{head}\nnot predicted: {unmodelled} (docs/stability.md)"
     look = f"look at: cpf stability {scenario_file} (docs/stability.md)"
     if predicted is None:
         return f"{head}\n{look}: whether the loop converges with these links, and what it tolerates"

@@ -170,10 +170,13 @@ def plugins(args: argparse.Namespace) -> int:
 
 
 def stability(args: argparse.Namespace) -> int:
+    from supervisor.config.links import unmodelled
     from supervisor.config.scenario import load_scenario
     from supervisor.config.stability.scenario import analyse, describe
 
     scenario = load_scenario(args.scenario, args.set)  # ScenarioError: every error, exit 2
+    if (why := unmodelled(scenario)) is not None:  # a loop it cannot linearise: said, not guessed at
+        raise ScenarioError(f"{args.scenario}: {why}; cpf stability cannot analyse this loop")
     text = describe(analyse(scenario), scenario)
     print(textwrap.fill(f"{args.scenario}: {text}", width=100, break_on_hyphens=False))
     return 0

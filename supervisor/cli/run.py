@@ -212,11 +212,13 @@ def _headline(args: argparse.Namespace, scenario: Scenario, result: RunResult, o
 def _divergence_lines(args: argparse.Namespace, scenario: Scenario, found: Divergence | None) -> str | None:
     """What the summary says of a diverged loop, with the stability analysis's verdict on the scenario (issue 23)."""
     from supervisor.analysis.divergence import format_divergence
+    from supervisor.config.links import unmodelled
     from supervisor.config.stability.scenario import predicted_change
 
     if found is None:
         return None
-    return format_divergence(found, scenario.coordination.v_r, predicted_change(scenario), str(args.scenario))
+    predicted = predicted_change(scenario)
+    return format_divergence(found, scenario.coordination.v_r, predicted, str(args.scenario), unmodelled(scenario))
 
 
 def _write_metrics(path: Path, scenario: Scenario, result: RunResult, metrics: dict[str, Any]) -> None:

@@ -158,21 +158,10 @@ def _range(sc: Scenario) -> Iterator[str]:
 
 
 def _diverges(sc: Scenario) -> Iterator[str]:
+    from supervisor.config.stability.scenario import predicted_growth
+
     if (growth := predicted_growth(sc)) is not None:
         yield (
             f"coordination: predicted to diverge (error growing at {growth:.3g} 1/s; cpf stability says which "
             f"period, delay and loss it tolerates), got k {sc.coordination.k}"
         )
-
-
-def predicted_growth(scenario: Scenario) -> float | None:
-    """The growth rate (1/s) of the coordination error if the stability analysis predicts divergence, else None
-    (also when the loop is too large to analyse quickly)."""
-    from supervisor.config.stability.margins import MAX_STATES, rate
-    from supervisor.config.stability.scenario import setting_of
-
-    setting = setting_of(scenario)
-    if setting.states() > MAX_STATES:
-        return None
-    growth = -rate(setting)
-    return growth if growth >= 0 else None

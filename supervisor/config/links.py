@@ -59,13 +59,23 @@ def loss_of(scenario: Scenario) -> float:
     return 1.0 - (1.0 - c.loss) * (1.0 - burst)
 
 
-SCHEDULED_LAWS = ("corrected", "literal")
+SCHEDULED_LAWS = ("corrected", "literal")  # law (5), the one the analysis models (stability.model)
+
+
+def unmodelled(scenario: Scenario) -> str | None:
+    """Why the stability analysis does not model the scenario's coordination loop (None: it does). It models law
+    (5) with a built-in predictor; another law (saturated, a user's) or a user's predictor it cannot linearise."""
+    co = scenario.coordination
+    if co.law not in SCHEDULED_LAWS:
+        return f"coordination.law: the stability analysis models law (5) {SCHEDULED_LAWS}, got {co.law!r}"
+    if co.predictor not in PREDICTORS:
+        return f"coordination.predictor: the stability analysis models {PREDICTORS}, got {co.predictor!r}"
+    return None
 
 
 def schedules(scenario: Scenario) -> bool:
     """Whether the scenario's k is fitted to its links (law (5), a built-in predictor, schedule = "rate")."""
-    co = scenario.coordination
-    return co.schedule == "rate" and co.law in SCHEDULED_LAWS and co.predictor in PREDICTORS
+    return scenario.coordination.schedule == "rate" and unmodelled(scenario) is None
 
 
 def needs_fitting(scenario: Scenario) -> bool:

@@ -1,4 +1,5 @@
-"""Coordination laws for tests/test_extensions.py: one that works, and one of each way an extension can break."""
+"""Coordination laws for tests/test_extensions.py: one that works, and one of each way an extension can break; and a
+predictor of a user's own."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ from typing import Annotated
 from annotated_types import Gt
 
 from vehicles.coordination import CoordinationGains
+from vehicles.estimates import NeighbourEstimate
 
 
 @dataclass(frozen=True)
@@ -23,6 +25,16 @@ class Damped:
     ) -> float:
         disagreement = sum(gamma - gamma_j for gamma_j, _ in neighbours)
         return -gains.k2 * (gamma_dot - gains.v_r + self.gain * disagreement)
+
+
+@dataclass(frozen=True)
+class Halfway:
+    """A predictor between first_order and reference: the neighbour's gamma advances at the mean of its last rate and
+    v_r (vehicles.estimates.Predictor)."""
+
+    def predict(self, estimate: NeighbourEstimate, t: float, v_r: float) -> tuple[float, float]:
+        rate = (estimate.gamma_dot + v_r) / 2
+        return estimate.gamma + rate * (t - estimate.stamp), estimate.gamma_dot
 
 
 @dataclass(frozen=True)

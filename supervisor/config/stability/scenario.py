@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
-from supervisor.config.links import delay_of, loss_of, needs_fitting, timing
+from supervisor.config.links import delay_of, loss_of, needs_fitting, timing, unmodelled
 from supervisor.config.scenario_schema import Scenario
 from supervisor.config.stability.margins import (
     Setting,
@@ -52,7 +52,10 @@ def coupling_gain(scenario: Scenario) -> float:
 
 
 def nominal_setting(scenario: Scenario, event: str = "heartbeat") -> Setting:
-    """The loop with the scenario's own k (event: how an event-triggered policy is taken, _period)."""
+    """The loop with the scenario's own k (event: how an event-triggered policy is taken, _period). ValueError for a
+    loop the analysis does not model (links.unmodelled: another law or a user's predictor)."""
+    if (why := unmodelled(scenario)) is not None:
+        raise ValueError(why)
     period, phases = timing(scenario, event)
     return Setting(loop_of(scenario), period, delay_of(scenario), phases, loss_of(scenario))
 
@@ -110,16 +113,18 @@ def describe(verdict: Verdict, scenario: Scenario) -> str:
 
 def predicted_growth(scenario: Scenario) -> float | None:
     """The growth rate (1/s) of the coordination error if the stability analysis predicts divergence, else None
-    (also when the loop is too large to analyse quickly)."""
+    (also when the loop is too large to analyse quickly, or not modelled)."""
     growth = predicted_change(scenario)
     return growth if growth is not None and growth >= 0 else None
 
 
 def predicted_change(scenario: Scenario) -> float | None:
     """The coordination error's predicted growth rate (1/s; negative: it decays), None when the loop is too large
-    to analyse quickly."""
+    to analyse quickly or is not one the analysis models (links.unmodelled)."""
     from supervisor.config.stability.margins import MAX_STATES
 
+    if unmodelled(scenario) is not None:
+        return None
     setting = setting_of(scenario)
     if setting.states() > MAX_STATES:
         return None
