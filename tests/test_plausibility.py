@@ -16,6 +16,7 @@ from comms.bus.bus import Received
 from comms.records.bounded import cause_of
 from comms.records.messages import TICK_KEY, encode, state_key, tick_message, vehicle_of_key
 from comms.records.plausible import Plausible
+from comms.records.records import Transmission
 from comms.records.state import StateReport
 from comms.records.stream import BEYOND_WINDOW, FAULTY, IMPLAUSIBLE, REPLAYED
 from supervisor.cli import main
@@ -117,15 +118,41 @@ def test_no_legitimate_run_comes_near_the_bounds(config: Path, tmp_path: Path) -
     assert main(["run", str(config), "--engine", "inprocess", "--out", str(out), "--quiet",
                  "--set", "scenario.duration=30"]) == 0  # fmt: skip
     sc = load_scenario(config)
-    bounds, previous = plausibility(sc), dict[int, StateReport]()
-    half = {vid: Plausible(b.speed / 2, b.ground_speed / 2, b.gamma_dot / 2) for vid, b in bounds.items()}
+    bounds, previous, dt = plausibility(sc), dict[int, StateReport](), sc.scenario.step
+    half = {vid: Plausible(b.speed / 2, b.ground_speed / 2, b.gamma_dot / 2, b.lie) for vid, b in bounds.items()}
+    states, sent = {}, []
     for topic, _, message in read_messages(out):
         owned = vehicle_of_key(topic)
         if owned is not None and owned[1] == "state":
             now = StateReport.from_message(message, owned[0])
-            half[now.vehicle].check(now, previous.get(now.vehicle), sc.scenario.step)
-            previous[now.vehicle] = now
+            half[now.vehicle].check(now, previous.get(now.vehicle), dt)
+            previous[now.vehicle] = states[(now.vehicle, now.k)] = now
+        elif owned is not None and owned[1] == "tx":
+            sent.append(Transmission.from_message(message, owned[0]))
     assert previous and all(math.isfinite(r.gamma) for r in previous.values())
+    for tx in sent:  # each against its step's state: the scenario's own lies (every_fault's) within the bounds
+        half[tx.sender].check_tx(tx, states[(tx.sender, round(tx.t / dt))], dt)
+
+
+LIES = ["faults=[{kind='gamma_offset',vehicle=2,offset=100.0,start=5.0},{kind='frozen_gamma',vehicle=3,start=5.0}]"]
+
+
+def test_the_lies_a_scenario_asks_for_are_carried_by_both_engines_alike(tmp_path: Path) -> None:
+    """A gamma_offset or frozen_gamma fault makes the vehicle transmit a gamma other than its state's on purpose:
+    the Zenoh engine's readers dropped each such transmission as implausible (its neighbours never heard the lie
+    that the in-process engine delivered); both now record the same transmissions, none dropped."""
+    scenario = tmp_path / "paper.toml"
+    scenario.write_text((CONFIGS / "paper.toml").read_text())
+    logged = {}
+    for engine in ("inprocess", "zenoh"):
+        out = tmp_path / f"{engine}.mcap"
+        sets = ["--set", "scenario.duration=15", "--set", LIES[0]]
+        assert main(["run", str(scenario), "--engine", engine, "--out", str(out), "--quiet", *sets]) == 0
+        records = [(topic, t, str(m)) for topic, t, m in read_messages(out) if topic.endswith(("/tx", "/state"))]
+        logged[engine] = sorted(records)  # each engine logs a step's vehicles in the order they came
+    assert logged["inprocess"] == logged["zenoh"]
+    lies = [m for topic, t, m in logged["zenoh"] if topic == "cpf/vehicle/2/tx" and t >= 5_000_000_000]  # ns
+    assert len(lies) == 100
 
 
 def test_a_state_beyond_the_steps_the_clock_granted_is_dropped() -> None:

@@ -24,11 +24,13 @@ DIVERGED_OR_LIES = "; its coordination loop diverged or it lies: `cpf stability`
 
 @dataclass(frozen=True, slots=True)
 class Plausible:
-    """One vehicle's bounds: speed through the water (m/s), speed over ground with the current (m/s), |gamma_dot|."""
+    """One vehicle's bounds: speed through the water (m/s), speed over ground with the current (m/s), |gamma_dot|;
+    lie: how far the scenario's own faults make the gamma it transmits differ from its state's (unit of gamma)."""
 
     speed: float
     ground_speed: float
     gamma_dot: float
+    lie: float = 0.0
 
     def check(self, report: StateReport, previous: StateReport | None, dt: float) -> None:
         """ValueError (dropped: implausible) for a state beyond the bounds, alone or against the vehicle's previous
@@ -51,10 +53,11 @@ class Plausible:
 
     def check_tx(self, tx: Transmission, report: StateReport, dt: float) -> None:
         """ValueError (dropped: implausible) for a transmission beyond the bounds, or further from the state of its
-        step than a step allows (its data goes to the neighbours: a plausible state must not carry an absurd one)."""
+        step than a step and the scenario's own lies allow (its data goes to the neighbours: a plausible state must
+        not carry an absurd one)."""
         if (
             abs(tx.gamma_dot) > self.gamma_dot
-            or abs(tx.gamma - report.gamma) > self.gamma_dot * dt + SLACK
+            or abs(tx.gamma - report.gamma) > self.gamma_dot * dt + SLACK + self.lie
             or math.hypot(*tx.velocity) > self.ground_speed
             or math.dist(tx.position, report.position) > self.ground_speed * dt + SLACK
         ):

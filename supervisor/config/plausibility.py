@@ -16,6 +16,7 @@ import numpy as np
 
 from comms.records.fields import MAX_SPEED
 from comms.records.plausible import Plausible
+from supervisor.config.fault_schema import FrozenGammaFault, GammaOffsetFault
 from supervisor.config.fleet import build_path
 from supervisor.config.plant import current_of
 from supervisor.config.presets_table import top_speed
@@ -41,7 +42,22 @@ def _bounds(sc: Scenario, vid: int, current: float) -> Plausible:
     speed = max(speed, math.hypot(*section.velocity))  # a start faster than that (the schema allows 8.7 m/s) slows
     slowest = _slowest(build_path(section.path))
     rate = GAMMA_DOT_MARGIN * (speed + current) / slowest + abs(sc.coordination.v_r)
-    return Plausible(speed, speed + current, rate)
+    return Plausible(speed, speed + current, rate, _lie(sc, vid, rate))
+
+
+def _lie(sc: Scenario, vid: int, rate: float) -> float:
+    """How far the scenario's faults make vehicle vid transmit a gamma other than its own (unit of gamma): its
+    gamma_offset faults' offsets added up (overlapping ones add), and what its gamma moves at most (rate) while its
+    frozen_gamma faults hold the reading. A lie the scenario asks for is data, not a fault of the vehicle's process:
+    the Zenoh engine must carry it as the in-process engine does."""
+    mine = [f for f in sc.faults if getattr(f, "vehicle", None) == vid]
+    offsets = sum(abs(f.offset) for f in mine if isinstance(f, GammaOffsetFault))
+    frozen = sum(
+        ((f.end if f.end is not None else sc.scenario.duration) - f.start)
+        for f in mine
+        if isinstance(f, FrozenGammaFault)
+    )
+    return offsets + rate * frozen
 
 
 def _slowest(path: Path) -> float:
