@@ -120,6 +120,37 @@ def test_a_fault_that_ends_within_the_step_it_starts_in_is_refused() -> None:
     assert errors_of(text) == [f"{SOURCE}: faults[1].end: ends within the step it starts in (0.1 s), got 10.04"]
 
 
+def kill(kind: str, start: float, end: float | None = None, vehicle: int | None = 2) -> str:
+    table = f'kind = "{kind}"\nstart = {start}' + (f"\nend = {end}" if end is not None else "")
+    return table + (f"\nvehicle = {vehicle}" if kind == "vehicle_kill" else "")
+
+
+def test_kills_of_one_process_that_overlap_or_meet_are_refused() -> None:
+    """The first kill's end restarted the process while the second should hold it down (the broker delivered
+    packets in its second kill; over Zenoh the run timed out): found by a new user, refused now."""
+    overlapping = with_faults(kill("vehicle_kill", 1.0, 5.0), kill("vehicle_kill", 3.0, 8.0))
+    assert errors_of(overlapping) == [
+        f"{SOURCE}: faults[2]: a vehicle_kill of vehicle 2 that overlaps or meets faults[1] ([1, 5) s): a process is "
+        "killed once at a time (make them one fault), got [3, 8) s"
+    ]
+    meeting = with_faults(kill("broker_kill", 4.0, 6.0), kill("broker_kill", 6.0))
+    assert errors_of(meeting) == [
+        f"{SOURCE}: faults[2]: a broker_kill of the comms broker that overlaps or meets faults[1] ([4, 6) s): a "
+        "process is killed once at a time (make them one fault), got [6, 6.1) s"
+    ]
+    apart = [kill("vehicle_kill", 1.0, 5.0), kill("vehicle_kill", 5.1, 8.0), kill("vehicle_kill", 3.0, vehicle=3)]
+    assert len(parse_scenario(with_faults(*apart)).faults) == 4  # a step apart, or another vehicle: both fine
+
+
+def test_a_vehicle_killed_from_the_first_step_cannot_be_restarted() -> None:
+    """It resumes from its last state and had none (a KeyError on both engines at the restart)."""
+    assert errors_of(with_faults(kill("vehicle_kill", 0.0, 5.0))) == [
+        f"{SOURCE}: faults[1].end: a vehicle_kill from the first step cannot end: the restarted vehicle resumes from "
+        "its last state and has none (start it at 0.1 s or later, or leave out end), got 5.0"
+    ]
+    assert len(parse_scenario(with_faults(kill("vehicle_kill", 0.0))).faults) == 2  # killed for good: fine
+
+
 def test_a_fault_after_the_end_of_the_run_is_a_warning_not_an_error() -> None:
     """A shortened run of a longer scenario is a fair request: the run makes sense, the fault just never acts."""
     scenario = parse_scenario(with_faults('kind = "blackout"\nstart = 400.0'), overrides=("scenario.duration=100",))

@@ -18,6 +18,7 @@ from supervisor.config.authority_checks import authority_warnings
 from supervisor.config.derived import active, end_of, first_step, graph_at, steps_of
 from supervisor.config.extension_checks import extension_errors, vehicle_model_errors
 from supervisor.config.feasibility_checks import feasibility_errors, feasibility_warnings
+from supervisor.config.kill_checks import kill_errors
 from supervisor.config.plant import planar_current_errors
 from supervisor.config.scenario_schema import (
     LINK_FAULTS,
@@ -350,6 +351,7 @@ RULES: tuple[tuple[frozenset[str], Check], ...] = (
     (frozenset({"scenario"}), _step),
     (frozenset({"vehicles", "graph"}), _graph),
     (frozenset({"vehicles", "graph", "faults", "scenario"}), _faults),
+    (frozenset({"vehicles", "faults", "scenario"}), kill_errors),
     (frozenset({"vehicle", "vehicles"}), _overrides),
     (frozenset({"vehicles"}), _paths),
     (frozenset({"vehicles", "graph", "comms", "scenario"}), _comms),
