@@ -142,6 +142,24 @@ def test_a_sweep_writes_every_run_and_resumes_without_redoing(tmp_path, paper_te
     assert read_rows(tmp_path / "sw/results.csv") == rows  # and it came out the same
 
 
+def test_a_sweep_does_not_resume_from_the_runs_of_another_scenario(tmp_path, paper_text):
+    """A run's id names its settings and seed only: a sweep of an edited scenario into the same --out took the old
+    rows as its own (found by a new user). Refused in one line, exit 2, nothing run; the same file resumes."""
+    scenario = tmp_path / "s.toml"
+    scenario.write_text(shortened(paper_text, 5.0))
+    args = ["sweep", str(scenario), "--param", "comms.loss=0", "--seeds", "1", "--jobs", "1", "--out", "sw"]
+    assert cpf(*args, cwd=tmp_path).returncode == 0
+    rows = (tmp_path / "sw/results.csv").read_text()
+    scenario.write_text(shortened(paper_text, 5.0).replace("v_r = 1.0", "v_r = 0.5"))
+    edited = cpf(*args, cwd=tmp_path)
+    assert edited.returncode == 2 and edited.stderr.count("\n") == 1, edited.stderr
+    assert "sw holds the runs of another scenario, or of this file before an edit" in edited.stderr
+    assert (tmp_path / "sw/results.csv").read_text() == rows  # nothing written
+    scenario.write_text(shortened(paper_text, 5.0))
+    again = cpf(*args, cwd=tmp_path)
+    assert again.returncode == 0 and "1/1" in again.stderr and "0/1" not in again.stderr  # resumed: nothing to run
+
+
 def test_a_sweep_keeps_each_runs_log_only_when_asked(tmp_path, paper_text):
     """--logs: each run's log beside its row (runs/<id>.mcap), a whole log whose report agrees with the row to the
     bit (the same path error and packets); a run done before without its log runs again, the others do not; without

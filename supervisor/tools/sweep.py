@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import contextlib
 import csv
+import hashlib
 import json
 import math
 import os
@@ -46,6 +47,7 @@ BATCHES_PER_WORKER = 4
 # Combinations of the other swept values a value that is not valid alone is tried with (_valid_with): enough for any
 # sweep of a few parameters, and a bound on the start-up a hopeless value costs (~13 ms a scenario loaded).
 COMBINATIONS_TRIED = 256
+SCENARIO_DIGEST = "scenario.sha256"  # in DIR/runs: the sha-256 of the scenario file whose runs are there
 
 
 def default_jobs(cores: int) -> int:
@@ -135,8 +137,11 @@ def sweep(
     scenario_bytes = scenario_path.read_bytes()
     specs = grid(params, seeds)
     runs_dir = out_dir / "runs"
+    digest = _own_runs(runs_dir, scenario_bytes)
     with _executor(local_jobs(jobs), cluster) as (submit, watch):  # no cluster to reach: nothing written
         runs_dir.mkdir(parents=True, exist_ok=True)
+        if not (runs_dir / SCENARIO_DIGEST).exists():
+            _write_whole(runs_dir / SCENARIO_DIGEST, digest.encode())
         todo = [s for s in specs if not _done(runs_dir, s, logs)]
         done = len(specs) - len(todo)
         if progress is not None:
@@ -323,6 +328,26 @@ def _in_worker(work: Callable[..., Any], *args: Any) -> Any:
     finally:
         if interrupts.stopping():
             os._exit(ORPHANED)
+
+
+def _own_runs(runs_dir: Path, scenario_bytes: bytes) -> str:
+    """The scenario's digest; ScenarioError if runs_dir holds the rows of another scenario, or of this file before
+    an edit (a run's id names its settings and seed only, and a resumed sweep takes every row it finds: it gave
+    another scenario's numbers as this one's)."""
+    digest = hashlib.sha256(scenario_bytes).hexdigest()
+    marker = runs_dir / SCENARIO_DIGEST
+    if marker.exists():
+        if marker.read_text(encoding="utf-8", errors="replace").strip() == digest:
+            return digest
+        whose = "the runs of another scenario, or of this file before an edit"
+    elif any(runs_dir.glob("*.json")):
+        whose = "runs of a sweep that did not record its scenario"
+    else:
+        return digest
+    raise ScenarioError(
+        f"--out: {runs_dir.parent} holds {whose} (a sweep resumes only its own): give another --out, or remove "
+        f"{runs_dir}"
+    )
 
 
 def _done(runs_dir: Path, spec: RunSpec, logs: bool) -> bool:
