@@ -142,6 +142,18 @@ def test_cpf_info_lines_name_the_current_and_each_vehicles_drawn_plant():
     assert len(lines) == 4
 
 
+def test_cpf_info_lines_name_every_group_drawn_the_lift_too():
+    """The lift's four coefficients are fields of their own, not one tuple: cpf info of any run with `uncertainty =
+    0.1` (the lift included) ended in an AttributeError (found by a new user)."""
+    from supervisor.config.plant import describe_plant
+
+    sc = scenario("vehicle.uncertainty=0.1", "vehicle.preset=remus100")  # a preset with lift
+    plant = plant_of(sc, 2)
+    assert plant is not None and all(getattr(REMUS, f) for f in LIFT_FIELDS)
+    lift = "/".join(f"{100 * (getattr(plant, f) / getattr(REMUS, f) - 1):+.1f}" for f in LIFT_FIELDS)
+    assert describe_plant(sc)[1].endswith(f", lift {lift} %") and lift.count("/") == 3
+
+
 @pytest.mark.parametrize("seed", [0, 3])
 def test_at_60_percent_mismatch_the_supervisor_keeps_the_tube_where_backstepping_alone_does_not(seed):
     """Issue 24's acceptance on the seeds where backstepping alone left the tube (scripts/vehicle_robustness.py

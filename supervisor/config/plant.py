@@ -14,7 +14,7 @@ from supervisor.config.scenario_schema import Scenario
 from supervisor.config.vehicle_models import params_of
 from vehicles.actuators import Actuators, remus100
 from vehicles.current import Current
-from vehicles.params import VehicleParams
+from vehicles.params import LIFT_FIELDS, VehicleParams
 from vehicles.uncertainty import GROUPS, perturbed
 
 
@@ -116,6 +116,8 @@ def _off(group: str, plant: VehicleParams, nominal: VehicleParams) -> str:
         pairs = [(plant.weight - plant.buoyancy, nominal.weight - nominal.buoyancy)]
     elif group == "buoyancy":
         pairs = [(plant.buoyancy, nominal.buoyancy)]
+    elif group == "lift":  # four fields of their own (vehicles.uncertainty), not one tuple
+        pairs = [(getattr(plant, name), getattr(nominal, name)) for name in LIFT_FIELDS]
     else:
         pairs = list(zip(getattr(plant, group), getattr(nominal, group), strict=True))
     return f"{group} " + "/".join(f"{100 * (a / b - 1):+.1f}" if b else "0" for a, b in pairs) + " %"
