@@ -139,3 +139,19 @@ def test_a_report_stopped_while_its_workers_draw_leaves_no_worker(log: Path, tmp
     finally:
         if group_members(report.pid):
             os.killpg(report.pid, signal.SIGKILL)
+
+
+def test_a_log_without_a_single_state_is_reported(log: Path, tmp_path: Path) -> None:
+    """A run that stopped before any vehicle's first state (a remote vehicle that never came, a cpf killed at its
+    start, then recovered) leaves such a log: cpf report ended in a ValueError (the coordination figure's scale from
+    no errors); now it draws the figures, empty, and the metrics."""
+    from supervisor.cli import main
+    from supervisor.record.recorder import Recorder
+
+    stateless = tmp_path / "stateless.mcap"
+    with Recorder(stateless, scene=False) as rec:
+        for message in logfile.messages(log, lambda topic: not topic.endswith("/state")):
+            rec.write(message.topic, message.log_time / 1e9, message.message)
+    assert main(["report", str(stateless), "--out", str(tmp_path / "report")]) == 0
+    assert (tmp_path / "report/fig5_coordination_errors.png").stat().st_size > 10_000
+    assert (tmp_path / "report/metrics.json").exists()

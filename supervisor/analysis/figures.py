@@ -304,9 +304,11 @@ def fig_coordination_errors(run: RunData) -> Figure:
 def symlog_threshold(t: Array, errors: Array) -> float | None:
     """The symlog axis's linear band for these errors (one column per line, or one line), or None for a linear
     axis: from the data's range, as the module docstring says."""
+    if not t.size:  # a log without states (a run stopped before its first step, recovered): a linear axis
+        return None
     size = np.abs(errors).reshape(len(t), -1)
     known = np.isfinite(size).any(axis=1)
-    if not known.any() or not t.size:
+    if not known.any():
         return None
     spread = np.where(np.isfinite(size), size, 0.0).max(axis=1)[known]
     peak = float(spread.max())
