@@ -111,6 +111,18 @@ def test_a_log_in_use_is_refused_and_left_whole(tmp_path):
     assert read_messages(out)
 
 
+def test_a_log_is_never_written_over_by_the_command_that_reads_it(tmp_path):
+    """cpf resim LOG --out LOG wrote the re-simulation over the recording (found by a new user); recover already
+    refused it. Both now say so in one line, exit 2, and leave the log as it was."""
+    log = tmp_path / "r.mcap"
+    assert cli("run", str(PAPER), *SHORT, "--out", str(log))[0] == 0
+    recorded = log.read_bytes()
+    for command in ("resim", "recover"):
+        code, lines = cli(command, str(log), "--out", str(tmp_path / "." / "r.mcap"))
+        assert code == 2 and len(lines) == 1 and "--out: the same file as the log it reads" in lines[0], lines
+    assert log.read_bytes() == recorded
+
+
 def report(k: int) -> StateReport:
     """Vehicle 2's state at step k, |p - p_d| = 5."""
     identity = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)

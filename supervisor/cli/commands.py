@@ -87,7 +87,7 @@ def resim(args: argparse.Namespace) -> int:
     from supervisor.engine.resim import resimulate
     from supervisor.engine.resim_loop import ClosedLoop
 
-    out = checked_file("--out", args.out or args.log.with_name(f"{args.log.stem}.resim.mcap"))
+    out = checked_file("--out", args.out or args.log.with_name(f"{args.log.stem}.resim.mcap"), args.log)
     loop = ClosedLoop() if args.closed_loop else None
     sc, original, new, agreement = resimulate(args.log, args.set, out, loop)
     rep, duration = sc.report, sc.scenario.duration
@@ -134,7 +134,7 @@ def recover(args: argparse.Namespace) -> int:
 
     if not args.log.is_file():
         raise ScenarioError(f"{args.log}: no such log file")
-    out = checked_file("--out", args.out or args.log.with_name(f"{args.log.stem}.recovered.mcap"))
+    out = checked_file("--out", args.out or args.log.with_name(f"{args.log.stem}.recovered.mcap"), args.log)
     try:
         report = recover(args.log, out)
     except (RecoveryError, OSError) as exc:

@@ -42,11 +42,14 @@ def _cannot_create_in(directory: Path) -> str | None:
         return exc.strerror or str(exc)
 
 
-def checked_file(option: str, path: Path) -> Path:
-    """path, if it can be written as a file (before any work); ScenarioError '<option>: <problem>, got <path>'."""
+def checked_file(option: str, path: Path, source: Path | None = None) -> Path:
+    """path, if it can be written as a file (before any work) and is not source (the log the command reads: written
+    over, it would be lost); ScenarioError '<option>: <problem>, got <path>'."""
     from supervisor.errors import ScenarioError
 
     problems = _writable_file(option, path)
+    if source is not None and path.resolve() == source.resolve():
+        problems.append(f"{option}: the same file as the log it reads (it would be written over), got {path}")
     if problems:
         raise ScenarioError(problems[0])
     return path
