@@ -42,6 +42,15 @@ def test_param_lists_and_ranges():
             parse_param(f"comms.loss={half}")
 
 
+def test_names_with_a_colon_are_values_and_a_range_that_goes_down_is_refused():
+    """Found by new users: two or more package.module:Name values were taken for a range ('not a TOML value'), and
+    a range whose stop is below its start swept nothing, exit 0."""
+    laws = parse_param("coordination.law=my_pkg.laws:Tanh,my_pkg.laws:Pid,corrected").values
+    assert laws == ("my_pkg.laws:Tanh", "my_pkg.laws:Pid", "corrected")
+    with pytest.raises(ScenarioError, match=r"--param comms.loss: start:stop:step needs step > 0 and stop >= start"):
+        parse_param("comms.loss=0.5:0:0.1")
+
+
 _TOML_KEYS = st.text(max_size=8)
 _TOML_VALUES = st.recursive(
     st.booleans() | st.integers(-(2**63), 2**63 - 1) | st.floats(allow_nan=False) | st.text(max_size=12),

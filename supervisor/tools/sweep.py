@@ -87,12 +87,13 @@ def parse_param(text: str) -> Param:
     if not sep or not key.strip() or not spec.strip():
         raise ScenarioError(f"--param: expected KEY=v1,v2,... or KEY=start:stop:step, got {text!r}")
     parts = spec.split(":")
-    if len(parts) != 3 and len(parts) > 1 and all(_NUMBER.match(part.strip()) for part in parts):
+    numbers = len(parts) > 1 and all(_NUMBER.match(part.strip()) for part in parts)
+    if numbers and len(parts) != 3:
         raise ScenarioError(f"--param {key}: a range needs start:stop:step, got {spec!r}")
-    if spec.count(":") == 2:
-        start, stop, step = (_value(part, text) for part in spec.split(":"))
-        if not all(isinstance(v, int | float) for v in (start, stop, step)) or step <= 0:
-            raise ScenarioError(f"--param {key}: start:stop:step needs numbers and step > 0, got {spec!r}")
+    if numbers:  # not names with a colon (my_pkg.laws:Law,my_pkg.laws:Other): a list of them
+        start, stop, step = (_value(part, text) for part in parts)
+        if step <= 0 or stop < start:
+            raise ScenarioError(f"--param {key}: start:stop:step needs step > 0 and stop >= start, got {spec!r}")
         count = math.floor((stop - start) / step + 1e-9) + 1
         return Param(key.strip(), tuple(round(start + i * step, 12) for i in range(count)))
     return Param(key.strip(), tuple(_value(part, text) for part in split_outside_brackets(spec)))
