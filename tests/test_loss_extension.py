@@ -81,6 +81,11 @@ def test_a_user_loss_model_runs_the_paper_scenario_on_both_engines_with_the_same
         ("comms.loss_model=comms.channel.loss:Bernoulli\0comms.loss_model_options.p=1.5",
          "comms.loss_model: comms.channel.loss:Bernoulli refuses its options (p must be in [0, 1], got 1.5)"),
         ("comms.loss_model_options.p=0.2", "comms.loss_model_options: options for no loss model"),
+        # a new user's: each ended in a traceback when the channel was built from it
+        (f"comms.loss_model={SAMPLES}:NegativeDraws",
+         f"comms.loss_model: loss {SAMPLES}:NegativeDraws has draws = -1, not a count of random numbers"),
+        (f"comms.loss_model={SAMPLES}:DrawsRaises",
+         f"comms.loss_model: {SAMPLES}:DrawsRaises raised RuntimeError when asked for its interface: draws boom"),
     ],
 )  # fmt: skip
 def test_a_bad_loss_model_or_option_is_one_line_and_exit_2_before_the_run(tmp_path, setting, expected):

@@ -7,6 +7,7 @@ from __future__ import annotations
 from collections.abc import Generator, Iterator
 from typing import Any
 
+from comms.channel.guard import GuardedLoss
 from supervisor.config.controller_choice import AUTO, controller_name, controller_options
 from supervisor.config.extensions import Identity, instantiate, resolve
 from supervisor.config.scenario_schema import Scenario
@@ -25,10 +26,21 @@ def extension_errors(sc: Scenario) -> Iterator[str]:
         yield f"comms.transmit.options: the {tx.policy} policy takes its keys from [comms.transmit], got {tx.options}"
     c = sc.comms
     if c.loss_model is not None:
-        yield from _checked("loss", "comms", c.loss_model, c.loss_model_options)
+        model = yield from _checked("loss", "comms", c.loss_model, c.loss_model_options)
+        if model is not None:
+            yield from _draws_errors(model, c.loss_model)
     elif c.loss_model_options:
         yield f"comms.loss_model_options: options for no loss model (comms.loss_model), got {c.loss_model_options}"
     yield from _controller_errors(sc)
+
+
+def _draws_errors(model: Any, name: str) -> Iterator[str]:
+    """Whether the loss model says how many numbers it draws a decision (a count): asked once here, behind the
+    guard, so that it fails before the run (the channel is built from it at the start: a traceback there)."""
+    try:
+        _ = GuardedLoss(model, f"loss {name}").draws
+    except FloatingPointError as exc:  # the guard's one line: raised, overran its budget, not a count
+        yield f"comms.loss_model: {exc}, got {name!r}"
 
 
 def _controller_errors(sc: Scenario) -> Iterator[str]:

@@ -186,7 +186,15 @@ def instantiate(
     except Exception as exc:  # its own checks (__post_init__) or a class pydantic cannot build
         return None, identity, [(None, f"{name} refuses its options ({type(exc).__name__}: {exc})")]
     _, protocol = GROUPS[kind]
-    if not isinstance(instance, protocol):
+    try:
+        has = isinstance(instance, protocol)  # reads each member: a property of its own code may raise
+    except Exception as exc:
+        return (
+            None,
+            identity,
+            [(None, f"{identity.target} raised {type(exc).__name__} when asked for its interface: {exc}")],
+        )
+    if not has:
         return None, identity, [(None, f"{identity.target} lacks the {kind} interface ({protocol.__qualname__})")]
     mismatch = _signature_problem(instance, protocol)
     if mismatch:

@@ -82,3 +82,21 @@ class Slow(_Breaks):
         while time.thread_time() < end:
             pass
         return None
+
+
+@dataclass(frozen=True)
+class NegativeDraws(Cutoff):
+    """Says it draws -1 numbers a decision: not a count."""
+
+    @property
+    def draws(self) -> int:
+        return -1
+
+
+@dataclass(frozen=True)
+class DrawsRaises(Cutoff):
+    """Its draws property raises."""
+
+    @property
+    def draws(self) -> int:
+        raise RuntimeError("draws boom")
