@@ -6,16 +6,19 @@ from __future__ import annotations
 
 import dataclasses
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
 
+from comms.bus.handover import write_private
 from supervisor.config.extensions import build, resolve
 from supervisor.config.scenario import load_scenario
 from supervisor.config.scenario_digest import section_digests
 from supervisor.record.recorder import read_messages
 from tests.conftest import CONFIGS, shortened
 from tests.procs import cpf
+from vehicles.start import read_starts
 
 ROOT = Path(__file__).resolve().parent.parent
 ENV = {"PYTHONPATH": str(ROOT)}  # tests.samples importable in every process of the run
@@ -64,6 +67,37 @@ def test_the_engines_record_the_same_with_an_extension(damped):
         for engine in ("inprocess", "zenoh")
     ]
     assert states[0] == states[1] and len(states[0]) == 3 * 600
+
+
+def test_a_class_other_processes_cannot_import_runs_in_process_and_is_refused_in_one_line_over_zenoh(tmp_path):
+    """A law made by a function (its class is local to it) ran in process and ended the Zenoh engine in a pickling
+    traceback (found by a new user): refused before anything starts, naming the field."""
+    law = f"coordination.law={SAMPLES}:Made"
+    assert run(tmp_path, law, seconds=5.0).returncode == 0
+    done = run(tmp_path, law, engine="zenoh", seconds=5.0)
+    assert done.returncode == 2
+    assert one_line(done.stderr).endswith(
+        f"coordination.law: {SAMPLES}:Made is defined inside a function; the zenoh engine's processes import an "
+        f"extension by its module: put it at the top of a module on their PYTHONPATH, or run --engine inprocess, got "
+        f"'{SAMPLES}:Made'"
+    )
+
+
+def test_a_start_holding_a_class_this_process_cannot_import_says_so(tmp_path):
+    """What a vehicle process says when an extension's module is not on its path (a module the caller put on its
+    sys.path by hand): not 'not vehicle starts written by cpf run'."""
+    module = tmp_path / "only_here.py"
+    module.write_text("class Law:\n    pass\n")
+    sys.path.insert(0, str(tmp_path))
+    try:
+        import only_here
+
+        write_private(tmp_path / "s.start", (only_here.Law(),))
+    finally:
+        sys.path.remove(str(tmp_path))
+        sys.modules.pop("only_here", None)
+    with pytest.raises(ValueError, match=r"holding a class this process cannot import \(No module named 'only_here'\)"):
+        read_starts(tmp_path / "s.start")
 
 
 @pytest.mark.parametrize("engine", ["inprocess", "zenoh"])

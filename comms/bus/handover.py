@@ -42,7 +42,12 @@ def read_private(path: Path, kind: type[T], what: str) -> T:
             start = pickle.load(given)
     except OSError as exc:
         raise ValueError(f"{path}: cannot read it ({exc.strerror})") from None
-    except (pickle.UnpicklingError, EOFError, AttributeError, ImportError, IndexError) as exc:
+    except (AttributeError, ImportError) as exc:  # a class it holds (an extension's) does not import here
+        raise ValueError(
+            f"{path}: {what} holding a class this process cannot import ({exc}): an extension's module must be on "
+            "the PYTHONPATH of the processes a run starts"
+        ) from None
+    except (pickle.UnpicklingError, EOFError, IndexError) as exc:
         raise ValueError(f"{path}: not {what} ({exc})") from None
     if not isinstance(start, kind):
         raise ValueError(f"{path}: not {what} (a {type(start).__name__})")

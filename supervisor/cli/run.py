@@ -62,7 +62,11 @@ def _option_errors(args: argparse.Namespace, scenario: Scenario) -> list[str]:
         for vid in args.remote
         if vid in killed
     ]
-    return errors + (_bus_errors(args) if args.engine == "zenoh" else [])
+    if args.engine == "zenoh":
+        from supervisor.config.extension_checks import unloadable_errors
+
+        errors += [*_bus_errors(args), *unloadable_errors(scenario)]
+    return errors
 
 
 def _bus_errors(args: argparse.Namespace) -> list[str]:

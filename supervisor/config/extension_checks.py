@@ -113,10 +113,37 @@ def extension_identities(sc: Scenario) -> list[Identity]:
     """The identity of each extension the scenario names (law, predictor, transmission policy, controller, vehicle
     models: the fleet's presets, or its model; the loss model if it names one): what the hello digest covers and the
     log's meta records. Call on a checked scenario: every name resolves."""
+    return [resolve(kind, name)[1] for kind, _, name in _named(sc)]
+
+
+SECTIONS = {"law": "coordination", "predictor": "coordination", "transmission": "comms.transmit",
+            "loss": "comms", "controller": "path_following", "model": "vehicle"}  # fmt: skip
+
+
+def _named(sc: Scenario) -> list[tuple[str, str, str]]:
+    """(kind, the scenario field naming it, name) of each extension the scenario names, in extension_identities'
+    order."""
     co = sc.coordination
     named = [("law", co.law), ("predictor", co.predictor), ("transmission", sc.comms.transmit.policy),
              ("controller", controller_name(sc))]  # fmt: skip
     if sc.comms.loss_model is not None:  # none named: the digest stays what it was for scenarios without one
         named.append(("loss", sc.comms.loss_model))
     models = [sc.vehicle.model] if sc.vehicle.model else sorted({v.preset or sc.vehicle.preset for v in sc.vehicles})
-    return [resolve(kind, name)[1] for kind, name in named + [("model", model) for model in models]]
+    named += [("model", model) for model in models]
+    return [(kind, f"{SECTIONS[kind]}.{FIELDS[kind][0]}", name) for kind, name in named]
+
+
+def unloadable_errors(sc: Scenario) -> Iterator[str]:
+    """The extensions the Zenoh engine's processes cannot load: they are handed their extensions pickled, and import
+    each class by its module and name, so one defined inside a function or in the script being run (__main__) runs in
+    process only (it ended in a pickling traceback, or a vehicle refusing its start file). Call on a checked
+    scenario."""
+    for kind, field, name in _named(sc):
+        cls, _ = resolve(kind, name)
+        where = "inside a function" if "<locals>" in cls.__qualname__ else None
+        where = "in the script being run (__main__)" if cls.__module__ == "__main__" else where
+        if where is not None:
+            yield (
+                f"{field}: {name} is defined {where}; the zenoh engine's processes import an extension by its module: "
+                f"put it at the top of a module on their PYTHONPATH, or run --engine inprocess, got {name!r}"
+            )
