@@ -21,6 +21,7 @@ from comms.records.records import Reception
 from supervisor.config.fleet import initial_state, radio, vehicle_config
 from supervisor.config.scenario import load_scenario
 from tests.conftest import RecordingPublishers
+from vehicles.guard import Guarded
 from vehicles.node import _Vehicle
 from vehicles.runtime import NodeState
 
@@ -86,5 +87,27 @@ def test_a_transmission_before_the_step_the_vehicle_said_is_refused():
     run(node, 0, 1)
     assert node.promised == 5
     node.promised = 8  # as if its policy's earliest step had said 8 and it then transmitted at 5
-    with pytest.raises(RuntimeError, match="vehicle 2 transmitted at step 5, before step 8 it said it would"):
+    said = r"vehicle 2 transmitted at step 5, before step 8 it said it would: .*earliest\(\) must not be later"
+    with pytest.raises(RuntimeError, match=said):
         run(node, 1, 10)
+
+
+class _Trigger:
+    def __init__(self, earliest: object) -> None:
+        self.value = earliest
+
+    def due(self, t: float, dt: float, now: object, last: object) -> bool:
+        return True
+
+    def earliest(self, lo: int, dt: float, last: float) -> object:
+        return self.value
+
+
+@pytest.mark.parametrize("value", [float("nan"), float("inf"), 2.5, "3", True, None])
+def test_a_trigger_whose_earliest_is_not_a_step_is_named(value: object) -> None:
+    """A user's earliest() returning NaN ended the vehicle in 'cannot convert float NaN to integer' (found by a new
+    user), naming no one: now the guard's one line names the trigger."""
+    guarded = Guarded(_Trigger(value), "transmission my_pkg:Trigger")
+    with pytest.raises(FloatingPointError, match=r"transmission my_pkg:Trigger earliest\(\) returned .*, not a step"):
+        guarded.earliest(1, 0.1, 0.0)
+    assert Guarded(_Trigger(7.0), "t").earliest(1, 0.1, 0.0) == 7 == Guarded(_Trigger(7), "t").earliest(1, 0.1, 0.0)

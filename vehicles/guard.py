@@ -56,7 +56,13 @@ class Guarded:
 
     def earliest(self, lo: int, dt: float, last: float) -> int:
         earliest = getattr(self.inner, "earliest", None)
-        return lo if earliest is None else int(self._call(earliest, lo, dt, last))
+        if earliest is None:
+            return lo
+        value = self._call(earliest, lo, dt, last)
+        whole = isinstance(value, int | np.integer) or (isinstance(value, float) and value.is_integer())
+        if isinstance(value, bool) or not whole:  # NaN, inf, 2.5, "3": not a step (int() of NaN raised unguarded)
+            raise FloatingPointError(f"{self.label} earliest() returned {short(value)}, not a step index")
+        return int(value)
 
     def control(
         self, model: VehicleModel, params: VehicleParams, s: Sequence[float], path: PathVectors, gamma: float,

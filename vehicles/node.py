@@ -171,7 +171,11 @@ class _Vehicle:
         t = tick.t if k == tick.k else k * self.dt
         self.node, out = step_records(self.cfg, self.radio, self.node, k, t, self.dt, heard, current, dist)
         if out.transmission is not None and self.promised is not None and k < self.promised:  # windows count on it
-            raise RuntimeError(f"vehicle {vid} transmitted at step {k}, before step {self.promised} it said it would")
+            policy = getattr(self.radio.policy, "label", type(self.radio.policy).__name__)
+            raise RuntimeError(
+                f"vehicle {vid} transmitted at step {k}, before step {self.promised} it said it would: {policy}'s "
+                "earliest() must not be later than the first step its due() is true"
+            )
         state = out.state
         if tick.wall is not None:
             state["rx_lateness"] = lateness
