@@ -115,11 +115,17 @@ def _frames(rows: _Rows) -> dict[str, pd.DataFrame]:
     faults = faults.astype({"start": float, "end": float})  # end NaN: to the end of the run
     return {
         "states": states_table(rows.states),
-        "transmissions": pd.DataFrame.from_records(rows.transmissions, columns=list(TX_COLUMNS)),
-        "receptions": pd.DataFrame.from_records(rows.receptions, columns=list(RX_COLUMNS)),
+        # In an order of the run's, not of the log's: each engine logs a step's vehicles in the order they came in
+        # (a receiver's batch keeps the order it took them in: the sort is stable)
+        "transmissions": _sorted(pd.DataFrame.from_records(rows.transmissions, columns=list(TX_COLUMNS)), "sender"),
+        "receptions": _sorted(pd.DataFrame.from_records(rows.receptions, columns=list(RX_COLUMNS)), "receiver"),
         "link_events": pd.DataFrame.from_records(rows.link_events, columns=list(EVENT_COLUMNS)),
         "faults": faults,
     }
+
+
+def _sorted(table: pd.DataFrame, by: str) -> pd.DataFrame:
+    return table.sort_values(["t", by], kind="stable", ignore_index=True)
 
 
 # --- states ---------------------------------------------------------------------------------------------------
