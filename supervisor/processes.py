@@ -35,7 +35,7 @@ from supervisor import forked
 from supervisor.errors import TooManyDescriptors
 
 FORK_SERVER_TIMEOUT = 30.0  # s for the fork server to import what a child needs (~0.4 s of CPU)
-log = logging.getLogger(__name__)
+log = logging.getLogger(f"cpf.{__name__}")  # under cpf: silenced with it (docs/api.md)
 Process = subprocess.Popen[bytes] | forked.ForkedProcess
 
 STEM_MAX = 64  # characters of a process name in a file name

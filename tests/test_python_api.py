@@ -10,6 +10,7 @@ from __future__ import annotations
 import inspect
 import io
 import json
+import logging
 import math
 import re
 from pathlib import Path
@@ -150,6 +151,22 @@ def test_progress_is_a_tqdm_bar_on_stderr_unless_turned_off(scenario, capsys):
     assert shown.out == "" and final.startswith("simulated: 2.0/2 s |") and "x real time" in final
     cpf.run(short, progress=False)
     assert capsys.readouterr() == ("", "")
+
+
+def test_every_line_the_run_logs_is_under_the_cpf_logger(scenario, caplog):
+    """A kill and restart were logged under supervisor.plan.faults, outside logger cpf: silencing cpf left them on
+    stderr (found by a new user). Every logger of ours is under cpf now."""
+    short = shortened(scenario.read_text(), 4.0)
+    kill = {"kind": "vehicle_kill", "vehicle": 2, "start": 1.0, "end": 2.0}
+    cpf.run(short, faults=[kill], progress=False)
+    assert any("vehicle 2 killed at t = 1.0 s" in r.message and r.name.startswith("cpf.") for r in caplog.records)
+    caplog.clear()
+    logging.getLogger("cpf").setLevel(logging.ERROR)
+    try:
+        cpf.run(short, faults=[kill], progress=False)
+    finally:
+        logging.getLogger("cpf").setLevel(logging.NOTSET)
+    assert caplog.records == []
 
 
 @pytest.mark.parametrize(

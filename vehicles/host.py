@@ -22,7 +22,7 @@ from comms.bus.bus import Ending
 from comms.bus.lifeline import Lifeline, watch
 
 CONTROL_ENV = "CPF_HOST_CONTROL"  # the file descriptor of the control pipe's read end
-log = logging.getLogger(__name__)
+log = logging.getLogger(f"cpf.{__name__}")  # under cpf: silenced with it (docs/api.md)
 
 Serve = Callable[[Ending], int]  # serves one vehicle until it ends (vehicles.node.run_vehicle, its ending given)
 

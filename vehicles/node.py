@@ -43,7 +43,7 @@ from vehicles.runtime import NodeState, Radio
 from vehicles.step import step_records
 from vehicles.transmission import earliest_transmission
 
-log = logging.getLogger(__name__)
+log = logging.getLogger(f"cpf.{__name__}")  # under cpf: silenced with it (docs/api.md)
 
 
 @dataclass(frozen=True, slots=True)

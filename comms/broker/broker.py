@@ -53,7 +53,7 @@ from comms.records.reports import CommsDone
 from comms.records.state import StateReport
 from comms.records.stream import at_step_time, in_stream
 
-log = logging.getLogger(__name__)
+log = logging.getLogger(f"cpf.{__name__}")  # under cpf: silenced with it (docs/api.md)
 
 
 @dataclass

@@ -33,7 +33,7 @@ from comms.records.messages import (
 )
 from comms.records.run import Stop
 
-log = logging.getLogger(__name__)
+log = logging.getLogger(f"cpf.{__name__}")  # under cpf: silenced with it (docs/api.md)
 POLL = 0.5  # s between checks while nothing arrives
 Handler = Callable[[str, bytes], None]
 

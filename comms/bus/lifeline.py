@@ -35,7 +35,7 @@ GRACE = 1.0  # s the child has to stop by itself after the supervisor is gone, b
 ORPHANED = 3  # exit code of a child ended by its lifeline (nobody reads it: the supervisor is gone)
 _PR_SET_PDEATHSIG = 1  # linux/prctl.h
 
-log = logging.getLogger(__name__)
+log = logging.getLogger(f"cpf.{__name__}")  # under cpf: silenced with it (docs/api.md)
 
 
 def launcher(argv: list[str], parent_death_signal: bool) -> list[str]:

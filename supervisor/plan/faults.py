@@ -30,7 +30,7 @@ from supervisor.config.scenario_schema import (
     VehicleKillFault,
 )
 
-log = logging.getLogger(__name__)
+log = logging.getLogger(f"cpf.{__name__}")  # under cpf: silenced with it (docs/api.md)
 
 
 def _disturbances(faults: Sequence[FaultSpec], vehicle_id: int, t: float, dt: float) -> Disturbances:

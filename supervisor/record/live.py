@@ -42,7 +42,7 @@ from supervisor.record.scene.live import LiveScene
 if TYPE_CHECKING:
     import foxglove
 
-log = logging.getLogger(__name__)
+log = logging.getLogger(f"cpf.{__name__}")  # under cpf: silenced with it (docs/api.md)
 HOST = "127.0.0.1"  # localhost only: the protocol has no authentication
 DEFAULT_PORT = 8765  # Foxglove's default for a WebSocket connection
 CLOCK_PERIOD = 0.1  # s of simulated time between the server's time announcements

@@ -40,7 +40,7 @@ from websockets.typing import Subprotocol
 
 from comms.bus import lifeline
 
-log = logging.getLogger(__name__)
+log = logging.getLogger(f"cpf.{__name__}")  # under cpf: silenced with it (docs/api.md)
 SDK_SUBPROTOCOL = Subprotocol("foxglove.sdk.v1")  # what foxglove-sdk's server answers to
 SUBPROTOCOLS = [SDK_SUBPROTOCOL, Subprotocol("foxglove.websocket.v1")]  # what the relay answers to, in preference
 DRAIN_WAIT = 5.0  # s for the connections to pass on what the stopped server sent, and close

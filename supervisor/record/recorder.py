@@ -49,7 +49,7 @@ LAST_NS = 2**64 - 1  # MCAP times are unsigned 64-bit ns
 FAST_MAX = 1.8e10  # s: any float time below it is a valid MCAP time (LAST_NS is 1.8446e10 s)
 SEQUENCES = 2**32  # MCAP sequence numbers are unsigned 32-bit
 
-log = logging.getLogger(__name__)
+log = logging.getLogger(f"cpf.{__name__}")  # under cpf: silenced with it (docs/api.md)
 
 
 JSON_OPTIONS = orjson.OPT_NON_STR_KEYS | orjson.OPT_SERIALIZE_NUMPY  # NaN and inf are written as null

@@ -22,7 +22,7 @@ from supervisor.processes import Child, ProcessGroup
 from supervisor.record.live_relay import BACKEND_WAIT, DRAIN_WAIT, RELAY_CONTROL_ENV, RELAY_SOCKET_ENV
 
 NAME = "live relay"
-log = logging.getLogger(__name__)
+log = logging.getLogger(f"cpf.{__name__}")  # under cpf: silenced with it (docs/api.md)
 
 
 class RelayProcess:

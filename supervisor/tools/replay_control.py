@@ -31,7 +31,7 @@ from comms.records.bounded import brief
 from comms.records.messages import ROOT
 from supervisor.tools.replay_player import MAX_SPEED, Command, Done, Player, PlayerState, Publish, Verb, Wait
 
-log = logging.getLogger(__name__)
+log = logging.getLogger(f"cpf.{__name__}")  # under cpf: silenced with it (docs/api.md)
 CONTROL_KEY = f"{ROOT}/replay/control"
 MAX_PAYLOAD = 1024  # bytes: a command is a few words
 IDLE = 1.0  # s a paused loop waits at most before looking again (a command wakes it before)

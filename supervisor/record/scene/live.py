@@ -34,7 +34,7 @@ from supervisor.record.scene.history import FleetHistory
 from supervisor.record.scene.paths import PATH_POINTS, PATH_SPACING
 from supervisor.record.scene.scene import SceneMessage, _Placed, _placements, _Sweep, paths_update
 
-log = logging.getLogger(__name__)
+log = logging.getLogger(f"cpf.{__name__}")  # under cpf: silenced with it (docs/api.md)
 LAG_INSTANTS = 2  # published instants a missing state or link event holds up the live view (1 s of simulated time)
 PLAN_MARGIN = 0.25  # of the planned gammas, drawn on either side of them at first
 Range = tuple[float, float]  # of gamma, drawn

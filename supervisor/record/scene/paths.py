@@ -13,7 +13,7 @@ from supervisor.config.scenario_schema import Scenario
 from supervisor.record.scene.geometry import path_points
 from supervisor.record.scene.history import FleetHistory
 
-log = logging.getLogger(__name__)
+log = logging.getLogger(f"cpf.{__name__}")  # under cpf: silenced with it (docs/api.md)
 PATH_SPACING = 0.5  # m between a path's points
 PATH_POINTS = 4000  # at most, per vehicle
 

@@ -51,7 +51,7 @@ from supervisor.record.scene.geometry import quaternions
 from supervisor.record.scene.history import FaultEvent, FleetHistory, Graph, Link, Outcome, Snapshot
 from supervisor.record.scene.paths import desired_paths
 
-log = logging.getLogger(__name__)
+log = logging.getLogger(f"cpf.{__name__}")  # under cpf: silenced with it (docs/api.md)
 
 SceneMessage = tuple[str, float, dict[str, Any]]  # (topic, simulation time s, message)
 LinkOutcome = tuple[tuple[Link, int], Outcome]  # ((link, published instant), its last outcome): a history's
