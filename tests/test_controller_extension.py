@@ -192,3 +192,24 @@ def test_an_adaptive_controller_whose_update_raises_stops_its_vehicle_with_one_l
     with pytest.raises(FloatingPointError) as err:
         _surge_run(extension("controller", "doc_adaptive:Broken", {}), 3)
     assert "controller doc_adaptive:Broken" in str(err.value) and "KeyError" in str(err.value)
+
+
+@dataclasses.dataclass(frozen=True)
+class _Writes:
+    """Writes into the state it is given before steering as backstepping."""
+
+    def control(self, model, params, s, path, gamma, gamma_dot, v_d, current):
+        s[0] = 1e6
+        return Backstepping().control(model, params, s, path, gamma, gamma_dot, v_d, current)
+
+
+def test_a_controller_cannot_move_the_vehicle_by_writing_into_its_state():
+    """A user's controller that wrote into s (a list) teleported the vehicle in process, silently, and was stopped as
+    implausible over Zenoh (found by a new user): it is given a tuple, so the write fails and the guard names it."""
+    cfg = vehicle_config(load_scenario(CONFIGS / "paper.toml"), 1)
+    s = list(cfg.model.lift(initial_state(load_scenario(CONFIGS / "paper.toml"), cfg).x))
+    before = list(s)
+    seen = cfg.model.path_seen(cfg.path.evaluate_floats(80.0))
+    with pytest.raises(FloatingPointError, match="controller mine raised TypeError"):
+        Guarded(_Writes(), "controller mine").control(cfg.vehicle, cfg.params, s, seen, 80.0, 0.5, 1.0, None)
+    assert s == before

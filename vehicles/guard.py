@@ -70,7 +70,8 @@ class Guarded:
     ) -> ControlOutput:  # fmt: skip
         """The controller's output checked; its drift is dropped (the plant computes its own: a wrong one must not
         move the vehicle) and a planar vehicle's tau_q set to 0 (it has no pitch)."""
-        out = self._call(self.inner.control, model, params, s, path, gamma, gamma_dot, v_d, current)
+        # s as a tuple: a controller that writes into it must not move the vehicle (in process it did, silently)
+        out = self._call(self.inner.control, model, params, tuple(s), path, gamma, gamma_dot, v_d, current)
         return self._checked(out, model)
 
     def _checked(self, out: Any, model: VehicleModel) -> ControlOutput:
@@ -89,21 +90,21 @@ class Guarded:
         return is_adaptive(self.inner)
 
     def start(self, model: VehicleModel, params: VehicleParams, s: Sequence[float]) -> object:
-        return self._call(self.inner.start, model, params, s)
+        return self._call(self.inner.start, model, params, tuple(s))
 
     def control_with(
         self, memory: object, model: VehicleModel, params: VehicleParams, s: Sequence[float], path: PathVectors,
         gamma: float, gamma_dot: float, v_d: float, current: Current | None,
     ) -> ControlOutput:  # fmt: skip
         """As control, with an adaptive controller's memory."""
-        out = self._call(self.inner.control_with, memory, model, params, s, path, gamma, gamma_dot, v_d, current)
+        out = self._call(self.inner.control_with, memory, model, params, tuple(s), path, gamma, gamma_dot, v_d, current)
         return self._checked(out, model)
 
     def update(
         self, memory: object, model: VehicleModel, params: VehicleParams, stages: Sequence[Stage],
         after: Sequence[float], dt: float,
     ) -> object:  # fmt: skip
-        return self._call(self.inner.update, memory, model, params, stages, after, dt)
+        return self._call(self.inner.update, memory, model, params, stages, tuple(after), dt)
 
     @property
     def lanes(self) -> bool:
@@ -122,7 +123,7 @@ class Guarded:
         return value
 
     def drift(self, s: Sequence[float], params: VehicleParams) -> Accelerations:
-        value = self._call(self.inner.drift, s, params)
+        value = self._call(self.inner.drift, tuple(s), params)
         try:
             (du, dv, dw), (dp, dq, dr) = value
         except (TypeError, ValueError):
