@@ -213,3 +213,19 @@ def test_a_controller_cannot_move_the_vehicle_by_writing_into_its_state():
     with pytest.raises(FloatingPointError, match="controller mine raised TypeError"):
         Guarded(_Writes(), "controller mine").control(cfg.vehicle, cfg.params, s, seen, 80.0, 0.5, 1.0, None)
     assert s == before
+
+
+@dataclasses.dataclass(frozen=True)
+class _Exits:
+    def control(self, model, params, s, path, gamma, gamma_dot, v_d, current):
+        raise SystemExit(3)
+
+
+def test_a_controller_that_calls_sys_exit_is_contained_as_any_failure():
+    """sys.exit() in a user's law ended the in-process run with exit code 3 and no line (cpf.run raised SystemExit),
+    where the Zenoh engine named it (found by a new user): the guard takes it as it takes an exception."""
+    cfg = vehicle_config(load_scenario(CONFIGS / "paper.toml"), 1)
+    s = cfg.model.lift(initial_state(load_scenario(CONFIGS / "paper.toml"), cfg).x)
+    seen = cfg.model.path_seen(cfg.path.evaluate_floats(80.0))
+    with pytest.raises(FloatingPointError, match="controller mine raised SystemExit: 3"):
+        Guarded(_Exits(), "controller mine").control(cfg.vehicle, cfg.params, s, seen, 80.0, 0.5, 1.0, None)

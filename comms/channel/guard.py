@@ -30,7 +30,7 @@ def guarded_call(label: str, budget: float, method: Callable[..., R], *args: Any
     start = time.thread_time()
     try:
         value = method(*args)
-    except Exception as exc:  # anything it raises: its failure, named, not a traceback
+    except (Exception, SystemExit) as exc:  # anything it raises (sys.exit too): its failure, named, not a traceback
         raise FloatingPointError(f"{label} raised {type(exc).__name__}: {short(exc)}") from None
     spent = time.thread_time() - start
     if spent > budget:
