@@ -235,3 +235,28 @@ def test_a_class_signatures_are_inspected_once_unless_an_instance_or_the_class_c
     for quiet, loud in ((Chooses(False), Chooses(True)), (Proxy(Chooses(False)), Proxy(odd))):
         assert extensions._signature_problem(quiet, Speaks) is None
         assert extensions._signature_problem(loud, Speaks) is not None
+
+
+def _distribution(where: Path, name: str, group: str, entries: dict[str, str]) -> None:
+    info = where / f"{name}-1.0.dist-info"
+    info.mkdir(parents=True)
+    (info / "METADATA").write_text(f"Metadata-Version: 2.1\nName: {name}\nVersion: 1.0\n")
+    (info / "entry_points.txt").write_text(f"[{group}]\n" + "".join(f"{k} = {v}\n" for k, v in entries.items()))
+
+
+def test_another_distribution_cannot_replace_a_builtin_by_its_name(tmp_path, monkeypatch):
+    """A package declaring `corrected` in cpf.coordination ran every scenario with its law instead of law (5),
+    silently (found by a new user): a built-in's name is the built-in's; a name two others declare is ambiguous."""
+    _distribution(
+        tmp_path, "shadow", "cpf.coordination", {"corrected": f"{SAMPLES}:Damped", "both": f"{SAMPLES}:Damped"}
+    )
+    _distribution(tmp_path, "other", "cpf.coordination", {"both": f"{SAMPLES}:Raises"})
+    monkeypatch.syspath_prepend(str(tmp_path))
+    resolve.cache_clear()
+    try:
+        _, identity = resolve("law", "corrected")
+        assert identity.builtin and identity.target == "vehicles.coordination:Corrected"
+        with pytest.raises(ValueError, match=r"'both' is declared by other .*, shadow .*: name the one you mean"):
+            resolve("law", "both")
+    finally:
+        resolve.cache_clear()

@@ -75,9 +75,29 @@ class Identity:
 
 
 def available(kind: str) -> dict[str, str]:
-    """name -> module:attr of every installed entry point of the kind's group (built-ins included)."""
+    """name -> module:attr of every installed entry point of the kind's group (built-ins included; a name that is
+    a built-in's is the built-in's, whoever else declares it)."""
     group = GROUPS[kind][0]
-    return {ep.name: ep.value for ep in metadata.entry_points(group=group)}
+    names = {ep.name for ep in metadata.entry_points(group=group)}
+    return {name: entry.value for name in names if (entry := _entry(group, name)) is not None}
+
+
+def _entry(group: str, name: str) -> metadata.EntryPoint | None:
+    """The entry point a name means: cpf-cosim's own if it declares the name (another distribution's of that name
+    cannot replace a built-in: one declaring `corrected` silently ran every scenario with its law), else the one
+    distribution's that declares it; ValueError if two others do."""
+    found = [ep for ep in metadata.entry_points(group=group) if ep.name == name]
+    ours = [ep for ep in found if _distribution(ep) == OURS]
+    if ours:
+        return ours[0]
+    if len(found) <= 1:
+        return found[0] if found else None
+    by = ", ".join(sorted(f"{_distribution(ep)} ({ep.value})" for ep in found))
+    raise ValueError(f"{name!r} is declared by {by}: name the one you mean by package.module:Name")
+
+
+def _distribution(entry: metadata.EntryPoint) -> str | None:
+    return entry.dist.name.replace("_", "-").lower() if entry.dist is not None else None
 
 
 @functools.lru_cache(maxsize=256)
@@ -88,12 +108,12 @@ def resolve(kind: str, name: str) -> tuple[type, Identity]:
     if ":" in name:
         cls, distribution = _imported(name), _distribution_of(name.partition(":")[0])
     else:
-        found = [ep for ep in metadata.entry_points(group=group) if ep.name == name]
-        if not found:
+        entry = _entry(group, name)
+        if entry is None:
             known = ", ".join(sorted(available(kind))) or "none"
             raise ValueError(f"no {kind} {name!r} (installed: {known}; or give package.module:Name)")
-        cls = _loaded(found[0])
-        distribution = (found[0].dist.name, found[0].dist.version) if found[0].dist else None
+        cls = _loaded(entry)
+        distribution = (entry.dist.name, entry.dist.version) if entry.dist else None
     if not inspect.isclass(cls):
         raise ValueError(f"{name!r} is not a class (a {kind} is a class whose fields are its options)")
     dist, version = distribution if distribution else (None, None)
