@@ -83,6 +83,9 @@ def test_a_vehicle_model_by_import_path_gives_the_same_records_on_both_engines(t
          "vehicle.overrides: a vehicle.model takes its options from vehicle.model_options"),
         (["vehicle.model_options.mass=[40.0, 60.0, 60.0]"],
          "vehicle.model_options: a preset takes its changes from [vehicle] overrides"),
+        # the ranges [vehicle] overrides are held to (a new user's negative thrust ran)
+        ([HEAVY, "vehicle.model_options.max_surge_force=-5.0"],
+         f"vehicle.model: parameters() gives max_surge_force -5.0, outside [0, 1e+06], got '{SAMPLES}:Heavy'"),
     ],
 )  # fmt: skip
 def test_a_bad_vehicle_model_or_option_is_one_line_and_exit_2_before_the_run(tmp_path, settings, expected):

@@ -10,6 +10,7 @@ from typing import Any
 from comms.channel.guard import GuardedLoss
 from supervisor.config.controller_choice import AUTO, controller_name, controller_options
 from supervisor.config.extensions import Identity, instantiate, resolve
+from supervisor.config.parameter_ranges import out_of_range
 from supervisor.config.scenario_schema import Scenario
 from vehicles.estimates import FirstOrder
 from vehicles.params import VehicleParams
@@ -87,6 +88,9 @@ def _parameters_errors(instance: Any, name: str) -> Iterator[str]:
         return
     if not isinstance(params, VehicleParams):
         yield f"vehicle.model: parameters() returned {type(params).__name__}, not a VehicleParams, got {name!r}"
+        return
+    for problem in out_of_range(params):  # the ranges [vehicle] overrides are held to (a force below zero ran)
+        yield f"vehicle.model: parameters() gives {problem}, got {name!r}"
 
 
 # Where each kind's name and options are in a scenario, below its section.

@@ -19,6 +19,7 @@ from supervisor.config.derived import active, end_of, first_step, graph_at, step
 from supervisor.config.extension_checks import extension_errors, vehicle_model_errors
 from supervisor.config.feasibility_checks import feasibility_errors, feasibility_warnings
 from supervisor.config.kill_checks import kill_errors
+from supervisor.config.parameter_ranges import PARAMETER_RANGES
 from supervisor.config.plant import planar_current_errors
 from supervisor.config.scenario_schema import (
     LINK_FAULTS,
@@ -148,27 +149,6 @@ def _link_in_graph(index: int, fault: FaultSpec, sc: Scenario) -> Iterator[str]:
     links = {frozenset(edge) for edges in graphs for edge in edges}
     if frozenset((sender, receiver)) not in links:
         yield f"faults[{index}]: not a link of the graph while the fault acts, got {sender} -> {receiver}"
-
-
-# Each vehicle parameter's range (VehicleParams' units): masses and inertias positive (the model divides by them),
-# damping and forces not negative, magnitudes a vehicle can have.
-PARAMETER_RANGES: dict[str, tuple[float, float]] = {
-    "mass": (0.1, 1e6),
-    "inertia": (1e-3, 1e7),
-    "linear_damping": (0.0, 1e6),
-    "quadratic_damping": (0.0, 1e6),
-    "angular_linear_damping": (0.0, 1e6),
-    "angular_quadratic_damping": (0.0, 1e6),
-    "weight": (0.0, 1e8),
-    "buoyancy": (0.0, 1e8),
-    "center_of_buoyancy": (-10.0, 10.0),
-    "max_surge_force": (0.0, 1e6),
-    "max_torque": (0.0, 1e6),
-    "lift_uv": (-1e6, 0.0),  # lift opposes the flow across the hull
-    "lift_ur": (-1e6, 1e6),
-    "lift_moment_uv": (-1e6, 1e6),
-    "lift_moment_ur": (-1e6, 0.0),  # fin lift damps the rates
-}
 
 
 def _clock_skew(sc: Scenario) -> Iterator[str]:
