@@ -83,6 +83,10 @@ def test_a_vehicle_model_by_import_path_gives_the_same_records_on_both_engines(t
          "vehicle.overrides: a vehicle.model takes its options from vehicle.model_options"),
         (["vehicle.model_options.mass=[40.0, 60.0, 60.0]"],
          "vehicle.model_options: a preset takes its changes from [vehicle] overrides"),
+        ([HEAVY, "vehicles.0.overrides.max_torque=3.0"],  # named preset, which was not given (a new user's)
+         f"vehicles[0].overrides: the fleet runs vehicle.model {SAMPLES}:Heavy: no preset or overrides of its own"),
+        ([HEAVY, "vehicles.0.preset=remus100"],
+         f"vehicles[0].preset: the fleet runs vehicle.model {SAMPLES}:Heavy: no preset or overrides of its own"),
         # the ranges [vehicle] overrides are held to (a new user's negative thrust ran)
         ([HEAVY, "vehicle.model_options.max_surge_force=-5.0"],
          f"vehicle.model: parameters() gives max_surge_force -5.0, outside [0, 1e+06], got '{SAMPLES}:Heavy'"),

@@ -74,7 +74,9 @@ def vehicle_model_errors(sc: Scenario) -> Iterator[str]:
         yield f"vehicle.overrides: a vehicle.model takes its options from vehicle.model_options, got {v.overrides}"
     for index, entry in enumerate(sc.vehicles):
         if entry.preset is not None or entry.overrides:
-            yield f"vehicles[{index}].preset: the fleet runs vehicle.model {v.model}: no preset or overrides of its own"
+            given = "preset" if entry.preset is not None else "overrides"
+            own = "no preset or overrides of its own"
+            yield f"vehicles[{index}].{given}: the fleet runs vehicle.model {v.model}: {own}"
     if instance is not None:
         yield from _parameters_errors(instance, v.model)
 
