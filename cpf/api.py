@@ -15,7 +15,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from cpf.inputs import Changes, Scenario, fault_specs, overrides, param_specs, scenario_file
+from cpf.inputs import Changes, Scenario, fault_specs, overrides, param_specs, run_options, scenario_file
 from cpf.runs import Run
 
 if TYPE_CHECKING:
@@ -47,7 +47,7 @@ def run(
     try:
         path = scenario_file(scenario, keep)
         log = keep / "run.mcap" if out is None else Path(out)
-        argv = ["--engine", engine, "--out", str(log), *options]
+        argv = ["--engine", engine, "--out", str(log), *run_options(options)]
         argv += [f"--set={text}" for text in overrides(set)] + [f"--fault={spec}" for spec in fault_specs(faults)]
         argv += ([] if seed is None else ["--seed", str(seed)]) + ([] if progress else ["--quiet"])
         parsed = arguments(["run", *argv, "--", str(path)])  # --: a file named -x.toml is a file

@@ -75,3 +75,22 @@ def _texts(given: Sequence[str], what: str) -> list[str]:
     if isinstance(given, str) or not all(isinstance(text, str) for text in given):
         raise ScenarioError(f"{what}: a dict of KEY: VALUE or a list of 'KEY=VALUE' strings, got {given!r}")
     return list(given)
+
+
+# cpf.run's own arguments, and what would print instead of running: not to be given again in options
+OWN_OPTIONS = {"--engine": "engine=", "--out": "out=", "--seed": "seed=", "--set": "set=", "--fault": "faults=",
+               "--quiet": "progress=False", "--help": "help(cpf.run)", "-h": "help(cpf.run)"}  # fmt: skip
+
+
+def run_options(options: Sequence[str]) -> list[str]:
+    """options as cpf.run hands them on; ScenarioError for one of its own arguments given again there (which one won
+    depended on the option: --engine the option's, --seed the argument's, --out the option's with a Run of the
+    other log) or --help (it printed and raised SystemExit)."""
+    if isinstance(options, str) or not all(isinstance(text, str) for text in options):
+        raise ScenarioError(f"options: a list of cpf run's options as strings (['--no-foxglove']), got {options!r}")
+    texts = list(options)
+    for text in texts:
+        name = text.partition("=")[0]
+        if name in OWN_OPTIONS:
+            raise ScenarioError(f"options: {name} is cpf.run's own ({OWN_OPTIONS[name]}), got {text!r}")
+    return texts

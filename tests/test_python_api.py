@@ -153,6 +153,18 @@ def test_progress_is_a_tqdm_bar_on_stderr_unless_turned_off(scenario, capsys):
     assert capsys.readouterr() == ("", "")
 
 
+@pytest.mark.parametrize(
+    ("options", "named"),
+    [(["--engine", "zenoh"], "--engine"), (["--seed=2"], "--seed"), (["--out", "o2.mcap"], "--out"),
+     (["--help"], "--help"), (["--quiet"], "--quiet")],
+)  # fmt: skip
+def test_options_that_repeat_an_argument_of_run_are_refused(scenario, options, named):
+    """Which one won depended on the option (--engine the option's, --seed the argument's, --out the option's with a
+    Run of the other log), and --help printed and raised SystemExit (found by a new user)."""
+    with pytest.raises(cpf.ScenarioError, match=f"^options: {named} is cpf.run's own"):
+        cpf.run(scenario, progress=False, options=options)
+
+
 def test_every_line_the_run_logs_is_under_the_cpf_logger(scenario, caplog):
     """A kill and restart were logged under supervisor.plan.faults, outside logger cpf: silencing cpf left them on
     stderr (found by a new user). Every logger of ours is under cpf now."""
