@@ -364,7 +364,9 @@ def test_closest_gamma_rejects_bad_arguments() -> None:
         (lambda: Helix(20.0, 0.05, 400.0, 0.0, (0.0, 0.0)), "center must have 3 components"),  # type: ignore[arg-type]
         (lambda: Circle(-1.0, 10.0, 0.0), "radius must be > 0, got -1.0"),
         (lambda: Circle(5.0, 0.0, 0.0), "period must be != 0, got 0.0"),
-        (lambda: Line((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)), "velocity must be non-zero"),
+        (lambda: Line((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)), "velocity must be at least 1e-06 m per unit of gamma"),
+        # a new user's: non-zero, but its square is 0 (a ZeroDivisionError in the run that cpf validate passed)
+        (lambda: Line((0.0, 0.0, 0.0), (1e-300, 0.0, 0.0)), "velocity must be at least 1e-06 m per unit of gamma"),
         (lambda: Line((0.0, float("nan"), 0.0), (1.0, 0.0, 0.0)), "start must be finite"),
         (lambda: Lawnmower((0.0, 0.0, 0.0), 0.0, 10.0, 3), "leg_length must be > 0, got 0.0"),
         (lambda: Lawnmower((0.0, 0.0, 0.0), 100.0, -1.0, 3), "spacing must be > 0, got -1.0"),

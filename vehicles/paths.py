@@ -223,6 +223,10 @@ class Circle:
         return None
 
 
+# |velocity| of a line, m per unit of gamma, at least: the nearest-point search divides by its square (1e-300 gave 0)
+MIN_LINE_SPEED = 1e-6
+
+
 @dataclass(frozen=True, slots=True)
 class Line:
     """Straight line p_d(gamma) = start + gamma * velocity.
@@ -238,8 +242,8 @@ class Line:
     def __post_init__(self) -> None:
         _set(self, "start", _vec3("start", self.start))
         _set(self, "velocity", _vec3("velocity", self.velocity))
-        if not any(self.velocity):
-            raise ValueError(f"velocity must be non-zero, got {self.velocity!r}")
+        if not math.hypot(*self.velocity) >= MIN_LINE_SPEED:  # 1e-300 passed as non-zero; its square is 0
+            raise ValueError(f"velocity must be at least {MIN_LINE_SPEED:g} m per unit of gamma, got {self.velocity!r}")
 
     def evaluate(self, gamma: float) -> tuple[Vec3, Vec3, Vec3]:
         """(p_d [m], dp_d/dgamma [m/gamma], d2p_d/dgamma2 = 0) at gamma."""

@@ -297,7 +297,7 @@ class LinePath(StrictModel):
 
     type: Literal["line"]
     start: Position = Field(description="[x, y, z] at gamma = 0, m")
-    velocity: Position = Field(description="[x, y, z] m per unit of gamma; non-zero")
+    velocity: Position = Field(description="[x, y, z] m per unit of gamma; at least 1e-6 m in size")
 
 
 class LawnmowerPath(RenamedKeys):
