@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from supervisor.cli import main
-from supervisor.config.scenario import parse_scenario
+from supervisor.config.scenario import fault_table, parse_scenario
 from supervisor.config.scenario_checks import scenario_warnings
 from supervisor.errors import ScenarioError
 from tests.conftest import CONFIGS
@@ -113,6 +113,26 @@ def test_a_link_fault_on_a_link_a_graph_switch_puts_in_force_while_it_acts_is_ac
     assert [f.kind for f in parse_scenario(during).faults] == ["speed_cap", "graph_switch", "link_down"]
     after = with_faults(SWITCH_TO_CHAIN, LINK_DOWN_23.format(start=200.0, end=300.0))  # the switch is over at 200
     assert errors_of(after) == [f"{SOURCE}: faults[2]: not a link of the graph while the fault acts, got 2 -> 3"]
+
+
+def test_transmission_settings_that_cannot_be_kept_and_a_link_given_twice_are_refused() -> None:
+    """Each was accepted and not done (found by a new user): a period shorter than the step (described as 'every
+    0.05 s', sent every step), a heartbeat shorter than min_interval (min_interval won), two [[comms.links]] entries
+    for one link (one of them ignored)."""
+    assert errors_of(PAPER, ("comms.transmit.period=0.05",)) == [
+        f"{SOURCE}: comms.transmit.period: at least the step (0.1 s): one message a step at most, got 0.05"
+    ]
+    event = ("comms.transmit.policy=event", "comms.transmit.heartbeat=1.0", "comms.transmit.min_interval=5.0")
+    assert errors_of(PAPER, event) == [f"{SOURCE}: comms.transmit.heartbeat: at least min_interval (5 s), got 1.0"]
+    twice = ("comms.links=[{sender=1,receiver=2,loss=0.1},{sender=1,receiver=2,loss=0.5}]",)
+    assert errors_of(PAPER, twice) == [f"{SOURCE}: comms.links[1]: the same link as comms.links[0], got 1 -> 2"]
+    assert parse_scenario(PAPER, SOURCE, ("comms.transmit.period=0.1",)).comms.transmit.period == 0.1
+
+
+def test_a_fault_spec_that_gives_a_key_twice_is_refused() -> None:
+    """--fault kind=blackout,start=1,start=2 kept the last start (TOML refuses a key given twice)."""
+    with pytest.raises(ScenarioError, match=r"^--fault start: given twice, got 'kind=blackout,start=1,start=2'$"):
+        fault_table("kind=blackout,start=1,start=2")
 
 
 def test_a_fault_that_ends_within_the_step_it_starts_in_is_refused() -> None:

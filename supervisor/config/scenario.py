@@ -249,6 +249,8 @@ def fault_table(spec: str) -> dict[str, Any]:
         key, sep, text = part.partition("=")
         if not sep or not key.strip():
             raise ScenarioError(f"--fault: expected KEY=VALUE pairs separated by commas, got {spec!r}")
+        if key.strip() in table:  # TOML refuses a key given twice: so does its one-line form (the last one won)
+            raise ScenarioError(f"--fault {key.strip()}: given twice, got {spec!r}")
         table[key.strip()] = _toml_value(text, f"--fault {key.strip()}")
     return table
 

@@ -251,9 +251,13 @@ def _comms(sc: Scenario) -> Iterator[str]:
 
     ids = sc.vehicle_ids
     edges = {tuple(e) for e in sc.graph.edges} | {(j, i) for i, j in sc.graph.edges}
+    seen: dict[tuple[int, int], int] = {}
     for index, link in enumerate(sc.comms.links):
         if (link.sender, link.receiver) not in edges:
             yield f"comms.links[{index}]: not a link of the graph, got {link.sender} -> {link.receiver}"
+        elif (first := seen.setdefault((link.sender, link.receiver), index)) != index:  # one would be ignored
+            yield f"comms.links[{index}]: the same link as comms.links[{first}], got {link.sender} -> {link.receiver}"
+    yield from _transmit(sc)
     tdma = sc.comms.tdma
     slots = tdma.slot / sc.scenario.step if tdma is not None else 1.0
     if tdma is not None and (slots < 1 - 1e-9 or abs(slots - round(slots)) > STEP_TOLERANCE):
@@ -269,6 +273,16 @@ def _comms(sc: Scenario) -> Iterator[str]:
         channel_params(sc, with_named=False)  # comms.loss_model: extension_errors says what is wrong with it
     except ValueError as exc:
         yield f"comms: {exc}"
+
+
+def _transmit(sc: Scenario) -> Iterator[str]:
+    """What the built-in policies cannot do as written: send more often than once a step, or promise a message at
+    least every heartbeat while waiting longer than that between two (accepted, and not done)."""
+    tx, dt = sc.comms.transmit, sc.scenario.step
+    if tx.policy == "periodic" and tx.period is not None and tx.period < dt * (1 - STEP_TOLERANCE):
+        yield f"comms.transmit.period: at least the step ({dt:g} s): one message a step at most, got {tx.period}"
+    if tx.policy == "event" and tx.heartbeat is not None and tx.heartbeat < tx.min_interval:
+        yield f"comms.transmit.heartbeat: at least min_interval ({tx.min_interval:g} s), got {tx.heartbeat}"
 
 
 def _reception(sc: Scenario, collisions: bool) -> Iterator[str]:
