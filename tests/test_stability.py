@@ -214,3 +214,10 @@ def test_a_loop_the_analysis_does_not_model_is_not_predicted(capsys, caplog, set
     assert main(["stability", str(CONFIGS / "paper.toml"), *sets]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and f"paper.toml: {field}: the stability analysis models " in err
+
+
+def test_a_neutral_loop_is_not_warned_of_as_diverging(caplog):
+    """Every packet lost: the loop neither converges nor diverges; the rounding of its rate (8.88e-15 1/s) was
+    warned of as 'predicted to diverge' (found by a new user)."""
+    assert main(["validate", str(CONFIGS / "paper.toml"), "--set", "comms.loss=1.0"]) == 0
+    assert "predicted to diverge" not in caplog.text

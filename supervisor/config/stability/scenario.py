@@ -115,7 +115,12 @@ def predicted_growth(scenario: Scenario) -> float | None:
     """The growth rate (1/s) of the coordination error if the stability analysis predicts divergence, else None
     (also when the loop is too large to analyse quickly, or not modelled)."""
     growth = predicted_change(scenario)
-    return growth if growth is not None and growth >= 0 else None
+    return growth if growth is not None and growth > NEUTRAL else None
+
+
+# 1/s: a growth rate this small is the arithmetic's, not the loop's (every packet lost: the loop is neutral, the
+# monodromy's eigenvalue 1 within rounding; it was warned of as 'predicted to diverge, growing at 8.88e-15 1/s')
+NEUTRAL = 1e-9
 
 
 def predicted_change(scenario: Scenario) -> float | None:
