@@ -139,22 +139,19 @@ def sweep(
     specs = grid(params, seeds)
     runs_dir = out_dir / "runs"
     digest = _own_runs(runs_dir, scenario_bytes)
+    tell = progress or (lambda done, total: None)
     with _executor(local_jobs(jobs), cluster) as (submit, watch):  # no cluster to reach: nothing written
-        runs_dir.mkdir(parents=True, exist_ok=True)
-        if not (runs_dir / SCENARIO_DIGEST).exists():
-            _write_whole(runs_dir / SCENARIO_DIGEST, digest.encode())
+        _claim(runs_dir, digest)
         todo = [s for s in specs if not _done(runs_dir, s, logs)]
         done = len(specs) - len(todo)
-        if progress is not None:
-            progress(done, len(specs))
+        tell(done, len(specs))
         workers = 0 if cluster is not None else local_jobs(jobs)
         futures = _submitted(submit, scenario_path, scenario_bytes, todo, engine, logs, workers, sizes)
         try:
             for spec, outcome in _finished(futures, watch):  # a batch's failures after its rows: all are kept
                 _keep(runs_dir, spec, outcome, logs)
                 done += 1
-                if progress is not None:
-                    progress(done, len(specs))
+                tell(done, len(specs))
         finally:  # a failed run, Ctrl-C: the runs not started are not (a Dask client would wait for them on exit)
             for future in futures:
                 future.cancel()
@@ -349,6 +346,13 @@ def _own_runs(runs_dir: Path, scenario_bytes: bytes) -> str:
         f"--out: {runs_dir.parent} holds {whose} (a sweep resumes only its own): give another --out, or remove "
         f"{runs_dir}"
     )
+
+
+def _claim(runs_dir: Path, digest: str) -> None:
+    """runs_dir made, with the digest of the scenario whose runs it holds (_own_runs)."""
+    runs_dir.mkdir(parents=True, exist_ok=True)
+    if not (runs_dir / SCENARIO_DIGEST).exists():
+        _write_whole(runs_dir / SCENARIO_DIGEST, digest.encode())
 
 
 def _done(runs_dir: Path, spec: RunSpec, logs: bool) -> bool:
