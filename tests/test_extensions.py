@@ -9,15 +9,18 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from comms.bus.handover import write_private
-from supervisor.config.extensions import build, resolve
+from supervisor.config.extensions import build, instantiate, resolve
 from supervisor.config.scenario import load_scenario
 from supervisor.config.scenario_digest import section_digests
 from supervisor.record.recorder import read_messages
 from tests.conftest import CONFIGS, shortened
 from tests.procs import cpf
+from vehicles.coordination import CoordinationGains
+from vehicles.guard import Guarded
 from vehicles.start import read_starts
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -260,3 +263,38 @@ def test_another_distribution_cannot_replace_a_builtin_by_its_name(tmp_path, mon
             resolve("law", "both")
     finally:
         resolve.cache_clear()
+
+
+class _Plain:
+    def __init__(self, gain: float = 0.2) -> None:
+        self.gain = gain
+
+    def correction(self, gamma: float, gamma_dot: float, neighbours: object, gains: CoordinationGains) -> float:
+        return 0.0
+
+
+class _Due:
+    def __init__(self, value: object) -> None:
+        self.value = value
+
+    def due(self, t: float, dt: float, now: object, last: object) -> object:
+        return self.value
+
+
+def test_what_an_extension_gives_is_read_as_its_interface_says():
+    """Found by a new user: a plain class was refused with pydantic's advice about arbitrary types; a law returning
+    numpy's int64 0 was 'not a finite number' while int 0 passed; a trigger's due() returning "yes" or None was taken
+    as True or False; a missing member was not named."""
+    _, _, problems = instantiate("law", f"{__name__}:_Plain", {})
+    plain = "is not a dataclass or a pydantic model (its fields are its options): decorate it with @dataclass"
+    assert problems == [(None, f"{__name__}:_Plain {plain}(frozen=True)")]
+    assert instantiate("law", f"{SAMPLES}:NoCorrection", {})[2][0][1].endswith("(CoordinationLaw): no correction")
+    law = Guarded(None, "law x")
+    assert [law._finite(v) for v in (np.int64(0), np.float32(1.5), 2)] == [0.0, 1.5, 2.0]
+    for bad in (True, np.bool_(False), "1"):
+        with pytest.raises(FloatingPointError, match="not a finite number"):
+            law._finite(bad)
+    assert Guarded(_Due(np.bool_(True)), "t").due(0.0, 0.1, None, None) is True  # type: ignore[arg-type]
+    for answer in ("yes", None, 1):
+        with pytest.raises(FloatingPointError, match=r"transmission x due\(\) returned .*, not True or False"):
+            Guarded(_Due(answer), "transmission x").due(0.0, 0.1, None, None)  # type: ignore[arg-type]

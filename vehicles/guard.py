@@ -11,6 +11,7 @@ channel's loss models share.
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, TypeVar
@@ -52,7 +53,10 @@ class Guarded:
         return self._finite(gamma), self._finite(rate)
 
     def due(self, t: float, dt: float, now: NeighbourEstimate, last: NeighbourEstimate | None) -> bool:
-        return bool(self._call(self.inner.due, t, dt, now, last))
+        value = self._call(self.inner.due, t, dt, now, last)
+        if not isinstance(value, bool | np.bool_):  # "yes" was true and None false, silently
+            raise FloatingPointError(f"{self.label} due() returned {short(value)}, not True or False")
+        return bool(value)
 
     def earliest(self, lo: int, dt: float, last: float) -> int:
         earliest = getattr(self.inner, "earliest", None)
@@ -139,6 +143,7 @@ class Guarded:
             if value.dtype != np.float64 or value.ndim != 1 or not np.isfinite(value).all():
                 raise FloatingPointError(f"{self.label} returned {short(value)}, not finite numbers")
             return value  # type: ignore[return-value]  # lanes: floats to the code that takes them
-        if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        # a real number of any kind (numpy's int64 and float32 too: they were refused), not a bool, finite
+        if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real) or not math.isfinite(value):
             raise FloatingPointError(f"{self.label} returned {short(value)}, not a finite number")
         return float(value)

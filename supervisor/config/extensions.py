@@ -199,6 +199,9 @@ def instantiate(
     given = {key: value for key, value in (context or {}).items() if key in fields and key not in options}
     from pydantic import ValidationError  # here: a vehicle or broker process started from a plan never gets here
 
+    if not dataclasses.is_dataclass(cls) and not hasattr(cls, "model_fields"):  # pydantic's advice would follow
+        return None, identity, [(None, f"{identity.target} is not a dataclass or a pydantic model (its fields are its "
+                                       "options): decorate it with @dataclass(frozen=True)")]  # fmt: skip
     try:
         instance = _adapter(cls).validate_python({**options, **given})
     except ValidationError as exc:
@@ -215,7 +218,10 @@ def instantiate(
             [(None, f"{identity.target} raised {type(exc).__name__} when asked for its interface: {exc}")],
         )
     if not has:
-        return None, identity, [(None, f"{identity.target} lacks the {kind} interface ({protocol.__qualname__})")]
+        lacks = ", ".join(name for name in _members(protocol) if not hasattr(instance, name))
+        why = f"{identity.target} lacks the {kind} interface ({protocol.__qualname__})"
+        why += f": no {lacks}" if lacks else ""
+        return None, identity, [(None, why)]
     mismatch = _signature_problem(instance, protocol)
     if mismatch:
         return None, identity, [(None, f"{identity.target}.{mismatch}")]
@@ -257,6 +263,14 @@ def _plain(cls: type, instance: Any, names: list[str]) -> bool:
 def _methods(protocol: type) -> list[str]:
     """The interface's methods (its public callables)."""
     return [name for name, method in vars(protocol).items() if not name.startswith("_") and callable(method)]
+
+
+def _members(protocol: type) -> list[str]:
+    """The interface's public methods and attributes (a vehicle model's dimension)."""
+    annotated = getattr(protocol, "__annotations__", {})
+    return [*_methods(protocol), *(name for name in annotated if not name.startswith("_"))] + [
+        name for name, value in vars(protocol).items() if isinstance(value, property) and not name.startswith("_")
+    ]
 
 
 def _problem_of(instance: Any, protocol: type) -> str | None:
