@@ -260,6 +260,14 @@ def test_an_unreadable_file_is_a_scenario_error(tmp_path: Path, name: str, conte
     assert problem in str(info.value)
 
 
+def test_a_file_that_begins_with_a_byte_order_mark_reads_as_without(tmp_path: Path) -> None:
+    """Some editors write UTF-8 with a byte-order mark; TOML's parser took it for an 'invalid statement (at line 1,
+    column 1)' (found by a new user)."""
+    path = tmp_path / "bom.toml"
+    path.write_bytes(b"\xef\xbb\xbf" + PAPER.encode())
+    assert load_scenario(path) == load_scenario(ROOT / "configs" / "paper.toml")
+
+
 def test_a_directory_is_a_scenario_error(tmp_path: Path) -> None:
     with pytest.raises(ScenarioError, match="cannot read scenario file"):
         load_scenario(tmp_path)

@@ -199,8 +199,8 @@ def parse_scenario(
 ) -> Scenario:
     """Scenario from TOML text, KEY=VALUE overrides and extra faults ("kind=link_down,sender=1,..."); a
     ScenarioError('<source>: <field>: ...') otherwise."""
-    try:
-        data = tomllib.loads(text)
+    try:  # a byte-order mark, as some editors write, skipped (TOML's parser: 'invalid statement' at line 1)
+        data = tomllib.loads(text.removeprefix("\ufeff"))
     except (tomllib.TOMLDecodeError, ValueError) as exc:  # ValueError: an integer of more than 4300 digits
         raise _error(source, f"invalid TOML: {exc}") from exc
     except RecursionError:
