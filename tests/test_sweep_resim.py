@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+import math
 import os
 import subprocess
 import tomllib
@@ -336,3 +337,15 @@ def test_resim_of_a_bad_override_is_a_one_line_error(lossy_log, tmp_path):
     done = cpf("resim", str(lossy_log), "--set", "coordination.k=-1", cwd=tmp_path)
     assert done.returncode == 2
     assert len(done.stderr.strip().splitlines()) == 1 and "coordination.k" in done.stderr
+
+
+def test_a_run_within_its_transient_has_no_peak_after_it(paper_text):
+    """report.transient longer than the run: the 'peak after the transient' was the last sample's error, below the
+    steady error of the samples before it (found by a new user); there is none: NaN, as the summary says."""
+    from supervisor.tools.sweep_runs import RunSpec, run_one
+
+    text = shortened(paper_text, 20.0).encode()
+    row = run_one("s.toml", text, RunSpec((("report.transient", 50.0),), 0), "inprocess")
+    assert math.isnan(row["peak_coordination_error_after_transient"]) and row["steady_coordination_error"] > 0
+    row = run_one("s.toml", text, RunSpec((("report.transient", 5.0),), 0), "inprocess")
+    assert 0 < row["peak_coordination_error_after_transient"] < math.inf

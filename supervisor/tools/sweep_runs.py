@@ -10,6 +10,7 @@ import contextlib
 import hashlib
 import io
 import json
+import math
 import tempfile
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
@@ -212,10 +213,11 @@ def _measures(result: Any, summary: Any, scenario: Any) -> dict[str, Any]:
     series = result.series
     coordination = coordination_error(series.gamma)
     tail = series.t >= series.t[-1] - STEADY_STATE_WINDOW
-    settled = series.t >= min(scenario.report.transient, series.t[-1])
+    settled = series.t >= scenario.report.transient  # none if the run ends within its transient: NaN, as the summary's
+    # path error then (it was the last sample's, below the steady error of the samples before it)
     return {
         "steady_coordination_error": float(coordination[tail].max()),
-        "peak_coordination_error_after_transient": float(coordination[settled].max()),
+        "peak_coordination_error_after_transient": float(coordination[settled].max()) if settled.any() else math.nan,
         "sync_time": summary.sync_time,
         "resync_time": summary.resync_time,
         "max_path_error": summary.max_path_error_after_transient,
