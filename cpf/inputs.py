@@ -91,6 +91,8 @@ def run_options(options: Sequence[str]) -> list[str]:
     texts = list(options)
     for text in texts:
         name = text.partition("=")[0]
-        if name in OWN_OPTIONS:
-            raise ScenarioError(f"options: {name} is cpf.run's own ({OWN_OPTIONS[name]}), got {text!r}")
+        # as argparse reads it: a long option's unambiguous start (--eng) is the option
+        own = [o for o in OWN_OPTIONS if o == name or (name.startswith("--") and len(name) > 2 and o.startswith(name))]
+        if own:
+            raise ScenarioError(f"options: {own[0]} is cpf.run's own ({OWN_OPTIONS[own[0]]}), got {text!r}")
     return texts

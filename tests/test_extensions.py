@@ -5,6 +5,7 @@ identity reaches the hello digest, the log's meta and `cpf info`; the built-ins 
 from __future__ import annotations
 
 import dataclasses
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -13,7 +14,7 @@ import numpy as np
 import pytest
 
 from comms.bus.handover import write_private
-from supervisor.config.extensions import build, instantiate, resolve
+from supervisor.config.extensions import build, instantiate, plugins_text, resolve
 from supervisor.config.scenario import load_scenario
 from supervisor.config.scenario_digest import section_digests
 from supervisor.record.recorder import read_messages
@@ -261,6 +262,11 @@ def test_another_distribution_cannot_replace_a_builtin_by_its_name(tmp_path, mon
         assert identity.builtin and identity.target == "vehicles.coordination:Corrected"
         with pytest.raises(ValueError, match=r"'both' is declared by other .*, shadow .*: name the one you mean"):
             resolve("law", "both")
+        # the others still resolve, a misspelt name says so, cpf plugins lists the ambiguous one on its line
+        assert resolve("law", "literal")[1].builtin
+        with pytest.raises(ValueError, match=r"no law 'nosuch' \(installed: both, corrected, literal"):
+            resolve("law", "nosuch")
+        assert re.search(r"^  both +does not load: 'both' is declared by other", plugins_text(), flags=re.M)
     finally:
         resolve.cache_clear()
 

@@ -156,7 +156,7 @@ def test_progress_is_a_tqdm_bar_on_stderr_unless_turned_off(scenario, capsys):
 @pytest.mark.parametrize(
     ("options", "named"),
     [(["--engine", "zenoh"], "--engine"), (["--seed=2"], "--seed"), (["--out", "o2.mcap"], "--out"),
-     (["--help"], "--help"), (["--quiet"], "--quiet")],
+     (["--help"], "--help"), (["--quiet"], "--quiet"), (["--eng", "zenoh"], "--engine"), (["--ou=x.mcap"], "--out")],
 )  # fmt: skip
 def test_options_that_repeat_an_argument_of_run_are_refused(scenario, options, named):
     """Which one won depended on the option (--engine the option's, --seed the argument's, --out the option's with a

@@ -63,7 +63,9 @@ class Guarded:
         if earliest is None:
             return lo
         value = self._call(earliest, lo, dt, last)
-        whole = isinstance(value, int | np.integer) or (isinstance(value, float) and value.is_integer())
+        whole = isinstance(value, int | np.integer) or (
+            isinstance(value, float | np.floating) and float(value).is_integer()
+        )
         if isinstance(value, bool) or not whole:  # NaN, inf, 2.5, "3": not a step (int() of NaN raised unguarded)
             raise FloatingPointError(f"{self.label} earliest() returned {short(value)}, not a step index")
         return int(value)
@@ -143,6 +145,8 @@ class Guarded:
             if value.dtype != np.float64 or value.ndim != 1 or not np.isfinite(value).all():
                 raise FloatingPointError(f"{self.label} returned {short(value)}, not finite numbers")
             return value  # type: ignore[return-value]  # lanes: floats to the code that takes them
+        if type(value) is float and math.isfinite(value):  # the usual answer, every stage: checked cheaply first
+            return value
         # a real number of any kind (numpy's int64 and float32 too: they were refused), not a bool, finite
         if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real) or not math.isfinite(value):
             raise FloatingPointError(f"{self.label} returned {short(value)}, not a finite number")

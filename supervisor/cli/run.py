@@ -217,11 +217,13 @@ def _divergence_lines(args: argparse.Namespace, scenario: Scenario, found: Diver
     """What the summary says of a diverged loop, with the stability analysis's verdict on the scenario (issue 23)."""
     from supervisor.analysis.divergence import format_divergence
     from supervisor.config.links import unmodelled
-    from supervisor.config.stability.scenario import predicted_change
+    from supervisor.config.stability.scenario import NEUTRAL, predicted_change
 
     if found is None:
         return None
     predicted = predicted_change(scenario)
+    if predicted is not None and abs(predicted) < NEUTRAL:  # neither: cpf stability says so
+        predicted = None
     return format_divergence(found, scenario.coordination.v_r, predicted, str(args.scenario), unmodelled(scenario))
 
 

@@ -78,8 +78,23 @@ def available(kind: str) -> dict[str, str]:
     """name -> module:attr of every installed entry point of the kind's group (built-ins included; a name that is
     a built-in's is the built-in's, whoever else declares it)."""
     group = GROUPS[kind][0]
-    names = {ep.name for ep in metadata.entry_points(group=group)}
-    return {name: entry.value for name in names if (entry := _entry(group, name)) is not None}
+    found: dict[str, list[metadata.EntryPoint]] = {}
+    for entry in metadata.entry_points(group=group):
+        found.setdefault(entry.name, []).append(entry)
+    return {name: chosen.value if (chosen := _chosen(entries)) else _ambiguous(name, entries)
+            for name, entries in found.items()}  # fmt: skip
+
+
+def _chosen(entries: list[metadata.EntryPoint]) -> metadata.EntryPoint | None:
+    """Of the entry points declaring one name: cpf-cosim's own if it is one of them, else the only one (None: two
+    or more others)."""
+    ours = [entry for entry in entries if _distribution(entry) == OURS]
+    return ours[0] if ours else entries[0] if len(entries) == 1 else None
+
+
+def _ambiguous(name: str, entries: list[metadata.EntryPoint]) -> str:
+    by = ", ".join(sorted(f"{_distribution(entry)} ({entry.value})" for entry in entries))
+    return f"{name!r} is declared by {by}: name the one you mean by package.module:Name"
 
 
 def _entry(group: str, name: str) -> metadata.EntryPoint | None:
@@ -87,13 +102,12 @@ def _entry(group: str, name: str) -> metadata.EntryPoint | None:
     cannot replace a built-in: one declaring `corrected` silently ran every scenario with its law), else the one
     distribution's that declares it; ValueError if two others do."""
     found = [ep for ep in metadata.entry_points(group=group) if ep.name == name]
-    ours = [ep for ep in found if _distribution(ep) == OURS]
-    if ours:
-        return ours[0]
-    if len(found) <= 1:
-        return found[0] if found else None
-    by = ", ".join(sorted(f"{_distribution(ep)} ({ep.value})" for ep in found))
-    raise ValueError(f"{name!r} is declared by {by}: name the one you mean by package.module:Name")
+    if not found:
+        return None
+    chosen = _chosen(found)
+    if chosen is None:
+        raise ValueError(_ambiguous(name, found))
+    return chosen
 
 
 def _distribution(entry: metadata.EntryPoint) -> str | None:

@@ -95,6 +95,9 @@ def describe(verdict: Verdict, scenario: Scenario) -> str:
     gain = f"k {s.loop.k:.3g}" + (f" (fitted to the links; {co.k:g} given)" if s.loop.k != co.k else "")
     how = (f"law {co.law!r} with {gain}, predictor {co.predictor!r}, a message every {s.period:g} s"
            f"{' (TDMA frame)' if scenario.comms.tdma else ''}, {s.delay:g} s of delay, loss {s.loss:g}")  # fmt: skip
+    if abs(verdict.rate) < NEUTRAL:  # every message lost, say: the rate's sign is the rounding's
+        head = f"coordination is neutral: the error neither decays nor grows (rate within {NEUTRAL:g} 1/s of 0)"
+        return f"{head}, with {how} (linearised sampled loop, perfect path following): no message keeps the fleet"
     if verdict.converges:
         head = f"coordination converges: the error decays at {verdict.rate:.3g} 1/s (time constant "
         head += f"{1 / verdict.rate:.3g} s)"
@@ -115,7 +118,7 @@ def predicted_growth(scenario: Scenario) -> float | None:
     """The growth rate (1/s) of the coordination error if the stability analysis predicts divergence, else None
     (also when the loop is too large to analyse quickly, or not modelled)."""
     growth = predicted_change(scenario)
-    return growth if growth is not None and growth > NEUTRAL else None
+    return growth if growth is not None and growth >= NEUTRAL else None
 
 
 # 1/s: a growth rate this small is the arithmetic's, not the loop's: every packet lost leaves the loop neutral (the
