@@ -146,3 +146,37 @@ def test_against_a_moment_beyond_its_fins_it_asks_for_the_rate_the_moment_helps_
     assert max(errors[1500:]) < 0.1
     alone = fly_a_line(1.0, 300.0, start=(25.0, 8.0, -9.0, 180.0), options="{ observer = 0.0 }", **plant)
     assert max(alone[1500:]) < 0.2  # the bound's own doing: no observer helps
+
+
+UNIT_LINES = """
+[scenario]
+name = "unit"
+duration = 60.0
+step = 0.1
+[coordination]
+v_r = {v_r}
+[graph]
+edges = [[1, 2]]
+[[vehicles]]
+id = 1
+position = [0.0, 0.0, -10.0]
+path = {{ type = "line", start = [0.0, 0.0, -10.0], velocity = [{speed}, 0.0, 0.0] }}
+[[vehicles]]
+id = 2
+position = [0.0, 20.0, -10.0]
+path = {{ type = "line", start = [0.0, 20.0, -10.0], velocity = [{speed}, 0.0, 0.0] }}
+"""
+
+
+def test_the_motion_does_not_depend_on_the_unit_of_gamma():
+    """Two REMUS 100s on fins (line of sight) asked for 1 m/s along a line, gamma in metres (1 m per unit, v_r 1) or
+    in tens of metres (10 m per unit, v_r 0.1): the same motion. Eq. (3) as printed pulled gamma toward the vehicle
+    with |p_d^gamma|^2, and at 10 m per unit the pair crept at 0.17 m/s and left the tube by 6.7 m (a new user's)."""
+    import cpf
+
+    runs = [cpf.run(UNIT_LINES.format(speed=speed, v_r=v_r), progress=False, options=["--no-foxglove"]).states
+            for speed, v_r in ((1.0, 1.0), (10.0, 0.1))]  # fmt: skip
+    positions = [run[["position_x", "position_y", "position_z"]].to_numpy() for run in runs]
+    assert np.abs(positions[0] - positions[1]).max() < 1e-6  # m, over 60 s: the rounding of two unit systems
+    assert np.allclose(runs[0]["gamma"], 10 * runs[1]["gamma"], rtol=1e-8, atol=1e-6)  # seen: 1.5e-7 at 57
+    assert runs[1]["path_error"].max() < 1.2 and runs[1]["gamma_dot"].iloc[-2:].between(0.099, 0.101).all()

@@ -49,8 +49,14 @@ multiplier, not tested); the default rate keeps it far from that. What no contro
 a plant's trim needs more moment than its fins give at the path's speed (vehicles.trim), the vehicle leaves its path,
 and `cpf validate` says so.
 
-Path parameter: the paper's eq. (3), gamma_ddot = -k_zeta (gamma_dot - v_d) + sigma' p_d^gamma with
-sigma = (p - p_d) / sqrt(1 + |p - p_d|^2), as backstepping's with delta = 0 (the fleet adds v_tilde).
+Path parameter: the paper's eq. (3) as backstepping's with delta = 0, gamma_ddot = -k_zeta (gamma_dot - v_d) +
+sigma' p_d^gamma / |p_d^gamma|^2 with sigma = (p - p_d) / sqrt(1 + |p - p_d|^2) (the fleet adds v_tilde): eq. (3) in
+arc length, so that the loop is the same whatever unit of gamma the scenario chose. As printed (without the
+division) it pulls gamma toward the vehicle with |p_d^gamma|^2: a line at 10 m per unit of gamma held its path point
+100 times harder than one at 1 m, while the vehicle's push forward, k1 along-track over |p_d^gamma|, did not grow:
+the pair crept at 0.17 m/s instead of 1 and the vehicle, too slow for its fins to hold depth, left its tube by 6.7 m
+(a new user's; tests/test_line_of_sight.py holds the two units' motions within 1e-6 m of each other). A path at 1 m
+per unit of gamma (the rings, the lawnmower) runs as before, to the rounding of |p_d^gamma|^2 = 1.
 
 Gains. The theorem assumes the course follows the line of sight; a cascade (the rates with k2, the course with
 k_heading, the line of sight at U / lookahead) comes close to that when each loop is clearly slower than the one
@@ -159,7 +165,7 @@ class LineOfSight:
         wanted = _surge_for(s, p_g, u_path, u_path * gamma_dot - self.k1 * along / greatest(u_path, 1e-9), current)
         tau = self._inputs(params, s, drift, memory.inputs, (e_r, e_q), turning, wanted)
         lyapunov = (rho - 1.0) + 0.5 * zeta * zeta + (1.0 - cos(e_r)) + (1.0 - cos(e_q))
-        return ControlOutput(tau, -self.k_zeta * zeta + along, lyapunov, drift)
+        return ControlOutput(tau, -self.k_zeta * zeta + along / greatest(u_path * u_path, 1e-18), lyapunov, drift)
 
     def _guidance(
         self, s: Sequence[float], path: PathVectors, error: Float3, gamma_dot: float, current: Current | None
