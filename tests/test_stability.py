@@ -15,6 +15,7 @@ import pytest
 from supervisor.cli import main
 from supervisor.config.scenario import parse_scenario
 from supervisor.config.stability import Loop, Setting, largest_delay, largest_loss, largest_period, rate
+from supervisor.config.stability.margins import MAX_LOSS_STATES
 from supervisor.config.stability.monodromy import Layout, monodromy, second_moment_radius, spectral_radius
 from supervisor.config.stability.scenario import analyse, describe, predicted_change, setting_of
 from supervisor.tools.stability_check import simulate
@@ -232,3 +233,51 @@ def test_a_neutral_loop_is_not_warned_of_as_diverging(loss):
     if loss == "1.0":  # cpf stability says so, not 'DIVERGES' or 'converges' at a rate of rounding
         text = describe(analyse(scenario, margins=False), scenario)
         assert text.startswith("coordination is neutral: the error neither decays nor grows"), text
+
+
+def test_the_example_of_docs_stability_is_what_cpf_stability_prints(capsys, monkeypatch):
+    """The docs' first example had gone stale when the defaults changed (a new user's study found it)."""
+    doc = (CONFIGS.parent / "docs" / "stability.md").read_text(encoding="utf-8")
+    block = doc.split("```\n$ ", 1)[1].split("```", 1)[0]
+    command, printed = block.split("\n", 2)[0:2], block.split("\n", 2)[2]
+    argv = " ".join(part.strip().rstrip("\\") for part in command).split()[1:]  # without "cpf"
+    monkeypatch.chdir(CONFIGS.parent)  # the example's path, as it is printed
+    assert main(argv) == 0
+    assert " ".join(capsys.readouterr().out.split()) == " ".join(printed.split())
+
+
+def test_what_a_verdict_leaves_out_it_says():
+    """A loss in a loop too large for the mean-square analysis was printed as analysed ('loss 0.9', the lossless
+    rate); coordination.max_age shorter than a message's wait was ignored unsaid; a period past the scan's reach
+    got 'any length up to 200 s' (a new user's study)."""
+    paper = (CONFIGS / "paper.toml").read_text()
+    late = ",".join(f"{{sender={a},receiver={b},extra_delay=90.0}}" for a, b in ((1, 2), (2, 1), (1, 3), (3, 1)))
+    lossy = parse_scenario(paper, "p.toml", ["comms.loss=0.5", "comms.tdma={slot=2.0}", "comms.transmit.period=10",
+                                             "coordination.schedule=none", f"comms.links=[{late}]"])  # fmt: skip
+    verdict = analyse(lossy)
+    assert verdict.setting.states() > MAX_LOSS_STATES and math.isnan(verdict.loss)
+    text = describe(verdict, lossy)
+    assert "its loss left out: more than 60 states for the mean-square analysis" in text
+    assert "a TDMA frame (a message a frame at most)" in text
+    aged = parse_scenario(paper, "p.toml", ["comms.transmit.period=10", "coordination.max_age=1"])
+    assert "coordination.max_age 1 s left out" in describe(analyse(aged, margins=False), aged)
+    assert largest_period(setting_of(parse_scenario(paper, "p.toml", ["comms.transmit.period=300"]))) != 200.0
+
+
+def test_writing_out_a_links_defaults_changes_nothing():
+    """The delay's extra part was the mean over the [[comms.links]] listed: one link at 40 s gave 40.3 s of delay,
+    and the same with the other three links written out at their default 0 gave 10.3 s, and another fitted k (a new
+    user's study). It is the mean over the graph's directed links."""
+    from supervisor.config.links import delay_of
+
+    paper = (CONFIGS / "paper.toml").read_text()
+    one = "{sender=1,receiver=2,extra_delay=40.0}"
+    rest = ",".join(f"{{sender={a},receiver={b}}}" for a, b in ((2, 1), (1, 3), (3, 1)))
+    alone, written = (parse_scenario(paper, "p.toml", [f"comms.links=[{links}]"]) for links in (one, f"{one},{rest}"))
+    assert delay_of(alone) == delay_of(written) == pytest.approx(10.1)  # 40 / 4 links + 0.1 s of the step
+
+
+def test_cpf_validate_says_when_every_packet_is_lost(caplog):
+    """The run's summary pointed at cpf validate for why nothing was delivered; with comms.loss 1 it said nothing."""
+    assert main(["validate", str(CONFIGS / "paper.toml"), "--set", "comms.loss=1.0"]) == 0
+    assert "comms.loss: every packet is lost (long-run loss 1): no vehicle hears another, got 1.0" in caplog.text

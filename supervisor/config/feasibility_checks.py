@@ -35,7 +35,8 @@ def feasibility_warnings(sc: Scenario) -> list[str]:
     """'<field>: <problem>, got <value>' for each way the channel loses much, or the loop is predicted to diverge."""
     if feasibility_errors(sc):
         return []
-    return [*_synchronous_warnings(sc), *_on_air_warnings(sc), *_slot(sc), *_late(sc), *_range(sc), *_diverges(sc)]
+    return [*_synchronous_warnings(sc), *_on_air_warnings(sc), *_slot(sc), *_late(sc), *_range(sc), *_all_lost(sc),
+            *_diverges(sc)]  # fmt: skip
 
 
 def _t(value: float) -> str:
@@ -155,6 +156,15 @@ def _range(sc: Scenario) -> Iterator[str]:
             f"{', '.join(far)}; raise comms.range.source_level or start the vehicles closer, "
             f"got type {sc.comms.range.type if sc.comms.range else None!r}"
         )
+
+
+def _all_lost(sc: Scenario) -> Iterator[str]:
+    """Every packet lost (comms.loss 1, or a burst model always in its bad state): the run's summary says 'NOTHING
+    DELIVERED ... (cpf validate says why before a run)', and it now does."""
+    from supervisor.config.links import loss_of
+
+    if loss_of(sc) >= 1.0:
+        yield f"comms.loss: every packet is lost (long-run loss 1): no vehicle hears another, got {sc.comms.loss}"
 
 
 def _diverges(sc: Scenario) -> Iterator[str]:

@@ -3,8 +3,8 @@ TDMA frame with each sender's offset, the delay, the long-run loss, and whether 
 (supervisor.config.stability). Light: no scipy, so that a run whose links are continuous never imports it.
 
 The delay is airtime (packet bits / bitrate, preamble included) + time of flight over the mean initial distance of
-linked vehicles + half the jitter + the mean extra link delay, rounded up to the sync step as arrivals are; the loss
-is comms.loss combined with the burst model's long-run rate.
+linked vehicles + half the jitter + the mean extra link delay over the graph's directed links, rounded up to the sync
+step as arrivals are; the loss is comms.loss combined with the burst model's long-run rate.
 """
 
 from __future__ import annotations
@@ -48,7 +48,10 @@ def delay_of(scenario: Scenario) -> float:
     flight = float(np.mean(distances)) / sound_speed(scenario) if distances else 0.0
     modem = modem_params(scenario)
     on_air = modem.airtime(message_bytes(scenario))
-    extra = float(np.mean([link.extra_delay for link in c.links])) if c.links else 0.0
+    # over every directed link of the graph: one not listed in [[comms.links]] has none (the mean over those listed
+    # changed when a user wrote out a default entry, and the k fitted to it with it)
+    directed = 2 * len(scenario.graph.edges)
+    extra = sum(link.extra_delay for link in c.links) / directed if directed else 0.0
     raw = on_air + flight + c.jitter / 2 + extra
     return dt * max(1, math.ceil(raw / dt - 1e-9))
 

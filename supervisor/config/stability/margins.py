@@ -75,9 +75,13 @@ def _margin(stable: Callable[[float], bool], start: float, limit: float, toleran
     return None if bracket is None else _bisect(stable, *bracket, tolerance)
 
 
-def largest_period(setting: Setting, limit: float = 200.0) -> float | None:
-    """The largest transmit period (TDMA frame) that converges, s; None: converges up to limit."""
-    return _margin(lambda p: converges(replace(setting, period=p)), setting.period, limit)
+PERIOD_REACH = 200.0  # s: the longest period largest_period tries, or the setting's own if longer
+
+
+def largest_period(setting: Setting, limit: float = PERIOD_REACH) -> float | None:
+    """The largest transmit period (TDMA frame) that converges, s; None: converges up to limit (or the setting's
+    own period, if longer: from a period of 500 s the scan tried nothing and said 'any length up to 200 s')."""
+    return _margin(lambda p: converges(replace(setting, period=p)), setting.period, max(limit, setting.period))
 
 
 def delay_reach(setting: Setting, limit: float = 200.0) -> float:

@@ -18,6 +18,8 @@ from dataclasses import dataclass, replace
 from supervisor.config.links import delay_of, loss_of, needs_fitting, timing, unmodelled
 from supervisor.config.scenario_schema import Scenario
 from supervisor.config.stability.margins import (
+    MAX_LOSS_STATES,
+    PERIOD_REACH,
     Setting,
     delay_reach,
     largest_delay,
@@ -84,34 +86,54 @@ def analyse(scenario: Scenario, margins: bool = True) -> Verdict:
 
 
 def _margin_text(name: str, value: float | None, unit: str, beyond: str) -> str:
-    if value is not None and math.isnan(value):
-        return f"{name} not analysed (too many states: a delay of many periods)"
+    if value is not None and math.isnan(value):  # only the loss: its mean-square analysis squares the states
+        return f"{name} not analysed (more than {MAX_LOSS_STATES} states for its mean-square analysis)"
     return f"{name} up to {value:.3g}{unit}" if value is not None else f"{name} {beyond}"
 
 
 def describe(verdict: Verdict, scenario: Scenario) -> str:
-    """One paragraph: the verdict, its rate, what was analysed, the margins."""
-    s, co = verdict.setting, scenario.coordination
-    gain = f"k {s.loop.k:.3g}" + (f" (fitted to the links; {co.k:g} given)" if s.loop.k != co.k else "")
-    how = (f"law {co.law!r} with {gain}, predictor {co.predictor!r}, a message every {s.period:g} s"
-           f"{' (TDMA frame)' if scenario.comms.tdma else ''}, {s.delay:g} s of delay, loss {s.loss:g}")  # fmt: skip
+    """One paragraph: the verdict, its rate, what was analysed (and what not), the margins."""
+    s = verdict.setting
+    how = f"with {_how(s, scenario)} (linearised sampled loop, perfect path following{_left_out(s, scenario)})"
+    period = "a TDMA frame (a message a frame at most)" if scenario.comms.tdma else "a transmit period"
     if abs(verdict.rate) < NEUTRAL:  # every message lost, say: the rate's sign is the rounding's
         head = f"coordination is neutral: the error neither decays nor grows (rate within {NEUTRAL:g} 1/s of 0)"
-        return f"{head}, with {how} (linearised sampled loop, perfect path following): no message keeps the fleet"
-    if verdict.converges:
-        head = f"coordination converges: the error decays at {verdict.rate:.3g} 1/s (time constant "
-        head += f"{1 / verdict.rate:.3g} s)"
-    else:
+        return f"{head}, {how}: no message keeps the fleet"
+    if not verdict.converges:
         head = f"coordination DIVERGES: the error grows at {-verdict.rate:.3g} 1/s"
-        tail = _margin_text("a transmit period", verdict.period, " s", "of no length tried")
-        return f"{head}, with {how} (linearised sampled loop, perfect path following). It would converge with {tail}."
+        return (
+            f"{head}, {how}. It would converge with {_margin_text(period, verdict.period, ' s', 'of no length tried')}."
+        )
+    head = (
+        f"coordination converges: the error decays at {verdict.rate:.3g} 1/s (time constant {1 / verdict.rate:.3g} s)"
+    )
     margins = ", ".join((
-        _margin_text("a transmit period", verdict.period, " s", "of any length up to 200 s"),
+        _margin_text(period, verdict.period, " s", f"of any length up to {max(PERIOD_REACH, s.period):g} s"),
         _margin_text("a delay", verdict.delay, " s", f"of any length up to {delay_reach(s):.3g} s"),
         _margin_text("an independent loss probability", verdict.loss, "", "of any value below 1"),
     ))  # fmt: skip
-    return (f"{head}, with {how} (linearised sampled loop, perfect path following). With the other settings as "
-            f"they are, it converges with {margins}.")  # fmt: skip
+    return f"{head}, {how}. With the other settings as they are, it converges with {margins}."
+
+
+def _how(s: Setting, scenario: Scenario) -> str:
+    co = scenario.coordination
+    gain = f"k {s.loop.k:.3g}" + (f" (fitted to the links; {co.k:g} given)" if s.loop.k != co.k else "")
+    return (f"law {co.law!r} with {gain}, predictor {co.predictor!r}, a message every {s.period:g} s"
+            f"{' (TDMA frame)' if scenario.comms.tdma else ''}, {s.delay:g} s of delay, loss {s.loss:g}")  # fmt: skip
+
+
+def _left_out(s: Setting, scenario: Scenario) -> str:
+    """What the scenario has that this verdict leaves out (a new user's study found each, unsaid): a loss in a loop
+    too large for its mean-square analysis, and coordination.max_age shorter than a message's wait."""
+    out = []
+    if s.loss > 0 and s.states() > MAX_LOSS_STATES:
+        out.append(f"its loss left out: more than {MAX_LOSS_STATES} states for the mean-square analysis, so this "
+                   "rate is the lossless loop's, faster than the loop's")  # fmt: skip
+    max_age = scenario.coordination.max_age
+    if max_age is not None and max_age < s.period + s.delay:
+        out.append(f"coordination.max_age {max_age:g} s left out: the law drops a neighbour older than that between "
+                   "messages, which slows the loop")  # fmt: skip
+    return "".join(f"; {text}" for text in out)
 
 
 def predicted_growth(scenario: Scenario) -> float | None:
