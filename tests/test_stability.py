@@ -255,7 +255,7 @@ def test_what_a_verdict_leaves_out_it_says():
     lossy = parse_scenario(paper, "p.toml", ["comms.loss=0.5", "comms.tdma={slot=2.0}", "comms.transmit.period=10",
                                              "coordination.schedule=none", f"comms.links=[{late}]"])  # fmt: skip
     verdict = analyse(lossy)
-    assert verdict.setting.states() > MAX_LOSS_STATES and math.isnan(verdict.loss)
+    assert verdict.setting.states() > MAX_LOSS_STATES and verdict.loss is not None and math.isnan(verdict.loss)
     text = describe(verdict, lossy)
     assert "its loss left out: more than 60 states for the mean-square analysis" in text
     assert "a TDMA frame (a message a frame at most)" in text
