@@ -102,6 +102,15 @@ def test_cpf_run_says_that_a_diverging_loop_diverged_and_what_to_look_at(tmp_pat
     lines = done.stdout.splitlines()
     said = next(i for i, line in enumerate(lines) if line.startswith("the coordination loop DIVERGED from about t = "))
     assert lines[said + 1].startswith(f"look at: cpf stability {scenario} (docs/stability.md): it predicts this")
+    # and the log's report and the API's summary give the verdict --metrics gives (they lacked it: a new user's study)
+    from supervisor.analysis.metrics import run_metrics
+    from supervisor.analysis.report import load_run
+
+    (log,) = tmp_path.glob("runs/*.mcap")
+    verdict = run_metrics(load_run(log))["divergence"]
+    assert verdict is not None and lines[said].startswith(
+        f"the coordination loop DIVERGED from about t = {verdict['since']:.0f} s"
+    )
 
 
 def test_on_the_zenoh_engine_the_bounds_stop_a_diverging_loop_and_say_it_may_be_one(tmp_path):

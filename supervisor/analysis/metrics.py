@@ -28,6 +28,7 @@ Definitions (t: simulation time of the recorded vehicle states, s):
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections import Counter
 from collections.abc import Iterable
@@ -89,6 +90,7 @@ def run_metrics(run: RunData) -> dict[str, Any]:
 
             metrics |= limits_metrics(at_limit(scenario, series))
             metrics |= input_limits_metrics(at_input_limits(scenario, series))
+            metrics["divergence"] = _divergence(series, scenario.coordination.v_r, settings.tolerance)
     metrics |= _navigation(run, settings.transient)
     return finite(metrics)
 
@@ -119,6 +121,15 @@ def _navigation(run: RunData, transient: float) -> dict[str, Any]:
             "fixes_lost": int((s.nav_fix == 2).sum()),
         }
     return {"navigation": out} if out else {}
+
+
+def _divergence(series: Any, v_r: float, tolerance: float) -> dict[str, Any] | None:
+    """The divergence verdict, as cpf run --metrics has it (cpf report's metrics.json and the API's summary lacked
+    it: a new user's study)."""
+    from supervisor.analysis.divergence import divergence
+
+    found = divergence(series, v_r, tolerance)
+    return None if found is None else dataclasses.asdict(found)
 
 
 def run_settings(run: RunData, scenario: Scenario | None) -> Settings:
