@@ -74,7 +74,7 @@ def sweep(args: argparse.Namespace) -> int:
     finally:
         bar.close()
     at_once = "on the cluster" if cluster is not None else f"{local_jobs(args.jobs)} at once"
-    print(f"{len(rows)} runs ({at_once}) -> {args.out / 'results.csv'}")
+    print(f"{len(rows)} run{'s' if len(rows) != 1 else ''} ({at_once}) -> {args.out / 'results.csv'}")
     for path in plot_sweep(rows, params, args.out):
         print(path)
     return 0

@@ -57,7 +57,8 @@ def _figure(rows: Sequence[dict[str, Any]], param: Param, others: list[Param], f
     seeds = len({r["seed"] for r in rows})
     error_ax.set_yscale("log")
     error_ax.set_ylabel(f"max|gamma_i - gamma_j|, final {STEADY_STATE_WINDOW:.0f} s")
-    error_ax.set_title(f"Steady-state coordination error ({seeds} seeds: median, 10-90 %)")
+    spread = f"{seeds} seeds: median, 10-90 %" if seeds > 1 else "1 seed"  # one seed has no spread to show
+    error_ax.set_title(f"Steady-state coordination error ({spread})")
     resync_ax.set_ylabel("s (never: not drawn)")
     resync_ax.set_title(title)
     packet_ax.set_ylabel("packets (all directed links)")
