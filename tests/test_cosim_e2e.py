@@ -120,7 +120,10 @@ def test_realtime_clock_paces_the_run_holds_deliveries_to_their_arrival_and_chan
     timing = json.loads((tmp_path / "rt.json").read_text())["realtime"]
     assert (timing["receptions"], timing["taken_in_a_step_late"]) == (len(heard), len(late_steps))
     assert timing["deliveries"] == len(lateness)
-    first_late = min(late_steps, default=len(real_states))
+    # a delivery of the last step that came after it began was never taken in (above): its step differs too (seen in
+    # a fresh clone's make test under load: vehicles 1 and 3 at step 39)
+    missed = [intake_step(m["t"], 0.1) for m in delivered if (m["sender"], m["receiver"], m["seq"]) not in received]
+    first_late = min([*late_steps, *missed], default=len(real_states))
     lockstep = states(tmp_path / "lock.mcap")
     assert {key: m for key, m in real_states.items() if key[1] < first_late} == {
         key: m for key, m in lockstep.items() if key[1] < first_late

@@ -222,24 +222,25 @@ def instantiate(
         return None, identity, [_option_problem(name, e) for e in exc.errors()]
     except Exception as exc:  # its own checks (__post_init__) or a class pydantic cannot build
         return None, identity, [(None, f"{name} refuses its options ({type(exc).__name__}: {exc})")]
+    problem = _interface_problem(instance, identity.target, kind)
+    if problem is not None:
+        return None, identity, [(None, problem)]
+    return instance, identity, []
+
+
+def _interface_problem(instance: Any, target: str, kind: str) -> str | None:
+    """Why instance does not have the kind's interface (None: it has): a member it lacks (named), a member whose
+    reading raises, a method its interface's arguments cannot call."""
     _, protocol = GROUPS[kind]
     try:
         has = isinstance(instance, protocol)  # reads each member: a property of its own code may raise
     except Exception as exc:
-        return (
-            None,
-            identity,
-            [(None, f"{identity.target} raised {type(exc).__name__} when asked for its interface: {exc}")],
-        )
+        return f"{target} raised {type(exc).__name__} when asked for its interface: {exc}"
     if not has:
         lacks = ", ".join(name for name in _members(protocol) if not hasattr(instance, name))
-        why = f"{identity.target} lacks the {kind} interface ({protocol.__qualname__})"
-        why += f": no {lacks}" if lacks else ""
-        return None, identity, [(None, why)]
+        return f"{target} lacks the {kind} interface ({protocol.__qualname__})" + (f": no {lacks}" if lacks else "")
     mismatch = _signature_problem(instance, protocol)
-    if mismatch:
-        return None, identity, [(None, f"{identity.target}.{mismatch}")]
-    return instance, identity, []
+    return None if mismatch is None else f"{target}.{mismatch}"
 
 
 # What _signature_problem found for instances of a class, per interface and the class's methods of it as they are (a
