@@ -155,3 +155,23 @@ def test_a_log_without_a_single_state_is_reported(log: Path, tmp_path: Path) -> 
     assert main(["report", str(stateless), "--out", str(tmp_path / "report")]) == 0
     assert (tmp_path / "report/fig5_coordination_errors.png").stat().st_size > 10_000
     assert (tmp_path / "report/metrics.json").exists()
+
+
+def test_a_run_stopped_early_has_its_phases_end_where_its_data_does(log: Path, tmp_path: Path) -> None:
+    """A log cut at 2 s (as a run stopped by Ctrl-C, or a lost vehicle, leaves one): its last phase ended at the
+    scenario's duration, the data at 2 s (a new user's study); it ends one step past the last state now. A whole
+    run's phases end at its duration, as before."""
+    from supervisor.analysis.metrics import run_metrics
+    from supervisor.record.recorder import Recorder
+
+    whole = run_metrics(load_run(log))
+    cut = tmp_path / "cut.mcap"
+    with Recorder(cut, scene=False) as rec:
+        for message in logfile.messages(log, lambda topic: True):
+            if message.log_time <= 2_000_000_000:
+                rec.write(message.topic, message.log_time / 1e9, message.message)
+    stopped = run_metrics(load_run(cut))
+    assert whole["coordination"]["phases"][-1]["end"] == whole["run"]["duration"] > 2.5
+    run = stopped["run"]
+    end = stopped["coordination"]["phases"][-1]["end"]
+    assert end == pytest.approx(run["t_last"] + run["step"]) and end < run["duration"]

@@ -80,9 +80,8 @@ def run_metrics(run: RunData) -> dict[str, Any]:
     }
     series = run_series(run)
     if series.t.size:
-        summary = summarize(
-            series, settings.duration, settings.faults, settings.transient, settings.tube_radius, settings.tolerance
-        )
+        end = _data_end(run, series.t, settings.duration)
+        summary = summarize(series, end, settings.faults, settings.transient, settings.tube_radius, settings.tolerance)
         metrics |= _coordination(series, summary)
         if scenario is not None:  # the time each vehicle sat at its [saturation] top_speed
             from supervisor.analysis.input_limits import at_input_limits, input_limits_metrics
@@ -121,6 +120,14 @@ def _navigation(run: RunData, transient: float) -> dict[str, Any]:
             "fixes_lost": int((s.nav_fix == 2).sum()),
         }
     return {"navigation": out} if out else {}
+
+
+def _data_end(run: RunData, t: Any, duration: float) -> float:
+    """Where the phases end: the scenario's duration, or one step past the last state of a run stopped early (Ctrl-C,
+    a vehicle lost: its last phase ended at the scenario's 2000 s with the data at 243 s, a new user's study)."""
+    step = run.meta.step if run.meta is not None else 0.0
+    last = float(t[-1]) + step
+    return last if last < duration - step / 2 else duration
 
 
 def _divergence(series: Any, v_r: float, tolerance: float) -> dict[str, Any] | None:
