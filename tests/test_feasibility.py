@@ -87,6 +87,9 @@ def test_jitter_that_dwarfs_the_period_is_a_warning_in_seconds():
         "old when they arrive; is it in seconds? got 50.0"
     ]
     assert warnings_of(PAPER, ("comms.jitter=2", *given)) == []
+    # a user's trigger: how long it stays silent is its own (one sending every 4 s was warned of in 0.1 s steps)
+    mine = ("comms.transmit.policy=tests.samples.laws:Every", "comms.jitter=2", "coordination.schedule=none")
+    assert [w for w in warnings_of(PAPER, mine) if "jitter" in w] == []
 
 
 def test_cpf_run_refuses_what_validate_refuses_and_names_the_fix(tmp_path, capsys):

@@ -127,7 +127,13 @@ def _slot(sc: Scenario) -> Iterator[str]:
 
 
 def _late(sc: Scenario) -> Iterator[str]:
-    """Jitter or extra link delays many transmit intervals long: estimates that old, likely a unit mistaken."""
+    """Jitter or extra link delays many transmit intervals long: estimates that old, likely a unit mistaken. Not for a
+    policy whose longest silence is unknown (a user's trigger, the event policy without a heartbeat): the step it
+    would be measured against is not its interval (a user's trigger sending every 4 s was warned of in steps)."""
+    from supervisor.config.fleet import transmit_interval
+
+    if transmit_interval(sc) is None:
+        return
     t = timing_of(sc)
     delays = [("comms.jitter", t.jitter)] + [
         (f"comms.links[{n}].extra_delay", link.extra_delay) for n, link in enumerate(sc.comms.links)

@@ -101,3 +101,13 @@ def _made() -> type:
 
 
 Made = _made()
+
+
+@dataclass(frozen=True)
+class Every:
+    """A trigger of a user's: a message every `period` s (tests/test_feasibility.py)."""
+
+    period: Annotated[float, Gt(0)] = 4.0
+
+    def due(self, t: float, dt: float, now: NeighbourEstimate, last: NeighbourEstimate | None) -> bool:
+        return last is None or t - last.stamp >= self.period - dt / 2
