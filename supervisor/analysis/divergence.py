@@ -16,6 +16,7 @@ does not see.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 from dataclasses import dataclass
 
@@ -88,3 +89,8 @@ def format_divergence(
         f"{head}\n{look}: it predicts convergence with these links (decay {-predicted:.3g} 1/s), so look at what "
         "it leaves out: the inputs at their limits above, the gains against the vehicle's speed"
     )
+
+
+def as_metric(found: Divergence | None) -> dict[str, float] | None:
+    """The verdict as the metrics hold it (cpf run --metrics, cpf report's metrics.json, the API's summary)."""
+    return None if found is None else dataclasses.asdict(found)

@@ -28,7 +28,6 @@ Definitions (t: simulation time of the recorded vehicle states, s):
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from collections import Counter
 from collections.abc import Iterable
@@ -39,7 +38,16 @@ import numpy as np
 
 from comms.broker.stats import clamp_lambda2
 from comms.records.reports import CommsStats
-from supervisor.analysis.summary import PhaseStats, Series, Summary, coordination_error, nan_max, summarize
+from supervisor.analysis.divergence import as_metric, divergence
+from supervisor.analysis.summary import (
+    PhaseStats,
+    Series,
+    Summary,
+    coordination_error,
+    nan_max,
+    phases_end,
+    summarize,
+)
 from supervisor.config.derived import intervals
 from supervisor.config.scenario import validate_data
 from supervisor.config.scenario_schema import ReportSection, Scenario
@@ -80,7 +88,7 @@ def run_metrics(run: RunData) -> dict[str, Any]:
     }
     series = run_series(run)
     if series.t.size:
-        end = _data_end(run, series.t, settings.duration)
+        end = phases_end(series.t, run.meta.step if run.meta is not None else 0.0, settings.duration)
         summary = summarize(series, end, settings.faults, settings.transient, settings.tube_radius, settings.tolerance)
         metrics |= _coordination(series, summary)
         if scenario is not None:  # the time each vehicle sat at its [saturation] top_speed
@@ -89,7 +97,8 @@ def run_metrics(run: RunData) -> dict[str, Any]:
 
             metrics |= limits_metrics(at_limit(scenario, series))
             metrics |= input_limits_metrics(at_input_limits(scenario, series))
-            metrics["divergence"] = _divergence(series, scenario.coordination.v_r, settings.tolerance)
+            found = divergence(series, scenario.coordination.v_r, settings.tolerance)
+            metrics["divergence"] = as_metric(found)  # as cpf run --metrics has it
     metrics |= _navigation(run, settings.transient)
     return finite(metrics)
 
@@ -120,23 +129,6 @@ def _navigation(run: RunData, transient: float) -> dict[str, Any]:
             "fixes_lost": int((s.nav_fix == 2).sum()),
         }
     return {"navigation": out} if out else {}
-
-
-def _data_end(run: RunData, t: Any, duration: float) -> float:
-    """Where the phases end: the scenario's duration, or one step past the last state of a run stopped early (Ctrl-C,
-    a vehicle lost: its last phase ended at the scenario's 2000 s with the data at 243 s, a new user's study)."""
-    step = run.meta.step if run.meta is not None else 0.0
-    last = float(t[-1]) + step
-    return last if last < duration - step / 2 else duration
-
-
-def _divergence(series: Any, v_r: float, tolerance: float) -> dict[str, Any] | None:
-    """The divergence verdict, as cpf run --metrics has it (cpf report's metrics.json and the API's summary lacked
-    it: a new user's study)."""
-    from supervisor.analysis.divergence import divergence
-
-    found = divergence(series, v_r, tolerance)
-    return None if found is None else dataclasses.asdict(found)
 
 
 def run_settings(run: RunData, scenario: Scenario | None) -> Settings:

@@ -115,6 +115,13 @@ def settle_time(t: FloatArray, error: FloatArray, tolerance: float) -> float | N
     return float(t[last + 1]) if last + 1 < len(t) else None
 
 
+def phases_end(t: FloatArray, step: float, duration: float) -> float:
+    """Where a run's phases end: its duration, or one step past the last state of a run stopped early (Ctrl-C, a
+    vehicle lost: its last phase ended at the scenario's 2000 s with the data at 243 s, a new user's study)."""
+    last = float(t[-1]) + step if t.size else duration
+    return last if last < duration - step / 2 else duration
+
+
 def summarize(
     series: Series,
     duration: float,

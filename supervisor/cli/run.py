@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 import logging
 import os
@@ -171,15 +170,16 @@ def _input_lines(scenario: Scenario, result: RunResult) -> str | None:
 def _report_run(args: argparse.Namespace, scenario: Scenario, result: RunResult, out: Path) -> None:
     """The run's headline, summary per phase and per link (and realtime timing) on stdout; --metrics as JSON."""
     from supervisor.analysis.comms_summary import comms_summary, format_comms, format_malformed
-    from supervisor.analysis.divergence import divergence
+    from supervisor.analysis.divergence import as_metric, divergence
     from supervisor.analysis.saturation_summary import at_limit, format_limits
-    from supervisor.analysis.summary import format_summary, summarize
+    from supervisor.analysis.summary import format_summary, phases_end, summarize
     from supervisor.config.derived import intervals, tube_radius
     from supervisor.engine.realtime_timing import format_timing
 
     rep, duration = scenario.report, scenario.scenario.duration
     tube = tube_radius(scenario)
-    summary = summarize(result.series, duration, intervals(scenario), rep.transient, tube, rep.coordination_tolerance)
+    end = phases_end(result.series.t, scenario.scenario.step, duration)  # a run stopped early: where its data ends
+    summary = summarize(result.series, end, intervals(scenario), rep.transient, tube, rep.coordination_tolerance)
     print(_headline(args, scenario, result, out))
     comms = comms_summary(result.link_stats, result.stats_history, result.estimate_ages)
     diverged = divergence(result.series, scenario.coordination.v_r, rep.coordination_tolerance)
@@ -197,7 +197,7 @@ def _report_run(args: argparse.Namespace, scenario: Scenario, result: RunResult,
             print(line)
     if args.metrics:
         metrics: dict[str, Any] = {"coordination": summary.as_dict(), "comms": comms.as_dict()}
-        metrics["divergence"] = None if diverged is None else dataclasses.asdict(diverged)
+        metrics["divergence"] = as_metric(diverged)
         _write_metrics(args.metrics, scenario, result, metrics)
 
 
@@ -217,13 +217,11 @@ def _divergence_lines(args: argparse.Namespace, scenario: Scenario, found: Diver
     """What the summary says of a diverged loop, with the stability analysis's verdict on the scenario (issue 23)."""
     from supervisor.analysis.divergence import format_divergence
     from supervisor.config.links import unmodelled
-    from supervisor.config.stability.scenario import NEUTRAL, predicted_change
+    from supervisor.config.stability.scenario import predicted_change
 
     if found is None:
         return None
     predicted = predicted_change(scenario)
-    if predicted is not None and abs(predicted) < NEUTRAL:  # neither: cpf stability says so
-        predicted = None
     return format_divergence(found, scenario.coordination.v_r, predicted, str(args.scenario), unmodelled(scenario))
 
 

@@ -140,7 +140,7 @@ def predicted_growth(scenario: Scenario) -> float | None:
     """The growth rate (1/s) of the coordination error if the stability analysis predicts divergence, else None
     (also when the loop is too large to analyse quickly, or not modelled)."""
     growth = predicted_change(scenario)
-    return growth if growth is not None and growth >= NEUTRAL else None
+    return growth if growth is not None and growth > 0 else None
 
 
 # 1/s: a growth rate this small is the arithmetic's, not the loop's: every packet lost leaves the loop neutral (the
@@ -151,7 +151,8 @@ NEUTRAL = 1e-6
 
 def predicted_change(scenario: Scenario) -> float | None:
     """The coordination error's predicted growth rate (1/s; negative: it decays), None when the loop is too large
-    to analyse quickly or is not one the analysis models (links.unmodelled)."""
+    to analyse quickly, is not one the analysis models (links.unmodelled) or is neutral (within NEUTRAL of 0: no
+    prediction either way)."""
     from supervisor.config.stability.margins import MAX_STATES
 
     if unmodelled(scenario) is not None:
@@ -159,4 +160,5 @@ def predicted_change(scenario: Scenario) -> float | None:
     setting = setting_of(scenario)
     if setting.states() > MAX_STATES:
         return None
-    return -rate(setting)
+    growth = -rate(setting)
+    return growth if abs(growth) >= NEUTRAL else None
