@@ -129,6 +129,22 @@ def test_transmission_settings_that_cannot_be_kept_and_a_link_given_twice_are_re
     assert parse_scenario(PAPER, SOURCE, ("comms.transmit.period=0.1",)).comms.transmit.period == 0.1
 
 
+def test_transmission_times_off_the_step_grid_are_refused() -> None:
+    """Vehicles decide on the step grid: a period of 0.15 s at a 0.1 s step sent after 1 or 2 steps as each time
+    stamp rounded (421 messages in 60 s, not ~400; found by a new user). Whole numbers of steps, as a TDMA slot."""
+    assert errors_of(PAPER, ("comms.transmit.period=0.15",)) == [
+        f"{SOURCE}: comms.transmit.period: must be a whole number of steps (0.1 s), got 0.15"
+    ]
+    event = ("comms.transmit.policy=event", "comms.transmit.heartbeat=2.55", "comms.transmit.min_interval=0.45")
+    assert errors_of(PAPER, event) == [
+        f"{SOURCE}: comms.transmit.min_interval: must be a whole number of steps (0.1 s), got 0.45",
+        f"{SOURCE}: comms.transmit.heartbeat: must be a whole number of steps (0.1 s), got 2.55",
+    ]
+    fine = ("comms.transmit.policy=event", "comms.transmit.heartbeat=0.7", "comms.transmit.min_interval=0.3")
+    assert parse_scenario(PAPER, SOURCE, fine).comms.transmit.heartbeat == 0.7  # 7 and 3 steps, as floats give them
+    assert parse_scenario(PAPER, SOURCE, ("comms.transmit.period=2.3",)).comms.transmit.period == 2.3
+
+
 def test_a_fault_spec_that_gives_a_key_twice_is_refused() -> None:
     """--fault kind=blackout,start=1,start=2 kept the last start (TOML refuses a key given twice)."""
     with pytest.raises(ScenarioError, match=r"^--fault start: given twice, got 'kind=blackout,start=1,start=2'$"):

@@ -131,13 +131,20 @@ class TransmitSection(StrictModel):
         "below",
     )  # fmt: skip
     period: Float | None = Field(
-        default=None, gt=0, le=MAX_TIME, description="periodic: s between messages; omitted: every step"
+        default=None,
+        gt=0,
+        le=MAX_TIME,
+        description="periodic: s between messages, a whole number of steps; omitted: every step",
     )
     threshold: Float = Field(default=0.05, gt=0, le=MAX_GAMMA, description="event: c0 of h(t) = c0 + c1 exp(-alpha t)")
     threshold_decay: Float = Field(default=0.0, ge=0, le=MAX_GAMMA, description="event: c1")
     decay_rate: Float = Field(default=0.0, ge=0, le=MAX_GAIN, description="event: alpha, 1/s")
-    min_interval: Float = Field(default=0.0, ge=0, le=MAX_TIME, description="event: s between messages at least")
-    heartbeat: Float | None = Field(default=None, gt=0, le=MAX_TIME, description="event: s between messages at most")
+    min_interval: Float = Field(
+        default=0.0, ge=0, le=MAX_TIME, description="event: s between messages at least, a whole number of steps"
+    )
+    heartbeat: Float | None = Field(
+        default=None, gt=0, le=MAX_TIME, description="event: s between messages at most, a whole number of steps"
+    )
 
 
 class TdmaSection(StrictModel):
