@@ -260,3 +260,11 @@ def test_the_planar_model_takes_flat_paths_at_any_depth() -> None:
     assert parse_scenario(PAPER, overrides=(*PLANAR, *FLAT)).scenario.dimension == 2  # helices that do not climb
     scenario = parse_scenario(PAPER, overrides=(*PLANAR, *no_climb, *deep, *moved))
     assert [v.position[2] for v in scenario.vehicles] == [-10.0] * 3
+
+
+@pytest.mark.parametrize(("value", "shown"), [('"oops"', "'oops'"), ("3", "3")])
+def test_faults_that_are_not_an_array_with_a_fault_option_are_an_error_not_a_traceback(value, shown) -> None:
+    """`--set faults="oops" --fault kind=blackout,start=5` was an AttributeError (exit 1) appending to the string."""
+    with pytest.raises(ScenarioError) as caught:
+        parse_scenario(PAPER, SOURCE, (f"faults={value}",), ("kind=blackout,start=5",))
+    assert caught.value.errors == [f"{SOURCE}: faults: must be an array, got {shown}"]

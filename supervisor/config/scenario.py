@@ -207,8 +207,10 @@ def parse_scenario(
         raise _error(source, f"invalid TOML: arrays or tables nested too deeply (at most {MAX_DEPTH} levels)") from None
     for override in overrides:
         apply_override(data, override)
-    for fault in faults:
-        data.setdefault("faults", []).append(fault_table(fault))
+    extra = [fault_table(fault) for fault in faults]
+    present = data.setdefault("faults", []) if extra else None
+    if isinstance(present, list):  # not a list: validation says what `faults` must be (it was an AttributeError)
+        present.extend(extra)
     return validate_data(data, source)
 
 
