@@ -180,9 +180,13 @@ def _report_run(args: argparse.Namespace, scenario: Scenario, result: RunResult,
     tube = tube_radius(scenario)
     end = phases_end(result.series.t, scenario.scenario.step, duration)  # a run stopped early: where its data ends
     summary = summarize(result.series, end, intervals(scenario), rep.transient, tube, rep.coordination_tolerance)
-    print(_headline(args, scenario, result, out))
     comms = comms_summary(result.link_stats, result.stats_history, result.estimate_ages)
     diverged = divergence(result.series, scenario.coordination.v_r, rep.coordination_tolerance)
+    if args.metrics:  # before the summary: a reader of stdout that leaves early (head) must not cost the file
+        metrics: dict[str, Any] = {"coordination": summary.as_dict(), "comms": comms.as_dict()}
+        metrics["divergence"] = as_metric(diverged)
+        _write_metrics(args.metrics, scenario, result, metrics)
+    print(_headline(args, scenario, result, out))
     lines = (
         format_summary(summary),
         _divergence_lines(args, scenario, diverged),
@@ -195,10 +199,6 @@ def _report_run(args: argparse.Namespace, scenario: Scenario, result: RunResult,
     for line in lines:
         if line is not None:
             print(line)
-    if args.metrics:
-        metrics: dict[str, Any] = {"coordination": summary.as_dict(), "comms": comms.as_dict()}
-        metrics["divergence"] = as_metric(diverged)
-        _write_metrics(args.metrics, scenario, result, metrics)
 
 
 def _headline(args: argparse.Namespace, scenario: Scenario, result: RunResult, out: Path) -> str:
