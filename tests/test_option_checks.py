@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 
 from supervisor.cli import main
+from supervisor.config.derived import active
 from supervisor.config.scenario import fault_table, parse_scenario
 from supervisor.config.scenario_checks import scenario_warnings
 from supervisor.errors import ScenarioError
@@ -268,3 +269,13 @@ def test_faults_that_are_not_an_array_with_a_fault_option_are_an_error_not_a_tra
     with pytest.raises(ScenarioError) as caught:
         parse_scenario(PAPER, SOURCE, (f"faults={value}",), ("kind=blackout,start=5",))
     assert caught.value.errors == [f"{SOURCE}: faults: must be an array, got {shown}"]
+
+
+def test_a_fault_acting_on_no_step_gets_one_error_and_one_within_a_step_acts_on_its_nearest() -> None:
+    """Start and end are each rounded to the nearest step (the README): [100, 100.05) acts on none (one error; a
+    second said 1 -> 2 was not a link of the graph, found by a new user), [100.02, 100.08) on the step from 100."""
+    link = 'kind = "link_down"\nsender = 1\nreceiver = 2\nstart = {start}\nend = {end}'
+    text = with_faults(link.format(start=100.0, end=100.05))
+    assert errors_of(text) == [f"{SOURCE}: faults[1].end: ends within the step it starts in (0.1 s), got 100.05"]
+    (_, fault) = parse_scenario(with_faults(link.format(start=100.02, end=100.08))).faults
+    assert [k for k in (999, 1000, 1001) if active(fault, k * 0.1, 0.1)] == [1000]

@@ -93,17 +93,17 @@ examples in `configs/examples/` or from `configs/paper.toml`.
 OUTRO = """
 Checks the schema alone cannot express, made when a scenario is loaded (`cpf validate`): vehicle ids unique; graph
 edges, links, TDMA order and faults naming vehicles of `[[vehicles]]`; the graph connected; `[[comms.links]]` on edges
-of the graph; a fault's `end` after its `start` and at least a step later; a `link_down` or `link_degraded` fault on a
-link of the graph in force while it acts (the scenario's, or one a `graph_switch` puts in force); `scenario.step` not
-longer than `duration` and dividing it into at most 10 000 000 steps; `comms.tdma.slot` and the transmit period,
-`min_interval` and `heartbeat` whole numbers of steps; `packet_bytes` within the modem's limit; vehicle overrides named
-after the preset's parameters with its shapes, each within its range (mass 0.1-1e6 kg, inertia 1e-3-1e7 kg m^2, damping,
-weight, buoyancy and force limits not negative, centre of buoyancy within 10 m); every path finite at gamma = 0;
-`coordination.v_r` asking no vehicle for more than 100 m/s along its path; a `clock_skew` (with any other in force on
-the same vehicle) stamping times within 0 .. 4294967.295 s, what the modem frame's u32 ms time stamp holds; arrays and
-tables nested at most 10 levels deep; with `dimension = 2`, every vehicle in its path's horizontal plane (no climbing
-helix or diving line, no heave, roll or pitch). A fault that starts at or after the end of the run is a warning (it
-never acts), not an error.
+of the graph; a fault's `end` after its `start`, and the two apart once each is rounded to the nearest step (the steps
+it acts on); a `link_down` or `link_degraded` fault on a link of the graph in force while it acts (the scenario's, or
+one a `graph_switch` puts in force); `scenario.step` not longer than `duration` and dividing it into at most 10 000 000
+steps; `comms.tdma.slot` and the transmit period, `min_interval` and `heartbeat` whole numbers of steps; `packet_bytes`
+within the modem's limit; vehicle overrides named after the preset's parameters with its shapes, each within its range
+(mass 0.1-1e6 kg, inertia 1e-3-1e7 kg m^2, damping, weight, buoyancy and force limits not negative, centre of buoyancy
+within 10 m); every path finite at gamma = 0; `coordination.v_r` asking no vehicle for more than 100 m/s along its path;
+a `clock_skew` (with any other in force on the same vehicle) stamping times within 0 .. 4294967.295 s, what the modem
+frame's u32 ms time stamp holds; arrays and tables nested at most 10 levels deep; with `dimension = 2`, every vehicle in
+its path's horizontal plane (no climbing helix or diving line, no heave, roll or pitch). A fault that starts at or after
+the end of the run is a warning (it never acts), not an error.
 """
 
 

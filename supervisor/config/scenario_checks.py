@@ -106,8 +106,11 @@ def _faults(sc: Scenario) -> Iterator[str]:
         found = list(_fault_fields(index, fault, sc.vehicle_ids))
         yield from found
         if not found:
-            yield from _fault_timing(index, fault, sc)
-            if isinstance(fault, LINK_FAULTS) and first_step(fault.start, sc.scenario.step) < steps_of(sc):
+            timing = list(_fault_timing(index, fault, sc))
+            yield from timing
+            # one that acts on no step is in no graph: that error is the timing's, not a second one
+            starts = first_step(fault.start, sc.scenario.step) < steps_of(sc)
+            if not timing and starts and isinstance(fault, LINK_FAULTS):
                 yield from _link_in_graph(index, fault, sc)
 
 
