@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import logging
 import textwrap
+from pathlib import Path
 
 from supervisor.cli.terminal import EXIT_INTERRUPTED
 from supervisor.errors import ScenarioError
@@ -133,12 +134,16 @@ def recover(args: argparse.Namespace) -> int:
     from supervisor.record.recover import recover
 
     if not args.log.is_file():
-        raise ScenarioError(f"{args.log}: no such log file")
+        raise ScenarioError(f"{args.log}: {'not a log file' if args.log.exists() else 'no such log file'}")
     out = checked_file("--out", args.out or args.log.with_name(f"{args.log.stem}.recovered.mcap"), args.log)
     try:
         report = recover(args.log, out)
-    except (RecoveryError, OSError) as exc:
+    except RecoveryError as exc:
         raise ScenarioError(str(exc)) from exc
+    except OSError as exc:  # the log unreadable is bad input; --out unwritable now (a full disk) is the run-time's
+        if exc.filename is None or Path(exc.filename) != args.log:
+            raise
+        raise ScenarioError(f"{args.log}: cannot read the log: {exc.strerror or exc}") from None
     print(f"{args.log} -> {out}: {report.describe()}")
     return 0
 

@@ -8,10 +8,15 @@ import tempfile
 from pathlib import Path
 
 
-def _writable_file(option: str, path: Path) -> list[str]:
-    """What keeps path from being written as a file, '<option>: <problem>, got <path>' each."""
+def _writable_file(option: str, path: Path, regular: bool = True) -> list[str]:
+    """What keeps path from being written as a file, '<option>: <problem>, got <path>' each. regular: only a regular
+    file (a log, locked, truncated, written beside and renamed over: a device or FIFO given as --out hung, failed in a
+    traceback, or was replaced by a file, /dev/null included; found by a new user); else a stream will do (--metrics
+    /dev/stdout)."""
     if path.is_dir():
         return [f"{option}: is a directory, not a file, got {path}"]
+    if regular and path.exists() and not path.is_file():
+        return [f"{option}: not a regular file (a device, FIFO or socket), got {path}"]
     ancestor = path.parent
     while not ancestor.exists() and ancestor != ancestor.parent:
         ancestor = ancestor.parent
@@ -60,7 +65,7 @@ def output_errors(scenario: Path, outputs: dict[str, Path | None]) -> list[str]:
     from supervisor.record.recorder import in_use
 
     given = {option: path for option, path in outputs.items() if path is not None}
-    errors = [line for option, path in given.items() for line in _writable_file(option, path)]
+    errors = [line for option, path in given.items() for line in _writable_file(option, path, option == "--out")]
     seen: dict[Path, str] = {scenario.resolve(): "the scenario file"}
     for option, path in given.items():
         where = path.resolve()

@@ -178,6 +178,8 @@ def _all_found(path: Path, indexed: set[int]) -> None:
 
 def open_log(path: Path) -> IO[bytes]:
     """The log, opened, its magic checked; LogError otherwise."""
+    if path.exists() and not path.is_file():  # a FIFO blocked the open until a writer came (a new user's hang)
+        raise LogError(f"{path}: not a log file ({'a directory' if path.is_dir() else 'not a regular file'})")
     try:
         stream = path.open("rb")
     except FileNotFoundError:

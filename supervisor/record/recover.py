@@ -252,6 +252,8 @@ def recover(src: Path, dst: Path) -> RecoveryReport:
     """
     if dst.exists() and dst.resolve() == src.resolve():
         raise RecoveryError(f"{dst}: the destination must not be the source")
+    if dst.is_symlink():  # written through: the rename below would put a file in the link's place
+        dst = dst.resolve()
     with src.open("rb") as source:
         dst.parent.mkdir(parents=True, exist_ok=True)
         partial = dst.with_name(dst.name + ".part")
