@@ -71,9 +71,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (CpfError, ConnectionError, FloatingPointError) as exc:  # FloatingPointError: a vehicle diverged
         print(f"cpf: error: {exc}", file=sys.stderr)
         return EXIT_RUNTIME
+    except OSError as exc:  # an output that cannot be written now (a full disk, /dev/full): the file and why
+        print(f"cpf: error: {_os_error(exc)}", file=sys.stderr)
+        return EXIT_RUNTIME
     except KeyboardInterrupt:
         print("cpf: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
+
+
+def _os_error(exc: OSError) -> str:
+    """'<file>: <reason>' of an OSError (the reason alone if it names no file)."""
+    why = exc.strerror or str(exc)
+    return f"{exc.filename}: {why}" if exc.filename is not None else why
 
 
 def _reader_gone() -> int:
@@ -90,12 +99,12 @@ def entry() -> None:
     except KeyboardInterrupt:  # before main's handlers were in place, or between them: one line all the same
         print("cpf: interrupted", file=sys.stderr)
         code = EXIT_INTERRUPTED
-    if code == EXIT_INTERRUPTED:
-        # Said and done: a second Ctrl-C must not end the exit by the signal. Python's exit puts SIG_DFL back for
-        # every signal with a handler of ours (not for one ignored), and its exit waits for the bus's threads: a
-        # press 50 ms after the first one killed the process (-2) in 12 of 16 tries (issue 29).
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            signal.signal(sig, signal.SIG_IGN)
+    # Said and done, whatever the code: a Ctrl-C or SIGTERM now must not end the exit by the signal. Python's exit
+    # puts SIG_DFL back for every signal with a handler of ours (not for one ignored), and its exit waits for the
+    # bus's threads: a second press 50 ms after an interrupt killed the process (-2) in 12 of 16 tries (issue 29);
+    # one just after a run's summary ended it by the signal or in a KeyboardInterrupt traceback (a new user).
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, signal.SIG_IGN)
     try:
         sys.stdout.flush()  # here, not at the interpreter's exit: a reader gone is then exit 0, not 120
     except BrokenPipeError:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import logging
 import os
@@ -239,7 +240,12 @@ def _write_metrics(path: Path, scenario: Scenario, result: RunResult, metrics: d
         metrics["malformed"] = result.malformed  # reader -> key -> messages it dropped
         metrics["dropped_by_cause"] = result.drop_causes or {}  # reader -> cause -> messages it dropped
     metrics |= input_limits_metrics(at_input_limits(scenario, result.series))
-    path.write_text(json.dumps(finite(metrics), indent=2, allow_nan=False))
+    try:
+        path.write_text(json.dumps(finite(metrics), indent=2, allow_nan=False))
+    except OSError as exc:  # a full disk: no half-written file left, and the error (at main) names it
+        with contextlib.suppress(OSError):
+            path.unlink() if path.is_file() else None
+        raise OSError(exc.errno, exc.strerror, str(path)) from None
 
 
 def vehicle(args: argparse.Namespace) -> int:
