@@ -4,9 +4,12 @@ root there: the check tries)."""
 
 from __future__ import annotations
 
+import os
+import stat
 from pathlib import Path
 
 import pytest
+from mcap.writer import Writer
 
 from tests.test_input_regressions import PAPER, SHORT, cli
 
@@ -60,3 +63,66 @@ def test_run_refuses_metrics_it_cannot_write_before_the_run(tmp_path: Path):
     code, lines = cli("run", str(PAPER), *SHORT, "--out", str(out), "--metrics", f"{NOWHERE}.json")
     assert "not writable" in one_line(code, lines, "--metrics", f"{NOWHERE}.json")
     assert not out.exists()  # refused before the run: no log
+
+
+# --- paths that are not regular files (found by a new user) ---------------------------------------------------------
+
+
+@pytest.fixture
+def fifo(tmp_path: Path) -> Path:
+    path = tmp_path / "fifo.mcap"
+    os.mkfifo(path)
+    return path
+
+
+@pytest.mark.parametrize("command", ["recover", "resim"])
+def test_a_log_out_that_is_not_a_regular_file_is_refused_and_left_as_it_is(log: Path, fifo: Path, command: str):
+    """recover renamed its file over a device or FIFO given as --out (/dev/null became a regular file)."""
+    code, lines = cli(command, str(log), "--out", str(fifo), *(["--set", "coordination.k=0.3"] * (command == "resim")))
+    assert "not a regular file" in one_line(code, lines, "--out", str(fifo))
+    assert stat.S_ISFIFO(fifo.stat().st_mode)
+
+
+def test_run_refuses_a_log_out_that_is_not_a_regular_file_rather_than_hang(fifo: Path):
+    code, lines = cli("run", str(PAPER), *SHORT, "--out", str(fifo))
+    assert "not a regular file" in one_line(code, lines, "--out", str(fifo))
+
+
+def test_recover_writes_through_a_symlink_given_as_out(log: Path, tmp_path: Path):
+    target, link = tmp_path / "target.mcap", tmp_path / "link.mcap"
+    target.touch()
+    link.symlink_to(target)
+    code, lines = cli("recover", str(log), "--out", str(link))
+    assert code == 0, lines
+    assert link.is_symlink() and target.stat().st_size > 0
+
+
+@pytest.mark.parametrize("command", ["info", "report", "replay", "recover"])
+def test_a_log_that_is_a_fifo_or_a_directory_is_refused_at_once(fifo: Path, tmp_path: Path, command: str):
+    """`cpf info FIFO` waited for a writer for ever; recover said 'no such log file' of a directory."""
+    for path, what in ((fifo, "not a log file"), (tmp_path, "not a log file")):
+        code, lines = cli(command, str(path))
+        assert code == 2 and what in lines[-1], lines
+
+
+def test_metrics_on_a_full_device_is_one_line_naming_it(tmp_path: Path):
+    code, lines = cli("run", str(PAPER), *SHORT, "--out", str(tmp_path / "r.mcap"), "--metrics", "/dev/full")
+    assert (code, lines[-1]) == (1, "cpf: error: /dev/full: No space left on device"), lines
+
+
+@pytest.mark.parametrize("command", ["report", "export"])
+def test_a_log_of_another_tool_is_refused_not_reported_empty(tmp_path: Path, command: str):
+    """Four empty figures and a metrics.json of nulls, or six empty tables, exit 0."""
+    foreign = tmp_path / "foreign.mcap"
+    with foreign.open("wb") as stream:
+        writer = Writer(stream)
+        writer.start(profile="", library="another tool")
+        schema = writer.register_schema(name="Imu", encoding="jsonschema", data=b'{"type": "object"}')
+        channel = writer.register_channel(topic="/imu", message_encoding="json", schema_id=schema)
+        writer.add_message(channel, log_time=0, publish_time=0, data=b'{"x": 1}')
+        writer.finish()
+    code, lines = cli(command, str(foreign), "--out", str(tmp_path / "out"))
+    assert (code, lines) == (
+        2,
+        [f"cpf: error: {foreign}: holds no record of a cpf run (no cpf/ message): not a cpf log"],
+    )

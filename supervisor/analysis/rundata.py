@@ -23,7 +23,7 @@ from comms.records.reports import CommsStats
 from comms.records.run import FaultEvent, Graph
 from comms.records.state import StateReport
 from numerics.linalg import row_norms
-from supervisor.errors import ScenarioError
+from supervisor.errors import LogError, ScenarioError
 from supervisor.record import logfile
 from supervisor.record.meta import RunMeta
 from supervisor.record.unusable import Unusable
@@ -164,6 +164,10 @@ class _Collected:
     link_events: dict[Edge, list[LinkEvent]] = field(default_factory=dict)
     stats: list[CommsStats] = field(default_factory=list)
 
+    def empty(self) -> bool:
+        return self.meta is None and not (self.states or self.fault_events or self.graph_changes or self.link_events
+                                          or self.stats)  # fmt: skip
+
     def add(self, topic: str, message: dict[str, Any]) -> None:
         owned = vehicle_of_key(topic)
         if owned is not None:
@@ -218,6 +222,8 @@ def load_run(path: Path, also: Collector | None = None) -> RunData:
                 raise ScenarioError(f"{path}: {topic}: {exc}") from None
             unusable.skip(topic, exc)
     unusable.close()
+    if got.empty():  # another tool's log, or a cut one recovered to nothing: empty figures and tables, exit 0, before
+        raise LogError(f"{path}: holds no record of a cpf run (no cpf/ message): not a cpf log")
     vehicles = {v: _series(v, got.states[v]) for v in sorted(got.states)}
     start, end = _time_range(vehicles, got.meta)
     events = got.fault_events
