@@ -51,7 +51,12 @@ def test_the_fix_it_names_is_valid_and_silent():
     slot = errors_of(PAPER, UNET_1S)[0].split("slot = ")[1].split(" ")[0]
     assert float(slot) >= 0.218  # the airtime of a 15-B packet in one 64-B frame at 2400 bit/s, and the flight
     assert warnings_of(PAPER, (*UNET_1S, f"comms.tdma.slot={slot}")) == []
-    assert warnings_of(PAPER, (*UNET_1S, "comms.transmit.policy=event", "comms.transmit.heartbeat=5.0")) == []
+    event = ("comms.modem=unet_2400", "comms.transmit.policy=event", "comms.transmit.heartbeat=5.0")
+    assert warnings_of(PAPER, event) == []
+    # the event policy in place of the periodic one: a period kept would do nothing, and is said
+    assert warnings_of(PAPER, (*UNET_1S, *event[1:])) == [
+        "comms.transmit.period: a key of the periodic policy, it has no effect under policy 'event', got 1.0"
+    ]
 
 
 def test_links_that_deliver_nothing_at_the_start_only_are_a_warning_naming_them():

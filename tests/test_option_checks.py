@@ -279,3 +279,35 @@ def test_a_fault_acting_on_no_step_gets_one_error_and_one_within_a_step_acts_on_
     assert errors_of(text) == [f"{SOURCE}: faults[1].end: ends within the step it starts in (0.1 s), got 100.05"]
     (_, fault) = parse_scenario(with_faults(link.format(start=100.02, end=100.08))).faults
     assert [k for k in (999, 1000, 1001) if active(fault, k * 0.1, 0.1)] == [1000]
+
+
+def test_a_key_of_another_transmission_policy_is_a_warning_naming_it() -> None:
+    """Both built-in policies' keys sit in [comms.transmit]: one the policy does not read was silently ignored (QA
+    report 2, F6). A key written counts, even at its default (threshold 0.05): the user expects it to act."""
+
+    def said(*overrides: str) -> list[str]:
+        return [w for w in scenario_warnings(parse_scenario(PAPER, SOURCE, overrides)) if "transmit" in w]
+
+    periodic = ("comms.transmit.period=1.0", "comms.transmit.heartbeat=0.5", "comms.transmit.threshold=0.05")
+    assert said(*periodic) == [
+        "comms.transmit.threshold: a key of the event policy, it has no effect under policy 'periodic', got 0.05",
+        "comms.transmit.heartbeat: a key of the event policy, it has no effect under policy 'periodic', got 0.5",
+    ]
+    assert said("comms.transmit.policy=event", "comms.transmit.period=1.0", "comms.transmit.heartbeat=2.0") == [
+        "comms.transmit.period: a key of the periodic policy, it has no effect under policy 'event', got 1.0"
+    ]
+    assert said("comms.transmit.policy=tests.samples.laws:Every", "comms.transmit.period=1.0") == [
+        "comms.transmit.period: a key of the periodic policy, it has no effect under policy "
+        "'tests.samples.laws:Every' (it reads only comms.transmit.options), got 1.0"
+    ]
+    event = ("comms.transmit.policy=event", "comms.transmit.threshold=0.1", "comms.transmit.min_interval=1.0")
+    assert said(*event) == said("comms.transmit.period=1.0") == []
+
+
+def test_validate_says_the_ignored_transmission_key(paper_file: Path, caplog: pytest.LogCaptureFixture) -> None:
+    assert main(["validate", str(paper_file), "--set", "comms.transmit.heartbeat=0.5"]) == 0
+    warned = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
+    assert warned == [
+        f"{paper_file}: comms.transmit.heartbeat: a key of the event policy, it has no effect under policy "
+        "'periodic', got 0.5"
+    ]

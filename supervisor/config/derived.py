@@ -13,6 +13,15 @@ from typing import Any
 
 from supervisor.config.scenario_schema import BrokerKillFault, FaultSpec, GraphSwitchFault, Scenario
 
+STEP_TOLERANCE = 1e-6  # relative: how close to a whole number of steps a duration, slot or period must be
+
+
+def whole_steps(seconds: float, dt: float) -> bool:
+    """Whether seconds is a whole number of steps of dt. The vehicles decide on the step grid: a period of 1.5 steps
+    fell on 1 or 2 steps by the rounding of each time stamp (0.15 s at a 0.1 s step sent 421 messages in 60 s)."""
+    steps = seconds / dt
+    return abs(steps - round(steps)) <= STEP_TOLERANCE * max(1.0, steps)
+
 
 def steps_of(scenario: Scenario) -> int:
     """The run's sync steps: duration / step (the checks hold the step to dividing the duration)."""

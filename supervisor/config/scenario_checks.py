@@ -15,7 +15,7 @@ from collections.abc import Callable, Iterable, Iterator, Mapping
 import numpy as np
 
 from supervisor.config.authority_checks import authority_warnings
-from supervisor.config.derived import active, end_of, first_step, graph_at, steps_of
+from supervisor.config.derived import STEP_TOLERANCE, active, end_of, first_step, graph_at, steps_of
 from supervisor.config.extension_checks import extension_errors, vehicle_model_errors
 from supervisor.config.feasibility_checks import feasibility_errors, feasibility_warnings
 from supervisor.config.kill_checks import kill_errors
@@ -33,13 +33,13 @@ from supervisor.config.scenario_schema import (
     VehicleSection,
 )
 from supervisor.config.schema_base import MAX_SPEED, MAX_STEPS, MAX_TIME, Vec3
+from supervisor.config.transmit_checks import transmit_errors, transmit_warnings
 from supervisor.config.unit_checks import unit_warnings
 from vehicles.params import PRESETS, VehicleParams
 from vehicles.paths import Path as PathLike
 
 Check = Callable[[Scenario], Iterator[str]]
 ONE_NUMBER = ("mass",)  # 3-vector parameters also read as one number (vehicle_models.as_read)
-STEP_TOLERANCE = 1e-6  # relative: how close to a whole number of steps a duration or slot must be
 
 
 def format_location(loc: Iterable[int | str]) -> str:
@@ -260,7 +260,7 @@ def _comms(sc: Scenario) -> Iterator[str]:
             yield f"comms.links[{index}]: not a link of the graph, got {link.sender} -> {link.receiver}"
         elif (first := seen.setdefault((link.sender, link.receiver), index)) != index:  # one would be ignored
             yield f"comms.links[{index}]: the same link as comms.links[{first}], got {link.sender} -> {link.receiver}"
-    yield from _transmit(sc)
+    yield from transmit_errors(sc)
     tdma = sc.comms.tdma
     slots = tdma.slot / sc.scenario.step if tdma is not None else 1.0
     if tdma is not None and (slots < 1 - 1e-9 or abs(slots - round(slots)) > STEP_TOLERANCE):
@@ -276,29 +276,6 @@ def _comms(sc: Scenario) -> Iterator[str]:
         channel_params(sc, with_named=False)  # comms.loss_model: extension_errors says what is wrong with it
     except ValueError as exc:
         yield f"comms: {exc}"
-
-
-def _transmit(sc: Scenario) -> Iterator[str]:
-    """What the built-in policies cannot do as written: send more often than once a step, or promise a message at
-    least every heartbeat while waiting longer than that between two (accepted, and not done)."""
-    tx, dt = sc.comms.transmit, sc.scenario.step
-    if tx.policy == "periodic" and tx.period is not None and tx.period < dt * (1 - STEP_TOLERANCE):
-        yield f"comms.transmit.period: at least the step ({dt:g} s): one message a step at most, got {tx.period}"
-    elif tx.policy == "periodic" and tx.period is not None and not _whole_steps(tx.period, dt):
-        yield f"comms.transmit.period: must be a whole number of steps ({dt:g} s), got {tx.period}"
-    if tx.policy == "event" and tx.heartbeat is not None and tx.heartbeat < tx.min_interval:
-        yield f"comms.transmit.heartbeat: at least min_interval ({tx.min_interval:g} s), got {tx.heartbeat}"
-    for key in ("min_interval", "heartbeat"):
-        value = getattr(tx, key)
-        if tx.policy == "event" and value and not _whole_steps(value, dt):
-            yield f"comms.transmit.{key}: must be a whole number of steps ({dt:g} s), got {value}"
-
-
-def _whole_steps(seconds: float, dt: float) -> bool:
-    """Whether seconds is a whole number of steps of dt. The vehicles decide on the step grid: a period of 1.5 steps
-    fell on 1 or 2 steps by the rounding of each time stamp (0.15 s at a 0.1 s step sent 421 messages in 60 s)."""
-    steps = seconds / dt
-    return abs(steps - round(steps)) <= STEP_TOLERANCE * max(1.0, steps)
 
 
 def _reception(sc: Scenario, collisions: bool) -> Iterator[str]:
@@ -389,8 +366,9 @@ def cross_field_errors(sc: Scenario, rejected: frozenset[str] | set[str] = froze
 def scenario_warnings(sc: Scenario) -> list[str]:
     """What a valid scenario holds that will not happen, '<field>: <problem>, got <value>' each: faults that start
     at or after the end of the run (a run shortened with --set scenario.duration=... is a fair thing to ask for),
-    a channel that loses much or a loop predicted to diverge (supervisor.config.feasibility_checks), and a path a
-    vehicle's fins cannot hold it on (supervisor.config.authority_checks)."""
+    keys of [comms.transmit] its policy does not read (supervisor.config.transmit_checks), a channel that loses
+    much or a loop predicted to diverge (supervisor.config.feasibility_checks), and a path a vehicle's fins cannot
+    hold it on (supervisor.config.authority_checks)."""
     steps, dt, end = steps_of(sc), sc.scenario.step, sc.scenario.duration
     late = [
         f"faults[{index}].start: at or after the end of the run ({end:g} s), the {fault.kind} fault never acts, "
@@ -398,4 +376,4 @@ def scenario_warnings(sc: Scenario) -> list[str]:
         for index, fault in enumerate(sc.faults)
         if first_step(fault.start, dt) >= steps
     ]
-    return late + unit_warnings(sc) + feasibility_warnings(sc) + authority_warnings(sc)
+    return late + transmit_warnings(sc) + unit_warnings(sc) + feasibility_warnings(sc) + authority_warnings(sc)
