@@ -56,6 +56,13 @@ def test_validate_applies_set_and_fault(capsys):
     assert "for 100 s in 1000 steps" in text and "blackout on [10, 20) s: every link" in text
 
 
+def test_validate_gives_a_broker_kill_without_end_its_one_step(capsys):
+    """The broker restarts a step after the kill: validate said '[10, end) s' (QA report 2, F7)."""
+    code, out, err = _cpf(capsys, "validate", str(CONFIGS / "paper.toml"), "--fault", "kind=broker_kill,start=10")
+    assert code == 0, err
+    assert "broker_kill on [10, 10.1) s: broker" in " ".join(out.split())
+
+
 def test_validate_a_bad_scenario_gives_every_error_and_exit_2(tmp_path, capsys):
     bad = tmp_path / "bad.toml"
     text = (CONFIGS / "paper.toml").read_text().replace("step = 0.1", "step = -0.1").replace("k1 = 0.5", "k1 = 0")

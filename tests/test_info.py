@@ -24,14 +24,15 @@ from tests.conftest import CONFIGS, shortened
 
 DURATION = 30.0
 OVERRIDES = ["faults.0.start=3", "faults.0.end=6", "vehicles.1.preset=remus100_legacy"]  # a mixed fleet
-EXTRA_FAULTS = ["kind=link_down,sender=1,receiver=2,start=4,end=5"]
+# a broker_kill without an end acts one step: it was described as lasting to the end of the run (QA report 2, F7)
+EXTRA_FAULTS = ["kind=link_down,sender=1,receiver=2,start=4,end=5", "kind=broker_kill,start=20"]
 TOPIC_LINE = re.compile(r"^  (\S+)\s+(\d+)$")
 
 
 @pytest.fixture(scope="module")
 def log(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """paper.toml shortened to 30 s (a few chunks), its speed cap moved into the run, a link cut during it, vehicle 2
-    on another preset."""
+    """paper.toml shortened to 30 s (a few chunks), its speed cap moved into the run, a link cut during it, the
+    broker killed for a step, vehicle 2 on another preset."""
     text = shortened((CONFIGS / "paper.toml").read_text(), DURATION)
     scenario = parse_scenario(text, "configs/paper.toml", OVERRIDES, EXTRA_FAULTS)
     path = tmp_path_factory.mktemp("info") / "run.mcap"
@@ -72,6 +73,7 @@ def test_describe_a_run(log: Path) -> None:
         "graph      1-2, 1-3",
         "faults     speed_cap on [3, 6) s: vehicle 1 (gamma_dot_max 0.5)",
         "           link_down on [4, 5) s: link 1<->2",
+        "           broker_kill on [20, 20.1) s: broker",
     ):
         assert line in text.splitlines(), line
     from importlib import metadata

@@ -7,10 +7,13 @@ from typing import Any
 TARGET_FIELDS = ("vehicle", "sender", "receiver", "both", "edges")
 
 
-def describe_fault(fault: dict[str, Any]) -> str:
-    """'kind on [start, end) s: target (parameters)'."""
-    end = fault.get("end")
-    window = f"[{seconds(fault.get('start'))}, {'end' if end is None else seconds(end)}) s"
+def describe_fault(fault: dict[str, Any], step: float) -> str:
+    """'kind on [start, end) s: target (parameters)'. A broker_kill without an end lasts one step (the broker
+    restarts then: derived.end_of), so its window says so: it was '[10, end) s' for a kill of one 0.1 s step."""
+    end, start = fault.get("end"), fault.get("start")
+    if end is None and fault.get("kind") == "broker_kill" and isinstance(start, int | float):
+        end = start + step
+    window = f"[{seconds(start)}, {'end' if end is None else seconds(end)}) s"
     return f"{fault.get('kind', '?')} on {window}: {_target(fault)}{_parameters(fault)}"
 
 

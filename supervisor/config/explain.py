@@ -36,7 +36,7 @@ def what_would_run(sc: Scenario) -> str:
         f"v_r {_num(sc.coordination.v_r)} per s, over the graph {_edges(sc.graph.edges)}",
         "comms: " + _comms(sc),
         "transmission: " + _transmit(sc.comms.transmit, sc.comms, len(sc.vehicles)),
-        "faults: " + ("; ".join(describe_fault(f.model_dump()) for f in sc.faults) or "none"),
+        "faults: " + ("; ".join(describe_fault(f.model_dump(), run.step) for f in sc.faults) or "none"),
         f"a vehicle lost: {run.on_vehicle_loss}",
     ]
     return ". ".join([sentences[0], *(s[0].upper() + s[1:] for s in sentences[1:])]) + "."

@@ -131,7 +131,7 @@ def _meta(log: RawLog) -> RunMeta | str:
 def _run_lines(meta: RunMeta | str, log: RawLog) -> list[str]:
     if isinstance(meta, str):
         return [meta]
-    faults = [describe_fault(f) for f in meta.faults] or ["none"]
+    faults = [describe_fault(f, meta.step) for f in meta.faults] or ["none"]
     description = meta.scenario.get("scenario", {}).get("description")
     return [
         f"scenario   {meta.scenario_name} ({meta.scenario_file})",
