@@ -139,3 +139,17 @@ def test_the_summarys_columns_stay_aligned_whatever_the_values(huge: float) -> N
             assert row[end - 1] != " " or start == 0, (row, header)  # right-aligned: a value ends at its column's end
             assert row[start] == " " or start == 0, (row, header)  # ... and leaves a space before it
         assert len(row.split()) == 2 + 1 + 3 + 3  # 'whole run', span, three numbers, three rates
+
+
+@pytest.mark.parametrize(
+    ("start", "end", "span"),
+    [(0.0, 150.0, "0-150"), (150.0, 250.0, "150-250"), (10.0, 10.1, "10-10.1"), (0.1, 0.2, "0.1-0.2"),
+     (59.9, 60.0, "59.9-60"), (10.0, 10.05, "10-10.05"), (0.0, 0.001, "0-0.001"), (12.5, 250.0, "12-250")],
+)  # fmt: skip
+def test_a_phase_span_has_the_decimals_that_tell_its_ends_apart(start: float, end: float, span: str) -> None:
+    """Whole seconds printed a one-step phase as "10-10" (QA report 2, F8); whole-second phases read as before."""
+    t = np.arange(0.0, 300.0, 0.001)
+    series = Series((1, 2), t, np.zeros((t.size, 2)), np.zeros((t.size, 2)), np.zeros((t.size, 2)))
+    text = format_summary(summarize(series, 300.0, [("blackout", start, end)], TRANSIENT, TUBE, 0.01))
+    during = next(line for line in text.splitlines() if line.startswith("during blackout"))
+    assert during[22:36] == f"{span:>14}"

@@ -20,6 +20,8 @@ import numpy as np
 from comms.records.records import FloatArray
 from supervisor.analysis.condense import MAX_ROWS, spread
 
+MAX_DECIMALS = 9  # of a phase's span: below a nanosecond two ends are float noise, not a phase
+
 
 @dataclass(frozen=True, slots=True)
 class Series:
@@ -164,7 +166,7 @@ def format_summary(summary: Summary) -> str:
         f"{'phase':<22}{'span [s]':>14}{'max|gi-gj|':>12}{'end|gi-gj|':>12}{'max|p-pd| [m]':>15}  mean gamma_dot",
     ]
     for p in summary.phases:
-        span = f"{p.start:.0f}-{p.end:.0f}"
+        span = _span(p.start, p.end)
         rates = " ".join(_number(v, ".3f", 9) for v in p.mean_gamma_dot)  # "-": the vehicle was down all the phase
         if len(p.mean_gamma_dot) > MAX_ROWS:
             rates = spread(p.mean_gamma_dot, ".3f")
@@ -188,6 +190,25 @@ def format_summary(summary: Summary) -> str:
     if summary.resync_time is not None or len(summary.phases) > 1:
         lines.append(_settled(" again", summary.resync_time, summary.tolerance, "last phase"))
     return "\n".join(lines)
+
+
+def _span(start: float, end: float) -> str:
+    """'start-end' in whole seconds ("0-150"), or with the fewest decimals that tell the two ends apart and put each
+    within a tenth of the span of its value, trailing zeros left out ("10-10.1", "10-10.05", not "10-10.1" for the
+    latter): whole seconds alone printed a one-step phase as "10-10" (QA report 2, F8)."""
+    tolerance = (end - start) / 10
+    decimals = next((d for d in range(MAX_DECIMALS) if _tells(start, end, d, tolerance)), MAX_DECIMALS)
+    return f"{_decimal(start, decimals)}-{_decimal(end, decimals)}"
+
+
+def _tells(start: float, end: float, decimals: int, tolerance: float) -> bool:
+    first, last = f"{start:.{decimals}f}", f"{end:.{decimals}f}"
+    return first != last and abs(float(first) - start) <= tolerance and abs(float(last) - end) <= tolerance
+
+
+def _decimal(value: float, decimals: int) -> str:
+    text = f"{value:.{decimals}f}"
+    return text.rstrip("0").rstrip(".") if decimals else text
 
 
 def _settled(again: str, time: float | None, tolerance: float, phase: str) -> str:
