@@ -78,6 +78,13 @@ def test_the_summary_says_why_there_is_no_path_error_to_judge() -> None:
     assert "path-following error after the transient: none (no vehicle was alive after it)" in nobody
 
 
+def test_a_run_of_one_step_says_no_state_lies_after_the_transient_not_that_nobody_was_alive() -> None:
+    """step = duration: one state, at t = 0, of vehicles alive throughout (QA report 2, F3)."""
+    one = Series((1, 2), np.zeros(1), np.zeros((1, 2)), np.ones((1, 2)), np.full((1, 2), 0.5))
+    text = format_summary(summarize(one, 60.0, [], 20.0, TUBE, 0.01))
+    assert "path-following error after the transient: none (no state lies after it: the last is at t = 0 s)" in text
+
+
 def vehicle_series(vid: int, t: np.ndarray, gamma: np.ndarray, error: float) -> VehicleSeries:
     n = t.size
     errors = np.zeros((n, 3))

@@ -58,6 +58,7 @@ class Summary:
     resync_time: float | None  # the same, within the last phase
     tolerance: float
     transient: float = 0.0  # s: path-following errors count from then on
+    last_state_time: float = math.nan  # s: the run's last instant with states (one step of the whole run: t = 0)
 
     def as_dict(self) -> dict[str, object]:
         return asdict(self)
@@ -157,6 +158,7 @@ def summarize(
         resync_time=settle_time(series.t[in_last], coord[in_last], tolerance) if len(stats) > 1 else None,
         tolerance=tolerance,
         transient=transient,
+        last_state_time=float(series.t[-1]),
     )
 
 
@@ -177,9 +179,8 @@ def format_summary(summary: Summary) -> str:
         )
     worst = summary.max_path_error_after_transient
     if math.isnan(worst):  # nothing to judge
-        ends_within = not summary.phases or summary.phases[-1].end <= summary.transient
-        why = "the run ends within it" if ends_within else "no vehicle was alive after it"
-        lines.append(f"path-following error after the transient: none ({why}); tube {summary.tube_radius:.3f} m")
+        lines.append(f"path-following error after the transient: none ({_why_none(summary)}); "
+                     f"tube {summary.tube_radius:.3f} m")  # fmt: skip
     else:
         tube_ok = worst <= summary.tube_radius
         lines.append(
@@ -190,6 +191,16 @@ def format_summary(summary: Summary) -> str:
     if summary.resync_time is not None or len(summary.phases) > 1:
         lines.append(_settled(" again", summary.resync_time, summary.tolerance, "last phase"))
     return "\n".join(lines)
+
+
+def _why_none(summary: Summary) -> str:
+    """Why no path-following error counts: the run ends within the transient, no state lies after it (a step as long
+    as the run: "no vehicle was alive" said of vehicles alive throughout, QA report 2, F3), or all were down then."""
+    if not summary.phases or summary.phases[-1].end <= summary.transient:
+        return "the run ends within it"
+    if not summary.last_state_time >= summary.transient:
+        return f"no state lies after it: the last is at t = {summary.last_state_time:g} s"
+    return "no vehicle was alive after it"
 
 
 def _span(start: float, end: float) -> str:
