@@ -205,6 +205,31 @@ def test_cpf_stability_prints_the_verdict_and_margins(capsys):
     assert "a transmit period up to 7.3 s" in out
 
 
+def test_the_period_analysed_says_what_it_is():
+    """micromodem_tdma's 48 s is its event policy's heartbeat (2 frames of 24 s), not its "TDMA frame" (QA report 1,
+    #10); a period that whole frames round up, or the event policy's without TDMA, is said likewise."""
+
+    def said(name: str, *sets: str) -> str:
+        scenario = parse_scenario((CONFIGS / name).read_text(), name, sets)
+        return " ".join(describe(analyse(scenario, margins=False), scenario).split())
+
+    assert "a message every 48 s (the event policy's heartbeat: 2 TDMA frames of 24 s)," in said(TDMA_EXAMPLE)
+    assert "a message every 24 s (the event policy's heartbeat, 12 s, rounded up to a TDMA frame)," in said(
+        TDMA_EXAMPLE, "comms.transmit.heartbeat=12"
+    )
+    assert "a message every 36 s (the period, 30 s, rounded up to 3 TDMA frames of 12 s)," in said(
+        "paper.toml", "comms.tdma.slot=4", "comms.transmit.period=30"
+    )
+    assert "a message every 12 s (TDMA frame)," in said("paper.toml", "comms.tdma.slot=4")
+    assert "a message every 8 s (the event policy's heartbeat)," in said(
+        "paper.toml", "comms.transmit.policy=event", "comms.transmit.heartbeat=8"
+    )
+    assert "a message every 8 s, " in said("paper.toml", "comms.transmit.period=8")
+
+
+TDMA_EXAMPLE = "examples/micromodem_tdma.toml"
+
+
 def test_cpf_stability_and_validate_refuse_a_bad_scenario_alike(capsys):
     bad = ["--set", "comms.transmit.period=-1"]
     assert main(["stability", str(CONFIGS / "paper.toml"), *bad]) == 2

@@ -19,7 +19,7 @@ from supervisor.config.scenario_schema import Scenario
 PREDICTORS = ("first_order", "hold", "reference")  # the ones the analysis models (stability.model)
 
 
-def _period(scenario: Scenario, event: str) -> float:
+def transmit_period(scenario: Scenario, event: str = "heartbeat") -> float:
     """The transmit period; an event-triggered policy's at its heartbeat (event = "heartbeat": the longest silence
     it allows, for a verdict that errs on the safe side) or at the fastest it may send (event = "fastest": it sends
     whenever its neighbours' prediction of it errs, so their estimates are as good as that)."""
@@ -31,7 +31,7 @@ def _period(scenario: Scenario, event: str) -> float:
 
 def timing(scenario: Scenario, event: str = "heartbeat") -> tuple[float, tuple[float, ...]]:
     """(period or TDMA frame, each vehicle's offset as a fraction of it)."""
-    period, tdma, n = _period(scenario, event), scenario.comms.tdma, len(scenario.vehicles)
+    period, tdma, n = transmit_period(scenario, event), scenario.comms.tdma, len(scenario.vehicles)
     if tdma is None:
         return period, (0.0,) * n
     order = tdma.order or tuple(scenario.vehicle_ids)
@@ -92,5 +92,5 @@ def continuous(scenario: Scenario) -> bool:
     continuous loop, whose decay rate rises with k (its slow root k k2 lambda / (c + k lambda), c = k_zeta + k2, or
     (c + k lambda) / 2 once complex, rises with k), so the schedule would keep k: no analysis needed."""
     dt, c = scenario.scenario.step, scenario.comms
-    return (c.tdma is None and _period(scenario, "fastest") <= dt and delay_of(scenario) <= dt
+    return (c.tdma is None and transmit_period(scenario, "fastest") <= dt and delay_of(scenario) <= dt
             and loss_of(scenario) == 0.0 and c.range is None and not c.links)  # fmt: skip

@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
-from supervisor.config.links import delay_of, loss_of, needs_fitting, timing, unmodelled
+from supervisor.config.links import delay_of, loss_of, needs_fitting, timing, transmit_period, unmodelled
 from supervisor.config.scenario_schema import Scenario
 from supervisor.config.stability.margins import (
     MAX_LOSS_STATES,
@@ -119,7 +119,27 @@ def _how(s: Setting, scenario: Scenario) -> str:
     co = scenario.coordination
     gain = f"k {s.loop.k:.3g}" + (f" (fitted to the links; {co.k:g} given)" if s.loop.k != co.k else "")
     return (f"law {co.law!r} with {gain}, predictor {co.predictor!r}, a message every {s.period:g} s"
-            f"{' (TDMA frame)' if scenario.comms.tdma else ''}, {s.delay:g} s of delay, loss {s.loss:g}")  # fmt: skip
+            f"{_every(s, scenario)}, {s.delay:g} s of delay, loss {s.loss:g}")  # fmt: skip
+
+
+def _every(s: Setting, scenario: Scenario) -> str:
+    """What the period analysed is, unless plainly the transmit period or the TDMA frame: the event policy's
+    heartbeat (every step without one), held to whole TDMA frames. It said "every 48 s (TDMA frame)" of a 48 s
+    heartbeat on 24 s frames (QA report 1, #10)."""
+    tx, tdma = scenario.comms.transmit, scenario.comms.tdma
+    frames = round(s.period / (tdma.slot * len(tdma.order or scenario.vehicles))) if tdma else 0
+    held = "a TDMA frame" if frames == 1 else f"{frames} TDMA frames of {s.period / max(frames, 1):g} s"
+    if tx.policy == "event" and tx.heartbeat is None:
+        return f" (the event policy has no heartbeat: {held if tdma else 'every step'}, optimistic)"
+    if tx.policy != "event" and frames <= 1:
+        return " (TDMA frame)" if tdma else ""
+    own = "the event policy's heartbeat" if tx.policy == "event" else "the period"
+    asked = transmit_period(scenario)
+    if not tdma:
+        return f" ({own})"
+    if math.isclose(asked, s.period):
+        return f" ({own}: {held})"
+    return f" ({own}, {asked:g} s, rounded up to {held})"
 
 
 def _left_out(s: Setting, scenario: Scenario) -> str:
