@@ -75,6 +75,18 @@ def test_a_period_shorter_than_the_airtime_hears_nothing():
     assert any("no real modem sends faster" in w for w in warnings_of(PAPER, quiet))
 
 
+def test_a_period_left_unset_is_shown_as_every_step_not_none():
+    """The period unset means every step: "got None" read oddly (QA report 1, #12a); a heartbeat is named as such."""
+    [error] = errors_of(PAPER, ("comms.modem=whoi_micromodem_rate0",))
+    assert error.endswith("give a period of at least 6.4 s, got every step (0.1 s)")
+    quiet = ("comms.bitrate=80", "comms.packet_bytes=32")
+    [warning] = [w for w in warnings_of(PAPER, quiet) if "no real modem" in w]
+    assert warning.endswith("give a period of at least 3.2 s, got every step (0.1 s)")
+    event = ("comms.transmit.policy=event", "comms.transmit.heartbeat=1.0")
+    [warning] = [w for w in warnings_of(PAPER, (*quiet, *event)) if "no real modem" in w]
+    assert warning.endswith("got heartbeat 1.0")
+
+
 def test_receivers_out_of_range_at_the_start_are_named_with_their_odds():
     budget = ("comms.modem=whoi_micromodem_rate0", "comms.tdma.slot=4.0", "comms.transmit.period=12.0",
               "comms.range.type=link_budget", "comms.range.source_level=100.0",

@@ -68,7 +68,7 @@ def _always_on_air(sc: Scenario) -> Iterator[str]:
     if radio.half_duplex or radio.collisions:
         yield (
             f"comms.transmit.period: a vehicle transmits every {_t(t.interval)} on {_modem(sc, t)}: {why}; "
-            f"no packet can arrive: give a period of at least {_t(2 * t.airtime)}, got {sc.comms.transmit.period}"
+            f"no packet can arrive: give a period of at least {_t(2 * t.airtime)}, got {_asked(sc)}"
         )
 
 
@@ -78,8 +78,19 @@ def _on_air_warnings(sc: Scenario) -> Iterator[str]:
         yield (
             f"comms.transmit: a vehicle transmits every {_t(t.interval)} but a packet is {_t(t.airtime)} on air: "
             f"no real modem sends faster than its airtime; give a period of at least {_t(t.airtime)}, "
-            f"got {sc.comms.transmit.period}"
+            f"got {_asked(sc)}"
         )
+
+
+def _asked(sc: Scenario) -> str:
+    """The setting that has a vehicle transmit every interval (timing_of), as the value a message got: the period,
+    the event policy's heartbeat, or every step when neither is given ("got None" read oddly, QA report 1, #12a)."""
+    tx = sc.comms.transmit
+    if tx.policy == "periodic" and tx.period is not None:
+        return str(tx.period)
+    if tx.policy == "event" and tx.heartbeat is not None:
+        return f"heartbeat {tx.heartbeat}"
+    return f"every step ({sc.scenario.step:g} s)"
 
 
 def _dead_text(links: list[tuple[int, int, str]]) -> str:
