@@ -83,7 +83,8 @@ def test_the_reference_says_what_gamma_is_for_every_path_type_and_how_closest_is
         kind = path.model_fields["type"].annotation.__args__[0]  # type: ignore[union-attr]
         line = next(line for line in gamma_section.splitlines() if line.startswith(f'- `type = "{kind}"`'))
         assert "gamma" in line.split(":", 1)[1]
-    assert "within one period around gamma = 0 for periodic paths (circle, helix), nearest to gamma = 0" in text
+    # As supervisor.config.fleet.initial_gamma searches: around the first vehicle's gamma0, not around 0.
+    assert "on a circle or helix searched within half a period of the first [[vehicles]] entry's gamma0" in text
 
 
 def test_the_reference_gives_bounds_defaults_and_choices():

@@ -334,8 +334,10 @@ class VehicleSection(StrictModel):
     )
     gamma0: Annotated[Float, Field(ge=-MAX_GAMMA, le=MAX_GAMMA)] | Literal["closest"] = Field(
         default="closest",
-        description="initial path parameter (unit: the path's gamma), or closest: the nearest point searched within "
-        "one period around gamma = 0 for periodic paths (circle, helix), nearest to gamma = 0 otherwise",
+        description="initial path parameter (unit: the path's gamma), or closest: the gamma of the path's point "
+        "nearest the vehicle's position, on a circle or helix searched within half a period of the first [[vehicles]] "
+        "entry's gamma0 (its number, or if it is closest too, its own nearest point within half a period of "
+        "gamma = 0), on a line or lawnmower over the whole path; of equally near points, the one nearest that gamma0",
     )
     path: PathSpec = Field(description="the path p_d(gamma): a table with type = helix, circle, line or lawnmower")
     preset: str | None = Field(
