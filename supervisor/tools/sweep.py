@@ -152,8 +152,10 @@ def sweep(
                 _keep(runs_dir, spec, outcome, logs)
                 done += 1
                 tell(done, len(specs))
-        finally:  # a failed run, Ctrl-C: the runs not started are not (a Dask client would wait for them on exit)
-            for future in futures:
+        finally:  # a failed run, Ctrl-C: the runs not started are not (a Dask client would wait for them on exit).
+            # Local ones end with their workers (_stop_workers): Python 3.11's pool then sets BrokenProcessPool on
+            # each pending future in its own thread, a cancelled one included (InvalidStateError, a traceback).
+            for future in futures if cluster is not None else ():
                 future.cancel()
     rows = [json.loads((runs_dir / f"{s.run_id}.json").read_text()) for s in specs]
     write_csv(rows, out_dir / "results.csv")
