@@ -87,7 +87,7 @@ def test_a_vehicle_started_with_other_settings_is_refused_naming_it_and_the_diff
     assert run.returncode == 2, err
     last = err.splitlines()[-1]
     assert last.startswith("cpf: error: vehicle 2 runs another scenario than the supervisor (differs in coordination)")
-    assert vehicle.returncode == 0
+    assert vehicle.returncode == 2  # refused: bad input, so that a script starting it can tell (it was 0)
     assert "stopped by the supervisor: vehicle 2 runs another scenario" in vehicle_err, vehicle_err
     info = cpf("info", "run.mcap", cwd=scenario.parent)
     assert info.returncode == 0 and "scenario   paper (" in info.stdout, info.stdout + info.stderr

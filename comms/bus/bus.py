@@ -22,6 +22,7 @@ import zenoh
 
 from comms.bus.lifeline import watch
 from comms.records.messages import (
+    ANOTHER_SCENARIO,
     FLUSH_KEY,
     STOP_END,
     STOP_KEY,
@@ -34,6 +35,7 @@ from comms.records.messages import (
 from comms.records.run import Stop
 
 log = logging.getLogger(f"cpf.{__name__}")  # under cpf: silenced with it (docs/api.md)
+REFUSED = 2  # a refused process's exit code: bad input, as cpf's (supervisor.cli.terminal.EXIT_INPUT)
 POLL = 0.5  # s between checks while nothing arrives
 Handler = Callable[[str, bytes], None]
 
@@ -291,32 +293,32 @@ def serve(
         answer = _answer(session, hello_key(token), hello) if hello is not None else None
         alive = session.liveliness().declare_token(token)
         publishers = Publishers(session)
-        _loop(name, inbox, make_handler(publishers), publishers, cut)
+        reason = _loop(name, inbox, make_handler(publishers), publishers, cut)
         flush(session)  # the final report (bus._stopped) is on its way before the token goes
         alive.undeclare()
         if answer is not None:
             answer.undeclare()
-    return 0
+    # refused (it runs another scenario): exit 2, bad input, as cpf's, so that a script starting it can tell
+    return REFUSED if reason is not None and reason.startswith(f"{name} {ANOTHER_SCENARIO}") else 0
 
 
 def _loop(
     name: str, inbox: Inbox, handle: Handler | Timed, publishers: Publishers, cut: threading.Event | None
-) -> None:
-    """Every message to the handler (a Timed one also woken when its work is due) until the stop message, the
-    supervisor's disappearance or the end of the lifeline (cut)."""
+) -> str | None:
+    """Every message to the handler (a Timed one also woken when its work is due) until the stop message (its reason
+    returned), the supervisor's disappearance or the end of the lifeline (cut)."""
     timed = handle if isinstance(handle, Timed) else None
     while True:
         item = inbox.get(_timeout(timed))
         if isinstance(item, Received):
             if item.key == STOP_KEY:
-                _stopped(name, item.payload, handle, publishers)
-                return
+                return _stopped(name, item.payload, handle, publishers)
             handle(item.key, item.payload)
         elif item == f"-{SUPERVISOR_ALIVE}":
             log.warning("%s: the supervisor is gone, stopping", name)
-            return
+            return None
         if cut is not None and cut.is_set():
-            return  # the lifeline (or the host) said why
+            return None  # the lifeline (or the host) said why
         if timed is not None:
             timed.on_time()  # it checks what is due
 
@@ -327,10 +329,10 @@ def _answer(session: zenoh.Session, key: str, hello: Message) -> zenoh.Queryable
     return session.declare_queryable(key, lambda query: query.reply(key, payload))
 
 
-def _stopped(name: str, payload: bytes, handle: Handler | Timed | Reporting, publishers: Publishers) -> None:
-    """The supervisor's stop message: a Reporting handler's final report goes out (before the process's token
-    goes: the supervisor waits for that); the end of the run says nothing more; any other reason (e.g. this process
-    was refused) is told. Either way the process did what it was asked: exit code 0."""
+def _stopped(name: str, payload: bytes, handle: Handler | Timed | Reporting, publishers: Publishers) -> str:
+    """The supervisor's stop message, its reason returned: a Reporting handler's final report goes out (before the
+    process's token goes: the supervisor waits for that); the end of the run says nothing more; any other reason
+    (e.g. this process was refused) is told."""
     if isinstance(handle, Reporting):
         publishers.put(*handle.final_report())
     try:
@@ -339,6 +341,7 @@ def _stopped(name: str, payload: bytes, handle: Handler | Timed | Reporting, pub
         reason = f"a stop message that does not read ({exc})"
     if reason != STOP_END:
         log.warning("%s: stopped by the supervisor: %s", name, reason)
+    return reason
 
 
 def _timeout(timed: Timed | None) -> float:

@@ -40,6 +40,7 @@ SUPERVISOR_ALIVE = f"{ALIVE_PREFIX}/supervisor"
 COMMS_ALIVE = f"{ALIVE_PREFIX}/comms"
 HELLO_PREFIX = f"{ROOT}/hello"  # queryables: each process says which scenario it runs (Hello)
 STOP_END = "end of run"  # the stop message's reason (comms.records.run.Stop) when the run finished
+ANOTHER_SCENARIO = "runs another scenario than the supervisor"  # a stop's reason for a process it refused
 
 
 def state_key(vehicle_id: int) -> str:

@@ -16,7 +16,7 @@ import dataclasses
 import hashlib
 import json
 
-from comms.records.messages import Hello, Message
+from comms.records.messages import ANOTHER_SCENARIO, Hello, Message
 from supervisor.config.extension_checks import extension_identities
 from supervisor.config.plant import spreads
 from supervisor.config.scenario_schema import Scenario
@@ -64,6 +64,6 @@ def difference(name: str, expected: dict[str, str], got: Hello) -> str | None:
     differ = sorted(k for k in expected.keys() | got.sections.keys() if expected.get(k) != got.sections.get(k))
     where = f"differs in {', '.join(differ)}" if differ else "differs"
     return (
-        f"{name} runs another scenario than the supervisor ({where}): digest {got.digest[:12]}, "
+        f"{name} {ANOTHER_SCENARIO} ({where}): digest {got.digest[:12]}, "
         f"expected {want[:12]}; start it with the supervisor's scenario file, --set and --fault"
     )

@@ -165,8 +165,8 @@ def _start(run: Supervisor, endpoint: str) -> None:
         ids = ", ".join(str(v) for v in bus.remote)
         credentials = f" --credentials {bus.credentials_dir}/vehicle-N.json" if bus.credentials_dir else ""
         log.info(
-            "start vehicles %s by hand: cpf vehicle %s --id N --connect %s%s (with this run's --set and --fault)",
-            ids, run.launch.path, reachable(bus.connect or endpoint), credentials,
+            "start vehicle%s %s by hand: cpf vehicle %s --id N --connect %s%s (with this run's --set and --fault)",
+            "s" if len(bus.remote) > 1 else "", ids, run.launch.path, reachable(bus.connect or endpoint), credentials,
         )  # fmt: skip
     run.await_alive()
 
