@@ -33,6 +33,7 @@ def test_a_spawned_broker_loads_no_pydantic_and_proves_the_supervisors_scenario(
     scenario = load_scenario(PAPER, (), ())
     launch = Launch(PAPER, endpoint, BusOptions(), 7, tmp_path)
     handed = launch.handover("comms broker", broker_start(scenario, 7))
+    assert (tmp_path / "comms-broker.start").stat().st_mode & 0o777 == 0o600
     argv = launch.argv("comms", "--start-step", "0", *handed)
     expected = section_digests(scenario, 7)
     with open_session("router", listen=[endpoint]) as session:
@@ -58,7 +59,7 @@ def test_a_spawned_broker_loads_no_pydantic_and_proves_the_supervisors_scenario(
             watcher.undeclare()
             token.undeclare()
     assert code == 0
-    assert (tmp_path / "comms-broker.start").stat().st_mode & 0o777 == 0o600
+    assert not (tmp_path / "comms-broker.start").exists()  # read, and gone: nothing of the run left behind
 
 
 def _refused(plan: Path) -> subprocess.CompletedProcess[str]:

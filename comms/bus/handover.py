@@ -51,4 +51,15 @@ def read_private(path: Path, kind: type[T], what: str) -> T:
         raise ValueError(f"{path}: not {what} ({exc})") from None
     if not isinstance(start, kind):
         raise ValueError(f"{path}: not {what} (a {type(start).__name__})")
+    _consumed(path)
     return start
+
+
+def _consumed(path: Path) -> None:
+    """A hand-over read is gone (a restart gets a new one), and its directory, empty once every process has started,
+    is removed by whichever process sees the supervisor gone first (comms.bus.lifeline): a supervisor killed by
+    SIGKILL left it, with a start file per process, in /tmp (a new user)."""
+    from comms.bus.lifeline import remove_when_cut
+
+    path.unlink(missing_ok=True)
+    remove_when_cut(path.parent)

@@ -22,6 +22,7 @@ shell gave) has no mark and watches nothing: the supervisor's liveliness token r
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import logging
 import os
@@ -36,6 +37,13 @@ ORPHANED = 3  # exit code of a child ended by its lifeline (nobody reads it: the
 _PR_SET_PDEATHSIG = 1  # linux/prctl.h
 
 log = logging.getLogger(f"cpf.{__name__}")  # under cpf: silenced with it (docs/api.md)
+_LEFT: list[str] = []  # directories of the supervisor's this process removes, if empty, once it is gone
+
+
+def remove_when_cut(directory: os.PathLike[str] | str) -> None:
+    """directory (the run's private one, emptied as its processes start) removed if empty when the lifeline is cut:
+    the supervisor, gone by SIGKILL, could not. Only once it is gone: it may still hand a restart over there."""
+    _LEFT.append(os.fspath(directory))
 
 
 def launcher(argv: list[str], parent_death_signal: bool) -> list[str]:
@@ -81,6 +89,9 @@ class Lifeline:
                 return  # not a pipe after all: nothing to watch
         self.cut.set()
         log.warning("%s: the supervisor is gone (its lifeline closed), stopping", self._name)
+        for directory in _LEFT:  # not empty (a process not yet started) or another's lifeline was first: left
+            with contextlib.suppress(OSError):
+                os.rmdir(directory)
         time.sleep(GRACE)  # the child's own loop stops it meanwhile, cleanly; if not, it ends here
         os._exit(ORPHANED)
 
