@@ -236,9 +236,10 @@ def _write_metrics(path: Path, scenario: Scenario, result: RunResult, metrics: d
     metrics["links"] = result.link_counts
     if result.realtime is not None:
         metrics["realtime"] = result.realtime
-    if result.malformed is not None:
-        metrics["malformed"] = result.malformed  # reader -> key -> messages it dropped
-        metrics["dropped_by_cause"] = result.drop_causes or {}  # reader -> cause -> messages it dropped
+    # reader -> key (cause) -> messages it dropped; in process there is no bus, no reader, nothing dropped: the same
+    # keys all the same, so that both engines' files read alike (a new user diffed them)
+    metrics["malformed"] = result.malformed or {}
+    metrics["dropped_by_cause"] = result.drop_causes or {}
     metrics |= input_limits_metrics(at_input_limits(scenario, result.series))
     try:
         path.write_text(json.dumps(finite(metrics), indent=2, allow_nan=False))
