@@ -126,3 +126,18 @@ def test_a_log_of_another_tool_is_refused_not_reported_empty(tmp_path: Path, com
         2,
         [f"cpf: error: {foreign}: holds no record of a cpf run (no cpf/ message): not a cpf log"],
     )
+
+
+def test_a_message_that_is_not_json_is_not_sent_to_cpf_recover(tmp_path: Path):
+    """'cut short or damaged ...; try cpf recover' of a log whose chunks check but whose message is not JSON: recover
+    copied it as it was, and the recovered log got the same advice (a new user went round in a loop)."""
+    odd = tmp_path / "odd.mcap"
+    with odd.open("wb") as stream:
+        writer = Writer(stream)
+        writer.start(profile="", library="another tool")
+        schema = writer.register_schema(name="State", encoding="jsonschema", data=b'{"type": "object"}')
+        channel = writer.register_channel(topic="cpf/vehicle/1/state", message_encoding="json", schema_id=schema)
+        writer.add_message(channel, log_time=0, publish_time=0, data=b"garbage")
+        writer.finish()
+    code, lines = cli("report", str(odd), "--out", str(tmp_path / "out"))
+    assert code == 2 and "is not JSON" in lines[-1] and "recover" not in lines[-1], lines

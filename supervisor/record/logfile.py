@@ -229,8 +229,11 @@ def _decoded(path: Path, channel: Channel, data: bytes) -> Any:
         pass
     try:
         return json.loads(data)
-    except ValueError as exc:
-        raise damaged(path, f"a message on {channel.topic} is not JSON: {exc}") from None
+    except ValueError as exc:  # in a chunk that checks (its CRC, its size): written so, cpf recover keeps it as is
+        raise LogError(
+            f"{path}: a message on {channel.topic} is not JSON ({exc}): written so by another program than cpf, or "
+            "changed since; cpf reads no log that holds one"
+        ) from None
 
 
 def _reason(exc: BaseException) -> str:
