@@ -84,7 +84,7 @@ def test_the_reference_says_what_gamma_is_for_every_path_type_and_how_closest_is
         line = next(line for line in gamma_section.splitlines() if line.startswith(f'- `type = "{kind}"`'))
         assert "gamma" in line.split(":", 1)[1]
     # As supervisor.config.fleet.initial_gamma searches: around the first vehicle's gamma0, not around 0.
-    assert "on a circle or helix searched within half a period of the first [[vehicles]] entry's gamma0" in text
+    assert "on a circle or helix within half a period of the first [[vehicles]]'s gamma0" in text
 
 
 def test_the_reference_gives_bounds_defaults_and_choices():

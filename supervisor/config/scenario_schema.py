@@ -334,18 +334,16 @@ class VehicleSection(StrictModel):
     )
     gamma0: Annotated[Float, Field(ge=-MAX_GAMMA, le=MAX_GAMMA)] | Literal["closest"] = Field(
         default="closest",
-        description="initial path parameter (unit: the path's gamma), or closest: the gamma of the path's point "
-        "nearest the vehicle's position, on a circle or helix searched within half a period of the first [[vehicles]] "
-        "entry's gamma0 (its number, or if it is closest too, its own nearest point within half a period of "
-        "gamma = 0), on a line or lawnmower over the whole path; of equally near points, the one nearest that gamma0",
+        description="initial path parameter (the path's unit), or closest: the gamma of the path's point nearest the "
+        "vehicle, on a circle or helix within half a period of the first [[vehicles]]'s gamma0 (if closest too, its "
+        "nearest within half a period of 0), on a line or lawnmower anywhere; of ties, the nearest that gamma0",
     )
     path: PathSpec = Field(description="the path p_d(gamma): a table with type = helix, circle, line or lawnmower")
     preset: str | None = Field(
         default=None, description="this vehicle's preset (a mixed fleet); absent: [vehicle] preset",
         json_schema_extra=one_of(PRESETS),
     )  # fmt: skip
-    # Names and shapes are checked against this vehicle's preset by scenario_checks._overrides.
-    overrides: dict[str, Float | Vec3] = Field(
+    overrides: dict[str, Float | Vec3] = Field(  # names and shapes: held to its preset's (scenario_checks._overrides)
         default={}, max_length=50,
         description="parameter = value for this vehicle, applied after [vehicle] overrides (same names and units)",
     )  # fmt: skip

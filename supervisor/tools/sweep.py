@@ -152,10 +152,8 @@ def sweep(
                 _keep(runs_dir, spec, outcome, logs)
                 done += 1
                 tell(done, len(specs))
-        finally:  # a failed run, Ctrl-C: the runs not started are not (a Dask client would wait for them on exit).
-            # Local ones end with their workers (_stop_workers): Python 3.11's pool then sets BrokenProcessPool on
-            # each pending future in its own thread, a cancelled one included (InvalidStateError, a traceback).
-            for future in futures if cluster is not None else ():
+        finally:  # failed, Ctrl-C: a Dask client's runs not started are not (it would wait for them); local ones end
+            for future in futures if cluster is not None else ():  # with their workers (cancelled: InvalidStateError)
                 future.cancel()
     rows = [json.loads((runs_dir / f"{s.run_id}.json").read_text()) for s in specs]
     write_csv(rows, out_dir / "results.csv")
