@@ -89,3 +89,12 @@ def test_a_descending_path_is_trimmed_descending():
     assert pitch_moment(MODEL, REMUS, 0.42, math.radians(3.0)) != pytest.approx(
         pitch_moment(MODEL, REMUS, 0.42, math.radians(-3.0)), abs=0.1
     )
+
+
+def test_v_r_zero_is_warned_of_as_a_path_of_no_speed_is():
+    """A vehicle asked to stop on its path (v_r = 0) gets the warning a line of 1e-6 m/s gets; it was skipped as a
+    point of no speed, and the run left the tube by 9 m unsaid (a new user)."""
+    text = (CONFIGS / "ring10_1hz.toml").read_text()  # REMUS 100s, not trimmed neutral, on lines
+    warnings = [w for w in scenario_warnings(parse_scenario(text, "r.toml", ["coordination.v_r=0"])) if "trim" in w]
+    assert len(warnings) == 10, warnings
+    assert warnings[0].startswith("coordination.v_r: vehicle 1 finds no trim") and warnings[0].endswith("got 0")

@@ -118,9 +118,9 @@ def _needs(
     for gamma in _gammas(path, section.gamma0, v_r * sc.scenario.duration):
         tangent = path.evaluate_floats(float(gamma))[1]
         norm = math.sqrt(sum(x * x for x in tangent))
-        speed = abs(v_r) * norm
-        if speed <= 0.0:
+        if norm <= 0.0:
             continue
+        speed = abs(v_r) * norm  # v_r = 0 too: a vehicle asked to stop on its path (no trim then, as at 1e-6 m/s)
         climb = asin(clamp(math.copysign(1.0, v_r) * tangent[2] / norm, -1.0, 1.0))  # the way it is flown
         yield (*_held(model, plant, fins, speed, climb), speed, climb, norm)
 
