@@ -79,7 +79,7 @@ def test_the_summary_says_why_there_is_no_path_error_to_judge() -> None:
 
 
 def test_a_run_of_one_step_says_no_state_lies_after_the_transient_not_that_nobody_was_alive() -> None:
-    """step = duration: one state, at t = 0, of vehicles alive throughout (QA report 2, F3)."""
+    """step = duration: one state, at t = 0, of vehicles alive throughout (a new user)."""
     one = Series((1, 2), np.zeros(1), np.zeros((1, 2)), np.ones((1, 2)), np.full((1, 2), 0.5))
     text = format_summary(summarize(one, 60.0, [], 20.0, TUBE, 0.01))
     assert "path-following error after the transient: none (no state lies after it: the last is at t = 0 s)" in text
@@ -154,7 +154,7 @@ def test_the_summarys_columns_stay_aligned_whatever_the_values(huge: float) -> N
      (59.9, 60.0, "59.9-60"), (10.0, 10.05, "10-10.05"), (0.0, 0.001, "0-0.001"), (12.5, 250.0, "12-250")],
 )  # fmt: skip
 def test_a_phase_span_has_the_decimals_that_tell_its_ends_apart(start: float, end: float, span: str) -> None:
-    """Whole seconds printed a one-step phase as "10-10" (QA report 2, F8); whole-second phases read as before."""
+    """Whole seconds printed a one-step phase as "10-10" (a new user); whole-second phases read as before."""
     t = np.arange(0.0, 300.0, 0.001)
     series = Series((1, 2), t, np.zeros((t.size, 2)), np.zeros((t.size, 2)), np.zeros((t.size, 2)))
     text = format_summary(summarize(series, 300.0, [("blackout", start, end)], TRANSIENT, TUBE, 0.01))

@@ -57,7 +57,7 @@ def test_validate_applies_set_and_fault(capsys):
 
 
 def test_validate_gives_a_broker_kill_without_end_its_one_step(capsys):
-    """The broker restarts a step after the kill: validate said '[10, end) s' (QA report 2, F7)."""
+    """The broker restarts a step after the kill: validate said '[10, end) s' (a new user)."""
     code, out, err = _cpf(capsys, "validate", str(CONFIGS / "paper.toml"), "--fault", "kind=broker_kill,start=10")
     assert code == 0, err
     assert "broker_kill on [10, 10.1) s: broker" in " ".join(out.split())

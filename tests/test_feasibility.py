@@ -76,7 +76,7 @@ def test_a_period_shorter_than_the_airtime_hears_nothing():
 
 
 def test_a_period_left_unset_is_shown_as_every_step_not_none():
-    """The period unset means every step: "got None" read oddly (QA report 1, #12a); a heartbeat is named as such."""
+    """The period unset means every step: "got None" read oddly (a new user); a heartbeat is named as such."""
     [error] = errors_of(PAPER, ("comms.modem=whoi_micromodem_rate0",))
     assert error.endswith("give a period of at least 6.4 s, got every step (0.1 s)")
     quiet = ("comms.bitrate=80", "comms.packet_bytes=32")

@@ -24,7 +24,7 @@ from tests.conftest import CONFIGS, shortened
 
 DURATION = 30.0
 OVERRIDES = ["faults.0.start=3", "faults.0.end=6", "vehicles.1.preset=remus100_legacy"]  # a mixed fleet
-# a broker_kill without an end acts one step: it was described as lasting to the end of the run (QA report 2, F7)
+# a broker_kill without an end acts one step: it was described as lasting to the end of the run (a new user)
 EXTRA_FAULTS = ["kind=link_down,sender=1,receiver=2,start=4,end=5", "kind=broker_kill,start=20"]
 TOPIC_LINE = re.compile(r"^  (\S+)\s+(\d+)$")
 

@@ -206,8 +206,8 @@ def test_cpf_stability_prints_the_verdict_and_margins(capsys):
 
 
 def test_the_period_analysed_says_what_it_is():
-    """micromodem_tdma's 48 s is its event policy's heartbeat (2 frames of 24 s), not its "TDMA frame" (QA report 1,
-    #10); a period that whole frames round up, or the event policy's without TDMA, is said likewise."""
+    """micromodem_tdma's 48 s is its event policy's heartbeat (2 frames of 24 s), not its "TDMA frame" (a new
+    user); a period that whole frames round up, or the event policy's without TDMA, is said likewise."""
 
     def said(name: str, *sets: str) -> str:
         scenario = parse_scenario((CONFIGS / name).read_text(), name, sets)

@@ -195,7 +195,7 @@ def format_summary(summary: Summary) -> str:
 
 def _why_none(summary: Summary) -> str:
     """Why no path-following error counts: the run ends within the transient, no state lies after it (a step as long
-    as the run: "no vehicle was alive" said of vehicles alive throughout, QA report 2, F3), or all were down then."""
+    as the run: "no vehicle was alive" said of vehicles alive throughout, a new user), or all were down then."""
     if not summary.phases or summary.phases[-1].end <= summary.transient:
         return "the run ends within it"
     if not summary.last_state_time >= summary.transient:
@@ -206,7 +206,7 @@ def _why_none(summary: Summary) -> str:
 def _span(start: float, end: float) -> str:
     """'start-end' in whole seconds ("0-150"), or with the fewest decimals that tell the two ends apart and put each
     within a tenth of the span of its value, trailing zeros left out ("10-10.1", "10-10.05", not "10-10.1" for the
-    latter): whole seconds alone printed a one-step phase as "10-10" (QA report 2, F8)."""
+    latter): whole seconds alone printed a one-step phase as "10-10" (a new user)."""
     tolerance = (end - start) / 10
     decimals = next((d for d in range(MAX_DECIMALS) if _tells(start, end, d, tolerance)), MAX_DECIMALS)
     return f"{_decimal(start, decimals)}-{_decimal(end, decimals)}"

@@ -84,7 +84,7 @@ def _on_air_warnings(sc: Scenario) -> Iterator[str]:
 
 def _asked(sc: Scenario) -> str:
     """The setting that has a vehicle transmit every interval (timing_of), as the value a message got: the period,
-    the event policy's heartbeat, or every step when neither is given ("got None" read oddly, QA report 1, #12a)."""
+    the event policy's heartbeat, or every step when neither is given ("got None" read oddly, a new user)."""
     tx = sc.comms.transmit
     if tx.policy == "periodic" and tx.period is not None:
         return str(tx.period)

@@ -3,7 +3,7 @@ keys the policy does not read.
 
 The keys of both built-in policies sit side by side in [comms.transmit], so a key of the other one (heartbeat under
 "periodic", period under "event", either under an extension, which reads only `options`) was accepted and ignored:
-a user who wrote heartbeat = 0.5 expects a message at least every 0.5 s (QA report 2, F6). A key counts as given when
+a user who wrote heartbeat = 0.5 expects a message at least every 0.5 s (a new user). A key counts as given when
 the file or a --set wrote it (pydantic's model_fields_set), whatever its value: the keys have defaults, and writing
 the default is no less a sign of expecting it to act.
 """

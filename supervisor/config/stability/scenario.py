@@ -125,7 +125,7 @@ def _how(s: Setting, scenario: Scenario) -> str:
 def _every(s: Setting, scenario: Scenario) -> str:
     """What the period analysed is, unless plainly the transmit period or the TDMA frame: the event policy's
     heartbeat (every step without one), held to whole TDMA frames. It said "every 48 s (TDMA frame)" of a 48 s
-    heartbeat on 24 s frames (QA report 1, #10)."""
+    heartbeat on 24 s frames (a new user)."""
     tx, tdma = scenario.comms.transmit, scenario.comms.tdma
     frames = round(s.period / (tdma.slot * len(tdma.order or scenario.vehicles))) if tdma else 0
     held = "a TDMA frame" if frames == 1 else f"{frames} TDMA frames of {s.period / max(frames, 1):g} s"
