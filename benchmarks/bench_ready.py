@@ -47,7 +47,8 @@ def measure(repeat: int) -> dict[str, Any]:
     subscriber = session.liveliness().declare_subscriber(token, changed)
     private = tempfile.TemporaryDirectory(prefix="cpf-bench-ready-")
     plan = Path(private.name) / "vehicle-1.starts"
-    write_private(plan, vehicle_starts(load_scenario(ROOT / "configs/paper.toml", (), ()), [1]))
+    starts = vehicle_starts(load_scenario(ROOT / "configs/paper.toml", (), ()), [1])
+
     argv = [sys.executable, "-P", "-m", "supervisor.cli", "vehicle", str(ROOT / "configs/paper.toml"), "--id", "1"]
     argv += ["--plan", str(plan), "--connect", endpoint]
     group = ProcessGroup(fork="bench-ready")
@@ -55,7 +56,7 @@ def measure(repeat: int) -> dict[str, Any]:
         start = time.perf_counter()
         group.spawn("first", [*argv[:4], "validate", str(ROOT / "configs/paper.toml")]).process.wait()
         row: dict[str, Any] = {"fork_server_start_s": time.perf_counter() - start}  # with its first child's request
-        times = _starts(repeat, lambda how: _start(how, argv, group), came, went)
+        times = _starts(repeat, _handing(plan, starts, argv, group), came, went)
     finally:
         group.stop()
         subscriber.undeclare()
@@ -86,6 +87,17 @@ def _starts(
                 kill()
             went.wait(TIMEOUT)  # its token gone: the next start is not seen as this one
     return times
+
+
+def _handing(plan: Path, starts: object, argv: list[str], group: ProcessGroup) -> Callable[[str], Callable[[], Any]]:
+    """_start, its plan handed over first each time: a process consumes its hand-over file (comms.bus.handover)."""
+
+    def start_one(how: str) -> Callable[[], Any]:
+        plan.unlink(missing_ok=True)
+        write_private(plan, starts)
+        return _start(how, argv, group)
+
+    return start_one
 
 
 def _start(how: str, argv: list[str], group: ProcessGroup) -> Callable[[], Any]:
