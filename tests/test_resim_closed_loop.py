@@ -9,6 +9,7 @@ import io
 import json
 from pathlib import Path
 
+from comms.records.messages import META_KEY
 from comms.records.records import Heard, Transmission
 from supervisor.config.scenario import parse_scenario
 from supervisor.engine.inprocess import run_inprocess
@@ -51,3 +52,17 @@ def test_a_reception_whose_sender_did_not_transmit_then_is_dropped_and_counted()
     heard = loop.heard([Heard(2, 0.5, 9.0, 9.0), Heard(3, 0.5, 9.0, 9.0), Heard(2, 0.6, 9.0, 9.0)])
     assert [(h.sender, h.stamp) for h in heard] == [(2, 0.5)] and loop.unmatched == 2
     assert heard[0].gamma != 1.2345678 and abs(heard[0].gamma - 1.2345678) < 1e-6  # as the modem carries it: float32
+
+
+def test_a_resim_logs_the_extensions_it_ran_with_not_the_recordings(tmp_path):
+    """`cpf info` of a resim with another law listed the recorded law's extension (a new user): its meta is the
+    re-simulated scenario's, whole."""
+    log = _run(tmp_path, "run", [])
+    resimulate(log, ["coordination.law=saturated", "coordination.law_options={k_c=0.3}"], tmp_path / "s.mcap")
+
+    def laws(path: Path) -> list[str]:
+        (meta,) = [m for t, _, m in read_messages(path) if t == META_KEY]
+        return [e.split(" (")[0] for e in meta["extensions"] if e.startswith("law ")]
+
+    assert laws(log) == ["law corrected = vehicles.coordination:Corrected"]
+    assert laws(tmp_path / "s.mcap") == ["law saturated = vehicles.coordination:Saturated"]

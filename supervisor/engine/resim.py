@@ -26,8 +26,6 @@ from collections.abc import Iterator, Sequence
 from importlib import metadata
 from pathlib import Path
 
-import msgspec
-
 from comms.records.messages import META_KEY, Message, parse_rx, state_key, vehicle_of_key
 from comms.records.records import Heard
 from comms.records.state import WALL_CLOCK_FIELDS, StateReport
@@ -158,7 +156,8 @@ def resimulate(
     equal, first = 0, None
     with Recorder(out) as rec:
         rec.limit(sc.scenario.duration)
-        meta = msgspec.structs.replace(meta, engine="resim", scenario=sc.model_dump(mode="json"))
+        # what the re-simulation ran: its scenario and all derived from it (extensions, tube, faults), these versions
+        meta = RunMeta.of(sc, meta.scenario_file, meta.scenario_toml, meta.seed, "resim", meta.clock)
         rec.write(META_KEY, 0.0, meta.to_message())
         rec.note(RESIM, {"source": str(log), "set": " ".join(f"--set {o}" for o in overrides)})  # for cpf report
         for i, t, state, report in _restep(sc, heard, set(recorded), meta.seed, loop):
