@@ -48,6 +48,16 @@ def test_validate_a_good_scenario_says_what_would_run(capsys):
     assert len(out.strip().split("\n\n")) == 1
 
 
+def test_validate_names_an_extensions_policy_by_its_name_and_options(capsys):
+    """A user's policy was described as 'event-triggered (threshold 0.05)', the built-in's defaults (a new user)."""
+    policy = ["--set", "comms.transmit.policy=vehicles.transmission:PeriodicPolicy", "--set",
+              "comms.transmit.options={period=2.0}"]  # fmt: skip
+    code, out, err = _cpf(capsys, "validate", str(CONFIGS / "paper.toml"), *policy)
+    text = " ".join(out.split())
+    assert code == 0, err
+    assert "Transmission: vehicles.transmission:PeriodicPolicy (period 2)." in text and "event" not in text, text
+
+
 def test_validate_applies_set_and_fault(capsys):
     args = ["--set", "scenario.duration=100", "--fault", "kind=blackout,start=10,end=20"]
     code, out, err = _cpf(capsys, "validate", str(CONFIGS / "paper.toml"), *args)

@@ -153,6 +153,9 @@ def _comms(sc: Scenario) -> str:
 def _transmit(tx: TransmitSection, c: CommsSection, fleet: int) -> str:
     if tx.policy == "periodic":
         text = "periodic, " + (f"every {_num(tx.period)} s" if tx.period is not None else "every step")
+    elif tx.policy != "event":  # an extension's: it reads its options, none of the keys below (a new user)
+        options = ", ".join(f"{key} {_value(value)}" for key, value in sorted(tx.options.items()))
+        text = f"{tx.policy}" + (f" ({options})" if options else "")
     else:
         text = f"event-triggered (threshold {_num(tx.threshold)}"
         text += f", at least {_num(tx.min_interval)} s apart" if tx.min_interval else ""
