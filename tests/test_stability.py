@@ -322,6 +322,22 @@ def test_what_a_verdict_leaves_out_it_says():
     assert largest_period(setting_of(parse_scenario(paper, "p.toml", ["comms.transmit.period=300"]))) != 200.0
 
 
+@pytest.mark.parametrize(
+    ("change", "said"),
+    [
+        (["comms.loss_model=bernoulli", "comms.loss_model_options={p=0.9}"], "the loss model, range loss and links'"),
+        (["comms.links=[{sender=1,receiver=2,loss=0.5}]"], "links' own losses left out"),
+        (["comms.transmit.policy=vehicles.transmission:PeriodicPolicy", "comms.transmit.options={period=30.0}"],
+         "comms.transmit.policy vehicles.transmission:PeriodicPolicy left out: analysed as a message every step"),
+    ],
+)  # fmt: skip
+def test_a_loss_model_or_a_users_policy_the_verdict_leaves_out_it_says(change, said):
+    """90 % loss from a loss model was analysed as loss 0, a user's policy of a message every 30 s as one every step,
+    with no word of either (a new user)."""
+    scenario = parse_scenario((CONFIGS / "paper.toml").read_text(), "p.toml", change)
+    assert said in describe(analyse(scenario, margins=False), scenario)
+
+
 def test_writing_out_a_links_defaults_changes_nothing():
     """The delay's extra part was the mean over the [[comms.links]] listed: one link at 40 s gave 40.3 s of delay,
     and the same with the other three links written out at their default 0 gave 10.3 s, and another fitted k (a new

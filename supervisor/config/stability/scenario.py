@@ -149,6 +149,12 @@ def _left_out(s: Setting, scenario: Scenario) -> str:
     if s.loss > 0 and s.states() > MAX_LOSS_STATES:
         out.append(f"its loss left out: more than {MAX_LOSS_STATES} states for the mean-square analysis, so this "
                    "rate is the lossless loop's, faster than the loop's")  # fmt: skip
+    c = scenario.comms
+    if c.transmit.policy not in ("periodic", "event"):
+        out.append(f"comms.transmit.policy {c.transmit.policy} left out: analysed as a message every step")
+    if c.loss_model is not None or c.range is not None or any(link.loss or link.burst for link in c.links):
+        out.append("the loss model, range loss and links' own losses left out: only comms.loss and [comms.burst] are "
+                   "analysed")  # fmt: skip
     max_age = scenario.coordination.max_age
     if max_age is not None and max_age < s.period + s.delay:
         out.append(f"coordination.max_age {max_age:g} s left out: the law drops a neighbour older than that between "
