@@ -7,6 +7,7 @@ books, estimate ages. Runs of other lengths and steps share a batch; one that fa
 
 from __future__ import annotations
 
+import csv
 import io
 from typing import Any
 
@@ -166,6 +167,21 @@ def test_a_failed_run_of_a_batch_is_named_and_the_batch_rows_kept(tmp_path):
         sweep(scenario, params, 1, 1, tmp_path / "out", progress=None)
     kept = sorted(p.name.split("_seed")[0] for p in (tmp_path / "out" / "runs").glob("*.json"))
     assert kept == ["duration=10.0_step=0.1", "duration=10.0_step=0.2", "duration=10.1_step=0.1"]
+
+
+def test_a_failed_run_does_not_end_the_others_and_results_hold_their_rows(tmp_path):
+    """A run that fails is a result of the study: the other workers' runs go on, results.csv holds their rows, and
+    the sweep ends naming the failed one. Before, the first failure stopped every worker and wrote no results.csv (a
+    new user lost the rows of a batch already under way)."""
+    from supervisor.tools.sweep import Param, sweep
+
+    scenario = tmp_path / "paper.toml"
+    scenario.write_text(shortened((CONFIGS / "paper.toml").read_text(), 10.0))
+    params = [Param("scenario.duration", (10.0, 10.1)), Param("scenario.step", (0.2, 0.1))]  # 10.1 / 0.2 is not whole
+    with pytest.raises(SimulationError, match=r"failed: .* \(results\.csv holds the 3 runs that ended; a rerun"):
+        sweep(scenario, params, 1, 2, tmp_path / "out", progress=None)
+    with (tmp_path / "out" / "results.csv").open() as stream:
+        assert len(list(csv.DictReader(stream))) == 3
 
 
 def test_a_sweep_that_fails_says_so_in_one_line_and_its_idle_workers_end_quietly(tmp_path):

@@ -147,16 +147,26 @@ def sweep(
         tell(done, len(specs))
         workers = 0 if cluster is not None else local_jobs(jobs)
         futures = _submitted(submit, scenario_path, scenario_bytes, todo, engine, logs, workers, sizes)
+        failed: list[str] = []  # a run that fails is a result too: the others go on (a new user lost a batch's rows)
         try:
             for spec, outcome in _finished(futures, watch):  # a batch's failures after its rows: all are kept
-                _keep(runs_dir, spec, outcome, logs)
+                failed += _keep(runs_dir, spec, outcome, logs)
                 done += 1
                 tell(done, len(specs))
-        finally:  # failed, Ctrl-C: a Dask client's runs not started are not (it would wait for them); local ones end
-            for future in futures if cluster is not None else ():  # with their workers (cancelled: InvalidStateError)
+        finally:  # Ctrl-C, a lost cluster: a Dask client's runs not started are not (it would wait for them); local
+            for future in futures if cluster is not None else ():  # ones end with their workers (no InvalidStateError)
                 future.cancel()
-    rows = [json.loads((runs_dir / f"{s.run_id}.json").read_text()) for s in specs]
+    return _results(runs_dir, specs, out_dir, failed)
+
+
+def _results(runs_dir: Path, specs: list[RunSpec], out_dir: Path, failed: list[str]) -> list[dict[str, Any]]:
+    """Every row, in grid order, also to results.csv; SimulationError naming the first failed run if any failed (the
+    rows of the others written all the same; a rerun of the sweep runs the failed ones again)."""
+    rows = [json.loads(path.read_text()) for s in specs if (path := runs_dir / f"{s.run_id}.json").exists()]
     write_csv(rows, out_dir / "results.csv")
+    if failed:
+        also, kept = f"; {len(failed) - 1} more failed" if len(failed) > 1 else "", f"the {len(rows)} runs that ended"
+        raise SimulationError(f"{failed[0]}{also} (results.csv holds {kept}; a rerun runs the failed ones again)")
     return rows
 
 
@@ -360,19 +370,20 @@ def _done(runs_dir: Path, spec: RunSpec, logs: bool) -> bool:
     return (runs_dir / f"{spec.run_id}.json").exists() and (not logs or (runs_dir / f"{spec.run_id}.mcap").exists())
 
 
-def _keep(runs_dir: Path, spec: RunSpec, done: Any, logs: bool) -> None:
+def _keep(runs_dir: Path, spec: RunSpec, done: Any, logs: bool) -> list[str]:
     """A finished run's row to runs_dir/<id>.json, its log (run_logged) first to runs_dir/<id>.mcap (named in the
-    row's "log"), each whole or not at all (a resumed sweep trusts every file there); SimulationError naming the run
-    if it failed (done: its exception; the runs done are kept)."""
+    row's "log"), each whole or not at all (a resumed sweep trusts every file there); [] then, or, if it failed
+    (done: its exception), the line naming it."""
     if isinstance(done, CancelledError):  # not by us: a Dask client cancels its futures when it loses the scheduler
         raise SimulationError(f"sweep run {spec.run_id} was cancelled (Dask scheduler lost?)") from None
     if isinstance(done, Exception):
-        raise SimulationError(f"sweep run {spec.run_id} failed: {done}") from done
+        return [f"sweep run {spec.run_id} failed: {done}"]
     row, log = done if logs else (done, None)  # run_logged's (row, log), or run_one's row
     if log is not None:  # the row says where its log is (relative to the sweep's directory)
         _write_whole(runs_dir / f"{spec.run_id}.mcap", log)
         row = {**row, "log": f"{runs_dir.name}/{spec.run_id}.mcap"}
     _write_whole(runs_dir / f"{spec.run_id}.json", json.dumps(row).encode())
+    return []
 
 
 def _write_whole(path: Path, data: bytes) -> None:
