@@ -185,8 +185,9 @@ def test_a_failed_run_does_not_end_the_others_and_results_hold_their_rows(tmp_pa
 
 
 def test_a_sweep_that_fails_says_so_in_one_line_and_its_idle_workers_end_quietly(tmp_path):
-    """A failed run ends the sweep; its workers are stopped (sweep._stop_workers), and one that waits for work ends
-    quietly (sweep._worker_signal): the stop raised in the pool's loop printed a traceback per idle worker."""
+    """A failed run ends the sweep (once the others have); its workers are stopped (sweep._stop_workers), and one that
+    waits for work ends quietly (sweep._worker_signal): the stop raised in the pool's loop printed a traceback per idle
+    worker."""
     from tests.procs import cpf
 
     scenario = tmp_path / "paper.toml"
