@@ -365,3 +365,24 @@ def test_the_transforms_place_a_fleet_frame_at_the_centroid_for_the_camera(inpro
         fleet = frames["fleet"]
         assert fleet["parent_frame_id"] == "world" and fleet["rotation"] == {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}
         assert [fleet["translation"][axis] for axis in "xyz"] == pytest.approx(centre, abs=1e-4)
+
+
+@pytest.mark.parametrize(("interrupted", "code"), [(False, 1000), (True, 1001)], ids=["run-over", "interrupted"])
+def test_a_run_interrupted_closes_its_viewers_as_stopped_not_over(tmp_path: Path, interrupted: bool, code: int) -> None:
+    """Ctrl-C of `cpf run --live` told viewers 1000 'the run is over' (the log's close finished the view whatever
+    ended the run; a new user): the recorder's log closes on the way out either way, the view is over only if the
+    run is."""
+    from supervisor.record.recorder import Recorder
+
+    view = LiveView(0)
+    try:
+        with FoxgloveClient.open(view.port, {TRANSFORMS_TOPIC}) as client:
+            with contextlib.suppress(KeyboardInterrupt), Recorder(tmp_path / "r.mcap", False, view):
+                if interrupted:
+                    raise KeyboardInterrupt
+            view.stop()
+            assert client.receive() is None
+            assert client.close_code == code
+    finally:
+        view.stop()
+    assert logfile.read_messages(tmp_path / "r.mcap") == []  # closed whole either way

@@ -247,7 +247,9 @@ class Recorder:
         why = "no space left on device" if exc.errno == errno.ENOSPC else f"cannot write ({exc.strerror or exc})"
         return LogWriteError(f"{why} writing {self.path}; `cpf recover {self.path}` keeps what was written")
 
-    def close(self) -> None:
+    def close(self, over: bool = True) -> None:
+        """The log finished and closed; over: the run ended (its live view's viewers are told 1000, else 1001 as
+        the view stops: an interrupted run was reported over, a new user found)."""
         if self.failed:
             self._abandon()
             return
@@ -260,7 +262,7 @@ class Recorder:
                     self._writer.finish()
                 finally:
                     self._stream.close()
-            if live is not None:  # the run is over: the live view's last instants
+            if live is not None and over:  # the run is over: the live view's last instants
                 live.finish()
             if self.refused:
                 log.warning("%s: %d message(s) not recorded: %s", self.path, self.refused.total(), self._refusals())
@@ -291,7 +293,7 @@ class Recorder:
     def __exit__(
         self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
     ) -> None:
-        self.close()
+        self.close(over=exc_type is None)
 
 
 class Tally:
