@@ -279,3 +279,24 @@ def test_records_that_do_not_read_are_replayed_as_they_are_and_never_acted_on(ra
     garbage = {**start, "phase": "half-way"}  # same kind and detail, a phase no fault has
     records = [("cpf/run/fault", 10, start), ("cpf/run/fault", 20, garbage)]
     assert [m for _, _, m in latched(records)] == [start]
+
+
+def test_a_looping_replay_stopped_by_ctrl_c_exits_130_as_every_command(log, tmp_path):
+    """`cpf replay --loop` exited 0 when interrupted, where every other command (and replay without --loop) exits
+    130 (a new user)."""
+    import signal
+
+    from tests.procs import start_cpf
+
+    proc = start_cpf(["replay", str(log), "--loop", "--speed", "20", "--delay", "0"], tmp_path)
+    try:
+        assert proc.stdout is not None
+        for line in proc.stdout:
+            if "listening on" in line:  # its router is up: the replay is under way
+                break
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=30)
+    finally:
+        proc.kill()
+        proc.communicate()
+    assert proc.returncode == 130, err

@@ -125,7 +125,8 @@ def replay(args: argparse.Namespace) -> int:
     finally:
         progress.close()
     print(report.describe())
-    return EXIT_INTERRUPTED if report.interrupted and not args.loop else 0
+    # Ctrl-C or SIGTERM is 130 as for every command, --loop too (which only a stop or a quit ends: a quit is 0)
+    return EXIT_INTERRUPTED if report.interrupted else 0
 
 
 def recover(args: argparse.Namespace) -> int:
