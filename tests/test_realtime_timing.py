@@ -6,7 +6,7 @@ import pytest
 
 from comms.records.messages import Message, rx_message
 from comms.records.records import Reception
-from supervisor.engine.realtime_timing import RealtimeTiming, format_timing
+from supervisor.engine.realtime_timing import RealtimeTiming, fell_behind, format_timing
 
 DT = 0.1
 
@@ -47,3 +47,24 @@ def test_fields_that_are_not_numbers_are_left_out_and_never_raise() -> None:
 
 def test_a_run_without_deliveries_says_so() -> None:
     assert format_timing(RealtimeTiming(DT).as_dict()).startswith("realtime: no deliveries")
+
+
+def test_a_realtime_run_that_cannot_keep_its_speed_says_so(tmp_path, paper_text) -> None:
+    """--speed 50 on a machine that gave 2.6x said nothing (a new user): a warning with what it ran at. The paper in
+    process goes at ~100x here; 100000x no machine gives."""
+    from tests.conftest import shortened
+    from tests.procs import cpf
+
+    scenario = tmp_path / "p.toml"
+    scenario.write_text(shortened(paper_text, 2.0))
+    args = ["run", str(scenario), "--engine", "inprocess", "--clock", "realtime", "--quiet", "--out", "r.mcap"]
+    done = cpf(*args, "--speed", "100000", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert "the run fell behind --speed 100000: it ran at " in done.stderr, done.stderr
+    kept = cpf(*args, "--speed", "2", cwd=tmp_path)
+    assert kept.returncode == 0 and "fell behind" not in kept.stderr, kept.stderr
+
+
+def test_falling_behind_is_below_the_kept_share_of_the_speed() -> None:
+    assert fell_behind(10.0, 1.0, 10.0) is None and fell_behind(10.0, 1.04, 10.0) is None
+    assert fell_behind(10.0, 1.1, 10.0) is not None

@@ -175,10 +175,9 @@ def _report_run(args: argparse.Namespace, scenario: Scenario, result: RunResult,
     from supervisor.analysis.saturation_summary import at_limit, format_limits
     from supervisor.analysis.summary import format_summary, phases_end, summarize
     from supervisor.config.derived import intervals, tube_radius
-    from supervisor.engine.realtime_timing import format_timing
+    from supervisor.engine.realtime_timing import fell_behind, format_timing
 
-    rep, duration = scenario.report, scenario.scenario.duration
-    tube = tube_radius(scenario)
+    rep, duration, tube = scenario.report, scenario.scenario.duration, tube_radius(scenario)
     end = phases_end(result.series.t, scenario.scenario.step, duration)  # a run stopped early: where its data ends
     summary = summarize(result.series, end, intervals(scenario), rep.transient, tube, rep.coordination_tolerance)
     comms = comms_summary(result.link_stats, result.stats_history, result.estimate_ages)
@@ -188,6 +187,8 @@ def _report_run(args: argparse.Namespace, scenario: Scenario, result: RunResult,
         metrics["divergence"] = as_metric(diverged)
         _write_metrics(args.metrics, scenario, result, metrics)
     print(_headline(args, scenario, result, out))
+    if args.clock == "realtime" and (behind := fell_behind(duration, result.stepping_time, args.speed or 1.0)):
+        log.warning("%s", behind)
     lines = (
         format_summary(summary),
         _divergence_lines(args, scenario, diverged),
@@ -197,9 +198,7 @@ def _report_run(args: argparse.Namespace, scenario: Scenario, result: RunResult,
         format_timing(result.realtime) if result.realtime is not None else None,
         format_malformed(result.malformed or {}, result.drop_causes or {}),
     )
-    for line in lines:
-        if line is not None:
-            print(line)
+    print("\n".join(line for line in lines if line is not None))
 
 
 def _headline(args: argparse.Namespace, scenario: Scenario, result: RunResult, out: Path) -> str:

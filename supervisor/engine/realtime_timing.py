@@ -90,3 +90,18 @@ def _list(value: object) -> list[Any]:
 
 def _number(value: object) -> TypeGuard[float]:
     return isinstance(value, int | float) and not isinstance(value, bool) and bool(np.isfinite(value))
+
+
+KEPT = 0.95  # of the speed asked: a realtime run below it fell behind the wall clock
+
+
+def fell_behind(duration: float, stepping: float, speed: float) -> str | None:
+    """A warning if a realtime run of duration simulated s, stepped in stepping wall s, ran slower than KEPT of the
+    speed asked (a machine that cannot keep --speed 50 said nothing: a new user), else None."""
+    achieved = duration / max(stepping, 1e-9)
+    if achieved >= KEPT * speed:
+        return None
+    return (
+        f"the run fell behind --speed {speed:g}: it ran at {achieved:.3g}x real time, the most this machine gave it "
+        "(steps began late, and receptions may have been taken a step late)"
+    )
