@@ -98,3 +98,13 @@ def test_v_r_zero_is_warned_of_as_a_path_of_no_speed_is():
     warnings = [w for w in scenario_warnings(parse_scenario(text, "r.toml", ["coordination.v_r=0"])) if "trim" in w]
     assert len(warnings) == 10, warnings
     assert warnings[0].startswith("coordination.v_r: vehicle 1 finds no trim") and warnings[0].endswith("got 0")
+
+
+def test_a_path_faster_than_the_vehicles_top_speed_is_warned_of():
+    """~13 m/s asked of a REMUS 100 (top speed 2.5 m/s) passed validate unsaid (a new user): the paper's helices at
+    v_r 10 ask 3.2 and 4.0 m/s of vehicles 1 and 3 (radius 20 and 25 m), 2.4 m/s of vehicle 2 (15 m)."""
+    text = (CONFIGS / "paper.toml").read_text()
+    fast = [w for w in scenario_warnings(parse_scenario(text, "p.toml", ["coordination.v_r=10"])) if "top speed" in w]
+    assert [w.split(" is asked")[0] for w in fast] == ["coordination.v_r: vehicle 1", "coordination.v_r: vehicle 3"]
+    assert "above its top speed of 2.5 m/s" in fast[0], fast
+    assert not [w for w in scenario_warnings(parse_scenario(text, "p.toml")) if "top speed" in w]
