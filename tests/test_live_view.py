@@ -386,3 +386,30 @@ def test_a_run_interrupted_closes_its_viewers_as_stopped_not_over(tmp_path: Path
     finally:
         view.stop()
     assert logfile.read_messages(tmp_path / "r.mcap") == []  # closed whole either way
+
+
+def test_replay_tells_the_first_subscriptions_then_one_line(monkeypatch, capsys) -> None:
+    """One viewer of a 100-vehicle log printed 508 'a client subscribed to' lines (a new user)."""
+    import supervisor.record.live
+    from supervisor.cli.live_view import TOLD, live_view
+
+    class Fake:
+        url = "ws://here"
+
+        def __init__(self, port: int, on_subscribe: Any) -> None:
+            self.on_subscribe = on_subscribe
+
+        def __enter__(self) -> Fake:
+            return self
+
+        def __exit__(self, *exc: object) -> None:
+            return None
+
+    monkeypatch.setattr(supervisor.record.live, "LiveView", Fake)
+    with live_view(0, "cpf replay", tell_subscriptions=True) as view:
+        for n in range(3 * TOLD):
+            view.on_subscribe(f"topic/{n}")  # type: ignore[union-attr]
+    lines = capsys.readouterr().err.splitlines()[1:]
+    assert lines == [f"cpf replay: a client subscribed to topic/{n}" for n in range(TOLD)] + [
+        "cpf replay: (more subscriptions, not shown)"
+    ]
