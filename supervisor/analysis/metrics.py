@@ -12,7 +12,8 @@ Definitions (t: simulation time of the recorded vehicle states, s):
   until the first fault starts (the end of the run without faults); reconvergence time: the same from the end of
   the last fault to the end of the run, None if the last fault never ends. None: never below to the end of it.
 - steady-state coordination error: the largest coordination error over the final STEADY_STATE_WINDOW = 50 s of the
-  recorded states, [t_end - 50 s, t_end], whatever faults act then.
+  recorded states after report.transient, [max(t_end - 50 s, transient), t_end], whatever faults act then (NaN for
+  a run that ends within its transient).
 - path following: the largest |p - p_d| after report.transient, the tube radius |delta| + report.tube_margin, and
   whether it stayed inside (None: no state after the transient).
 - gamma_dot at the end: each vehicle's last recorded gamma_dot.
@@ -181,19 +182,27 @@ def _step_index(t: np.ndarray, step: float) -> np.ndarray:
     return np.rint(t / step).astype(np.int64) if step > 0 else t
 
 
+def steady_error(series: Series, transient: float) -> tuple[float, list[float]]:
+    """The steady-state coordination error and its window [from, to] s: the largest over the final
+    STEADY_STATE_WINDOW s of the run that lie after the transient; NaN if none does (a run shorter than its transient
+    and the window: its "steady" error had been its transient's, above the peak after it; a new user)."""
+    coord, end = coordination_error(series.gamma), float(series.t[-1])
+    start = max(end - STEADY_STATE_WINDOW, transient, float(series.t[0]))
+    final = series.t >= start
+    return nan_max(coord[final]) if final.any() else math.nan, [min(start, end), end]
+
+
 def _coordination(series: Series, summary: Summary) -> dict[str, Any]:
-    coord = coordination_error(series.gamma)
     worst = summary.max_path_error_after_transient
-    end = float(series.t[-1])
-    final = series.t >= end - STEADY_STATE_WINDOW
+    steady, window = steady_error(series, summary.transient)
     after_faults = summary.phases[-1].name == "after faults"
     return {
         "coordination": {
             "tolerance": summary.tolerance,
             "convergence_time": summary.sync_time,
             "reconvergence_time": summary.resync_time if after_faults else None,
-            "steady_state_error": nan_max(coord[final]),
-            "steady_state_window": [max(end - STEADY_STATE_WINDOW, float(series.t[0])), end],
+            "steady_state_error": steady,
+            "steady_state_window": window,
             "phases": [_phase(p, series.vehicle_ids) for p in summary.phases],
         },
         "path_following": {

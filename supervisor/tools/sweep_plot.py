@@ -130,7 +130,8 @@ def _positions(param: Param) -> list[tuple[float, Any]]:
 
 
 def _values(rows: Sequence[dict[str, Any]], key: str, value: Any, column: str) -> NDArray[np.float64]:
-    return np.array([float(r[column]) for r in rows if r.get(key) == value and r.get(column) is not None])
+    values = np.array([float(r[column]) for r in rows if r.get(key) == value and r.get(column) is not None])
+    return values[~np.isnan(values)]  # NaN: none to draw (a steady error of a run that ends within its transient)
 
 
 def _numeric(values: Sequence[Any]) -> bool:

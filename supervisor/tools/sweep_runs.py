@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from supervisor.analysis.metrics import STEADY_STATE_WINDOW
+from supervisor.analysis.metrics import steady_error
 from supervisor.analysis.summary import coordination_error
 from supervisor.config.toml_writer import toml_value
 
@@ -212,11 +212,10 @@ def row_of(spec: RunSpec, scenario: Any, result: Any) -> dict[str, Any]:
 def _measures(result: Any, summary: Any, scenario: Any) -> dict[str, Any]:
     series = result.series
     coordination = coordination_error(series.gamma)
-    tail = series.t >= series.t[-1] - STEADY_STATE_WINDOW
     settled = series.t >= scenario.report.transient  # none if the run ends within its transient: NaN, as the summary's
     # path error then (it was the last sample's, below the steady error of the samples before it)
     return {
-        "steady_coordination_error": float(coordination[tail].max()),
+        "steady_coordination_error": steady_error(series, scenario.report.transient)[0],  # the report's, the same
         "peak_coordination_error_after_transient": float(coordination[settled].max()) if settled.any() else math.nan,
         "sync_time": summary.sync_time,
         "resync_time": summary.resync_time,
