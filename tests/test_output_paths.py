@@ -110,17 +110,22 @@ def test_metrics_on_a_full_device_is_one_line_naming_it(tmp_path: Path):
     assert (code, lines[-1]) == (1, "cpf: error: /dev/full: No space left on device"), lines
 
 
+def another_tools_log(path: Path, topic: str, data: bytes) -> Path:
+    """An MCAP of one JSON-encoded message on topic, written by another tool than cpf."""
+    with path.open("wb") as stream:
+        writer = Writer(stream)
+        writer.start(profile="", library="another tool")
+        schema = writer.register_schema(name="Any", encoding="jsonschema", data=b'{"type": "object"}')
+        channel = writer.register_channel(topic=topic, message_encoding="json", schema_id=schema)
+        writer.add_message(channel, log_time=0, publish_time=0, data=data)
+        writer.finish()
+    return path
+
+
 @pytest.mark.parametrize("command", ["report", "export"])
 def test_a_log_of_another_tool_is_refused_not_reported_empty(tmp_path: Path, command: str):
     """Four empty figures and a metrics.json of nulls, or six empty tables, exit 0."""
-    foreign = tmp_path / "foreign.mcap"
-    with foreign.open("wb") as stream:
-        writer = Writer(stream)
-        writer.start(profile="", library="another tool")
-        schema = writer.register_schema(name="Imu", encoding="jsonschema", data=b'{"type": "object"}')
-        channel = writer.register_channel(topic="/imu", message_encoding="json", schema_id=schema)
-        writer.add_message(channel, log_time=0, publish_time=0, data=b'{"x": 1}')
-        writer.finish()
+    foreign = another_tools_log(tmp_path / "foreign.mcap", "/imu", b'{"x": 1}')
     code, lines = cli(command, str(foreign), "--out", str(tmp_path / "out"))
     assert (code, lines) == (
         2,
@@ -131,13 +136,6 @@ def test_a_log_of_another_tool_is_refused_not_reported_empty(tmp_path: Path, com
 def test_a_message_that_is_not_json_is_not_sent_to_cpf_recover(tmp_path: Path):
     """'cut short or damaged ...; try cpf recover' of a log whose chunks check but whose message is not JSON: recover
     copied it as it was, and the recovered log got the same advice (a new user went round in a loop)."""
-    odd = tmp_path / "odd.mcap"
-    with odd.open("wb") as stream:
-        writer = Writer(stream)
-        writer.start(profile="", library="another tool")
-        schema = writer.register_schema(name="State", encoding="jsonschema", data=b'{"type": "object"}')
-        channel = writer.register_channel(topic="cpf/vehicle/1/state", message_encoding="json", schema_id=schema)
-        writer.add_message(channel, log_time=0, publish_time=0, data=b"garbage")
-        writer.finish()
+    odd = another_tools_log(tmp_path / "odd.mcap", "cpf/vehicle/1/state", b"garbage")
     code, lines = cli("report", str(odd), "--out", str(tmp_path / "out"))
     assert code == 2 and "is not JSON" in lines[-1] and "recover" not in lines[-1], lines
