@@ -413,3 +413,27 @@ def test_replay_tells_the_first_subscriptions_then_one_line(monkeypatch, capsys)
     assert lines == [f"cpf replay: a client subscribed to topic/{n}" for n in range(TOLD)] + [
         "cpf replay: (more subscriptions, not shown)"
     ]
+
+
+def test_a_viewer_that_reads_nothing_does_not_hold_the_views_stop() -> None:
+    """A viewer that stopped reading held `cpf run --live` ~50 s after the run (a new user): the server's stop waited
+    on the relay, whose reading of the server waited on that viewer. The relay lets such a viewer go after STALLED s."""
+    import time
+
+    from supervisor.record.live_relay import STALLED
+
+    view = LiveView(0)
+    try:
+        view.publish("test/bulk", 0.0, {"n": 0})
+        with FoxgloveClient.open(view.port, {"test/bulk"}) as client:
+            client.subscribe(["test/bulk"])  # from here on it reads nothing
+            assert wait_until(lambda: view._channels["test/bulk"].has_sinks(), timeout=10)
+            blob = "x" * 20000
+            for n in range(2000):  # 40 MB: more than every buffer between the server and the viewer holds
+                view.publish("test/bulk", n * 0.001, {"n": n, "blob": blob})
+            view.finish()
+            began = time.monotonic()
+            view.stop()
+            assert time.monotonic() - began < STALLED + 5.0
+    finally:
+        view.stop()

@@ -45,6 +45,10 @@ SDK_SUBPROTOCOL = Subprotocol("foxglove.sdk.v1")  # what foxglove-sdk's server a
 SUBPROTOCOLS = [SDK_SUBPROTOCOL, Subprotocol("foxglove.websocket.v1")]  # what the relay answers to, in preference
 DRAIN_WAIT = 5.0  # s for the connections to pass on what the stopped server sent, and close
 BACKEND_WAIT = 10.0  # s to connect to the server on the same host (a loaded machine), or to close a connection to it
+# s a client may take nothing before it is let go: the relay's reading of the server waited on it, and the server's
+# stop at the run's end waited on the relay (a viewer that stopped reading held `cpf run --live` ~50 s; a new user)
+STALLED = 5.0
+CLOSE_WAIT = 2.0  # s for a client to answer a close (one that reads answers in ms)
 RELAY_SOCKET_ENV = "CPF_RELAY_SOCKET"  # the relay process's listening socket: its inherited descriptor
 RELAY_CONTROL_ENV = "CPF_RELAY_CONTROL"  # the relay process's control pipe: its inherited read end
 
@@ -102,7 +106,7 @@ class Relay:
         if self._handlers:
             await asyncio.wait(set(self._handlers), timeout=DRAIN_WAIT)
         for connection in self._server.connections:  # any left
-            await connection.close(*self._closing)
+            await _closed(connection, self._closing)
         await self._server.wait_closed()
 
     async def _relay(self, client: ServerConnection) -> None:
@@ -121,26 +125,48 @@ class Relay:
             if client.close_code is None:  # the server's side ended first: its code is the one stop will be given
                 with contextlib.suppress(TimeoutError):
                     await asyncio.wait_for(self._told.wait(), DRAIN_WAIT)
-            await client.close(*self._closing)  # nothing if the client closed: its close was answered
+            await _closed(client, self._closing)  # nothing if the client closed: its close was answered
             self._handlers.discard(task)
 
 
-async def _both_ways(client: ServerConnection, server: ClientConnection) -> None:
-    pumps = [asyncio.create_task(_pump(client, server)), asyncio.create_task(_pump(server, client))]
+class _Stalled(Exception):
+    """A client took nothing for STALLED s: let go."""
+
+
+async def _closed(client: ServerConnection, code: tuple[int, str]) -> None:
+    """client closed with code; one that does not answer within CLOSE_WAIT (it reads nothing) let go at once: the
+    close handshake waited for it the server's close_timeout (10 s), twice at a stop."""
     try:
-        await asyncio.wait(pumps, return_when=asyncio.FIRST_COMPLETED)
+        await asyncio.wait_for(client.close(*code), CLOSE_WAIT)
+    except TimeoutError:
+        client.transport.abort()
+
+
+async def _both_ways(client: ServerConnection, server: ClientConnection) -> None:
+    pumps = [asyncio.create_task(_pump(client, server)), asyncio.create_task(_pump(server, client, STALLED))]
+    try:
+        done, _ = await asyncio.wait(pumps, return_when=asyncio.FIRST_COMPLETED)
     finally:
         for pump in pumps:
             pump.cancel()
+    if any(not p.cancelled() and p.exception() is not None for p in done):  # a client let go: its server side too,
+        server.transport.abort()  # at once (a close handshake reads the frames queued for it, which nobody takes)
 
 
-async def _pump(source: ServerConnection | ClientConnection, sink: ServerConnection | ClientConnection) -> None:
-    """Each frame from source to sink, until either closes."""
+async def _pump(
+    source: ServerConnection | ClientConnection, sink: ServerConnection | ClientConnection, limit: float | None = None
+) -> None:
+    """Each frame from source to sink, until either closes, or until a frame waits longer than limit s to be taken
+    (a client that does not read: it is let go)."""
     try:
         async for frame in source:
-            await sink.send(frame)
+            await asyncio.wait_for(sink.send(frame), limit)
     except ConnectionClosed:
         return
+    except TimeoutError:  # no close handshake with a peer that reads nothing: it would wait for it too
+        log.info("live view: %s took nothing for %g s, let go", sink.remote_address, limit)
+        sink.transport.abort()
+        raise _Stalled from None
 
 
 def main(backend: str) -> None:
