@@ -129,10 +129,6 @@ class Relay:
             self._handlers.discard(task)
 
 
-class _Stalled(Exception):
-    """A client took nothing for STALLED s: let go."""
-
-
 async def _closed(client: ServerConnection, code: tuple[int, str]) -> None:
     """client closed with code; one that does not answer within CLOSE_WAIT (it reads nothing) let go at once: the
     close handshake waited for it the server's close_timeout (10 s), twice at a stop."""
@@ -149,24 +145,25 @@ async def _both_ways(client: ServerConnection, server: ClientConnection) -> None
     finally:
         for pump in pumps:
             pump.cancel()
-    if any(not p.cancelled() and p.exception() is not None for p in done):  # a client let go: its server side too,
-        server.transport.abort()  # at once (a close handshake reads the frames queued for it, which nobody takes)
+    if any(not p.cancelled() and p.exception() is None and p.result() for p in done):  # a client let go: its server
+        server.transport.abort()  # side too, at once (a close handshake reads the frames queued for it: nobody takes)
 
 
 async def _pump(
     source: ServerConnection | ClientConnection, sink: ServerConnection | ClientConnection, limit: float | None = None
-) -> None:
-    """Each frame from source to sink, until either closes, or until a frame waits longer than limit s to be taken
-    (a client that does not read: it is let go)."""
+) -> bool:
+    """Each frame from source to sink, until either closes (False), or until a frame waits longer than limit s to be
+    taken (True: a sink that does not read, let go)."""
     try:
         async for frame in source:
             await asyncio.wait_for(sink.send(frame), limit)
     except ConnectionClosed:
-        return
+        return False
     except TimeoutError:  # no close handshake with a peer that reads nothing: it would wait for it too
         log.info("live view: %s took nothing for %g s, let go", sink.remote_address, limit)
         sink.transport.abort()
-        raise _Stalled from None
+        return True
+    return False
 
 
 def main(backend: str) -> None:
