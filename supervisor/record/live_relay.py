@@ -156,7 +156,8 @@ async def _pump(
     taken (True: a sink that does not read, let go)."""
     try:
         async for frame in source:
-            await asyncio.wait_for(sink.send(frame), limit)
+            async with asyncio.timeout(limit):  # a timer, not wait_for's task per frame (every message of the view)
+                await sink.send(frame)
     except ConnectionClosed:
         return False
     except TimeoutError:  # no close handshake with a peer that reads nothing: it would wait for it too
