@@ -38,6 +38,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 import numpy as np
 
 from comms.broker.stats import clamp_lambda2
+from comms.records.records import FloatArray
 from comms.records.reports import CommsStats
 from supervisor.analysis.divergence import as_metric, divergence
 from supervisor.analysis.summary import (
@@ -182,19 +183,20 @@ def _step_index(t: np.ndarray, step: float) -> np.ndarray:
     return np.rint(t / step).astype(np.int64) if step > 0 else t
 
 
-def steady_error(series: Series, transient: float) -> tuple[float, list[float]]:
-    """The steady-state coordination error and its window [from, to] s: the largest over the final
-    STEADY_STATE_WINDOW s of the run that lie after the transient; NaN if none does (a run shorter than its transient
-    and the window: its "steady" error had been its transient's, above the peak after it; a new user)."""
-    coord, end = coordination_error(series.gamma), float(series.t[-1])
-    start = max(end - STEADY_STATE_WINDOW, transient, float(series.t[0]))
-    final = series.t >= start
+def steady_error(t: FloatArray, coord: FloatArray, transient: float) -> tuple[float, list[float]]:
+    """The steady-state coordination error and its window [from, to] s, of the coordination error coord at times t:
+    the largest over the final STEADY_STATE_WINDOW s of the run that lie after the transient; NaN if none does (a run
+    shorter than its transient and the window: its "steady" error had been its transient's, above the peak after it;
+    a new user)."""
+    end = float(t[-1])
+    start = max(end - STEADY_STATE_WINDOW, transient, float(t[0]))
+    final = t >= start
     return nan_max(coord[final]) if final.any() else math.nan, [min(start, end), end]
 
 
 def _coordination(series: Series, summary: Summary) -> dict[str, Any]:
     worst = summary.max_path_error_after_transient
-    steady, window = steady_error(series, summary.transient)
+    steady, window = steady_error(series.t, coordination_error(series.gamma), summary.transient)
     after_faults = summary.phases[-1].name == "after faults"
     return {
         "coordination": {

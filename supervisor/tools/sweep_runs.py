@@ -215,7 +215,7 @@ def _measures(result: Any, summary: Any, scenario: Any) -> dict[str, Any]:
     settled = series.t >= scenario.report.transient  # none if the run ends within its transient: NaN, as the summary's
     # path error then (it was the last sample's, below the steady error of the samples before it)
     return {
-        "steady_coordination_error": steady_error(series, scenario.report.transient)[0],  # the report's, the same
+        "steady_coordination_error": steady_error(series.t, coordination, scenario.report.transient)[0],  # the report's
         "peak_coordination_error_after_transient": float(coordination[settled].max()) if settled.any() else math.nan,
         "sync_time": summary.sync_time,
         "resync_time": summary.resync_time,
