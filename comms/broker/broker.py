@@ -390,4 +390,5 @@ def run_broker(
         return handle
 
     keys = (TICK_KEY, f"{ROOT}/vehicle/*/state")
-    return serve("comms", connect, keys, COMMS_ALIVE, handler, hello, extras)
+    # the supervisor's name for it: a stop that refuses it names it so (bus.serve: exit 2)
+    return serve("comms broker", connect, keys, COMMS_ALIVE, handler, hello, extras)
