@@ -56,10 +56,12 @@ def read_private(path: Path, kind: type[T], what: str) -> T:
 
 
 def _consumed(path: Path) -> None:
-    """A hand-over read is gone (a restart gets a new one), and its directory, empty once every process has started,
-    is removed by whichever process sees the supervisor gone first (comms.bus.lifeline): a supervisor killed by
-    SIGKILL left it, with a start file per process, in /tmp (a new user)."""
-    from comms.bus.lifeline import remove_when_cut
+    """A hand-over the supervisor gave a process it launched is gone once read (a restart gets a new one), and its
+    directory, empty once every process has started, is removed by whichever process sees the supervisor gone first
+    (comms.bus.lifeline): a supervisor killed by SIGKILL left it, with a start file per process, in /tmp (a new
+    user). A --plan file a user hands a process started by hand is the user's: left."""
+    from comms.bus.lifeline import LIFELINE_ENV, remove_when_cut
 
-    path.unlink(missing_ok=True)
-    remove_when_cut(path.parent)
+    if LIFELINE_ENV in os.environ:  # launched by the supervisor (lifeline.watch takes the mark only later, in serve)
+        path.unlink(missing_ok=True)
+        remove_when_cut(path.parent)

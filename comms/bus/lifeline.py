@@ -43,7 +43,8 @@ _LEFT: list[str] = []  # directories of the supervisor's this process removes, i
 def remove_when_cut(directory: os.PathLike[str] | str) -> None:
     """directory (the run's private one, emptied as its processes start) removed if empty when the lifeline is cut:
     the supervisor, gone by SIGKILL, could not. Only once it is gone: it may still hand a restart over there."""
-    _LEFT.append(os.fspath(directory))
+    if os.fspath(directory) not in _LEFT:  # a host reads one hand-over; a test process may read many
+        _LEFT.append(os.fspath(directory))
 
 
 def launcher(argv: list[str], parent_death_signal: bool) -> list[str]:
