@@ -244,7 +244,8 @@ def _write_metrics(path: Path, scenario: Scenario, result: RunResult, metrics: d
         path.write_text(json.dumps(finite(metrics), indent=2, allow_nan=False))
     except OSError as exc:  # a full disk: no half-written file left, and the error (at main) names it
         with contextlib.suppress(OSError):
-            path.unlink() if path.is_file() else None
+            if path.is_file():  # never a device (/dev/full): root may unlink one
+                path.unlink()
         raise OSError(exc.errno, exc.strerror, str(path)) from None
 
 

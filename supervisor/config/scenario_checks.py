@@ -15,7 +15,7 @@ from collections.abc import Callable, Iterable, Iterator, Mapping
 import numpy as np
 
 from supervisor.config.authority_checks import authority_warnings
-from supervisor.config.derived import STEP_TOLERANCE, active, end_of, first_step, graph_at, steps_of
+from supervisor.config.derived import STEP_TOLERANCE, active, end_of, first_step, graph_at, steps_of, whole_steps
 from supervisor.config.extension_checks import extension_errors, vehicle_model_errors
 from supervisor.config.feasibility_checks import feasibility_errors, feasibility_warnings
 from supervisor.config.kill_checks import kill_errors
@@ -72,7 +72,7 @@ def _step(sc: Scenario) -> Iterator[str]:
         yield f"scenario.step: must not exceed duration ({duration}), got {step}"
         return
     ratio = duration / step
-    if abs(ratio - round(ratio)) > STEP_TOLERANCE * max(1.0, ratio):
+    if not whole_steps(duration, step):
         yield f"scenario.step: must divide duration ({duration}) into whole steps ({ratio:.6g} of them), got {step}"
     elif round(ratio) > MAX_STEPS:
         yield f"scenario.duration: at most {MAX_STEPS} steps of {step:g} s, got {duration} ({ratio:.6g} steps)"
@@ -262,9 +262,9 @@ def _comms(sc: Scenario) -> Iterator[str]:
             yield f"comms.links[{index}]: the same link as comms.links[{first}], got {link.sender} -> {link.receiver}"
     yield from transmit_errors(sc)
     tdma = sc.comms.tdma
-    slots = tdma.slot / sc.scenario.step if tdma is not None else 1.0
-    if tdma is not None and (slots < 1 - 1e-9 or abs(slots - round(slots)) > STEP_TOLERANCE):
-        yield f"comms.tdma.slot: must be a whole number of steps ({sc.scenario.step} s), got {tdma.slot}"
+    step = sc.scenario.step
+    if tdma is not None and (tdma.slot < step * (1 - STEP_TOLERANCE) or not whole_steps(tdma.slot, step)):
+        yield f"comms.tdma.slot: must be a whole number of steps ({step} s), got {tdma.slot}"
     if tdma is not None and tdma.order is not None and sorted(tdma.order) != sorted(ids):
         yield f"comms.tdma.order: must list every vehicle once {sorted(ids)}, got {list(tdma.order)}"
     radio = modem_params(sc)

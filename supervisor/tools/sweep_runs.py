@@ -10,7 +10,6 @@ import contextlib
 import hashlib
 import io
 import json
-import math
 import tempfile
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
@@ -18,7 +17,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from supervisor.analysis.metrics import steady_error
-from supervisor.analysis.summary import coordination_error
+from supervisor.analysis.summary import coordination_error, nan_max
 from supervisor.config.toml_writer import toml_value
 
 if TYPE_CHECKING:
@@ -216,7 +215,7 @@ def _measures(result: Any, summary: Any, scenario: Any) -> dict[str, Any]:
     # path error then (it was the last sample's, below the steady error of the samples before it)
     return {
         "steady_coordination_error": steady_error(series.t, coordination, scenario.report.transient)[0],  # the report's
-        "peak_coordination_error_after_transient": float(coordination[settled].max()) if settled.any() else math.nan,
+        "peak_coordination_error_after_transient": nan_max(coordination[settled]),  # NaN if none: see above
         "sync_time": summary.sync_time,
         "resync_time": summary.resync_time,
         "max_path_error": summary.max_path_error_after_transient,
