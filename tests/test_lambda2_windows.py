@@ -150,3 +150,26 @@ def test_lambda2_is_taken_over_the_vehicles_alive(tmp_path: Path, restart: float
         m["t"]: m["lambda2"] for topic, _, m in read_messages(tmp_path / "run.mcap") if topic.endswith("stats")
     }
     assert snapshots[20.0] == pytest.approx(1.0) and snapshots[30.0] == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize(
+    ("period", "slot"), [(1.0, 4.0), (30.0, 4.0), (24.0, 4.0), (24.1, 4.0), (23.9, 4.0), (0.0, 4.0), (7.0, 0.0)]
+)
+def test_the_interval_held_to_tdma_frames_is_the_one_the_fleet_keeps(tmp_path: Path, period: float, slot: float) -> None:
+    """transmit_interval and the stability analysis's period (links.timing) are links.held_to_frames: the gaps a
+    vehicle's transmissions leave in a run, every one of them after its first."""
+    from supervisor.config.links import timing
+
+    sc = scenario(tdma_fleet(f"period = {period}" if period else "", slot, duration=150.0, n=3))
+    quiet = Progress(sc.scenario.duration, enabled=False)
+    run_inprocess(sc, "tdma.toml", "", tmp_path / "run.mcap", 0, quiet)
+    sent: dict[str, list[float]] = {}
+    for topic, _, message in read_messages(tmp_path / "run.mcap"):
+        if topic.endswith("/tx"):
+            sent.setdefault(topic, []).append(float(message["t"]))
+    expected = transmit_interval(sc)
+    assert expected is not None
+    assert timing(sc)[0] == pytest.approx(expected)
+    assert len(sent) == 3
+    for times in sent.values():
+        assert np.allclose(np.diff(times), expected, atol=1e-6), (times[:5], expected)

@@ -28,7 +28,7 @@ from comms.records.state import StateReport
 from comms.records.wire import wide_for
 from supervisor.config.controller_choice import controller_name, controller_options
 from supervisor.config.extensions import extension
-from supervisor.config.links import needs_fitting
+from supervisor.config.links import held_to_frames, needs_fitting
 from supervisor.config.medium import modem_params, sound_speed
 from supervisor.config.per_scenario import per_scenario
 from supervisor.config.plant import actuators_of, current_of, plant_of
@@ -331,15 +331,12 @@ def delivered_graph_horizon(scenario: Scenario) -> float:
 
 def transmit_interval(scenario: Scenario) -> float | None:
     """The longest time [s] a vehicle's schedule leaves between two of its transmissions: its period (every step
-    without one), or the heartbeat of the event policy, held until its next TDMA slot. None for the event policy
-    without a heartbeat: a vehicle may then rightly stay quiet for as long as its gamma is predictable."""
-    tx, dt, tdma = scenario.comms.transmit, scenario.scenario.step, scenario.comms.tdma
-    interval = (tx.period or dt) if tx.policy == "periodic" else tx.heartbeat
-    if interval is None or tdma is None:
-        return interval
-    # One slot per vehicle and frame (validated): a wish due `interval` after a slot waits for a later slot start.
-    frame = tdma.slot * len(tdma.order or scenario.vehicle_ids)
-    return frame * max(1, math.ceil((interval - dt / 2) / frame))
+    without one), or the heartbeat of the event policy, held until its next TDMA slot (links.held_to_frames). None
+    for the event policy without a heartbeat: a vehicle may then rightly stay quiet for as long as its gamma is
+    predictable."""
+    tx = scenario.comms.transmit
+    interval = (tx.period or scenario.scenario.step) if tx.policy == "periodic" else tx.heartbeat
+    return None if interval is None else held_to_frames(scenario, interval)
 
 
 def restore_state(config: VehicleConfig, message: Message) -> VehicleState:

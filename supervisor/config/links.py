@@ -35,9 +35,19 @@ def timing(scenario: Scenario, event: str = "heartbeat") -> tuple[float, tuple[f
     if tdma is None:
         return period, (0.0,) * n
     order = tdma.order or tuple(scenario.vehicle_ids)
-    frame = tdma.slot * len(order)
-    frames = max(1, math.ceil(period / frame - 1e-9))
-    return frame * frames, tuple(order.index(vid) * tdma.slot / (frame * frames) for vid in scenario.vehicle_ids)
+    held = held_to_frames(scenario, period)
+    return held, tuple(order.index(vid) * tdma.slot / held for vid in scenario.vehicle_ids)
+
+
+def held_to_frames(scenario: Scenario, interval: float) -> float:
+    """interval [s] between a vehicle's wishes to transmit as its TDMA slots hold it (interval itself without TDMA):
+    one slot per vehicle and frame (validated), and a wish due interval after a slot (half a step of slack, as
+    vehicles.transmission.PeriodicPolicy.due) waits for the first slot start not before it, a whole frame at least."""
+    tdma, dt = scenario.comms.tdma, scenario.scenario.step
+    if tdma is None:
+        return interval
+    frame = tdma.slot * len(tdma.order or scenario.vehicle_ids)
+    return frame * max(1, math.ceil((interval - dt / 2) / frame))
 
 
 def delay_of(scenario: Scenario) -> float:
