@@ -155,7 +155,9 @@ def test_lambda2_is_taken_over_the_vehicles_alive(tmp_path: Path, restart: float
 @pytest.mark.parametrize(
     ("period", "slot"), [(1.0, 4.0), (30.0, 4.0), (24.0, 4.0), (24.1, 4.0), (23.9, 4.0), (0.0, 4.0), (7.0, 0.0)]
 )
-def test_the_interval_held_to_tdma_frames_is_the_one_the_fleet_keeps(tmp_path: Path, period: float, slot: float) -> None:
+def test_the_interval_held_to_tdma_frames_is_the_one_the_fleet_keeps(
+    tmp_path: Path, period: float, slot: float
+) -> None:
     """transmit_interval and the stability analysis's period (links.timing) are links.held_to_frames: the gaps a
     vehicle's transmissions leave in a run, every one of them after its first."""
     from supervisor.config.links import timing
