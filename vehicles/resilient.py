@@ -5,8 +5,9 @@ Each vehicle sorts what it holds of its neighbours by their gamma_j against its 
 them above its own (the F largest, or all above if fewer) and up to F below (the F smallest, or all below if fewer);
 law (5), corrected, then runs on the neighbours it kept, their gamma_dot_j with them. A neighbour whose value stays
 within the range of the honest ones does no harm; one outside it is discarded. The fleet reaches consensus with up to
-F such vehicles among each vehicle's neighbours (F-local) if the graph is (2F + 1)-robust (docs/resilience.md): with
-F = 1, every vehicle needs at least 3 neighbours, and a ring or a tree never qualifies. `f = 0` is law (5) itself.
+F such vehicles in all if and only if the graph is (F + 1, F + 1)-robust, and with up to F among each vehicle's
+neighbours if it is (2F + 1)-robust (docs/resilience.md, supervisor/config/robustness.py): with F = 1 a ring or a
+tree never qualifies. `f = 0` is law (5) itself.
 
 Registered under `cpf.coordination` as `wmsr` (coordination.law = "wmsr", coordination.law_options = { f = 1 }); to
 study it, a `gamma_offset` fault makes a vehicle broadcast a gamma it does not have.
@@ -36,7 +37,7 @@ def kept(gamma: float, neighbours: Sequence[tuple[float, float]], f: int) -> lis
 @dataclass(frozen=True, slots=True)
 class Wmsr:
     """Law (5), corrected, over the neighbours W-MSR keeps; f: how many lying neighbours each vehicle withstands
-    (the graph must be (2f + 1)-robust)."""
+    (the graph must be (f + 1, f + 1)-robust; docs/resilience.md)."""
 
     f: Annotated[int, Ge(0), Le(10)] = 1
 

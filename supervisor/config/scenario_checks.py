@@ -21,6 +21,7 @@ from supervisor.config.feasibility_checks import feasibility_errors, feasibility
 from supervisor.config.kill_checks import kill_errors
 from supervisor.config.parameter_ranges import PARAMETER_RANGES
 from supervisor.config.plant import planar_current_errors
+from supervisor.config.robustness import resilience_warnings
 from supervisor.config.scenario_schema import (
     LINK_FAULTS,
     ClockSkewFault,
@@ -367,8 +368,8 @@ def scenario_warnings(sc: Scenario) -> list[str]:
     """What a valid scenario holds that will not happen, '<field>: <problem>, got <value>' each: faults that start
     at or after the end of the run (a run shortened with --set scenario.duration=... is a fair thing to ask for),
     keys of [comms.transmit] its policy does not read (supervisor.config.transmit_checks), a channel that loses
-    much or a loop predicted to diverge (supervisor.config.feasibility_checks), and a path a vehicle's fins cannot
-    hold it on (supervisor.config.authority_checks)."""
+    much or a loop predicted to diverge (supervisor.config.feasibility_checks), a path a vehicle's fins cannot
+    hold it on (supervisor.config.authority_checks) and a graph W-MSR cannot work on (supervisor.config.robustness)."""
     steps, dt, end = steps_of(sc), sc.scenario.step, sc.scenario.duration
     late = [
         f"faults[{index}].start: at or after the end of the run ({end:g} s), the {fault.kind} fault never acts, "
@@ -376,4 +377,5 @@ def scenario_warnings(sc: Scenario) -> list[str]:
         for index, fault in enumerate(sc.faults)
         if first_step(fault.start, dt) >= steps
     ]
-    return late + transmit_warnings(sc) + unit_warnings(sc) + feasibility_warnings(sc) + authority_warnings(sc)
+    checked = transmit_warnings(sc) + unit_warnings(sc) + feasibility_warnings(sc) + authority_warnings(sc)
+    return late + checked + list(resilience_warnings(sc))
