@@ -171,11 +171,27 @@ def _left_out(s: Setting, scenario: Scenario) -> str:
     if c.loss_model is not None or c.range is not None or any(link.loss or link.burst for link in c.links):
         out.append("the loss model, range loss and links' own losses left out: only comms.loss and [comms.burst] are "
                    "analysed")  # fmt: skip
+    if (horizon := short_horizon(s, scenario)) is not None:
+        out.append(f"coordination.predictor_options.horizon {horizon:g} s left out: shorter than a message is held "
+                   f"({s.period + s.delay:.3g} s), after it the prediction stops; this is first_order's verdict "
+                   "without it, which errs towards divergence")  # fmt: skip
     max_age = scenario.coordination.max_age
     if max_age is not None and max_age < s.period + s.delay:
         out.append(f"coordination.max_age {max_age:g} s left out: the law drops a neighbour older than that between "
                    "messages, which slows the loop")  # fmt: skip
     return "".join(f"; {text}" for text in out)
+
+
+def short_horizon(s: Setting, scenario: Scenario) -> float | None:
+    """first_order's horizon (predictor_options) if a message is held longer than it (the period and the delay),
+    else None. Past it the prediction stops advancing (vehicles.estimates.FirstOrder): the analysis does not model
+    that switch, and first_order's loop without it can diverge where the fleet does not (a new user's study:
+    'DIVERGES at 0.0203 1/s' of a run that held at 1.44 with a 1 s horizon every 12 s)."""
+    co = scenario.coordination
+    horizon = co.predictor_options.get("horizon") if co.predictor == "first_order" else None
+    if not isinstance(horizon, int | float) or horizon >= s.period + s.delay:
+        return None
+    return float(horizon)
 
 
 def predicted_growth(scenario: Scenario) -> float | None:
@@ -193,15 +209,15 @@ NEUTRAL = 1e-6
 
 def predicted_change(scenario: Scenario) -> float | None:
     """The coordination error's predicted growth rate (1/s; negative: it decays), None when the loop is too large
-    to analyse quickly, is not one the analysis models (links.unmodelled) or is neutral (within NEUTRAL of 0: no
-    prediction either way)."""
+    to analyse quickly, is not one the analysis models (links.unmodelled), has a first_order horizon it leaves out
+    (short_horizon) or is neutral (within NEUTRAL of 0: no prediction either way)."""
     from supervisor.config.stability.margins import MAX_STATES
 
     if unmodelled(scenario) is not None:
         return None
     setting = setting_of(scenario)
-    if setting.states() > MAX_STATES:
-        return None
+    if setting.states() > MAX_STATES or short_horizon(setting, scenario) is not None:
+        return None  # too large to analyse quickly; or a horizon it leaves out, with which it errs
     growth = -rate(setting)
     return growth if abs(growth) >= NEUTRAL else None
 
