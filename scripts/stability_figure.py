@@ -1,6 +1,7 @@
 """The predicted stability boundary against simulated runs: the paper fleet's coordination error at the end of a
 300 s in-process run (no fault) against the transmit period, per predictor, with the period beyond which the linear
-analysis predicts divergence (docs/stability.md).
+analysis predicts divergence (docs/stability.md). Runs and boundary are of the analysis' model: a fixed k (no gain
+scheduling, which lowers k on slow links) and law (5) unbounded (no correction saturation).
 
     PYTHONPATH=. python scripts/stability_figure.py [--out runs/stability/period.png]
 """
@@ -16,6 +17,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
 from supervisor.config.scenario import parse_scenario
+from supervisor.config.scenario_schema import Scenario
 from supervisor.config.stability import largest_period, setting_of
 from supervisor.tools.stability_check import simulate
 
@@ -24,12 +26,18 @@ PERIODS = {
     "first_order": (2.0, 4.0, 5.0, 6.0, 7.0, 7.6, 8.0, 9.0, 11.0),
     "reference": (2.0, 5.0, 10.0, 15.0, 20.0, 30.0),
 }
+# The loop the analysis models: the scenario's defaults would lower k to ~0.07-0.1 at 7.6-11 s and bound the
+# correction, so its runs would not be the loop whose boundary is drawn.
+ANALYSED = ["coordination.schedule=none", "saturation.correction=none"]
+
+
+def _scenario(predictor: str, *overrides: str) -> Scenario:
+    return parse_scenario(PAPER.read_text(), str(PAPER), [*ANALYSED, f"coordination.predictor={predictor}", *overrides])
 
 
 def _error(predictor: str, period: float) -> float:
     """Peak coordination error over the last 50 s of the run."""
-    overrides = ["scenario.duration=300", "faults=[]", f"coordination.predictor={predictor}"]
-    scenario = parse_scenario(PAPER.read_text(), str(PAPER), [*overrides, f"comms.transmit.period={period}"])
+    scenario = _scenario(predictor, "scenario.duration=300", "faults=[]", f"comms.transmit.period={period}")
     return simulate(scenario).last
 
 
@@ -38,8 +46,7 @@ def main(out: Path) -> None:
     for (predictor, periods), colour in zip(PERIODS.items(), ("C0", "C1"), strict=True):
         errors = [_error(predictor, p) for p in periods]
         ax.semilogy(periods, errors, "o-", color=colour, label=f"{predictor}: simulated")
-        setting = setting_of(parse_scenario(PAPER.read_text(), str(PAPER), [f"coordination.predictor={predictor}"]))
-        boundary = largest_period(setting)
+        boundary = largest_period(setting_of(_scenario(predictor)))
         if boundary is not None:
             ax.axvline(boundary, color=colour, ls="--", label=f"{predictor}: predicted boundary {boundary:.2f} s")
         else:
