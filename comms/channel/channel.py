@@ -45,7 +45,8 @@ MEMORY = 120.0  # s of past airtime kept for half-duplex and collision checks (f
 
 @dataclass(frozen=True, slots=True)
 class LinkParams:
-    """Per directed link: its loss models (replacing the fleet-wide ones when given) and extra delay."""
+    """Per directed link: its loss models (replacing the fleet-wide ones when given: any model, an empty Composite
+    for none, whatever its truth value; None takes the fleet's) and extra delay."""
 
     loss: LossModel | None = None
     extra_delay: float = 0.0  # s
@@ -112,9 +113,9 @@ class Channel:
         key = (sender, receiver)
         if key not in self._links:
             own = self._link_params(sender, receiver)
-            model = own.loss or self.params.loss
+            model = self.params.loss if own.loss is None else own.loss
             rng = np.random.default_rng([self.seed, sender, receiver])
-            self._links[key] = _Link(rng, model.link() if model else None, own.extra_delay)
+            self._links[key] = _Link(rng, None if model is None else model.link(), own.extra_delay)
         return self._links[key]
 
     def transmit(
@@ -169,7 +170,7 @@ class Channel:
         flight, level = flight_level
         start += float(link.rng.random()) * self.params.jitter + link.extra_delay + impaired.extra_delay
         distance = flight * self.params.sound_speed
-        reason = link.loss.decide(link.rng, distance, size, tx.t) if link.loss else None
+        reason = None if link.loss is None else link.loss.decide(link.rng, distance, size, tx.t)
         degraded = float(link.rng.random()) < impaired.extra_loss  # drawn always: streams stay aligned
         reason = impaired.lost or reason or ("degraded" if degraded else None)
         events.append(LinkEvent(tx.t, tx.sender, j, tx.seq, "sent"))

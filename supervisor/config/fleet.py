@@ -35,10 +35,12 @@ from supervisor.config.plant import actuators_of, current_of, plant_of
 from supervisor.config.scenario_schema import (
     BurstSection,
     CirclePath,
+    CommsSection,
     HelixPath,
     LawnmowerPath,
     LinePath,
     LinkBudgetSection,
+    LinkSection,
     PathSpec,
     RangeTableSection,
     Scenario,
@@ -225,6 +227,15 @@ def _loss_model(
     return _builtin(Composite, models=tuple(models)) if models else None
 
 
+def _own_loss(link: LinkSection, c: CommsSection, ranged: LossModel | None, named: LossModel | None) -> LossModel:
+    """A [[comms.links]] entry's models as the channel takes them: its loss and burst where given, whatever their
+    value (a loss of 0 too: only a key left out takes [comms]'s), and no model at all as an empty Composite, which
+    loses nothing. None would tell the channel "not given": a link's loss 0 lost the fleet's 5 %."""
+    loss = c.loss if link.loss is None else link.loss
+    model = _loss_model(ranged, loss, c.burst if link.burst is None else link.burst, named)
+    return _builtin(Composite, models=()) if model is None else model
+
+
 def named_loss_model(scenario: Scenario) -> LossModel | None:
     """The loss model comms.loss_model names, with its options; None if it names none."""
     c = scenario.comms
@@ -242,10 +253,7 @@ def channel_params(scenario: Scenario, with_named: bool = True) -> ChannelParams
     radio_modem = modem_params(scenario)
     ranged, named = range_model(scenario, radio_modem), named_loss_model(scenario) if with_named else None
     links = {
-        (link.sender, link.receiver): LinkParams(
-            _loss_model(ranged, c.loss if link.loss is None else link.loss, link.burst or c.burst, named),
-            link.extra_delay,
-        )
+        (link.sender, link.receiver): LinkParams(_own_loss(link, c, ranged, named), link.extra_delay)
         for link in c.links
     }
     capture = (

@@ -168,7 +168,8 @@ def _left_out(s: Setting, scenario: Scenario) -> str:
     c = scenario.comms
     if c.transmit.policy not in ("periodic", "event"):
         out.append(f"comms.transmit.policy {c.transmit.policy} left out: analysed as a message every step")
-    if c.loss_model is not None or c.range is not None or any(link.loss or link.burst for link in c.links):
+    own = any(link.loss is not None or link.burst is not None for link in c.links)  # a loss of 0 is its own too
+    if c.loss_model is not None or c.range is not None or own:
         out.append("the loss model, range loss and links' own losses left out: only comms.loss and [comms.burst] are "
                    "analysed")  # fmt: skip
     if (horizon := short_horizon(s, scenario)) is not None:
