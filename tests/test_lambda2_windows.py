@@ -1,7 +1,8 @@
 """The delivered graph's lambda_2 when vehicles transmit less often than every stats window.
 
 A pair is in the delivered graph of a window if it delivered within the last `horizon` s: the stats window, or 1.5
-transmit intervals (the period held to the TDMA slot, or the event policy's heartbeat) if that is longer. Six AUVs
+transmit intervals (the period held to the TDMA slot, or the event policy's heartbeat; with TDMA a frame at least,
+whatever the policy) if that is longer. Six AUVs
 on a line graph, TDMA with 4 s slots (a 24 s frame) and a 10 s stats window: every link delivers every frame, so
 once every pair has heard from one of its two every window is connected.
 
@@ -62,7 +63,11 @@ def scenario(text: str) -> Scenario:
         ('policy = "event"\nthreshold = 0.1\nheartbeat = 12.0', 2.0, 12.0, 18.0),
         ("period = 1.0", 0.0, 1.0, 10.0),  # no TDMA, a packet a second: the window says it all
         ("", 0.0, 0.1, 10.0),  # every step
-        ('policy = "event"\nthreshold = 0.1', 4.0, None, 10.0),  # may rightly stay quiet: no interval to expect
+        # may rightly stay quiet: no interval to expect, but no vehicle sends more often than once a frame (24 s)
+        ('policy = "event"\nthreshold = 0.1', 4.0, None, 36.0),
+        ('policy = "event"\nthreshold = 0.1', 1.0, None, 10.0),  # a 6 s frame: 1.5 of them within the window
+        ('policy = "event"\nthreshold = 0.1', 0.0, None, 10.0),  # no TDMA: every step at most
+        ("period = 1.0", 1.0, 6.0, 10.0),
     ],
 )
 def test_the_horizon_covers_the_longest_interval_a_schedule_leaves(
@@ -73,10 +78,21 @@ def test_the_horizon_covers_the_longest_interval_a_schedule_leaves(
     assert delivered_graph_horizon(sc) == pytest.approx(horizon)
 
 
-def test_every_window_is_connected_when_every_link_delivers_every_tdma_frame(tmp_path: Path) -> None:
-    sc = scenario(tdma_fleet())
+@pytest.mark.parametrize(
+    "transmit",
+    [
+        "period = 1.0",
+        # Event-triggered without a heartbeat, so eager it sends at every slot: its windows read disconnected (10 s
+        # of horizon, a 24 s frame) though every link delivered every frame.
+        'policy = "event"\nthreshold = 1e-9',
+    ],
+)
+def test_every_window_is_connected_when_every_link_delivers_every_tdma_frame(tmp_path: Path, transmit: str) -> None:
+    sc = scenario(tdma_fleet(transmit))
     quiet = Progress(sc.scenario.duration, enabled=False)
     result = run_inprocess(sc, "tdma.toml", "", tmp_path / "run.mcap", 0, quiet)
+    assert result.link_stats is not None
+    assert all(link["delivered"] >= 4 for link in result.link_stats["links"])  # every 24 s frame of 100 s
     history = [(float(h["t"]), float(h["lambda2"])) for h in result.stats_history]
     assert len(history) == 10
     # Slots start at 0, 4, ..., 20 s: by 20 s each pair has heard one of its two (5 -> 6 at 16 s), and from then

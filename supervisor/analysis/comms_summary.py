@@ -3,7 +3,8 @@ neighbour estimates got, and how connected the delivered graph stayed.
 
 The delivered graph at the end of each stats window holds the pairs that delivered a packet (either way) within the
 last `horizon` s: the window, or 1.5 transmit intervals when a vehicle's schedule (its period held to its TDMA slot,
-or its heartbeat) leaves longer between its packets (supervisor.config.fleet.delivered_graph_horizon).
+or its heartbeat; with TDMA a frame at least, whatever the policy) leaves longer between its packets
+(supervisor.config.fleet.delivered_graph_horizon).
 """
 
 from __future__ import annotations

@@ -331,10 +331,14 @@ def link_stats(scenario: Scenario) -> LinkStats:
 
 def delivered_graph_horizon(scenario: Scenario) -> float:
     """s a delivery keeps its pair in the delivered graph (lambda_2): the stats window, or HORIZON_INTERVALS times the
-    longest interval a vehicle's schedule leaves between transmissions if that is longer."""
+    longest interval a vehicle's schedule leaves between transmissions if that is longer. Without one (the event
+    policy without a heartbeat, a user's policy), the shortest its slots allow: with TDMA a frame, whatever the
+    policy (a 10 s window on 24 s frames read a third of the windows as disconnected, every link delivering every
+    frame)."""
     interval = transmit_interval(scenario)
-    window = scenario.comms.stats_window
-    return window if interval is None else max(window, HORIZON_INTERVALS * interval)
+    shortest = held_to_frames(scenario, scenario.scenario.step)  # one frame with TDMA, a step without
+    longest = shortest if interval is None else max(interval, shortest)
+    return max(scenario.comms.stats_window, HORIZON_INTERVALS * longest)
 
 
 def transmit_interval(scenario: Scenario) -> float | None:
