@@ -119,7 +119,7 @@ def test_no_legitimate_run_comes_near_the_bounds(config: Path, tmp_path: Path) -
                  "--set", "scenario.duration=30"]) == 0  # fmt: skip
     sc = load_scenario(config)
     bounds, previous, dt = plausibility(sc), dict[int, StateReport](), sc.scenario.step
-    half = {vid: Plausible(b.speed / 2, b.ground_speed / 2, b.gamma_dot / 2, b.lie) for vid, b in bounds.items()}
+    half = {vid: Plausible(b.speed / 2, b.ground_speed / 2, b.gamma_dot / 2, b.lies) for vid, b in bounds.items()}
     states, sent = {}, []
     for topic, _, message in read_messages(out):
         owned = vehicle_of_key(topic)

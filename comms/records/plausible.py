@@ -23,14 +23,37 @@ DIVERGED_OR_LIES = "; its coordination loop diverged or it lies: `cpf stability`
 
 
 @dataclass(frozen=True, slots=True)
+class Lie:
+    """A gamma the scenario's own faults make a vehicle transmit other than its state's, over its sync steps first ..
+    end - 1 (end None: to the end of the run): at most offset, plus drift (unit of gamma per s) times the time since
+    its first step: a gamma_offset fault's offset; a stuck gamma sensor's reading, which its gamma leaves behind."""
+
+    first: int
+    end: int | None
+    offset: float = 0.0
+    drift: float = 0.0
+
+    def at(self, k: int, dt: float) -> float:
+        """How far it lets the transmission of step k be from the state's gamma (0 outside its steps)."""
+        if k < self.first or (self.end is not None and k >= self.end):
+            return 0.0
+        return self.offset + self.drift * (k - self.first) * dt
+
+
+@dataclass(frozen=True, slots=True)
 class Plausible:
     """One vehicle's bounds: speed through the water (m/s), speed over ground with the current (m/s), |gamma_dot|;
-    lie: how far the scenario's own faults make the gamma it transmits differ from its state's (unit of gamma)."""
+    lies: when and how far the scenario's own faults make the gamma it transmits differ from its state's."""
 
     speed: float
     ground_speed: float
     gamma_dot: float
-    lie: float = 0.0
+    lies: tuple[Lie, ...] = ()
+
+    def lie(self, k: int, dt: float) -> float:
+        """How far the scenario's faults make the gamma it transmits at step k differ from its state's (unit of
+        gamma): the lies in force then, added up (overlapping ones add)."""
+        return sum(lie.at(k, dt) for lie in self.lies)
 
     def check(self, report: StateReport, previous: StateReport | None, dt: float) -> None:
         """ValueError (dropped: implausible) for a state beyond the bounds, alone or against the vehicle's previous
@@ -53,11 +76,12 @@ class Plausible:
 
     def check_tx(self, tx: Transmission, report: StateReport, dt: float) -> None:
         """ValueError (dropped: implausible) for a transmission beyond the bounds, or further from the state of its
-        step than a step and the scenario's own lies allow (its data goes to the neighbours: a plausible state must
-        not carry an absurd one)."""
+        step than a step and the scenario's own lies at that step allow (its data goes to the neighbours: a plausible
+        state must not carry an absurd one). The step is the state's, which the transmission's t (its send time) is
+        held to: a skewed clock's stamp does not move it."""
         if (
             abs(tx.gamma_dot) > self.gamma_dot
-            or abs(tx.gamma - report.gamma) > self.gamma_dot * dt + SLACK + self.lie
+            or abs(tx.gamma - report.gamma) > self.gamma_dot * dt + SLACK + self.lie(report.k, dt)
             or math.hypot(*tx.velocity) > self.ground_speed
             or math.dist(tx.position, report.position) > self.ground_speed * dt + SLACK
         ):

@@ -11,7 +11,7 @@ import math
 from collections.abc import Iterable, Mapping
 from typing import Any
 
-from supervisor.config.scenario_schema import BrokerKillFault, FaultSpec, GraphSwitchFault, Scenario
+from supervisor.config.scenario_schema import BrokerKillFault, FaultSpec, FrozenGammaFault, GraphSwitchFault, Scenario
 
 STEP_TOLERANCE = 1e-6  # relative: how close to a whole number of steps a duration, slot or period must be
 
@@ -54,6 +54,26 @@ def first_step(t: float, dt: float) -> int:
     while k * dt < t - dt / 2:
         k += 1
     return k
+
+
+def steps_of_fault(fault: FaultSpec, dt: float) -> tuple[int, int | None]:
+    """The sync steps a fault acts on, first .. end - 1 (end None: to the end of the run), as active() has them."""
+    end = end_of(fault, dt)
+    return first_step(fault.start, dt), None if math.isinf(end) else first_step(end, dt)
+
+
+def stuck_spans(faults: Iterable[FaultSpec], vehicle: int, dt: float) -> list[tuple[int, int | None]]:
+    """The steps over which the vehicle's gamma sensor is stuck without a break, (first, end) as steps_of_fault:
+    its frozen_gamma faults, those that overlap or meet as one (the reading stays the one of the first step)."""
+    spans = sorted(steps_of_fault(f, dt) for f in faults if isinstance(f, FrozenGammaFault) and f.vehicle == vehicle)
+    merged: list[tuple[int, int | None]] = []
+    for first, end in spans:
+        last = merged[-1] if merged else None
+        if last is not None and (last[1] is None or first <= last[1]):
+            merged[-1] = (last[0], None if last[1] is None or end is None else max(last[1], end))
+        else:
+            merged.append((first, end))
+    return merged
 
 
 def intervals(scenario: Scenario) -> list[tuple[str, float, float]]:

@@ -15,8 +15,9 @@ import math
 import numpy as np
 
 from comms.records.fields import MAX_SPEED
-from comms.records.plausible import Plausible
-from supervisor.config.fault_schema import FrozenGammaFault, GammaOffsetFault
+from comms.records.plausible import Lie, Plausible
+from supervisor.config.derived import steps_of_fault, stuck_spans
+from supervisor.config.fault_schema import GammaOffsetFault
 from supervisor.config.fleet import build_path
 from supervisor.config.plant import current_of
 from supervisor.config.presets_table import top_speed
@@ -42,22 +43,19 @@ def _bounds(sc: Scenario, vid: int, current: float) -> Plausible:
     speed = max(speed, math.hypot(*section.velocity))  # a start faster than that (the schema allows 8.7 m/s) slows
     slowest = _slowest(build_path(section.path))
     rate = GAMMA_DOT_MARGIN * (speed + current) / slowest + abs(sc.coordination.v_r)
-    return Plausible(speed, speed + current, rate, _lie(sc, vid, rate))
+    return Plausible(speed, speed + current, rate, _lies(sc, vid, rate))
 
 
-def _lie(sc: Scenario, vid: int, rate: float) -> float:
-    """How far the scenario's faults make vehicle vid transmit a gamma other than its own (unit of gamma): its
-    gamma_offset faults' offsets added up (overlapping ones add), and what its gamma moves at most (rate) while its
-    frozen_gamma faults hold the reading. A lie the scenario asks for is data, not a fault of the vehicle's process:
-    the Zenoh engine must carry it as the in-process engine does."""
-    mine = [f for f in sc.faults if getattr(f, "vehicle", None) == vid]
-    offsets = sum(abs(f.offset) for f in mine if isinstance(f, GammaOffsetFault))
-    frozen = sum(
-        ((f.end if f.end is not None else sc.scenario.duration) - f.start)
-        for f in mine
-        if isinstance(f, FrozenGammaFault)
-    )
-    return offsets + rate * frozen
+def _lies(sc: Scenario, vid: int, rate: float) -> tuple[Lie, ...]:
+    """When and how far the scenario's faults make vehicle vid transmit a gamma other than its own, on the steps
+    each acts on (supervisor.config.derived: from half a step before its start): a gamma_offset fault's offset, and
+    while its gamma sensor is stuck (its frozen_gamma faults that meet as one), what its gamma may have moved (at
+    rate) since the reading stuck. A lie the scenario asks for is data, not a fault of the vehicle's process: the
+    Zenoh engine must carry it as the in-process engine does; the same lie at another time is not the scenario's."""
+    dt = sc.scenario.step
+    mine = [f for f in sc.faults if isinstance(f, GammaOffsetFault) and f.vehicle == vid]
+    offsets = [Lie(*steps_of_fault(f, dt), offset=abs(f.offset)) for f in mine]
+    return (*offsets, *(Lie(first, end, drift=rate) for first, end in stuck_spans(sc.faults, vid, dt)))
 
 
 def _slowest(path: Path) -> float:
