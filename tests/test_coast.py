@@ -49,7 +49,7 @@ def test_the_restarted_controller_starts_at_the_path_point_nearest_the_coasted_v
     for k in range(600):  # on its helix by now
         node, records = step_records(cfg, radio(sc, 2), node, k, k * 0.1, 0.1, [], [], UNDISTURBED)
     last = node.vehicle
-    restarted = restarted_node(cfg, records.state, node.seq, 900, 0.1)
+    restarted = restarted_node(cfg, records.state, node.seq, 900, 0.1, sc.faults)
     state = restarted.vehicle
     assert state.t == pytest.approx(90.0) and restarted.nav is None and not state.estimates
     np.testing.assert_array_equal(state.x, resumed(cfg, restore_state(cfg, records.state), 301, 0.1).x)

@@ -142,7 +142,7 @@ def test_a_restarted_vehicle_rejoins_where_it_coasted_to_from_its_last_recorded_
     last_before, first_after = states[(3, 99)], states[(3, 120)]
     assert all((3, k) not in states for k in range(100, 120))
     cfg = vehicle_config(load_scenario(scenario), 3)
-    resumed = restarted_node(cfg, last_before, 0, 120, 0.1).vehicle
+    resumed = restarted_node(cfg, last_before, 0, 120, 0.1, ()).vehicle
     assert first_after["gamma"] == resumed.gamma > last_before["gamma"]  # on along its path, not where it was
     assert first_after["position"] == cfg.model.spatial(resumed.x).position.tolist()
     assert np.linalg.norm(np.subtract(first_after["position"], last_before["position"])) > 0.3  # 2.1 s of gliding

@@ -150,7 +150,7 @@ def test_a_restarted_node_starts_its_filter_again_where_the_vehicle_coasted_to(t
     node = NodeState(initial_state(sc, cfg))
     for k in range(25):
         node, records = step_records(cfg, radio(sc, 2), node, k, k * 0.1, 0.1, [], [1], UNDISTURBED)
-    restarted = restarted_node(cfg, records.state, node.seq, 45, 0.1)
+    restarted = restarted_node(cfg, records.state, node.seq, 45, 0.1, sc.faults)
     assert records.report.nav_estimate is not None and restarted.nav is None
     assert restarted.vehicle.t == pytest.approx(4.5) and restarted.vehicle.x.tolist() != node.vehicle.x.tolist()
     assert StateReport.from_message(records.state, 2) == records.report  # the message reads as the report
@@ -197,7 +197,7 @@ def test_both_engines_give_identical_records_with_navigation_on(tmp_path, paper_
     if kill:  # the restarted vehicle's filter starts afresh where the vehicle coasted to, not from its old estimate
         before, after = zen[(3, 79)], zen[(3, 100)]
         cfg = vehicle_config(load_scenario(scenario), 3, seed=11)
-        node = restarted_node(cfg, before, 0, 100, 0.1)
+        node = restarted_node(cfg, before, 0, 100, 0.1, ())
         assert cfg.navigation is not None and node.nav is None
         s = cfg.model.lift(node.vehicle.x)
         resumed = navigate(cfg.navigation, initial(cfg.navigation, s), s, 100, 0.1)

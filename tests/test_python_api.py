@@ -264,7 +264,7 @@ def test_every_field_of_the_state_record_has_a_column():
         velocity=(1.0, 0.0, 0.0), angular_velocity=(0.0, 0.0, 0.1), error=(0.3, 0.4, 0.0), tau=(1.0, 2.0),
         correction=0.0, lyapunov=0.1, tx_seq=1, estimate_age=(NeighbourAge(2, 0.5),), rx_lateness=(0.01, 0.02),
         step_lateness=0.003, nav_estimate=tuple(float(i) for i in range(27)), nav_fix=1,
-        current_estimate=(0.2, -0.1, 0.0),
+        current_estimate=(0.2, -0.1, 0.0), frozen=(0.4, 1.0),
     )  # fmt: skip
     row = states_table([report]).iloc[0]
     for f in fields(StateReport):

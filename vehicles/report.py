@@ -11,6 +11,7 @@ from comms.records.messages import Message
 from comms.records.state import NeighbourAge, StateReport
 from vehicles.agent import Telemetry
 from vehicles.dynamics import Model
+from vehicles.estimates import NeighbourEstimate
 from vehicles.navigation import NavOutput
 
 
@@ -28,9 +29,11 @@ def state_report(
     tx_seq: int,
     ages: tuple[NeighbourAge, ...] = (),
     nav: NavOutput | None = None,
+    frozen: NeighbourEstimate | None = None,
 ) -> StateReport:
     """A vehicle's telemetry of step k (planar vehicles embedded in 3-D); tx_seq: its transmission then, or 0;
-    ages: how old each neighbour estimate it holds is; nav: its navigation computer's step, if it has one."""
+    ages: how old each neighbour estimate it holds is; nav: its navigation computer's step, if it has one; frozen:
+    its stuck gamma sensor's reading, while it is stuck."""
     # The lifted state is the spatial layout [p, R (row-major), v, omega] in floats, for both models: the same
     # numbers as model.spatial's arrays, without an array per quantity.
     s = model.lift(telemetry.x)
@@ -41,6 +44,7 @@ def state_report(
         _three(error), tuple(telemetry.tau.tolist()), telemetry.correction, telemetry.lyapunov, tx_seq, ages,
         nav_estimate=None if nav is None else nav.posterior.flat(), nav_fix=None if nav is None else nav.fix,
         current_estimate=telemetry.current_estimate,
+        frozen=None if frozen is None else (frozen.gamma, frozen.gamma_dot),
     )  # fmt: skip
 
 

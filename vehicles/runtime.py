@@ -45,6 +45,7 @@ class StepOutput(msgspec.Struct, frozen=True):
     transmission: Transmission | None
     estimate_ages: tuple[NeighbourAge, ...]  # (neighbour, t - stamp of the estimate held of it)
     navigation: NavOutput | None = None  # the navigation computer's step (None: the controller sees the truth)
+    frozen: NeighbourEstimate | None = None  # a stuck gamma sensor's reading, while it is stuck
 
 
 def transmission(
@@ -136,7 +137,7 @@ def complete(before: Prepared, state: VehicleState, telemetry: Telemetry) -> tup
     """The node after its integration (state: the vehicle's after it), and what the step reports."""
     nav = before.nav
     after = NodeState(state, before.seq, before.last, before.pending, before.frozen, None if nav is None else nav.prior)
-    return after, StepOutput(telemetry, before.sent, before.ages, nav)
+    return after, StepOutput(telemetry, before.sent, before.ages, nav, before.frozen)
 
 
 def _navigate(cfg: VehicleConfig, node: NodeState, state: VehicleState, t: float, dt: float) -> NavOutput | None:

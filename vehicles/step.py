@@ -66,7 +66,8 @@ def step_records(
 def records(cfg: VehicleConfig, k: int, t: float, out: StepOutput) -> StepRecords:
     """The records of a vehicle's step k (at t) from its output; FloatingPointError if its state is not sane."""
     sent = out.transmission
-    report = state_report(out.telemetry, cfg.model, k, sent.seq if sent else 0, out.estimate_ages, out.navigation)
+    seq, stuck = sent.seq if sent else 0, out.frozen
+    report = state_report(out.telemetry, cfg.model, k, seq, out.estimate_ages, out.navigation, stuck)
     _check_sane(report, t)
     return StepRecords(sent, report)
 

@@ -78,6 +78,9 @@ class StateReport(msgspec.Struct, frozen=True, omit_defaults=True):
     nav_fix: int | None = None  # 0: no position fix due, 1: a fix fused, 2: a fix due but lost
     # With a current observer (vehicles.current_observer), the current it estimates, inertial, m/s; absent without.
     current_estimate: Real3 | None = None
+    # While a frozen_gamma fault holds its gamma sensor, the reading it stuck at, (gamma, gamma_dot): what it
+    # broadcasts; a restarted process takes it up from here (the sensor's, not the process's). Absent otherwise.
+    frozen: tuple[Real, Real] | None = None
 
     @property
     def estimated_position(self) -> Float3 | None:

@@ -102,7 +102,7 @@ class BrokerKillFault(_Fault):
 
 
 class FrozenGammaFault(_Fault):
-    """A faulty sensor: the vehicle keeps broadcasting the gamma and gamma_dot it had at start."""
+    """A faulty sensor: the vehicle keeps broadcasting the gamma and gamma_dot it had at start, restarted or not."""
 
     kind: Literal["frozen_gamma"]
     vehicle: VehicleId = Field(description="vehicle id")

@@ -6,6 +6,7 @@ Used by both engines (and by a vehicle process, which builds only its own), so v
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -27,6 +28,7 @@ from comms.records.messages import Message
 from comms.records.state import StateReport
 from comms.records.wire import wide_for
 from supervisor.config.controller_choice import controller_name, controller_options
+from supervisor.config.derived import stuck_spans
 from supervisor.config.extensions import extension
 from supervisor.config.links import held_to_frames, needs_fitting
 from supervisor.config.medium import modem_params, sound_speed
@@ -36,6 +38,7 @@ from supervisor.config.scenario_schema import (
     BurstSection,
     CirclePath,
     CommsSection,
+    FaultSpec,
     HelixPath,
     LawnmowerPath,
     LinePath,
@@ -53,7 +56,7 @@ from vehicles.coast import resumed
 from vehicles.coordination import CoordinationGains
 from vehicles.current_observer import CurrentObserver
 from vehicles.dynamics import PLANAR, SPATIAL, Model
-from vehicles.estimates import Predictor
+from vehicles.estimates import NeighbourEstimate, Predictor
 from vehicles.geometry import rotation_2d, rotation_from_rpy
 from vehicles.navigation import NavParams
 from vehicles.nearest import nearest_gamma
@@ -365,12 +368,27 @@ def restore_state(config: VehicleConfig, message: Message) -> VehicleState:
     return VehicleState(report.t, config.model.normalize(x), float(report.gamma), float(report.gamma_dot))
 
 
-def restarted_node(config: VehicleConfig, last_state: Message, seq: int, step: int, dt: float) -> NodeState:
+def restarted_node(
+    config: VehicleConfig, last_state: Message, seq: int, step: int, dt: float, faults: Sequence[FaultSpec]
+) -> NodeState:
     """A vehicle process restarted at sync step `step`: its vehicle coasted without inputs from its last recorded
     state to then, and the controller started at the path point nearest to where it is (vehicles.coast); its
-    transmission count, and nothing else (no neighbour estimates, no transmission-policy memory; its navigation
-    filter starts again as at the run's start, around where the vehicle is: its old estimate is of a place the vehicle
-    has left). Every engine and `cpf resim` restart a vehicle this way."""
+    transmission count and its stuck gamma sensor's reading (the scenario's faults say whether it is still stuck),
+    and nothing else (no neighbour estimates, no transmission-policy memory; its navigation filter starts again as at
+    the run's start, around where the vehicle is: its old estimate is of a place the vehicle has left). Every engine
+    and `cpf resim` restart a vehicle this way."""
     last = restore_state(config, last_state)
-    k = StateReport.from_message(last_state, config.vehicle_id).k
-    return NodeState(resumed(config, last, step - k, dt), seq)
+    report = StateReport.from_message(last_state, config.vehicle_id)
+    return NodeState(resumed(config, last, step - report.k, dt), seq, frozen=_still_stuck(report, faults, step, dt))
+
+
+def _still_stuck(report: StateReport, faults: Sequence[FaultSpec], step: int, dt: float) -> NeighbourEstimate | None:
+    """The reading a gamma sensor stuck at (frozen_gamma) holds at a restart at `step`: the last state's, if the
+    stuck run that state was in (supervisor.config.derived.stuck_spans) still holds then; None otherwise (a sensor
+    that sticks anew sticks at the restarted vehicle's gamma). The sensor's, not the process's: it survives."""
+    if report.frozen is None:
+        return None
+    for first, end in stuck_spans(faults, report.vehicle, dt):
+        if first <= report.k and first <= step and (end is None or step < end):
+            return NeighbourEstimate(report.frozen[0], report.frozen[1], first * dt)
+    return None

@@ -37,7 +37,7 @@ def vehicle_starts(
     for vid in ids:
         cfg = vehicle_config(scenario, vid, run_seed)
         if resume is not None:
-            initial = restarted_node(cfg, *resume, start_step, dt)
+            initial = restarted_node(cfg, *resume, start_step, dt, scenario.faults)
         else:
             initial = NodeState(initial_state(_starting_at(scenario, vid, (gamma0 or {}).get(vid)), cfg))
         greeting = Hello(f"vehicle {vid}", whole, sections).to_message()

@@ -190,7 +190,8 @@ class InProcessRun:
             self._kill_vehicle(vid)
         else:
             last = self.last_state[vid]
-            self.nodes[vid] = restarted_node(self.configs[vid], last.to_message(), self.nodes[vid].seq, k, self.dt)
+            node = restarted_node(self.configs[vid], last.to_message(), self.nodes[vid].seq, k, self.dt, self.sc.faults)
+            self.nodes[vid] = node
             self.alive = sorted([*self.alive, vid])
             action.announce(t, last.t)
             return

@@ -186,7 +186,7 @@ def _restep(
         plan = schedule.plan(k)
         for i in (i for i in sc.vehicle_ids if (i, k) in stepped):
             if k > 0 and (i, k - 1) not in stepped:  # its process was restarted, as the engines do it
-                nodes[i] = restarted_node(configs[i], last_state[i], nodes[i].seq, k, dt)
+                nodes[i] = restarted_node(configs[i], last_state[i], nodes[i].seq, k, dt, sc.faults)
             batch, neighbours = heard.get((i, k), []), plan.network.neighbours(i)
             if loop is not None:
                 batch = loop.heard(batch)
