@@ -9,8 +9,9 @@ Definitions (t: simulation time of the recorded vehicle states, s):
   faults (from the log's meta: the validated scenario, --fault included; open ends closed at the end of the run).
   Per phase: peak and final coordination error, peak path-following error after the transient, mean gamma_dot.
 - convergence time: the first time after which the coordination error stays below report.coordination_tolerance
-  until the first fault starts (the end of the run without faults); reconvergence time: the same from the end of
-  the last fault to the end of the run, None if the last fault never ends. None: never below to the end of it.
+  until the first fault starts (the end of the run without faults); reconvergence time: the same within the last
+  phase (after the last fault ends, or while the last one acts if it never ends), as the summary's "below ...
+  again from" line has it (analysis.summary.Summary.resync_time); None without faults. None: never below to the end.
 - steady-state coordination error: the largest coordination error over the final STEADY_STATE_WINDOW = 50 s of the
   recorded states after report.transient, [max(t_end - 50 s, transient), t_end], whatever faults act then (NaN for
   a run that ends within its transient).
@@ -197,12 +198,11 @@ def steady_error(t: FloatArray, coord: FloatArray, transient: float) -> tuple[fl
 def _coordination(series: Series, summary: Summary) -> dict[str, Any]:
     worst = summary.max_path_error_after_transient
     steady, window = steady_error(series.t, coordination_error(series.gamma), summary.transient)
-    after_faults = summary.phases[-1].name == "after faults"
     return {
         "coordination": {
             "tolerance": summary.tolerance,
             "convergence_time": summary.sync_time,
-            "reconvergence_time": summary.resync_time if after_faults else None,
+            "reconvergence_time": summary.resync_time,
             "steady_state_error": steady,
             "steady_state_window": window,
             "phases": [_phase(p, series.vehicle_ids) for p in summary.phases],
