@@ -34,3 +34,12 @@ def test_the_reconvergence_time_is_the_printed_one_when_the_last_fault_never_end
     """Within tolerance all along: from the start of the last phase, as the summary prints it."""
     assert metrics["summary"].resync_time == pytest.approx(10.0)
     assert metrics["coordination"]["reconvergence_time"] == pytest.approx(10.0)
+
+
+def test_the_faults_are_in_the_settings_as_the_scenario_has_them(metrics: dict) -> None:
+    """Every field of the scenario's fault, the end as the phases take it: the run's end for one without, a broker
+    restarted a step after its kill."""
+    assert metrics["settings"]["faults"] == [
+        {"kind": "gamma_offset", "vehicle": 2, "offset": 0.001, "start": 10.0, "end": 20.0},
+        {"kind": "broker_kill", "start": 4.0, "end": pytest.approx(4.1)},
+    ]

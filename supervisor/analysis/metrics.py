@@ -7,6 +7,7 @@ Definitions (t: simulation time of the recorded vehicle states, s):
   statistic below is, like `cpf run`'s summary, over the vehicles alive at each instant.
 - phases: analysis.summary.phase_bounds over the scenario's duration, cut at the starts and ends of the scenario's
   faults (from the log's meta: the validated scenario, --fault included; open ends closed at the end of the run).
+  settings.faults holds each with every field the scenario gives it, its end so closed.
   Per phase: peak and final coordination error, peak path-following error after the transient, mean gamma_dot.
 - convergence time: the first time after which the coordination error stays below report.coordination_tolerance
   until the first fault starts (the end of the run without faults); reconvergence time: the same within the last
@@ -82,7 +83,7 @@ def run_metrics(run: RunData) -> dict[str, Any]:
         "run": _run_info(run),
         "settings": {
             **settings._asdict(),
-            "faults": [{"kind": k, "start": start, "end": end} for k, start, end in settings.faults],
+            "faults": _fault_settings(run, scenario, settings),
             "steady_state_window": STEADY_STATE_WINDOW,
         },
         "packets": packet_counts(run.links.values()),
@@ -148,6 +149,16 @@ def run_settings(run: RunData, scenario: Scenario | None) -> Settings:
         return Settings(duration, faults, rep.transient, tube, rep.coordination_tolerance)
     rep = scenario.report
     return Settings(duration, intervals(scenario), rep.transient, tube, rep.coordination_tolerance)
+
+
+def _fault_settings(run: RunData, scenario: Scenario | None, settings: Settings) -> list[dict[str, Any]]:
+    """Each fault with every field the scenario gives it (its target, its parameters), its end as the phases take it
+    (settings.faults: closed at the end of the run, a broker restarted a step after its kill unless told)."""
+    if scenario is not None:
+        fields = [f.model_dump(mode="json") for f in scenario.faults]
+    else:  # an older or a synthetic log: the meta's record of them
+        fields = [dict(f) for f in run.meta.faults] if run.meta is not None else []
+    return [{**f, "start": start, "end": end} for f, (_, start, end) in zip(fields, settings.faults, strict=False)]
 
 
 def _end(end: Any, duration: float) -> float:
