@@ -8,13 +8,18 @@ from __future__ import annotations
 
 import dataclasses
 
+import numpy as np
 import pytest
 
-from supervisor.config.fleet import vehicle_config
+from supervisor.config.derived import tube_radius
+from supervisor.config.explain import what_would_run
+from supervisor.config.fleet import initial_state, vehicle_config
 from supervisor.config.presets_table import top_speed
 from supervisor.config.scenario import parse_scenario
 from supervisor.errors import ScenarioError
-from tests.conftest import CONFIGS
+from tests.conftest import CONFIGS, shortened
+from vehicles.actuators import Actuators, remus100
+from vehicles.agent import step
 from vehicles.params import GRAVITY, PRESETS, VehicleParams, without_lift
 
 PAPER = (CONFIGS / "paper.toml").read_text()
@@ -91,3 +96,76 @@ def test_the_paper_scenarios_fly_the_neutral_vehicle():
     for name in ("paper.toml", "paper_acoustic.toml"):
         sc = parse_scenario((CONFIGS / name).read_text(), name)
         assert sc.vehicle.preset == "remus100_neutral"
+
+
+# A mixed fleet on fins (the researcher's hetero_fins): vehicle 2 flies the neutral preset, whose inputs are ideal.
+#   1 (remus100) -- 2 (remus100_neutral) -- 3 (remus100), three parallel lines 20 m apart at 1 m/s
+HETERO = """
+[scenario]
+name = "hetero_fins"
+duration = 200.0
+step = 0.1
+[vehicle]
+preset = "remus100"
+[graph]
+edges = [[1, 2], [2, 3]]
+[[vehicles]]
+id = 1
+position = [-5.0, 3.0, -10.0]
+path = { type = "line", start = [0.0, 0.0, -10.0], velocity = [1.0, 0.0, 0.0] }
+[[vehicles]]
+id = 2
+position = [-5.0, 23.0, -10.0]
+preset = "remus100_neutral"
+path = { type = "line", start = [0.0, 20.0, -10.0], velocity = [1.0, 0.0, 0.0] }
+[[vehicles]]
+id = 3
+position = [-5.0, 43.0, -10.0]
+path = { type = "line", start = [0.0, 40.0, -10.0], velocity = [1.0, 0.0, 0.0] }
+"""
+
+
+def _fins(sc, vid: int) -> Actuators | None:
+    return vehicle_config(sc, vid).actuators
+
+
+def test_each_vehicle_of_a_mixed_fleet_gets_its_own_presets_actuators_and_auto_controller():
+    sc = parse_scenario(HETERO, "hetero.toml")
+    thrust = PRESETS["remus100"].max_surge_force
+    assert _fins(sc, 1) == _fins(sc, 3) == remus100(thrust)
+    assert _fins(sc, 2) is None  # remus100_neutral: the paper's ideal inputs (cpf presets)
+    assert type(vehicle_config(sc, 1).controller).__name__ == "LineOfSight"
+    assert type(vehicle_config(sc, 2).controller).__name__ == "Backstepping"  # auto: the nominal plant
+
+
+def test_a_remus100_vehicle_in_a_neutral_fleet_gets_its_fins():
+    text = _with('preset = "remus100"\n[graph]', 'preset = "remus100_neutral"\n[graph]', HETERO)
+    text = _with('preset = "remus100_neutral"\npath', 'preset = "remus100"\npath', text)
+    sc = parse_scenario(text, "reverse.toml")
+    assert _fins(sc, 1) is None and _fins(sc, 3) is None
+    assert _fins(sc, 2) == remus100(PRESETS["remus100"].max_surge_force)
+
+
+def test_fleet_wide_actuators_given_explicitly_win_over_a_vehicles_preset():
+    sc = parse_scenario(HETERO, "hetero.toml", ["vehicle.actuators=ideal"])
+    assert [_fins(sc, vid) for vid in (1, 2, 3)] == [None, None, None]
+    sc = parse_scenario(HETERO, "hetero.toml", ["vehicle.actuators=remus100"])
+    assert _fins(sc, 2) == remus100(PRESETS["remus100_neutral"].max_surge_force)
+
+
+def test_the_neutral_vehicle_of_a_mixed_fleet_stays_in_its_tube():
+    """Alone (no messages: its coordination keeps v_r), 100 s; on the fleet's fins it flew loops 64 m outside."""
+    sc = parse_scenario(shortened(HETERO, 100.0), "hetero.toml")
+    cfg = vehicle_config(sc, 2)
+    state, errors = initial_state(sc, cfg), []
+    for _ in range(round(100.0 / sc.scenario.step)):
+        state, tel = step(cfg, state, sc.scenario.step, [])
+        errors.append(float(np.linalg.norm(tel.error)))
+    after = errors[round(sc.report.transient / sc.scenario.step) :]
+    assert max(after) < tube_radius(sc)
+
+
+def test_validate_names_each_vehicles_actuators_in_a_mixed_fleet():
+    text = what_would_run(parse_scenario(HETERO, "hetero.toml"))
+    assert "vehicles 1, 3: line_of_sight" in text and "remus100's fins and propeller" in text
+    assert "vehicle 2: backstepping" in text and "ideal inputs" in text

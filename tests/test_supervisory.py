@@ -113,7 +113,7 @@ PAPER = (CONFIGS / "paper.toml").read_text()
     ],
 )
 def test_auto_chooses_the_supervisor_where_the_scenario_declares_the_inertia_or_damping_uncertain(sets, chosen):
-    assert controller_of(parse_scenario(PAPER, "paper.toml", sets)) == chosen
+    assert controller_of(parse_scenario(PAPER, "paper.toml", sets), 1) == chosen
 
 
 @pytest.mark.parametrize(

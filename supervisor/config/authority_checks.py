@@ -90,7 +90,7 @@ class Need:
 def _worst(sc: Scenario, vid: int) -> Need | None:
     model = vehicle_of(sc, vid)
     nominal = model.parameters()
-    fins = actuators_of(sc, nominal)
+    fins = actuators_of(sc, vid, nominal)
     if fins is None:
         return None
     plant = plant_of(sc, vid) or nominal

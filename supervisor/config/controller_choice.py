@@ -1,7 +1,7 @@
 """Which path-following controller a scenario's vehicles steer with, and its options.
 
 `path_following.controller = "auto"` (the default) picks by what the scenario says the controller cannot do or know:
-where the vehicle has fins and a propeller (`vehicle.actuators`, or its preset's: vehicles.actuators), whose moment
+where the vehicle has fins and a propeller (`vehicle.actuators`, or its own preset's: vehicles.actuators), whose moment
 falls with the square of the speed, the line-of-sight law that asks only for what they give (vehicles.line_of_sight:
 the other designs ask for more, and the vehicle leaves its tube by tens to hundreds of metres, measured in issue 24);
 else where the plant's inertia or damping may differ from the model (`vehicle.uncertainty` on any of their groups), the
@@ -30,20 +30,27 @@ def estimated_spread(sc: Scenario) -> float:
     return max((declared.get(group, 0.0) for group in ESTIMATED), default=0.0)
 
 
-def controller_name(sc: Scenario) -> str:
-    """The controller's name, `auto` resolved."""
+def controller_name(sc: Scenario, vehicle_id: int) -> str:
+    """The name of vehicle_id's controller, `auto` resolved by its own actuators (a mixed fleet may steer with
+    several)."""
     name = sc.path_following.controller
     if name != AUTO:
         return name
-    if actuation(sc) != "ideal":
+    if actuation(sc, vehicle_id) != "ideal":
         return "line_of_sight"
     return "supervisory" if estimated_spread(sc) > 0 else "backstepping"
 
 
-def controller_options(sc: Scenario) -> dict[str, Any]:
-    """Its options: backstepping's are [path_following]'s gains; `auto`'s supervisor has those gains and a parameter
-    set as wide as the declared uncertainty; a named one has the scenario's controller_options."""
-    pf, name = sc.path_following, controller_name(sc)
+def controller_names(sc: Scenario) -> list[str]:
+    """Every controller the fleet steers with, once each, in the order of [[vehicles]]."""
+    return list(dict.fromkeys(controller_name(sc, vid) for vid in sc.vehicle_ids))
+
+
+def controller_options(sc: Scenario, name: str) -> dict[str, Any]:
+    """The options of the controller `name` (one of controller_names): backstepping's are [path_following]'s gains;
+    `auto`'s supervisor has those gains and a parameter set as wide as the declared uncertainty; a named one has the
+    scenario's controller_options."""
+    pf = sc.path_following
     gains = {"delta": pf.delta, "k1": pf.k1, "k2": pf.k2, "k_zeta": pf.k_zeta, "damping": pf.damping}
     if name == "backstepping":
         return gains

@@ -43,17 +43,34 @@ def what_would_run(sc: Scenario) -> str:
 
 
 def _controller(sc: Scenario) -> str:
-    """The controller as it will run: auto's choice and why, and the delta of the designs that have one (the tube
-    radius of those that do not); the actuators if not ideal."""
-    pf, name = sc.path_following, controller_name(sc)
+    """The controller as it will run and its actuators if not ideal; in a mixed fleet whose vehicles steer or actuate
+    differently, each group's, ideal inputs named too ("vehicles 1, 3: ... on ...; vehicle 2: ... on ideal inputs")."""
+    groups: dict[tuple[str, str | None], list[int]] = {}
+    for vid in sc.vehicle_ids:
+        groups.setdefault(_steering(sc, vid), []).append(vid)
+    if len(groups) == 1:
+        (text, actuators), *_ = groups
+        return text if actuators is None else f"{text}; {actuators}"
+    named = [(f"{_who(vids)}: {text} on {actuators or 'ideal inputs'}") for (text, actuators), vids in groups.items()]
+    return "; ".join(named)
+
+
+def _steering(sc: Scenario, vehicle_id: int) -> tuple[str, str | None]:
+    """(vehicle_id's controller: auto's choice and why, and the delta of the designs that have one (the tube radius
+    of those that do not); its actuators, None: ideal)."""
+    pf, name = sc.path_following, controller_name(sc, vehicle_id)
     shifted = name in ("backstepping", "supervisory")  # the delta-shifted designs: |delta| makes their tube
     text = f"{name}, delta {_num(pf.delta)} m" if shifted else f"{name}, tube {_num(tube_radius(sc))} m"
     if pf.controller == AUTO:
         text += f" (auto: {_why(sc, name)})"
-    actuators = actuation(sc)
-    if actuators != "ideal":
-        text += f"; {actuators if isinstance(actuators, str) else 'the scenario'}'s fins and propeller"
-    return text
+    actuators = actuation(sc, vehicle_id)
+    if actuators == "ideal":
+        return text, None
+    return text, f"{actuators if isinstance(actuators, str) else 'the scenario'}'s fins and propeller"
+
+
+def _who(vids: list[int]) -> str:
+    return f"vehicle {vids[0]}" if len(vids) == 1 else "vehicles " + ", ".join(str(v) for v in vids)
 
 
 def _why(sc: Scenario, name: str) -> str:

@@ -8,7 +8,7 @@ from collections.abc import Generator, Iterator
 from typing import Any
 
 from comms.channel.guard import GuardedLoss
-from supervisor.config.controller_choice import AUTO, controller_name, controller_options
+from supervisor.config.controller_choice import AUTO, controller_names, controller_options
 from supervisor.config.extensions import Identity, instantiate, resolve
 from supervisor.config.parameter_ranges import out_of_range
 from supervisor.config.scenario_schema import Scenario
@@ -32,7 +32,6 @@ def extension_errors(sc: Scenario) -> Iterator[str]:
             yield from _draws_errors(model, c.loss_model)
     elif c.loss_model_options:
         yield f"comms.loss_model_options: options for no loss model (comms.loss_model), got {c.loss_model_options}"
-    yield from _controller_errors(sc)
 
 
 def _draws_errors(model: Any, name: str) -> Iterator[str]:
@@ -44,21 +43,25 @@ def _draws_errors(model: Any, name: str) -> Iterator[str]:
         yield f"comms.loss_model: {exc}, got {name!r}"
 
 
-def _controller_errors(sc: Scenario) -> Iterator[str]:
-    pf, name = sc.path_following, controller_name(sc)
+def controller_errors(sc: Scenario) -> Iterator[str]:
+    """The controller's options, of each controller the fleet steers with (auto's choice reads [vehicle] and
+    [[vehicles]]: each vehicle's actuators)."""
+    pf = sc.path_following
     if pf.controller == AUTO and pf.controller_options:
         yield (
             "path_following.controller_options: auto chooses the controller and its options; name the controller "
             f"(backstepping, supervisory, ...) to give it options, got {pf.controller_options}"
         )
-    elif name != "backstepping":  # the built-in's gains are [path_following]'s own keys, checked by pydantic
-        yield from _checked("controller", "path_following", name, controller_options(sc))
-    elif pf.controller_options:
-        keys = "delta, k1, k2, k_zeta, damping"
-        yield (
-            f"path_following.controller_options: backstepping takes its gains from [path_following] ({keys}), "
-            f"got {pf.controller_options}"
-        )
+        return
+    for name in controller_names(sc):  # auto's choice may differ between the vehicles of a mixed fleet
+        if name != "backstepping":  # the built-in's gains are [path_following]'s own keys, checked by pydantic
+            yield from _checked("controller", "path_following", name, controller_options(sc, name))
+        elif pf.controller_options:
+            keys = "delta, k1, k2, k_zeta, damping"
+            yield (
+                f"path_following.controller_options: backstepping takes its gains from [path_following] ({keys}), "
+                f"got {pf.controller_options}"
+            )
 
 
 def vehicle_model_errors(sc: Scenario) -> Iterator[str]:
@@ -130,8 +133,8 @@ def _named(sc: Scenario) -> list[tuple[str, str, str]]:
     """(kind, the scenario field naming it, name) of each extension the scenario names, in extension_identities'
     order."""
     co = sc.coordination
-    named = [("law", co.law), ("predictor", co.predictor), ("transmission", sc.comms.transmit.policy),
-             ("controller", controller_name(sc))]  # fmt: skip
+    named = [("law", co.law), ("predictor", co.predictor), ("transmission", sc.comms.transmit.policy)]
+    named += [("controller", name) for name in controller_names(sc)]  # a mixed fleet's auto may choose several
     if sc.comms.loss_model is not None:  # none named: the digest stays what it was for scenarios without one
         named.append(("loss", sc.comms.loss_model))
     models = [sc.vehicle.model] if sc.vehicle.model else sorted({v.preset or sc.vehicle.preset for v in sc.vehicles})

@@ -89,12 +89,13 @@ def vehicle_config(scenario: Scenario, vehicle_id: int, seed: int | None = None)
     vehicle = vehicle_of(scenario, vehicle_id)
     params = vehicle.parameters()
     run_seed = scenario.scenario.seed if seed is None else seed
+    actuators = actuators_of(scenario, vehicle_id, params)
     return VehicleConfig(
         vehicle_id=vehicle_id,
         model=model_of(scenario),
         params=params,
         path=build_path(section.path),
-        controller=controller_of(scenario, actuators_of(scenario, params)),
+        controller=controller_of(scenario, vehicle_id, actuators),
         coordination=CoordinationGains(coupling_k(scenario), co.k2, co.v_r),
         predictor=predictor_of(scenario),
         law=extension("law", co.law, co.law_options),
@@ -110,7 +111,7 @@ def vehicle_config(scenario: Scenario, vehicle_id: int, seed: int | None = None)
             coordination_acceleration(params) if scenario.saturation.correction == "preset" else None
         ),
         vehicle_model=vehicle,
-        actuators=actuators_of(scenario, params),
+        actuators=actuators,
     )
 
 
@@ -282,13 +283,15 @@ def current_observer_of(scenario: Scenario) -> CurrentObserver | None:
     return CurrentObserver.for_loop(pf.k1, pf.delta, pf.k2) if wanted else None
 
 
-def controller_of(scenario: Scenario, actuators: Actuators | None = None) -> PathFollowingController:
-    """The path-following controller with its options (supervisor.config.controller_choice); a controller with a
-    field `fin_moment` that its options leave out gets the fins' largest moment per (m/s)^2 (vehicles.actuators)."""
+def controller_of(
+    scenario: Scenario, vehicle_id: int, actuators: Actuators | None = None
+) -> PathFollowingController:  # fmt: skip
+    """vehicle_id's path-following controller with its options (supervisor.config.controller_choice); a controller
+    with a field `fin_moment` that its options leave out gets the fins' largest moment per (m/s)^2
+    (vehicles.actuators)."""
     context = None if actuators is None else {"fin_moment": actuators.fin_moment}
-    controller: PathFollowingController = extension(
-        "controller", controller_name(scenario), controller_options(scenario), context
-    )
+    name = controller_name(scenario, vehicle_id)
+    controller: PathFollowingController = extension("controller", name, controller_options(scenario, name), context)
     return controller
 
 

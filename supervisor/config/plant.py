@@ -11,7 +11,7 @@ from collections.abc import Iterator
 
 from supervisor.config.plant_schema import ActuatorTable, UncertaintyTable
 from supervisor.config.scenario_schema import Scenario
-from supervisor.config.vehicle_models import params_of
+from supervisor.config.vehicle_models import params_of, preset_of
 from vehicles.actuators import Actuators, remus100
 from vehicles.current import Current
 from vehicles.params import LIFT_FIELDS, VehicleParams
@@ -41,20 +41,21 @@ def spreads(scenario: Scenario) -> dict[str, float]:
 PRESET_ACTUATORS = {"remus100": "remus100"}
 
 
-def actuation(scenario: Scenario) -> str | ActuatorTable:
-    """[vehicle] actuators as given, or the fleet's preset's ("preset"; "ideal" for another vehicle model)."""
+def actuation(scenario: Scenario, vehicle_id: int) -> str | ActuatorTable:
+    """vehicle_id's actuators: [vehicle] actuators as given (for the whole fleet), or by default ("preset") its own
+    preset's (its [[vehicles]] preset, else [vehicle] preset: a mixed fleet); "ideal" for another vehicle model."""
     given = scenario.vehicle.actuators
     if given != "preset":
         return given
     if scenario.vehicle.model is not None:
         return "ideal"
-    return PRESET_ACTUATORS.get(scenario.vehicle.preset, "ideal")
+    return PRESET_ACTUATORS.get(preset_of(scenario, vehicle_id), "ideal")
 
 
-def actuators_of(scenario: Scenario, params: VehicleParams) -> Actuators | None:
-    """The fleet's actuators (actuation) for a vehicle with these nominal parameters (its propeller's thrust is
-    their max_surge_force); None: ideal."""
-    given = actuation(scenario)
+def actuators_of(scenario: Scenario, vehicle_id: int, params: VehicleParams) -> Actuators | None:
+    """vehicle_id's actuators (actuation) for its nominal parameters (its propeller's thrust is their
+    max_surge_force); None: ideal."""
+    given = actuation(scenario, vehicle_id)
     if given == "ideal":
         return None
     if given == "remus100":

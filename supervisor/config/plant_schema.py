@@ -122,8 +122,9 @@ Actuation = Annotated[
 ACTUATORS = (  # [vehicle] actuators' description
     "what turns the controller's force and torques into motion: ideal (the paper's model: the inputs as asked, within "
     "the preset's limits), remus100 (a REMUS 100's fins and propeller from sources: vehicles/actuators.py), or a "
-    "table of their parameters; preset: the preset's ([vehicle] preset: remus100's for remus100, ideal for the "
-    "others and for another vehicle model)"
+    "table of their parameters, each for every vehicle of the fleet; preset: each vehicle's own preset's (its "
+    "[[vehicles]] preset, else [vehicle] preset: remus100's for remus100, ideal for the others and for another "
+    "vehicle model)"
 )
 
 

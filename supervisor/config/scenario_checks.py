@@ -16,7 +16,7 @@ import numpy as np
 
 from supervisor.config.authority_checks import authority_warnings
 from supervisor.config.derived import STEP_TOLERANCE, active, end_of, first_step, graph_at, steps_of, whole_steps
-from supervisor.config.extension_checks import extension_errors, vehicle_model_errors
+from supervisor.config.extension_checks import controller_errors, extension_errors, vehicle_model_errors
 from supervisor.config.feasibility_checks import feasibility_errors, feasibility_warnings
 from supervisor.config.kill_checks import kill_errors
 from supervisor.config.parameter_ranges import PARAMETER_RANGES
@@ -347,7 +347,8 @@ RULES: tuple[tuple[frozenset[str], Check], ...] = (
     (frozenset({"vehicles", "faults", "scenario"}), _clock_skew),
     (frozenset({"vehicles", "coordination"}), _path_speed),
     (frozenset({"scenario", "environment"}), planar_current_errors),
-    (frozenset({"coordination", "comms", "path_following"}), extension_errors),
+    (frozenset({"coordination", "comms"}), extension_errors),
+    (frozenset({"vehicle", "vehicles", "path_following"}), controller_errors),
     (frozenset({"vehicle", "vehicles", "scenario"}), vehicle_model_errors),
 )
 

@@ -165,7 +165,7 @@ class PathFollowingSection(StrictModel):
 
     controller: ExtensionName = Field(
         default="auto",
-        description="auto (line_of_sight on fins, as the remus100 preset's; else supervisory where "
+        description="auto (per vehicle: line_of_sight on fins, as the remus100 preset's; else supervisory where "
         "vehicle.uncertainty makes inertia or damping uncertain, else backstepping), backstepping, supervisory "
         "(Aguiar & Hespanha 2007), line_of_sight (bounded demands and a disturbance observer: "
         "vehicles/line_of_sight.py), an extension (cpf plugins), pkg.mod:Name",
