@@ -5,7 +5,8 @@ buoyant needs a pitch moment to fly a line at all, and below some speed it needs
 (vehicles.trim). Each vehicle's plant (its drawn one under [vehicle] uncertainty: the same draw the run makes) is
 trimmed at its path's speed and climb, v_r |p_d'(gamma)| along the tangent, at SAMPLES gammas over the run; where the
 moment exceeds the fins', the warning names the vehicle, what it needs and the least speed, up to the vehicle's top
-speed, at which it would hold. A 3-D run with fins only; the trim leaves out turns and the current.
+speed, at which it would hold. A 3-D run with fins only; the trim leaves out turns and the current. In any run,
+a vehicle asked for more speed through the water (its path's less the current's) than its top speed is warned of.
 """
 
 from __future__ import annotations
@@ -18,11 +19,13 @@ import numpy as np
 
 from numerics import asin
 from supervisor.config.fleet import build_path
-from supervisor.config.plant import actuators_of, plant_of
+from supervisor.config.plant import actuators_of, current_of, plant_of
 from supervisor.config.presets_table import top_speed
-from supervisor.config.scenario_schema import Scenario
+from supervisor.config.scenario_schema import Scenario, VehicleSection
 from supervisor.config.vehicle_models import vehicle_of
 from vehicles.actuators import Actuators
+from vehicles.current import Current
+from vehicles.geometry import Float3
 from vehicles.params import VehicleParams
 from vehicles.paths import Path
 from vehicles.saturation import clamp
@@ -32,6 +35,7 @@ from vehicles.vehicle_model import VehicleModel
 SAMPLES = 16  # gammas along the run at which each path is trimmed
 _FASTER = 0.05  # m/s: the step of the search for the least speed that holds
 Float2 = tuple[float, float]
+Speeds = tuple[float, float, Float3]  # m/s through the water, m/s along the path, the current there
 _TRIMS: dict[tuple[object, VehicleParams, Actuators, float, float], Float2] = {}  # _held's (models compare by value)
 _KEPT = 4096  # trims _TRIMS holds at most
 _FASTEST = 10.0  # m/s: where that search gives up for a vehicle with no top speed
@@ -42,24 +46,57 @@ def authority_warnings(sc: Scenario) -> list[str]:
 
 
 def _too_fast(sc: Scenario) -> list[str]:
-    """A vehicle asked to go along its path faster than its top speed (full thrust against its surge damping) falls
-    behind its gamma, and the fleet with it: ~13 m/s of a REMUS 100 (2.5 m/s) passed unsaid (a new user). Any
-    dimension, fins or not; a model of someone else's that cannot say is left out."""
-    out = []
+    """A vehicle asked to go faster through the water than its top speed (full thrust against its surge damping)
+    falls behind its gamma, and the fleet with it: ~13 m/s of a REMUS 100 (2.5 m/s) passed unsaid (a new user), and
+    so did a head current of 2 m/s on lines flown at 1 m/s (the fleet crawled at 0.47 v_r). Any dimension, fins or
+    not; a model of someone else's that cannot say is left out."""
+    current, out = current_of(sc), []
     for section in sc.vehicles:
         try:
             top = top_speed(plant_of(sc, section.id) or vehicle_of(sc, section.id).parameters())
         except (ValueError, ArithmeticError, TypeError, AttributeError):
             continue
-        path, v_r = build_path(section.path), sc.coordination.v_r
-        gammas = _gammas(path, section.gamma0, v_r * sc.scenario.duration)
-        asked = max(abs(v_r) * math.sqrt(sum(x * x for x in path.evaluate_floats(g)[1])) for g in gammas)
-        if asked > top:
-            out.append(
-                f"coordination.v_r: vehicle {section.id} is asked for up to {asked:.3g} m/s along its path, "
-                f"above its top speed of {top:.3g} m/s (cpf presets): it will fall behind, got {v_r:g}"
-            )
+        speeds = list(_through_water(sc, section, current))
+        needed, _, water = max(speeds)
+        if needed > top:
+            by_current = current is not None and max(along for _, along, _ in speeds) <= top
+            out.append(_said_fast(sc, section.id, (needed, top), by_current, water))
     return out
+
+
+def _through_water(sc: Scenario, section: VehicleSection, current: Current | None) -> Iterator[Speeds]:
+    """(speed through the water, speed along the path, the current there) at the path's sampled points (_gammas): the
+    path's velocity v_r p_d'(gamma) less the current at its depth, at the time the vehicle first reaches it going at
+    v_r from its gamma0 (within the run)."""
+    path, v_r, duration = build_path(section.path), sc.coordination.v_r, sc.scenario.duration
+    start = float(section.gamma0) if isinstance(section.gamma0, float | int) else 0.0
+    period = path.gamma_period
+    for gamma in _gammas(path, section.gamma0, v_r * duration):
+        position, tangent, _ = path.evaluate_floats(gamma)
+        velocity = [v_r * x for x in tangent]
+        t = (gamma - start) / v_r if v_r else 0.0
+        t = min(t % (period / abs(v_r)) if period is not None and v_r else max(t, 0.0), duration)
+        water = (0.0, 0.0, 0.0) if current is None else current.velocity(t, position[2])
+        yield _norm([v - c for v, c in zip(velocity, water, strict=True)]), _norm(velocity), water
+
+
+def _said_fast(sc: Scenario, vid: int, speeds: Float2, by_current: bool, water: Float3) -> str:
+    """The warning: the current's doing where the path alone is within the top speed, else v_r's."""
+    (needed, top), current = speeds, "[" + ", ".join(f"{c:g}" for c in water) + "]"
+    field, got = ("environment.current", list(sc.environment.current)) if by_current else ("coordination.v_r", None)
+    what = (
+        f"needs up to {needed:.3g} m/s through the water (its path less the current of {current} m/s there)"
+        if any(water)
+        else f"is asked for up to {needed:.3g} m/s along its path"
+    )
+    return (
+        f"{field}: vehicle {vid} {what}, above its top speed of {top:.3g} m/s (cpf presets): it will fall behind, "
+        f"got {sc.coordination.v_r if got is None else got}"
+    )
+
+
+def _norm(vector: Sequence[float]) -> float:
+    return math.sqrt(sum(x * x for x in vector))
 
 
 def unheld(sc: Scenario) -> dict[int, Need]:
