@@ -66,23 +66,23 @@ def test_the_summary_prints_numbers_while_a_vehicle_is_down() -> None:
     during = next(line for line in text.splitlines() if line.startswith("during vehicle_kill")).split()
     assert during[3:] == ["0.5", "0.5", "0.900", "1.000", "1.000", "-"]  # "-": vehicle 3's rate, it was down
     assert "nan" not in text
-    assert "path-following error after the transient: max 1.100 m, tube 1.200 m (inside)" in text
+    assert "after the transient (from t = 10 s): max 1.100 m, tube 1.200 m (inside)" in text
 
 
 def test_the_summary_says_why_there_is_no_path_error_to_judge() -> None:
     series = fleet()
     inside = format_summary(summarize(series, DURATION, [], 200.0, TUBE, 0.01))
-    assert "path-following error after the transient: none (the run ends within it)" in inside
+    assert "after the transient (from t = 200 s): none (the run ends within it)" in inside
     series.path_error[T >= 90] = np.nan  # nobody alive after the transient
     nobody = format_summary(summarize(series, DURATION, [], 90.0, TUBE, 0.01))
-    assert "path-following error after the transient: none (no vehicle was alive after it)" in nobody
+    assert "after the transient (from t = 90 s): none (no vehicle was alive after it)" in nobody
 
 
 def test_a_run_of_one_step_says_no_state_lies_after_the_transient_not_that_nobody_was_alive() -> None:
     """step = duration: one state, at t = 0, of vehicles alive throughout (a new user)."""
     one = Series((1, 2), np.zeros(1), np.zeros((1, 2)), np.ones((1, 2)), np.full((1, 2), 0.5))
     text = format_summary(summarize(one, 60.0, [], 20.0, TUBE, 0.01))
-    assert "path-following error after the transient: none (no state lies after it: the last is at t = 0 s)" in text
+    assert "after the transient (from t = 20 s): none (no state lies after it: the last is at t = 0 s)" in text
 
 
 def vehicle_series(vid: int, t: np.ndarray, gamma: np.ndarray, error: float) -> VehicleSeries:

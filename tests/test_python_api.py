@@ -75,7 +75,7 @@ def test_states_give_the_coordination_and_path_errors_of_cpf_run(cli_run):
     transient = metrics["coordination"]["transient"]
     worst = states[states.t >= transient].path_error.max()
     assert worst == pytest.approx(metrics["coordination"]["max_path_error_after_transient"], rel=1e-12)
-    assert f"path-following error after the transient: max {worst:.3f} m" in printed
+    assert f"path-following error after the transient (from t = {transient:g} s): max {worst:.3f} m" in printed
     assert len(states) == 3 * 2000 and states.position_x.notna().all()
 
 
