@@ -93,8 +93,8 @@ def sweep(
     from supervisor.cli.parser import arguments
     from supervisor.cli.terminal import SweepBar
     from supervisor.errors import ScenarioError
-    from supervisor.tools.sweep import parse_param
     from supervisor.tools.sweep import sweep as run_sweep
+    from supervisor.tools.sweep_params import parse_param
 
     if logs and out is None:  # a temporary directory would take the logs with it
         raise ScenarioError("sweep: logs=True keeps each run's log in out/runs/: give out a directory")

@@ -306,3 +306,18 @@ def test_the_api_docs_show_each_functions_signature_as_it_is():
     for name, params in shown.items():
         actual = ", ".join(written(p) for p in inspect.signature(getattr(cpf, name)).parameters.values())
         assert params == actual.replace("=false", "=False").replace("=true", "=True"), name
+
+
+def test_sweeping_the_scenarios_seed_is_refused_for_seeds(scenario):
+    """A run's seed is the sweep's (0 .. seeds-1): --param scenario.seed=1,2 gave rows all of seed 0 and the same
+    numbers, and a figure of them (found by a new user). Refused, by the command line and cpf.sweep alike."""
+    done = cpf_command("sweep", scenario.name, "--param", "scenario.seed=1,2", "--out", "seeded", cwd=scenario.parent)
+    said = [line.split("error: ", 1)[1] for line in done.stderr.splitlines() if "error: " in line]
+    assert done.returncode == 2 and not (scenario.parent / "seeded").exists()
+    assert said == [
+        "--param scenario.seed: a sweep gives each run its seed (0 .. N-1 of --seeds N; seeds=N in cpf.sweep) over "
+        "the scenario's: sweep seeds with --seeds, got 'scenario.seed=1,2'"
+    ]
+    with pytest.raises(cpf.ScenarioError) as caught:
+        cpf.sweep(scenario, params={"scenario.seed": [1, 2], "comms.loss": [0.3]}, seeds=1, progress=False)
+    assert caught.value.errors == said

@@ -23,7 +23,8 @@ from supervisor.engine.progress import Progress
 from supervisor.engine.resim import resimulate
 from supervisor.errors import ScenarioError
 from supervisor.record.recorder import read_messages
-from supervisor.tools.sweep import Param, default_jobs, grid, parse_param
+from supervisor.tools.sweep import default_jobs, grid
+from supervisor.tools.sweep_params import Param, parse_param
 from supervisor.tools.sweep_runs import override
 from tests.conftest import CONFIGS, shortened
 from tests.procs import CPF, cpf

@@ -61,7 +61,8 @@ def export(args: argparse.Namespace) -> int:
 def sweep(args: argparse.Namespace) -> int:
     from supervisor.cli.outputs import checked_directory
     from supervisor.cli.terminal import SweepBar
-    from supervisor.tools.sweep import Cluster, local_jobs, parse_param, sweep
+    from supervisor.tools.sweep import Cluster, local_jobs, sweep
+    from supervisor.tools.sweep_params import parse_param
     from supervisor.tools.sweep_plot import plot_sweep
 
     if args.cluster is not None and args.jobs is not None:  # the workers' threads say how many runs go at once

@@ -16,9 +16,7 @@ import hashlib
 import json
 import math
 import os
-import re
 import signal
-import tomllib
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, CancelledError, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass
@@ -29,8 +27,8 @@ from typing import TYPE_CHECKING, Any
 
 from comms.bus.lifeline import ORPHANED, set_parent_death_signal
 from supervisor import collector
-from supervisor.config.scenario import split_outside_brackets
 from supervisor.errors import ScenarioError, SimulationError
+from supervisor.tools.sweep_params import Param
 from supervisor.tools.sweep_runs import MAX_BATCH, RunSpec, batch_limit, override, run_logged, run_many, run_one
 
 if TYPE_CHECKING:
@@ -72,45 +70,6 @@ class Cluster:
 
     address: str
     timeout: float
-
-
-@dataclass(frozen=True, slots=True)
-class Param:
-    key: str
-    values: tuple[Any, ...]
-
-
-def parse_param(text: str) -> Param:
-    """KEY=v1,v2,... (TOML values; commas inside brackets belong to a value, so graphs can be swept:
-    graph.edges=[[1,2],[1,3]],[[1,2],[2,3]]) or KEY=start:stop:step (inclusive of stop, within rounding)."""
-    key, sep, spec = text.partition("=")
-    if not sep or not key.strip() or not spec.strip():
-        raise ScenarioError(f"--param: expected KEY=v1,v2,... or KEY=start:stop:step, got {text!r}")
-    parts = spec.split(":")
-    numbers = len(parts) > 1 and all(_NUMBER.match(part.strip()) for part in parts)
-    if numbers and len(parts) != 3:
-        raise ScenarioError(f"--param {key}: a range needs start:stop:step, got {spec!r}")
-    if numbers:  # not names with a colon (my_pkg.laws:Law,my_pkg.laws:Other): a list of them
-        start, stop, step = (_value(part, text) for part in parts)
-        if step <= 0 or stop < start:
-            raise ScenarioError(f"--param {key}: start:stop:step needs step > 0 and stop >= start, got {spec!r}")
-        count = math.floor((stop - start) / step + 1e-9) + 1
-        return Param(key.strip(), tuple(round(start + i * step, 12) for i in range(count)))
-    return Param(key.strip(), tuple(_value(part, text) for part in split_outside_brackets(spec)))
-
-
-_NUMBER = re.compile(r"^[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$")  # what a range's ends and step look like
-BARE_WORD = re.compile(r"^[A-Za-z_][\w.-]*(:[A-Za-z_][\w.]*)?$")  # a name (corrected, my_pkg.laws:Law): a string
-
-
-def _value(text: str, whole: str) -> Any:
-    """A TOML value; a bare word is a string, as with --set (a law's or a predictor's name)."""
-    try:
-        return tomllib.loads(f"v = {text.strip()}")["v"]
-    except tomllib.TOMLDecodeError:
-        if BARE_WORD.match(text.strip()) and text.strip() not in ("true", "false", "inf", "nan"):
-            return text.strip()
-        raise ScenarioError(f"--param: {text.strip()!r} is not a TOML value, in {whole!r}") from None
 
 
 def grid(params: Sequence[Param], seeds: int, first_seed: int = 0) -> list[RunSpec]:

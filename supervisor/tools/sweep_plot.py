@@ -25,7 +25,7 @@ from numpy.typing import NDArray
 from supervisor.analysis.figures import distinct_colours, save
 from supervisor.analysis.legends import place_legend
 from supervisor.analysis.metrics import STEADY_STATE_WINDOW
-from supervisor.tools.sweep import Param
+from supervisor.tools.sweep_params import Param
 
 FLOOR = 1e-6  # log axes: errors below this are drawn at it
 LOG_X_DECADES = 2
