@@ -37,12 +37,9 @@ def run(
     scenario: a path, TOML text (a str with a line break) or a dict of the file's tables; engine: "inprocess" or
     "zenoh"; set: {"comms.loss": 0.2} or ["comms.loss=0.2"] (--set); faults: specs as --fault takes them, or dicts;
     seed: --seed; out: the log (None: a temporary file, deleted with the Run); options: any other `cpf run` option,
-    as on the command line (["--no-foxglove", "--max-window", "10"]). ScenarioError for bad input, SimulationError
-    (or FloatingPointError, for a diverging vehicle) for a run that failed."""
-    from supervisor.cli.parser import arguments
-    from supervisor.cli.run import execute
-    from supervisor.collector import paced
-
+    as on the command line (["--no-foxglove", "--max-window", "10"]; ["--metrics", FILE] writes its metrics file).
+    ScenarioError for bad input, SimulationError (or FloatingPointError, for a diverging vehicle) for a run that
+    failed."""
     keep = Path(tempfile.mkdtemp(prefix="cpf-run-"))
     try:
         path = scenario_file(scenario, keep)
@@ -50,10 +47,7 @@ def run(
         argv = ["--engine", engine, "--out", str(log), *run_options(options)]
         argv += [f"--set={text}" for text in overrides(set)] + [f"--fault={spec}" for spec in fault_specs(faults)]
         argv += ([] if seed is None else ["--seed", str(seed)]) + ([] if progress else ["--quiet"])
-        parsed = arguments(["run", *argv, "--", str(path)])  # --: a file named -x.toml is a file
-        parsed.bar = True  # progress as a tqdm.auto bar: a widget in a notebook, a text bar in a terminal
-        with paced():
-            execute(parsed)
+        _execute([*argv, "--", str(path)])  # --: a file named -x.toml is a file
     except BaseException:
         shutil.rmtree(keep, ignore_errors=True)
         raise
@@ -61,6 +55,22 @@ def run(
         shutil.rmtree(keep, ignore_errors=True)
         return Run(log)
     return Run(log, keep)
+
+
+def _execute(argv: list[str]) -> None:
+    """`cpf run` with these arguments, through its own parser and code, but for what it prints: the progress as a
+    tqdm.auto bar, and --metrics (in options) written as `cpf run --metrics` writes it."""
+    from supervisor.cli.parser import arguments
+    from supervisor.cli.run import execute
+    from supervisor.cli.run_report import write_metrics
+    from supervisor.collector import paced
+
+    parsed = arguments(["run", *argv])
+    parsed.bar = True  # progress as a tqdm.auto bar: a widget in a notebook, a text bar in a terminal
+    with paced():
+        checked, result, _ = execute(parsed)
+    if parsed.metrics:  # the summary is not printed, its numbers are in Run.summary
+        write_metrics(parsed.metrics, checked, result)
 
 
 def load(path: str | Path) -> Run:

@@ -73,7 +73,7 @@ def test_the_headline_of_a_run_slower_than_real_time_says_how_much_slower():
     """(It said "0x real time" for 1000 AUVs at 0.33x.)"""
     from types import SimpleNamespace
 
-    from supervisor.cli.run import _headline
+    from supervisor.cli.run_report import _headline
     from supervisor.config.scenario import parse_scenario
     from tests.conftest import CONFIGS
 

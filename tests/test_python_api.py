@@ -321,3 +321,11 @@ def test_sweeping_the_scenarios_seed_is_refused_for_seeds(scenario):
     with pytest.raises(cpf.ScenarioError) as caught:
         cpf.sweep(scenario, params={"scenario.seed": [1, 2], "comms.loss": [0.3]}, seeds=1, progress=False)
     assert caught.value.errors == said
+
+
+def test_run_writes_the_metrics_file_of_cpf_run(scenario, cli_run, tmp_path):
+    """options=["--metrics", FILE] was accepted and nothing written (only the command line's printing wrote it; found
+    by a new user): the file is cpf run --metrics's, the same JSON for the same run."""
+    _, metrics, _ = cli_run
+    cpf.run(scenario, set={"comms.loss": 0.2}, progress=False, options=["--metrics", str(tmp_path / "m.json")])
+    assert json.loads((tmp_path / "m.json").read_text()) == metrics
