@@ -100,11 +100,11 @@ def sweep(
     as runs/<id>.mcap in out (`cpf sweep --logs`; cpf.load reads one); without, runs record only their rows."""
     import pandas as pd
 
+    from supervisor.cli.commands import sweep_params
     from supervisor.cli.parser import arguments
     from supervisor.cli.terminal import SweepBar
     from supervisor.errors import ScenarioError
     from supervisor.tools.sweep import sweep as run_sweep
-    from supervisor.tools.sweep_params import parse_param
 
     if logs and out is None:  # a temporary directory would take the logs with it
         raise ScenarioError("sweep: logs=True keeps each run's log in out/runs/: give out a directory")
@@ -115,10 +115,10 @@ def sweep(
         argv += [] if jobs is None else ["--jobs", str(jobs)]
         argv += ["--out", str(Path(tmp) / "sweep" if out is None else out)]
         args = arguments([*argv, *(f"--param={spec}" for spec in param_specs(params)), "--", str(path)])
+        swept = sweep_params(args)  # checked as `cpf sweep` checks them, --out too
         bar = SweepBar(notebook=True) if progress else None
         try:
-            rows = run_sweep(args.scenario, [parse_param(t) for t in args.param], args.seeds, args.jobs, args.out,
-                             args.engine, bar, logs=args.logs)  # fmt: skip
+            rows = run_sweep(args.scenario, swept, args.seeds, args.jobs, args.out, args.engine, bar, logs=args.logs)
         finally:
             if bar is not None:
                 bar.close()

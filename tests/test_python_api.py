@@ -329,3 +329,15 @@ def test_run_writes_the_metrics_file_of_cpf_run(scenario, cli_run, tmp_path):
     _, metrics, _ = cli_run
     cpf.run(scenario, set={"comms.loss": 0.2}, progress=False, options=["--metrics", str(tmp_path / "m.json")])
     assert json.loads((tmp_path / "m.json").read_text()) == metrics
+
+
+def test_sweep_out_that_is_a_file_is_refused_as_the_command_line_refuses_it(scenario, monkeypatch):
+    """cpf.sweep(out=<a file>) raised a raw NotADirectoryError (found by a new user): the command line's check."""
+    (scenario.parent / "a_file").write_text("")
+    done = cpf_command("sweep", scenario.name, "--param", "comms.loss=0.1", "--out", "a_file", cwd=scenario.parent)
+    said = [line.split("error: ", 1)[1] for line in done.stderr.splitlines() if "error: " in line]
+    assert done.returncode == 2 and said == ["--out: not a directory, got a_file"]
+    monkeypatch.chdir(scenario.parent)  # the file named as the command line names it
+    with pytest.raises(cpf.ScenarioError) as caught:
+        cpf.sweep(scenario, params={"comms.loss": [0.1]}, seeds=1, out="a_file", progress=False)
+    assert caught.value.errors == said

@@ -7,9 +7,13 @@ import argparse
 import logging
 import textwrap
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from supervisor.cli.terminal import EXIT_INTERRUPTED
 from supervisor.errors import ScenarioError
+
+if TYPE_CHECKING:
+    from supervisor.tools.sweep_params import Param
 
 log = logging.getLogger("cpf")
 
@@ -59,16 +63,11 @@ def export(args: argparse.Namespace) -> int:
 
 
 def sweep(args: argparse.Namespace) -> int:
-    from supervisor.cli.outputs import checked_directory
     from supervisor.cli.terminal import SweepBar
     from supervisor.tools.sweep import Cluster, local_jobs, sweep
-    from supervisor.tools.sweep_params import parse_param
     from supervisor.tools.sweep_plot import plot_sweep
 
-    if args.cluster is not None and args.jobs is not None:  # the workers' threads say how many runs go at once
-        raise ScenarioError(f"--jobs: local processes, not for a sweep on a --cluster, got {args.jobs}")
-    params = [parse_param(text) for text in args.param]
-    checked_directory("--out", args.out)  # made once the sweep starts: an unreachable cluster leaves nothing
+    params = sweep_params(args)
     cluster = None if args.cluster is None else Cluster(args.cluster, args.cluster_timeout)
     bar = SweepBar()
     try:
@@ -80,6 +79,19 @@ def sweep(args: argparse.Namespace) -> int:
     for path in plot_sweep(rows, params, args.out):
         print(path)
     return 0
+
+
+def sweep_params(args: argparse.Namespace) -> list[Param]:
+    """`cpf sweep`'s parameters, once its arguments are checked before anything runs (by cpf.sweep too): --jobs not
+    with --cluster, each --param, --out a directory that can be made; ScenarioError for the first that is not."""
+    from supervisor.cli.outputs import checked_directory
+    from supervisor.tools.sweep_params import parse_param
+
+    if args.cluster is not None and args.jobs is not None:  # the workers' threads say how many runs go at once
+        raise ScenarioError(f"--jobs: local processes, not for a sweep on a --cluster, got {args.jobs}")
+    params = [parse_param(text) for text in args.param]
+    checked_directory("--out", args.out)  # made once the sweep starts: an unreachable cluster leaves nothing
+    return params
 
 
 def resim(args: argparse.Namespace) -> int:
