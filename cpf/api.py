@@ -15,7 +15,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from cpf.inputs import Changes, Scenario, fault_specs, overrides, param_specs, run_options, scenario_file
+from cpf.inputs import Changes, Scenario, fault_specs, overrides, param_specs, path_of, run_options, scenario_file
 from cpf.runs import Run
 
 if TYPE_CHECKING:
@@ -43,7 +43,7 @@ def run(
     keep = Path(tempfile.mkdtemp(prefix="cpf-run-"))
     try:
         path = scenario_file(scenario, keep)
-        log = keep / "run.mcap" if out is None else Path(out)
+        log = keep / "run.mcap" if out is None else path_of(out, "out", ", or None")
         argv = ["--engine", engine, "--out", str(log), *run_options(options)]
         argv += [f"--set={text}" for text in overrides(set)] + [f"--fault={spec}" for spec in fault_specs(faults)]
         argv += ([] if seed is None else ["--seed", str(seed)]) + ([] if progress else ["--quiet"])
@@ -76,9 +76,10 @@ def _execute(argv: list[str]) -> None:
 def load(path: str | Path) -> Run:
     """A run from a log `cpf run` wrote; LogError (a ScenarioError) for one that is missing, not a log, cut short
     (`cpf recover` it first) or damaged. Its tables are read when first asked for."""
+    from supervisor.errors import LogError
     from supervisor.record.logfile import verify
 
-    log = Path(path)
+    log = path_of(path, "path", " of a log", LogError)
     verify(log)
     return Run(log)
 
@@ -93,11 +94,11 @@ def sweep(
     progress: bool = True,
     logs: bool = False,
 ) -> pd.DataFrame:
-    """`cpf sweep`: every combination of params ({"coordination.k": [0.1, 0.2]}, or {"comms.loss": "0:0.8:0.1"} as
-    --param takes it) times seeds 0..seeds-1, jobs runs at once (None: as `cpf sweep` without --jobs, one per core);
-    the rows of its results.csv, in grid order. out: the sweep's directory (runs/, results.csv; resumable), None: a
-    temporary one. A progress bar (tqdm.auto: terminal or notebook) unless progress=False. logs: each run's log kept
-    as runs/<id>.mcap in out (`cpf sweep --logs`; cpf.load reads one); without, runs record only their rows."""
+    """`cpf sweep`: every combination of params ({"coordination.k": [0.1, 0.2]}, {"comms.loss": "0:0.8:0.1"} as --param
+    takes it, or one value) times seeds 0..seeds-1, jobs runs at once (None: one per core, as `cpf sweep`); the rows of
+    its results.csv, in grid order. out: the sweep's directory (runs/, results.csv; resumable), None: a temporary one.
+    A progress bar (tqdm.auto, on stderr) unless progress=False. logs: each run's log kept as out/runs/<id>.mcap (`cpf
+    sweep --logs`; cpf.load reads one); without, runs record only their rows."""
     import pandas as pd
 
     from supervisor.cli.commands import sweep_params
@@ -113,7 +114,7 @@ def sweep(
         path = scenario_file(scenario, Path(tmp))
         argv = ["sweep", "--seeds", str(seeds), "--engine", engine, *(["--logs"] if logs else [])]
         argv += [] if jobs is None else ["--jobs", str(jobs)]
-        argv += ["--out", str(Path(tmp) / "sweep" if out is None else out)]
+        argv += ["--out", str(Path(tmp) / "sweep" if out is None else path_of(out, "out", ", or None"))]
         args = arguments([*argv, *(f"--param={spec}" for spec in param_specs(params)), "--", str(path)])
         swept = sweep_params(args)  # checked as `cpf sweep` checks them, --out too
         bar = SweepBar(notebook=True) if progress else None

@@ -4,7 +4,9 @@ log's meta and `cpf vehicle` started by hand all read one); values become TOML, 
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+import numbers
+import os
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, TypeAlias
 
@@ -24,10 +26,18 @@ def scenario_file(scenario: Scenario, where: Path) -> Path:
     elif isinstance(scenario, str) and "\n" in scenario:
         text = scenario
     else:
-        return Path(scenario)
+        return path_of(scenario, "scenario", ", TOML text (a str with a line break) or a dict of the file's tables")
     path = where / SCENARIO_FILE
     path.write_text(text, encoding="utf-8")
     return path
+
+
+def path_of(given: Any, what: str, also: str = "", error: type[ScenarioError] = ScenarioError) -> Path:
+    """given as a Path: a str (not '', which is no file: the current directory) or a Path; error '<what>: a path
+    (str or Path)<also>, got <given>' for anything else (bytes, a number, None)."""
+    if isinstance(given, os.PathLike) or (isinstance(given, str) and given):
+        return Path(given)
+    raise error(f"{what}: a path (str or Path){also}, got {given!r}")
 
 
 def toml_text(data: Mapping[str, Any]) -> str:
@@ -56,24 +66,46 @@ def overrides(given: Changes) -> list[str]:
         return []
     if isinstance(given, Mapping):
         return [f"{key}={toml_value(value)}" for key, value in given.items()]
-    return _texts(given, "set")
+    return _listed(given, "set", "a dict of KEY: VALUE or a list of 'KEY=VALUE' strings")
 
 
 def fault_specs(given: Sequence[str | Mapping[str, Any]] | None) -> list[str]:
     """--fault texts: specs as they are, a dict as KEY=VALUE,... with its values as TOML."""
+    kinds = "a list of --fault specs ('kind=blackout,start=5') or dicts ({'kind': 'blackout', 'start': 5})"
+    specs = _listed([] if given is None else given, "faults", kinds, (str, Mapping))
     return [spec if isinstance(spec, str) else ",".join(toml_assignment(k, v) for k, v in spec.items())
-            for spec in given or ()]  # fmt: skip
+            for spec in specs]  # fmt: skip
 
 
 def param_specs(params: Mapping[str, Any]) -> list[str]:
-    """--param texts: KEY=v1,v2,... from a list of values, KEY=TEXT from a str (e.g. '0:0.8:0.1', as the CLI)."""
-    return [f"{key}={values}" if isinstance(values, str) else f"{key}={','.join(toml_value(v) for v in values)}"
-            for key, values in params.items()]  # fmt: skip
+    """--param texts: KEY=TEXT from a str (e.g. '0:0.8:0.1', as the CLI), KEY=v1,v2,... from a list (a tuple, an
+    array) of values, KEY=v from one value (a number, a bool, a dict: a table)."""
+    if not isinstance(params, Mapping):
+        raise ScenarioError(f"params: a dict of KEY: values ({{'comms.loss': [0.1, 0.2]}}, or '0:0.8:0.1' as --param "
+                            f"takes it), got {params!r}")  # fmt: skip
+    return [f"{key}={_swept(key, values)}" for key, values in params.items()]
 
 
-def _texts(given: Sequence[str], what: str) -> list[str]:
-    if isinstance(given, str) or not all(isinstance(text, str) for text in given):
-        raise ScenarioError(f"{what}: a dict of KEY: VALUE or a list of 'KEY=VALUE' strings, got {given!r}")
+def _swept(key: str, values: Any) -> str:
+    """One param's values as --param takes them; ScenarioError for what is neither a value nor values (None)."""
+    if isinstance(values, str):
+        return values
+    if isinstance(values, numbers.Number | Mapping):  # bool too
+        values = [values]
+    elif not isinstance(values, Iterable):
+        raise ScenarioError(f"params: {key}: a value, a list of values or a --param text ('0:0.8:0.1'), got {values!r}")
+    return ",".join(toml_value(v) for v in values)
+
+
+def _listed(given: Any, what: str, expected: str, kinds: type | tuple[type, ...] = str) -> list[Any]:
+    """given as a list, each of its items one of kinds; ScenarioError '<what>: <expected>, got <given>' otherwise
+    (a str is not a list of its characters, nor a dict one of its keys)."""
+    if (
+        isinstance(given, str | bytes)
+        or not isinstance(given, Sequence)
+        or not all(isinstance(x, kinds) for x in given)
+    ):
+        raise ScenarioError(f"{what}: {expected}, got {given!r}")
     return list(given)
 
 
@@ -86,9 +118,7 @@ def run_options(options: Sequence[str]) -> list[str]:
     """options as cpf.run hands them on; ScenarioError for one of its own arguments given again there (which one won
     depended on the option: --engine the option's, --seed the argument's, --out the option's with a Run of the
     other log) or --help (it printed and raised SystemExit)."""
-    if isinstance(options, str) or not all(isinstance(text, str) for text in options):
-        raise ScenarioError(f"options: a list of cpf run's options as strings (['--no-foxglove']), got {options!r}")
-    texts = list(options)
+    texts = _listed(options, "options", "a list of cpf run's options as strings (['--no-foxglove'])")
     for text in texts:
         name = text.partition("=")[0]
         # as argparse reads it: a long option's unambiguous start (--eng) is the option
