@@ -13,6 +13,7 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
     from supervisor.analysis.rundata import RunData
+    from supervisor.analysis.tx_books import BooksLog
 
 
 class Run:
@@ -34,11 +35,14 @@ class Run:
         return f"cpf.Run({str(self.log)!r})"
 
     @cached_property
-    def _read(self) -> tuple[dict[str, pd.DataFrame], RunData]:
-        """The tables and the report's RunData: one pass over the log gives both."""
+    def _read(self) -> tuple[dict[str, pd.DataFrame], RunData, BooksLog]:
+        """The tables, the report's RunData and its transmission books: one pass over the log gives them all."""
         from supervisor.analysis.tables import read_run
+        from supervisor.analysis.tx_books import BooksLog
 
-        return read_run(self.log)
+        books = BooksLog()
+        tables, data = read_run(self.log, books)
+        return tables, data, books
 
     @property
     def _tables(self) -> dict[str, pd.DataFrame]:
@@ -71,10 +75,11 @@ class Run:
 
     @cached_property
     def summary(self) -> dict[str, Any]:
-        """Every metric of the run, as metrics.json holds them (supervisor.analysis.metrics.run_metrics)."""
-        from supervisor.analysis.metrics import run_metrics
+        """Every metric of the run, the dict `cpf report` writes as metrics.json (one function gives both:
+        supervisor.analysis.metrics.report_metrics)."""
+        from supervisor.analysis.metrics import report_metrics
 
-        return run_metrics(self.data)
+        return report_metrics(self.log, self.data, self._read[2])
 
     @cached_property
     def metrics(self) -> pd.DataFrame:

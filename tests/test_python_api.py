@@ -341,3 +341,14 @@ def test_sweep_out_that_is_a_file_is_refused_as_the_command_line_refuses_it(scen
     with pytest.raises(cpf.ScenarioError) as caught:
         cpf.sweep(scenario, params={"comms.loss": [0.1]}, seeds=1, out="a_file", progress=False)
     assert caught.value.errors == said
+
+
+def test_summary_is_the_metrics_json_of_cpf_report(cli_run, tmp_path):
+    """Run.summary lacked metrics.json's transmissions (the books per link) and drawn_from (found by a new user):
+    both come from one function now, the same dict for the same log."""
+    run, _, _ = cli_run
+    done = cpf_command("report", str(run.log), "--out", str(tmp_path), cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    written = json.loads((tmp_path / "metrics.json").read_text())
+    assert set(run.summary) == set(written) and {"transmissions", "drawn_from"} <= set(written)
+    assert json.loads(json.dumps(run.summary)) == written

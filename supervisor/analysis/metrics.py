@@ -58,9 +58,20 @@ from supervisor.config.scenario_schema import ReportSection, Scenario
 from supervisor.errors import ScenarioError
 
 if TYPE_CHECKING:
-    from supervisor.analysis.rundata import LinkLog, RunData
+    from pathlib import Path
 
-__all__ = ["STEADY_STATE_WINDOW", "Settings", "packet_counts", "run_metrics", "run_series", "run_settings"]
+    from supervisor.analysis.rundata import LinkLog, RunData
+    from supervisor.analysis.tx_books import BooksLog
+
+__all__ = [
+    "STEADY_STATE_WINDOW",
+    "Settings",
+    "packet_counts",
+    "report_metrics",
+    "run_metrics",
+    "run_series",
+    "run_settings",
+]
 
 STEADY_STATE_WINDOW = 50.0  # s at the end of the run
 
@@ -73,6 +84,19 @@ class Settings(NamedTuple):
     transient: float
     tube_radius: float
     tolerance: float
+
+
+def report_metrics(log: Path, run: RunData, books: BooksLog) -> dict[str, Any]:
+    """What metrics.json (`cpf report`) and the API's Run.summary hold: every metric of the run (run_metrics), the
+    transmissions per link (tx = sent + not_sent: analysis.tx_books, books read from the log in the same pass as run)
+    and what the log is drawn from if it is not a run as it ran (None: it is; supervisor.record.provenance)."""
+    from supervisor.analysis.tx_books import books_of
+    from supervisor.record.provenance import drawn_from
+
+    numbers = run_metrics(run)
+    numbers["transmissions"] = {f"{i}->{j}": book.as_dict() for (i, j), book in books_of(books).items()}
+    numbers["drawn_from"] = drawn_from(log)
+    return numbers
 
 
 def run_metrics(run: RunData) -> dict[str, Any]:

@@ -38,7 +38,7 @@ from supervisor.analysis.rundata import (
     load_run,
     read_for_report,
 )
-from supervisor.analysis.tx_books import BooksLog, books_of
+from supervisor.analysis.tx_books import BooksLog
 
 __all__ = [
     "DPI",
@@ -62,15 +62,12 @@ METRICS_FILE = "metrics.json"
 def write_report(log: Path, out_dir: Path, read: tuple[RunData, BooksLog] | None = None) -> list[Path]:
     """Every figure of a recorded run and its metrics (metrics.json) into out_dir; returns the paths written.
     read: what read_for_report(log) gives, if already read (cpf report reads it aside while this module loads)."""
-    from supervisor.analysis.metrics import run_metrics
-    from supervisor.record.provenance import drawn_from
+    from supervisor.analysis.metrics import report_metrics
 
     run, on_the_books = read if read is not None else read_for_report(log)
     paths = write_figures(run, out_dir)
     metrics = out_dir / METRICS_FILE
-    books = {f"{i}->{j}": book.as_dict() for (i, j), book in books_of(on_the_books).items()}
-    numbers = run_metrics(run) | {"transmissions": books}  # tx = sent + not_sent, per link (analysis.tx_books)
-    numbers["drawn_from"] = drawn_from(log)  # a recovered or re-simulated log says so (record.provenance)
+    numbers = report_metrics(log, run, on_the_books)  # the API's Run.summary too
     metrics.write_text(json.dumps(numbers, indent=2, allow_nan=False) + "\n", encoding="utf-8")
     return [*paths, metrics]
 

@@ -195,6 +195,21 @@ class Collector(Protocol):
     def add(self, topic: str, message: dict[str, Any]) -> None: ...
 
 
+@dataclass(frozen=True, slots=True)
+class Together:
+    """Several other readers of the same pass as one Collector: each handed the messages it wants."""
+
+    readers: tuple[Collector, ...]
+
+    def wanted(self, topic: str) -> bool:
+        return any(reader.wanted(topic) for reader in self.readers)
+
+    def add(self, topic: str, message: dict[str, Any]) -> None:
+        for reader in self.readers:
+            if reader.wanted(topic):
+                reader.add(topic, message)
+
+
 def read_for_report(path: Path) -> tuple[RunData, BooksLog]:
     """The run and its transmission books (supervisor.analysis.tx_books), in one pass over the log: what cpf report
     reads."""

@@ -32,7 +32,7 @@ from comms.records.receptions import RxBatch
 from comms.records.records import LinkEvent, Transmission
 from comms.records.run import FaultEvent
 from comms.records.state import StateReport
-from supervisor.analysis.rundata import RunData, load_run
+from supervisor.analysis.rundata import Collector, RunData, Together, load_run
 
 __all__ = ["LOG_TABLES", "TABLES", "metrics_table", "read_run", "run_tables", "states_table"]
 
@@ -99,12 +99,13 @@ def _fault_row(event: FaultEvent) -> tuple[Any, ...]:
     return (event.t, event.kind, event.phase, *known, d.get("start"), d.get("end"), json.dumps(d, sort_keys=True))
 
 
-def read_run(path: Path) -> tuple[dict[str, pd.DataFrame], RunData]:
+def read_run(path: Path, also: Collector | None = None) -> tuple[dict[str, pd.DataFrame], RunData]:
     """The log's tables (LOG_TABLES, each in log-time order, equal times in the order written) and the run as the
-    report reads it (rundata.load_run), in one pass of the log: LogError for a log that is missing, cut short or
-    damaged, ScenarioError naming the topic for a record that does not read."""
+    report reads it (rundata.load_run), in one pass of the log (also: another reader of it, such as the report's
+    books): LogError for a log that is missing, cut short or damaged, ScenarioError naming the topic for a record that
+    does not read."""
     rows = _Rows()
-    data = load_run(path, rows)
+    data = load_run(path, rows if also is None else Together((rows, also)))
     return _frames(rows), data
 
 
