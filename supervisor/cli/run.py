@@ -148,17 +148,21 @@ def _simulate(args: argparse.Namespace, scenario: Scenario, out: Path, live: Liv
     bar = getattr(args, "bar", False)  # set by cpf.run, not an option of the command line
     progress = Progress(scenario.scenario.duration, sys.stderr, enabled=not args.quiet, bar=bar)
     speed = 1.0 if args.speed is None else args.speed
-    if args.engine == "inprocess":
-        paced = speed if args.clock == "realtime" else None
-        return run_inprocess(scenario, str(args.scenario), text, out, seed, progress, args.foxglove, live, paced)
-    timeout = START_TIMEOUT if args.start_timeout is None else args.start_timeout
-    changes = (tuple(args.set), tuple(args.fault))
-    bus = BusOptions(args.listen, args.connect, args.remote, *changes, timeout, args.credentials_dir, args.zenoh_config)
-    bus.per_process = args.vehicles_per_process
-    bus.fork = args.start != "spawn"
-    logging.getLogger("cpf.engine").setLevel(logging.INFO)  # "waiting for ...": --quiet or not
-    how = (args.clock, speed, bus, progress, args.max_window)
-    return run_zenoh(scenario, args.scenario, text, out, seed, *how, scene=args.foxglove, live=live)
+    try:  # the bar closed however the run ends (a Ctrl-C in a notebook left it there)
+        if args.engine == "inprocess":
+            paced = speed if args.clock == "realtime" else None
+            return run_inprocess(scenario, str(args.scenario), text, out, seed, progress, args.foxglove, live, paced)
+        timeout = START_TIMEOUT if args.start_timeout is None else args.start_timeout
+        changes = (tuple(args.set), tuple(args.fault))
+        bus = BusOptions(args.listen, args.connect, args.remote, *changes, timeout, args.credentials_dir,
+                         args.zenoh_config)  # fmt: skip
+        bus.per_process = args.vehicles_per_process
+        bus.fork = args.start != "spawn"
+        logging.getLogger("cpf.engine").setLevel(logging.INFO)  # "waiting for ...": --quiet or not
+        how = (args.clock, speed, bus, progress, args.max_window)
+        return run_zenoh(scenario, args.scenario, text, out, seed, *how, scene=args.foxglove, live=live)
+    finally:
+        progress.close()
 
 
 def vehicle(args: argparse.Namespace) -> int:

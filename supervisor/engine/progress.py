@@ -51,10 +51,16 @@ class Progress:
         """Final line; returns the whole wall time, start-up included."""
         self.update(t, force=True)
         if self._bar is not None:
-            self._bar.close()
+            self.close()
         elif self.enabled and self._tty and self.stream is not None:
             self.stream.write("\n")
         return time.perf_counter() - self.started
+
+    def close(self) -> None:
+        """The bar closed, if there is one: done() closes it, and so must a run that ends otherwise (a Ctrl-C: an
+        open bar stayed in a notebook). Closing it again does nothing."""
+        if self._bar is not None:
+            self._bar.close()
 
 
 def _bar(duration: float, stream: TextIO | None) -> Any:
