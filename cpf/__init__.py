@@ -6,7 +6,7 @@
     run.states          # one row per vehicle and step: t, k, vehicle, gamma, gamma_dot, position_x, ...
     run.summary         # the numbers of metrics.json (`cpf report`) and `cpf run`'s summary
     run.figures()       # the figures of `cpf report`, as matplotlib Figures
-    cpf.load("runs/paper.mcap").link_events
+    cpf.load("runs/paper/run.mcap").link_events  # the log `make run` writes
     cpf.sweep("configs/paper.toml", params={"comms.loss": [0, 0.2]}, seeds=2)
 
 `cpf.run` goes through `cpf run`'s own code (supervisor.cli.run.execute); errors are raised, never printed:

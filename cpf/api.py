@@ -66,7 +66,7 @@ def _execute(argv: list[str]) -> None:
     from supervisor.collector import paced
 
     parsed = arguments(["run", *argv])
-    parsed.bar = True  # progress as a tqdm.auto bar: a widget in a notebook, a text bar in a terminal
+    parsed.bar = True  # progress as a tqdm.auto bar (text; a notebook's widget needs ipywidgets, not ours)
     with paced():
         checked, result, _ = execute(parsed)
     if parsed.metrics:  # the summary is not printed, its numbers are in Run.summary

@@ -143,7 +143,7 @@ def test_run_takes_text_dicts_and_lists_of_changes(scenario, tmp_path):
 
 
 def test_progress_is_a_tqdm_bar_on_stderr_unless_turned_off(scenario, capsys):
-    """tqdm.auto: this text bar in a terminal (and here), a widget in a notebook."""
+    """tqdm.auto: this text bar in a terminal (and here)."""
     short = shortened(scenario.read_text(), 2.0).replace("start = 150.0", "start = 1.0")
     cpf.run(short, progress=True)
     shown = capsys.readouterr()
@@ -385,3 +385,26 @@ def test_an_interrupted_run_or_sweep_closes_its_progress_bar(scenario, monkeypat
     with pytest.raises(KeyboardInterrupt):
         cpf.sweep(scenario, params={"comms.loss": [0.1]}, seeds=2)
     assert bars[1]._bar.total == 2 and bars[1]._bar.disable
+
+
+def test_the_docs_promise_a_notebook_widget_only_with_ipywidgets():
+    """tqdm.auto draws a widget in a notebook only with ipywidgets, which cpf-cosim does not require (tqdm warns,
+    TqdmWarning, and draws text): the docs said "a widget in a notebook" (found by a new user)."""
+    import tomllib
+
+    root = CONFIGS.parent
+    project = tomllib.loads((root / "pyproject.toml").read_text(encoding="utf-8"))["project"]
+    needed = [*project["dependencies"], *(d for extra in project["optional-dependencies"].values() for d in extra)]
+    assert not [d for d in needed if d.lower().startswith("ipywidgets")]
+    code = [root / "supervisor" / "engine" / "progress.py", root / "supervisor" / "cli" / "terminal.py"]
+    for path in (root / "README.md", root / "docs" / "api.md", *(root / "cpf").glob("*.py"), *code):
+        text = " ".join(path.read_text(encoding="utf-8").split())
+        promises = [m.start() for m in re.finditer(r"widget", text)]
+        assert all("ipywidgets" in text[max(0, at - 200) : at + 200] for at in promises), path
+
+
+def test_the_package_docstring_loads_the_log_make_run_writes():
+    makefile = (CONFIGS.parent / "Makefile").read_text(encoding="utf-8")
+    out = re.search(r"(?m)^OUT \?= (\S+)$", makefile)
+    assert out is not None and "--out $(OUT)/run.mcap" in makefile
+    assert f'cpf.load("{out[1]}/run.mcap")' in (cpf.__doc__ or "")

@@ -64,7 +64,7 @@ class ProgressLine:
 
 class SweepBar:
     """`cpf sweep`'s progress bar (tqdm, on stderr): a progress for supervisor.tools.sweep.sweep. notebook: tqdm.auto's
-    bar, a widget in a notebook (cpf.sweep)."""
+    bar (cpf.sweep: in a notebook a widget if ipywidgets, not a dependency, is installed)."""
 
     def __init__(self, notebook: bool = False) -> None:
         self._bar: tqdm[None] | None = None

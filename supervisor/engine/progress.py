@@ -1,5 +1,5 @@
 """A one-line progress report for long runs: simulated time and real-time factor, at most once a second; or, for the
-Python API, a tqdm.auto bar (a text bar in a terminal, a widget in a notebook)."""
+Python API, a tqdm.auto bar (text; in a notebook a widget if ipywidgets, which is not a dependency, is installed)."""
 
 from __future__ import annotations
 
