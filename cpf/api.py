@@ -99,8 +99,6 @@ def sweep(
     its results.csv, in grid order. out: the sweep's directory (runs/, results.csv; resumable), None: a temporary one.
     A progress bar (tqdm.auto, on stderr) unless progress=False. logs: each run's log kept as out/runs/<id>.mcap (`cpf
     sweep --logs`; cpf.load reads one); without, runs record only their rows."""
-    import pandas as pd
-
     from supervisor.cli.commands import sweep_params
     from supervisor.cli.parser import arguments
     from supervisor.cli.terminal import SweepBar
@@ -123,4 +121,15 @@ def sweep(
         finally:
             if bar is not None:
                 bar.close()
-    return pd.DataFrame.from_records(rows, columns=list(dict.fromkeys(key for row in rows for key in row)))
+    return _table(rows)
+
+
+def _table(rows: list[dict[str, Any]]) -> pd.DataFrame:
+    """A sweep's rows as a table, the measures that are real numbers as float columns: NaN for a time never reached
+    (None in a row, empty in results.csv), as pandas reads results.csv."""
+    import pandas as pd
+
+    from supervisor.tools.sweep_runs import FLOAT_MEASURES
+
+    table = pd.DataFrame.from_records(rows, columns=list(dict.fromkeys(key for row in rows for key in row)))
+    return table.astype({name: float for name in FLOAT_MEASURES if name in table.columns})

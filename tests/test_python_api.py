@@ -408,3 +408,20 @@ def test_the_package_docstring_loads_the_log_make_run_writes():
     out = re.search(r"(?m)^OUT \?= (\S+)$", makefile)
     assert out is not None and "--out $(OUT)/run.mcap" in makefile
     assert f'cpf.load("{out[1]}/run.mcap")' in (cpf.__doc__ or "")
+
+
+def test_sweep_times_never_reached_are_float_nan(scenario, tmp_path):
+    """sync_time and resync_time came as object columns of None where a run never settled (or had no fault to settle
+    after): float NaN now, as pandas reads results.csv, whose empty fields stay as they were."""
+    short = tmp_path / "sweep.toml"
+    short.write_text(shortened(scenario.read_text(), 5.0))
+    table = cpf.sweep(short, params={"comms.loss": [0.1, 0.3]}, seeds=1, out=tmp_path / "s", progress=False)
+    written = pd.read_csv(tmp_path / "s" / "results.csv")
+    for name in ("sync_time", "resync_time"):
+        assert table[name].dtype == np.float64 == written[name].dtype and table[name].isna().all(), name
+    measured = [c for c in written.columns if c not in ("comms.loss", "seed", "sent", "delivered", "dropped")]
+    assert (table[measured].dtypes == np.float64).all()
+    header, *rows = (tmp_path / "s" / "results.csv").read_text().splitlines()
+    at = header.split(",").index("sync_time")
+    assert header.split(",")[at + 1] == "resync_time"
+    assert [row.split(",")[at : at + 2] for row in rows] == [["", ""], ["", ""]]  # None: empty, as it was

@@ -208,6 +208,12 @@ def row_of(spec: RunSpec, scenario: Any, result: Any) -> dict[str, Any]:
     return {**dict(spec.settings), "seed": spec.seed, **_measures(result, summary, scenario)}
 
 
+# The measures of a row that are real numbers (the others: the packets counted), None (sync_time, resync_time: never
+# settled, or no fault to settle after) or NaN where a run gives none: float columns of a table of rows (cpf.sweep)
+FLOAT_MEASURES = ("steady_coordination_error", "peak_coordination_error_after_transient", "sync_time", "resync_time",
+                  "max_path_error", "wall_s")  # fmt: skip
+
+
 def _measures(result: Any, summary: Any, scenario: Any) -> dict[str, Any]:
     series = result.series
     coordination = coordination_error(series.gamma)
