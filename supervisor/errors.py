@@ -1,5 +1,9 @@
 """One error hierarchy. Library code raises these; only the CLI turns them into messages and exit codes."""
 
+# cpf's exit codes: success 0, a run-time failure, bad input (scenario file or arguments), interrupted. Here, the
+# lowest layer, so that the console script's entry (supervisor.console) has them without importing the command line.
+EXIT_RUNTIME, EXIT_INPUT, EXIT_INTERRUPTED = 1, 2, 130
+
 
 class CpfError(Exception):
     """Root of every error cpf-cosim raises on purpose."""

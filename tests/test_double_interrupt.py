@@ -47,3 +47,37 @@ def test_a_signal_just_after_the_summary_does_not_end_the_exit_by_the_signal(tmp
     assert proc.returncode in (0, 130), (proc.returncode, err)
     assert "Traceback" not in err and "Exception ignored" not in err, err
     assert processes_with(str(scenario)) == []
+
+
+SLOW_IMPORT = """
+import importlib, importlib.abc, sys, time
+class Slow(importlib.abc.MetaPathFinder):
+    def find_spec(self, name, path, target=None):
+        if name == "supervisor.cli":  # the command line's imports, as slow as on a loaded machine
+            print("importing", flush=True)
+            time.sleep(2)
+        return None
+sys.meta_path.insert(0, Slow())
+sys.argv = ["cpf", "presets"]
+module, name = {entry!r}.split(":")
+getattr(importlib.import_module(module), name)()
+"""
+
+
+def test_a_ctrl_c_while_the_command_line_is_imported_is_one_line_and_130():
+    """Under load the imports take most of a second: a double press 0.3 s after start was a KeyboardInterrupt
+    traceback and death by the signal (-2). The console script's entry (pyproject.toml's) guards them."""
+    import subprocess
+    import sys
+    import tomllib
+
+    entry = tomllib.loads((CONFIGS.parent / "pyproject.toml").read_text())["project"]["scripts"]["cpf"]
+    code = SLOW_IMPORT.format(entry=entry)
+    proc = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            cwd=CONFIGS.parent)  # fmt: skip
+    assert proc.stdout is not None and proc.stdout.readline() == "importing\n"  # in the imports now
+    proc.send_signal(signal.SIGINT)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, (proc.returncode, err)
+    assert err.strip().splitlines() == ["cpf: interrupted"], err

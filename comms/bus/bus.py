@@ -35,7 +35,7 @@ from comms.records.messages import (
 from comms.records.run import Stop
 
 log = logging.getLogger(f"cpf.{__name__}")  # under cpf: silenced with it (docs/api.md)
-REFUSED = 2  # a refused process's exit code: bad input, as cpf's (supervisor.cli.terminal.EXIT_INPUT)
+REFUSED = 2  # a refused process's exit code: bad input, as cpf's (supervisor.errors.EXIT_INPUT)
 POLL = 0.5  # s between checks while nothing arrives
 Handler = Callable[[str, bytes], None]
 

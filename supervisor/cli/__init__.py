@@ -19,9 +19,8 @@ from supervisor import collector
 from supervisor.cli import commands, run
 from supervisor.cli.parser import _parser
 from supervisor.cli.run import _option_errors
-from supervisor.cli.terminal import EXIT_INPUT, EXIT_INTERRUPTED, EXIT_RUNTIME
 from supervisor.engine import interrupts
-from supervisor.errors import CpfError, ScenarioError, shown
+from supervisor.errors import EXIT_INPUT, EXIT_INTERRUPTED, EXIT_RUNTIME, CpfError, ScenarioError, shown
 
 __all__ = ["EXIT_INPUT", "EXIT_INTERRUPTED", "EXIT_RUNTIME", "_option_errors", "_parser", "entry", "main"]
 

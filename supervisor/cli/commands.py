@@ -9,8 +9,7 @@ import textwrap
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from supervisor.cli.terminal import EXIT_INTERRUPTED
-from supervisor.errors import ScenarioError
+from supervisor.errors import EXIT_INTERRUPTED, ScenarioError
 
 if TYPE_CHECKING:
     from supervisor.tools.sweep_params import Param

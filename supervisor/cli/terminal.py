@@ -14,7 +14,6 @@ from typing import TYPE_CHECKING, TextIO
 if TYPE_CHECKING:
     from tqdm import tqdm
 
-EXIT_RUNTIME, EXIT_INPUT, EXIT_INTERRUPTED = 1, 2, 130
 PROGRESS_INTERVAL = 1.0  # s of wall time between replay progress lines
 
 
