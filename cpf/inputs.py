@@ -90,6 +90,8 @@ def _swept(key: str, values: Any) -> str:
     """One param's values as --param takes them; ScenarioError for what is neither a value nor values (None)."""
     if isinstance(values, str):
         return values
+    if getattr(values, "ndim", None) == 0:  # a 0-d numpy array: its value
+        values = values.item()
     if isinstance(values, numbers.Number | Mapping):  # bool too
         values = [values]
     elif not isinstance(values, Iterable):

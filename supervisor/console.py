@@ -18,9 +18,12 @@ def entry() -> None:
         signal.signal(sig, lambda signum, _frame: pressed.append(signum))
     from supervisor.cli import entry as command_line
 
-    if pressed:  # during the imports: nothing was started, nothing to stop
+    try:
+        signal.signal(signal.SIGINT, signal.default_int_handler)  # main puts its own in place; until then, Python's
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+        if pressed:  # during the imports (looked at once the handlers are back: none falls between)
+            raise KeyboardInterrupt
+    except KeyboardInterrupt:  # nothing was started: nothing to stop
         print("cpf: interrupted", file=sys.stderr)
         sys.exit(EXIT_INTERRUPTED)
-    signal.signal(signal.SIGINT, signal.default_int_handler)  # main puts its own in place; until then, as Python's
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
     command_line()

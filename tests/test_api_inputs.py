@@ -7,6 +7,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 
 import cpf
@@ -67,6 +68,7 @@ def test_a_swept_value_alone_is_a_list_of_one():
     ]  # fmt: skip
     assert param_specs({"comms.loss_model_options": {"p": 0.1}}) == ["comms.loss_model_options={p = 0.1}"]
     assert param_specs({"comms.loss": (0.1, 0.2)}) == ["comms.loss=0.1,0.2"]
+    assert param_specs({"comms.loss": np.array(0.1)}) == ["comms.loss=0.1"]  # a 0-d array: TypeError (a review)
 
 
 def test_paths_may_be_str_or_path(tmp_path):

@@ -90,3 +90,15 @@ def test_cpf_stability_and_validate_say_the_spread(capsys, caplog):
     assert main(["validate", *args]) == 0
     said = capsys.readouterr().err + caplog.text
     assert "predicted to settle with the gammas 1.24 apart" in said and "got 'hold'" in said
+
+
+def test_the_literal_law_and_a_fleet_at_rest_have_no_predicted_spread(capsys):
+    """The literal law settles below v_r and lags at its own speed: 1.24 was predicted of a fleet at 0.785 (a
+    review), so it is not predicted; v_r = 0 divided by zero in cpf stability's text."""
+    overrides = [*LAW5, "scenario.duration=300", "comms.transmit.period=10"]
+    paper = (CONFIGS / "paper.toml").read_text()
+    literal = parse_scenario(paper, "paper.toml", [*overrides, "coordination.law=literal"])
+    assert predicted_offset(literal) is None and analyse(literal, margins=False).offset is None
+    still = [str(CONFIGS / "paper.toml"), *[f"--set={s}" for s in [*overrides, "coordination.v_r=0"]]]
+    assert main(["stability", *still]) == 0
+    assert "steady spread" not in capsys.readouterr().out

@@ -110,3 +110,15 @@ def test_no_lie_the_scenario_asks_for_is_beyond_its_bounds(config: str, sets: li
     assert len(lies) > 100  # the scenario's lies were told
     for tx in sent:
         bounds[tx.sender].check_tx(tx, states[(tx.sender, round(tx.t / dt))], dt)
+
+
+def test_stuck_runs_starting_together_one_without_an_end_are_one_run():
+    """Two frozen_gamma faults on one vehicle from the same step, one open-ended: sorting (first, end) compared an
+    end of None with a number (TypeError: the Zenoh engine's readers could not start; a review)."""
+    from supervisor.config.derived import stuck_spans
+
+    faults = [
+        FrozenGammaFault(kind="frozen_gamma", vehicle=2, start=10.0),
+        FrozenGammaFault(kind="frozen_gamma", vehicle=2, start=10.0, end=20.0),
+    ]
+    assert stuck_spans(faults, 2, 0.1) == [(100, None)]

@@ -65,7 +65,8 @@ def steps_of_fault(fault: FaultSpec, dt: float) -> tuple[int, int | None]:
 def stuck_spans(faults: Iterable[FaultSpec], vehicle: int, dt: float) -> list[tuple[int, int | None]]:
     """The steps over which the vehicle's gamma sensor is stuck without a break, (first, end) as steps_of_fault:
     its frozen_gamma faults, those that overlap or meet as one (the reading stays the one of the first step)."""
-    spans = sorted(steps_of_fault(f, dt) for f in faults if isinstance(f, FrozenGammaFault) and f.vehicle == vehicle)
+    mine = [steps_of_fault(f, dt) for f in faults if isinstance(f, FrozenGammaFault) and f.vehicle == vehicle]
+    spans = sorted(mine, key=lambda span: (span[0], math.inf if span[1] is None else span[1]))  # None: no end
     merged: list[tuple[int, int | None]] = []
     for first, end in spans:
         last = merged[-1] if merged else None

@@ -65,9 +65,11 @@ def _advance(layout: Layout, b: Matrix, step: tuple[str, int, float], t: Matrix,
 
 
 def steady_offset(layout: Layout, v_r: float) -> Offset | None:
-    """The hold predictor's steady orbit (None: another predictor, no forcing; a loop with no stable orbit; or one
-    of more than MAX_OFFSET_STATES states)."""
-    if layout.loop.predictor != "hold" or layout.size > MAX_OFFSET_STATES:
+    """The hold predictor's steady orbit (None: another predictor, or v_r 0: no forcing; a loop with no stable
+    orbit; or one of more than MAX_OFFSET_STATES states). Law (5) corrected: the literal law settles at its own
+    speed, below v_r, and its holds fall behind at that speed (a review: 1.24 predicted of a literal fleet at 0.785,
+    the rate 0.54 of one at 0.28), so the scenario's analysis asks it of the corrected law only."""
+    if layout.loop.predictor != "hold" or layout.size > MAX_OFFSET_STATES or v_r == 0.0:
         return None
     b, size = forcing(layout, v_r), layout.size
     kept: dict[float, Matrix] = {}

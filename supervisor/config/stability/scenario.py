@@ -83,7 +83,7 @@ class Verdict:
 def analyse(scenario: Scenario, margins: bool = True) -> Verdict:
     """The verdict on a scenario; margins=False: the rate alone (fast, for cpf validate)."""
     s = setting_of(scenario)
-    offset = steady_offset(Layout(s.loop, s.sampling()), scenario.coordination.v_r)
+    offset = _orbit(s, scenario)
     if not margins:
         return Verdict(s, rate(s), None, None, None, offset)
     return Verdict(s, rate(s), largest_period(s), largest_delay(s), largest_loss(s), offset)
@@ -228,5 +228,11 @@ def predicted_offset(scenario: Scenario) -> Offset | None:
     large, or one that does not converge."""
     if unmodelled(scenario) is not None or scenario.coordination.predictor != "hold":
         return None
-    s = setting_of(scenario)
+    return _orbit(setting_of(scenario), scenario)
+
+
+def _orbit(s: Setting, scenario: Scenario) -> Offset | None:
+    """steady_offset of the setting, for law (5) corrected only (its docstring says why)."""
+    if scenario.coordination.law != "corrected":
+        return None
     return steady_offset(Layout(s.loop, s.sampling()), scenario.coordination.v_r)
