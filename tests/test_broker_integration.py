@@ -298,12 +298,25 @@ def pure_broker(start_step: int = 0, overrides: tuple[str, ...] = ()) -> tuple[B
     return Broker(broker_core(scenario, 1), IDS, pubs, DT, start_step), pubs
 
 
-def report(broker: Broker, fleet: Fleet, k: int, vehicles: tuple[int, ...] = IDS, seq: int | None = None) -> None:
-    """The vehicles' states of step k, each with its transmission at t_k (numbered seq) unless seq is None."""
+def report(
+    broker: Broker,
+    fleet: Fleet,
+    k: int,
+    vehicles: tuple[int, ...] = IDS,
+    seq: int | None = None,
+    since: int | None = None,
+) -> None:
+    """The vehicles' states of step k, each with its transmission at t_k (numbered seq) unless seq is None; since: the
+    first step of the window k ends (its earlier steps' states carried as a vehicle carries them), else k alone."""
     for vid in vehicles:
         telemetry, model, sent = fleet[vid]
         tx = tx_message(msgspec.structs.replace(sent, seq=seq, t=k * DT, stamp=k * DT)) if seq is not None else None
-        broker.take(state_key(vid), encode(step_message(state_message(telemetry, model, k, seq or 0), tx, None)))
+        earlier = [
+            step_message(state_message(telemetry, model, j, 0), None, None)
+            for j in range(k if since is None else since, k)
+        ]
+        message = step_message(state_message(telemetry, model, k, seq or 0), tx, None, earlier=earlier)
+        broker.take(state_key(vid), encode(message))
 
 
 def tick(broker: Broker, k: int, network: Network | None = None, alive: list[int] | None = None) -> bool:

@@ -25,9 +25,11 @@ from comms.records.messages import (
     COMMS_STATS_KEY,
     COMMS_STEP_KEY,
     SUPERVISOR_ALIVE,
+    TICK_KEY,
     encode,
     state_key,
     step_message,
+    tick_message,
     vehicle_done_key,
 )
 from comms.records.state import NeighbourAge, StateReport
@@ -209,5 +211,8 @@ def test_the_broker_keeps_no_state_from_beyond_the_clock():
     broker = Broker(broker_core(SCENARIO, 0), SCENARIO.vehicle_ids, RecordingPublishers(), DT)
     broker.take(state_key(2), step(k=10**6, t=10**6 * DT))
     assert broker.books.malformed == 1 and not broker.books.states
-    broker.take(state_key(2), step(k=0, t=0.0))  # the first step: fine before any tick
-    assert broker.books.malformed == 1 and list(broker.books.states) == [0]
+    broker.take(state_key(2), step(k=0, t=0.0))  # the first step: not before its tick (a vehicle steps on one)
+    assert broker.books.malformed == 2 and not broker.books.states
+    broker.take(TICK_KEY, encode(tick_message(0, 0.0, False)))
+    broker.take(state_key(2), step(k=0, t=0.0))
+    assert broker.books.malformed == 2 and list(broker.books.states) == [0]

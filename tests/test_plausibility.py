@@ -101,7 +101,8 @@ def test_an_implausible_state_is_the_vehicles_fault_and_what_follows_from_it_is_
 def test_the_broker_lets_no_replay_or_implausible_state_into_the_channel() -> None:
     start = broker_start(SCENARIO, 0)
     broker = Broker(start.core, SCENARIO.vehicle_ids, RecordingPublishers(), DT)
-    broker.take(TICK_KEY, encode(tick_message(0, 0.0, False)))  # steps 0 and 1 may come (a vehicle steps on a tick)
+    for k in (0, 1):  # steps 0 and 1 may come (a vehicle steps on a tick)
+        broker.take(TICK_KEY, encode(tick_message(k, k * DT, False)))
     broker.take(state_key(2), encode(state(0)))
     broker.take(state_key(2), encode(state(0)))
     broker.take(state_key(2), encode(state(1, gamma_dot=1e30)))
@@ -172,6 +173,7 @@ def test_a_plausible_state_carrying_an_absurd_transmission_loses_the_transmissio
     assert taking.drops.by_key == {"cpf/vehicle/2/tx": 1} and taking.drops.by_cause == {IMPLAUSIBLE: 1}
     assert [r[0] for r in rec.records] == [state_key(2)]
     broker = Broker(broker_start(SCENARIO, 0).core, SCENARIO.vehicle_ids, RecordingPublishers(), DT)
+    broker.take(TICK_KEY, encode(tick_message(0, 0.0, False)))  # a vehicle steps on a tick
     broker.take(state_key(2), encode({**state(0), "tx": tx}))
     assert broker.books.drops.by_cause == {IMPLAUSIBLE: 1} and broker.books.states[0][2][1] is None
 
@@ -187,5 +189,6 @@ def test_a_transmission_not_at_its_step_s_time_is_dropped_by_both_readers() -> N
     assert taking.drops.by_key == {"cpf/vehicle/2/tx": 1} and [r[0] for r in rec.records] == [state_key(2)]
     for t, dropped in ((0.3, 1), (0.0, 0)):  # at its step's time: kept
         broker = Broker(broker_start(SCENARIO, 0).core, SCENARIO.vehicle_ids, RecordingPublishers(), DT)
+        broker.take(TICK_KEY, encode(tick_message(0, 0.0, False)))  # a vehicle steps on a tick
         broker.take(state_key(2), encode({**message, "tx": {**tx, "t": t}}))
         assert broker.books.drops.total == dropped and (broker.books.states[0][2][1] is None) == bool(dropped)

@@ -25,12 +25,17 @@ from tests.test_broker_integration import DT, IDS, Fleet, fleet, pure_broker, st
 STEPS = 12
 
 
-def report(broker, fleet: Fleet, k: int, next_tx: int | None, seq: int | None) -> None:  # noqa: F811
-    """Every vehicle's step message of step k (a transmission numbered seq, unless None), saying next_tx."""
+def report(broker, fleet: Fleet, k: int, next_tx: int | None, seq: int | None, since: int | None = None) -> None:  # noqa: F811
+    """Every vehicle's step message of step k (a transmission numbered seq, unless None), saying next_tx; since: the
+    first step of the window k ends (its earlier steps' states carried as a vehicle carries them), else k alone."""
     for vid in IDS:
         telemetry, model, sent = fleet[vid]
         tx = tx_wire(msgspec.structs.replace(sent, seq=seq, t=k * DT, stamp=k * DT)) if seq is not None else None
-        message = step_message(state_message(telemetry, model, k, seq or 0), tx, None, next_tx)
+        earlier = [
+            step_message(state_message(telemetry, model, j, 0), None, None)
+            for j in range(k if since is None else since, k)
+        ]
+        message = step_message(state_message(telemetry, model, k, seq or 0), tx, None, next_tx, earlier)
         broker.take(state_key(vid), encode(message))
     broker.advance()
 
@@ -61,13 +66,13 @@ def test_inside_a_span_the_broker_grants_windows_up_to_the_next_transmission(fle
     broker.take(TICK_KEY, encode(tick_message(0, 0.0, False, span=STEPS, longest=100, hold=True)))
     broker.advance()
     report(broker, fleet, 0, 5, seq=1)  # nobody may transmit before step 5: steps 1 .. 5 in one window
-    report(broker, fleet, 5, 50, seq=2)  # then nothing before the span's end (the run's change at step 12)
+    report(broker, fleet, 5, 50, seq=2, since=1)  # then nothing before the span's end (the run's change at step 12)
     ticks = [m["tick"] for m in published(pubs, COMMS_STEP_KEY)]
     assert [(t["k"], t.get("until")) for t in ticks] == [(0, None), (1, 6), (6, STEPS)]
     assert [t["hold"] for t in ticks] == [False, False, True]  # the span's last step holds its packets
     assert all("span" not in t and "longest" not in t for t in ticks)
     assert broker.next_k == STEPS  # and waits for the supervisor's next grant
-    report(broker, fleet, STEPS - 1, 50, seq=None)
+    report(broker, fleet, STEPS - 1, 50, seq=None, since=6)
     assert broker.next_k == STEPS
 
 

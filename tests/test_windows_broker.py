@@ -55,5 +55,5 @@ def test_a_window_hands_out_what_single_steps_do(fleet: Fleet) -> None:  # noqa:
         assert [b["t"] for b in batches] == [k * DT for k in range(1, END)]
     assert published(pubs, COMMS_EVENTS_KEY) == events and len(events) >= 2  # step by step, as the log keeps them
     assert published(pubs, COMMS_STATS_KEY) == stats and len(stats) >= 2  # snapshots at their own steps
-    report(broker, fleet, END - 1)  # the window's last states: all the next tick needs
+    report(broker, fleet, END - 1, since=1)  # the window's (its last states: all the next tick needs)
     assert tick(broker, END) is False and broker.next_k == END + 1

@@ -99,9 +99,9 @@ class Broker:
             if owned is not None and owned[1] == "state":
                 # Checked whole, as the supervisor's intake checks it (a malformed next_tx or earlier step: dropped);
                 # the earlier steps are read only for a window run past transmissions (comms.broker.lookahead).
-                steps, next_tx = read_steps(payload, owned[0], whole=self.replay is not None)
-                for step in steps:
-                    self._file(step)
+                steps, next_tx, first = read_steps(payload, owned[0], whole=self.replay is not None)
+                for step in steps:  # the earlier steps not read: the first of them is the message's first
+                    self._file(step, first if len(steps) == 1 else step.report.k)
                 self.grants.report(owned[0], steps[-1].report.k, next_tx)
             elif key == TICK_KEY:
                 message = decode(payload)
@@ -116,11 +116,12 @@ class Broker:
         except (ValueError, RecursionError) as exc:  # RecursionError: never past the bounded reader, counted if so
             self.books.drops.drop(key, exc)
 
-    def _file(self, step: VehicleStep) -> None:
-        """One step of a vehicle's step message, with the transmission it made: checked, then filed."""
+    def _file(self, step: VehicleStep, first: int) -> None:
+        """One step of a vehicle's step message, with the transmission it made: checked, then filed. first: the
+        message's first step (that of a window whose earlier steps are not read), else the step's own."""
         report = step.report
-        # each step once, in order; one beyond the next tick would be held forever
-        in_stream(report.k, self.books.taken.get(report.vehicle), self.latest_tick + 2, self.submitted)
+        # each step once, in order, none skipped; one beyond the latest tick would be held forever
+        in_stream(report.k, self.books.taken.get(report.vehicle), self.latest_tick + 1, self.submitted, first)
         self._plausible(report)
         self.books.taken[report.vehicle] = report.k
         self.books.states.setdefault(report.k, {})[report.vehicle] = (report, self._tx(step))
@@ -382,6 +383,7 @@ def run_broker(
 
     def handler(publishers: Publishers) -> Handler:
         broker = Broker(core, vehicles, publishers, dt, start_step)
+        broker.books.taken.update(dict.fromkeys(vehicles, start_step - 1))  # each vehicle's next step: start_step
 
         def handle(key: str, payload: bytes) -> None:
             broker.take(key, payload)

@@ -178,6 +178,8 @@ def _drive(run: Supervisor, progress: Progress) -> None:
     it; a tick that kills or restarts a process, and every realtime tick, waits for the states of the step before."""
     ticks, intake = run.clock, run.intake
     steps, dt = ticks.schedule.steps, ticks.schedule.dt
+    for vid in run.alive:  # each steps from 0, every step once, in order (a step forged ahead of it is dropped)
+        intake.expect(vid, 0)
     ticks.begin()
     progress.begin()
     a, b = 0, ticks.issue(run, 0)

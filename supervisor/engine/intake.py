@@ -107,6 +107,10 @@ class Intake:
             if isinstance(k, int) and self.taken.get(vid, -1) < k < self.bounds.steps:
                 self.faulty.setdefault(vid, f"{cause_of(exc)}: {exc}")
 
+    def expect(self, vid: int, k: int) -> None:
+        """Vehicle vid's next step is k (each one's first, a restarted one's; until told, any first step is taken)."""
+        self.taken[vid] = k - 1
+
     def new_faults(self) -> list[tuple[int, str]]:
         """(vehicle, why) of each vehicle whose state was its fault since the last call: the run decides
         (scenario.on_vehicle_loss)."""
@@ -242,7 +246,8 @@ class Intake:
             self.rec.write(rx_key(vid), batch.t, batch.to_message())
         if transmission is not None:
             self.rec.write(tx_key(vid), transmission.t, transmission.to_message())
-        self._state(state, message)
+        self.rec.write(state_key(vid), state.t, message)
+        self._book(state)
 
     def _typed_step(self, vid: int, step: Step) -> None:
         """_step of a step read by msgspec: the checks its types cannot say (StateReport.from_message's, then
@@ -304,10 +309,6 @@ class Intake:
         for d in batch.receptions:
             self.bounds.link(d.sender, vid)
         return batch
-
-    def _state(self, report: StateReport, message: Message) -> None:
-        self.rec.write(state_key(report.vehicle), report.t, message)
-        self._book(report)
 
     def _book(self, report: StateReport) -> None:
         self.builder.add(report)

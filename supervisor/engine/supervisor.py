@@ -290,6 +290,7 @@ class Supervisor:
     def _restart_vehicle(self, vid: int, k: int) -> None:
         seq = self.intake.last_seq.get(vid, 0)
         self.intake.next_tx.pop(vid, None)  # the restarted process may transmit at once (it forgot what it sent)
+        self.intake.expect(vid, k)
         self.spawn_vehicle(vid, (self.intake.last_state[vid], seq), k)
         self.await_alive()
         self.alive = sorted([*self.alive, vid])
