@@ -40,6 +40,7 @@ from comms.records.messages import (
     state_key,
     step_message,
     tick_message,
+    tx_key,
     tx_message,
 )
 from comms.records.network import Network
@@ -232,7 +233,8 @@ def test_broker_relays_to_graph_neighbours_and_survives_malformed_messages(tmp_p
             done = listener.next(COMMS_DONE_KEY)
             assert_valid(done, COMMS_DONE_KEY)
             causes = {"malformed": 2, "replayed step": 1, "undecodable": 1}
-            assert done == {"t": 0.3, "k": 3, "events": 8, "malformed": 4, "causes": causes}
+            by_key = {state_key(1): 1, state_key(2): 2, tx_key(2): 1}  # whose key carried them
+            assert done == {"t": 0.3, "k": 3, "events": 8, "malformed": 4, "causes": causes, "by_key": by_key}
             assert listener.pending(COMMS_EVENTS_KEY) == 0  # nothing was left in flight
             # link statistics: only the final snapshot (a run shorter than one window), books balanced
             stats = listener.next(COMMS_STATS_KEY)

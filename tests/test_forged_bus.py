@@ -192,7 +192,7 @@ def test_a_run_attacked_on_a_vehicles_own_keys_counts_drops_and_says_so(tmp_path
     assert supervisor in line and "broker: " in line and "vehicle 1: 0" in line, line
     counts = json.loads((tmp_path / "m.json").read_text())["malformed"]
     assert counts[SUPERVISOR] == {state_key(2): len(E2E_FORGED), vehicle_done_key(2): len(E2E_DONE)}
-    assert counts["broker"]["any key"] >= 5  # what the broker's own reading refuses (not the stale or far steps)
+    assert counts["broker"][state_key(2)] >= 5  # what the broker's own reading refuses, on the key that carried it
     assert set(counts) == {SUPERVISOR, "broker", "vehicle 1", "vehicle 2", "vehicle 3"}
     records = read_messages(tmp_path / "run.mcap")
     dones = [m["vehicle"] for topic, _, m in records if topic.endswith("/done") and topic != COMMS_DONE_KEY]

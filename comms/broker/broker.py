@@ -260,7 +260,8 @@ class Broker:
             self._publish_events(tick)
             self._publish_stats(tick.t, final=True)
             drops = self.books.drops
-            done = CommsDone(tick.t, tick.k, self.books.published, drops.total, dict(sorted(drops.by_cause.items())))
+            causes, keys = dict(sorted(drops.by_cause.items())), dict(sorted(drops.by_key.items()))
+            done = CommsDone(tick.t, tick.k, self.books.published, drops.total, causes, keys)
             self.publishers.put(COMMS_DONE_KEY, done.to_message())
             return
         if tick.wall is not None:  # realtime: late deliveries go out as such; the batches message is the tick

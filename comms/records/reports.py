@@ -29,6 +29,7 @@ class CommsDone(msgspec.Struct, frozen=True, omit_defaults=True):
     events: Count
     malformed: Count
     causes: CountsByKey = {}  # cause -> messages dropped (comms.records.drops; absent in older logs)
+    by_key: CountsByKey = {}  # key -> messages dropped: whose key carried them (absent in older logs)
 
     def to_message(self) -> Message:
         return as_message(self)

@@ -386,7 +386,7 @@ class Intake:
         self.bounds.time(done.t, "the report's")
         self.rec.write(COMMS_DONE_KEY, done.t, done.to_message())
         self.done = done
-        self.reports[BROKER] = {BY_NO_KEY: done.malformed}
+        self.reports[BROKER] = dict(done.by_key) if done.by_key else {BY_NO_KEY: done.malformed}  # older: a total
         self.report_causes[BROKER] = dict(done.causes)
 
     def _vehicle_done(self, vid: int, message: Message) -> None:
