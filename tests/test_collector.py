@@ -76,7 +76,12 @@ def test_a_run_from_python_is_paced_and_leaves_the_callers_collector_as_it_was(m
     import supervisor.cli.run
 
     seen = []
-    monkeypatch.setattr(supervisor.cli.run, "execute", lambda args: (seen.append(gc.get_threshold()), None, None))
+
+    def execute(args: object) -> tuple[None, None, None]:
+        seen.append(gc.get_threshold())
+        return None, None, None
+
+    monkeypatch.setattr(supervisor.cli.run, "execute", execute)
     before = gc.get_threshold()
     gc.set_threshold(1234, 5, 6)
     try:
