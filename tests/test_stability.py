@@ -372,3 +372,16 @@ def test_cpf_validate_says_when_every_packet_is_lost(caplog):
     """The run's summary pointed at cpf validate for why nothing was delivered; with comms.loss 1 it said nothing."""
     assert main(["validate", str(CONFIGS / "paper.toml"), "--set", "comms.loss=1.0"]) == 0
     assert "comms.loss: every packet is lost (long-run loss 1): no vehicle hears another, got 1.0" in caplog.text
+
+
+@pytest.mark.parametrize(("fleet", "own", "said"), [
+    (1.0, 0.0, None),  # every link hears on its own loss of 0: validate said "every packet is lost" (fix-links' note)
+    (0.0, 1.0, "comms.links: every link loses every packet (its own loss 1): no vehicle hears another"),
+    (1.0, None, "comms.loss: every packet is lost (long-run loss 1)"),
+])  # fmt: skip
+def test_every_packet_lost_is_judged_link_by_link(caplog, fleet, own, said):
+    links = ",".join(f"{{sender={a},receiver={b},loss={own}}}" for a, b in ((1, 2), (2, 1), (1, 3), (3, 1)))
+    sets = [f"comms.loss={fleet}", *([f"comms.links=[{links}]"] if own is not None else [])]
+    assert main(["validate", str(CONFIGS / "paper.toml"), *[f"--set={s}" for s in sets]]) == 0
+    lost = [line for line in caplog.text.splitlines() if "every packet" in line or "every link loses" in line]
+    assert (lost == []) if said is None else (len(lost) == 1 and said in lost[0]), lost

@@ -178,10 +178,15 @@ def _range(sc: Scenario) -> Iterator[str]:
 def _all_lost(sc: Scenario) -> Iterator[str]:
     """Every packet lost (comms.loss 1, or a burst model always in its bad state): the run's summary says 'NOTHING
     DELIVERED ... (cpf validate says why before a run)', and it now does."""
-    from supervisor.config.links import loss_of
+    from supervisor.config.links import link_loss_of, loss_of
 
+    lost = [link_loss_of(sc, i, j) >= 1.0 for i, j in directed_links(sc)]  # a link's own loss of 0 hears (a user)
+    if not (all(lost) if lost else loss_of(sc) >= 1.0):
+        return
     if loss_of(sc) >= 1.0:
         yield f"comms.loss: every packet is lost (long-run loss 1): no vehicle hears another, got {sc.comms.loss}"
+    else:
+        yield "comms.links: every link loses every packet (its own loss 1): no vehicle hears another, got loss 1"
 
 
 def _diverges(sc: Scenario) -> Iterator[str]:

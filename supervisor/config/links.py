@@ -67,9 +67,23 @@ def delay_of(scenario: Scenario) -> float:
 
 
 def loss_of(scenario: Scenario) -> float:
+    """The fleet's long-run loss: comms.loss and [comms.burst]'s, independent."""
     c = scenario.comms
-    burst = c.burst.mean_loss if c.burst is not None else 0.0
-    return 1.0 - (1.0 - c.loss) * (1.0 - burst)
+    return _combined(c.loss, c.burst.mean_loss if c.burst is not None else 0.0)
+
+
+def link_loss_of(scenario: Scenario, sender: int, receiver: int) -> float:
+    """One directed link's long-run loss: its own loss and burst where its [[comms.links]] entry gives them (a 0
+    too), the fleet's where it leaves them out (as the channel takes them: supervisor.config.fleet)."""
+    c = scenario.comms
+    own = next((link for link in c.links if (link.sender, link.receiver) == (sender, receiver)), None)
+    loss = c.loss if own is None or own.loss is None else own.loss
+    burst = c.burst if own is None or own.burst is None else own.burst
+    return _combined(loss, burst.mean_loss if burst is not None else 0.0)
+
+
+def _combined(loss: float, burst: float) -> float:
+    return 1.0 - (1.0 - loss) * (1.0 - burst)
 
 
 SCHEDULED_LAWS = ("corrected", "literal")  # law (5), the one the analysis models (stability.model)
