@@ -53,3 +53,15 @@ def test_the_command_line_section_lists_every_command():
 @pytest.mark.parametrize("target", ["docs/scenario-reference.md", "configs/examples/"])
 def test_the_readme_links_the_reference_and_the_examples(target):
     assert target in README and (ROOT / target).exists()
+
+
+def test_the_script_says_what_it_does_and_refuses_what_it_does_not_know(capsys):
+    """`--help` ran both Zenoh runs and rewrote the README: it prints the script's doc now, touching nothing."""
+    numbers = script("readme_numbers")
+    before = (ROOT / "README.md").read_bytes()
+    for argv, code in ((["--help"], 0), (["--dry-run"], 2)):
+        with pytest.raises(SystemExit) as stop:
+            numbers.main(argv)
+        assert stop.value.code == code
+    assert "Rewrite the README's example outputs" in capsys.readouterr().out
+    assert (ROOT / "README.md").read_bytes() == before
