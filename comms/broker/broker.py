@@ -83,6 +83,7 @@ class Broker:
         self.publishers = publishers
         self.dt = dt
         self.books = _Books()
+        self.books.taken.update(dict.fromkeys(self.vehicles, start_step - 1))  # each vehicle's next step: start_step
         self.next_k = start_step  # a restarted broker resumes mid-run, with nothing of the past in flight
         self.submitted = start_step - 1  # the last step whose transmissions are in the water
         self.clock: Tick | None = None  # the latest tick handled: realtime deliveries are timed by it
@@ -384,7 +385,6 @@ def run_broker(
 
     def handler(publishers: Publishers) -> Handler:
         broker = Broker(core, vehicles, publishers, dt, start_step)
-        broker.books.taken.update(dict.fromkeys(vehicles, start_step - 1))  # each vehicle's next step: start_step
 
         def handle(key: str, payload: bytes) -> None:
             broker.take(key, payload)
