@@ -128,3 +128,12 @@ def test_validate_warns_of_a_graph_wmsr_cannot_work_on(edges, f, warned):
     said = [w for w in scenario_warnings(scenario) if w.startswith("coordination.law_options.f")]
     assert bool(said) == warned, said
     assert not said or f"not ({f + 1}, {f + 1})-robust" in said[0]
+
+
+def test_wmsr_named_by_its_path_with_its_own_default_f_is_checked_too():
+    """The check builds the law as the run does: named by package.module:Name, f its default (1)."""
+    text = re.sub(r"(?m)^edges = .*$", f"edges = {RING5}", (CONFIGS / "inline5.toml").read_text())
+    scenario = parse_scenario(text, "inline5.toml", ["coordination.law=vehicles.resilient:Wmsr"])
+    assert any(
+        w.startswith("coordination.law_options.f: the graph is not (2, 2)-robust") for w in scenario_warnings(scenario)
+    )

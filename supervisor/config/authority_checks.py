@@ -22,7 +22,7 @@ from supervisor.config.fleet import build_path
 from supervisor.config.plant import actuators_of, current_of, plant_of
 from supervisor.config.presets_table import top_speed
 from supervisor.config.scenario_schema import Scenario, VehicleSection
-from supervisor.config.vehicle_models import vehicle_of
+from supervisor.config.vehicle_models import params_of, vehicle_of
 from vehicles.actuators import Actuators
 from vehicles.current import Current
 from vehicles.geometry import Float3
@@ -53,7 +53,7 @@ def _too_fast(sc: Scenario) -> list[str]:
     current, out = current_of(sc), []
     for section in sc.vehicles:
         try:
-            top = top_speed(plant_of(sc, section.id) or vehicle_of(sc, section.id).parameters())
+            top = top_speed(plant_of(sc, section.id) or params_of(sc, section.id))
         except (ValueError, ArithmeticError, TypeError, AttributeError):
             continue
         speeds = list(_through_water(sc, section, current))
@@ -77,7 +77,7 @@ def _through_water(sc: Scenario, section: VehicleSection, current: Current | Non
         t = (gamma - start) / v_r if v_r else 0.0
         t = min(t % (period / abs(v_r)) if period is not None and v_r else max(t, 0.0), duration)
         water = (0.0, 0.0, 0.0) if current is None else current.velocity(t, position[2])
-        yield _norm([v - c for v, c in zip(velocity, water, strict=True)]), _norm(velocity), water
+        yield math.hypot(*(v - c for v, c in zip(velocity, water, strict=True))), math.hypot(*velocity), water
 
 
 def _said_fast(sc: Scenario, vid: int, speeds: Float2, by_current: bool, water: Float3) -> str:
@@ -93,10 +93,6 @@ def _said_fast(sc: Scenario, vid: int, speeds: Float2, by_current: bool, water: 
         f"{field}: vehicle {vid} {what}, above its top speed of {top:.3g} m/s (cpf presets): it will fall behind, "
         f"got {sc.coordination.v_r if got is None else got}"
     )
-
-
-def _norm(vector: Sequence[float]) -> float:
-    return math.sqrt(sum(x * x for x in vector))
 
 
 def unheld(sc: Scenario) -> dict[int, Need]:

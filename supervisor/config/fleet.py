@@ -343,7 +343,7 @@ def delivered_graph_horizon(scenario: Scenario) -> float:
     frame)."""
     interval = transmit_interval(scenario)
     shortest = held_to_frames(scenario, scenario.scenario.step)  # one frame with TDMA, a step without
-    longest = shortest if interval is None else max(interval, shortest)
+    longest = shortest if interval is None else interval  # held to frames already: a frame or a step at least
     return max(scenario.comms.stats_window, HORIZON_INTERVALS * longest)
 
 

@@ -58,9 +58,16 @@ def _bit_counts(n: int) -> np.ndarray:
 
 def resilience_warnings(sc: Scenario) -> Iterator[str]:
     """W-MSR on a graph not (F + 1, F + 1)-robust: consensus can fail with F liars anywhere, or none."""
+    from supervisor.config.extensions import extension
+    from vehicles.resilient import Wmsr
+
     co = sc.coordination
-    f = co.law_options.get("f", 1) if co.law == "wmsr" else 0
-    if not isinstance(f, int) or f < 1:
+    try:  # the law as the run builds it: named any way, its f given or its own default
+        law = extension("law", co.law, co.law_options)
+    except (ValueError, TypeError):  # a law that does not build is scenario_checks' error, not this warning's
+        return
+    f = law.f if isinstance(law, Wmsr) else 0
+    if f < 1:
         return
     ids = sc.vehicle_ids
     if len(ids) > MAX_VEHICLES:

@@ -233,6 +233,6 @@ def predicted_offset(scenario: Scenario) -> Offset | None:
 
 def _orbit(s: Setting, scenario: Scenario) -> Offset | None:
     """steady_offset of the setting, for law (5) corrected only (its docstring says why)."""
-    if scenario.coordination.law != "corrected":
-        return None
+    if scenario.coordination.law != "corrected" or scenario.coordination.predictor != "hold":
+        return None  # (steady_offset says the same of another predictor, after a Layout built for nothing)
     return steady_offset(Layout(s.loop, s.sampling()), scenario.coordination.v_r)
