@@ -12,30 +12,10 @@ import re
 from supervisor.config.scenario import parse_scenario
 from supervisor.config.scenario_checks import scenario_warnings
 from tests.conftest import CONFIGS
+from tests.lines_fleet import lines_fleet
 
 PAPER = (CONFIGS / "paper.toml").read_text()
-LINES = """
-[scenario]
-name = "head_current"
-duration = 200.0
-step = 0.1
-[vehicle]
-preset = "remus100_neutral"
-[graph]
-edges = [[1, 2], [2, 3]]
-[[vehicles]]
-id = 1
-position = [-5.0, 0.0, -10.0]
-path = { type = "line", start = [0.0, 0.0, -10.0], velocity = [1.0, 0.0, 0.0] }
-[[vehicles]]
-id = 2
-position = [-5.0, 20.0, -10.0]
-path = { type = "line", start = [0.0, 20.0, -10.0], velocity = [1.0, 0.0, 0.0] }
-[[vehicles]]
-id = 3
-position = [-5.0, 40.0, -10.0]
-path = { type = "line", start = [0.0, 40.0, -10.0], velocity = [1.0, 0.0, 0.0] }
-"""
+LINES = lines_fleet("head_current", "remus100_neutral")
 
 
 def _speed_warnings(text: str, *sets: str) -> list[str]:

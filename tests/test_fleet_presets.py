@@ -18,6 +18,7 @@ from supervisor.config.presets_table import top_speed
 from supervisor.config.scenario import parse_scenario
 from supervisor.errors import ScenarioError
 from tests.conftest import CONFIGS, shortened
+from tests.lines_fleet import lines_fleet
 from vehicles.actuators import Actuators, remus100
 from vehicles.agent import step
 from vehicles.params import GRAVITY, PRESETS, VehicleParams, without_lift
@@ -100,29 +101,7 @@ def test_the_paper_scenarios_fly_the_neutral_vehicle():
 
 # A mixed fleet on fins (the researcher's hetero_fins): vehicle 2 flies the neutral preset, whose inputs are ideal.
 #   1 (remus100) -- 2 (remus100_neutral) -- 3 (remus100), three parallel lines 20 m apart at 1 m/s
-HETERO = """
-[scenario]
-name = "hetero_fins"
-duration = 200.0
-step = 0.1
-[vehicle]
-preset = "remus100"
-[graph]
-edges = [[1, 2], [2, 3]]
-[[vehicles]]
-id = 1
-position = [-5.0, 3.0, -10.0]
-path = { type = "line", start = [0.0, 0.0, -10.0], velocity = [1.0, 0.0, 0.0] }
-[[vehicles]]
-id = 2
-position = [-5.0, 23.0, -10.0]
-preset = "remus100_neutral"
-path = { type = "line", start = [0.0, 20.0, -10.0], velocity = [1.0, 0.0, 0.0] }
-[[vehicles]]
-id = 3
-position = [-5.0, 43.0, -10.0]
-path = { type = "line", start = [0.0, 40.0, -10.0], velocity = [1.0, 0.0, 0.0] }
-"""
+HETERO = lines_fleet("hetero_fins", "remus100", off=3.0, presets={2: "remus100_neutral"})
 
 
 def _fins(sc, vid: int) -> Actuators | None:
