@@ -28,6 +28,8 @@ def broker_after(payload: bytes, typed: bool = True, whole: bool = False) -> Bro
     """A broker after a tick of step 2, then payload on vehicle 2's state key (typed: its one-pass reading, else the
     slow one alone; whole: a window run past transmissions is pending, so every step is read)."""
     broker = Broker(broker_core(SCENARIO, 0), SCENARIO.vehicle_ids, RecordingPublishers(), DT)
+    broker.books.taken.clear()  # told no vehicle's next step: these test the reading of one message, whatever its
+    # steps (a window from step 1, a step 2), as the supervisor's intake here (the turns: test_stream_turns.py)
     broker.take(TICK_KEY, encode(tick_message(2, 2 * DT, False)))
     if whole:
         broker.replay = Replay(0, 3, [{}, {}])
