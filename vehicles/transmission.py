@@ -88,8 +88,13 @@ class Tdma:
     slot: float
     order: tuple[int, ...]
 
+    @property
+    def frame(self) -> float:
+        """s from one of a vehicle's slots to its next."""
+        return self.slot * len(self.order)
+
     def may_transmit(self, vehicle_id: int, t: float, dt: float) -> bool:
-        frame = self.slot * len(self.order)
+        frame = self.frame
         start = self.order.index(vehicle_id) * self.slot
         into_slot = (t - start) % frame
         return into_slot < dt / 2 or frame - into_slot < dt / 2
@@ -97,7 +102,7 @@ class Tdma:
     def first_slot(self, vehicle_id: int, lo: int, dt: float) -> int:
         """The first step >= lo at which may_transmit holds: the steps around the first slot start not before
         step lo's time (a step's window is half a step either side), checked; a full frame's scan if none holds."""
-        frame = self.slot * len(self.order)
+        frame = self.frame
         start = self.order.index(vehicle_id) * self.slot
         slot_start = start + frame * math.ceil((lo * dt - dt / 2 - start) / frame)
         near = round(slot_start / dt)

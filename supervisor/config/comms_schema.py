@@ -117,6 +117,11 @@ class LinkSection(StrictModel):
     burst: BurstSection | None = Field(default=None, description="bursty loss; omitted: comms.burst")
     extra_delay: Float = Field(default=0.0, ge=0, le=MAX_DELAY, description="added to every packet's delay, s")
 
+    def losses(self, fleet_loss: float, fleet_burst: BurstSection | None) -> tuple[float, BurstSection | None]:
+        """The link's loss and burst: its own where given, whatever their value (a loss of 0 too), the fleet's
+        (comms.loss, comms.burst) where left out. The one rule the channel, the checks and the analysis take."""
+        return (fleet_loss if self.loss is None else self.loss), (fleet_burst if self.burst is None else self.burst)
+
 
 class TransmitSection(StrictModel):
     """When vehicles transmit: periodically, or when their gamma leaves what their neighbours predict."""

@@ -12,10 +12,12 @@ from supervisor.config.controller_choice import AUTO, controller_name, estimated
 from supervisor.config.derived import steps_of, tube_radius
 from supervisor.config.describe import describe_fault
 from supervisor.config.fleet import coupling_k
+from supervisor.config.links import tdma_schedule
 from supervisor.config.medium import message_bytes, modem_params, sound_speed
 from supervisor.config.plant import actuation
 from supervisor.config.plant import spreads as plant_spreads
 from supervisor.config.scenario_schema import Scenario, VehicleSection
+from vehicles.transmission import Tdma
 from vehicles.uncertainty import GROUPS
 
 __all__ = ["what_would_run"]
@@ -35,7 +37,7 @@ def what_would_run(sc: Scenario) -> str:
         f"coordination: {sc.coordination.law} law, {_gain(sc)}, predictor {sc.coordination.predictor}, "
         f"v_r {_num(sc.coordination.v_r)} per s, over the graph {_edges(sc.graph.edges)}",
         "comms: " + _comms(sc),
-        "transmission: " + _transmit(sc.comms.transmit, sc.comms, len(sc.vehicles)),
+        "transmission: " + _transmit(sc.comms.transmit, sc.comms, tdma_schedule(sc)),
         "faults: " + ("; ".join(describe_fault(f.model_dump(), run.step) for f in sc.faults) or "none"),
         f"a vehicle lost: {run.on_vehicle_loss}",
     ]
@@ -167,7 +169,7 @@ def _comms(sc: Scenario) -> str:
     return ", ".join(parts)
 
 
-def _transmit(tx: TransmitSection, c: CommsSection, fleet: int) -> str:
+def _transmit(tx: TransmitSection, c: CommsSection, tdma: Tdma | None) -> str:
     if tx.policy == "periodic":
         text = "periodic, " + (f"every {_num(tx.period)} s" if tx.period is not None else "every step")
     elif tx.policy != "event":  # an extension's: it reads its options, none of the keys below (a new user)
@@ -178,8 +180,8 @@ def _transmit(tx: TransmitSection, c: CommsSection, fleet: int) -> str:
         text += f", at least {_num(tx.min_interval)} s apart" if tx.min_interval else ""
         text += f", heartbeat {_num(tx.heartbeat)} s" if tx.heartbeat is not None else ""
         text += ")"
-    if c.tdma is not None:
-        text += f", on TDMA slots of {_num(c.tdma.slot)} s (frame {_num(c.tdma.slot * fleet)} s)"
+    if tdma is not None:
+        text += f", on TDMA slots of {_num(tdma.slot)} s (frame {_num(tdma.frame)} s)"
     return text
 
 

@@ -30,7 +30,7 @@ from comms.records.wire import wide_for
 from supervisor.config.controller_choice import controller_name, controller_options
 from supervisor.config.derived import stuck_spans
 from supervisor.config.extensions import extension
-from supervisor.config.links import held_to_frames, needs_fitting
+from supervisor.config.links import held_to_frames, needs_fitting, tdma_schedule
 from supervisor.config.medium import modem_params, sound_speed
 from supervisor.config.per_scenario import per_scenario
 from supervisor.config.plant import actuators_of, current_of, plant_of
@@ -64,7 +64,7 @@ from vehicles.path_following import PathFollowingController
 from vehicles.paths import Circle, Helix, Lawnmower, Line, Path
 from vehicles.runtime import NodeState, Radio
 from vehicles.saturation import coordination_acceleration
-from vehicles.transmission import Policy, Tdma
+from vehicles.transmission import Policy
 
 
 def build_path(spec: PathSpec) -> Path:
@@ -235,8 +235,7 @@ def _own_loss(link: LinkSection, c: CommsSection, ranged: LossModel | None, name
     """A [[comms.links]] entry's models as the channel takes them: its loss and burst where given, whatever their
     value (a loss of 0 too: only a key left out takes [comms]'s), and no model at all as an empty Composite, which
     loses nothing. None would tell the channel "not given": a link's loss 0 lost the fleet's 5 %."""
-    loss = c.loss if link.loss is None else link.loss
-    model = _loss_model(ranged, loss, c.burst if link.burst is None else link.burst, named)
+    model = _loss_model(ranged, *link.losses(c.loss, c.burst), named)
     return _builtin(Composite, models=()) if model is None else model
 
 
@@ -312,9 +311,7 @@ def radio(scenario: Scenario, vehicle_id: int) -> Radio:
     tx, co = scenario.comms.transmit, scenario.coordination
     context = {"predictor": predictor_of(scenario), "v_r": co.v_r}
     policy: Policy = extension("transmission", tx.policy, transmission_options(scenario), context)
-    tdma = scenario.comms.tdma
-    schedule = Tdma(tdma.slot, tdma.order or tuple(scenario.vehicle_ids)) if tdma else None
-    return Radio(policy, schedule)
+    return Radio(policy, tdma_schedule(scenario))
 
 
 def broker_core(scenario: Scenario, seed: int) -> BrokerCore:

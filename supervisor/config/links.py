@@ -15,6 +15,7 @@ import numpy as np
 
 from supervisor.config.medium import message_bytes, modem_params, sound_speed
 from supervisor.config.scenario_schema import Scenario
+from vehicles.transmission import Tdma
 
 PREDICTORS = ("first_order", "hold", "reference")  # the ones the analysis models (stability.model)
 
@@ -31,22 +32,28 @@ def transmit_period(scenario: Scenario, event: str = "heartbeat") -> float:
 
 def timing(scenario: Scenario, event: str = "heartbeat") -> tuple[float, tuple[float, ...]]:
     """(period or TDMA frame, each vehicle's offset as a fraction of it)."""
-    period, tdma, n = transmit_period(scenario, event), scenario.comms.tdma, len(scenario.vehicles)
+    period, tdma, n = transmit_period(scenario, event), tdma_schedule(scenario), len(scenario.vehicles)
     if tdma is None:
         return period, (0.0,) * n
-    order = tdma.order or tuple(scenario.vehicle_ids)
     held = held_to_frames(scenario, period)
-    return held, tuple(order.index(vid) * tdma.slot / held for vid in scenario.vehicle_ids)
+    return held, tuple(tdma.order.index(vid) * tdma.slot / held for vid in scenario.vehicle_ids)
+
+
+def tdma_schedule(scenario: Scenario) -> Tdma | None:
+    """The fleet's TDMA schedule as its radios keep it (comms.tdma.order, the vehicles' order if left out), None
+    without TDMA: its frame is the one every check, the analysis and the radios take."""
+    tdma = scenario.comms.tdma
+    return None if tdma is None else Tdma(tdma.slot, tdma.order or tuple(scenario.vehicle_ids))
 
 
 def held_to_frames(scenario: Scenario, interval: float) -> float:
     """interval [s] between a vehicle's wishes to transmit as its TDMA slots hold it (interval itself without TDMA):
     one slot per vehicle and frame (validated), and a wish due interval after a slot (half a step of slack, as
     vehicles.transmission.PeriodicPolicy.due) waits for the first slot start not before it, a whole frame at least."""
-    tdma, dt = scenario.comms.tdma, scenario.scenario.step
+    tdma, dt = tdma_schedule(scenario), scenario.scenario.step
     if tdma is None:
         return interval
-    frame = tdma.slot * len(tdma.order or scenario.vehicle_ids)
+    frame = tdma.frame
     return frame * max(1, math.ceil((interval - dt / 2) / frame))
 
 
@@ -77,8 +84,7 @@ def link_loss_of(scenario: Scenario, sender: int, receiver: int) -> float:
     too), the fleet's where it leaves them out (as the channel takes them: supervisor.config.fleet)."""
     c = scenario.comms
     own = next((link for link in c.links if (link.sender, link.receiver) == (sender, receiver)), None)
-    loss = c.loss if own is None or own.loss is None else own.loss
-    burst = c.burst if own is None or own.burst is None else own.burst
+    loss, burst = (c.loss, c.burst) if own is None else own.losses(c.loss, c.burst)
     return _combined(loss, burst.mean_loss if burst is not None else 0.0)
 
 

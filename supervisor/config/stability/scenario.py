@@ -15,7 +15,15 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
-from supervisor.config.links import delay_of, loss_of, needs_fitting, timing, transmit_period, unmodelled
+from supervisor.config.links import (
+    delay_of,
+    loss_of,
+    needs_fitting,
+    tdma_schedule,
+    timing,
+    transmit_period,
+    unmodelled,
+)
 from supervisor.config.scenario_schema import Scenario
 from supervisor.config.stability.margins import (
     MAX_LOSS_STATES,
@@ -142,8 +150,8 @@ def _every(s: Setting, scenario: Scenario) -> str:
     """What the period analysed is, unless plainly the transmit period or the TDMA frame: the event policy's
     heartbeat (every step without one), held to whole TDMA frames. It said "every 48 s (TDMA frame)" of a 48 s
     heartbeat on 24 s frames (a new user)."""
-    tx, tdma = scenario.comms.transmit, scenario.comms.tdma
-    frames = round(s.period / (tdma.slot * len(tdma.order or scenario.vehicles))) if tdma else 0
+    tx, tdma = scenario.comms.transmit, tdma_schedule(scenario)
+    frames = round(s.period / tdma.frame) if tdma else 0
     held = "a TDMA frame" if frames == 1 else f"{frames} TDMA frames of {s.period / max(frames, 1):g} s"
     if tx.policy == "event" and tx.heartbeat is None:
         return f" (the event policy has no heartbeat: {held if tdma else 'every step'}, optimistic)"
