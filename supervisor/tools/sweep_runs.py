@@ -11,10 +11,10 @@ import hashlib
 import io
 import json
 import tempfile
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 from supervisor.analysis.metrics import steady_error
 from supervisor.analysis.summary import coordination_error, nan_max
@@ -208,25 +208,36 @@ def row_of(spec: RunSpec, scenario: Any, result: Any) -> dict[str, Any]:
     return {**dict(spec.settings), "seed": spec.seed, **_measures(result, summary, scenario)}
 
 
-# The measures of a row that are real numbers (the others: the packets counted), None (sync_time, resync_time: never
-# settled, or no fault to settle after) or NaN where a run gives none: float columns of a table of rows (cpf.sweep)
-FLOAT_MEASURES = ("steady_coordination_error", "peak_coordination_error_after_transient", "sync_time", "resync_time",
-                  "max_path_error", "wall_s")  # fmt: skip
+class _Run(NamedTuple):
+    """What a row's measures are taken from: the run, its summary and scenario, and its coordination error."""
+
+    result: Any
+    summary: Any
+    scenario: Any
+    coordination: Any  # max_ij |gamma_i - gamma_j| at each step
+    settled: Any  # the steps after the transient: none if the run ends within it (its measures then NaN, as the
+    # summary's path error: it was the last sample's, below the steady error of the samples before it)
+
+
+# What the sweep measures of a run, in its row's order: each measure's column type and how it is taken. float: a real
+# number, None (sync_time, resync_time: never settled, or no fault to settle after) or NaN where a run gives none, a
+# float column of a table of rows (cpf.sweep); int: packets counted.
+_MEASURES: dict[str, tuple[type, Callable[[_Run], Any]]] = {
+    "steady_coordination_error": (float, lambda r: steady_error(r.result.series.t, r.coordination,
+                                                                r.scenario.report.transient)[0]),  # the report's
+    "peak_coordination_error_after_transient": (float, lambda r: nan_max(r.coordination[r.settled])),
+    "sync_time": (float, lambda r: r.summary.sync_time),
+    "resync_time": (float, lambda r: r.summary.resync_time),
+    "max_path_error": (float, lambda r: r.summary.max_path_error_after_transient),
+    "sent": (int, lambda r: r.result.link_counts["sent"]),
+    "delivered": (int, lambda r: r.result.link_counts["delivered"]),
+    "dropped": (int, lambda r: r.result.link_counts["dropped"]),
+    "wall_s": (float, lambda r: r.result.wall_time),
+}  # fmt: skip
+FLOAT_MEASURES = tuple(name for name, (kind, _) in _MEASURES.items() if kind is float)
 
 
 def _measures(result: Any, summary: Any, scenario: Any) -> dict[str, Any]:
     series = result.series
-    coordination = coordination_error(series.gamma)
-    settled = series.t >= scenario.report.transient  # none if the run ends within its transient: NaN, as the summary's
-    # path error then (it was the last sample's, below the steady error of the samples before it)
-    return {
-        "steady_coordination_error": steady_error(series.t, coordination, scenario.report.transient)[0],  # the report's
-        "peak_coordination_error_after_transient": nan_max(coordination[settled]),  # NaN if none: see above
-        "sync_time": summary.sync_time,
-        "resync_time": summary.resync_time,
-        "max_path_error": summary.max_path_error_after_transient,
-        "sent": result.link_counts["sent"],
-        "delivered": result.link_counts["delivered"],
-        "dropped": result.link_counts["dropped"],
-        "wall_s": result.wall_time,
-    }
+    run = _Run(result, summary, scenario, coordination_error(series.gamma), series.t >= scenario.report.transient)
+    return {name: take(run) for name, (_, take) in _MEASURES.items()}
