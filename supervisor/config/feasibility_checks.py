@@ -190,14 +190,15 @@ def _all_lost(sc: Scenario) -> Iterator[str]:
 
 
 def _diverges(sc: Scenario) -> Iterator[str]:
-    from supervisor.config.stability.scenario import predicted_growth, predicted_offset
+    from supervisor.config.stability.scenario import predictions
 
-    if (growth := predicted_growth(sc)) is not None:
+    growth, offset = predictions(sc)
+    if growth is not None:
         yield (
             f"coordination: predicted to diverge (error growing at {growth:.3g} 1/s; cpf stability says which "
             f"period, delay and loss it tolerates), got k {sc.coordination.k}"
         )
-    elif (offset := predicted_offset(sc)) is not None and offset.spread > sc.report.coordination_tolerance:
+    elif offset is not None and offset.spread > sc.report.coordination_tolerance:
         yield (
             f"coordination.predictor: predicted to settle with the gammas {offset.spread:.3g} apart (max|gi-gj|, "
             f"above report.coordination_tolerance {sc.report.coordination_tolerance:g}) and the fleet at "

@@ -206,8 +206,16 @@ def short_horizon(s: Setting, scenario: Scenario) -> float | None:
 def predicted_growth(scenario: Scenario) -> float | None:
     """The growth rate (1/s) of the coordination error if the stability analysis predicts divergence, else None
     (also when the loop is too large to analyse quickly, or not modelled)."""
-    growth = predicted_change(scenario)
-    return growth if growth is not None and growth > 0 else None
+    return predictions(scenario)[0]
+
+
+def predictions(scenario: Scenario) -> tuple[float | None, Offset | None]:
+    """predicted_growth and predicted_offset, the loop set up once (setting_of: k fitted to the links, maybe)."""
+    if unmodelled(scenario) is not None:
+        return None, None
+    setting = setting_of(scenario)
+    growth = _change(setting, scenario)
+    return (growth if growth is not None and growth > 0 else None), _orbit(setting, scenario)
 
 
 # 1/s: a growth rate this small is the arithmetic's, not the loop's: every packet lost leaves the loop neutral (the
@@ -220,11 +228,13 @@ def predicted_change(scenario: Scenario) -> float | None:
     """The coordination error's predicted growth rate (1/s; negative: it decays), None when the loop is too large
     to analyse quickly, is not one the analysis models (links.unmodelled), has a first_order horizon it leaves out
     (short_horizon) or is neutral (within NEUTRAL of 0: no prediction either way)."""
+    return None if unmodelled(scenario) is not None else _change(setting_of(scenario), scenario)
+
+
+def _change(setting: Setting, scenario: Scenario) -> float | None:
+    """predicted_change of a modelled loop, set up."""
     from supervisor.config.stability.margins import MAX_STATES
 
-    if unmodelled(scenario) is not None:
-        return None
-    setting = setting_of(scenario)
     if setting.states() > MAX_STATES or short_horizon(setting, scenario) is not None:
         return None  # too large to analyse quickly; or a horizon it leaves out, with which it errs
     growth = -rate(setting)
