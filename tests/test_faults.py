@@ -96,3 +96,14 @@ def test_bad_faults_are_one_line_errors_naming_the_field(spec, message):
     with pytest.raises(ScenarioError, match=message) as caught:
         scenario_with(spec)
     assert "\n" not in str(caught.value)
+
+
+def test_phases_split_where_an_off_grid_fault_acts():
+    """A fault at 0.33 s acts from the step at 0.3 s (active(), the faults table): the summary's phases split there
+    too, not at 0.33 (a new user saw the table say 5.0 and the phases 5.05), written 0.3, not 3 x 0.1; its end
+    likewise, 9.97 -> 10.0."""
+    sc = scenario_with("kind=blackout,start=0.33,end=9.97")
+    kind, start, end = intervals(sc)[-1]
+    assert kind == "blackout"
+    acting = [round(k * DT, 10) for k in range(200) if active(sc.faults[-1], k * DT, DT)]
+    assert (start, end) == (acting[0], round(acting[-1] + DT, 10)) == (0.3, 10.0)

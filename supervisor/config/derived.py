@@ -78,9 +78,21 @@ def stuck_spans(faults: Iterable[FaultSpec], vehicle: int, dt: float) -> list[tu
 
 
 def intervals(scenario: Scenario) -> list[tuple[str, float, float]]:
-    """(kind, start, end) of every fault, open ends closed at the end of the run: for summaries and plots."""
+    """(kind, start, end) of every fault, open ends closed at the end of the run: for summaries and plots. Times
+    on the step grid, the steps the fault acts on (steps_of_fault: what the run and the faults table do), as the
+    series' own times k dt: a fault given at 5.03 s acts from the step at 5.0 s, and its phase starts there."""
     duration, dt = scenario.scenario.duration, scenario.scenario.step
-    return [(f.kind, f.start, min(end_of(f, dt), duration)) for f in scenario.faults]
+    out: list[tuple[str, float, float]] = []
+    for f in scenario.faults:
+        first, end = steps_of_fault(f, dt)
+        out.append((f.kind, _grid_time(first, dt), duration if end is None else min(_grid_time(end, dt), duration)))
+    return out
+
+
+def _grid_time(k: int, dt: float) -> float:
+    """k dt as a person writes it (3 x 0.1 s: 0.3, not 0.30000000000000004, in metrics.json): rounded to 1 ns, far
+    below half a step, so the series' times k dt fall on the same side of it."""
+    return round(k * dt, 9)
 
 
 def graph_at(scenario: Scenario, t: float, dt: float) -> tuple[tuple[int, int], ...]:
