@@ -32,11 +32,13 @@ from comms.records.messages import (
     tick_message,
     vehicle_done_key,
 )
+from comms.records.reports import SUPERVISOR
 from comms.records.state import NeighbourAge, StateReport
 from supervisor.config.scenario import parse_scenario
-from supervisor.engine.intake import SUPERVISOR, Intake
+from supervisor.engine.intake import Intake
 from supervisor.record.recorder import Recorder, read_messages
 from tests.conftest import CONFIGS, link_events
+from tests.procs import cpf
 from tests.run_digest import digest
 from tests.test_bus_access import WAIT, arrivals, client, read_credential, run_with_vehicle_2_by_hand, until
 
@@ -94,7 +96,7 @@ def test_the_issues_forgeries_are_counted_by_key_and_dropped_and_the_log_closes(
     intake = take_all(tmp_path / "run.mcap", ISSUE_EXAMPLES)
     assert intake.malformed.total() == len(ISSUE_EXAMPLES)
     assert intake.malformed[state_key(2)] == 9 and intake.malformed[COMMS_DONE_KEY] == 4
-    assert intake.states == {} and intake.done is None and intake.reports == {}
+    assert intake.states == {} and intake.done is None and intake.vehicles_done == {}
     assert read_messages(tmp_path / "run.mcap") == []  # nothing reached the writer, and the log reads back
 
 
@@ -105,7 +107,7 @@ def test_well_formed_messages_are_recorded_in_their_records_form_and_booked(tmp_
             (COMMS_DONE_KEY, encode({**DONE, "malformed": 4})), (vehicle_done_key(2), encode(report))]  # fmt: skip
     intake = take_all(tmp_path / "run.mcap", good)
     assert intake.malformed.total() == 0 and intake.states == {1: {2}}
-    assert intake.counts() == {SUPERVISOR: {}, "broker": {"any key": 4}, "vehicle 2": {COMMS_STEP_KEY: 3}}
+    assert intake.bus_drops().by_key == {SUPERVISOR: {}, "broker": {"any key": 4}, "vehicle 2": {COMMS_STEP_KEY: 3}}
     records = read_messages(tmp_path / "run.mcap")
     assert [topic for topic, _, _ in records] == [state_key(2), COMMS_STATS_KEY, COMMS_DONE_KEY, vehicle_done_key(2)]
     assert records[0][2] == STATE
@@ -171,7 +173,8 @@ E2E_DONE = [encode({"t": -1.0}), encode({"t": 1e11, "k": 1, "vehicle": 2, "malfo
 def test_a_run_attacked_on_a_vehicles_own_keys_counts_drops_and_says_so(tmp_path: Path, paper_text: str) -> None:
     """cpf run with vehicle 2 started by hand; a second session with vehicle 2's credential publishes malformed and
     wrong payloads on vehicle 2's state and done keys. The run ends normally, its records are those of the same
-    scenario run undisturbed, and the summary names the counts."""
+    scenario run undisturbed, and the summary names the counts; `cpf report` of its log says the same (it said
+    nothing of them: the supervisor's own drops were not in the log)."""
     with run_with_vehicle_2_by_hand(tmp_path, paper_text, "--metrics", "m.json") as hand:  # noqa: SIM117 - the
         with client(hand.endpoint, read_credential(hand.path)) as forger:  # credential exists only inside the run
             steps = arrivals(forger, COMMS_STEP_KEY)
@@ -195,10 +198,14 @@ def test_a_run_attacked_on_a_vehicles_own_keys_counts_drops_and_says_so(tmp_path
     assert counts["broker"][state_key(2)] >= 5  # what the broker's own reading refuses, on the key that carried it
     assert set(counts) == {SUPERVISOR, "broker", "vehicle 1", "vehicle 2", "vehicle 3"}
     records = read_messages(tmp_path / "run.mcap")
-    dones = [m["vehicle"] for topic, _, m in records if topic.endswith("/done") and topic != COMMS_DONE_KEY]
+    dones = [m["vehicle"] for topic, _, m in records if topic.endswith("/done") and "vehicle" in topic]
     assert sorted(dones) == [1, 2, 3]  # each vehicle's own report, none forged
     assert not [event for event in link_events(records) if event["t"] < 0]
     assert digest(tmp_path / "run.mcap") == hand.undisturbed_digest()
+    report = cpf("report", "run.mcap", "--out", "report", cwd=tmp_path)
+    assert report.returncode == 0 and line in report.stdout.splitlines(), report.stdout + report.stderr
+    written, ran = (json.loads(path.read_text()) for path in (tmp_path / "report/metrics.json", tmp_path / "m.json"))
+    assert (written["malformed"], written["dropped_by_cause"]) == (ran["malformed"], ran["dropped_by_cause"])
 
 
 def test_the_broker_keeps_no_state_from_beyond_the_clock():

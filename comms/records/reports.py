@@ -1,6 +1,7 @@
 """The reports processes make about the run as a whole: the broker's statistics (cpf/comms/stats) and end-of-run
-report (cpf/comms/done), and a vehicle's end-of-run report (cpf/vehicle/<id>/done): how many malformed messages each
-reader counted and dropped.
+report (cpf/comms/done), a vehicle's end-of-run report (cpf/vehicle/<id>/done) and the supervisor's (cpf/run/done):
+how many malformed messages each reader counted and dropped. `bus_drops` reads the three kinds as one table, the one
+`cpf run` prints and writes to --metrics and `cpf report` writes from the log.
 
 Each is a msgspec Struct, its message's only description: the message (`to_message`), its checked reading
 (`from_message`: ValueError naming the field for a count that is not a non-negative integer, a time or a delay that
@@ -10,7 +11,8 @@ fits the run is the reader's to say (it knows the run).
 
 from __future__ import annotations
 
-from typing import Annotated
+from collections.abc import Mapping
+from typing import Annotated, NamedTuple
 
 import msgspec
 
@@ -98,3 +100,55 @@ class VehicleDone(msgspec.Struct, frozen=True, omit_defaults=True):
         if self.vehicle != key_vehicle:
             raise ValueError(f"field 'vehicle': vehicle {self.vehicle} published on vehicle {key_vehicle}'s key")
         return self
+
+
+class SupervisorDone(msgspec.Struct, frozen=True, omit_defaults=True):
+    """The supervisor's end-of-run report (cpf/run/done, in the log only: no process reads it on the bus): the
+    malformed messages it dropped, by the key they came on and by cause."""
+
+    t: NonNegative
+    k: Count
+    malformed: CountsByKey
+    causes: CountsByKey = {}  # cause -> messages dropped (comms.records.drops)
+
+    def to_message(self) -> Message:
+        return as_message(self)
+
+    @classmethod
+    def from_message(cls, message: object) -> SupervisorDone:
+        return read_as(message, cls)
+
+
+SUPERVISOR = "supervisor"  # the readers, as the drops tables name them
+BROKER = "broker"
+BY_NO_KEY = "any key"  # a reader that reports one count, not by key (the broker of older logs)
+
+
+class BusDrops(NamedTuple):
+    """What the bus's readers dropped: reader -> key -> malformed messages, reader -> cause -> messages."""
+
+    by_key: dict[str, dict[str, int]]
+    by_cause: dict[str, dict[str, int]]
+
+
+def bus_drops(
+    supervisor: SupervisorDone | None, broker: CommsDone | None, vehicles: Mapping[int, VehicleDone]
+) -> BusDrops:
+    """The readers' drops from their end-of-run reports (those that came: a reader that sent none is left out), the
+    supervisor's first, then the others by name."""
+    by_key: dict[str, dict[str, int]] = {}
+    by_cause: dict[str, dict[str, int]] = {}
+    if supervisor is not None:
+        by_key[SUPERVISOR], by_cause[SUPERVISOR] = _sorted(supervisor.malformed), _sorted(supervisor.causes)
+    others: dict[str, tuple[dict[str, int], dict[str, int]]] = {}
+    if broker is not None:  # older logs: a total, not by key
+        others[BROKER] = (dict(broker.by_key) if broker.by_key else {BY_NO_KEY: broker.malformed}), dict(broker.causes)
+    for vid, done in vehicles.items():
+        others[f"vehicle {vid}"] = dict(done.malformed), dict(done.causes)
+    for reader in sorted(others):
+        by_key[reader], by_cause[reader] = others[reader]
+    return BusDrops(by_key, by_cause)
+
+
+def _sorted(counts: Mapping[str, int]) -> dict[str, int]:
+    return dict(sorted(counts.items()))

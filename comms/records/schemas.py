@@ -26,6 +26,7 @@ from comms.records.messages import (
     GRAPH_KEY,
     HELLO_PREFIX,
     META_KEY,
+    RUN_DONE_KEY,
     STOP_KEY,
     TICK_KEY,
     Hello,
@@ -33,7 +34,7 @@ from comms.records.messages import (
 )
 from comms.records.receptions import RxBatch
 from comms.records.records import LinkEvent, Transmission
-from comms.records.reports import CommsDone, CommsStats, VehicleDone
+from comms.records.reports import CommsDone, CommsStats, SupervisorDone, VehicleDone
 from comms.records.run import FaultEvent, Graph, RunMeta, Stop
 from comms.records.state import StateReport
 from comms.records.tick import Tick
@@ -114,6 +115,7 @@ TICK = struct_schema(Tick, "cpf.Tick")
 COMMS_STATS = struct_schema(CommsStats, "cpf.CommsStats")
 COMMS_DONE = struct_schema(CommsDone, "cpf.CommsDone")
 VEHICLE_DONE = struct_schema(VehicleDone, "cpf.VehicleDone")
+RUN_DONE = struct_schema(SupervisorDone, "cpf.SupervisorDone")
 META = struct_schema(RunMeta, "cpf.RunMeta")
 FAULT = struct_schema(FaultEvent, "cpf.FaultEvent")
 GRAPH = struct_schema(Graph, "cpf.Graph")
@@ -125,6 +127,7 @@ _BY_KEY = {
     FAULT_KEY: FAULT,
     GRAPH_KEY: GRAPH,
     STOP_KEY: STOP,
+    RUN_DONE_KEY: RUN_DONE,
     TICK_KEY: TICK,
     COMMS_EVENT_KEY: LINK_EVENT,
     COMMS_EVENTS_KEY: LINK_EVENTS,

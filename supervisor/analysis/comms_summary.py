@@ -16,10 +16,8 @@ from typing import Any
 import msgspec
 
 from comms.broker.stats import clamp_lambda2
-from comms.records.reports import LinkCounts
+from comms.records.reports import BY_NO_KEY, LinkCounts
 from supervisor.analysis.condense import MAX_ROWS, SHOWN, delivered_share, first_looked_at, kept_note
-
-BY_NO_KEY = "any key"  # a reader that reports one count, not by key (the broker)
 
 
 @dataclass(frozen=True, slots=True)

@@ -113,6 +113,9 @@ def run_metrics(run: RunData) -> dict[str, Any]:
         "packets": packet_counts(run.links.values()),
         "estimate_age": _ages(run),
         "lambda2": _lambda2(run),
+        # reader -> key (cause) -> messages it dropped, as cpf run --metrics has them (none in process: no bus)
+        "malformed": run.drops.by_key,
+        "dropped_by_cause": run.drops.by_cause,
     }
     series = run_series(run)
     if series.t.size:

@@ -27,12 +27,16 @@ def report(args: argparse.Namespace) -> int:
     from supervisor.analysis.rundata import read_for_report
 
     with aside(read_for_report, args.log) as reading:  # the log read in a child while matplotlib loads here
+        from supervisor.analysis.comms_summary import format_malformed
         from supervisor.analysis.report import write_report
         from supervisor.record.provenance import drawn_from
 
-        paths = write_report(args.log, args.out or args.log.parent, reading.result())
+        read = reading.result()
+        paths = write_report(args.log, args.out or args.log.parent, read)
     if (source := drawn_from(args.log)) is not None:
         print(f"{args.log}: {source}")
+    if (dropped := format_malformed(*read[0].drops)) is not None:  # the line cpf run printed: the log has the drops
+        print(dropped)
     for path in paths:
         print(path)
     return 0

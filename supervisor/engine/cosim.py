@@ -30,6 +30,7 @@ from comms.records.messages import (
     GRAPH_KEY,
     META_KEY,
     ROOT,
+    RUN_DONE_KEY,
     STOP_END,
     STOP_KEY,
     SUPERVISOR_ALIVE,
@@ -80,20 +81,19 @@ def run_zenoh(
     endpoint = bus.listen or f"tcp/127.0.0.1:{free_port()}"
     timing = RealtimeTiming(scenario.scenario.step) if clock == "realtime" else None
     how = (scenario_path, endpoint, bus, seed)
-    with (
-        Recorder(out, scene, live) as rec,
-        _supervisor(scenario, how, Intake(scenario, rec, timing), (clock, speed, longest)) as run,
-    ):
-        meta = RunMeta.of(scenario, str(scenario_path), scenario_toml, seed, "zenoh", clock).to_message()
-        _open(run, rec, meta, endpoint)
-        _drive(run, progress)
-        stepping = progress.stepping_time()
-        wall = progress.done(run.t)
-    books, builder = run.intake.books, run.intake.builder
+    with Recorder(out, scene, live) as rec:
+        with _supervisor(scenario, how, Intake(scenario, rec, timing), (clock, speed, longest)) as run:
+            meta = RunMeta.of(scenario, str(scenario_path), scenario_toml, seed, "zenoh", clock).to_message()
+            _open(run, rec, meta, endpoint)
+            _drive(run, progress)
+            stepping = progress.stepping_time()
+            wall = progress.done(run.t)
+        # Once the processes are gone (the bus with them): all the supervisor dropped, for `cpf report` to read
+        rec.write(RUN_DONE_KEY, run.t, run.intake.own_done(run.t).to_message())
+    books, builder, drops = run.intake.books, run.intake.builder, run.intake.bus_drops()
     return RunResult(  # rec.count once the log is closed: the stop message and the vehicles' reports come last
         builder.series(), wall, rec.count, books.counts, books.stats.snapshot(run.t), books.lambda2, builder.ages,
-        stepping, timing.as_dict() if timing is not None else None, run.intake.counts(), rec.scene_count,
-        run.intake.causes(),
+        stepping, timing.as_dict() if timing is not None else None, drops.by_key, rec.scene_count, drops.by_cause,
     )  # fmt: skip
 
 

@@ -39,10 +39,9 @@ from comms.records.messages import (
 )
 from comms.records.receptions import RxBatch
 from comms.records.records import LinkEvent, Transmission
-from comms.records.reports import CommsDone, CommsStats, VehicleDone
+from comms.records.reports import SUPERVISOR, BusDrops, CommsDone, CommsStats, SupervisorDone, VehicleDone, bus_drops
 from comms.records.state import StateReport
 from comms.records.stream import FAULTY, VEHICLE_FAULTS, at_step_time, in_stream
-from supervisor.analysis.comms_summary import BY_NO_KEY
 from supervisor.analysis.series import SeriesBuilder
 from supervisor.config.derived import steps_of
 from supervisor.config.fleet import link_stats
@@ -55,8 +54,6 @@ from supervisor.record.recorder import Recorder
 
 log = logging.getLogger("cpf.engine")
 T = TypeVar("T")
-SUPERVISOR = "supervisor"
-BROKER = "broker"
 
 
 class Intake:
@@ -84,8 +81,7 @@ class Intake:
         self.events_t = -math.inf  # the latest link events message's time: every delivery up to it is booked
         self.drops = Drops(log, SUPERVISOR, logging.DEBUG)  # what the supervisor dropped, by key and by cause
         self.malformed = self.drops.by_key  # key -> messages the supervisor dropped
-        self.reports: dict[str, dict[str, int]] = {}  # reader -> key -> messages it dropped (broker, vehicles)
-        self.report_causes: dict[str, dict[str, int]] = {}  # reader -> cause -> messages it dropped
+        self.vehicles_done: dict[int, VehicleDone] = {}  # each vehicle's end-of-run report
 
     def take(self, item: Received, t: float) -> None:
         """One message from the bus (t: the supervisor's time, unused: every message recorded carries its own).
@@ -205,13 +201,13 @@ class Intake:
         if events:  # one batch at t, of its step (the in-process engine's too)
             self.rec.write(COMMS_EVENTS_KEY, t, LinkEvents(t, round(t / self.bounds.dt), tuple(events)).to_message())
 
-    def counts(self) -> dict[str, dict[str, int]]:
-        """reader -> key -> malformed messages it dropped: the supervisor's own, and every report that came in."""
-        return {SUPERVISOR: dict(sorted(self.malformed.items())), **dict(sorted(self.reports.items()))}
+    def own_done(self, t: float) -> SupervisorDone:
+        """The supervisor's end-of-run report at t: what it dropped (the log keeps it for `cpf report`)."""
+        return SupervisorDone(t, round(t / self.bounds.dt), dict(self.drops.by_key), dict(self.drops.by_cause))
 
-    def causes(self) -> dict[str, dict[str, int]]:
-        """reader -> cause -> messages it dropped (comms.records.drops): the supervisor's own, and the reports'."""
-        return {SUPERVISOR: dict(sorted(self.drops.by_cause.items())), **dict(sorted(self.report_causes.items()))}
+    def bus_drops(self) -> BusDrops:
+        """What every reader dropped: the supervisor's own, and every report that came in (the broker's latest)."""
+        return bus_drops(self.own_done(0.0), self.done, self.vehicles_done)
 
     def _window(self, vid: int, message: Message) -> None:
         """A vehicle's step message, of one step or of a lockstep time window: each step's records, in order, as
@@ -386,13 +382,10 @@ class Intake:
         self.bounds.time(done.t, "the report's")
         self.rec.write(COMMS_DONE_KEY, done.t, done.to_message())
         self.done = done
-        self.reports[BROKER] = dict(done.by_key) if done.by_key else {BY_NO_KEY: done.malformed}  # older: a total
-        self.report_causes[BROKER] = dict(done.causes)
 
     def _vehicle_done(self, vid: int, message: Message) -> None:
         self.bounds.vehicle(vid)
         done = VehicleDone.from_message(message, vid)
         self.bounds.time(done.t, "the report's")
         self.rec.write(vehicle_done_key(vid), done.t, done.to_message())
-        self.reports[f"vehicle {vid}"] = done.malformed
-        self.report_causes[f"vehicle {vid}"] = dict(done.causes)
+        self.vehicles_done[vid] = done

@@ -230,10 +230,10 @@ class Supervisor:
         self.roster.expected.clear()  # leaving is what they are asked to do now, not a loss
         tokens = {COMMS_ALIVE, *(vehicle_alive_key(v) for v in self.sc.vehicle_ids)}
         # Each vehicle still there reports what it dropped as it leaves; its token's end can overtake the report.
-        reporting = [f"vehicle {v}" for v in self.sc.vehicle_ids if vehicle_alive_key(v) in self.roster.present]
+        reporting = [v for v in self.sc.vehicle_ids if vehicle_alive_key(v) in self.roster.present]
         end = time.monotonic() + deadline
         while time.monotonic() < end and (
-            self.roster.present & tokens or any(name not in self.intake.reports for name in reporting)
+            self.roster.present & tokens or any(v not in self.intake.vehicles_done for v in reporting)
         ):
             self.pump(0.05)
 
