@@ -64,13 +64,13 @@ def _trim_pitch(model: VehicleModel, params: VehicleParams, speed: float, climb:
             hi = lo + step
             f_lo, f_hi = heave(lo), heave(hi)
             if f_lo * f_hi <= 0.0:
-                return _bisected(heave, lo, hi, f_lo)
+                return bisected(heave, lo, hi, f_lo)
     return None
 
 
-def _bisected(f: Callable[[float], float], a: float, b: float, fa: float) -> float:
-    """The root of f in [a, b] (f(a) = fa and f(b) of opposite signs or zero), to _HALVINGS halvings."""
-    for _ in range(_HALVINGS):
+def bisected(f: Callable[[float], float], a: float, b: float, fa: float, halvings: int = _HALVINGS) -> float:
+    """The root of f in [a, b] (f(a) = fa and f(b) of opposite signs or zero), to `halvings` halvings."""
+    for _ in range(halvings):
         mid = 0.5 * (a + b)
         fm = f(mid)
         if fa * fm <= 0:

@@ -65,13 +65,13 @@ def _too_fast(sc: Scenario) -> list[str]:
 
 
 def _through_water(sc: Scenario, section: VehicleSection, current: Current | None) -> Iterator[Speeds]:
-    """(speed through the water, speed along the path, the current there) at the path's sampled points (_gammas): the
-    path's velocity v_r p_d'(gamma) less the current at its depth, at the time the vehicle first reaches it going at
-    v_r from its gamma0 (within the run)."""
+    """(speed through the water, speed along the path, the current there) at the path's sampled points
+    (sample_gammas): the path's velocity v_r p_d'(gamma) less the current at its depth, at the time the vehicle first
+    reaches it going at v_r from its gamma0 (within the run)."""
     path, v_r, duration = build_path(section.path), sc.coordination.v_r, sc.scenario.duration
     start = float(section.gamma0) if isinstance(section.gamma0, float | int) else 0.0
     period = path.gamma_period
-    for gamma in _gammas(path, section.gamma0, v_r * duration):
+    for gamma in sample_gammas(path, section.gamma0, v_r * duration):
         position, tangent, _ = path.evaluate_floats(gamma)
         velocity = [v_r * x for x in tangent]
         t = (gamma - start) / v_r if v_r else 0.0
@@ -169,7 +169,7 @@ def _needs(
     climb, |p_d'|) at the sampled points of vid's path."""
     section = next(v for v in sc.vehicles if v.id == vid)
     path, v_r = build_path(section.path), sc.coordination.v_r
-    for gamma in _gammas(path, section.gamma0, v_r * sc.scenario.duration):
+    for gamma in sample_gammas(path, section.gamma0, v_r * sc.scenario.duration):
         tangent = path.evaluate_floats(float(gamma))[1]
         norm = math.sqrt(sum(x * x for x in tangent))
         if norm <= 0.0:
@@ -179,7 +179,7 @@ def _needs(
         yield (*_held(model, plant, fins, speed, climb), speed, climb, norm)
 
 
-def _gammas(path: Path, gamma0: float | str, run: float) -> Sequence[float]:
+def sample_gammas(path: Path, gamma0: float | str, run: float) -> Sequence[float]:
     """Where a path is trimmed: over a period of a periodic one, else over the run from its gamma0 (0 for "closest":
     the nearest point's search costs more than the check, and a path that is not periodic is straight or nearly
     so near its start)."""

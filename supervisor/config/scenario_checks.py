@@ -35,6 +35,7 @@ from supervisor.config.scenario_schema import (
 )
 from supervisor.config.schema_base import MAX_SPEED, MAX_STEPS, MAX_TIME, Vec3
 from supervisor.config.transmit_checks import transmit_errors, transmit_warnings
+from supervisor.config.turn_checks import turn_warnings
 from supervisor.config.unit_checks import unit_warnings
 from vehicles.params import PRESETS, VehicleParams
 from vehicles.paths import Path as PathLike
@@ -379,4 +380,5 @@ def scenario_warnings(sc: Scenario) -> list[str]:
         if first_step(fault.start, dt) >= steps
     ]
     checked = transmit_warnings(sc) + unit_warnings(sc) + feasibility_warnings(sc) + authority_warnings(sc)
+    checked += turn_warnings(sc)
     return late + checked + list(resilience_warnings(sc))

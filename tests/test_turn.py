@@ -1,0 +1,76 @@
+"""vehicles.turn, the yaw moment a steady turn takes, against the simulator: the remus100 on circles flown at 1.5 m/s
+holds the moment it predicts where its rudder suffices, sits at its max_torque where the circle is tighter than the
+least radius it predicts, and flies wide of its path there; `cpf validate` says which (supervisor.config.turn_checks).
+"""
+
+from __future__ import annotations
+
+import io
+import math
+from functools import cache
+
+import numpy as np
+import pytest
+
+from supervisor.config.scenario import parse_scenario
+from supervisor.config.turn_checks import turn_warnings
+from supervisor.engine.inprocess import run_inprocess
+from supervisor.engine.progress import Progress
+from vehicles.params import PRESETS
+from vehicles.turn import fastest_turn, turn
+from vehicles.vehicle_model import Remus100
+
+REMUS, MODEL = PRESETS["remus100"], Remus100()
+SPEED = 1.5  # m/s along the circles: v_r 1 with a period of 2 pi R / 1.5
+LEAST = SPEED / fastest_turn(MODEL, REMUS, SPEED, REMUS.max_torque, 2.0)  # m: the least radius at that speed
+SETTLED = 60.0  # s: the turn steady after it
+
+
+def circles(radius: float) -> str:
+    period = 2 * math.pi * radius / SPEED
+    vehicles = "".join(
+        f'\n[[vehicles]]\nid = {i}\nposition = [{radius}, 0.0, 0.0]\npath = {{ type = "circle", radius = {radius}, '
+        f"period = {period!r} }}\n"
+        for i in (1, 2)
+    )
+    return (
+        '[scenario]\nname = "turn"\nduration = 120.0\nstep = 0.05\ndimension = 2\n[vehicle]\npreset = "remus100"\n'
+        'actuators = "ideal"\n[graph]\nedges = [[1, 2]]\n' + vehicles
+    )
+
+
+@cache
+def flown(radius: float) -> tuple[np.ndarray, float]:
+    """Vehicle 1's yaw moment over the settled turn, and its largest path-following error then."""
+    sc = parse_scenario(circles(radius), "turn.toml")
+    series = run_inprocess(sc, "turn.toml", "", None, 0, Progress(120.0, io.StringIO(), enabled=False)).series
+    settled = series.t >= SETTLED
+    assert series.inputs is not None
+    return series.inputs[settled, 2, 0], float(np.nanmax(series.path_error[settled, 0]))
+
+
+def test_the_least_radius_at_1_5_m_per_s_is_3_04_m():
+    """The number the module docstring and the warning give (max_torque 20 N m)."""
+    assert round(LEAST, 2) == 3.04
+
+
+@pytest.mark.parametrize("radius", [3.3, 4.0])
+def test_where_the_rudder_suffices_the_vehicle_holds_the_moment_the_turn_predicts(radius: float):
+    """The steady turn's moment at the path's speed and yaw rate is the simulated vehicle's, within 3 % (10.6 N m
+    on a circle of 4 m, 16.6 on one of 3.3: the controller's delta leaves the speed a little higher)."""
+    found = turn(MODEL, REMUS, SPEED, SPEED / radius)
+    moments, _ = flown(radius)
+    assert found is not None and abs(found.moment) < REMUS.max_torque
+    assert np.abs(moments) == pytest.approx(abs(found.moment), rel=0.03)
+    assert not turn_warnings(parse_scenario(circles(radius), "turn.toml"))
+
+
+@pytest.mark.parametrize("radius", [2.0, 2.8])
+def test_a_circle_tighter_than_the_least_radius_is_warned_of_and_not_flown(radius: float):
+    """Below 3.04 m the rudder sits at its limit the whole settled turn and the vehicle flies wide: on 2 m it leaves
+    its 1.2 m tube (1.65 m off), on 2.8 m it stays inside it (1.10 m off, against 1.00 on a circle it can fly)."""
+    moments, error = flown(radius)
+    assert np.all(np.abs(moments) >= REMUS.max_torque - 1e-9)
+    assert error > flown(4.0)[1] + 0.05
+    warnings = turn_warnings(parse_scenario(circles(radius), "turn.toml"))
+    assert len(warnings) == 2 and all("no tighter than a radius of 3.04 m" in w for w in warnings), warnings
