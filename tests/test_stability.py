@@ -342,8 +342,7 @@ def test_a_first_order_horizon_shorter_than_a_message_is_held_is_said_left_out_a
 @pytest.mark.parametrize(
     ("change", "said"),
     [
-        (["comms.loss_model=bernoulli", "comms.loss_model_options={p=0.9}"], "the loss model, range loss and links'"),
-        (["comms.links=[{sender=1,receiver=2,loss=0.5}]"], "links' own losses left out"),
+        (["comms.loss_model=bernoulli", "comms.loss_model_options={p=0.9}"], "the loss model and range loss left out"),
         (["comms.transmit.policy=vehicles.transmission:PeriodicPolicy", "comms.transmit.options={period=30.0}"],
          "comms.transmit.policy vehicles.transmission:PeriodicPolicy left out: analysed as a message every step"),
     ],
@@ -385,3 +384,30 @@ def test_every_packet_lost_is_judged_link_by_link(caplog, fleet, own, said):
     assert main(["validate", str(CONFIGS / "paper.toml"), *[f"--set={s}" for s in sets]]) == 0
     lost = [line for line in caplog.text.splitlines() if "every packet" in line or "every link loses" in line]
     assert (lost == []) if said is None else (len(lost) == 1 and said in lost[0]), lost
+
+
+def test_a_links_own_loss_acts_on_that_link_alone():
+    """Every link at its own p is the fleet at p, to the bit (each delivery's copy acts with 1 - its link's p); one
+    link at p is between the lossless loop and the fleet at p."""
+    fleet, lossless = paper(period=4.0, loss=0.6), paper(period=4.0)
+    every = replace(lossless, own_losses=tuple((n, 0.6) for n in range(len(lossless.loop.links))))
+    one = replace(lossless, own_losses=((0, 0.6),))
+    assert rate(every) == rate(fleet)
+    assert rate(lossless) > rate(one) > rate(fleet)
+
+
+def test_the_links_own_losses_are_analysed_as_the_channel_takes_them():
+    """A fleet loss of 0.9 on the paper every 4 s, every link at its own loss 0: the channel delivers everything,
+    and the verdict was the 0.9 loop's ('links' own losses left out', a new user); now the lossless loop's. One link
+    at its own 0.9 under no fleet loss: that link's."""
+    paper_text = (CONFIGS / "paper.toml").read_text()
+    base = [*LAW5, "comms.transmit.period=4"]
+    links = "[" + ",".join(f"{{sender={s},receiver={r},loss=0.0}}" for s, r in ((1, 2), (2, 1), (1, 3), (3, 1))) + "]"
+    zeroed = parse_scenario(paper_text, "p.toml", [*base, "comms.loss=0.9", f"comms.links={links}"])
+    lossless = parse_scenario(paper_text, "p.toml", base)
+    assert rate(setting_of(zeroed)) == rate(setting_of(lossless))
+    one = parse_scenario(paper_text, "p.toml", [*base, "comms.links=[{sender=2,receiver=1,loss=0.9}]"])
+    s = setting_of(one)
+    assert s.loss == 0.0 and s.own_losses == ((s.loop.links.index((0, 1)), 0.9),)
+    assert rate(setting_of(lossless)) > rate(s) > 0
+    assert "loss 0 (links' own: 2->1 0.9)" in describe(analyse(one, margins=False), one)

@@ -23,13 +23,24 @@ MAX_LOSS_STATES = 60  # the second-moment operator acts on N^2 numbers: beyond N
 @dataclass(frozen=True)
 class Setting:
     """What the analysis needs: the loop, the period P (s; the TDMA frame), each sender's offset as a fraction of P,
-    the delay d (s) and the i.i.d. loss probability p of every delivery."""
+    the delay d (s) and the i.i.d. loss probability p of every delivery; own_losses: (link, p) for the links (their
+    index in loop.links) whose loss is their own, not p."""
 
     loop: Loop
     period: float
     delay: float
     phases: tuple[float, ...]
     loss: float = 0.0
+    own_losses: tuple[tuple[int, float], ...] = ()
+
+    def link_losses(self) -> list[float]:
+        """Each link's loss probability, by its index in loop.links."""
+        own = dict(self.own_losses)
+        return [own.get(link, self.loss) for link in range(len(self.loop.links))]
+
+    def lossy(self) -> bool:
+        """Whether any link loses (a fleet loss every link replaces with its own loses nothing)."""
+        return any(p > 0 for p in self.link_losses())
 
     def sampling(self) -> Sampling:
         return Sampling(self.period, self.delay, tuple(f * self.period for f in self.phases))
@@ -41,8 +52,8 @@ class Setting:
 def rate(setting: Setting) -> float:
     """Decay rate of the coordination error, 1/s (negative: it grows); mean-square with losses."""
     layout = Layout(setting.loop, setting.sampling())
-    if setting.loss > 0 and layout.size <= MAX_LOSS_STATES:  # beyond: losses ignored (optimistic)
-        rho2 = second_moment_radius(layout, setting.loss)
+    if setting.lossy() and layout.size <= MAX_LOSS_STATES:  # beyond: losses ignored (optimistic)
+        rho2 = second_moment_radius(layout, setting.link_losses())
         return -math.log(max(rho2, 1e-300)) / (2 * setting.period)
     rho = spectral_radius(layout.reduced(monodromy(layout)))
     return -math.log(max(rho, 1e-300)) / setting.period
@@ -100,8 +111,9 @@ def largest_delay(setting: Setting, limit: float = 200.0) -> float | None:
 
 
 def largest_loss(setting: Setting) -> float | None:
-    """The largest i.i.d. loss probability under which the loop stays mean-square stable; None: any below 1;
-    NaN: not analysed (more than MAX_LOSS_STATES states)."""
+    """The largest i.i.d. loss probability of the links that have none of their own (comms.loss; those that have
+    keep theirs) under which the loop stays mean-square stable; None: any below 1; NaN: not analysed (more than
+    MAX_LOSS_STATES states)."""
     if setting.states() > MAX_LOSS_STATES:
         return math.nan
     if not converges(replace(setting, loss=0.0)):

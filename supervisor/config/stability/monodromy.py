@@ -9,7 +9,7 @@ expectation is a product over events of per-event expectations (kron of products
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from functools import cached_property
 from typing import TYPE_CHECKING
@@ -157,16 +157,20 @@ def monodromy(layout: Layout) -> Matrix:
     return m
 
 
-def _stages(layout: Layout, loss: float) -> list[tuple[Matrix, float]]:
+Losses = float | Sequence[float]  # every link's loss probability, or each link's (by its index in the loop's links)
+
+
+def _stages(layout: Layout, loss: Losses) -> list[tuple[Matrix, float]]:
     """The period's maps on the quotient, each with the probability it acts (the identity otherwise): a delivery's
-    copy to each link acts with 1 - loss, independently; runs of certain maps are multiplied together."""
+    copy to each link acts with 1 - that link's loss, independently; runs of certain maps are multiplied together."""
+    losses = [loss] * len(layout.loop.links) if isinstance(loss, float | int) else list(loss)
     r = layout.reduced
     stages: list[tuple[Matrix, float]] = []
     pending = np.eye(layout.size)
     for kind, j, value in steps(layout):
         if kind == "deliver":
             stages.append((r(pending), 1.0))
-            stages += [(r(layout.copy(link)), 1.0 - loss) for link in layout.links_of(j)]
+            stages += [(r(layout.copy(link)), 1.0 - losses[link]) for link in layout.links_of(j)]
             pending = layout.shift(j)
         else:
             pending = (layout.flow(value) if kind == "flow" else layout.sample(j, int(value))) @ pending
@@ -174,7 +178,7 @@ def _stages(layout: Layout, loss: float) -> list[tuple[Matrix, float]]:
     return stages
 
 
-def second_moment(layout: Layout, loss: float) -> LinearOperator:
+def second_moment(layout: Layout, loss: Losses) -> LinearOperator:
     """X -> E[M X M'] on the quotient by the consensus direction (vec(X) -> E[M kron M] vec(X)), applied as matrix
     products, never built as a Kronecker product."""
     from scipy.sparse.linalg import LinearOperator  # here: only large loops with losses need ARPACK
@@ -191,7 +195,7 @@ def second_moment(layout: Layout, loss: float) -> LinearOperator:
     return LinearOperator((size * size, size * size), matvec=apply, dtype=float)
 
 
-def second_moment_radius(layout: Layout, loss: float) -> float:
+def second_moment_radius(layout: Layout, loss: Losses) -> float:
     """Spectral radius of the second-moment operator (below 1: mean-square stable, consensus mode excluded): built
     as E[M kron M] when small, by ARPACK on the operator otherwise."""
     if layout.size <= 21:

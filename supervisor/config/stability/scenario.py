@@ -17,6 +17,7 @@ from dataclasses import dataclass, replace
 
 from supervisor.config.links import (
     delay_of,
+    link_loss_of,
     loss_of,
     needs_fitting,
     tdma_schedule,
@@ -69,7 +70,18 @@ def nominal_setting(scenario: Scenario, event: str = "heartbeat") -> Setting:
     if (why := unmodelled(scenario)) is not None:
         raise ValueError(why)
     period, phases = timing(scenario, event)
-    return Setting(loop_of(scenario), period, delay_of(scenario), phases, loss_of(scenario))
+    loop = loop_of(scenario)
+    return Setting(loop, period, delay_of(scenario), phases, loss_of(scenario), own_losses(scenario, loop))
+
+
+def own_losses(scenario: Scenario, loop: Loop) -> tuple[tuple[int, float], ...]:
+    """(link's index in loop.links, its long-run loss) of the links whose [[comms.links]] entry gives their own loss
+    or burst (a loss of 0 too: links.link_loss_of, as the channel takes them)."""
+    ids = scenario.vehicle_ids
+    given = {(link.sender, link.receiver) for link in scenario.comms.links if (link.loss, link.burst) != (None, None)}
+    return tuple(
+        (n, link_loss_of(scenario, ids[s], ids[r])) for n, (r, s) in enumerate(loop.links) if (ids[s], ids[r]) in given
+    )
 
 
 @dataclass(frozen=True)
@@ -124,17 +136,17 @@ def describe(verdict: Verdict, scenario: Scenario) -> str:
         _margin_text("a delay", verdict.delay, " s", f"of any length up to {delay_reach(s):.3g} s"),
         _margin_text("an independent loss probability", verdict.loss, "", "of any value below 1"),
     ))  # fmt: skip
-    head += _offset_text(verdict.offset, s.loss, scenario)
+    head += _offset_text(verdict.offset, s.lossy(), scenario)
     return f"{head}, {how}. With the other settings as they are, it converges with {margins}."
 
 
-def _offset_text(offset: Offset | None, loss: float, scenario: Scenario) -> str:
+def _offset_text(offset: Offset | None, lossy: bool, scenario: Scenario) -> str:
     """The hold predictor's steady orbit, in words: a converging verdict said nothing of a fleet that kept 8 units
     of gamma apart at 0.87 v_r (a new user's study)."""
     if offset is None:
         return ""
-    v_r, lossy = scenario.coordination.v_r, " (without its losses: they make messages older and widen it)"
-    return (f", to a steady spread max|gi-gj| of {offset.spread:.3g}{lossy if loss > 0 else ''} with the fleet at "
+    v_r, losses = scenario.coordination.v_r, " (without its losses: they make messages older and widen it)"
+    return (f", to a steady spread max|gi-gj| of {offset.spread:.3g}{losses if lossy else ''} with the fleet at "
             f"{offset.rate / v_r:.2f} v_r (the hold predictor keeps each neighbour where it was heard, v_r times its "
             "age behind)")  # fmt: skip
 
@@ -143,7 +155,14 @@ def _how(s: Setting, scenario: Scenario) -> str:
     co = scenario.coordination
     gain = f"k {s.loop.k:.3g}" + (f" (fitted to the links; {co.k:g} given)" if s.loop.k != co.k else "")
     return (f"law {co.law!r} with {gain}, predictor {co.predictor!r}, a message every {s.period:g} s"
-            f"{_every(s, scenario)}, {s.delay:g} s of delay, loss {s.loss:g}")  # fmt: skip
+            f"{_every(s, scenario)}, {s.delay:g} s of delay, loss {s.loss:g}{_own_text(s, scenario)}")  # fmt: skip
+
+
+def _own_text(s: Setting, scenario: Scenario) -> str:
+    """The links' own losses, as the verdict takes them: ' (links' own: 1->2 0.5, ...)'."""
+    ids, links = scenario.vehicle_ids, s.loop.links
+    own = [f"{ids[links[n][1]]}->{ids[links[n][0]]} {p:g}" for n, p in s.own_losses]
+    return f" (links' own: {', '.join(own)})" if own else ""
 
 
 def _every(s: Setting, scenario: Scenario) -> str:
@@ -170,15 +189,14 @@ def _left_out(s: Setting, scenario: Scenario) -> str:
     """What the scenario has that this verdict leaves out (a new user's study found each, unsaid): a loss in a loop
     too large for its mean-square analysis, and coordination.max_age shorter than a message's wait."""
     out = []
-    if s.loss > 0 and s.states() > MAX_LOSS_STATES:
+    if s.lossy() and s.states() > MAX_LOSS_STATES:
         out.append(f"its loss left out: more than {MAX_LOSS_STATES} states for the mean-square analysis, so this "
                    "rate is the lossless loop's, faster than the loop's")  # fmt: skip
     c = scenario.comms
     if c.transmit.policy not in ("periodic", "event"):
         out.append(f"comms.transmit.policy {c.transmit.policy} left out: analysed as a message every step")
-    own = any(link.loss is not None or link.burst is not None for link in c.links)  # a loss of 0 is its own too
-    if c.loss_model is not None or c.range is not None or own:
-        out.append("the loss model, range loss and links' own losses left out: only comms.loss and [comms.burst] are "
+    if c.loss_model is not None or c.range is not None:
+        out.append("the loss model and range loss left out: only comms.loss, [comms.burst] and the links' own are "
                    "analysed")  # fmt: skip
     if (horizon := short_horizon(s, scenario)) is not None:
         out.append(f"coordination.predictor_options.horizon {horizon:g} s left out: shorter than a message is held "
