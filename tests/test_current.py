@@ -133,6 +133,7 @@ def unknown_current_tube(speed: float, delta: float, k1: float, k_zeta: float, k
 def test_an_unknown_current_leaves_the_vehicle_in_the_tube_lyapunov_gives():
     tube = unknown_current_tube(0.1, -1.0, 0.5, 1.0, 1.0)  # paper.toml's gains
     assert 1.2 < tube < 1.25
+    assert round(unknown_current_tube(0.2, -1.0, 0.5, 1.0, 1.0), 2) == 1.48  # the README's number
     after = [e for t, e in follow("[0.1, 0.0, 0.0]", known=False) if t >= 100.0]
     still = [e for t, e in follow("[0.0, 0.0, 0.0]", known=False) if t >= 100.0]
     assert max(after) <= tube

@@ -46,6 +46,15 @@ def test_on_slow_links_the_fitted_k_decays_several_times_faster_than_the_given_o
     assert finer < 1.1 * rate(_with_k(nominal, fitted))
 
 
+@pytest.mark.parametrize(("period", "first_order"), [(7.6, 0.1), (9.0, 0.0841)])
+def test_the_fitted_k_docs_stability_quotes(period, first_order):
+    """docs/stability.md: with the defaults k is fitted to first_order's loop, and reference keeps 0.2, at 7.6 and
+    9 s (a new user read the doc's numbers as the default predictor's)."""
+    fitted = coupling_gain(_paper(f"comms.transmit.period={period}", "coordination.predictor=first_order"))
+    assert fitted == pytest.approx(first_order, abs=5e-4)
+    assert coupling_gain(_paper(f"comms.transmit.period={period}")) == 0.2
+
+
 @pytest.mark.parametrize(
     "override", ["coordination.schedule=none", "coordination.law=saturated", "coordination.law=literal"]
 )

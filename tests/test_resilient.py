@@ -43,25 +43,31 @@ def test_wmsr_is_found_as_any_law_is():
     assert isinstance(law, Wmsr) and law.f == 2
 
 
-def _honest_spread(law: str) -> float:
-    """The largest disagreement of the true gammas over the last 20 s of 200 s (every gamma0 0: the bounded
+def _honest_spread(law: str, duration: float = DURATION) -> float:
+    """The largest disagreement of the true gammas over the last 20 s of the run (every gamma0 0: the bounded
     correction closes the start's 20 in about 100 s), vehicle 5 broadcasting gamma + 5 from 20 s on, on the complete
     graph of five vehicles."""
-    text = shortened((CONFIGS / "inline5.toml").read_text(), DURATION)
+    text = shortened((CONFIGS / "inline5.toml").read_text(), duration)
     text = re.sub(r"(?m)^edges = .*$", f"edges = {COMPLETE5}", text, count=1)
     sets = [f"coordination.law={law}", "faults=[]", *(f"vehicles.{i}.gamma0=0.0" for i in range(5))]
     sets.append("vehicle.actuators=ideal")  # the law's test: inputs whose coordination closes the start in 100 s
-    liar = [f"kind=gamma_offset,vehicle=5,offset=5.0,start=20,end={DURATION}"]
+    liar = [f"kind=gamma_offset,vehicle=5,offset=5.0,start=20,end={duration}"]
     scenario = parse_scenario(text, "inline5.toml", sets, liar)
-    result = run_inprocess(scenario, "inline5.toml", text, None, 0, Progress(DURATION, io.StringIO(), enabled=False))
+    result = run_inprocess(scenario, "inline5.toml", text, None, 0, Progress(duration, io.StringIO(), enabled=False))
     t, error = result.series.t, coordination_error(result.series.gamma)
-    return float(np.nanmax(error[t > DURATION - 20.0]))
+    return float(np.nanmax(error[t > duration - 20.0]))
 
 
-@pytest.mark.parametrize(("law", "agrees"), [("wmsr", True), ("corrected", False)])
-def test_a_lying_vehicle_does_not_pull_a_wmsr_fleet_apart(law, agrees):
-    spread = _honest_spread(law)
-    assert spread < 0.05 if agrees else spread > 1.0, spread
+def test_a_lying_vehicle_does_not_pull_a_wmsr_fleet_apart():
+    assert _honest_spread("wmsr") < 0.05
+
+
+def test_law_5_settles_the_liars_offset_over_the_fleet():
+    """Law (5) on the complete graph of n, one vehicle broadcasting gamma + c: at the common speed every vehicle's
+    correction is the same: each honest one's, k (c - (gamma_h - gamma_5)) from the liar alone, equals the liar's,
+    k (n - 1) (gamma_h - gamma_5), so the true gammas settle c / n = 1 apart, for good (at 200 s they were still
+    1.4). The docs' number (docs/resilience.md)."""
+    assert _honest_spread("corrected", 600.0) == pytest.approx(5.0 / 5, rel=0.01)
 
 
 # --- the graph W-MSR needs (supervisor.config.robustness) ----------------------------------------------------------
