@@ -21,6 +21,7 @@ CPU-specific kernels, and these numbers decide packets' fates and delays.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Literal
 
 import numpy as np
@@ -36,17 +37,23 @@ def time_of_flight(
 
     With d = receiver - sender this is (c^2 - |v|^2) tau^2 - 2 (d.v) tau - |d|^2 = 0; the positive root.
     """
+    return flight_time(floats(sender), floats(receiver), floats(receiver_velocity), sound_speed)
+
+
+def flight_time(tx: Sequence[float], rx: Sequence[float], v: Sequence[float], sound_speed: float) -> float:
+    """time_of_flight of vectors already in floats (the channel converts a sender's position once per packet)."""
     # In floats (numpy's per-element indexing cost more than the arithmetic); the same float64 subtractions.
-    rx, tx = _floats(receiver), _floats(sender)
-    dx = [rx[0] - tx[0], rx[1] - tx[1], rx[2] - tx[2]]
-    v = _floats(receiver_velocity)
-    dd = dx[0] * dx[0] + dx[1] * dx[1] + dx[2] * dx[2]
-    dv = dx[0] * v[0] + dx[1] * v[1] + dx[2] * v[2]
-    a = sound_speed * sound_speed - (v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
-    return max(0.0, (dv + math.sqrt(dv * dv + a * dd)) / a)  # max: rounding at vanishing distances
+    dx0, dx1, dx2 = rx[0] - tx[0], rx[1] - tx[1], rx[2] - tx[2]
+    v0, v1, v2 = v[0], v[1], v[2]
+    dd = dx0 * dx0 + dx1 * dx1 + dx2 * dx2
+    dv = dx0 * v0 + dx1 * v1 + dx2 * v2
+    a = sound_speed * sound_speed - (v0 * v0 + v1 * v1 + v2 * v2)
+    root = (dv + math.sqrt(dv * dv + a * dd)) / a
+    return root if root > 0.0 else 0.0  # not max(): rounding at vanishing distances, without a call
 
 
-def _floats(vector: FloatArray) -> list[float]:
+def floats(vector: FloatArray | Sequence[float]) -> list[float]:
+    """A vector's components as Python floats (their values unchanged)."""
     values: list[float] = vector.tolist() if isinstance(vector, np.ndarray) else [float(c) for c in vector]
     return values
 

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field, replace
 import msgspec
 import numpy as np
 
-from comms.channel.acoustics import time_of_flight
+from comms.channel.acoustics import flight_time, floats
 from comms.channel.link_budget import LinkBudgetRange
 from comms.channel.loss import LinkLoss, LossModel
 from comms.channel.modem import ModemParams
@@ -129,27 +129,29 @@ class Channel:
         """Put a transmission in the water. receivers: the sender's neighbours now; everyone: all vehicles'
         kinematics at the transmission time (non-neighbours matter for collisions); network: link faults in force.
         Returns the events of now."""
+        params, sender = self.params, tx.sender
         intact = network or INTACT
-        size = self.params.packet_bytes or size_bytes
-        on_air = self.params.modem.airtime(size)
-        if self.params.modem.half_duplex:
-            self._sending.setdefault(tx.sender, []).append(_Airtime(tx.t, tx.t + on_air, tx.sender, tx.seq))
+        size = params.packet_bytes or size_bytes
+        on_air = params.modem.airtime(size)
+        if params.modem.half_duplex:
+            self._sending.setdefault(sender, []).append(_Airtime(tx.t, tx.t + on_air, sender, tx.seq))
         events: list[LinkEvent] = []
-        sender_at = np.asarray(tx.position)
-        collisions = self.params.modem.collisions
+        sender_at = floats(tx.position)  # once per packet, not once per receiver
+        collisions, capture, c = params.modem.collisions, params.capture, params.sound_speed
         # Without collisions a non-neighbour's position does not matter: only the receivers, in the same order (a
         # fleet of 1000 sorted all its ids per packet).
         for j in sorted(everyone if collisions else everyone.keys() & receivers):
-            if j == tx.sender:
+            if j == sender:
                 continue
-            flight = time_of_flight(sender_at, everyone[j].position, everyone[j].velocity, self.params.sound_speed)
+            at = everyone[j]
+            flight = flight_time(sender_at, floats(at.position), floats(at.velocity), c)
             start = tx.t + flight
-            capture = self.params.capture
-            level = capture.budget.received_level_db(flight * self.params.sound_speed) if capture else 0.0
+            level = capture.budget.received_level_db(flight * c) if capture else 0.0
             if j in receivers:
-                impaired = intact.impairment(tx.sender, j)
+                impaired = intact.impairment(sender, j)
                 start = self._offer(tx, j, start, (flight, level), size, on_air, impaired, events)
-            self._record_heard(j, _Airtime(start, start + on_air, tx.sender, tx.seq, level))
+            if collisions:  # who heard what only matters to collisions
+                self._heard.setdefault(j, []).append(_Airtime(start, start + on_air, sender, tx.seq, level))
         return events
 
     def _offer(
@@ -166,34 +168,33 @@ class Channel:
         """One directed link: draws (jitter, loss models, fault loss), the sent event, the packet's fate so far;
         returns when the packet starts arriving (a lost packet still fills the water and can spoil others).
         flight_level: the time of flight (s) and the received level (dB, for SINR capture)."""
-        link = self._link(tx.sender, j)
-        flight, level = flight_level
-        start += float(link.rng.random()) * self.params.jitter + link.extra_delay + impaired.extra_delay
-        distance = flight * self.params.sound_speed
-        reason = None if link.loss is None else link.loss.decide(link.rng, distance, size, tx.t)
-        degraded = float(link.rng.random()) < impaired.extra_loss  # drawn always: streams stay aligned
+        sender, seq, t = tx.sender, tx.seq, tx.t
+        link = self._links.get((sender, j)) or self._link(sender, j)
+        rng, (flight, level) = link.rng, flight_level
+        start += rng.random() * self.params.jitter + link.extra_delay + impaired.extra_delay
+        reason = None if link.loss is None else link.loss.decide(rng, flight * self.params.sound_speed, size, t)
+        degraded = rng.random() < impaired.extra_loss  # drawn always: streams stay aligned
         reason = impaired.lost or reason or ("degraded" if degraded else None)
-        events.append(LinkEvent(tx.t, tx.sender, j, tx.seq, "sent"))
+        events.append(LinkEvent(t, sender, j, seq, "sent"))
         if reason is not None:
-            events.append(LinkEvent(tx.t, tx.sender, j, tx.seq, "dropped", reason=reason))
+            events.append(LinkEvent(t, sender, j, seq, "dropped", reason=reason))
             return start
         arrival = start + on_air
-        there = _Airtime(start, arrival, tx.sender, tx.seq, level)
-        reception = Reception(j, tx.sender, tx.seq, tx.data_time, arrival, tx.gamma, tx.gamma_dot)
-        heapq.heappush(self._in_flight, (arrival, tx.sender, tx.seq, j, there, reception, tx.t))
+        there = _Airtime(start, arrival, sender, seq, level)
+        reception = Reception(j, sender, seq, tx.data_time, arrival, tx.gamma, tx.gamma_dot)
+        heapq.heappush(self._in_flight, (arrival, sender, seq, j, there, reception, t))
         return start
-
-    def _record_heard(self, j: int, airtime: _Airtime) -> None:
-        if self.params.modem.collisions:
-            self._heard.setdefault(j, []).append(airtime)
 
     def deliver(self, t: float) -> tuple[list[Reception], list[LinkEvent]]:
         """Everything whose arrival is no later than t, in arrival order: receptions and their events."""
         out: list[Reception] = []
         events: list[LinkEvent] = []
-        while self._in_flight and self._in_flight[0][0] <= t + ARRIVAL_SLACK:
-            arrival, sender, seq, j, there, reception, sent_at = heapq.heappop(self._in_flight)
-            reason = self._spoiled(j, there)
+        in_flight, due = self._in_flight, t + ARRIVAL_SLACK
+        modem = self.params.modem
+        spoilable = modem.half_duplex or modem.collisions  # else nothing is ever recorded that could spoil a packet
+        while in_flight and in_flight[0][0] <= due:
+            arrival, sender, seq, j, there, reception, sent_at = heapq.heappop(in_flight)
+            reason = self._spoiled(j, there) if spoilable else None
             if reason is None:
                 out.append(reception)
                 events.append(LinkEvent(arrival, sender, j, seq, "delivered", delay=arrival - sent_at))
