@@ -40,6 +40,7 @@ def intake_step(arrival: float, dt: float) -> int:
 
 
 INTACT = Network.of(())  # no link faults
+DRAWS_AHEAD = 64  # uniforms a link without loss models draws at once (even: two per packet)
 MEMORY = 120.0  # s of past airtime kept for half-duplex and collision checks (far above any packet's duration)
 
 
@@ -98,6 +99,19 @@ class _Link:
     rng: np.random.Generator
     loss: LinkLoss | None
     extra_delay: float
+    ahead: list[float] = field(default_factory=list)  # without loss models: rng's next draws, the next one last
+
+    def draw(self, distance: float, size: int, t: float) -> tuple[float, str | None, float]:
+        """One packet's draws in their order: the jitter's uniform, the loss models' verdict, the fault loss's
+        uniform. Without loss models the two uniforms are rng's next two, taken from a block drawn ahead (one numpy
+        call per DRAWS_AHEAD / 2 packets, not two per packet): the same numbers in the same order."""
+        if self.loss is not None:
+            rng = self.rng
+            return rng.random(), self.loss.decide(rng, distance, size, t), rng.random()
+        ahead = self.ahead
+        if not ahead:
+            ahead += reversed(self.rng.random(DRAWS_AHEAD).tolist())
+        return ahead.pop(), None, ahead.pop()
 
 
 @dataclass
@@ -170,11 +184,10 @@ class Channel:
         flight_level: the time of flight (s) and the received level (dB, for SINR capture)."""
         sender, seq, t = tx.sender, tx.seq, tx.t
         link = self._links.get((sender, j)) or self._link(sender, j)
-        rng, (flight, level) = link.rng, flight_level
-        start += rng.random() * self.params.jitter + link.extra_delay + impaired.extra_delay
-        reason = None if link.loss is None else link.loss.decide(rng, flight * self.params.sound_speed, size, t)
-        degraded = rng.random() < impaired.extra_loss  # drawn always: streams stay aligned
-        reason = impaired.lost or reason or ("degraded" if degraded else None)
+        flight, level = flight_level
+        jitter, reason, degrading = link.draw(flight * self.params.sound_speed, size, t)  # drawn always: streams
+        start += jitter * self.params.jitter + link.extra_delay + impaired.extra_delay  # stay aligned
+        reason = impaired.lost or reason or ("degraded" if degrading < impaired.extra_loss else None)
         events.append(LinkEvent(t, sender, j, seq, "sent"))
         if reason is not None:
             events.append(LinkEvent(t, sender, j, seq, "dropped", reason=reason))
