@@ -25,6 +25,9 @@ class Impairment(msgspec.Struct, frozen=True):
     extra_delay: float = 0.0
 
 
+UNIMPAIRED, BLACKOUT, LINK_DOWN = Impairment(), Impairment("blackout"), Impairment("link_down")
+
+
 class DegradedLink(msgspec.Struct, frozen=True, order=True):
     """A directed link a fault degrades: loss added (a probability) and delay added (s)."""
 
@@ -70,11 +73,14 @@ class Network(msgspec.Struct, frozen=True):
         return list(last[1].get(vehicle, ()))
 
     def impairment(self, sender: int, receiver: int) -> Impairment:
+        # Asked per packet and link: the common answers are shared (frozen) records, not built anew.
         if self.blackout:
-            return Impairment("blackout")
+            return BLACKOUT
+        if not (self.down or self.degraded):
+            return UNIMPAIRED
         down, degraded = _faulty(self.down, self.degraded)
         if (sender, receiver) in down:
-            return Impairment("link_down")
+            return LINK_DOWN
         loss, delay = degraded.get((sender, receiver), (0.0, 0.0))
         return Impairment(None, loss, delay)
 
