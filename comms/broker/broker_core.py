@@ -39,18 +39,19 @@ class BrokerCore:
         """Put one step's transmissions in the water; kinematics: every live vehicle's, at the transmission time;
         network: the graph and link faults in force then (None: the scenario's graph, no faults)."""
         events: list[LinkEvent] = []
-        for tx in sorted(transmissions, key=lambda tx: tx.sender):
-            wire = encode_coordination(tx, self.wide)
-            carried = decode_coordination(wire, self.wide)  # what receivers will read: float32 values
+        wide, alive, transmit = self.wide, kinematics.keys(), self.channel.transmit
+        for tx in sorted(transmissions, key=_sender):
+            wire = encode_coordination(tx, wide)
+            carried = decode_coordination(wire, wide)  # what receivers will read: float32 values
             as_sent = Transmission(  # not dataclasses.replace: the same record, a fraction of the cost
                 tx.sender, tx.seq, tx.t, carried.gamma, carried.gamma_dot, tx.position, tx.velocity, tx.stamp
             )
             heard_by = network.neighbours(tx.sender) if network else self.neighbours.get(tx.sender, [])
-            receivers = set(heard_by) & set(kinematics)
+            receivers = alive & heard_by  # a set, as set(heard_by) & set(kinematics) was, without building two
             if network is not None and tx.sender in network.silent:
                 events += _silenced(tx, receivers)
                 continue
-            events += self.channel.transmit(as_sent, len(wire), receivers, kinematics, network)
+            events += transmit(as_sent, len(wire), receivers, kinematics, network)
         self.stats.add(events)
         return events
 
@@ -96,6 +97,10 @@ class BrokerCore:
     @property
     def counts(self) -> dict[str, int]:
         return self.stats.totals()
+
+
+def _sender(tx: Transmission) -> int:
+    return tx.sender
 
 
 def _batches(receptions: Iterable[Reception], vehicles: Sequence[int]) -> dict[int, list[Reception]]:
