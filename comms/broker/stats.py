@@ -28,7 +28,7 @@ def clamp_lambda2(value: float) -> float:
     return value if value > CONNECTED else 0.0
 
 
-@dataclass
+@dataclass(slots=True)
 class LinkBook:
     sent: int = 0
     delivered: int = 0
@@ -37,13 +37,15 @@ class LinkBook:
     delay_max: float = 0.0
 
     def add(self, event: LinkEvent) -> None:
-        if event.kind == "sent":
+        kind = event.kind
+        if kind == "sent":
             self.sent += 1
-        elif event.kind == "delivered":
+        elif kind == "delivered":
             self.delivered += 1
             delay = event.delay or 0.0
             self.delay_sum += delay
-            self.delay_max = max(self.delay_max, delay)
+            if delay > self.delay_max:  # max(), without the call: the larger, the first when they are equal
+                self.delay_max = delay
         else:
             self.dropped[event.reason or "unknown"] += 1
 
@@ -76,14 +78,15 @@ class LinkStats:
         return alive
 
     def add(self, events: Iterable[LinkEvent]) -> None:
-        books = self.books
+        books, recent = self.books, self._recent
         for event in events:
-            book = books.get((event.sender, event.receiver))
+            key = (event.sender, event.receiver)
+            book = books.get(key)
             if book is None:  # not setdefault: that built a LinkBook (and its Counter) for every event
-                book = books[(event.sender, event.receiver)] = LinkBook()
+                book = books[key] = LinkBook()
             book.add(event)
             if event.kind == "delivered":
-                self._recent.append((event.t, event.sender, event.receiver))
+                recent.append((event.t, *key))
 
     def delivered_connectivity(self, t: float, alive: Collection[int] | None = None) -> float:
         """lambda_2 (>= 0) of the graph of pairs that delivered in (t - horizon, t], over the vehicles alive at t
