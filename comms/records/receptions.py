@@ -59,7 +59,11 @@ class RxBatch(msgspec.Struct, frozen=True):
     def of(
         cls, vehicle: int, k: int, t: float, receptions: Sequence[Reception], wall_of: Callable[[float], float] | None
     ) -> RxBatch:
-        return cls(t, k, vehicle, tuple(Delivery.of(r, wall_of) for r in receptions))
+        if wall_of is not None:
+            return cls(t, k, vehicle, tuple([Delivery.of(r, wall_of) for r in receptions]))
+        # Delivery.of without its call per reception: a batch per vehicle per step, in every run of a sweep.
+        deliveries = [Delivery(r.sender, r.seq, r.stamp, r.arrival, r.gamma, r.gamma_dot) for r in receptions]
+        return cls(t, k, vehicle, tuple(deliveries))
 
     @property
     def heard(self) -> list[Heard]:

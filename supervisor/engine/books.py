@@ -23,13 +23,14 @@ class LinkBooks:
     _next_window: float | None = None
 
     def add(self, events: Iterable[LinkEvent]) -> None:
-        events = list(events)
+        events = events if isinstance(events, list) else list(events)  # read twice; the engine's are lists
+        opened = self.open
         for e in events:
             key = (e.sender, e.receiver, e.seq)
             if e.kind == "sent":
-                self.open[key] = e.t
+                opened[key] = e.t
             else:
-                self.open.pop(key, None)
+                opened.pop(key, None)
         self.stats.add(events)
 
     def close_open(self, t: float, reason: str) -> list[LinkEvent]:
