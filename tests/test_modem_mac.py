@@ -308,7 +308,9 @@ def tdma_run(n: int, seed: int, slot_steps: int | None, dt: float = 0.1, duratio
     ids = [int(i) for i in rng.permutation(np.arange(1, n + 1))]
     everyone = {i: Kinematics(points[k], np.zeros(3)) for k, i in enumerate(sorted(ids))}
     flight = max(
-        float(np.linalg.norm(a.position - b.position)) / C for a in everyone.values() for b in everyone.values()
+        float(np.linalg.norm(np.subtract(a.position, b.position))) / C
+        for a in everyone.values()
+        for b in everyone.values()
     )
     assert 0.0 < flight <= 1000.0 / C
     steps = slot_steps if slot_steps is not None else math.ceil((airtime + flight) / dt)

@@ -29,10 +29,10 @@ import numpy as np
 from comms.records.records import FloatArray
 from numerics import erfc, exp, exp10, expm1, log1p, log10
 
+Vector = FloatArray | Sequence[float]  # three components, in an array or in floats
 
-def time_of_flight(
-    sender: FloatArray, receiver: FloatArray, receiver_velocity: FloatArray, sound_speed: float
-) -> float:
+
+def time_of_flight(sender: Vector, receiver: Vector, receiver_velocity: Vector, sound_speed: float) -> float:
     """tau > 0 with |receiver + v tau - sender| = c tau, the receiver moving at constant velocity v (|v| < c).
 
     With d = receiver - sender this is (c^2 - |v|^2) tau^2 - 2 (d.v) tau - |d|^2 = 0; the positive root.
@@ -52,7 +52,7 @@ def flight_time(tx: Sequence[float], rx: Sequence[float], v: Sequence[float], so
     return root if root > 0.0 else 0.0  # not max(): rounding at vanishing distances, without a call
 
 
-def floats(vector: FloatArray | Sequence[float]) -> list[float]:
+def floats(vector: Vector) -> list[float]:
     """A vector's components as Python floats (their values unchanged)."""
     values: list[float] = vector.tolist() if isinstance(vector, np.ndarray) else [float(c) for c in vector]
     return values

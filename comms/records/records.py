@@ -98,10 +98,11 @@ EVENT_KINDS: tuple[EventKind, ...] = get_args(EventKind)
 
 
 class Kinematics(msgspec.Struct, frozen=True):
-    """What the channel knows of a vehicle at transmission time: inertial position and velocity."""
+    """What the channel knows of a vehicle at transmission time: inertial position and velocity (arrays, or three
+    floats as the engines give them: the channel reads them as floats)."""
 
-    position: FloatArray
-    velocity: FloatArray
+    position: FloatArray | tuple[float, float, float]
+    velocity: FloatArray | tuple[float, float, float]
 
 
 class Reception(msgspec.Struct, frozen=True):

@@ -17,7 +17,6 @@ import math
 from typing import Annotated
 
 import msgspec
-import numpy as np
 
 from comms.records.bounded import dropped
 from comms.records.fields import (
@@ -99,8 +98,9 @@ class StateReport(msgspec.Struct, frozen=True, omit_defaults=True):
     def kinematics(self) -> Kinematics:
         """Inertial position and velocity (R v): what the channel needs of the vehicle."""
         r, (u, v, w) = self.rotation, self.velocity
-        inertial = np.array([r[i] * u + r[i + 1] * v + r[i + 2] * w for i in (0, 3, 6)])
-        return Kinematics(np.array(self.position), inertial)
+        # In floats, not arrays: every vehicle's at every step, and the channel reads them as floats.
+        inertial = (r[0] * u + r[1] * v + r[2] * w, r[3] * u + r[4] * v + r[5] * w, r[6] * u + r[7] * v + r[8] * w)
+        return Kinematics(self.position, inertial)
 
     def to_message(self) -> Message:
         """The message: the struct's fields as JSON types (lists, where msgspec.to_builtins keeps tuples), in order,
