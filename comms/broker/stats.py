@@ -36,19 +36,6 @@ class LinkBook:
     delay_sum: float = 0.0
     delay_max: float = 0.0
 
-    def add(self, event: LinkEvent) -> None:
-        kind = event.kind
-        if kind == "sent":
-            self.sent += 1
-        elif kind == "delivered":
-            self.delivered += 1
-            delay = event.delay or 0.0
-            self.delay_sum += delay
-            if delay > self.delay_max:  # max(), without the call: the larger, the first when they are equal
-                self.delay_max = delay
-        else:
-            self.dropped[event.reason or "unknown"] += 1
-
     def counts(self, sender: int, receiver: int) -> LinkCounts:
         """The books as a snapshot has them; the delays only once a packet was delivered."""
         mean, most = (self.delay_sum / self.delivered, self.delay_max) if self.delivered else (None, None)
@@ -78,15 +65,26 @@ class LinkStats:
         return alive
 
     def add(self, events: Iterable[LinkEvent]) -> None:
+        # Every event of a run is booked here twice (the broker's books and the supervisor's): the link's counts are
+        # kept in this loop, not by a call per event.
         books, recent = self.books, self._recent
         for event in events:
             key = (event.sender, event.receiver)
             book = books.get(key)
             if book is None:  # not setdefault: that built a LinkBook (and its Counter) for every event
                 book = books[key] = LinkBook()
-            book.add(event)
-            if event.kind == "delivered":
+            kind = event.kind
+            if kind == "sent":
+                book.sent += 1
+            elif kind == "delivered":
+                book.delivered += 1
+                delay = event.delay or 0.0
+                book.delay_sum += delay
+                if delay > book.delay_max:  # max(), without the call: the larger, the first when they are equal
+                    book.delay_max = delay
                 recent.append((event.t, *key))
+            else:
+                book.dropped[event.reason or "unknown"] += 1
 
     def delivered_connectivity(self, t: float, alive: Collection[int] | None = None) -> float:
         """lambda_2 (>= 0) of the graph of pairs that delivered in (t - horizon, t], over the vehicles alive at t
