@@ -17,7 +17,7 @@ from comms.records.messages import Message
 from comms.records.network import Network
 from comms.records.plausible import Plausible
 from comms.records.records import Kinematics, LinkEvent, Reception, Transmission
-from comms.records.wire import decode_coordination, encode_coordination, message_size
+from comms.records.wire import carried, encode_coordination, message_size
 
 
 @dataclass
@@ -42,9 +42,9 @@ class BrokerCore:
         wide, alive, transmit = self.wide, kinematics.keys(), self.channel.transmit
         for tx in sorted(transmissions, key=_sender):
             wire = encode_coordination(tx, wide)
-            carried = decode_coordination(wire, wide)  # what receivers will read: float32 values
+            gamma, gamma_dot = carried(wire, wide)  # what receivers will read: float32 values
             as_sent = Transmission(  # not dataclasses.replace: the same record, a fraction of the cost
-                tx.sender, tx.seq, tx.t, carried.gamma, carried.gamma_dot, tx.position, tx.velocity, tx.stamp
+                tx.sender, tx.seq, tx.t, gamma, gamma_dot, tx.position, tx.velocity, tx.stamp
             )
             heard_by = network.neighbours(tx.sender) if network else self.neighbours.get(tx.sender, [])
             receivers = alive & heard_by  # a set, as set(heard_by) & set(kinematics) was, without building two

@@ -52,3 +52,9 @@ def encode_coordination(tx: Transmission, wide: bool = False) -> bytes:
 def decode_coordination(data: bytes, wide: bool = False) -> Decoded:
     sender, seq, t_ms, gamma, gamma_dot = layout(wide).unpack(data)
     return Decoded(sender, seq, t_ms / 1000.0, gamma, gamma_dot)
+
+
+def carried(data: bytes, wide: bool = False) -> tuple[float, float]:
+    """The (gamma, gamma_dot) decode_coordination reads, without the rest of the record: the broker's per packet."""
+    _, _, _, gamma, gamma_dot = layout(wide).unpack(data)
+    return gamma, gamma_dot
