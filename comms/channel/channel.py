@@ -213,7 +213,8 @@ class Channel:
                 events.append(LinkEvent(arrival, sender, j, seq, "delivered", delay=arrival - sent_at))
             else:
                 events.append(LinkEvent(arrival, sender, j, seq, "dropped", reason=reason))
-        self._forget(t - MEMORY)
+        if spoilable:
+            self._forget(t - MEMORY)
         return out, events
 
     def ahead(self, times: Sequence[float]) -> list[list[Reception]]:
