@@ -19,6 +19,7 @@ import pytest
 from mcap.reader import make_reader
 
 from comms.channel.channel import intake_step
+from comms.records.messages import RUN_DONE_KEY
 from supervisor.config.scenario import load_scenario
 from supervisor.engine.cosim import BusOptions, run_zenoh
 from supervisor.engine.progress import Progress
@@ -169,6 +170,9 @@ def test_a_vehicle_killed_with_sigkill_stops_the_run_cleanly(tmp_path, paper_tex
     )
     assert processes_with(str(scenario)) == []
     assert_complete_mcap(tmp_path / "killed.mcap")
+    # The supervisor's end-of-run report is logged for a run that failed too (cpf report reads its drops from it)
+    done = [m for topic, _, m in read_messages(tmp_path / "killed.mcap") if topic == RUN_DONE_KEY]
+    assert len(done) == 1 and done[0]["t"] >= 5.0 and done[0]["malformed"] == {}
 
 
 def test_sigint_to_cpf_stops_everything_and_keeps_the_log(tmp_path, paper_text):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from comms.records.run import Link
@@ -107,3 +108,21 @@ def test_phases_split_where_an_off_grid_fault_acts():
     assert kind == "blackout"
     acting = [round(k * DT, 10) for k in range(200) if active(sc.faults[-1], k * DT, DT)]
     assert (start, end) == (acting[0], round(acting[-1] + DT, 10)) == (0.3, 10.0)
+
+
+def test_a_phase_holds_every_step_its_fault_acts_on_whatever_the_step():
+    """With a 0.3 s step a blackout at 0.95-2.0 s acts on steps 3-6 (0.9-1.8 s); its phase began at 0.9, and step
+    3's time, 3 x 0.3 = 0.8999999999999999, fell before it: the phase lost its first step (the review)."""
+    from supervisor.analysis.summary import Series, summarize
+
+    text = (CONFIGS / "paper.toml").read_text()
+    sc = parse_scenario(text, "s.toml", ["scenario.step=0.3", "scenario.duration=3.0", "faults=[]"],
+                        ["kind=blackout,start=0.95,end=2.0"])  # fmt: skip
+    steps = 10
+    t = np.arange(steps, dtype=np.float64) * 0.3
+    gamma = np.zeros((steps, 3))
+    gamma[3:7, 0] = 1.0  # the blackout's steps alone disagree
+    series = Series((1, 2, 3), t, gamma, np.zeros((steps, 3)), np.zeros((steps, 3)))
+    phases = {p.name: p for p in summarize(series, 3.0, intervals(sc)[-1:], 0.0, 1.2, 0.01).phases}
+    assert phases["during blackout"].max_coordination_error == 1.0
+    assert phases["before faults"].max_coordination_error == phases["after faults"].max_coordination_error == 0.0

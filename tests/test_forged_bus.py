@@ -223,3 +223,22 @@ def test_the_broker_keeps_no_state_from_beyond_the_clock():
     broker.take(TICK_KEY, encode(tick_message(0, 0.0, False)))
     broker.take(state_key(2), step(k=0, t=0.0))
     assert broker.books.malformed == 2 and list(broker.books.states) == [0]
+
+
+def test_an_end_of_run_report_of_drops_on_many_keys_still_reads(tmp_path: Path) -> None:
+    """Drops on the keys of 70 vehicles: the supervisor's report (and the broker's and a vehicle's, the same
+    Drops.reported) carried 70 keys where a report reads at most 64, so cpf report skipped it (the review). Now the
+    63 keys with the most and the rest as 'other keys', every drop counted."""
+    import logging
+
+    from comms.records.drops import OTHER_KEYS, Drops
+    from comms.records.reports import MAX_KEYS, SupervisorDone
+
+    drops = Drops(logging.getLogger("test"), SUPERVISOR)
+    for vid in range(1, 71):
+        for _ in range(1 + (vid == 7)):
+            drops.drop(state_key(vid), ValueError("not a state"))
+    by_key, by_cause = drops.reported()
+    done = SupervisorDone.from_message(SupervisorDone(1.0, 10, by_key, by_cause).to_message())
+    assert len(done.malformed) == MAX_KEYS and sum(done.malformed.values()) == 71
+    assert done.malformed[state_key(7)] == 2 and done.malformed[OTHER_KEYS] == 71 - 2 - (MAX_KEYS - 2)

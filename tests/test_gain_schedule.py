@@ -108,3 +108,19 @@ def _run(scenario):
     """(coordination outcome, max path error after the report's transient) of an in-process run."""
     outcome = simulate(scenario)
     return outcome, outcome.path_error
+
+
+def test_the_run_fits_k_to_the_links_own_losses_too():
+    """The k a run uses (fleet.coupling_k) is fitted to the loop with its links' own losses (they were left out):
+    the paper every 9 s with its two links into vehicle 1 losing 80 % runs with a smaller k than the lossless
+    loop's 0.0841, and that k decays faster than 0.0841 on those links; every link at its own loss 0 under a fleet
+    loss of 0.6 runs with the lossless loop's k (it ran with 0.0297, the 0.6 loop's)."""
+    from supervisor.config.fleet import coupling_k
+
+    first_order = ["comms.transmit.period=9", "coordination.predictor=first_order"]
+    lossy = _paper(*first_order, "comms.links=[{sender=2,receiver=1,loss=0.8},{sender=3,receiver=1,loss=0.8}]")
+    k = coupling_k(lossy)
+    assert k < 0.08 and rate(_with_k(nominal_setting(lossy), k)) > rate(_with_k(nominal_setting(lossy), 0.0841))
+    zeroed = "[" + ",".join(f"{{sender={s},receiver={r},loss=0.0}}" for s, r in ((1, 2), (2, 1), (1, 3), (3, 1))) + "]"
+    zeroed_k = coupling_k(_paper(*first_order, "comms.loss=0.6", f"comms.links={zeroed}"))
+    assert zeroed_k == pytest.approx(0.0841, abs=5e-4)

@@ -66,7 +66,7 @@ def test_law_5_settles_the_liars_offset_over_the_fleet():
     """Law (5) on the complete graph of n, one vehicle broadcasting gamma + c: at the common speed every vehicle's
     correction is the same: each honest one's, k (c - (gamma_h - gamma_5)) from the liar alone, equals the liar's,
     k (n - 1) (gamma_h - gamma_5), so the true gammas settle c / n = 1 apart, for good (at 200 s they were still
-    1.4). The docs' number (docs/resilience.md)."""
+    above it). The docs' number (docs/resilience.md)."""
     assert _honest_spread("corrected", 600.0) == pytest.approx(5.0 / 5, rel=0.01)
 
 

@@ -411,3 +411,18 @@ def test_the_links_own_losses_are_analysed_as_the_channel_takes_them():
     assert s.loss == 0.0 and s.own_losses == ((s.loop.links.index((0, 1)), 0.9),)
     assert rate(setting_of(lossless)) > rate(s) > 0
     assert "loss 0 (links' own: 2->1 0.9)" in describe(analyse(one, margins=False), one)
+
+
+def test_the_loss_margin_says_which_links_it_scans():
+    """Every link at its own loss: comms.loss acts on none, and the margin said 'any value below 1' of a loop whose
+    fleet-wide twin tolerates 0.945 (the review); with some links of their own, the margin names the others."""
+    paper_text = (CONFIGS / "paper.toml").read_text()
+    base = [*LAW5, "comms.transmit.period=9"]
+    pairs = ((1, 2), (2, 1), (1, 3), (3, 1))
+    every = "[" + ",".join(f"{{sender={s},receiver={r},loss=0.6}}" for s, r in pairs) + "]"
+    owned = parse_scenario(paper_text, "p.toml", [*base, f"comms.links={every}"])
+    assert "any comms.loss (every link has a loss of its own, which it keeps)" in describe(analyse(owned), owned)
+    some = parse_scenario(paper_text, "p.toml", [*base, "comms.links=[{sender=2,receiver=1,loss=0.3}]"])
+    assert "an independent loss probability on the links without one of their own up to" in describe(
+        analyse(some), some
+    )

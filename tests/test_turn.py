@@ -74,3 +74,28 @@ def test_a_circle_tighter_than_the_least_radius_is_warned_of_and_not_flown(radiu
     assert error > flown(4.0)[1] + 0.05
     warnings = turn_warnings(parse_scenario(circles(radius), "turn.toml"))
     assert len(warnings) == 2 and all("no tighter than a radius of 3.04 m" in w for w in warnings), warnings
+
+
+@pytest.mark.parametrize(("spacing", "warned"), [(2.0, True), (8.0, False)])
+def test_a_lawnmowers_turns_are_judged_though_its_legs_are_straight(spacing, warned):
+    """A survey's semicircles of radius spacing / 2 are a small part of it: sampled evenly, every sample fell on a
+    leg and 1 m turns at 1.5 m/s passed (the review); 4 m turns are within the remus100's 3.04 m."""
+    text = (
+        circles(4.0)
+        .replace(
+            'path = { type = "circle", radius = 4.0, period = ' + repr(2 * math.pi * 4.0 / SPEED) + " }",
+            f'path = {{ type = "lawnmower", origin = [0.0, 0.0, 0.0], leg_length = 210.0, spacing = {spacing}, '
+            "legs = 8 }",
+        )
+        .replace("duration = 120.0", "duration = 1000.0")
+    )
+    sc = parse_scenario(text, "turn.toml", ["coordination.v_r=1.5"])
+    warnings = turn_warnings(sc)
+    assert bool(warnings) == warned, warnings
+    assert not warned or "got a turn of radius 1 m" in warnings[0]
+
+
+def test_the_readmes_turn_figures():
+    """README ("Robust vehicles"): the moments held on 4 and 3.3 m, the errors on 4, 2.8 and 2 m, to their digits."""
+    assert [round(float(np.mean(np.abs(flown(r)[0]))), 1) for r in (4.0, 3.3)] == [10.6, 16.6]
+    assert [round(flown(r)[1], 2) for r in (4.0, 2.8, 2.0)] == [1.00, 1.10, 1.65]

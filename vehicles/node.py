@@ -140,7 +140,7 @@ class _Vehicle:
         """Its end-of-run report (comms.bus.bus.serve publishes it on the stop message): what it dropped, by key."""
         vid = self.cfg.vehicle_id
         drops = self.pending.drops
-        by_key, by_cause = dict(sorted(drops.by_key.items())), dict(sorted(drops.by_cause.items()))
+        by_key, by_cause = drops.reported()
         report = VehicleDone(self.k * self.dt, self.k, vid, by_key, by_cause)
         return vehicle_done_key(vid), report.to_message()
 

@@ -261,7 +261,7 @@ class Broker:
             self._publish_events(tick)
             self._publish_stats(tick.t, final=True)
             drops = self.books.drops
-            causes, keys = dict(sorted(drops.by_cause.items())), dict(sorted(drops.by_key.items()))
+            keys, causes = drops.reported()
             done = CommsDone(tick.t, tick.k, self.books.published, drops.total, causes, keys)
             self.publishers.put(COMMS_DONE_KEY, done.to_message())
             return

@@ -9,6 +9,9 @@ import logging
 from collections import Counter
 
 from comms.records.bounded import cause_of
+from comms.records.reports import MAX_KEYS
+
+OTHER_KEYS = "other keys"  # an end-of-run report's entry for the keys past its MAX_KEYS - 1 largest
 
 LOGGED = 20  # drops a reader tells one by one; the others are only counted (and their number told at the end)
 
@@ -37,3 +40,12 @@ class Drops:
     @property
     def total(self) -> int:
         return self.by_key.total()
+
+    def reported(self) -> tuple[dict[str, int], dict[str, int]]:
+        """(by key, by cause) as an end-of-run report carries them, sorted: past MAX_KEYS keys (drops on the keys of
+        many vehicles: a report that long does not read) the MAX_KEYS - 1 with the most, the rest as OTHER_KEYS."""
+        keys = self.by_key
+        if len(keys) > MAX_KEYS:
+            kept = dict(keys.most_common(MAX_KEYS - 1))
+            keys = Counter({**kept, OTHER_KEYS: keys.total() - sum(kept.values())})
+        return dict(sorted(keys.items())), dict(sorted(self.by_cause.items()))

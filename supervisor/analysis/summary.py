@@ -134,9 +134,12 @@ def summarize(
     tolerance: float,
 ) -> Summary:
     coord = coordination_error(series.gamma)
+    # Phase bounds lie on the step grid (derived.intervals) as a person writes them (0.9), the series' times as
+    # k dt computes them (3 x 0.3 = 0.8999999999999999): half a step either way puts each step on its side.
+    half = 0.5 * float(series.t[1] - series.t[0]) if series.t.size > 1 else 0.0
     stats = []
     for name, start, end in phase_bounds(duration, faults):
-        mask = (series.t >= start) & (series.t < end)
+        mask = (series.t >= start - half) & (series.t < end - half)
         if not mask.any():
             continue
         settled = mask & (series.t >= transient)
@@ -147,8 +150,8 @@ def summarize(
             )
         )  # fmt: skip
     first, last = stats[0], stats[-1]
-    in_first = series.t < first.end
-    in_last = series.t >= last.start
+    in_first = series.t < first.end - half
+    in_last = series.t >= last.start - half
     after = series.t >= transient
     return Summary(
         phases=tuple(stats),

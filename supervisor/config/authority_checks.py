@@ -179,14 +179,14 @@ def _needs(
         yield (*_held(model, plant, fins, speed, climb), speed, climb, norm)
 
 
-def sample_gammas(path: Path, gamma0: float | str, run: float) -> Sequence[float]:
-    """Where a path is trimmed: over a period of a periodic one, else over the run from its gamma0 (0 for "closest":
-    the nearest point's search costs more than the check, and a path that is not periodic is straight or nearly
-    so near its start)."""
+def sample_gammas(path: Path, gamma0: float | str, run: float, samples: int = SAMPLES) -> Sequence[float]:
+    """Where a path is trimmed: over a period of a periodic one, else over the run (gamma's change, signed) from its
+    gamma0 (0 for "closest": the nearest point's search costs more than the check, and a path that is not periodic
+    is straight or nearly so near its start)."""
     period = path.gamma_period
     start = gamma0 if isinstance(gamma0, float | int) else 0.0
     first, last = (0.0, period) if period is not None else (start, start + run)
-    return [float(g) for g in np.linspace(first, last, SAMPLES)]
+    return [float(g) for g in np.linspace(first, last, samples)]
 
 
 def _held(model: VehicleModel, plant: VehicleParams, fins: Actuators, speed: float, climb: float) -> Float2:

@@ -91,7 +91,8 @@ def intervals(scenario: Scenario) -> list[tuple[str, float, float]]:
 
 def _grid_time(k: int, dt: float) -> float:
     """k dt as a person writes it (3 x 0.1 s: 0.3, not 0.30000000000000004, in metrics.json): rounded to 1 ns, far
-    below half a step, so the series' times k dt fall on the same side of it."""
+    below half a step; the summary takes each step's side with half a step's slack (k dt may fall either side of
+    it: 3 x 0.3 = 0.8999999999999999)."""
     return round(k * dt, 9)
 
 

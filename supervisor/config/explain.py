@@ -7,7 +7,7 @@ from collections import Counter
 from collections.abc import Iterable
 from typing import Any
 
-from supervisor.config.comms_schema import CommsSection, TransmitSection
+from supervisor.config.comms_schema import TransmitSection
 from supervisor.config.controller_choice import AUTO, controller_name, estimated_spread
 from supervisor.config.derived import steps_of, tube_radius
 from supervisor.config.describe import describe_fault
@@ -37,7 +37,7 @@ def what_would_run(sc: Scenario) -> str:
         f"coordination: {sc.coordination.law} law, {_gain(sc)}, predictor {sc.coordination.predictor}, "
         f"v_r {_num(sc.coordination.v_r)} per s, over the graph {_edges(sc.graph.edges)}",
         "comms: " + _comms(sc),
-        "transmission: " + _transmit(sc.comms.transmit, sc.comms, tdma_schedule(sc)),
+        "transmission: " + _transmit(sc.comms.transmit, tdma_schedule(sc)),
         "faults: " + ("; ".join(describe_fault(f.model_dump(), run.step) for f in sc.faults) or "none"),
         f"a vehicle lost: {run.on_vehicle_loss}",
     ]
@@ -169,7 +169,7 @@ def _comms(sc: Scenario) -> str:
     return ", ".join(parts)
 
 
-def _transmit(tx: TransmitSection, c: CommsSection, tdma: Tdma | None) -> str:
+def _transmit(tx: TransmitSection, tdma: Tdma | None) -> str:
     if tx.policy == "periodic":
         text = "periodic, " + (f"every {_num(tx.period)} s" if tx.period is not None else "every step")
     elif tx.policy != "event":  # an extension's: it reads its options, none of the keys below (a new user)

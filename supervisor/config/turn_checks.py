@@ -5,22 +5,28 @@ psi' the horizontal course's turn per unit of gamma, at the speed v_r |p_d'(gamm
 takes a yaw moment (vehicles.turn: the yaw damping, the Munk moment and the lift's at the drift angle where the sway
 balances), and the rudder gives at most the vehicle's max_torque (on fins, what they give at the turn's surge, within
 it). Where the turn needs more, the vehicle flies a wider circle than its path, whatever its controller: on the
-remus100 at 1.5 m/s the least radius is 3.0 m, and a circle of 2 m is flown about 3 m wide, 1.65 m off its path
-(tests/test_turn.py). Each vehicle is judged at the sampled point (authority_checks.sample_gammas) where its path turns
-fastest; the current, a climb and the controller's transient are left out, and a model of someone else's that
-cannot say is too.
+remus100 at 1.5 m/s the least radius is 3.04 m, and a circle of 2 m is flown 1.65 m off its path
+(tests/test_turn.py). Each vehicle is judged where its path turns fastest along the stretch its run flies (_turns:
+sampled, and densely where the tangent turns between two samples more than their rates explain, as at a lawnmower's
+turns); the current, a climb and the controller's transient are left out, and a model of someone else's that cannot
+say is too.
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Iterator
 
+import numpy as np
+
+from numerics import atan2
 from supervisor.config.authority_checks import sample_gammas
 from supervisor.config.fleet import build_path
 from supervisor.config.plant import actuators_of, plant_of
 from supervisor.config.scenario_schema import Scenario, VehicleSection
 from supervisor.config.vehicle_models import vehicle_of
+from vehicles.paths import Path
 from vehicles.turn import fastest_turn, turn
 
 
@@ -62,10 +68,38 @@ def _too_tight(sc: Scenario, index: int, section: VehicleSection) -> str | None:
 
 
 def _turns(sc: Scenario, section: VehicleSection) -> Iterator[tuple[float, float]]:
-    """(speed along the path [m/s], yaw rate its tangent turns at [rad/s]) at the path's sampled points."""
-    path, v_r = build_path(section.path), abs(sc.coordination.v_r)
-    for gamma in sample_gammas(path, section.gamma0, v_r * sc.scenario.duration):
-        _, (dx, dy, dz), (ddx, ddy, _) = path.evaluate_floats(gamma)
-        level = dx * dx + dy * dy
-        if level > 0.0:
-            yield v_r * math.sqrt(level + dz * dz), v_r * abs(dx * ddy - dy * ddx) / level
+    """(speed along the path [m/s], yaw rate its tangent turns at [rad/s]) along the stretch the run flies
+    (authority_checks.sample_gammas, COARSE points), and densely (FINE points) between two whose tangents turn
+    further apart than the faster of their rates explains: a turn between them (a lawnmower's, on its legs' 0)."""
+    path, v_r = build_path(section.path), sc.coordination.v_r
+    run = v_r * sc.scenario.duration
+    coarse = [_point(path, g) for g in sample_gammas(path, section.gamma0, run, COARSE)]
+    points = coarse[:1]
+    for before, after in itertools.pairwise(coarse):
+        points += [_point(path, g) for g in _between(before, after)]
+        points.append(after)
+    for _, tangent, rate in points:
+        if tangent[0] or tangent[1]:
+            yield abs(v_r) * math.hypot(*tangent), abs(v_r) * rate
+
+
+Point = tuple[float, tuple[float, float, float], float]  # gamma, p_d'(gamma), its course's turn per unit of gamma
+
+
+def _between(before: Point, after: Point) -> list[float]:
+    """FINE gammas strictly between two points whose tangents turn apart by more than 1.5 times the faster of
+    their rates over the gap (a turn the two do not see), else none."""
+    (g0, t0, r0), (g1, t1, r1) = before, after
+    turned = abs(atan2(t0[0] * t1[1] - t0[1] * t1[0], t0[0] * t1[0] + t0[1] * t1[1]))
+    hidden = turned > 1.5 * max(r0, r1) * abs(g1 - g0) + 1e-9
+    return [float(g) for g in np.linspace(g0, g1, FINE)[1:-1]] if hidden else []
+
+
+COARSE, FINE = 128, 64  # points along the stretch; points between two with a turn between them
+
+
+def _point(path: Path, gamma: float) -> Point:
+    """gamma, p_d'(gamma) and the rate its horizontal course turns at per unit of gamma (0 where it is vertical)."""
+    _, (dx, dy, dz), (ddx, ddy, _) = path.evaluate_floats(gamma)
+    level = dx * dx + dy * dy
+    return gamma, (dx, dy, dz), (abs(dx * ddy - dy * ddx) / level if level > 0.0 else 0.0)

@@ -76,25 +76,41 @@ def run_zenoh(
     """Run the scenario over Zenoh with one process per vehicle and a broker; record everything to out. longest:
     lockstep time windows of at most this many steps (1: one bus round trip per step; None: as long as nothing can
     cross the bus). scene: the log gets the run's Foxglove channels (record.scene); live: sees every record too."""
-    if load_scenario(scenario_path, bus.overrides, bus.faults) != scenario:  # what every child process will load
-        raise ValueError(f"run_zenoh: the scenario is not {scenario_path} with bus.overrides and bus.faults")
+    _loaded_alike(scenario, scenario_path, bus)
     endpoint = bus.listen or f"tcp/127.0.0.1:{free_port()}"
     timing = RealtimeTiming(scenario.scenario.step) if clock == "realtime" else None
     how = (scenario_path, endpoint, bus, seed)
+    meta = RunMeta.of(scenario, str(scenario_path), scenario_toml, seed, "zenoh", clock).to_message()
     with Recorder(out, scene, live) as rec:
-        with _supervisor(scenario, how, Intake(scenario, rec, timing), (clock, speed, longest)) as run:
-            meta = RunMeta.of(scenario, str(scenario_path), scenario_toml, seed, "zenoh", clock).to_message()
-            _open(run, rec, meta, endpoint)
-            _drive(run, progress)
-            stepping = progress.stepping_time()
-            wall = progress.done(run.t)
-        # Once the processes are gone (the bus with them): all the supervisor dropped, for `cpf report` to read
-        rec.write(RUN_DONE_KEY, run.t, run.intake.own_done(run.t).to_message())
-    books, builder, drops = run.intake.books, run.intake.builder, run.intake.bus_drops()
+        intake, started = Intake(scenario, rec, timing), []  # started: the supervisor, once it is
+        try:
+            with _supervisor(scenario, how, intake, (clock, speed, longest)) as run:
+                started.append(run)
+                _open(run, rec, meta, endpoint)
+                _drive(run, progress)
+                stepping, wall = progress.stepping_time(), progress.done(run.t)
+        except BaseException:
+            with contextlib.suppress(Exception):  # already failing (the log itself, maybe): the first error stands
+                _log_drops(rec, intake, started[0].t if started else 0.0)
+            raise
+        _log_drops(rec, intake, run.t)
+    books, builder, drops = intake.books, intake.builder, intake.bus_drops()
     return RunResult(  # rec.count once the log is closed: the stop message and the vehicles' reports come last
         builder.series(), wall, rec.count, books.counts, books.stats.snapshot(run.t), books.lambda2, builder.ages,
         stepping, timing.as_dict() if timing is not None else None, drops.by_key, rec.scene_count, drops.by_cause,
     )  # fmt: skip
+
+
+def _loaded_alike(scenario: Scenario, path: Path, bus: BusOptions) -> None:
+    """ValueError unless the scenario is what every child process will load: path with the bus's overrides."""
+    if load_scenario(path, bus.overrides, bus.faults) != scenario:
+        raise ValueError(f"run_zenoh: the scenario is not {path} with bus.overrides and bus.faults")
+
+
+def _log_drops(rec: Recorder, intake: Intake, t: float) -> None:
+    """The supervisor's end-of-run report, once its processes are gone (the bus with them): all it dropped, for
+    `cpf report` to read from the log, a run that failed too."""
+    rec.write(RUN_DONE_KEY, t, intake.own_done(t).to_message())
 
 
 def _open(run: Supervisor, rec: Recorder, meta: Message, endpoint: str) -> None:

@@ -203,7 +203,7 @@ class Intake:
 
     def own_done(self, t: float) -> SupervisorDone:
         """The supervisor's end-of-run report at t: what it dropped (the log keeps it for `cpf report`)."""
-        return SupervisorDone(t, round(t / self.bounds.dt), dict(self.drops.by_key), dict(self.drops.by_cause))
+        return SupervisorDone(t, round(t / self.bounds.dt), *self.drops.reported())
 
     def bus_drops(self) -> BusDrops:
         """What every reader dropped: the supervisor's own, and every report that came in (the broker's latest)."""

@@ -112,7 +112,8 @@ def largest_delay(setting: Setting, limit: float = 200.0) -> float | None:
 
 def largest_loss(setting: Setting) -> float | None:
     """The largest i.i.d. loss probability of the links that have none of their own (comms.loss; those that have
-    keep theirs) under which the loop stays mean-square stable; None: any below 1; NaN: not analysed (more than
+    keep theirs, a link with only its own burst at its long-run loss with the scenario's comms.loss: held, not
+    scanned) under which the loop stays mean-square stable; None: any below 1; NaN: not analysed (more than
     MAX_LOSS_STATES states)."""
     if setting.states() > MAX_LOSS_STATES:
         return math.nan

@@ -115,6 +115,15 @@ def _margin_text(name: str, value: float | None, unit: str, beyond: str) -> str:
     return f"{name} up to {value:.3g}{unit}" if value is not None else f"{name} {beyond}"
 
 
+def _loss_margin(verdict: Verdict) -> str:
+    """The loss margin: comms.loss's (largest_loss), on the links that take it; none if every link has its own."""
+    s = verdict.setting
+    if s.own_losses and len(s.own_losses) == len(s.loop.links):
+        return "any comms.loss (every link has a loss of its own, which it keeps)"
+    name = "an independent loss probability" + (" on the links without one of their own" if s.own_losses else "")
+    return _margin_text(name, verdict.loss, "", "of any value below 1")
+
+
 def describe(verdict: Verdict, scenario: Scenario) -> str:
     """One paragraph: the verdict, its rate, what was analysed (and what not), the margins."""
     s = verdict.setting
@@ -134,7 +143,7 @@ def describe(verdict: Verdict, scenario: Scenario) -> str:
     margins = ", ".join((
         _margin_text(period, verdict.period, " s", f"of any length up to {max(PERIOD_REACH, s.period):g} s"),
         _margin_text("a delay", verdict.delay, " s", f"of any length up to {delay_reach(s):.3g} s"),
-        _margin_text("an independent loss probability", verdict.loss, "", "of any value below 1"),
+        _loss_margin(verdict),
     ))  # fmt: skip
     head += _offset_text(verdict.offset, s.lossy(), scenario)
     return f"{head}, {how}. With the other settings as they are, it converges with {margins}."
@@ -224,7 +233,8 @@ def short_horizon(s: Setting, scenario: Scenario) -> float | None:
 def predicted_growth(scenario: Scenario) -> float | None:
     """The growth rate (1/s) of the coordination error if the stability analysis predicts divergence, else None
     (also when the loop is too large to analyse quickly, or not modelled)."""
-    return predictions(scenario)[0]
+    growth = predicted_change(scenario)
+    return growth if growth is not None and growth > 0 else None
 
 
 def predictions(scenario: Scenario) -> tuple[float | None, Offset | None]:
