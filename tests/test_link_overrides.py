@@ -94,10 +94,11 @@ def test_a_run_delivers_every_packet_of_a_link_with_loss_zero_under_a_lossy_flee
     assert books[(4, 3)]["dropped"]["loss"] > 0.7 * books[(4, 3)]["sent"]
 
 
-def test_cpf_stability_says_a_links_zero_loss_is_left_out():
-    """It analysed the fleet's loss and said nothing was left out: `link.loss or link.burst` took 0.0 for none."""
+def test_cpf_stability_analyses_a_links_zero_loss_as_its_own():
+    """It analysed the fleet's loss and said nothing of the links: `link.loss or link.burst` took 0.0 for none (it
+    then said they were left out; now it analyses them, a loss of 0 as the link's own)."""
     paper = CONFIGS / "paper.toml"
     clean = "comms.links=[{sender=1,receiver=2,loss=0.0},{sender=2,receiver=1,loss=0.0}]"
     sc = parse_scenario(paper.read_text(), str(paper), ["comms.loss=0.05", clean])
     text = describe(analyse(sc, margins=False), sc)
-    assert "loss 0.05" in text and "links' own losses left out" in text
+    assert "loss 0.05 (links' own: 2->1 0, 1->2 0)" in text and "left out" not in text

@@ -29,6 +29,7 @@ FAULT_KEY = f"{ROOT}/run/fault"
 GRAPH_KEY = f"{ROOT}/run/graph"
 STOP_KEY = f"{ROOT}/run/stop"
 RUN_DONE_KEY = f"{ROOT}/run/done"  # the log only: the supervisor's end-of-run report (comms.records.reports)
+LOG_ONLY = frozenset({RUN_DONE_KEY})  # keys a log has and the bus never carries (a replay leaves them out)
 FLUSH_KEY = f"{ROOT}/run/flush"  # queryable: a client's last messages are in before it closes (comms.bus.bus.flush)
 TICK_KEY = f"{ROOT}/clock/tick"
 COMMS_EVENT_KEY = f"{ROOT}/comms/event"  # logs of earlier versions: one record per link event (still read)

@@ -7,8 +7,8 @@ written against a live run sees the run again, and the reverse. A window that st
 and graph and the faults in force. The message logged at simulation time t
 goes out at wall time t0 + (t - t_first) / speed; speed 0 means as fast as possible (publishers block rather than
 drop, so nothing is lost either way). `start` and `end` (simulation seconds, both inclusive) select a window;
-`loop` replays it again and again until interrupted. Liveliness keys (cpf/alive/...), channels that are not JSON and
-topics that are no valid key expression to publish on are skipped.
+`loop` replays it again and again until interrupted. Liveliness keys (cpf/alive/...), the log-only cpf/run/done,
+channels that are not JSON and topics that are no valid key expression to publish on are skipped.
 
 Without `connect` the replayer runs its own Zenoh router (on `listen`, default a free localhost port) for
 subscribers to connect to; with `connect` it joins that router as a client. `on_ready` is called with one line
@@ -39,7 +39,7 @@ from typing import TYPE_CHECKING
 import zenoh
 
 from comms.bus.bus import Extras, Publishers, flush, free_port, open_session, site_config
-from comms.records.messages import ALIVE_PREFIX, FAULT_KEY, GRAPH_KEY, META_KEY, Message
+from comms.records.messages import ALIVE_PREFIX, FAULT_KEY, GRAPH_KEY, LOG_ONLY, META_KEY, Message
 from supervisor.errors import ScenarioError
 from supervisor.record.logfile import LogMessage, messages, open_log, reader_of, verify
 from supervisor.record.recorder import seconds_to_ns
@@ -328,8 +328,9 @@ def _has_scene(path: Path) -> bool:
 
 
 def _playable(topic: str) -> bool:
-    """Whether a topic's messages can go back on the bus: not a liveliness key, a key one can put on."""
-    if topic.startswith(f"{ALIVE_PREFIX}/") or topic == ALIVE_PREFIX:
+    """Whether a topic's messages can go back on the bus: not a liveliness key nor one the live run never put on it
+    (LOG_ONLY), a key one can put on."""
+    if topic.startswith(f"{ALIVE_PREFIX}/") or topic == ALIVE_PREFIX or topic in LOG_ONLY:
         return False
     if "*" in topic or "$" in topic:
         return False
