@@ -70,8 +70,19 @@ def nominal_setting(scenario: Scenario, event: str = "heartbeat") -> Setting:
     if (why := unmodelled(scenario)) is not None:
         raise ValueError(why)
     period, phases = timing(scenario, event)
-    loop = loop_of(scenario)
+    loop = _heard(scenario, loop_of(scenario))
     return Setting(loop, period, delay_of(scenario), phases, loss_of(scenario), own_losses(scenario, loop))
+
+
+def _heard(scenario: Scenario, loop: Loop) -> Loop:
+    """The loop without the links whose own loss is 1: nothing ever comes over them, and a neighbour never heard does
+    not count in the law (vehicles.agent.neighbour_values), where the linear loop would hold its estimate for ever (a
+    mode of eigenvalue 1: the verdict said 'neutral' of a fleet that converges, and k was fitted to noise, a new
+    user). Every link dead: kept, the neutral loop it is."""
+    dead = {n for n, p in own_losses(scenario, loop) if p >= 1.0}
+    if not dead or len(dead) == len(loop.links):
+        return loop
+    return replace(loop, links=tuple(link for n, link in enumerate(loop.links) if n not in dead))
 
 
 def own_losses(scenario: Scenario, loop: Loop) -> tuple[tuple[int, float], ...]:
