@@ -422,6 +422,9 @@ def test_the_loss_margin_says_which_links_it_scans():
     every = "[" + ",".join(f"{{sender={s},receiver={r},loss=0.6}}" for s, r in pairs) + "]"
     owned = parse_scenario(paper_text, "p.toml", [*base, f"comms.links={every}"])
     assert "any comms.loss (every link has a loss of its own, which it keeps)" in describe(analyse(owned), owned)
+    burst = every.replace("loss=0.6}]", "burst={mean_loss=0.1,mean_burst=3.0}}]")  # 3->1 takes comms.loss still
+    bursty = parse_scenario(paper_text, "p.toml", [*base, f"comms.links={burst}"])
+    assert "any comms.loss" not in describe(analyse(bursty), bursty)  # (it said so: a new user)
     some = parse_scenario(paper_text, "p.toml", [*base, "comms.links=[{sender=2,receiver=1,loss=0.3}]"])
     assert "an independent loss probability on the links without one of their own up to" in describe(
         analyse(some), some

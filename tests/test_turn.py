@@ -99,3 +99,21 @@ def test_the_readmes_turn_figures():
     """README ("Robust vehicles"): the moments held on 4 and 3.3 m, the errors on 4, 2.8 and 2 m, to their digits."""
     assert [round(float(np.mean(np.abs(flown(r)[0]))), 1) for r in (4.0, 3.3)] == [10.6, 16.6]
     assert [round(flown(r)[1], 2) for r in (4.0, 2.8, 2.0)] == [1.00, 1.10, 1.65]
+
+
+def test_a_vehicle_held_to_its_top_speed_turns_at_that_speed():
+    """[saturation] top_speed 0.8 m/s on the 2 m circle: gamma_dot is held, the turn is 0.4 rad/s, within the rudder
+    (it flew 0.6 m off with the rudder never at its limit, and validate warned of 1.5 m/s: a new user)."""
+    assert not turn_warnings(parse_scenario(circles(2.0), "turn.toml", ["saturation.top_speed=0.8"]))
+
+
+def test_a_lawnmower_is_judged_from_where_the_vehicle_starts_on_it():
+    """gamma0 = "closest" on a lawnmower was judged from gamma 0 (a path not periodic taken as straight near its
+    start): vehicles starting 280 m along 300 m legs, their run of 225 m crossing 1 m turns, were not warned of."""
+    lawnmower = '{ type = "lawnmower", origin = [0.0, 0.0, 0.0], leg_length = 300.0, spacing = 2.0, legs = 6 }'
+    text = circles(4.0).replace(
+        'path = { type = "circle", radius = 4.0, period = ' + repr(2 * math.pi * 4.0 / SPEED) + " }",
+        f"path = {lawnmower}",
+    ).replace("position = [4.0, 0.0, 0.0]", "position = [280.0, 0.0, 0.0]")
+    sc = parse_scenario(text.replace("duration = 120.0", "duration = 150.0"), "turn.toml", ["coordination.v_r=1.5"])
+    assert len(turn_warnings(sc)) == 2

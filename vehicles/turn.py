@@ -25,6 +25,7 @@ from vehicles.vehicle_model import VehicleModel
 _DRIFT = math.radians(45.0)  # the widest drift angle looked at
 _SCAN = 45  # intervals of 1 deg each side the root is bracketed over
 _HALVINGS = 40
+_RATE_HALVINGS = 24  # fastest_turn's: the rate to 6e-8 of the one asked about (each halving is a turn found)
 
 
 class Turn(NamedTuple):
@@ -54,7 +55,7 @@ def fastest_turn(model: VehicleModel, params: VehicleParams, speed: float, momen
 
     if spare(rate) >= 0.0:
         return rate
-    return bisected(spare, 0.0, rate, spare(0.0), _HALVINGS) if spare(0.0) >= 0.0 else 0.0
+    return bisected(spare, 0.0, rate, spare(0.0), _RATE_HALVINGS) if spare(0.0) >= 0.0 else 0.0
 
 
 def _drift_angle(model: VehicleModel, params: VehicleParams, speed: float, rate: float) -> float | None:

@@ -141,8 +141,9 @@ def bus_drops(
     if supervisor is not None:
         by_key[SUPERVISOR], by_cause[SUPERVISOR] = _sorted(supervisor.malformed), _sorted(supervisor.causes)
     others: dict[str, tuple[dict[str, int], dict[str, int]]] = {}
-    if broker is not None:  # older logs: a total, not by key
-        others[BROKER] = (dict(broker.by_key) if broker.by_key else {BY_NO_KEY: broker.malformed}), dict(broker.causes)
+    if broker is not None:  # older logs: a total, not by key (a report of none has no keys either way)
+        keys = dict(broker.by_key) if broker.by_key or not broker.malformed else {BY_NO_KEY: broker.malformed}
+        others[BROKER] = keys, dict(broker.causes)
     for vid, done in vehicles.items():
         others[f"vehicle {vid}"] = dict(done.malformed), dict(done.causes)
     for reader in sorted(others):

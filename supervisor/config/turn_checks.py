@@ -8,8 +8,11 @@ it). Where the turn needs more, the vehicle flies a wider circle than its path, 
 remus100 at 1.5 m/s the least radius is 3.04 m, and a circle of 2 m is flown 1.65 m off its path
 (tests/test_turn.py). Each vehicle is judged where its path turns fastest along the stretch its run flies (_turns:
 sampled, and densely where the tangent turns between two samples more than their rates explain, as at a lawnmower's
-turns); the current, a climb and the controller's transient are left out, and a model of someone else's that cannot
-say is too.
+turns), from the vehicle's gamma0 and at its top speed if [saturation] holds it. Left out: the current, a climb, the
+thrust a turn takes (a vehicle short of it slows down and flies wide too), the controller's transient and its own
+bounds: line_of_sight, the default on fins, keeps its rates within half of what the fins give, so it flies wide of
+turns the rudder could hold (a new user: 7 m circles at 1 m/s, 7 m off, unwarned); a model of someone else's that
+cannot say is left out too.
 """
 
 from __future__ import annotations
@@ -22,12 +25,15 @@ import numpy as np
 
 from numerics import atan2
 from supervisor.config.authority_checks import sample_gammas
-from supervisor.config.fleet import build_path
+from supervisor.config.fleet import build_path, initial_gamma
 from supervisor.config.plant import actuators_of, plant_of
 from supervisor.config.scenario_schema import Scenario, VehicleSection
-from supervisor.config.vehicle_models import vehicle_of
+from supervisor.config.vehicle_models import top_speed_of, vehicle_of
+from vehicles.actuators import Actuators
+from vehicles.params import VehicleParams
 from vehicles.paths import Path
-from vehicles.turn import fastest_turn, turn
+from vehicles.turn import Turn, fastest_turn, turn
+from vehicles.vehicle_model import VehicleModel
 
 
 def turn_warnings(sc: Scenario) -> list[str]:
@@ -44,43 +50,73 @@ def turn_warnings(sc: Scenario) -> list[str]:
 
 def _too_tight(sc: Scenario, index: int, section: VehicleSection) -> str | None:
     """The warning for one vehicle whose path turns faster than its yaw moment can turn it (None: it can)."""
-    speed, rate = max(_turns(sc, section), key=lambda turning: (turning[1], turning[0]), default=(0.0, 0.0))
+    speed, rate, level = max(_turns(sc, section), key=lambda turning: (turning[1], turning[0]), default=(0, 0, 0))
     if rate <= 0.0:
         return None
     model = vehicle_of(sc, section.id)
     nominal = model.parameters()
     plant = plant_of(sc, section.id) or nominal
-    found = turn(model, plant, speed, rate)
     fins = actuators_of(sc, section.id, nominal)
-    surge = speed if found is None else found.surge
-    has = plant.max_torque if fins is None else min(plant.max_torque, fins.torque_limit(surge))
+    found, has, widest = _judged(model, plant, fins, speed, rate)
     if found is not None and abs(found.moment) <= has:
         return None
-    widest = speed / max(fastest_turn(model, plant, speed, has, rate), 1e-12)
     need = "a drift past 45 deg" if found is None else f"a yaw moment of {abs(found.moment):.3g} N m"
-    source = "its max_torque" if fins is None else "its fins at that speed, within its max_torque"
+    source = "its max_torque" if fins is None else "its fins there, within max_torque"
+    drawn = " (its plant as drawn: vehicle.uncertainty)" if plant is not nominal else ""
     return (
-        f"vehicles[{index}].path: vehicle {section.id} must turn at {rate:.3g} rad/s to follow it at {speed:.3g} m/s "
-        f"(v_r {sc.coordination.v_r:g}) and that takes {need}; {source} gives {has:.3g} N m, so it turns no tighter "
-        f"than a radius of {widest:.3g} m at that speed: it will fly wide of its path (vehicles/turn.py), got a turn "
-        f"of radius {speed / rate:.3g} m"
+        f"vehicles[{index}].path: vehicle {section.id}{drawn} must turn at {rate:.3g} rad/s to follow it at "
+        f"{speed:.3g} m/s (v_r {sc.coordination.v_r:g}) and that takes {need}; {source} gives {has:.3g} N m, so it "
+        f"turns no tighter than a radius of {widest * level / speed:.3g} m at that speed: it will fly wide of its path "
+        f"(vehicles/turn.py), got a turn of radius {level / rate:.3g} m"
     )
 
 
-def _turns(sc: Scenario, section: VehicleSection) -> Iterator[tuple[float, float]]:
-    """(speed along the path [m/s], yaw rate its tangent turns at [rad/s]) along the stretch the run flies
-    (authority_checks.sample_gammas, COARSE points), and densely (FINE points) between two whose tangents turn
-    further apart than the faster of their rates explains: a turn between them (a lawnmower's, on its legs' 0)."""
-    path, v_r = build_path(section.path), sc.coordination.v_r
+def _judged(model: VehicleModel, plant: VehicleParams, fins: Actuators | None, speed: float, rate: float) -> Judged:
+    """(the steady turn, the yaw moment the vehicle has in it, its least radius [m] at that speed if it falls short),
+    once per fleet: alike vehicles on like paths turn alike (a fleet of 1000 took 14 s)."""
+    key = (model, plant, fins, speed, rate)
+    try:
+        known = _JUDGED.get(key)
+    except TypeError:  # someone else's model that does not hash
+        return _judge(model, plant, fins, speed, rate)
+    if known is None:
+        if len(_JUDGED) >= _KEPT:
+            _JUDGED.clear()
+        known = _JUDGED[key] = _judge(model, plant, fins, speed, rate)
+    return known
+
+
+def _judge(model: VehicleModel, plant: VehicleParams, fins: Actuators | None, speed: float, rate: float) -> Judged:
+    found = turn(model, plant, speed, rate)
+    surge = speed if found is None else found.surge
+    has = plant.max_torque if fins is None else min(plant.max_torque, fins.torque_limit(surge))
+    if found is not None and abs(found.moment) <= has:
+        return found, has, 0.0
+    return found, has, speed / max(fastest_turn(model, plant, speed, has, rate), 1e-12)
+
+
+Judged = tuple[Turn | None, float, float]
+_JUDGED: dict[tuple[object, ...], Judged] = {}
+_KEPT = 4096  # judged turns kept at most (a long sweep in one process starts again rather than grow)
+
+
+def _turns(sc: Scenario, section: VehicleSection) -> Iterator[tuple[float, float, float]]:
+    """(speed along the path [m/s], yaw rate its tangent turns at [rad/s], its horizontal speed [m/s]) along the
+    stretch the run flies from the vehicle's gamma0 (authority_checks.sample_gammas, COARSE points), and densely
+    (FINE points) between two whose tangents turn further apart than the faster of their rates explains: a turn
+    between them (a lawnmower's, on its legs' 0). At [saturation] top_speed where the path would be faster."""
+    path, v_r, top = build_path(section.path), sc.coordination.v_r, top_speed_of(sc, section.id)
     run = v_r * sc.scenario.duration
-    coarse = [_point(path, g) for g in sample_gammas(path, section.gamma0, run, COARSE)]
+    coarse = [_point(path, g) for g in sample_gammas(path, initial_gamma(sc, section.id), run, COARSE)]
     points = coarse[:1]
     for before, after in itertools.pairwise(coarse):
         points += [_point(path, g) for g in _between(before, after)]
         points.append(after)
     for _, tangent, rate in points:
         if tangent[0] or tangent[1]:
-            yield abs(v_r) * math.hypot(*tangent), abs(v_r) * rate
+            along = abs(v_r) * math.hypot(*tangent)
+            held = 1.0 if top is None or along <= top else top / along  # gamma_dot held to top / |p_d'|
+            yield held * along, held * abs(v_r) * rate, held * abs(v_r) * math.hypot(tangent[0], tangent[1])
 
 
 Point = tuple[float, tuple[float, float, float], float]  # gamma, p_d'(gamma), its course's turn per unit of gamma

@@ -126,10 +126,12 @@ def _margin_text(name: str, value: float | None, unit: str, beyond: str) -> str:
     return f"{name} up to {value:.3g}{unit}" if value is not None else f"{name} {beyond}"
 
 
-def _loss_margin(verdict: Verdict) -> str:
-    """The loss margin: comms.loss's (largest_loss), on the links that take it; none if every link has its own."""
-    s = verdict.setting
-    if s.own_losses and len(s.own_losses) == len(s.loop.links):
+def _loss_margin(verdict: Verdict, scenario: Scenario) -> str:
+    """The loss margin: comms.loss's (largest_loss), on the links that take it; none if every link has its own
+    loss (a link with only its own burst takes comms.loss: held at the scenario's in the scan)."""
+    s, ids = verdict.setting, scenario.vehicle_ids
+    own = {(link.sender, link.receiver) for link in scenario.comms.links if link.loss is not None}
+    if s.loop.links and all((ids[sender], ids[receiver]) in own for receiver, sender in s.loop.links):
         return "any comms.loss (every link has a loss of its own, which it keeps)"
     name = "an independent loss probability" + (" on the links without one of their own" if s.own_losses else "")
     return _margin_text(name, verdict.loss, "", "of any value below 1")
@@ -154,7 +156,7 @@ def describe(verdict: Verdict, scenario: Scenario) -> str:
     margins = ", ".join((
         _margin_text(period, verdict.period, " s", f"of any length up to {max(PERIOD_REACH, s.period):g} s"),
         _margin_text("a delay", verdict.delay, " s", f"of any length up to {delay_reach(s):.3g} s"),
-        _loss_margin(verdict),
+        _loss_margin(verdict, scenario),
     ))  # fmt: skip
     head += _offset_text(verdict.offset, s.lossy(), scenario)
     return f"{head}, {how}. With the other settings as they are, it converges with {margins}."
