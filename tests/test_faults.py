@@ -126,3 +126,12 @@ def test_a_phase_holds_every_step_its_fault_acts_on_whatever_the_step():
     phases = {p.name: p for p in summarize(series, 3.0, intervals(sc)[-1:], 0.0, 1.2, 0.01).phases}
     assert phases["during blackout"].max_coordination_error == 1.0
     assert phases["before faults"].max_coordination_error == phases["after faults"].max_coordination_error == 0.0
+
+
+def test_a_kill_announces_its_restart_at_the_step_it_happens():
+    """A kill on [7.05, 9.05) s acts from the step at 7.0 s and the vehicle is restarted at the step at 9.0 s; the
+    kill said 'restarted at t = 9.1 s' (9.05 printed), the restart 'at t = 9.0 s' (a new user)."""
+    sc = scenario_with("kind=vehicle_kill,vehicle=2,start=7.05,end=9.05")
+    kill = _process_actions(sc.faults, 7.0, DT)
+    assert [(a.action, a.until) for a in kill] == [("kill", 9.0)]
+    assert [a.action for a in _process_actions(sc.faults, 9.0, DT)] == ["restart"]

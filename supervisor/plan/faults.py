@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from comms.records.network import Network
 from comms.records.records import Disturbances
 from comms.records.run import FaultEvent  # a fault starting or ending: the plan's record, as the log keeps it
-from supervisor.config.derived import active, end_of, graph_at
+from supervisor.config.derived import active, graph_at, steps_of_fault
 from supervisor.config.scenario_schema import (
     BlackoutFault,
     ClockSkewFault,
@@ -119,9 +119,9 @@ def _process_actions(faults: Sequence[FaultSpec], t: float, dt: float) -> list[P
     for fault, event in ((f, e) for f in faults for e in _events_at([f], t, dt) if e.kind in by_kind):
         target = by_kind[event.kind]
         vehicle = fault.vehicle if isinstance(fault, VehicleKillFault) else None
-        end = end_of(fault, dt)
-        if event.phase == "start":
-            out.append(ProcessAction("kill", target, vehicle, end if end != float("inf") else None))
+        if event.phase == "start":  # restarted at its step's time, as it is (an end at 9.05 s acts from 9.0 s)
+            restart = steps_of_fault(fault, dt)[1]
+            out.append(ProcessAction("kill", target, vehicle, None if restart is None else restart * dt))
         else:
             out.append(ProcessAction("restart", target, vehicle))
     return sorted(out, key=lambda a: a.action != "kill")
