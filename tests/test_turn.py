@@ -111,9 +111,37 @@ def test_a_lawnmower_is_judged_from_where_the_vehicle_starts_on_it():
     """gamma0 = "closest" on a lawnmower was judged from gamma 0 (a path not periodic taken as straight near its
     start): vehicles starting 280 m along 300 m legs, their run of 225 m crossing 1 m turns, were not warned of."""
     lawnmower = '{ type = "lawnmower", origin = [0.0, 0.0, 0.0], leg_length = 300.0, spacing = 2.0, legs = 6 }'
-    text = circles(4.0).replace(
-        'path = { type = "circle", radius = 4.0, period = ' + repr(2 * math.pi * 4.0 / SPEED) + " }",
-        f"path = {lawnmower}",
-    ).replace("position = [4.0, 0.0, 0.0]", "position = [280.0, 0.0, 0.0]")
+    text = (
+        circles(4.0)
+        .replace(
+            'path = { type = "circle", radius = 4.0, period = ' + repr(2 * math.pi * 4.0 / SPEED) + " }",
+            f"path = {lawnmower}",
+        )
+        .replace("position = [4.0, 0.0, 0.0]", "position = [280.0, 0.0, 0.0]")
+    )
     sc = parse_scenario(text.replace("duration = 120.0", "duration = 150.0"), "turn.toml", ["coordination.v_r=1.5"])
     assert len(turn_warnings(sc)) == 2
+
+
+@cache
+def on_fins(radius: float) -> tuple[list[str], float]:
+    """The remus100 on its fins in 3-D at 1 m/s with the default controller (line_of_sight) on a circle: the turn
+    warnings, and the largest path error after 150 s of 300."""
+    text = circles(radius).replace('actuators = "ideal"\n', "").replace("dimension = 2", "dimension = 3")
+    sc = parse_scenario(
+        text.replace("duration = 120.0", "duration = 300.0"), "turn.toml", [f"coordination.v_r={1 / SPEED!r}"]
+    )
+    series = run_inprocess(sc, "turn.toml", "", None, 0, Progress(300.0, io.StringIO(), enabled=False)).series
+    return turn_warnings(sc), float(np.nanmax(series.path_error[series.t >= 150.0, 0]))
+
+
+def test_line_of_sight_turns_within_its_own_bound_and_the_check_says_where():
+    """line_of_sight keeps its rates within half of what its fins give (vehicles/line_of_sight.py), so at 1 m/s on
+    fins it turns no tighter than 9.89 m though its rudder could hold 6.3 m: a new user's 7 m circles flew 7 m off,
+    unwarned. Its turn_rate_bound says so: at 10.3 m it follows the circle to the centimetre and nothing is said; at
+    9.5 m it is warned of and flies 0.69 m wide."""
+    warned, error = on_fins(9.5)
+    assert len(warned) == 2 and "line_of_sight asks for at most 0.101 rad/s" in warned[0], warned
+    assert "no tighter than a radius of 9.89 m" in warned[0] and error > 0.5
+    clean, error = on_fins(10.3)
+    assert not clean and error < 0.05

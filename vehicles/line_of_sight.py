@@ -222,6 +222,15 @@ class LineOfSight:
         down = _rate_within(linear, quadratic, self.margin * (limit - held))
         return -down, up
 
+    def turn_rate_bound(self, prm: VehicleParams, u: float, rate: float, moment: float) -> float:
+        """The largest yaw rate [rad/s] this law asks for in a steady level turn at surge u that takes the yaw moment
+        `moment` at `rate` (vehicles.turn): its own bound (_rates), with the moment held other than damping the
+        turn's damping less its moment. An optional method of a controller: supervisor.config.turn_checks asks it
+        where a path turns fastest (a controller without it is judged by the rudder alone)."""
+        lin, quad = prm.angular_linear_damping[2], prm.angular_quadratic_damping[2]
+        held = (lin + quad * abs(rate)) * rate - moment
+        return float(self._rates(lin, quad, self.torque_limit(prm, u), held)[1])
+
     def torque_limit(self, prm: VehicleParams, u: float) -> float:
         """The largest pitch or yaw moment at surge speed u [N m]: the preset's, or the fins' if smaller."""
         if self.fin_moment is None:

@@ -8,11 +8,12 @@ it). Where the turn needs more, the vehicle flies a wider circle than its path, 
 remus100 at 1.5 m/s the least radius is 3.04 m, and a circle of 2 m is flown 1.65 m off its path
 (tests/test_turn.py). Each vehicle is judged where its path turns fastest along the stretch its run flies (_turns:
 sampled, and densely where the tangent turns between two samples more than their rates explain, as at a lawnmower's
-turns), from the vehicle's gamma0 and at its top speed if [saturation] holds it. Left out: the current, a climb, the
-thrust a turn takes (a vehicle short of it slows down and flies wide too), the controller's transient and its own
-bounds: line_of_sight, the default on fins, keeps its rates within half of what the fins give, so it flies wide of
-turns the rudder could hold (a new user: 7 m circles at 1 m/s, 7 m off, unwarned); a model of someone else's that
-cannot say is left out too.
+turns), from the vehicle's gamma0 and at its top speed if [saturation] holds it. Where the rudder holds the turn, a
+controller that bounds its own rates says so (its optional turn_rate_bound, docs/extending.md): line_of_sight, the
+default on fins, keeps within half of what the fins give, so it turns no tighter than 9.89 m at 1 m/s where the
+rudder holds 6.3 m (a new user's 7 m circles flew 7 m off, unwarned; tests/test_turn.py holds it both sides). Left
+out: the current, a climb, the thrust a turn takes (a vehicle short of it slows down and flies wide too), the
+controller's transient; a model of someone else's that cannot say is left out too.
 """
 
 from __future__ import annotations
@@ -25,13 +26,15 @@ import numpy as np
 
 from numerics import atan2
 from supervisor.config.authority_checks import sample_gammas
-from supervisor.config.fleet import build_path, initial_gamma
+from supervisor.config.controller_choice import controller_name
+from supervisor.config.fleet import build_path, controller_of, initial_gamma
 from supervisor.config.plant import actuators_of, plant_of
 from supervisor.config.scenario_schema import Scenario, VehicleSection
 from supervisor.config.vehicle_models import top_speed_of, vehicle_of
 from vehicles.actuators import Actuators
 from vehicles.params import VehicleParams
 from vehicles.paths import Path
+from vehicles.trim import bisected
 from vehicles.turn import Turn, fastest_turn, turn
 from vehicles.vehicle_model import VehicleModel
 
@@ -58,8 +61,8 @@ def _too_tight(sc: Scenario, index: int, section: VehicleSection) -> str | None:
     plant = plant_of(sc, section.id) or nominal
     fins = actuators_of(sc, section.id, nominal)
     found, has, widest = _judged(model, plant, fins, speed, rate)
-    if found is not None and abs(found.moment) <= has:
-        return None
+    if found is not None and abs(found.moment) <= has:  # the rudder holds it: does the controller ask for it?
+        return _bounded(sc, index, section, (model, nominal, fins), (speed, rate, level))
     need = "a drift past 45 deg" if found is None else f"a yaw moment of {abs(found.moment):.3g} N m"
     source = "its max_torque" if fins is None else "its fins there, within max_torque"
     drawn = " (its plant as drawn: vehicle.uncertainty)" if plant is not nominal else ""
@@ -69,6 +72,36 @@ def _too_tight(sc: Scenario, index: int, section: VehicleSection) -> str | None:
         f"turns no tighter than a radius of {widest * level / speed:.3g} m at that speed: it will fly wide of its path "
         f"(vehicles/turn.py), got a turn of radius {level / rate:.3g} m"
     )
+
+
+def _bounded(
+    sc: Scenario, index: int, section: VehicleSection, vehicle: tuple[VehicleModel, VehicleParams, Actuators | None],
+    turning: tuple[float, float, float],
+) -> str | None:  # fmt: skip
+    """The warning for a vehicle whose controller bounds its rate below the turn (its optional turn_rate_bound:
+    line_of_sight keeps within a share of its fins), at the turn its own model predicts; None: it asks for it."""
+    (model, nominal, fins), (speed, rate, level) = vehicle, turning
+    bound = getattr(controller_of(sc, section.id, fins), "turn_rate_bound", None)
+    if not callable(bound):
+        return None
+
+    def asks(r: float) -> float:  # 1 where the controller asks for the rate r of a steady turn, else -1
+        found = turn(model, nominal, speed, r)
+        return 1.0 if found is not None and bound(nominal, found.surge, r, found.moment) >= r else -1.0
+
+    if asks(rate) > 0 or asks(0.0) < 0:
+        return None
+    fastest = bisected(asks, 0.0, rate, 1.0, _HALVINGS)
+    return (
+        f"vehicles[{index}].path: vehicle {section.id} must turn at {rate:.3g} rad/s to follow it at {speed:.3g} m/s "
+        f"(v_r {sc.coordination.v_r:g}); its controller {controller_name(sc, section.id)} asks for at most "
+        f"{fastest:.3g} rad/s there (its own bound on its rates), so it turns no tighter than a radius of "
+        f"{level / max(fastest, 1e-12):.3g} m at that speed: it will fly wide of its path (vehicles/turn.py), got a "
+        f"turn of radius {level / rate:.3g} m"
+    )
+
+
+_HALVINGS = 24  # the controller's fastest rate to 6e-8 of the turn's
 
 
 def _judged(model: VehicleModel, plant: VehicleParams, fins: Actuators | None, speed: float, rate: float) -> Judged:
