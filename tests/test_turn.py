@@ -22,7 +22,7 @@ from vehicles.vehicle_model import Remus100
 
 REMUS, MODEL = PRESETS["remus100"], Remus100()
 SPEED = 1.5  # m/s along the circles: v_r 1 with a period of 2 pi R / 1.5
-LEAST = SPEED / fastest_turn(MODEL, REMUS, SPEED, REMUS.max_torque, 2.0)  # m: the least radius at that speed
+LEAST = SPEED / fastest_turn(MODEL, REMUS, SPEED, (REMUS.max_torque, math.inf), 2.0)  # m: by the rudder alone
 SETTLED = 60.0  # s: the turn steady after it
 
 
@@ -145,3 +145,27 @@ def test_line_of_sight_turns_within_its_own_bound_and_the_check_says_where():
     assert "no tighter than a radius of 9.89 m" in warned[0] and error > 0.5
     clean, error = on_fins(10.3)
     assert not clean and error < 0.05
+
+
+@cache
+def neutral(radius: float) -> tuple[list[str], float, float]:
+    """remus100_neutral on the circle at 1.5 m/s: its turn warnings, and over the settled turn its largest surge
+    force [N] and mean surge speed [m/s]."""
+    sc = parse_scenario(circles(radius).replace('"remus100"', '"remus100_neutral"'), "turn.toml")
+    series = run_inprocess(sc, "turn.toml", "", None, 0, Progress(120.0, io.StringIO(), enabled=False)).series
+    settled = series.t >= SETTLED
+    assert series.inputs is not None and series.surge is not None
+    return turn_warnings(sc), float(np.max(series.inputs[settled, 0, 0])), float(np.mean(series.surge[settled, 0]))
+
+
+def test_a_turn_the_propeller_cannot_drive_is_warned_of():
+    """A turn's slip drags: remus100_neutral (14.1 N of thrust) on a 3.5 m circle at 1.5 m/s needs 15.5 N; it sat at
+    its thrust limit and slowed to 1.39 m/s, unwarned (a new user: 2.5 m, 1.38 m off). On 4.5 m it needs 12.8 N and
+    keeps its speed. (The turn is judged at the path's speed; the vehicle, |delta| behind its point, flies a little
+    faster: on 4 m, just outside the 3.89 m said, its propeller is at its limit and it slows by 0.3 %.)"""
+    warned, thrust, speed = neutral(3.5)
+    assert len(warned) == 2 and "a thrust of 15.5 N (it has 14.1: it slows down)" in warned[0], warned
+    assert "no tighter than a radius of 3.89 m" in warned[0]
+    assert thrust == pytest.approx(PRESETS["remus100_neutral"].max_surge_force) and speed < 1.4
+    clean, thrust, speed = neutral(4.5)
+    assert not clean and thrust < 13.0 and speed == pytest.approx(SPEED, abs=1e-3)

@@ -6,7 +6,9 @@ slips: it meets the flow at a drift angle beta (u = U cos beta, v = U sin beta),
 row is the moment the rudder must hold, tau_r = -J_r r_dot: the yaw damping, the Munk moment (m_u - m_v) u v and the
 lift's moment (Prestero, MIT/WHOI MS thesis, 2001, sec. 3.6-3.7: vehicles.dynamics.lift_terms). It grows with r, so a
 vehicle with a bounded yaw moment has a least turning radius U / r_max at each speed: a path that turns tighter is
-not flown, whatever the controller (tests/test_turn.py flies the remus100 both sides of the boundary).
+not flown, whatever the controller (tests/test_turn.py flies the remus100 both sides of the boundary). What the drift
+leaves in the surge row is the thrust that keeps U, tau_u = -m_u u_dot: the slip's m_v v r adds to the drag, and a
+vehicle short of it slows down in the turn.
 
 Level flight with no roll, pitch, heave or current; the model's own drift gives the forces (its dynamics, any
 VehicleModel).
@@ -29,10 +31,12 @@ _RATE_HALVINGS = 24  # fastest_turn's: the rate to 6e-8 of the one asked about (
 
 
 class Turn(NamedTuple):
-    """A steady turn: the yaw moment that holds it [N m] (its sign the turn's) and the surge speed u [m/s]."""
+    """A steady turn: the yaw moment that holds it [N m] (its sign the turn's), the surge speed u [m/s] and the
+    surge force that keeps u [N] (the turn's slip adds drag: m_v v r against the surge)."""
 
     moment: float
     surge: float
+    thrust: float
 
 
 def turn(model: VehicleModel, params: VehicleParams, speed: float, rate: float) -> Turn | None:
@@ -42,20 +46,23 @@ def turn(model: VehicleModel, params: VehicleParams, speed: float, rate: float) 
     if beta is None:
         return None
     state = _state(beta, speed, rate)
-    return Turn(-params.inertia[2] * model.drift(state, params)[1][2], state[12])
+    (u_dot, _, _), (_, _, r_dot) = model.drift(state, params)
+    return Turn(-params.inertia[2] * r_dot, state[12], -params.mass[0] * u_dot)
 
 
-def fastest_turn(model: VehicleModel, params: VehicleParams, speed: float, moment: float, rate: float) -> float:
-    """The largest yaw rate [rad/s] up to `rate` whose steady turn at `speed` takes at most `moment` [N m] (the yaw
-    moment grows with the rate: bisected); 0 if none."""
+def fastest_turn(
+    model: VehicleModel, params: VehicleParams, speed: float, limits: tuple[float, float], rate: float
+) -> float:  # fmt: skip
+    """The largest yaw rate [rad/s] up to `rate` whose steady turn at `speed` takes at most limits = (yaw moment
+    [N m], thrust [N]), both growing with the rate: bisected; 0 if none."""
 
-    def spare(r: float) -> float:
+    def held(r: float) -> float:  # 1 where the turn at r is within the limits, else -1
         found = turn(model, params, speed, r)
-        return -1.0 if found is None else moment - abs(found.moment)
+        return 1.0 if found is not None and abs(found.moment) <= limits[0] and found.thrust <= limits[1] else -1.0
 
-    if spare(rate) >= 0.0:
+    if held(rate) > 0:
         return rate
-    return bisected(spare, 0.0, rate, spare(0.0), _RATE_HALVINGS) if spare(0.0) >= 0.0 else 0.0
+    return bisected(held, 0.0, rate, 1.0, _RATE_HALVINGS) if held(0.0) > 0 else 0.0
 
 
 def _drift_angle(model: VehicleModel, params: VehicleParams, speed: float, rate: float) -> float | None:

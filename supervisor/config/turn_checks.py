@@ -11,9 +11,11 @@ sampled, and densely where the tangent turns between two samples more than their
 turns), from the vehicle's gamma0 and at its top speed if [saturation] holds it. Where the rudder holds the turn, a
 controller that bounds its own rates says so (its optional turn_rate_bound, docs/extending.md): line_of_sight, the
 default on fins, keeps within half of what the fins give, so it turns no tighter than 9.89 m at 1 m/s where the
-rudder holds 6.3 m (a new user's 7 m circles flew 7 m off, unwarned; tests/test_turn.py holds it both sides). Left
-out: the current, a climb, the thrust a turn takes (a vehicle short of it slows down and flies wide too), the
-controller's transient; a model of someone else's that cannot say is left out too.
+rudder holds 6.3 m (a new user's 7 m circles flew 7 m off, unwarned; tests/test_turn.py holds it both sides). The
+thrust a turn takes is judged too (the slip drags: remus100_neutral needs 15.5 N of its 14.1 on a 3.5 m circle at
+1.5 m/s and slows down). The turn is taken at the path's speed (the vehicle, |delta| behind its point, flies a little
+faster and wider). Left out: the current, a climb, the controller's transient; a model of someone else's that cannot
+say is left out too.
 """
 
 from __future__ import annotations
@@ -60,16 +62,20 @@ def _too_tight(sc: Scenario, index: int, section: VehicleSection) -> str | None:
     nominal = model.parameters()
     plant = plant_of(sc, section.id) or nominal
     fins = actuators_of(sc, section.id, nominal)
-    found, has, widest = _judged(model, plant, fins, speed, rate)
-    if found is not None and abs(found.moment) <= has:  # the rudder holds it: does the controller ask for it?
+    found, (has, thrust), widest = _judged(model, plant, (fins, nominal.max_surge_force), speed, rate)
+    if found is not None and abs(found.moment) <= has and found.thrust <= thrust:  # does the controller ask for it?
         return _bounded(sc, index, section, (model, nominal, fins), (speed, rate, level))
-    need = "a drift past 45 deg" if found is None else f"a yaw moment of {abs(found.moment):.3g} N m"
     source = "its max_torque" if fins is None else "its fins there, within max_torque"
+    needs = (
+        ["a drift past 45 deg"] if found is None else
+        [f"a yaw moment of {abs(found.moment):.3g} N m ({source} gives {has:.3g})"] * (abs(found.moment) > has)
+        + [f"a thrust of {found.thrust:.3g} N (it has {thrust:.3g}: it slows down)"] * (found.thrust > thrust)
+    )  # fmt: skip
     drawn = " (its plant as drawn: vehicle.uncertainty)" if plant is not nominal else ""
     return (
         f"vehicles[{index}].path: vehicle {section.id}{drawn} must turn at {rate:.3g} rad/s to follow it at "
-        f"{speed:.3g} m/s (v_r {sc.coordination.v_r:g}) and that takes {need}; {source} gives {has:.3g} N m, so it "
-        f"turns no tighter than a radius of {widest * level / speed:.3g} m at that speed: it will fly wide of its path "
+        f"{speed:.3g} m/s (v_r {sc.coordination.v_r:g}) and that takes {' and '.join(needs)}, so it turns no tighter "
+        f"than a radius of {widest * level / speed:.3g} m at that speed: it will fly wide of its path "
         f"(vehicles/turn.py), got a turn of radius {level / rate:.3g} m"
     )
 
@@ -104,31 +110,33 @@ def _bounded(
 _HALVINGS = 24  # the controller's fastest rate to 6e-8 of the turn's
 
 
-def _judged(model: VehicleModel, plant: VehicleParams, fins: Actuators | None, speed: float, rate: float) -> Judged:
-    """(the steady turn, the yaw moment the vehicle has in it, its least radius [m] at that speed if it falls short),
-    once per fleet: alike vehicles on like paths turn alike (a fleet of 1000 took 14 s)."""
-    key = (model, plant, fins, speed, rate)
+def _judged(model: VehicleModel, plant: VehicleParams, drive: Drive, speed: float, rate: float) -> Judged:
+    """(the steady turn, (the yaw moment and the thrust the vehicle has in it), its least radius [m] at that speed
+    if it falls short), once per fleet: alike vehicles on like paths turn alike (a fleet of 1000 took 14 s). drive:
+    its fins (None: ideal) and its propeller's thrust."""
+    key = (model, plant, drive, speed, rate)
     try:
         known = _JUDGED.get(key)
     except TypeError:  # someone else's model that does not hash
-        return _judge(model, plant, fins, speed, rate)
+        return _judge(model, plant, drive, speed, rate)
     if known is None:
         if len(_JUDGED) >= _KEPT:
             _JUDGED.clear()
-        known = _JUDGED[key] = _judge(model, plant, fins, speed, rate)
+        known = _JUDGED[key] = _judge(model, plant, drive, speed, rate)
     return known
 
 
-def _judge(model: VehicleModel, plant: VehicleParams, fins: Actuators | None, speed: float, rate: float) -> Judged:
-    found = turn(model, plant, speed, rate)
+def _judge(model: VehicleModel, plant: VehicleParams, drive: Drive, speed: float, rate: float) -> Judged:
+    (fins, thrust), found = drive, turn(model, plant, speed, rate)
     surge = speed if found is None else found.surge
     has = plant.max_torque if fins is None else min(plant.max_torque, fins.torque_limit(surge))
-    if found is not None and abs(found.moment) <= has:
-        return found, has, 0.0
-    return found, has, speed / max(fastest_turn(model, plant, speed, has, rate), 1e-12)
+    if found is not None and abs(found.moment) <= has and found.thrust <= thrust:
+        return found, (has, thrust), 0.0
+    return found, (has, thrust), speed / max(fastest_turn(model, plant, speed, (has, thrust), rate), 1e-12)
 
 
-Judged = tuple[Turn | None, float, float]
+Drive = tuple[Actuators | None, float]
+Judged = tuple[Turn | None, tuple[float, float], float]
 _JUDGED: dict[tuple[object, ...], Judged] = {}
 _KEPT = 4096  # judged turns kept at most (a long sweep in one process starts again rather than grow)
 
