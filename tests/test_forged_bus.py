@@ -107,7 +107,13 @@ def test_well_formed_messages_are_recorded_in_their_records_form_and_booked(tmp_
             (COMMS_DONE_KEY, encode({**DONE, "malformed": 4})), (vehicle_done_key(2), encode(report))]  # fmt: skip
     intake = take_all(tmp_path / "run.mcap", good)
     assert intake.malformed.total() == 0 and intake.states == {1: {2}}
-    assert intake.bus_drops().by_key == {SUPERVISOR: {}, "broker": {"any key": 4}, "vehicle 2": {COMMS_STEP_KEY: 3}}
+    assert intake.bus_drops().by_key == {  # vehicles 1 and 3 sent no report: their drops are unknown
+        SUPERVISOR: {},
+        "broker": {"any key": 4},
+        "vehicle 1": None,
+        "vehicle 2": {COMMS_STEP_KEY: 3},
+        "vehicle 3": None,
+    }
     records = read_messages(tmp_path / "run.mcap")
     assert [topic for topic, _, _ in records] == [state_key(2), COMMS_STATS_KEY, COMMS_DONE_KEY, vehicle_done_key(2)]
     assert records[0][2] == STATE
@@ -242,3 +248,20 @@ def test_an_end_of_run_report_of_drops_on_many_keys_still_reads(tmp_path: Path) 
     done = SupervisorDone.from_message(SupervisorDone(1.0, 10, by_key, by_cause).to_message())
     assert len(done.malformed) == MAX_KEYS and sum(done.malformed.values()) == 71
     assert done.malformed[state_key(7)] == 2 and done.malformed[OTHER_KEYS] == 71 - 2 - (MAX_KEYS - 2)
+
+
+def test_a_reader_that_sent_no_report_is_said_so_not_counted_as_none() -> None:
+    """A Zenoh run that aborted before the broker reported: the line listed the supervisor's 10 drops and the
+    vehicles' 0 and said nothing of the broker, which had dropped 10 more (a new user read it as none)."""
+    from comms.records.reports import SupervisorDone, VehicleDone, bus_drops, bus_readers
+    from supervisor.analysis.comms_summary import format_malformed
+
+    supervisor = SupervisorDone(5.0, 50, {state_key(3): 10}, {"malformed": 10})
+    vehicles = {1: VehicleDone(5.0, 50, 1, {}), 2: VehicleDone(5.0, 50, 2, {})}
+    drops = bus_drops(supervisor, None, vehicles, bus_readers([1, 2, 3]))
+    assert drops.by_key["broker"] is None and drops.by_key["vehicle 3"] is None and drops.by_key["vehicle 1"] == {}
+    line = format_malformed(*drops)
+    assert line == (
+        f"bus: 10 messages dropped (supervisor: 10 on {state_key(3)} [10 malformed], broker: no report, vehicle 1: 0, "
+        "vehicle 2: 0, vehicle 3: no report)"
+    )

@@ -11,7 +11,7 @@ fits the run is the reader's to say (it knows the run).
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from typing import Annotated, NamedTuple
 
 import msgspec
@@ -124,23 +124,31 @@ BROKER = "broker"
 BY_NO_KEY = "any key"  # a reader that reports one count, not by key (the broker of older logs)
 
 
-class BusDrops(NamedTuple):
-    """What the bus's readers dropped: reader -> key -> malformed messages, reader -> cause -> messages."""
+Counts = dict[str, dict[str, int] | None]  # reader -> key (or cause) -> messages; None: the reader sent no report
 
-    by_key: dict[str, dict[str, int]]
-    by_cause: dict[str, dict[str, int]]
+
+class BusDrops(NamedTuple):
+    """What the bus's readers dropped: reader -> key -> malformed messages, reader -> cause -> messages (None for a
+    reader expected to report that did not)."""
+
+    by_key: Counts
+    by_cause: Counts
 
 
 def bus_drops(
-    supervisor: SupervisorDone | None, broker: CommsDone | None, vehicles: Mapping[int, VehicleDone]
+    supervisor: SupervisorDone | None,
+    broker: CommsDone | None,
+    vehicles: Mapping[int, VehicleDone],
+    expected: Iterable[str] = (),
 ) -> BusDrops:
-    """The readers' drops from their end-of-run reports (those that came: a reader that sent none is left out), the
-    supervisor's first, then the others by name."""
-    by_key: dict[str, dict[str, int]] = {}
-    by_cause: dict[str, dict[str, int]] = {}
+    """The readers' drops from their end-of-run reports, the supervisor's first, then the others by name; a reader
+    in expected that sent none (a run that aborted before the broker reported, a broker killed by a fault, a vehicle
+    that died) as None: its drops are unknown, not 0 (a new user read the missing broker's 10 as none)."""
+    by_key: Counts = {}
+    by_cause: Counts = {}
     if supervisor is not None:
         by_key[SUPERVISOR], by_cause[SUPERVISOR] = _sorted(supervisor.malformed), _sorted(supervisor.causes)
-    others: dict[str, tuple[dict[str, int], dict[str, int]]] = {}
+    others: dict[str, tuple[dict[str, int] | None, dict[str, int] | None]] = dict.fromkeys(expected, (None, None))
     if broker is not None:  # older logs: a total, not by key (a report of none has no keys either way)
         keys = dict(broker.by_key) if broker.by_key or not broker.malformed else {BY_NO_KEY: broker.malformed}
         others[BROKER] = keys, dict(broker.causes)
@@ -149,6 +157,11 @@ def bus_drops(
     for reader in sorted(others):
         by_key[reader], by_cause[reader] = others[reader]
     return BusDrops(by_key, by_cause)
+
+
+def bus_readers(vehicles: Iterable[int]) -> list[str]:
+    """The readers of a Zenoh run's bus that report at its end, besides the supervisor: the broker, each vehicle."""
+    return [BROKER, *(f"vehicle {vid}" for vid in vehicles)]
 
 
 def _sorted(counts: Mapping[str, int]) -> dict[str, int]:

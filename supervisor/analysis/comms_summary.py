@@ -151,18 +151,21 @@ def _pair(a: float | None, b: float | None) -> str:
 
 
 def format_malformed(
-    counts: Mapping[str, Mapping[str, int]], causes: Mapping[str, Mapping[str, int]] | None = None
+    counts: Mapping[str, Mapping[str, int] | None], causes: Mapping[str, Mapping[str, int] | None] | None = None
 ) -> str | None:
     """One line of the messages every reader of the bus counted and dropped (reader -> key -> count, and reader ->
-    cause -> count), or None if none did: 'bus: N messages dropped (supervisor: 3 on cpf/vehicle/2/state [2 replayed
-    step, 1 too deep], broker: 0, ...)'."""
-    total = sum(sum(by_key.values()) for by_key in counts.values())
+    cause -> count; None: the reader sent no report), or None if none did: 'bus: N messages dropped (supervisor: 3
+    on cpf/vehicle/2/state [2 replayed step, 1 too deep], broker: no report, ...)'."""
+    total = sum(sum(by_key.values()) for by_key in counts.values() if by_key is not None)
     if not total:
         return None
     readers = []
     for reader, by_key in counts.items():
+        if by_key is None:
+            readers.append(f"{reader}: no report")
+            continue
         keyed = [f"{n} on {key}" for key, n in sorted(by_key.items()) if n and key != BY_NO_KEY]
-        why = [f"{n} {cause}" for cause, n in sorted((causes or {}).get(reader, {}).items()) if n]
+        why = [f"{n} {cause}" for cause, n in sorted(((causes or {}).get(reader) or {}).items()) if n]
         reasons = f" [{', '.join(why)}]" if why else ""
         readers.append(f"{reader}: {', '.join(keyed) if keyed else sum(by_key.values())}{reasons}")
     return f"bus: {total} message{'s' if total != 1 else ''} dropped ({', '.join(readers)})"

@@ -17,20 +17,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from comms.records.events import EVENT_TOPICS, logged_events
-from comms.records.messages import (
-    COMMS_DONE_KEY,
-    COMMS_STATS_KEY,
-    FAULT_KEY,
-    GRAPH_KEY,
-    META_KEY,
-    RUN_DONE_KEY,
-    vehicle_of_key,
-)
+from comms.records.messages import COMMS_STATS_KEY, FAULT_KEY, GRAPH_KEY, META_KEY, vehicle_of_key
 from comms.records.records import LinkEvent
-from comms.records.reports import BusDrops, CommsDone, CommsStats, SupervisorDone, VehicleDone, bus_drops
+from comms.records.reports import BusDrops, CommsStats
 from comms.records.run import FaultEvent, Graph
 from comms.records.state import StateReport
 from numerics.linalg import row_norms
+from supervisor.analysis.log_drops import DoneReports, is_done_topic
 from supervisor.errors import LogError, ScenarioError
 from supervisor.record import logfile
 from supervisor.record.meta import RunMeta
@@ -154,13 +147,13 @@ def _time_range(vehicles: dict[int, VehicleSeries], meta: RunMeta | None) -> tup
     return min(float(s.t[0]) for s in series), max(float(s.t[-1]) for s in series)
 
 
-RUN_TOPICS = frozenset({META_KEY, FAULT_KEY, GRAPH_KEY, COMMS_STATS_KEY, COMMS_DONE_KEY, RUN_DONE_KEY, *EVENT_TOPICS})
+RUN_TOPICS = frozenset({META_KEY, FAULT_KEY, GRAPH_KEY, COMMS_STATS_KEY, *EVENT_TOPICS})
 
 
 def _wanted(topic: str) -> bool:
     """What the report reads: everything but the vehicles' transmissions and receptions (the events cover them)."""
     owned = vehicle_of_key(topic)
-    return topic in RUN_TOPICS if owned is None else owned[1] in ("state", "done")
+    return is_done_topic(topic) or (topic in RUN_TOPICS if owned is None else owned[1] == "state")
 
 
 @dataclass
@@ -173,9 +166,7 @@ class _Collected:
     graph_changes: list[tuple[float, list[Edge]]] = field(default_factory=list)
     link_events: dict[Edge, list[LinkEvent]] = field(default_factory=dict)
     stats: list[CommsStats] = field(default_factory=list)
-    supervisor_done: SupervisorDone | None = None  # the end-of-run reports (the broker's latest)
-    broker_done: CommsDone | None = None
-    vehicles_done: dict[int, VehicleDone] = field(default_factory=dict)
+    dones: DoneReports = field(default_factory=DoneReports)  # the readers' end-of-run reports
 
     def empty(self) -> bool:
         return self.meta is None and not (self.states or self.fault_events or self.graph_changes or self.link_events
@@ -183,8 +174,8 @@ class _Collected:
 
     def add(self, topic: str, message: dict[str, Any]) -> None:
         owned = vehicle_of_key(topic)
-        if owned is not None and owned[1] == "done":
-            self.vehicles_done[owned[0]] = VehicleDone.from_message(message, owned[0])
+        if is_done_topic(topic):
+            self.dones.add(topic, message)
         elif owned is not None:
             self.states.setdefault(owned[0], []).append(StateReport.from_message(message, owned[0]))
         elif topic in EVENT_TOPICS:  # every event read before any is kept: a record is taken whole or not at all
@@ -199,10 +190,6 @@ class _Collected:
             self.graph_changes.append((graph.t, list(graph.edges)))
         elif topic == COMMS_STATS_KEY:
             self.stats.append(CommsStats.from_message(message))
-        elif topic == COMMS_DONE_KEY:
-            self.broker_done = CommsDone.from_message(message)
-        elif topic == RUN_DONE_KEY:
-            self.supervisor_done = SupervisorDone.from_message(message)
 
 
 class Collector(Protocol):
@@ -266,7 +253,7 @@ def load_run(path: Path, also: Collector | None = None) -> RunData:
     return RunData(
         got.meta, vehicles, faults, edges, got.graph_changes,
         {link: _link_log(link, got.link_events[link]) for link in sorted(got.link_events)},
-        got.stats, _estimate_ages(got.states), bus_drops(got.supervisor_done, got.broker_done, got.vehicles_done),
+        got.stats, _estimate_ages(got.states), got.dones.drops(got.meta),
     )  # fmt: skip
 
 

@@ -35,6 +35,7 @@ from comms.records.messages import (
 from comms.records.network import Network
 from comms.records.receptions import RxBatch
 from comms.records.records import Kinematics, LinkEvent, Transmission
+from comms.records.reports import Counts
 from comms.records.run import Graph
 from comms.records.state import StateReport
 from supervisor.analysis.series import SeriesBuilder
@@ -67,9 +68,9 @@ class RunResult:
     estimate_ages: dict[tuple[int, int], list[float]]  # (sender, receiver) -> [sum, count, max] of ages
     stepping_time: float = 0.0  # s of wall time from the first sync step to the end
     realtime: dict[str, Any] | None = None  # realtime runs: how well they kept to the wall clock (realtime_timing)
-    malformed: dict[str, dict[str, int]] | None = None  # zenoh: reader -> key -> malformed messages it dropped
+    malformed: Counts | None = None  # zenoh: reader -> key -> malformed messages it dropped (None: no report)
     scene_messages: int = 0  # the log's Foxglove scene (record.scene), apart from the run's messages
-    drop_causes: dict[str, dict[str, int]] | None = None  # zenoh: reader -> cause -> messages it dropped
+    drop_causes: Counts | None = None  # zenoh: reader -> cause -> messages it dropped
 
 
 class InProcessRun:

@@ -19,6 +19,7 @@ from typing import TypeVar
 
 from comms.broker.windows import report_of
 from comms.bus.bus import Publishers, Received
+from comms.records import reports
 from comms.records.bounded import cause_of, dropped
 from comms.records.bus_records import Step, log_json, read_events, read_window
 from comms.records.drops import Drops
@@ -39,7 +40,7 @@ from comms.records.messages import (
 )
 from comms.records.receptions import RxBatch
 from comms.records.records import LinkEvent, Transmission
-from comms.records.reports import SUPERVISOR, BusDrops, CommsDone, CommsStats, SupervisorDone, VehicleDone, bus_drops
+from comms.records.reports import SUPERVISOR, BusDrops, CommsDone, CommsStats, SupervisorDone, VehicleDone
 from comms.records.state import StateReport
 from comms.records.stream import FAULTY, VEHICLE_FAULTS, at_step_time, in_stream
 from supervisor.analysis.series import SeriesBuilder
@@ -206,8 +207,9 @@ class Intake:
         return SupervisorDone(t, round(t / self.bounds.dt), *self.drops.reported())
 
     def bus_drops(self) -> BusDrops:
-        """What every reader dropped: the supervisor's own, and every report that came in (the broker's latest)."""
-        return bus_drops(self.own_done(0.0), self.done, self.vehicles_done)
+        """What every reader dropped: the supervisor's own, each report that came (the broker's latest), or None."""
+        expected = reports.bus_readers(sorted(self.bounds.vehicles))
+        return reports.bus_drops(self.own_done(0.0), self.done, self.vehicles_done, expected)
 
     def _window(self, vid: int, message: Message) -> None:
         """A vehicle's step message, of one step or of a lockstep time window: each step's records, in order, as
