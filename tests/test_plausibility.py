@@ -164,6 +164,18 @@ def test_a_state_beyond_the_steps_the_clock_granted_is_dropped() -> None:
     assert taking.drops.by_cause == {BEYOND_WINDOW: 1} and len(rec.records) == 1
 
 
+def test_a_step_far_beyond_the_run_is_named_alike_by_the_supervisor_and_the_broker() -> None:
+    """Step 10^7 of a 400 s run: the broker dropped it as 'beyond the window' (the clock's), the supervisor as
+    'malformed' (the run's bounds, checked first): two names for one forgery in one summary line (session 32)."""
+    taking, _ = intake()
+    taking.granted = 2
+    taking.take(Received(state_key(2), encode(state(10**7))), 0.0)
+    broker = Broker(broker_start(SCENARIO, 0).core, SCENARIO.vehicle_ids, RecordingPublishers(), DT)
+    broker.take(TICK_KEY, encode(tick_message(0, 0.0, False)))
+    broker.take(state_key(2), encode(state(10**7)))
+    assert taking.drops.by_cause == broker.books.drops.by_cause == {BEYOND_WINDOW: 1}
+
+
 def test_a_plausible_state_carrying_an_absurd_transmission_loses_the_transmission() -> None:
     """gamma 1e30 in the transmission only (issue 29: 'its tx too'): the neighbours never hear it; the state counts."""
     tx = {"sender": 2, "seq": 1, "t": 0.0, "gamma": 1e30, "gamma_dot": 0.98, "position": [1.0, -2.0, 3.0],

@@ -231,6 +231,7 @@ class Intake:
         transmission or batch only itself (counted), as the broker does."""
         raw, tx, rx = split_step(message)
         state = StateReport.from_message(raw, vid)
+        self._next_of(state)
         self.bounds.step(state.k, state.t)
         self._in_stream(state)
         for held in state.estimate_age:
@@ -251,6 +252,7 @@ class Intake:
         """_step of a step read by msgspec: the checks its types cannot say (StateReport.from_message's, then
         _step's, in _step's order), and the records written in their log form straight from the typed ones."""
         state = step.state.check(vid)
+        self._next_of(state)
         self.bounds.step(state.k, state.t)
         self._in_stream(state)
         for held in state.estimate_age:
@@ -267,13 +269,18 @@ class Intake:
         self.rec.write_state(state_key(vid), state.t, log_json(state), state)
         self._book(state)
 
-    def _in_stream(self, state: StateReport) -> None:
+    def _next_of(self, state: StateReport) -> None:
         """ValueError (dropped) unless the state is its vehicle's next step (comms.records.stream: no replay is
-        recorded) and plausible (comms.records.plausible), from a vehicle not yet found faulty."""
+        recorded), from a vehicle not yet found faulty: before the run's bounds, so that a step far beyond the clock
+        is named as the broker names it, 'beyond the window' (it was 'malformed' here)."""
         vid = state.vehicle
         if vid in self.faulty:
             raise dropped(FAULTY, f"vehicle {vid} sent a state that was its fault before ({self.faulty[vid]})")
         in_stream(state.k, self.taken.get(vid), self.granted)
+
+    def _in_stream(self, state: StateReport) -> None:
+        """Taken as its vehicle's next step (_next_of: checked) if plausible (comms.records.plausible)."""
+        vid = state.vehicle
         bounds = self.plausible.get(vid)
         if bounds is not None:
             bounds.check(state, self.last_report.get(vid), self.bounds.dt)
