@@ -19,6 +19,7 @@ import numpy as np
 
 from numerics import asin
 from supervisor.config.fleet import build_path
+from supervisor.config.memo import Memo
 from supervisor.config.plant import actuators_of, current_of, plant_of
 from supervisor.config.presets_table import top_speed
 from supervisor.config.scenario_schema import Scenario, VehicleSection
@@ -36,8 +37,7 @@ SAMPLES = 16  # gammas along the run at which each path is trimmed
 _FASTER = 0.05  # m/s: the step of the search for the least speed that holds
 Float2 = tuple[float, float]
 Speeds = tuple[float, float, Float3]  # m/s through the water, m/s along the path, the current there
-_TRIMS: dict[tuple[object, VehicleParams, Actuators, float, float], Float2] = {}  # _held's (models compare by value)
-_KEPT = 4096  # trims _TRIMS holds at most
+_TRIMS: Memo[Float2] = Memo()  # _held's (models compare by value)
 _FASTEST = 10.0  # m/s: where that search gives up for a vehicle with no top speed
 
 
@@ -192,16 +192,7 @@ def sample_gammas(path: Path, gamma0: float | str, run: float, samples: int = SA
 def _held(model: VehicleModel, plant: VehicleParams, fins: Actuators, speed: float, climb: float) -> Float2:
     """(the pitch moment the trim needs [N m], inf if there is none; the fins' moment at its surge speed [N m]),
     once per fleet: vehicles of one model and plant on parallel paths need the same trim."""
-    key = (model, plant, fins, speed, climb)
-    try:
-        known = key in _TRIMS
-    except TypeError:  # someone else's model that does not hash
-        return _trimmed(model, plant, fins, speed, climb)
-    if not known:
-        if len(_TRIMS) >= _KEPT:  # a long sweep in one process: start again rather than grow
-            _TRIMS.clear()
-        _TRIMS[key] = _trimmed(model, plant, fins, speed, climb)
-    return _TRIMS[key]
+    return _TRIMS.get((model, plant, fins, speed, climb), lambda: _trimmed(model, plant, fins, speed, climb))
 
 
 def _trimmed(model: VehicleModel, plant: VehicleParams, fins: Actuators, speed: float, climb: float) -> Float2:

@@ -30,6 +30,7 @@ from numerics import atan2
 from supervisor.config.authority_checks import sample_gammas
 from supervisor.config.controller_choice import controller_name
 from supervisor.config.fleet import build_path, controller_of, initial_gamma
+from supervisor.config.memo import Memo
 from supervisor.config.plant import actuators_of, plant_of
 from supervisor.config.scenario_schema import Scenario, VehicleSection
 from supervisor.config.vehicle_models import top_speed_of, vehicle_of
@@ -114,16 +115,7 @@ def _judged(model: VehicleModel, plant: VehicleParams, drive: Drive, speed: floa
     """(the steady turn, (the yaw moment and the thrust the vehicle has in it), its least radius [m] at that speed
     if it falls short), once per fleet: alike vehicles on like paths turn alike (a fleet of 1000 took 14 s). drive:
     its fins (None: ideal) and its propeller's thrust."""
-    key = (model, plant, drive, speed, rate)
-    try:
-        known = _JUDGED.get(key)
-    except TypeError:  # someone else's model that does not hash
-        return _judge(model, plant, drive, speed, rate)
-    if known is None:
-        if len(_JUDGED) >= _KEPT:
-            _JUDGED.clear()
-        known = _JUDGED[key] = _judge(model, plant, drive, speed, rate)
-    return known
+    return _JUDGED.get((model, plant, drive, speed, rate), lambda: _judge(model, plant, drive, speed, rate))
 
 
 def _judge(model: VehicleModel, plant: VehicleParams, drive: Drive, speed: float, rate: float) -> Judged:
@@ -137,8 +129,7 @@ def _judge(model: VehicleModel, plant: VehicleParams, drive: Drive, speed: float
 
 Drive = tuple[Actuators | None, float]
 Judged = tuple[Turn | None, tuple[float, float], float]
-_JUDGED: dict[tuple[object, ...], Judged] = {}
-_KEPT = 4096  # judged turns kept at most (a long sweep in one process starts again rather than grow)
+_JUDGED: Memo[Judged] = Memo()
 
 
 def _turns(sc: Scenario, section: VehicleSection) -> Iterator[tuple[float, float, float]]:
