@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from supervisor.config.scenario import parse_scenario
+from supervisor.config.scenario_checks import scenario_warnings
 from supervisor.config.turn_checks import turn_warnings
 from supervisor.engine.inprocess import run_inprocess
 from supervisor.engine.progress import Progress
@@ -72,8 +73,10 @@ def test_a_circle_tighter_than_the_least_radius_is_warned_of_and_not_flown(radiu
     moments, error = flown(radius)
     assert np.all(np.abs(moments) >= REMUS.max_torque - 1e-9)
     assert error > flown(4.0)[1] + 0.05
-    warnings = turn_warnings(parse_scenario(circles(radius), "turn.toml"))
+    scenario = parse_scenario(circles(radius), "turn.toml")
+    warnings = turn_warnings(scenario)
     assert len(warnings) == 2 and all("no tighter than a radius of 3.04 m" in w for w in warnings), warnings
+    assert set(warnings) <= set(scenario_warnings(scenario))  # what cpf validate and cpf run say
 
 
 @pytest.mark.parametrize(("spacing", "warned"), [(2.0, True), (8.0, False)])

@@ -246,8 +246,7 @@ def short_horizon(s: Setting, scenario: Scenario) -> float | None:
 def predicted_growth(scenario: Scenario) -> float | None:
     """The growth rate (1/s) of the coordination error if the stability analysis predicts divergence, else None
     (also when the loop is too large to analyse quickly, or not modelled)."""
-    growth = predicted_change(scenario)
-    return growth if growth is not None and growth > 0 else None
+    return _diverging(predicted_change(scenario))
 
 
 def predictions(scenario: Scenario) -> tuple[float | None, Offset | None]:
@@ -255,8 +254,12 @@ def predictions(scenario: Scenario) -> tuple[float | None, Offset | None]:
     if unmodelled(scenario) is not None:
         return None, None
     setting = setting_of(scenario)
-    growth = _change(setting, scenario)
-    return (growth if growth is not None and growth > 0 else None), _orbit(setting, scenario)
+    return _diverging(_change(setting, scenario)), _orbit(setting, scenario)
+
+
+def _diverging(change: float | None) -> float | None:
+    """A predicted change that is growth, else None."""
+    return change if change is not None and change > 0 else None
 
 
 # 1/s: a growth rate this small is the arithmetic's, not the loop's: every packet lost leaves the loop neutral (the
